@@ -1,0 +1,41 @@
+//! Removal-operator assembly, paper geometry (r_m 50 mm, r_t 10 mm): radial samples on [0, 50]
+//! mm × tool positions on [0, 50] mm, at η = +0.05 (general closed form) and η = −1 (fast path).
+
+use preston::physics::{PressureModel, Process, ProcessSpec, RemovalKernel, RemovalOperator};
+
+fn main() {
+    divan::main();
+}
+
+fn kernel(workpiece_rpm: f64, tool_rpm: f64) -> RemovalKernel {
+    RemovalKernel::new(
+        &Process::new(ProcessSpec {
+            workpiece_radius_mm: 50.0,
+            tool_radius_mm: 10.0,
+            workpiece_rpm,
+            tool_rpm,
+            preston_coefficient_m2_per_n: 1e-13,
+            pressure_kpa: 10.0,
+            pressure_model: PressureModel::Uniform,
+        })
+        .unwrap(),
+    )
+}
+
+fn linspace(n: usize) -> Vec<f64> {
+    (0..n).map(|i| 50.0 * i as f64 / (n - 1) as f64).collect()
+}
+
+#[divan::bench(args = [1001, 2001])]
+fn eta_plus_0_05(bencher: divan::Bencher, n: usize) {
+    let k = kernel(-10.0, 200.0);
+    let grid = linspace(n);
+    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &grid));
+}
+
+#[divan::bench(args = [1001, 2001])]
+fn eta_minus_1(bencher: divan::Bencher, n: usize) {
+    let k = kernel(150.0, 150.0);
+    let grid = linspace(n);
+    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &grid));
+}

@@ -1,0 +1,3 @@
+fn main() {
+    println!("preston {}", env!("CARGO_PKG_VERSION"));
+}

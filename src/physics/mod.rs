@@ -1,0 +1,21 @@
+//! The numerical core of Preston: dual-rotor kinematics, the removal function, the removal
+//! operator, dwell schedules and uniformity metrics. Pure: no I/O, no HTTP, JSON or OpenAPI
+//! types. Lengths in mm, speeds in r/min at the boundary (rad/s inside), time in s, depths in nm.
+
+pub mod carlson;
+pub mod contact;
+pub mod grid;
+pub mod metrics;
+pub mod operator;
+pub mod pressure;
+pub mod process;
+pub mod removal;
+pub mod schedule;
+
+pub use grid::{ClearAperture, GridError, RadialGrid};
+pub use metrics::UniformityMetrics;
+pub use operator::RemovalOperator;
+pub use pressure::PressureModel;
+pub use process::{Eta, Process, ProcessError, ProcessSpec};
+pub use removal::{removal_rate_nm_per_min, RemovalKernel};
+pub use schedule::{ConstantFeed, DwellSchedule, ScheduleError};

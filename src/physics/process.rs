@@ -1,0 +1,290 @@
+//! The polishing process: geometry, speeds, Preston coefficient and pressure, validated once.
+//!
+//! Speeds come in one lab frame, signed r/min, counter-clockwise positive (seen from the tool
+//! side). The source paper (Chen, Wang, Liu 2013) counts the workpiece speed ω1 positive
+//! *clockwise* and the tool speed ω2 positive *counter-clockwise*, and writes η = ω1/ω2. So
+//!
+//! ```text
+//! ω1 = −workpiece_rpm · 2π/60,   ω2 = tool_rpm · 2π/60,   η = −workpiece_rpm / tool_rpm
+//! ```
+//!
+//! and η = −1 means workpiece and tool turning the same physical way at the same speed.
+//! A [`Process`] can only be built through [`Process::new`], which rejects every input the
+//! radial model cannot honour; code holding a `Process` never re-checks it.
+
+use std::f64::consts::PI;
+
+use super::pressure::PressureModel;
+
+/// Raw process parameters as a caller supplies them (units in the names).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProcessSpec {
+    pub workpiece_radius_mm: f64,
+    pub tool_radius_mm: f64,
+    /// Signed, lab frame, counter-clockwise positive.
+    pub workpiece_rpm: f64,
+    /// Signed, lab frame, counter-clockwise positive.
+    pub tool_rpm: f64,
+    /// Preston coefficient K in m²/N (= 1/Pa).
+    pub preston_coefficient_m2_per_n: f64,
+    /// Nominal pad pressure in kPa (with the whole pad on the workpiece).
+    pub pressure_kpa: f64,
+    pub pressure_model: PressureModel,
+}
+
+/// Why a [`ProcessSpec`] does not describe a process the radial model can compute.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ProcessError {
+    #[error("{field} must be a finite number")]
+    NonFinite { field: &'static str },
+    #[error("{field} must be greater than zero")]
+    NonPositiveRadius { field: &'static str },
+    #[error("pressure_kpa must be greater than zero")]
+    NonPositivePressure,
+    #[error("preston_coefficient_m2_per_n must not be negative")]
+    NegativePrestonCoefficient,
+    #[error(
+        "workpiece_rpm must not be 0: the radial removal model averages over workpiece \
+         revolutions, which a stationary workpiece never makes"
+    )]
+    StationaryWorkpiece,
+}
+
+impl ProcessError {
+    /// The input field the error is about.
+    pub fn field(&self) -> &'static str {
+        match self {
+            ProcessError::NonFinite { field } | ProcessError::NonPositiveRadius { field } => field,
+            ProcessError::NonPositivePressure => "pressure_kpa",
+            ProcessError::NegativePrestonCoefficient => "preston_coefficient_m2_per_n",
+            ProcessError::StationaryWorkpiece => "workpiece_rpm",
+        }
+    }
+}
+
+/// The speed ratio η = ω1/ω2 in the paper's convention.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Eta {
+    Defined(f64),
+    /// The tool does not spin (tool_rpm = 0): η = ω1/0 has no value. Removal is still defined.
+    ToolStationary,
+}
+
+impl Eta {
+    pub fn value(self) -> Option<f64> {
+        match self {
+            Eta::Defined(eta) => Some(eta),
+            Eta::ToolStationary => None,
+        }
+    }
+}
+
+/// A validated polishing process.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Process {
+    spec: ProcessSpec,
+}
+
+pub(crate) const RPM_TO_RAD_PER_S: f64 = 2.0 * PI / 60.0;
+
+impl Process {
+    pub fn new(spec: ProcessSpec) -> Result<Self, ProcessError> {
+        let finite = [
+            ("workpiece_radius_mm", spec.workpiece_radius_mm),
+            ("tool_radius_mm", spec.tool_radius_mm),
+            ("workpiece_rpm", spec.workpiece_rpm),
+            ("tool_rpm", spec.tool_rpm),
+            (
+                "preston_coefficient_m2_per_n",
+                spec.preston_coefficient_m2_per_n,
+            ),
+            ("pressure_kpa", spec.pressure_kpa),
+        ];
+        if let Some((field, _)) = finite.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(ProcessError::NonFinite { field });
+        }
+        for (field, radius) in [
+            ("workpiece_radius_mm", spec.workpiece_radius_mm),
+            ("tool_radius_mm", spec.tool_radius_mm),
+        ] {
+            if radius <= 0.0 {
+                return Err(ProcessError::NonPositiveRadius { field });
+            }
+        }
+        if spec.pressure_kpa <= 0.0 {
+            return Err(ProcessError::NonPositivePressure);
+        }
+        if spec.preston_coefficient_m2_per_n < 0.0 {
+            return Err(ProcessError::NegativePrestonCoefficient);
+        }
+        if spec.workpiece_rpm == 0.0 {
+            return Err(ProcessError::StationaryWorkpiece);
+        }
+        Ok(Process { spec })
+    }
+
+    pub fn spec(&self) -> &ProcessSpec {
+        &self.spec
+    }
+    pub fn workpiece_radius_mm(&self) -> f64 {
+        self.spec.workpiece_radius_mm
+    }
+    pub fn tool_radius_mm(&self) -> f64 {
+        self.spec.tool_radius_mm
+    }
+    pub fn pressure_model(&self) -> PressureModel {
+        self.spec.pressure_model
+    }
+
+    /// Workpiece speed in the paper's convention (clockwise positive), rad/s.
+    pub fn omega1_rad_per_s(&self) -> f64 {
+        -self.spec.workpiece_rpm * RPM_TO_RAD_PER_S
+    }
+
+    /// Tool speed in the paper's convention (counter-clockwise positive), rad/s.
+    pub fn omega2_rad_per_s(&self) -> f64 {
+        self.spec.tool_rpm * RPM_TO_RAD_PER_S
+    }
+
+    /// η = ω1/ω2 = −workpiece_rpm / tool_rpm.
+    pub fn eta(&self) -> Eta {
+        if self.spec.tool_rpm == 0.0 {
+            Eta::ToolStationary
+        } else {
+            Eta::Defined(-self.spec.workpiece_rpm / self.spec.tool_rpm)
+        }
+    }
+
+    /// True when η = −1 exactly: the relative motion under the pad is a pure translation.
+    pub fn is_eta_minus_one(&self) -> bool {
+        self.spec.workpiece_rpm == self.spec.tool_rpm
+    }
+
+    /// The farthest tool-centre radius the model accepts, mm. Under uniform pressure the pad may
+    /// run off the edge until it no longer touches (r_m + r_t); under constant force the pressure
+    /// grows without bound as the overlap vanishes, so the centre must stay on the workpiece.
+    pub fn max_tool_position_mm(&self) -> f64 {
+        match self.spec.pressure_model {
+            PressureModel::Uniform => self.spec.workpiece_radius_mm + self.spec.tool_radius_mm,
+            PressureModel::ConstantForce => self.spec.workpiece_radius_mm,
+        }
+    }
+
+    /// K·P in (nm/s) per (mm/s) of sliding speed at nominal pressure: K [1/Pa] · P [Pa] turns a
+    /// speed into a removal rate; 1 mm/s = 1e6 nm/s.
+    pub(crate) fn preston_rate_scale(&self) -> f64 {
+        self.spec.preston_coefficient_m2_per_n * self.spec.pressure_kpa * 1.0e3 * 1.0e6
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    pub fn paper_spec(workpiece_rpm: f64, tool_rpm: f64) -> ProcessSpec {
+        ProcessSpec {
+            workpiece_radius_mm: 50.0,
+            tool_radius_mm: 10.0,
+            workpiece_rpm,
+            tool_rpm,
+            preston_coefficient_m2_per_n: 1e-13,
+            pressure_kpa: 10.0,
+            pressure_model: PressureModel::Uniform,
+        }
+    }
+
+    fn rejected(mutate: impl Fn(&mut ProcessSpec)) -> ProcessError {
+        let mut spec = paper_spec(-10.0, 200.0);
+        mutate(&mut spec);
+        Process::new(spec).expect_err("spec should be rejected")
+    }
+
+    #[test]
+    fn derives_the_papers_convention() {
+        let p = Process::new(paper_spec(-10.0, 200.0)).unwrap();
+        assert_eq!(p.eta(), Eta::Defined(0.05));
+        assert!((p.omega1_rad_per_s() - 10.0 * RPM_TO_RAD_PER_S).abs() < 1e-15);
+        assert!((p.omega2_rad_per_s() - 200.0 * RPM_TO_RAD_PER_S).abs() < 1e-12);
+        assert!(!p.is_eta_minus_one());
+        let p = Process::new(paper_spec(150.0, 150.0)).unwrap();
+        assert_eq!(p.eta(), Eta::Defined(-1.0));
+        assert!(p.is_eta_minus_one());
+    }
+
+    #[test]
+    fn eta_with_a_stationary_tool_is_undefined_not_nan() {
+        let p = Process::new(paper_spec(30.0, 0.0)).unwrap();
+        assert_eq!(p.eta(), Eta::ToolStationary);
+        assert_eq!(p.eta().value(), None);
+    }
+
+    #[test]
+    fn rejects_each_non_finite_field_by_name() {
+        let fields: [(&str, fn(&mut ProcessSpec, f64)); 6] = [
+            ("workpiece_radius_mm", |s, v| s.workpiece_radius_mm = v),
+            ("tool_radius_mm", |s, v| s.tool_radius_mm = v),
+            ("workpiece_rpm", |s, v| s.workpiece_rpm = v),
+            ("tool_rpm", |s, v| s.tool_rpm = v),
+            ("preston_coefficient_m2_per_n", |s, v| {
+                s.preston_coefficient_m2_per_n = v
+            }),
+            ("pressure_kpa", |s, v| s.pressure_kpa = v),
+        ];
+        for (name, set) in fields {
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                let err = rejected(|s| set(s, bad));
+                assert_eq!(err, ProcessError::NonFinite { field: name });
+                assert_eq!(err.field(), name);
+            }
+        }
+    }
+
+    #[test]
+    fn rejects_non_positive_radii() {
+        for bad in [0.0, -1.0] {
+            assert_eq!(
+                rejected(|s| s.workpiece_radius_mm = bad),
+                ProcessError::NonPositiveRadius {
+                    field: "workpiece_radius_mm"
+                }
+            );
+            assert_eq!(
+                rejected(|s| s.tool_radius_mm = bad),
+                ProcessError::NonPositiveRadius {
+                    field: "tool_radius_mm"
+                }
+            );
+        }
+    }
+
+    #[test]
+    fn rejects_non_positive_pressure() {
+        for bad in [0.0, -5.0] {
+            let err = rejected(|s| s.pressure_kpa = bad);
+            assert_eq!(err, ProcessError::NonPositivePressure);
+            assert_eq!(err.field(), "pressure_kpa");
+        }
+    }
+
+    #[test]
+    fn rejects_negative_preston_coefficient_but_accepts_zero() {
+        let err = rejected(|s| s.preston_coefficient_m2_per_n = -1e-13);
+        assert_eq!(err, ProcessError::NegativePrestonCoefficient);
+        assert_eq!(err.field(), "preston_coefficient_m2_per_n");
+        let mut spec = paper_spec(-10.0, 200.0);
+        spec.preston_coefficient_m2_per_n = 0.0;
+        assert!(Process::new(spec).is_ok());
+    }
+
+    #[test]
+    fn rejects_a_stationary_workpiece() {
+        let err = rejected(|s| s.workpiece_rpm = 0.0);
+        assert_eq!(err, ProcessError::StationaryWorkpiece);
+        assert_eq!(err.field(), "workpiece_rpm");
+        // -0.0 is zero too.
+        assert_eq!(
+            rejected(|s| s.workpiece_rpm = -0.0),
+            ProcessError::StationaryWorkpiece
+        );
+    }
+}
