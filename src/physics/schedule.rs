@@ -5,12 +5,14 @@
 //!
 //! A [`ConstantFeed`] is the tool travelling along the radius from a to b at feed v (mm/min),
 //! i.e. with dwell density τ = 60/v s/mm, whose removal is the integral ΔZ(r) = τ·∫_a^b R(r; x) dx.
-//! We discretise it with the composite trapezoidal rule on n evenly spaced positions
-//! x_k = a + k·h, h = (b − a)/(n − 1): t_k = τ·h, halved at both ends. R(r; ·) is continuous with
-//! square-root kinks (tangency at x = r ± r_t, full coverage at x = r_t − r), so the rule
-//! converges at O(h^1.5) or better; at r = 0 the kinks merge into a jump at x = r_t, where the
-//! removal function takes the mid-jump value (see [`super::contact`]), which keeps the rule
-//! first order there, and second order when x = r_t is a grid point.
+//! We discretise it with the composite midpoint rule: n cells of width h = (b − a)/n, one
+//! position at each cell centre x_k = a + (k + ½)·h with dwell t_k = τ·h (so the total time is
+//! exactly the path's travel time). R(r; ·) is continuous with square-root kinks (tangency at
+//! x = r ± r_t, full coverage at x = r_t − r), where the rule converges like h^1.5. At r = 0
+//! the kinks merge into a jump at x = r_t (the centre leaves the pad): there any point rule is
+//! first order, with error at most h/r_t of the removal, unless r_t falls on a cell centre
+//! (where the removal function takes its mid-jump value, see [`super::contact`]) or on a cell
+//! boundary, which makes it second order again.
 
 use super::grid::RadialGrid;
 use super::operator::RemovalOperator;
@@ -160,7 +162,7 @@ pub struct ConstantFeed {
     pub start_mm: f64,
     pub stop_mm: f64,
     pub feed_mm_per_min: f64,
-    /// Number of trapezoidal positions (≥ 2) the path is discretised into.
+    /// Number of cells (positions, ≥ 1) the path is discretised into.
     pub positions: usize,
 }
 
@@ -170,7 +172,7 @@ impl ConstantFeed {
         60.0 / self.feed_mm_per_min
     }
 
-    /// The trapezoidal dwell schedule of the path (module docs).
+    /// The midpoint-rule dwell schedule of the path (module docs).
     pub fn schedule(&self, process: &Process) -> Result<DwellSchedule, ScheduleError> {
         if !self.feed_mm_per_min.is_finite() {
             return Err(ScheduleError::NonFinite {
@@ -184,10 +186,10 @@ impl ConstantFeed {
                 lower: "0",
             });
         }
-        if self.positions < 2 {
+        if self.positions == 0 {
             return Err(ScheduleError::NotAbove {
                 field: "positions",
-                lower: "1",
+                lower: "0",
             });
         }
         if self.stop_mm <= self.start_mm {
@@ -197,13 +199,13 @@ impl ConstantFeed {
             });
         }
         let n = self.positions;
-        let h = (self.stop_mm - self.start_mm) / (n - 1) as f64;
-        let mut positions: Vec<f64> = (0..n).map(|k| self.start_mm + h * k as f64).collect();
-        positions[n - 1] = self.stop_mm;
-        let step_dwell = self.dwell_density_s_per_mm() * h;
-        let mut dwell = vec![step_dwell; n];
-        dwell[0] *= 0.5;
-        dwell[n - 1] *= 0.5;
+        let length = self.stop_mm - self.start_mm;
+        // Cell k is [a + k·h, a + (k+1)·h]; its centre computed as one division so that
+        // centres that are exact in decimal (e.g. r_t) come out exact.
+        let positions: Vec<f64> = (0..n)
+            .map(|k| self.start_mm + length * (2 * k + 1) as f64 / (2 * n) as f64)
+            .collect();
+        let dwell = vec![self.dwell_density_s_per_mm() * length / n as f64; n];
         DwellSchedule::new(process, positions, dwell)
     }
 }
@@ -244,18 +246,17 @@ mod tests {
     }
 
     #[test]
-    fn constant_feed_is_trapezoidal_and_conserves_time() {
+    fn constant_feed_uses_cell_centres_and_conserves_time() {
         let feed = ConstantFeed {
             start_mm: 0.0,
             stop_mm: 60.0,
             feed_mm_per_min: 30.0,
-            positions: 7,
+            positions: 6,
         };
         let s = feed.schedule(&process()).unwrap();
-        assert_eq!(s.positions_mm(), &[0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0]);
-        // 60 mm at 30 mm/min is 120 s, all of it accounted for.
+        assert_eq!(s.positions_mm(), &[5.0, 15.0, 25.0, 35.0, 45.0, 55.0]);
+        // 60 mm at 30 mm/min is 120 s, all of it accounted for, 20 s per 10 mm cell.
         assert!((s.total_time_s() - 120.0).abs() < 1e-12);
-        assert_eq!(s.dwell_s()[0], 10.0);
-        assert_eq!(s.dwell_s()[1], 20.0);
+        assert!(s.dwell_s().iter().all(|&t| t == 20.0));
     }
 }
