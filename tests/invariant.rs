@@ -28,7 +28,7 @@ fn worst_relative_error(positions: usize) -> f64 {
 
     let omega = 150.0 * 2.0 * std::f64::consts::PI / 60.0; // rad/s
     let tau = feed.dwell_density_s_per_mm(); // s/mm
-    // K·P is dimensionless; |ω|·r_t²·τ is in mm; 1 mm = 1e6 nm.
+                                             // K·P is dimensionless; |ω|·r_t²·τ is in mm; 1 mm = 1e6 nm.
     let exact_nm = 1e-13 * 10e3 * omega * 10.0 * 10.0 * tau / 2.0 * 1e6;
     removal
         .iter()
@@ -47,8 +47,9 @@ fn equal_dwell_at_eta_minus_one_removes_a_uniform_layer() {
 
 #[test]
 fn unaligned_paths_stay_within_the_first_order_bound() {
-    // 2000 cells of 0.03 mm: r_t = 333⅓ cells, neither centre nor boundary.
+    // 2000 cells of 0.03 mm: r_t = 333⅓ cells, neither centre nor boundary; the first-order
+    // bound h/r_t = 0.3 % is looser than 0.25 %, which the rule still meets here.
     let err = worst_relative_error(2000);
     eprintln!("worst relative error, 2000 positions: {err:e}");
-    assert!(err <= 0.03 / 10.0 && err <= 2.5e-3, "{err}");
+    assert!(err <= 2.5e-3, "{err}");
 }

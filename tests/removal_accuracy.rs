@@ -56,7 +56,11 @@ fn uniform(rng: &mut fastrand::Rng, lo: f64, hi: f64) -> f64 {
     lo + (hi - lo) * rng.f64()
 }
 
-fn random_case(rng: &mut fastrand::Rng, speeds: Speeds, geometry: Geometry) -> (ProcessSpec, f64, f64) {
+fn random_case(
+    rng: &mut fastrand::Rng,
+    speeds: Speeds,
+    geometry: Geometry,
+) -> (ProcessSpec, f64, f64) {
     let rm = uniform(rng, 5.0, 500.0);
     let rt = rm * uniform(rng, 0.02, 1.2);
     let w = sign(rng) * uniform(rng, 0.5, 500.0);
@@ -79,7 +83,14 @@ fn random_case(rng: &mut fastrand::Rng, speeds: Speeds, geometry: Geometry) -> (
         Geometry::CentreTool => (uniform(rng, 0.0, rm.min(1.5 * rt)), 0.0),
         Geometry::Tangent => {
             let r1 = uniform(rng, rt, reach);
-            (if rng.bool() || r1 + rt > rm { r1 - rt } else { r1 + rt }, r1)
+            (
+                if rng.bool() || r1 + rt > rm {
+                    r1 - rt
+                } else {
+                    r1 + rt
+                },
+                r1,
+            )
         }
         Geometry::NearTangent => {
             // |r − r1| = r_t·(1 − 10^-k): just inside tangency, on either side of the pad.
@@ -175,7 +186,13 @@ fn closed_form_matches_adaptive_quadrature_on_random_parameters() {
 #[test]
 fn no_contact_and_tangency_give_exact_zero() {
     let p = common::paper_process(-10.0, 200.0);
-    for (r, r1) in [(0.0, 10.5), (30.0, 15.0), (25.0, 15.0), (5.0, 15.0), (50.0, 35.0)] {
+    for (r, r1) in [
+        (0.0, 10.5),
+        (30.0, 15.0),
+        (25.0, 15.0),
+        (5.0, 15.0),
+        (50.0, 35.0),
+    ] {
         assert_eq!(removal_rate_nm_per_min(&p, r, r1), 0.0, "r {r} r1 {r1}");
     }
 }

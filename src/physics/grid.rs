@@ -45,11 +45,7 @@ impl GridError {
     }
 }
 
-fn check_radius(
-    field: &'static str,
-    value: f64,
-    workpiece_radius: f64,
-) -> Result<(), GridError> {
+fn check_radius(field: &'static str, value: f64, workpiece_radius: f64) -> Result<(), GridError> {
     if !value.is_finite() {
         return Err(GridError::NonFinite { field });
     }
@@ -234,7 +230,10 @@ mod tests {
         let ca = ClearAperture::new(&p, 10.0, 40.0).unwrap();
         assert!(ca.contains(10.0) && ca.contains(40.0) && !ca.contains(40.1));
         let grid = RadialGrid::new(&p, 0.0, 30.0, 31).unwrap();
-        assert_eq!(ca.check_covered_by(&grid).unwrap_err().field(), "clear_aperture");
+        assert_eq!(
+            ca.check_covered_by(&grid).unwrap_err().field(),
+            "clear_aperture"
+        );
         assert!(ca.check_covered_by(&RadialGrid::default_for(&p)).is_ok());
     }
 }

@@ -80,7 +80,10 @@ mod tests {
         let removal = [99.0, 1.0, 2.0, 3.0, 77.0, 55.0];
         let m = UniformityMetrics::over(&grid, &aperture, &removal);
         assert_eq!(m.samples, 3);
-        assert_eq!((m.mean_nm, m.min_nm, m.max_nm, m.pv_nm), (2.0, 1.0, 3.0, 2.0));
+        assert_eq!(
+            (m.mean_nm, m.min_nm, m.max_nm, m.pv_nm),
+            (2.0, 1.0, 3.0, 2.0)
+        );
         assert!((m.rms_nm - (2.0f64 / 3.0).sqrt()).abs() < 1e-15);
         assert_eq!(m.nonuniformity, Some(1.0));
     }

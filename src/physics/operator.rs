@@ -113,8 +113,8 @@ impl RemovalOperator {
         let mut dense = vec![vec![0.0; self.cols()]; self.rows];
         for j in 0..self.cols() {
             let (first, column) = self.column(j);
-            for (k, &m) in column.iter().enumerate() {
-                dense[first + k][j] = m;
+            for (row, &m) in dense[first..].iter_mut().zip(column) {
+                row[j] = m;
             }
         }
         dense
@@ -195,10 +195,10 @@ mod tests {
         let positions = linspace(0.0, 50.0, 401); // > PARALLEL_MIN_ENTRIES entries
         let op = RemovalOperator::assemble(&k, &radii, &positions);
         assert!(op.stored_entries() >= PARALLEL_MIN_ENTRIES);
-        for j in 0..positions.len() {
+        for (j, &r1) in positions.iter().enumerate() {
             let (first, column) = op.column(j);
-            for (n, &m) in column.iter().enumerate() {
-                assert_eq!(m, k.rate_nm_per_s(radii[first + n], positions[j]));
+            for (&m, &r) in column.iter().zip(&radii[first..]) {
+                assert_eq!(m, k.rate_nm_per_s(r, r1));
             }
         }
     }

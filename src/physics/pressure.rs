@@ -122,6 +122,9 @@ mod tests {
         assert_eq!(f(0.0), 1.0);
         assert_eq!(f(40.0), 1.0);
         assert!(f(45.0) > 1.0 && f(50.0) > f(45.0));
-        assert_eq!(pressure_factor(PressureModel::Uniform, 50.0, 10.0, 50.0), 1.0);
+        assert_eq!(
+            pressure_factor(PressureModel::Uniform, 50.0, 10.0, 50.0),
+            1.0
+        );
     }
 }

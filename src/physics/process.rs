@@ -220,7 +220,8 @@ pub(crate) mod tests {
 
     #[test]
     fn rejects_each_non_finite_field_by_name() {
-        let fields: [(&str, fn(&mut ProcessSpec, f64)); 6] = [
+        type Setter = fn(&mut ProcessSpec, f64);
+        let fields: [(&str, Setter); 6] = [
             ("workpiece_radius_mm", |s, v| s.workpiece_radius_mm = v),
             ("tool_radius_mm", |s, v| s.tool_radius_mm = v),
             ("workpiece_rpm", |s, v| s.workpiece_rpm = v),

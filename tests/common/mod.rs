@@ -48,7 +48,11 @@ fn gk15(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> (f64, f64, f64) {
             gauss += WG[k / 2] * (lo + hi);
         }
     }
-    (kronrod * h, ((kronrod - gauss) * h).abs(), absolute * h.abs())
+    (
+        kronrod * h,
+        ((kronrod - gauss) * h).abs(),
+        absolute * h.abs(),
+    )
 }
 
 /// ∫_a^b f by adaptive bisection of Gauss–Kronrod (7, 15) panels. A panel is accepted when
