@@ -1,4 +1,12 @@
 //! Preston: dwell-time planning for dual-rotor small-tool polishing of rotationally symmetric
-//! optics. See `ARCHITECTURE.md` for the map; [`physics`] is the pure numerical core.
+//! optics. See `ARCHITECTURE.md` for the map.
+//!
+//! - [`physics`]: the pure numerical core (no HTTP, JSON or OpenAPI types).
+//! - [`http`]: the axum service, its DTOs and errors.
+//! - [`config`], [`telemetry`], [`server`]: start-up, settings, logging, serving.
 
+pub mod config;
+pub mod http;
 pub mod physics;
+pub mod server;
+pub mod telemetry;

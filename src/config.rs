@@ -1,0 +1,133 @@
+//! Command line and environment configuration. Every server setting has a flag and an
+//! environment variable; the defaults run a local service with no external dependencies.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+use crate::http::Limits;
+
+/// Preston: dwell-time planning for dual-rotor small-tool polishing.
+#[derive(Debug, Parser)]
+#[command(version, about, args_conflicts_with_subcommands = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    /// Settings for `serve`, the default command.
+    #[command(flatten)]
+    pub serve: ServeArgs,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the HTTP service (the default).
+    Serve(ServeArgs),
+    /// Print the OpenAPI document (the content of openapi/openapi.json).
+    Openapi,
+    /// Compute offline: print exactly the JSON `POST /v1/<endpoint>` would return for the
+    /// request body in FILE (`-` for standard input). Problems go to standard output as
+    /// problem+json, with exit status 2.
+    Compute {
+        /// `removal-function` or `predict`.
+        endpoint: String,
+        /// The request body, a JSON file.
+        file: PathBuf,
+    },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LogFormat {
+    Text,
+    Json,
+}
+
+#[derive(Debug, Clone, Args)]
+pub struct ServeArgs {
+    /// Address to listen on.
+    #[arg(long, env = "PRESTON_LISTEN", default_value = "127.0.0.1:8080")]
+    pub listen: SocketAddr,
+    /// Largest request body in bytes (413 beyond).
+    #[arg(long, env = "PRESTON_MAX_BODY_BYTES", default_value_t = Limits::default().max_body_bytes)]
+    pub max_body_bytes: usize,
+    /// Largest radial_grid.count (422 beyond).
+    #[arg(long, env = "PRESTON_MAX_RADIAL_SAMPLES", default_value_t = Limits::default().max_radial_samples)]
+    pub max_radial_samples: usize,
+    /// Most tool positions in one request (422 beyond).
+    #[arg(long, env = "PRESTON_MAX_POSITIONS", default_value_t = Limits::default().max_positions)]
+    pub max_positions: usize,
+    /// Most removal-function profiles in one request (422 beyond).
+    #[arg(long, env = "PRESTON_MAX_PROFILES", default_value_t = Limits::default().max_profiles)]
+    pub max_profiles: usize,
+    /// Largest removal operator, radial samples × tool positions (422 beyond).
+    #[arg(long, env = "PRESTON_MAX_OPERATOR_ENTRIES", default_value_t = Limits::default().max_operator_entries)]
+    pub max_operator_entries: usize,
+    /// Computations running at once (default: the number of CPUs).
+    #[arg(long, env = "PRESTON_MAX_CONCURRENT_COMPUTATIONS")]
+    pub max_concurrent_computations: Option<usize>,
+    /// How long a request may wait for a computation slot before a 503, in milliseconds.
+    #[arg(long, env = "PRESTON_QUEUE_TIMEOUT_MS", default_value_t = 5000)]
+    pub queue_timeout_ms: u64,
+    /// Origins allowed to call the API from a browser (comma-separated; `*` for any). CORS is
+    /// off when empty.
+    #[arg(long, env = "PRESTON_CORS_ORIGINS", value_delimiter = ',')]
+    pub cors_origins: Vec<String>,
+    /// Log format. The level comes from RUST_LOG (default `info`).
+    #[arg(long, env = "PRESTON_LOG_FORMAT", value_enum, default_value_t = LogFormat::Text)]
+    pub log_format: LogFormat,
+}
+
+impl ServeArgs {
+    pub fn limits(&self) -> Limits {
+        let defaults = Limits::default();
+        Limits {
+            max_body_bytes: self.max_body_bytes,
+            max_radial_samples: self.max_radial_samples,
+            max_positions: self.max_positions,
+            max_profiles: self.max_profiles,
+            max_operator_entries: self.max_operator_entries,
+            max_concurrent_computations: self
+                .max_concurrent_computations
+                .unwrap_or(defaults.max_concurrent_computations)
+                .max(1),
+            queue_timeout: Duration::from_millis(self.queue_timeout_ms),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn serve_is_the_default_with_documented_defaults() {
+        let cli = Cli::try_parse_from(["preston"]).unwrap();
+        assert!(cli.command.is_none());
+        assert_eq!(cli.serve.listen.to_string(), "127.0.0.1:8080");
+        assert!(cli.serve.cors_origins.is_empty());
+        let limits = cli.serve.limits();
+        assert_eq!(limits.max_radial_samples, 10_001);
+        assert_eq!(limits.queue_timeout, Duration::from_secs(5));
+    }
+
+    #[test]
+    fn subcommands_parse() {
+        let cli = Cli::try_parse_from(["preston", "compute", "predict", "f.json"]).unwrap();
+        assert!(matches!(cli.command, Some(Command::Compute { .. })));
+        let cli = Cli::try_parse_from([
+            "preston",
+            "serve",
+            "--listen",
+            "0.0.0.0:9000",
+            "--cors-origins",
+            "https://a.example,https://b.example",
+        ])
+        .unwrap();
+        let Some(Command::Serve(args)) = cli.command else {
+            panic!("serve expected")
+        };
+        assert_eq!(args.listen.port(), 9000);
+        assert_eq!(args.cors_origins.len(), 2);
+    }
+}

@@ -1,0 +1,54 @@
+//! The OpenAPI document and the interactive docs (Swagger UI), both served from the binary:
+//! the UI's files are vendored into it at build time, so nothing is fetched at view time.
+
+use std::sync::{Arc, LazyLock};
+
+use axum::extract::{Path, State};
+use axum::http::{header, StatusCode};
+use axum::response::{IntoResponse, Redirect, Response};
+use utoipa_swagger_ui::Config;
+
+use super::error::ApiError;
+use super::AppState;
+
+static SWAGGER_CONFIG: LazyLock<Arc<Config<'static>>> =
+    LazyLock::new(|| Arc::new(Config::new(["/openapi.json"]).try_it_out_enabled(true)));
+
+/// `GET /openapi.json`: the generated document, byte for byte `openapi/openapi.json`.
+pub async fn openapi_json(State(state): State<AppState>) -> Response {
+    (
+        [(header::CONTENT_TYPE, "application/json")],
+        state.openapi_json.to_string(),
+    )
+        .into_response()
+}
+
+pub async fn redirect() -> Redirect {
+    Redirect::permanent("/docs/")
+}
+
+/// `GET /docs/` and its assets.
+pub async fn asset(path: Option<Path<String>>) -> Response {
+    let tail = path.map(|Path(p)| p).unwrap_or_default();
+    match utoipa_swagger_ui::serve(&tail, SWAGGER_CONFIG.clone()) {
+        Ok(Some(file)) => {
+            let mut response = (
+                StatusCode::OK,
+                [(header::CONTENT_TYPE, file.content_type)],
+                file.bytes.into_owned(),
+            )
+                .into_response();
+            if file.gzpipped {
+                response
+                    .headers_mut()
+                    .insert(header::CONTENT_ENCODING, "gzip".parse().unwrap());
+            }
+            response
+        }
+        Ok(None) => ApiError::NotFound {
+            path: format!("/docs/{tail}"),
+        }
+        .into_response(),
+        Err(e) => ApiError::internal(format!("serving docs asset {tail}: {e}")).into_response(),
+    }
+}

@@ -1,0 +1,254 @@
+//! Request and response objects shared by several endpoints (the v1 contract's stable names),
+//! and their conversion into the engine's validated types.
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::error::ApiError;
+use super::limits::Limits;
+use crate::physics::{
+    ClearAperture, PressureModel, Process, ProcessSpec, RadialGrid, UniformityMetrics,
+};
+
+fn default_preston_coefficient() -> f64 {
+    1e-13
+}
+fn default_pressure_kpa() -> f64 {
+    10.0
+}
+
+/// The polishing process. Speeds are signed r/min in one lab frame, counter-clockwise positive
+/// as seen from the tool side. The paper's speed ratio is η = −workpiece_rpm / tool_rpm, so
+/// η = −1 means workpiece and tool turning the same way at the same speed (uniform removal with
+/// equal dwell). The paper's experiment 1 (workpiece 10 r/min clockwise, tool 200 r/min
+/// counter-clockwise) is workpiece_rpm = −10, tool_rpm = 200 (η = +0.05).
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ProcessDto {
+    /// Workpiece radius r_m in mm (> 0).
+    #[schema(example = 50.0)]
+    pub workpiece_radius_mm: f64,
+    /// Tool (pad) radius r_t in mm (> 0).
+    #[schema(example = 10.0)]
+    pub tool_radius_mm: f64,
+    /// Workpiece speed in r/min, signed, lab frame, counter-clockwise positive. Must not be 0:
+    /// the radial model averages over workpiece revolutions.
+    #[schema(example = -10.0)]
+    pub workpiece_rpm: f64,
+    /// Tool spin in r/min, signed, lab frame, counter-clockwise positive. 0 is allowed (η is
+    /// then undefined and reported as null).
+    #[schema(example = 200.0)]
+    pub tool_rpm: f64,
+    /// Preston coefficient K in m²/N (= 1/Pa), ≥ 0. Default 1e-13.
+    #[serde(default = "default_preston_coefficient")]
+    #[schema(default = 1e-13, example = 1e-13)]
+    pub preston_coefficient_m2_per_n: f64,
+    /// Nominal pad pressure in kPa (> 0), with the whole pad on the workpiece. Default 10.
+    #[serde(default = "default_pressure_kpa")]
+    #[schema(default = 10.0, example = 10.0)]
+    pub pressure_kpa: f64,
+    /// How pressure depends on the tool position. Default `uniform`.
+    #[serde(default)]
+    pub pressure_model: PressureModelDto,
+}
+
+/// `uniform`: the nominal pressure everywhere under the pad, also when it overhangs the edge
+/// (the paper's assumption; tool positions up to r_m + r_t). `constant_force`: the force of the
+/// nominal pressure on the full pad rests on the part of the pad still on the workpiece, so the
+/// pressure rises as the pad overhangs (tool positions up to r_m).
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PressureModelDto {
+    #[default]
+    Uniform,
+    ConstantForce,
+}
+
+impl ProcessDto {
+    pub fn to_process(&self) -> Result<Process, ApiError> {
+        Process::new(ProcessSpec {
+            workpiece_radius_mm: self.workpiece_radius_mm,
+            tool_radius_mm: self.tool_radius_mm,
+            workpiece_rpm: self.workpiece_rpm,
+            tool_rpm: self.tool_rpm,
+            preston_coefficient_m2_per_n: self.preston_coefficient_m2_per_n,
+            pressure_kpa: self.pressure_kpa,
+            pressure_model: match self.pressure_model {
+                PressureModelDto::Uniform => PressureModel::Uniform,
+                PressureModelDto::ConstantForce => PressureModel::ConstantForce,
+            },
+        })
+        .map_err(ApiError::from_process)
+    }
+}
+
+/// Radii where removal is reported: `count` evenly spaced samples from `start_mm` to `stop_mm`
+/// inclusive, on the workpiece. Every member is optional; the default grid is 201 samples from
+/// 0 to the workpiece radius.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RadialGridDto {
+    /// First radius in mm (≥ 0). Default 0.
+    #[schema(default = 0.0, example = 0.0)]
+    pub start_mm: Option<f64>,
+    /// Last radius in mm (≤ workpiece radius). Default: the workpiece radius.
+    #[schema(example = 50.0)]
+    pub stop_mm: Option<f64>,
+    /// Number of samples (≥ 2, or 1 when start_mm = stop_mm; at most the server's
+    /// max_radial_samples, 10001 by default). Default 201.
+    #[schema(default = 201, example = 201, minimum = 1)]
+    pub count: Option<usize>,
+}
+
+impl RadialGridDto {
+    pub fn to_grid(
+        grid: Option<&RadialGridDto>,
+        process: &Process,
+        limits: &Limits,
+    ) -> Result<RadialGrid, ApiError> {
+        let dto = grid.cloned().unwrap_or_default();
+        let count = dto.count.unwrap_or(201);
+        if count > limits.max_radial_samples {
+            return Err(ApiError::limit(
+                "radial_grid.count",
+                format!(
+                    "radial_grid.count is {count}; this server allows at most {}",
+                    limits.max_radial_samples
+                ),
+            ));
+        }
+        RadialGrid::new(
+            process,
+            dto.start_mm.unwrap_or(0.0),
+            dto.stop_mm.unwrap_or(process.workpiece_radius_mm()),
+            count,
+        )
+        .map_err(|e| ApiError::from_grid("radial_grid", e))
+    }
+}
+
+/// Radii [inner_mm, outer_mm] where uniformity is judged (an annulus is allowed). Default: the
+/// whole workpiece. The radial grid must span it.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ClearApertureDto {
+    /// Inner radius in mm (≥ 0). Default 0.
+    #[schema(default = 0.0, example = 0.0)]
+    pub inner_mm: Option<f64>,
+    /// Outer radius in mm (> inner_mm, ≤ workpiece radius). Default: the workpiece radius.
+    #[schema(example = 40.0)]
+    pub outer_mm: Option<f64>,
+}
+
+impl ClearApertureDto {
+    pub fn to_aperture(
+        aperture: Option<&ClearApertureDto>,
+        process: &Process,
+        grid: &RadialGrid,
+    ) -> Result<ClearAperture, ApiError> {
+        let dto = aperture.cloned().unwrap_or_default();
+        let aperture = ClearAperture::new(
+            process,
+            dto.inner_mm.unwrap_or(0.0),
+            dto.outer_mm.unwrap_or(process.workpiece_radius_mm()),
+        )
+        .map_err(|e| ApiError::from_grid("clear_aperture", e))?;
+        aperture
+            .check_covered_by(grid)
+            .map_err(|e| ApiError::from_grid("clear_aperture", e))?;
+        Ok(aperture)
+    }
+}
+
+/// The clear aperture actually used (defaults filled in), in mm.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct ApertureEcho {
+    /// Inner radius, mm.
+    pub inner_mm: f64,
+    /// Outer radius, mm.
+    pub outer_mm: f64,
+}
+
+impl From<&ClearAperture> for ApertureEcho {
+    fn from(a: &ClearAperture) -> Self {
+        ApertureEcho {
+            inner_mm: a.inner_mm(),
+            outer_mm: a.outer_mm(),
+        }
+    }
+}
+
+/// Uniformity of the removal over the clear aperture, taken over the radial samples inside it
+/// (each sample counts once: a radius average, not an area average).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct MetricsDto {
+    /// Mean removal depth, nm.
+    pub mean_nm: f64,
+    /// Smallest removal depth, nm.
+    pub min_nm: f64,
+    /// Largest removal depth, nm.
+    pub max_nm: f64,
+    /// Peak-to-valley: max_nm − min_nm, nm.
+    pub pv_nm: f64,
+    /// Root-mean-square deviation from the mean, nm.
+    pub rms_nm: f64,
+    /// pv_nm / mean_nm, a fraction (0.01 = 1 %); null when nothing is removed in the aperture.
+    pub nonuniformity: Option<f64>,
+    /// Number of radial samples inside the clear aperture.
+    pub samples: usize,
+}
+
+impl From<&UniformityMetrics> for MetricsDto {
+    fn from(m: &UniformityMetrics) -> Self {
+        MetricsDto {
+            mean_nm: m.mean_nm,
+            min_nm: m.min_nm,
+            max_nm: m.max_nm,
+            pv_nm: m.pv_nm,
+            rms_nm: m.rms_nm,
+            nonuniformity: m.nonuniformity,
+            samples: m.samples,
+        }
+    }
+}
+
+/// Tool dwell: positions of the tool centre (mm from the workpiece axis, strictly increasing,
+/// 0 to r_m + r_t under uniform pressure or 0 to r_m under constant force) and the time spent
+/// at each (s, ≥ 0). Same length.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DwellDto {
+    /// Tool-centre radii in mm, strictly increasing.
+    pub positions_mm: Vec<f64>,
+    /// Dwell time at each position in s (≥ 0), one per position.
+    pub dwell_s: Vec<f64>,
+}
+
+/// Refuses operators larger than the server allows (radial samples × tool positions).
+pub fn check_operator_size(
+    limits: &Limits,
+    samples: usize,
+    positions: usize,
+    positions_field: &str,
+) -> Result<(), ApiError> {
+    if positions > limits.max_positions {
+        return Err(ApiError::limit(
+            positions_field,
+            format!(
+                "{positions_field} has {positions} entries; this server allows at most {}",
+                limits.max_positions
+            ),
+        ));
+    }
+    if samples.saturating_mul(positions) > limits.max_operator_entries {
+        return Err(ApiError::limit(
+            positions_field,
+            format!(
+                "radial_grid.count × {positions_field} = {samples} × {positions} exceeds the \
+                 server's limit of {} removal-operator entries",
+                limits.max_operator_entries
+            ),
+        ));
+    }
+    Ok(())
+}

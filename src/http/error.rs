@@ -1,0 +1,245 @@
+//! One error type for the whole API, rendered as `application/problem+json` (RFC 9457).
+//!
+//! Every client error names the offending input in `field`, as a path into the request body
+//! (`process.workpiece_rpm`, `dwell.positions_mm[3]`). Internal errors are logged with their
+//! details and returned as a bare 500 whose body says nothing about the internals.
+
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+use utoipa::ToSchema;
+
+use crate::physics::{GridError, ProcessError, ScheduleError};
+
+/// An API error. Construct with the helpers; render with `into_response`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ApiError {
+    /// The body is not well-formed JSON.
+    MalformedJson {
+        field: Option<String>,
+        detail: String,
+    },
+    /// Well-formed JSON that does not fit the schema: wrong type, missing or unknown field.
+    SchemaMismatch {
+        field: String,
+        detail: String,
+    },
+    /// Fits the schema but describes something the model cannot compute.
+    InvalidInput {
+        field: String,
+        detail: String,
+    },
+    /// A request exceeds a documented size limit (grid, positions).
+    LimitExceeded {
+        field: String,
+        detail: String,
+    },
+    PayloadTooLarge {
+        limit_bytes: usize,
+    },
+    UnsupportedMediaType {
+        content_type: String,
+    },
+    NotAcceptable {
+        accept: String,
+        offered: &'static str,
+    },
+    NotFound {
+        path: String,
+    },
+    MethodNotAllowed,
+    /// No computation slot came free in time: retry after the given seconds.
+    Overloaded {
+        retry_after_s: u64,
+    },
+    /// A bug or an unexpected failure; `internal` is logged, never returned.
+    Internal {
+        internal: String,
+    },
+}
+
+/// The problem+json body (RFC 9457), with `field` as an extension member.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct Problem {
+    /// A URI reference naming the problem type (`urn:preston:problem:<kind>`).
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// A short summary of the problem type.
+    pub title: String,
+    /// The HTTP status code.
+    pub status: u16,
+    /// What went wrong with this request, in words.
+    pub detail: String,
+    /// Path of the offending input in the request body, e.g. `dwell.positions_mm[3]`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field: Option<String>,
+}
+
+impl ApiError {
+    pub fn invalid(field: impl Into<String>, detail: impl Into<String>) -> Self {
+        ApiError::InvalidInput {
+            field: field.into(),
+            detail: detail.into(),
+        }
+    }
+
+    pub fn limit(field: impl Into<String>, detail: impl Into<String>) -> Self {
+        ApiError::LimitExceeded {
+            field: field.into(),
+            detail: detail.into(),
+        }
+    }
+
+    pub fn internal(internal: impl Into<String>) -> Self {
+        ApiError::Internal {
+            internal: internal.into(),
+        }
+    }
+
+    pub fn status(&self) -> StatusCode {
+        match self {
+            ApiError::MalformedJson { .. } => StatusCode::BAD_REQUEST,
+            ApiError::SchemaMismatch { .. }
+            | ApiError::InvalidInput { .. }
+            | ApiError::LimitExceeded { .. } => StatusCode::UNPROCESSABLE_ENTITY,
+            ApiError::PayloadTooLarge { .. } => StatusCode::PAYLOAD_TOO_LARGE,
+            ApiError::UnsupportedMediaType { .. } => StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            ApiError::NotAcceptable { .. } => StatusCode::NOT_ACCEPTABLE,
+            ApiError::NotFound { .. } => StatusCode::NOT_FOUND,
+            ApiError::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
+            ApiError::Overloaded { .. } => StatusCode::SERVICE_UNAVAILABLE,
+            ApiError::Internal { .. } => StatusCode::INTERNAL_SERVER_ERROR,
+        }
+    }
+
+    pub fn problem(&self) -> Problem {
+        let (kind, title, detail, field) = match self {
+            ApiError::MalformedJson { field, detail } => (
+                "malformed-json",
+                "Malformed JSON",
+                detail.clone(),
+                field.clone(),
+            ),
+            ApiError::SchemaMismatch { field, detail } => (
+                "schema-mismatch",
+                "Request does not match the schema",
+                detail.clone(),
+                Some(field.clone()),
+            ),
+            ApiError::InvalidInput { field, detail } => (
+                "invalid-input",
+                "Invalid input",
+                detail.clone(),
+                Some(field.clone()),
+            ),
+            ApiError::LimitExceeded { field, detail } => (
+                "limit-exceeded",
+                "Request exceeds a limit",
+                detail.clone(),
+                Some(field.clone()),
+            ),
+            ApiError::PayloadTooLarge { limit_bytes } => (
+                "payload-too-large",
+                "Request body too large",
+                format!("the request body exceeds the limit of {limit_bytes} bytes"),
+                None,
+            ),
+            ApiError::UnsupportedMediaType { content_type } => (
+                "unsupported-media-type",
+                "Unsupported media type",
+                format!("content-type `{content_type}` is not accepted; send application/json"),
+                None,
+            ),
+            ApiError::NotAcceptable { accept, offered } => (
+                "not-acceptable",
+                "Not acceptable",
+                format!("cannot answer `accept: {accept}`; this endpoint offers {offered}"),
+                None,
+            ),
+            ApiError::NotFound { path } => (
+                "not-found",
+                "Not found",
+                format!("no resource at `{path}`; see /docs for the API"),
+                None,
+            ),
+            ApiError::MethodNotAllowed => (
+                "method-not-allowed",
+                "Method not allowed",
+                "this resource does not support that method".to_string(),
+                None,
+            ),
+            ApiError::Overloaded { retry_after_s } => (
+                "overloaded",
+                "Service overloaded",
+                format!("all computation slots are busy; retry in {retry_after_s} s"),
+                None,
+            ),
+            ApiError::Internal { .. } => (
+                "internal",
+                "Internal server error",
+                "the server failed to handle this request; it has been logged".to_string(),
+                None,
+            ),
+        };
+        Problem {
+            kind: format!("urn:preston:problem:{kind}"),
+            title: title.to_string(),
+            status: self.status().as_u16(),
+            detail,
+            field,
+        }
+    }
+
+    /// The problem+json body as bytes (also used by the offline `compute` command).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(&self.problem()).expect("a problem always serialises")
+    }
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        if let ApiError::Internal { internal } = &self {
+            tracing::error!(error = %internal, "internal error");
+        }
+        let mut response = (self.status(), self.to_json()).into_response();
+        let headers = response.headers_mut();
+        headers.insert(
+            header::CONTENT_TYPE,
+            HeaderValue::from_static("application/problem+json"),
+        );
+        if let ApiError::Overloaded { retry_after_s } = self {
+            headers.insert(header::RETRY_AFTER, HeaderValue::from(retry_after_s));
+        }
+        response
+    }
+}
+
+/// Engine errors become 422s naming the field under the request object that carried it.
+impl ApiError {
+    pub fn from_process(err: ProcessError) -> Self {
+        ApiError::invalid(format!("process.{}", err.field()), err.to_string())
+    }
+
+    /// `prefix` is the request object holding the grid or aperture (`radial_grid`,
+    /// `clear_aperture`).
+    pub fn from_grid(prefix: &str, err: GridError) -> Self {
+        let field = match err {
+            GridError::ApertureOutsideGrid { .. } => "clear_aperture".to_string(),
+            _ => format!("{prefix}.{}", err.field()),
+        };
+        ApiError::invalid(field, err.to_string())
+    }
+
+    /// `prefix` is the request object holding the arrays (`dwell`), or empty for top-level.
+    pub fn from_schedule(prefix: &str, err: ScheduleError) -> Self {
+        let mut field = if prefix.is_empty() {
+            err.field().to_string()
+        } else {
+            format!("{prefix}.{}", err.field())
+        };
+        if let Some(index) = err.index() {
+            field.push_str(&format!("[{index}]"));
+        }
+        ApiError::invalid(field, err.to_string())
+    }
+}

@@ -1,0 +1,244 @@
+//! Request parsing and content negotiation, with every failure as an [`ApiError`] that names
+//! the field.
+//!
+//! Bodies are parsed with `serde_path_to_error`, so a type error deep in the body reports its
+//! path (`dwell.positions_mm[3]`). Accepted content types: `application/json` and any `+json`
+//! type; also no content type at all and `application/x-www-form-urlencoded`, which is what
+//! `curl -d @file` sends unless told otherwise: the body must still be JSON.
+
+use axum::body::Bytes;
+use axum::extract::{FromRequest, Request};
+use axum::http::{header, HeaderMap, StatusCode};
+use serde::de::DeserializeOwned;
+
+use super::error::ApiError;
+
+/// Parses a JSON body into `T`, mapping serde's errors to problems that name the field.
+pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
+    let mut deserializer = serde_json::Deserializer::from_slice(bytes);
+    let value = serde_path_to_error::deserialize(&mut deserializer).map_err(|err| {
+        let path = err.path().to_string();
+        problem_of(&path, err.into_inner())
+    })?;
+    // Trailing characters after the JSON value.
+    deserializer.end().map_err(|e| problem_of(".", e))?;
+    Ok(value)
+}
+
+fn problem_of(path: &str, inner: serde_json::Error) -> ApiError {
+    let message = strip_position(&inner.to_string());
+    let field = field_of(path, &message);
+    match inner.classify() {
+        serde_json::error::Category::Data => ApiError::SchemaMismatch {
+            field: field.unwrap_or_else(|| "body".to_string()),
+            detail: message,
+        },
+        _ => ApiError::MalformedJson {
+            field,
+            detail: format!(
+                "{message} (line {}, column {})",
+                inner.line(),
+                inner.column()
+            ),
+        },
+    }
+}
+
+/// serde_json appends " at line L column C"; the problem carries the path instead.
+fn strip_position(message: &str) -> String {
+    match message.rfind(" at line ") {
+        Some(i) => message[..i].to_string(),
+        None => message.to_string(),
+    }
+}
+
+/// The field a serde error is about: its path, completed with the name serde reports for
+/// missing and unknown fields (whose path stops at the enclosing object).
+fn field_of(path: &str, message: &str) -> Option<String> {
+    let named = ["missing field `", "unknown field `"]
+        .iter()
+        .find_map(|prefix| message.strip_prefix(prefix))
+        .and_then(|rest| rest.split('`').next());
+    let base = (path != ".").then(|| path.to_string());
+    match (base, named) {
+        (Some(base), Some(name)) if !base.ends_with(name) => Some(format!("{base}.{name}")),
+        (None, Some(name)) => Some(name.to_string()),
+        (base, _) => base,
+    }
+}
+
+/// A JSON body extractor whose rejections are problem+json.
+pub struct ApiJson<T>(pub T);
+
+impl<S, T> FromRequest<S> for ApiJson<T>
+where
+    S: Send + Sync,
+    T: DeserializeOwned,
+{
+    type Rejection = ApiError;
+
+    async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
+        check_content_type(req.headers())?;
+        let limit = req
+            .extensions()
+            .get::<BodyLimit>()
+            .map(|l| l.0)
+            .unwrap_or(usize::MAX);
+        let bytes = Bytes::from_request(req, state).await.map_err(|rejection| {
+            if rejection.status() == StatusCode::PAYLOAD_TOO_LARGE {
+                ApiError::PayloadTooLarge { limit_bytes: limit }
+            } else {
+                ApiError::MalformedJson {
+                    field: None,
+                    detail: format!("could not read the request body: {rejection}"),
+                }
+            }
+        })?;
+        parse_json(&bytes).map(ApiJson)
+    }
+}
+
+/// The configured body limit, made visible to the extractor for its error message.
+#[derive(Debug, Clone, Copy)]
+pub struct BodyLimit(pub usize);
+
+fn check_content_type(headers: &HeaderMap) -> Result<(), ApiError> {
+    let Some(value) = headers.get(header::CONTENT_TYPE) else {
+        return Ok(());
+    };
+    let text = value.to_str().unwrap_or("");
+    let essence = text
+        .split(';')
+        .next()
+        .unwrap_or("")
+        .trim()
+        .to_ascii_lowercase();
+    let json = essence == "application/json" || essence.ends_with("+json");
+    if json || essence == "application/x-www-form-urlencoded" {
+        Ok(())
+    } else {
+        Err(ApiError::UnsupportedMediaType {
+            content_type: text.to_string(),
+        })
+    }
+}
+
+/// Response formats an endpoint can produce.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    Json,
+    Csv,
+}
+
+impl Format {
+    fn media_type(self) -> &'static str {
+        match self {
+            Format::Json => "application/json",
+            Format::Csv => "text/csv",
+        }
+    }
+}
+
+/// Picks the response format from the `Accept` header: the offered format with the highest
+/// q-value (ties go to the earlier offer; no header or `*/*` means the first offer, JSON).
+pub fn negotiate(headers: &HeaderMap, offered: &[Format]) -> Result<Format, ApiError> {
+    let Some(accept) = headers.get(header::ACCEPT).and_then(|v| v.to_str().ok()) else {
+        return Ok(offered[0]);
+    };
+    let mut best: Option<(f32, Format)> = None;
+    for range in accept.split(',') {
+        let mut parts = range.split(';');
+        let media = parts.next().unwrap_or("").trim().to_ascii_lowercase();
+        let q = parts
+            .filter_map(|p| p.trim().strip_prefix("q="))
+            .find_map(|q| q.trim().parse::<f32>().ok())
+            .unwrap_or(1.0);
+        if q <= 0.0 {
+            continue;
+        }
+        for &format in offered {
+            let (kind, _) = format.media_type().split_once('/').unwrap();
+            let matches = media == format.media_type()
+                || media == "*/*"
+                || media == format!("{kind}/*")
+                || (format == Format::Json && media == "application/problem+json");
+            if matches && best.is_none_or(|(bq, _)| q > bq) {
+                best = Some((q, format));
+            }
+        }
+    }
+    best.map(|(_, f)| f).ok_or_else(|| ApiError::NotAcceptable {
+        accept: accept.to_string(),
+        offered: if offered.contains(&Format::Csv) {
+            "application/json and text/csv"
+        } else {
+            "application/json"
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use axum::http::HeaderValue;
+
+    fn accept(value: &str) -> HeaderMap {
+        let mut h = HeaderMap::new();
+        h.insert(header::ACCEPT, HeaderValue::from_str(value).unwrap());
+        h
+    }
+
+    #[test]
+    fn negotiation_honours_q_values_and_wildcards() {
+        let both = [Format::Json, Format::Csv];
+        assert_eq!(negotiate(&HeaderMap::new(), &both).unwrap(), Format::Json);
+        assert_eq!(negotiate(&accept("text/csv"), &both).unwrap(), Format::Csv);
+        assert_eq!(negotiate(&accept("*/*"), &both).unwrap(), Format::Json);
+        assert_eq!(
+            negotiate(&accept("application/json;q=0.5, text/csv"), &both).unwrap(),
+            Format::Csv
+        );
+        assert_eq!(negotiate(&accept("text/*"), &both).unwrap(), Format::Csv);
+        assert!(negotiate(&accept("image/png"), &both).is_err());
+        assert!(negotiate(&accept("text/csv"), &[Format::Json]).is_err());
+    }
+
+    #[test]
+    fn parse_errors_name_the_field() {
+        #[derive(serde::Deserialize, Debug)]
+        #[serde(deny_unknown_fields)]
+        #[allow(dead_code)]
+        struct Inner {
+            x: f64,
+            ys: Vec<f64>,
+        }
+        #[derive(serde::Deserialize, Debug)]
+        #[serde(deny_unknown_fields)]
+        #[allow(dead_code)]
+        struct Outer {
+            inner: Inner,
+        }
+        let field = |body: &str| match parse_json::<Outer>(body.as_bytes()).unwrap_err() {
+            ApiError::SchemaMismatch { field, .. } => Some(field),
+            ApiError::MalformedJson { field, .. } => field,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(
+            field(r#"{"inner": {"x": "a", "ys": []}}"#).unwrap(),
+            "inner.x"
+        );
+        assert_eq!(
+            field(r#"{"inner": {"x": 1, "ys": [1, true]}}"#).unwrap(),
+            "inner.ys[1]"
+        );
+        assert_eq!(field(r#"{"inner": {"ys": []}}"#).unwrap(), "inner.x");
+        assert_eq!(
+            field(r#"{"inner": {"x": 1, "ys": [], "z": 2}}"#).unwrap(),
+            "inner.z"
+        );
+        assert!(matches!(
+            parse_json::<Outer>(b"{\"inner\": ").unwrap_err(),
+            ApiError::MalformedJson { .. }
+        ));
+    }
+}

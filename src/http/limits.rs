@@ -1,0 +1,38 @@
+//! Documented request limits. Each has a server flag and environment variable (see `config`).
+
+use std::time::Duration;
+
+/// Sizes and waits the server refuses to exceed.
+#[derive(Debug, Clone)]
+pub struct Limits {
+    /// Largest request body, bytes (413 beyond).
+    pub max_body_bytes: usize,
+    /// Largest `radial_grid.count` (422 beyond).
+    pub max_radial_samples: usize,
+    /// Most tool positions in one request (dwell or removal-function profiles; 422 beyond).
+    pub max_positions: usize,
+    /// Most removal-function profiles (`tool_positions_mm`) in one request.
+    pub max_profiles: usize,
+    /// Largest removal operator, radial samples × tool positions (422 beyond).
+    pub max_operator_entries: usize,
+    /// Computations running at once; more wait for a slot.
+    pub max_concurrent_computations: usize,
+    /// How long a request waits for a computation slot before a 503 with Retry-After.
+    pub queue_timeout: Duration,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_body_bytes: 4 * 1024 * 1024,
+            max_radial_samples: 10_001,
+            max_positions: 10_001,
+            max_profiles: 201,
+            max_operator_entries: 25_000_000,
+            max_concurrent_computations: std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(2),
+            queue_timeout: Duration::from_secs(5),
+        }
+    }
+}

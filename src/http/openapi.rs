@@ -1,0 +1,90 @@
+//! The OpenAPI document, generated from the code (utoipa) with request examples taken from
+//! `fixtures/`. Committed as `openapi/openapi.json`; `tests/openapi_drift.rs` fails when the
+//! two differ (regenerate with `cargo run -- openapi > openapi/openapi.json`).
+
+use utoipa::OpenApi;
+
+use super::dto::{
+    ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, PressureModelDto, ProcessDto,
+    RadialGridDto,
+};
+use super::error::Problem;
+use super::{health, predict, removal_function};
+
+#[derive(OpenApi)]
+#[openapi(
+    info(
+        title = "Preston",
+        description = "Dwell-time planning for dual-rotor small-tool polishing of rotationally \
+symmetric optics.\n\n\
+**Units** are in every field name: lengths `_mm`, speeds `_rpm`, times `_s`, depths `_nm`, rates \
+`_nm_per_min`, pressure `_kpa`, Preston coefficient `_m2_per_n`.\n\n\
+**Speed sign convention.** Both speeds are signed r/min in one lab frame, counter-clockwise \
+positive as seen from the tool side. The paper's ratio is η = −workpiece_rpm / tool_rpm: η = −1 \
+means workpiece and tool turn the same way at the same speed, where equal dwell removes a \
+uniform layer. The paper's experiment 1 (workpiece 10 r/min clockwise, tool 200 r/min \
+counter-clockwise) is workpiece_rpm = −10, tool_rpm = 200, η = +0.05.\n\n\
+**Errors** are `application/problem+json` (RFC 9457) with the offending input in `field`.\n\n\
+**Limits** (server defaults, configurable): body 4 MiB, radial_grid.count ≤ 10001, tool \
+positions ≤ 10001, removal-function profiles ≤ 201, radial samples × positions ≤ 25,000,000."
+    ),
+    paths(
+        removal_function::handler,
+        predict::handler,
+        health::healthz,
+        health::readyz,
+    ),
+    components(schemas(
+        Problem,
+        ProcessDto,
+        PressureModelDto,
+        RadialGridDto,
+        ClearApertureDto,
+        DwellDto,
+        MetricsDto,
+        ApertureEcho,
+    )),
+    tags(
+        (name = "removal", description = "Removal functions and predictions"),
+        (name = "service", description = "Probes"),
+    )
+)]
+struct ApiDoc;
+
+/// Request examples: (path, fixture text).
+const EXAMPLES: [(&str, &str); 2] = [
+    (
+        "/v1/removal-function",
+        include_str!("../../fixtures/removal_function_paper_exp1.json"),
+    ),
+    (
+        "/v1/predict",
+        include_str!("../../fixtures/predict_paper_exp2.json"),
+    ),
+];
+
+/// The document, with fixture examples attached to the request bodies.
+pub fn spec() -> utoipa::openapi::OpenApi {
+    let mut doc = ApiDoc::openapi();
+    for (path, fixture) in EXAMPLES {
+        let example: serde_json::Value =
+            serde_json::from_str(fixture).expect("fixtures are valid JSON");
+        let body = doc
+            .paths
+            .paths
+            .get_mut(path)
+            .and_then(|item| item.post.as_mut())
+            .and_then(|op| op.request_body.as_mut())
+            .and_then(|body| body.content.get_mut("application/json"))
+            .expect("every example path has a JSON request body");
+        body.example = Some(example);
+    }
+    doc
+}
+
+/// The document as served and committed: pretty JSON with a final newline.
+pub fn spec_json() -> String {
+    let mut json = spec().to_pretty_json().expect("the spec serialises");
+    json.push('\n');
+    json
+}

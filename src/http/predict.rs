@@ -1,0 +1,111 @@
+//! `POST /v1/predict`: the cumulative removal of a dwell schedule and its uniformity.
+
+use axum::extract::State;
+use axum::http::HeaderMap;
+use axum::response::Response;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::dto::{
+    check_operator_size, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto,
+    RadialGridDto,
+};
+use super::error::{ApiError, Problem};
+use super::extract::{negotiate, ApiJson, Format};
+use super::limits::Limits;
+use super::{csv, render, AppState};
+use crate::physics::{DwellSchedule, UniformityMetrics};
+
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PredictRequest {
+    pub process: ProcessDto,
+    pub dwell: DwellDto,
+    /// Where to report removal; default 201 samples from 0 to the workpiece radius.
+    pub radial_grid: Option<RadialGridDto>,
+    /// Where uniformity is judged; default the whole workpiece.
+    pub clear_aperture: Option<ClearApertureDto>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct PredictResponse {
+    /// Speed ratio η = −workpiece_rpm / tool_rpm (paper convention); null when tool_rpm = 0.
+    pub eta: Option<f64>,
+    /// The radial grid, mm.
+    pub radius_mm: Vec<f64>,
+    /// Cumulative removal depth at each radius of `radius_mm`, nm.
+    pub removal_nm: Vec<f64>,
+    /// Uniformity over the clear aperture.
+    pub metrics: MetricsDto,
+    /// The clear aperture the metrics were taken over (defaults filled in), mm.
+    pub clear_aperture: ApertureEcho,
+    /// Sum of the dwell times, s.
+    pub total_time_s: f64,
+}
+
+pub fn compute(req: &PredictRequest, limits: &Limits) -> Result<PredictResponse, ApiError> {
+    let process = req.process.to_process()?;
+    let grid = RadialGridDto::to_grid(req.radial_grid.as_ref(), &process, limits)?;
+    let aperture = ClearApertureDto::to_aperture(req.clear_aperture.as_ref(), &process, &grid)?;
+    check_operator_size(
+        limits,
+        grid.radii_mm().len(),
+        req.dwell.positions_mm.len(),
+        "dwell.positions_mm",
+    )?;
+    let schedule = DwellSchedule::new(
+        &process,
+        req.dwell.positions_mm.clone(),
+        req.dwell.dwell_s.clone(),
+    )
+    .map_err(|e| ApiError::from_schedule("dwell", e))?;
+
+    let removal_nm = schedule.removal_nm(&process, &grid);
+    let metrics = UniformityMetrics::over(&grid, &aperture, &removal_nm);
+    Ok(PredictResponse {
+        eta: process.eta().value(),
+        radius_mm: grid.radii_mm().to_vec(),
+        removal_nm,
+        metrics: MetricsDto::from(&metrics),
+        clear_aperture: ApertureEcho::from(&aperture),
+        total_time_s: schedule.total_time_s(),
+    })
+}
+
+fn to_csv(response: &PredictResponse) -> String {
+    csv::table(
+        &["radius_mm".to_string(), "removal_nm".to_string()],
+        &[&response.radius_mm, &response.removal_nm],
+    )
+}
+
+/// Predict what a dwell schedule removes.
+///
+/// Cumulative removal ΔZ(r) = Σ_j R(r; r1_j)·t_j over the radial grid, with uniformity metrics
+/// over the clear aperture. `Accept: text/csv` returns radius and removal columns.
+#[utoipa::path(
+    post,
+    path = "/v1/predict",
+    tag = "removal",
+    request_body = PredictRequest,
+    responses(
+        (status = 200, description = "Predicted removal; as CSV, radius and removal columns", content(
+            (PredictResponse = "application/json"),
+            (String = "text/csv"),
+        )),
+        (status = 400, description = "Malformed JSON", body = Problem, content_type = "application/problem+json"),
+        (status = 413, description = "Body too large", body = Problem, content_type = "application/problem+json"),
+        (status = 422, description = "Invalid input, naming the field", body = Problem, content_type = "application/problem+json"),
+        (status = 503, description = "Overloaded; retry after Retry-After seconds", body = Problem, content_type = "application/problem+json"),
+    )
+)]
+pub async fn handler(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    ApiJson(req): ApiJson<PredictRequest>,
+) -> Result<Response, ApiError> {
+    let format = negotiate(&headers, &[Format::Json, Format::Csv])?;
+    let limits = state.limits.clone();
+    let response = state.run(move || compute(&req, &limits)).await?;
+    Ok(render(format, &response, to_csv))
+}

@@ -1,0 +1,60 @@
+//! Serving: bind, run the router, shut down gracefully on SIGTERM or Ctrl-C (readiness turns
+//! 503 at once, in-flight requests finish, then the process exits).
+
+use std::future::Future;
+
+use tokio::net::TcpListener;
+
+use crate::config::ServeArgs;
+use crate::http::{cors_layer, router, AppState};
+
+/// Runs the service with `args` until a shutdown signal.
+pub async fn run(args: ServeArgs) -> std::io::Result<()> {
+    let listener = TcpListener::bind(args.listen).await?;
+    let state = AppState::new(args.limits());
+    tracing::info!(address = %listener.local_addr()?, "preston listening; docs at /docs");
+    let shutdown_state = state.clone();
+    serve_on(listener, state, &args.cors_origins, async move {
+        shutdown_signal().await;
+        shutdown_state.set_ready(false);
+        tracing::info!("shutdown requested; finishing in-flight requests");
+    })
+    .await
+}
+
+/// Serves on `listener` until `shutdown` completes, then drains in-flight requests.
+pub async fn serve_on(
+    listener: TcpListener,
+    state: AppState,
+    cors_origins: &[String],
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    let app = router(state, cors_layer(cors_origins));
+    axum::serve(listener, app)
+        .with_graceful_shutdown(shutdown)
+        .await
+}
+
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let terminate = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut signal) => {
+                signal.recv().await;
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "cannot listen for SIGTERM");
+                std::future::pending::<()>().await
+            }
+        }
+    };
+    #[cfg(not(unix))]
+    let terminate = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {},
+        _ = terminate => {},
+    }
+}
