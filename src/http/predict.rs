@@ -19,7 +19,9 @@ use crate::physics::{DwellSchedule, UniformityMetrics};
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PredictRequest {
+    /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
     pub process: ProcessDto,
+    /// Tool positions (mm) and the dwell time at each (s).
     pub dwell: DwellDto,
     /// Where to report removal; default 201 samples from 0 to the workpiece radius.
     pub radial_grid: Option<RadialGridDto>,

@@ -18,6 +18,7 @@ use crate::physics::RemovalKernel;
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RemovalFunctionRequest {
+    /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
     pub process: ProcessDto,
     /// Tool-centre radii in mm, one profile each (any order; 0 to r_m + r_t under uniform
     /// pressure, 0 to r_m under constant force).

@@ -1,6 +1,8 @@
 //! Shared test helpers: an independent adaptive quadrature, the paper's processes and fixtures.
 #![allow(dead_code)] // each test binary uses a different subset
 
+pub mod http;
+
 use preston::physics::{PressureModel, Process, ProcessSpec};
 
 /// Gauss–Kronrod (7, 15) nodes on [−1, 1] (non-negative half) and weights.

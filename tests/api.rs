@@ -1,0 +1,457 @@
+//! The HTTP contract through the router (in-process): fixtures against stored responses, every
+//! bad-input class, content negotiation, the OpenAPI document and the docs UI.
+
+mod common;
+
+use common::http::{app, app_with, get, post_json, post_with, Reply};
+use preston::http::Limits;
+use serde_json::{json, Value};
+
+fn assert_problem(reply: &Reply, status: u16, field: Option<&str>) {
+    assert_eq!(reply.status.as_u16(), status, "{}", reply.text());
+    assert_eq!(reply.content_type, "application/problem+json");
+    let body = reply.json();
+    assert_eq!(body["status"], status);
+    assert!(body["type"]
+        .as_str()
+        .unwrap()
+        .starts_with("urn:preston:problem:"));
+    assert!(!body["detail"].as_str().unwrap().is_empty());
+    if let Some(field) = field {
+        assert_eq!(body["field"], field, "{body}");
+    }
+}
+
+/// Same structure, numbers equal to 1e-12 relative (they are computed by the same code, so only
+/// a change of the numerics can move them).
+fn assert_same(got: &Value, want: &Value, path: &str) {
+    match (got, want) {
+        (Value::Number(g), Value::Number(w)) => {
+            let (g, w) = (g.as_f64().unwrap(), w.as_f64().unwrap());
+            assert!(
+                (g - w).abs() <= 1e-12 * w.abs().max(1e-300),
+                "{path}: {g} != {w}"
+            );
+        }
+        (Value::Array(g), Value::Array(w)) => {
+            assert_eq!(g.len(), w.len(), "{path}: length");
+            for (i, (g, w)) in g.iter().zip(w).enumerate() {
+                assert_same(g, w, &format!("{path}[{i}]"));
+            }
+        }
+        (Value::Object(g), Value::Object(w)) => {
+            let keys = |m: &serde_json::Map<String, Value>| m.keys().cloned().collect::<Vec<_>>();
+            assert_eq!(keys(g), keys(w), "{path}: members");
+            for (k, w) in w {
+                assert_same(&g[k], w, &format!("{path}.{k}"));
+            }
+        }
+        _ => assert_eq!(got, want, "{path}"),
+    }
+}
+
+fn endpoint_of(fixture: &str) -> &'static str {
+    if fixture.starts_with("removal_function") {
+        "/v1/removal-function"
+    } else if fixture.starts_with("predict") {
+        "/v1/predict"
+    } else {
+        panic!("no endpoint for fixture {fixture}")
+    }
+}
+
+/// Every request fixture is posted; its response must match `fixtures/expected/<name>`.
+/// `PRESTON_BLESS=1 cargo test --test api` rewrites the expected files after a deliberate change.
+#[tokio::test]
+async fn every_fixture_returns_its_stored_response() {
+    let app = app();
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".json"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 3);
+    for name in names {
+        let body = std::fs::read(dir.join(&name)).unwrap();
+        let reply = post_json(&app, endpoint_of(&name), body).await;
+        assert_eq!(reply.status, 200, "{name}: {}", reply.text());
+        assert_eq!(reply.content_type, "application/json");
+        let expected_path = dir.join("expected").join(&name);
+        if std::env::var_os("PRESTON_BLESS").is_some() {
+            std::fs::create_dir_all(dir.join("expected")).unwrap();
+            let pretty = serde_json::to_string_pretty(&reply.json()).unwrap();
+            std::fs::write(&expected_path, pretty + "\n").unwrap();
+        }
+        let expected: Value =
+            serde_json::from_str(&std::fs::read_to_string(&expected_path).unwrap()).unwrap();
+        assert_same(&reply.json(), &expected, &name);
+    }
+}
+
+/// Independent of the stored files: the removal-function fixture reproduces the DESIGN.md
+/// sanity table (r1 = 5 and 20 mm at η = +0.05) to 4 decimals.
+#[tokio::test]
+async fn removal_function_fixture_matches_the_sanity_table() {
+    let body = std::fs::read(common::fixture_path("removal_function_paper_exp1.json")).unwrap();
+    let reply = post_json(&app(), "/v1/removal-function", body).await;
+    let v = reply.json();
+    assert_eq!(v["eta"], 0.05);
+    let radius: Vec<f64> = serde_json::from_value(v["radius_mm"].clone()).unwrap();
+    let at = |profile: usize, r: f64| {
+        let i = radius.iter().position(|&x| x == r).unwrap();
+        v["profiles"][profile]["removal_rate_nm_per_min"][i]
+            .as_f64()
+            .unwrap()
+    };
+    assert_eq!(v["profiles"][0]["tool_position_mm"], 5.0);
+    assert!((at(0, 2.0) - 6.5635).abs() < 0.5e-4);
+    assert!((at(1, 20.0) - 1.0757).abs() < 0.5e-4);
+    assert!((at(1, 25.0) - 1.2418).abs() < 0.5e-4);
+    assert_eq!(at(0, 20.0), 0.0);
+}
+
+fn predict_body() -> Value {
+    json!({
+        "process": {"workpiece_radius_mm": 50, "tool_radius_mm": 10,
+                    "workpiece_rpm": 150, "tool_rpm": 150},
+        "dwell": {"positions_mm": [0, 10, 20, 30, 40, 50], "dwell_s": [5, 5, 5, 5, 5, 5]},
+        "radial_grid": {"count": 51},
+        "clear_aperture": {"inner_mm": 0, "outer_mm": 40}
+    })
+}
+
+async fn predict(body: Value) -> Reply {
+    post_json(&app(), "/v1/predict", body.to_string()).await
+}
+
+#[tokio::test]
+async fn predict_fills_defaults_and_echoes_what_it_used() {
+    let mut body = predict_body();
+    body.as_object_mut().unwrap().remove("clear_aperture");
+    let v = predict(body).await.json();
+    assert_eq!(v["eta"], -1.0);
+    assert_eq!(v["radius_mm"].as_array().unwrap().len(), 51);
+    assert_eq!(
+        v["clear_aperture"],
+        json!({"inner_mm": 0.0, "outer_mm": 50.0})
+    );
+    assert_eq!(v["total_time_s"], 30.0);
+    assert_eq!(v["metrics"]["samples"], 51);
+}
+
+#[tokio::test]
+async fn eta_is_null_when_the_tool_does_not_spin() {
+    let mut body = predict_body();
+    body["process"]["tool_rpm"] = json!(0);
+    let v = predict(body).await.json();
+    assert_eq!(v["eta"], Value::Null);
+}
+
+#[tokio::test]
+async fn malformed_json_is_400() {
+    let reply = post_json(&app(), "/v1/predict", "{\"process\": ").await;
+    assert_problem(&reply, 400, None);
+    let trailing = format!("{} trailing", predict_body());
+    let reply = post_json(&app(), "/v1/predict", trailing).await;
+    assert_problem(&reply, 400, None);
+}
+
+#[tokio::test]
+async fn wrong_types_name_the_field() {
+    let mut body = predict_body();
+    body["process"]["tool_rpm"] = json!("fast");
+    assert_problem(&predict(body).await, 422, Some("process.tool_rpm"));
+    let mut body = predict_body();
+    body["dwell"]["dwell_s"][2] = json!(true);
+    assert_problem(&predict(body).await, 422, Some("dwell.dwell_s[2]"));
+}
+
+#[tokio::test]
+async fn missing_and_unknown_fields_name_the_field() {
+    let mut body = predict_body();
+    body["process"]
+        .as_object_mut()
+        .unwrap()
+        .remove("tool_radius_mm");
+    assert_problem(&predict(body).await, 422, Some("process.tool_radius_mm"));
+    let mut body = predict_body();
+    body["process"]["tool_speed"] = json!(3);
+    assert_problem(&predict(body).await, 422, Some("process.tool_speed"));
+    let mut body = predict_body();
+    body["extra"] = json!(1);
+    assert_problem(&predict(body).await, 422, Some("extra"));
+}
+
+#[tokio::test]
+async fn non_finite_numbers_are_rejected() {
+    // JSON has no NaN or Infinity; an overflowing literal is the way one arrives.
+    let text = predict_body()
+        .to_string()
+        .replace("\"tool_rpm\":150", "\"tool_rpm\":1e999");
+    assert!(text.contains("1e999"));
+    let reply = post_json(&app(), "/v1/predict", text).await;
+    assert!(
+        reply.status == 400 || reply.status == 422,
+        "{}",
+        reply.text()
+    );
+    assert_eq!(reply.content_type, "application/problem+json");
+    assert_eq!(reply.json()["field"], "process.tool_rpm");
+    let reply = post_json(
+        &app(),
+        "/v1/predict",
+        predict_body().to_string().replace("150,", "NaN,"),
+    )
+    .await;
+    assert_problem(&reply, 400, None);
+}
+
+#[tokio::test]
+async fn every_invalid_process_is_a_422_naming_its_field() {
+    let cases = [
+        ("workpiece_radius_mm", json!(0)),
+        ("workpiece_radius_mm", json!(-5)),
+        ("tool_radius_mm", json!(0)),
+        ("pressure_kpa", json!(0)),
+        ("pressure_kpa", json!(-1)),
+        ("preston_coefficient_m2_per_n", json!(-1e-13)),
+        ("workpiece_rpm", json!(0)),
+    ];
+    for (field, value) in cases {
+        let mut body = predict_body();
+        body["process"][field] = value;
+        assert_problem(&predict(body).await, 422, Some(&format!("process.{field}")));
+    }
+}
+
+#[tokio::test]
+async fn dwell_errors_name_the_element() {
+    let mut body = predict_body();
+    body["dwell"]["dwell_s"] = json!([1, 2]);
+    assert_problem(&predict(body).await, 422, Some("dwell.dwell_s"));
+    let mut body = predict_body();
+    body["dwell"]["positions_mm"] = json!([0, 10, 10, 30, 40, 50]);
+    assert_problem(&predict(body).await, 422, Some("dwell.positions_mm[2]"));
+    let mut body = predict_body();
+    body["dwell"]["positions_mm"] = json!([0, 10, 20, 30, 40, 61]);
+    assert_problem(&predict(body).await, 422, Some("dwell.positions_mm[5]"));
+    let mut body = predict_body();
+    body["dwell"]["positions_mm"] = json!([-1, 10, 20, 30, 40, 50]);
+    assert_problem(&predict(body).await, 422, Some("dwell.positions_mm[0]"));
+    let mut body = predict_body();
+    body["dwell"]["dwell_s"][3] = json!(-2);
+    assert_problem(&predict(body).await, 422, Some("dwell.dwell_s[3]"));
+    let mut body = predict_body();
+    body["dwell"] = json!({"positions_mm": [], "dwell_s": []});
+    assert_problem(&predict(body).await, 422, Some("dwell.positions_mm"));
+}
+
+#[tokio::test]
+async fn grid_and_aperture_errors_name_the_field() {
+    let mut body = predict_body();
+    body["radial_grid"]["count"] = json!(0);
+    assert_problem(&predict(body).await, 422, Some("radial_grid.count"));
+    let mut body = predict_body();
+    body["radial_grid"]["count"] = json!(20_000);
+    assert_problem(&predict(body).await, 422, Some("radial_grid.count"));
+    let mut body = predict_body();
+    body["radial_grid"]["stop_mm"] = json!(55);
+    assert_problem(&predict(body).await, 422, Some("radial_grid.stop_mm"));
+    let mut body = predict_body();
+    body["clear_aperture"] = json!({"inner_mm": 30, "outer_mm": 20});
+    assert_problem(&predict(body).await, 422, Some("clear_aperture.outer_mm"));
+    let mut body = predict_body();
+    body["radial_grid"]["stop_mm"] = json!(30);
+    assert_problem(&predict(body).await, 422, Some("clear_aperture"));
+}
+
+#[tokio::test]
+async fn oversize_requests_are_refused() {
+    let limits = Limits {
+        max_body_bytes: 1000,
+        max_positions: 100,
+        ..Limits::default()
+    };
+    let app = app_with(limits);
+    let mut body = predict_body();
+    body["dwell"]["positions_mm"] = json!((0..200).map(|i| i as f64 * 0.25).collect::<Vec<_>>());
+    body["dwell"]["dwell_s"] = json!(vec![1.0; 200]);
+    let reply = post_json(&app, "/v1/predict", body.to_string()).await;
+    assert_problem(&reply, 413, None);
+
+    let app = app_with(Limits {
+        max_positions: 100,
+        ..Limits::default()
+    });
+    let reply = post_json(&app, "/v1/predict", body.to_string()).await;
+    assert_problem(&reply, 422, Some("dwell.positions_mm"));
+
+    let app = app_with(Limits {
+        max_operator_entries: 1000,
+        ..Limits::default()
+    });
+    let reply = post_json(&app, "/v1/predict", predict_body().to_string()).await;
+    assert_eq!(reply.status, 200); // 51 × 6 = 306 entries
+    let mut big = predict_body();
+    big["radial_grid"]["count"] = json!(201);
+    let reply = post_json(&app, "/v1/predict", big.to_string()).await;
+    assert_problem(&reply, 422, Some("dwell.positions_mm"));
+}
+
+#[tokio::test]
+async fn removal_function_positions_are_checked() {
+    let body = json!({
+        "process": {"workpiece_radius_mm": 50, "tool_radius_mm": 10,
+                    "workpiece_rpm": -10, "tool_rpm": 200, "pressure_model": "constant_force"},
+        "tool_positions_mm": [10, 55]
+    });
+    let reply = post_json(&app(), "/v1/removal-function", body.to_string()).await;
+    assert_problem(&reply, 422, Some("tool_positions_mm[1]"));
+    let reply = post_json(
+        &app(),
+        "/v1/removal-function",
+        body.to_string().replace("constant_force", "sideways"),
+    )
+    .await;
+    assert_problem(&reply, 422, Some("process.pressure_model"));
+}
+
+#[tokio::test]
+async fn media_types_are_negotiated() {
+    let body = predict_body().to_string();
+    let reply = post_with(
+        &app(),
+        "/v1/predict",
+        body.clone(),
+        &[("content-type", "text/plain")],
+    )
+    .await;
+    assert_problem(&reply, 415, None);
+    // curl -d sends form encoding by default: accepted, the body is still JSON.
+    let reply = post_with(
+        &app(),
+        "/v1/predict",
+        body.clone(),
+        &[("content-type", "application/x-www-form-urlencoded")],
+    )
+    .await;
+    assert_eq!(reply.status, 200);
+    let reply = post_with(
+        &app(),
+        "/v1/predict",
+        body.clone(),
+        &[("accept", "image/png")],
+    )
+    .await;
+    assert_problem(&reply, 406, None);
+
+    let reply = post_with(&app(), "/v1/predict", body, &[("accept", "text/csv")]).await;
+    assert_eq!(reply.status, 200);
+    assert_eq!(reply.content_type, "text/csv; charset=utf-8");
+    let text = reply.text();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("radius_mm,removal_nm"));
+    assert_eq!(lines.count(), 51);
+
+    let rf = std::fs::read(common::fixture_path("removal_function_paper_exp1.json")).unwrap();
+    let reply = post_with(
+        &app(),
+        "/v1/removal-function",
+        rf,
+        &[("accept", "text/csv")],
+    )
+    .await;
+    let header = reply.text().lines().next().unwrap().to_string();
+    assert_eq!(
+        header,
+        "radius_mm,removal_rate_nm_per_min(tool_position_mm=5),\
+         removal_rate_nm_per_min(tool_position_mm=20),removal_rate_nm_per_min(tool_position_mm=45)"
+    );
+}
+
+#[tokio::test]
+async fn large_responses_are_gzipped_on_request() {
+    let body = std::fs::read(common::fixture_path("predict_paper_exp1.json")).unwrap();
+    let reply = post_with(
+        &app(),
+        "/v1/predict",
+        body,
+        &[
+            ("content-type", "application/json"),
+            ("accept-encoding", "gzip"),
+        ],
+    )
+    .await;
+    assert_eq!(reply.status, 200);
+    assert_eq!(reply.headers["content-encoding"], "gzip");
+}
+
+#[tokio::test]
+async fn unknown_routes_and_methods_are_problems() {
+    assert_problem(&get(&app(), "/v1/nothing").await, 404, None);
+    assert_problem(&get(&app(), "/v1/predict").await, 405, None);
+}
+
+#[tokio::test]
+async fn probes_answer() {
+    let reply = get(&app(), "/healthz").await;
+    assert_eq!(
+        (reply.status.as_u16(), reply.json()["status"].clone()),
+        (200, json!("ok"))
+    );
+    let reply = get(&app(), "/readyz").await;
+    assert_eq!(
+        (reply.status.as_u16(), reply.json()["status"].clone()),
+        (200, json!("ready"))
+    );
+}
+
+#[tokio::test]
+async fn served_openapi_equals_the_committed_file_byte_for_byte() {
+    let reply = get(&app(), "/openapi.json").await;
+    assert_eq!(reply.status, 200);
+    assert_eq!(reply.content_type, "application/json");
+    let committed = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("openapi/openapi.json"),
+    )
+    .unwrap();
+    assert!(
+        reply.body == committed,
+        "served /openapi.json differs from openapi/openapi.json"
+    );
+}
+
+/// The docs page and every asset it loads come from the binary; none is fetched from elsewhere.
+#[tokio::test]
+async fn docs_render_from_the_binary_alone() {
+    let app = app();
+    let redirect = get(&app, "/docs").await;
+    assert!(redirect.status.is_redirection());
+    let index = get(&app, "/docs/").await;
+    assert_eq!(index.status, 200);
+    assert!(index.content_type.starts_with("text/html"));
+    let html = index.text();
+    assert!(html.contains("swagger-ui"));
+    // Every script and stylesheet is relative: no network at view time.
+    let mut assets = Vec::new();
+    for attr in ["src=\"", "href=\""] {
+        for piece in html.split(attr).skip(1) {
+            let url = piece.split('"').next().unwrap();
+            assert!(
+                !url.contains("://") && !url.starts_with("//"),
+                "external asset {url}"
+            );
+            assets.push(url.trim_start_matches("./").to_string());
+        }
+    }
+    assert!(assets.len() >= 3, "{assets:?}");
+    for asset in &assets {
+        let reply = get(&app, &format!("/docs/{asset}")).await;
+        assert_eq!(reply.status, 200, "{asset}");
+    }
+    let init = get(&app, "/docs/swagger-initializer.js").await.text();
+    assert!(init.contains("/openapi.json"), "{init}");
+}

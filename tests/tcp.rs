@@ -1,0 +1,99 @@
+//! The service over a real TCP socket with a real HTTP client (hyper), and the offline
+//! `preston compute` command, which must print exactly what the API returns.
+
+mod common;
+
+use http_body_util::{BodyExt, Full};
+use hyper::body::Bytes;
+use hyper_util::client::legacy::Client;
+use hyper_util::rt::TokioExecutor;
+use preston::http::{AppState, Limits};
+use tokio::net::TcpListener;
+
+#[tokio::test]
+async fn predict_over_a_real_socket_then_graceful_shutdown() {
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let address = listener.local_addr().unwrap();
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let server = tokio::spawn(preston::server::serve_on(
+        listener,
+        AppState::new(Limits::default()),
+        &[],
+        async move {
+            let _ = stopped.await;
+        },
+    ));
+
+    let client = Client::builder(TokioExecutor::new()).build_http::<Full<Bytes>>();
+    let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
+    let request = hyper::Request::post(format!("http://{address}/v1/predict"))
+        .header("content-type", "application/json")
+        .body(Full::new(Bytes::from(body)))
+        .unwrap();
+    let response = client.request(request).await.unwrap();
+    assert_eq!(response.status(), 200);
+    let bytes = response.into_body().collect().await.unwrap().to_bytes();
+    let v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+    assert_eq!(v["eta"], -1.0);
+    assert_eq!(v["total_time_s"], 6006.0);
+    assert!(v["metrics"]["nonuniformity"].as_f64().unwrap() < 0.01);
+
+    let health = client
+        .get(format!("http://{address}/healthz").parse().unwrap())
+        .await
+        .unwrap();
+    assert_eq!(health.status(), 200);
+
+    stop.send(()).unwrap();
+    server.await.unwrap().unwrap();
+}
+
+#[tokio::test]
+async fn compute_prints_exactly_the_api_response() {
+    for (endpoint, fixture) in [
+        ("predict", "predict_paper_exp1.json"),
+        ("removal-function", "removal_function_paper_exp1.json"),
+    ] {
+        let path = common::fixture_path(fixture);
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_preston"))
+            .args(["compute", endpoint])
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(output.status.success(), "{output:?}");
+        let reply = common::http::post_json(
+            &common::http::app(),
+            &format!("/v1/{endpoint}"),
+            std::fs::read(&path).unwrap(),
+        )
+        .await;
+        let mut api = reply.body.clone();
+        api.push(b'\n');
+        assert!(
+            output.stdout == api,
+            "{endpoint}: CLI output differs from the API body"
+        );
+    }
+}
+
+#[test]
+fn compute_reports_problems_with_exit_status_2() {
+    let dir = std::env::temp_dir().join(format!("preston-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("bad.json");
+    std::fs::write(
+        &file,
+        r#"{"process":{"workpiece_radius_mm":50,"tool_radius_mm":10,"workpiece_rpm":0,"tool_rpm":1},
+            "dwell":{"positions_mm":[1],"dwell_s":[1]}}"#,
+    )
+    .unwrap();
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_preston"))
+        .args(["compute", "predict"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(2));
+    let problem: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(problem["field"], "process.workpiece_rpm");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
