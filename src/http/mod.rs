@@ -85,6 +85,25 @@ impl AppState {
     }
 }
 
+/// The shared body of the computing handlers: negotiate the format, compute off the runtime,
+/// render JSON or CSV.
+async fn compute_and_render<Req, Resp>(
+    state: AppState,
+    headers: &axum::http::HeaderMap,
+    req: Req,
+    compute: fn(&Req, &Limits) -> Result<Resp, ApiError>,
+    to_csv: fn(&Resp) -> String,
+) -> Result<Response, ApiError>
+where
+    Req: Send + 'static,
+    Resp: Serialize + Send + 'static,
+{
+    let format = extract::negotiate(headers, &[Format::Json, Format::Csv])?;
+    let limits = state.limits.clone();
+    let response = state.run(move || compute(&req, &limits)).await?;
+    Ok(render(format, &response, to_csv))
+}
+
 /// The response body in the negotiated format.
 fn render<T: Serialize>(format: Format, body: &T, to_csv: impl Fn(&T) -> String) -> Response {
     match format {

@@ -11,9 +11,9 @@ use super::dto::{
     RadialGridDto,
 };
 use super::error::{ApiError, Problem};
-use super::extract::{negotiate, ApiJson, Format};
+use super::extract::ApiJson;
 use super::limits::Limits;
-use super::{csv, render, AppState};
+use super::{compute_and_render, csv, AppState};
 use crate::physics::{DwellSchedule, UniformityMetrics};
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -106,8 +106,5 @@ pub async fn handler(
     headers: HeaderMap,
     ApiJson(req): ApiJson<PredictRequest>,
 ) -> Result<Response, ApiError> {
-    let format = negotiate(&headers, &[Format::Json, Format::Csv])?;
-    let limits = state.limits.clone();
-    let response = state.run(move || compute(&req, &limits)).await?;
-    Ok(render(format, &response, to_csv))
+    compute_and_render(state, &headers, req, compute, to_csv).await
 }
