@@ -243,3 +243,22 @@ impl ApiError {
         ApiError::invalid(field, err.to_string())
     }
 }
+
+/// The error responses every computing endpoint can give, described once for the OpenAPI
+/// document (the values are built as [`ApiError`]s, never as this enum).
+#[derive(utoipa::IntoResponses)]
+#[allow(dead_code)]
+pub enum ComputeProblems {
+    /// Malformed JSON
+    #[response(status = 400, content_type = "application/problem+json")]
+    Malformed(Problem),
+    /// Body too large
+    #[response(status = 413, content_type = "application/problem+json")]
+    TooLarge(Problem),
+    /// Invalid input, naming the field
+    #[response(status = 422, content_type = "application/problem+json")]
+    Invalid(Problem),
+    /// Overloaded; retry after Retry-After seconds
+    #[response(status = 503, content_type = "application/problem+json")]
+    Overloaded(Problem),
+}

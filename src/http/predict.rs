@@ -10,7 +10,7 @@ use super::dto::{
     check_operator_size, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto,
     RadialGridDto,
 };
-use super::error::{ApiError, Problem};
+use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
 use super::limits::Limits;
 use super::{compute_and_render, csv, AppState};
@@ -95,10 +95,7 @@ fn to_csv(response: &PredictResponse) -> String {
             (PredictResponse = "application/json"),
             (String = "text/csv"),
         )),
-        (status = 400, description = "Malformed JSON", body = Problem, content_type = "application/problem+json"),
-        (status = 413, description = "Body too large", body = Problem, content_type = "application/problem+json"),
-        (status = 422, description = "Invalid input, naming the field", body = Problem, content_type = "application/problem+json"),
-        (status = 503, description = "Overloaded; retry after Retry-After seconds", body = Problem, content_type = "application/problem+json"),
+        ComputeProblems,
     )
 )]
 pub async fn handler(

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{check_operator_size, ProcessDto, RadialGridDto};
-use super::error::{ApiError, Problem};
+use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
 use super::limits::Limits;
 use super::{compute_and_render, csv, AppState};
@@ -125,10 +125,7 @@ fn to_csv(response: &RemovalFunctionResponse) -> String {
             (RemovalFunctionResponse = "application/json"),
             (String = "text/csv"),
         )),
-        (status = 400, description = "Malformed JSON", body = Problem, content_type = "application/problem+json"),
-        (status = 413, description = "Body too large", body = Problem, content_type = "application/problem+json"),
-        (status = 422, description = "Invalid input, naming the field", body = Problem, content_type = "application/problem+json"),
-        (status = 503, description = "Overloaded; retry after Retry-After seconds", body = Problem, content_type = "application/problem+json"),
+        ComputeProblems,
     )
 )]
 pub async fn handler(

@@ -40,7 +40,8 @@ impl RemovalOperator {
             first_row.push(lo);
             col_ptr.push(col_ptr.last().unwrap() + hi.max(lo) - lo);
         }
-        let mut values = vec![0.0; *col_ptr.last().unwrap()];
+        let entries = *col_ptr.last().unwrap();
+        let mut values = vec![0.0; entries];
 
         let fill = |(j, column): (usize, &mut [f64])| {
             let r1 = positions_mm[j];
@@ -51,7 +52,7 @@ impl RemovalOperator {
             }
         };
         let columns = split_columns(&mut values, &col_ptr);
-        if values_len(&col_ptr) >= PARALLEL_MIN_ENTRIES {
+        if entries >= PARALLEL_MIN_ENTRIES {
             columns.into_par_iter().enumerate().for_each(fill);
         } else {
             columns.into_iter().enumerate().for_each(fill);
@@ -119,10 +120,6 @@ impl RemovalOperator {
         }
         dense
     }
-}
-
-fn values_len(col_ptr: &[usize]) -> usize {
-    *col_ptr.last().unwrap_or(&0)
 }
 
 /// Splits `values` into the disjoint mutable column slices described by `col_ptr`.
