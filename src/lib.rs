@@ -2,11 +2,13 @@
 //! optics. See `ARCHITECTURE.md` for the map.
 //!
 //! - [`physics`]: the pure numerical core (no HTTP, JSON or OpenAPI types).
+//! - [`optimize`]: the dwell optimizer (a QP solved with Clarabel), pure like `physics`.
 //! - [`http`]: the axum service, its DTOs and errors.
 //! - [`config`], [`telemetry`], [`server`]: start-up, settings, logging, serving.
 
 pub mod config;
 pub mod http;
+pub mod optimize;
 pub mod physics;
 pub mod server;
 pub mod telemetry;

@@ -1,0 +1,64 @@
+//! The dwell optimizer: dwell times t_j ≥ 0 at candidate tool positions r1_j such that the
+//! predicted removal M·t matches a target depth d over the clear aperture, within the
+//! machine's and the shop's limits. Pure: no HTTP, JSON or OpenAPI types.
+//!
+//! # The quadratic program
+//!
+//! Let Ω be the radial samples inside the clear aperture (m_Ω of them), M the removal operator
+//! (nm/s) restricted to Ω, d the target (nm) on Ω and p ≥ 0 an optional free piston (a uniform
+//! extra layer, for figure correction). Two scales make the problem dimensionless, so one set
+//! of default weights serves every process and depth:
+//!
+//! ```text
+//! s_d = √(Σ_Ω d_i² / m_Ω)          depth scale (nm; 1 nm if the target is all zero)
+//! ā   = Σ_Ω Σ_j M_ij / m_Ω          removal rate of one second at every position (nm/s)
+//! τ   = s_d / ā                     dwell scale (s): equal dwell τ removes about s_d
+//! ```
+//!
+//! With x = t/τ and p̃ = p/s_d the optimizer minimises
+//!
+//! ```text
+//! J(x, p̃) = 1/(2 m_Ω) · Σ_Ω ((M·t − d − p)_i / s_d)²          fit
+//!          + λ/2 · r_t⁴/(n − 2) · Σ_k (x''_k)²                  smoothing
+//!          + μ · Σ_j x_j / n                                    time
+//! ```
+//!
+//! where x''_k is the second divided difference of x at position k (1/mm², exact for
+//! unevenly spaced positions) and r_t the tool radius, so the smoothing term is the mean
+//! squared curvature of the dwell over one pad radius and does not change with the number
+//! of positions. λ ([`Objective::smoothing`]) damps dwell that oscillates between neighbours,
+//! which the pad cannot see and the fit cannot fix; μ ([`Objective::time_weight`]) makes the
+//! optimizer prefer, among plans that fit about equally well, the one that takes less time,
+//! so it does not park dwell where the pad barely removes (near r1 = 0 at η = −1). The time
+//! term biases the mean depth low by about μ·s_d·(mean x): 2e-6 of the depth at the default.
+//!
+//! Constraints (all optional but t ≥ 0):
+//!
+//! ```text
+//! min_dwell_s ≤ t_j ≤ max_dwell_s                          dwell bounds
+//! Σ t_j ≤ max_total_time_s                                  total time
+//! (t_j + t_{j+1})/2 ≥ 60·(r1_{j+1} − r1_j)/max_feed         feed on each segment
+//! |t_{j+1} − t_j| ≤ max_dwell_change_s                      acceleration surrogate
+//! ```
+//!
+//! The tool crosses segment j (between neighbouring positions) in half of each end's dwell,
+//! so its feed there is v_j = Δr_j / ((t_j + t_{j+1})/2). Bounding the dwell change δ bounds the
+//! feed acceleration (see [`motion`]): on evenly spaced positions (spacing h),
+//! |a| ≤ h·δ / T_min³ with T_min the shortest segment time; with a feed limit v_max (mm/s),
+//! T_min ≥ h/v_max, so δ = a_max·h²/v_max³ guarantees an acceleration limit a_max.
+//!
+//! The QP goes to Clarabel (interior point, sparse LDLᵀ) as dense normal equations: the
+//! Hessian MᵀM/m_Ω is banded (positions more than 2·r_t apart never share a sample), built from
+//! the operator's column bands in parallel. The residual formulation (M·x − e = d as equality
+//! rows, ½‖e‖² on extra variables) was measured against it and is slower: see `benches/optimize.rs`.
+
+pub mod feasibility;
+pub mod motion;
+pub mod problem;
+pub mod qp;
+pub mod target;
+
+pub use motion::Motion;
+pub use problem::{Constraints, Objective, OptimizeError};
+pub use qp::{optimize, DwellProblem, Formulation, Solution, SolveStatus};
+pub use target::resample_profile;

@@ -1,0 +1,233 @@
+//! What the optimizer is asked besides the target: constraints and objective weights, their
+//! validation, and the check that a plan keeps every constraint.
+
+/// Default smoothing weight λ (see the module docs of [`super`]). Chosen on the paper's cases:
+/// it removes neighbour-to-neighbour oscillation while costing the uniform 100 nm plan of
+/// experiment 1 well under 0.1 % of nonuniformity (tests/optimize_paper.rs shows both effects).
+pub const DEFAULT_SMOOTHING: f64 = 1e-6;
+/// Default time weight μ: the mean depth comes out low by about μ of the target.
+pub const DEFAULT_TIME_WEIGHT: f64 = 2e-6;
+
+/// Why an optimization was refused or did not produce a plan. `field` names are relative to
+/// the request's `constraints`, `target` or top level as the variant says.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OptimizeError {
+    /// An input is out of its domain (field named as in the request).
+    #[error("{message}")]
+    Invalid { field: String, message: String },
+    /// The constraints cannot all hold; `fields` are the ones in conflict.
+    #[error("{detail}")]
+    Infeasible {
+        fields: Vec<&'static str>,
+        detail: String,
+    },
+    /// The solver ran out of its time budget before converging.
+    #[error("the solver reached its time limit of {limit_s} s before converging")]
+    TimeLimit { limit_s: f64 },
+    /// The solver ran out of iterations before converging.
+    #[error("the solver reached its iteration limit ({iterations}) before converging")]
+    IterationLimit { iterations: u32 },
+    /// The solver stopped without a trustworthy answer (ill-conditioned input).
+    #[error("the solver stopped with status {status}: the problem is too badly conditioned to solve reliably")]
+    Numerical { status: String },
+}
+
+impl OptimizeError {
+    pub(crate) fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
+        OptimizeError::Invalid {
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// Weights of the objective's smoothing and time terms (dimensionless, ≥ 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Objective {
+    /// λ: weight of the mean squared dwell curvature over one pad radius.
+    pub smoothing: f64,
+    /// μ: weight of the total time relative to equal dwell.
+    pub time_weight: f64,
+}
+
+impl Default for Objective {
+    fn default() -> Self {
+        Objective {
+            smoothing: DEFAULT_SMOOTHING,
+            time_weight: DEFAULT_TIME_WEIGHT,
+        }
+    }
+}
+
+impl Objective {
+    pub fn validate(&self) -> Result<(), OptimizeError> {
+        for (field, value) in [
+            ("smoothing", self.smoothing),
+            ("time_weight", self.time_weight),
+        ] {
+            if !value.is_finite() || value < 0.0 {
+                return Err(OptimizeError::invalid(
+                    field,
+                    format!("{field} must be a finite number ≥ 0"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Limits on the plan, in s and mm/min. Only `min_dwell_s` (default 0) is always present.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Constraints {
+    pub min_dwell_s: f64,
+    pub max_dwell_s: Option<f64>,
+    pub max_total_time_s: Option<f64>,
+    pub max_feed_mm_per_min: Option<f64>,
+    pub max_dwell_change_s: Option<f64>,
+}
+
+/// Relative tolerance to which a returned plan keeps its constraints.
+pub const CONSTRAINT_TOLERANCE: f64 = 1e-9;
+
+impl Constraints {
+    /// Checks each value on its own (finite, signs); conflicts between them are
+    /// [`super::feasibility`]'s job.
+    pub fn validate(&self) -> Result<(), OptimizeError> {
+        if !self.min_dwell_s.is_finite() || self.min_dwell_s < 0.0 {
+            return Err(OptimizeError::invalid(
+                "min_dwell_s",
+                "min_dwell_s must be a finite number ≥ 0 s",
+            ));
+        }
+        let positive = [
+            ("max_dwell_s", self.max_dwell_s, "s"),
+            ("max_total_time_s", self.max_total_time_s, "s"),
+            ("max_feed_mm_per_min", self.max_feed_mm_per_min, "mm/min"),
+        ];
+        for (field, value, unit) in positive {
+            if let Some(v) = value {
+                if !v.is_finite() || v <= 0.0 {
+                    return Err(OptimizeError::invalid(
+                        field,
+                        format!("{field} must be a finite number > 0 {unit}"),
+                    ));
+                }
+            }
+        }
+        if let Some(v) = self.max_dwell_change_s {
+            if !v.is_finite() || v < 0.0 {
+                return Err(OptimizeError::invalid(
+                    "max_dwell_change_s",
+                    "max_dwell_change_s must be a finite number ≥ 0 s",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Least dwell (s) the feed limit asks of segment j's two ends together:
+    /// t_j + t_{j+1} ≥ 2·60·Δr_j / v_max. `None` without a feed limit.
+    pub fn segment_min_dwell_sum_s(&self, positions_mm: &[f64]) -> Option<Vec<f64>> {
+        let feed = self.max_feed_mm_per_min?;
+        Some(
+            positions_mm
+                .windows(2)
+                .map(|w| 2.0 * 60.0 * (w[1] - w[0]) / feed)
+                .collect(),
+        )
+    }
+
+    /// The first constraint `dwell_s` breaks by more than [`CONSTRAINT_TOLERANCE`] relative to
+    /// the constraint's own size (or to `scale_s` when that size is zero), as
+    /// (constraint, index, violation in s). `None` when the plan keeps them all.
+    pub fn violation(
+        &self,
+        positions_mm: &[f64],
+        dwell_s: &[f64],
+        scale_s: f64,
+    ) -> Option<(&'static str, usize, f64)> {
+        let exceeds = |excess: f64, size: f64| {
+            excess > CONSTRAINT_TOLERANCE * size.abs().max(scale_s).max(f64::MIN_POSITIVE)
+        };
+        for (j, &t) in dwell_s.iter().enumerate() {
+            if !t.is_finite() || exceeds(self.min_dwell_s - t, self.min_dwell_s) {
+                return Some(("min_dwell_s", j, self.min_dwell_s - t));
+            }
+            if let Some(hi) = self.max_dwell_s {
+                if exceeds(t - hi, hi) {
+                    return Some(("max_dwell_s", j, t - hi));
+                }
+            }
+        }
+        if let Some(total) = self.max_total_time_s {
+            let sum: f64 = dwell_s.iter().sum();
+            if exceeds(sum - total, total) {
+                return Some(("max_total_time_s", 0, sum - total));
+            }
+        }
+        if let Some(need) = self.segment_min_dwell_sum_s(positions_mm) {
+            for (j, c) in need.iter().enumerate() {
+                let have = dwell_s[j] + dwell_s[j + 1];
+                if exceeds(c - have, *c) {
+                    return Some(("max_feed_mm_per_min", j, c - have));
+                }
+            }
+        }
+        if let Some(delta) = self.max_dwell_change_s {
+            for (j, w) in dwell_s.windows(2).enumerate() {
+                let change = (w[1] - w[0]).abs();
+                if exceeds(change - delta, delta) {
+                    return Some(("max_dwell_change_s", j, change - delta));
+                }
+            }
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_bad_value_names_its_field() {
+        let cases: [(&str, Constraints); 6] = [
+            ("min_dwell_s", Constraints { min_dwell_s: -1.0, ..Default::default() }),
+            ("min_dwell_s", Constraints { min_dwell_s: f64::NAN, ..Default::default() }),
+            ("max_dwell_s", Constraints { max_dwell_s: Some(0.0), ..Default::default() }),
+            ("max_total_time_s", Constraints { max_total_time_s: Some(f64::INFINITY), ..Default::default() }),
+            ("max_feed_mm_per_min", Constraints { max_feed_mm_per_min: Some(-5.0), ..Default::default() }),
+            ("max_dwell_change_s", Constraints { max_dwell_change_s: Some(-0.1), ..Default::default() }),
+        ];
+        for (field, c) in cases {
+            match c.validate() {
+                Err(OptimizeError::Invalid { field: f, .. }) => assert_eq!(f, field),
+                other => panic!("{field}: expected Invalid, got {other:?}"),
+            }
+        }
+        let bad = Objective { smoothing: -1.0, time_weight: 0.0 };
+        assert!(matches!(bad.validate(), Err(OptimizeError::Invalid { field, .. }) if field == "smoothing"));
+    }
+
+    #[test]
+    fn violation_finds_each_broken_constraint() {
+        let positions = [0.0, 1.0, 2.0];
+        let c = Constraints {
+            min_dwell_s: 1.0,
+            max_dwell_s: Some(10.0),
+            max_total_time_s: Some(20.0),
+            max_feed_mm_per_min: Some(30.0), // 2 s per 1 mm segment → t_j + t_{j+1} ≥ 4
+            max_dwell_change_s: Some(5.0),
+        };
+        assert_eq!(c.violation(&positions, &[2.0, 2.0, 2.0], 1.0), None);
+        let broken = |d: [f64; 3]| c.violation(&positions, &d, 1.0).map(|v| v.0);
+        assert_eq!(broken([0.5, 4.0, 4.0]), Some("min_dwell_s"));
+        assert_eq!(broken([2.0, 11.0, 6.0]), Some("max_dwell_s"));
+        assert_eq!(broken([8.0, 9.0, 8.0]), Some("max_total_time_s"));
+        assert_eq!(broken([1.0, 2.5, 2.0]), Some("max_feed_mm_per_min"));
+        assert_eq!(broken([2.0, 8.0, 2.0]), Some("max_dwell_change_s"));
+        // Within the relative tolerance is kept; just beyond it is not.
+        assert_eq!(broken([10.0 * (1.0 + 1e-10), 6.0, 2.0]), None);
+        assert_eq!(broken([10.0 * (1.0 + 1e-8), 6.0, 2.0]), Some("max_dwell_s"));
+    }
+}

@@ -1,0 +1,358 @@
+//! The optimizer against an independent reference solve.
+//!
+//! On seeded random small problems (random speeds including η = −1, geometry, aperture,
+//! target, piston, bounds that bind), the reference builds the QP's dense Hessian and gradient
+//! straight from the documented objective (`preston::optimize` module docs) and the dense
+//! operator, and solves it with a primal active-set method for bound constraints (exact
+//! Cholesky solves on the free set, finite termination for a positive definite Hessian). The
+//! objectives must agree to 1e-6 relative; the plans must keep their bounds to 1e-9.
+
+mod common;
+
+use preston::optimize::target::aperture_rows;
+use preston::optimize::{optimize, Constraints, DwellProblem, Formulation, Objective};
+use preston::physics::{
+    ClearAperture, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel,
+    RemovalOperator,
+};
+
+/// One random problem in dense form.
+struct Dense {
+    /// m × n operator rows inside the aperture, nm/s.
+    m: Vec<Vec<f64>>,
+    target: Vec<f64>,
+    positions: Vec<f64>,
+    tool_radius: f64,
+    piston: bool,
+    smoothing: f64,
+    time_weight: f64,
+}
+
+impl Dense {
+    fn scales(&self) -> (f64, f64) {
+        let rows = self.m.len() as f64;
+        let rate = self.m.iter().flatten().sum::<f64>() / rows;
+        let rms = (self.target.iter().map(|d| d * d).sum::<f64>() / rows).sqrt();
+        let depth = if rms > 0.0 { rms } else { 1.0 };
+        (depth, depth / rate)
+    }
+
+    /// J at dwell t (s) and piston p (nm), from the documented formula.
+    fn objective(&self, t: &[f64], p: f64) -> f64 {
+        let (depth, tau) = self.scales();
+        let rows = self.m.len() as f64;
+        let n = t.len();
+        let fit: f64 = self
+            .m
+            .iter()
+            .zip(&self.target)
+            .map(|(row, d)| {
+                let z: f64 = row.iter().zip(t).map(|(a, b)| a * b).sum();
+                ((z - d - p) / depth).powi(2)
+            })
+            .sum::<f64>()
+            / (2.0 * rows);
+        let x: Vec<f64> = t.iter().map(|v| v / tau).collect();
+        let mut curvature = 0.0;
+        for k in 1..n.saturating_sub(1) {
+            let (h0, h1) = (
+                self.positions[k] - self.positions[k - 1],
+                self.positions[k + 1] - self.positions[k],
+            );
+            let second = 2.0
+                * ((x[k + 1] - x[k]) / h1 - (x[k] - x[k - 1]) / h0)
+                / (h0 + h1);
+            curvature += second * second;
+        }
+        let smooth = if n > 2 {
+            self.smoothing * self.tool_radius.powi(4) / (n - 2) as f64 * curvature / 2.0
+        } else {
+            0.0
+        };
+        fit + smooth + self.time_weight * x.iter().sum::<f64>() / n as f64
+    }
+
+    /// Hessian H and gradient-at-zero f of J in the variables (t, p), by finite structure:
+    /// J is quadratic, so H_jk and f_j follow from evaluating J at unit vectors exactly
+    /// (J(e_j + e_k) − J(e_j) − J(e_k) + J(0) = H_jk).
+    fn quadratic(&self) -> (Vec<Vec<f64>>, Vec<f64>, f64) {
+        let n = self.positions.len();
+        let nv = n + usize::from(self.piston);
+        let eval = |v: &[f64]| {
+            let p = if self.piston { v[n] } else { 0.0 };
+            self.objective(&v[..n], p)
+        };
+        let (_, tau) = self.scales();
+        let depth = self.scales().0;
+        // Unit steps of natural size keep the differences well conditioned.
+        let unit: Vec<f64> = (0..nv).map(|j| if j < n { tau } else { depth }).collect();
+        let zero = vec![0.0; nv];
+        let j0 = eval(&zero);
+        let single: Vec<f64> = (0..nv)
+            .map(|j| {
+                let mut v = zero.clone();
+                v[j] = unit[j];
+                eval(&v)
+            })
+            .collect();
+        let mut h = vec![vec![0.0; nv]; nv];
+        for j in 0..nv {
+            for k in j..nv {
+                let mut v = zero.clone();
+                v[j] += unit[j];
+                v[k] += unit[k];
+                let hjk = (eval(&v) - single[j] - single[k] + j0) / (unit[j] * unit[k]);
+                h[j][k] = hjk;
+                h[k][j] = hjk;
+            }
+        }
+        let f: Vec<f64> = (0..nv)
+            .map(|j| (single[j] - j0) / unit[j] - 0.5 * h[j][j] * unit[j])
+            .collect();
+        (h, f, j0)
+    }
+}
+
+/// Solves A x = b for symmetric positive definite A by Cholesky.
+fn cholesky_solve(a: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
+    let n = b.len();
+    let mut l = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        for j in 0..=i {
+            let s: f64 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
+            if i == j {
+                let d = a[i][i] - s;
+                assert!(d > 0.0, "reference Hessian must be positive definite");
+                l[i][i] = d.sqrt();
+            } else {
+                l[i][j] = (a[i][j] - s) / l[j][j];
+            }
+        }
+    }
+    let mut y = vec![0.0; n];
+    for i in 0..n {
+        y[i] = (b[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>()) / l[i][i];
+    }
+    let mut x = vec![0.0; n];
+    for i in (0..n).rev() {
+        x[i] = (y[i] - (i + 1..n).map(|k| l[k][i] * x[k]).sum::<f64>()) / l[i][i];
+    }
+    x
+}
+
+/// Primal active-set method for min ½xᵀHx + fᵀx subject to lo ≤ x ≤ hi, from x = lo.
+fn bounded_qp(h: &[Vec<f64>], f: &[f64], lo: &[f64], hi: &[f64]) -> Vec<f64> {
+    let n = f.len();
+    let mut x = lo.to_vec();
+    let mut fixed: Vec<bool> = vec![true; n];
+    for _ in 0..10_000 {
+        let free: Vec<usize> = (0..n).filter(|&j| !fixed[j]).collect();
+        // Minimiser over the free variables with the fixed ones held.
+        let target = if free.is_empty() {
+            Vec::new()
+        } else {
+            let a: Vec<Vec<f64>> = free
+                .iter()
+                .map(|&i| free.iter().map(|&j| h[i][j]).collect())
+                .collect();
+            let b: Vec<f64> = free
+                .iter()
+                .map(|&i| {
+                    -f[i]
+                        - (0..n)
+                            .filter(|&j| fixed[j])
+                            .map(|j| h[i][j] * x[j])
+                            .sum::<f64>()
+                })
+                .collect();
+            cholesky_solve(&a, &b)
+        };
+        // Step toward it until the first bound blocks.
+        let mut step = 1.0;
+        let mut blocking = None;
+        for (k, &j) in free.iter().enumerate() {
+            let d = target[k] - x[j];
+            let room = if d < 0.0 { (lo[j] - x[j]) / d } else if d > 0.0 { (hi[j] - x[j]) / d } else { f64::INFINITY };
+            if room < step {
+                step = room;
+                blocking = Some(j);
+            }
+        }
+        for (k, &j) in free.iter().enumerate() {
+            x[j] += step * (target[k] - x[j]);
+        }
+        if let Some(j) = blocking {
+            x[j] = if target[free.iter().position(|&i| i == j).unwrap()] < x[j] { lo[j] } else { hi[j] };
+            let d_lo = (x[j] - lo[j]).abs();
+            let d_hi = (x[j] - hi[j]).abs();
+            x[j] = if d_lo <= d_hi { lo[j] } else { hi[j] };
+            fixed[j] = true;
+            continue;
+        }
+        // At the subspace minimiser: release the fixed variable whose multiplier has the
+        // wrong sign, most strongly.
+        let g: Vec<f64> = (0..n)
+            .map(|i| f[i] + (0..n).map(|j| h[i][j] * x[j]).sum::<f64>())
+            .collect();
+        let scale = g.iter().fold(1e-300_f64, |m, v| m.max(v.abs()));
+        let worst = (0..n)
+            .filter(|&j| fixed[j])
+            .map(|j| {
+                let wrong = if x[j] <= lo[j] { -g[j] } else { g[j] };
+                (j, wrong)
+            })
+            .filter(|&(_, w)| w > 1e-13 * scale)
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        match worst {
+            Some((j, _)) => fixed[j] = false,
+            None => return x,
+        }
+    }
+    panic!("active-set reference did not terminate");
+}
+
+fn random_problem(
+    rng: &mut fastrand::Rng,
+) -> (ProcessSpec, Dense, Constraints, usize, std::ops::Range<usize>) {
+    let rm = 20.0 + 40.0 * rng.f64();
+    let rt = rm * (0.1 + 0.3 * rng.f64());
+    let tool = (50.0 + 250.0 * rng.f64()) * if rng.bool() { 1.0 } else { -1.0 };
+    let workpiece = match rng.u8(0..3) {
+        0 => tool, // η = −1
+        1 => -tool * (0.02 + 0.3 * rng.f64()),
+        _ => tool * (0.2 + 2.0 * rng.f64()) * if rng.bool() { 1.0 } else { -1.0 },
+    };
+    let spec = ProcessSpec {
+        workpiece_radius_mm: rm,
+        tool_radius_mm: rt,
+        workpiece_rpm: workpiece,
+        tool_rpm: tool,
+        preston_coefficient_m2_per_n: 1e-13,
+        pressure_kpa: 10.0,
+        pressure_model: PressureModel::Uniform,
+    };
+    let process = Process::new(spec.clone()).unwrap();
+    let n = rng.usize(4..16);
+    let samples = rng.usize(3 * n..4 * n + 10);
+    let grid = RadialGrid::new(&process, 0.0, rm, samples).unwrap();
+    let reach = rm + rt;
+    let positions: Vec<f64> = (0..n)
+        .map(|j| reach * 0.9 * (j as f64 + 0.2 + 0.6 * rng.f64()) / n as f64)
+        .collect();
+    let inner = if rng.bool() { 0.0 } else { rm * 0.3 * rng.f64() };
+    let outer = rm * (0.6 + 0.4 * rng.f64());
+    let aperture = ClearAperture::new(&process, inner, outer).unwrap();
+    let rows = aperture_rows(&grid, &aperture);
+    let operator =
+        RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &positions);
+    let dense = operator.to_dense();
+    let m: Vec<Vec<f64>> = dense[rows.clone()].to_vec();
+    assert!(!m.is_empty());
+    let piston = rng.bool();
+    let target: Vec<f64> = if rng.bool() && !piston {
+        vec![50.0 + 200.0 * rng.f64(); rows.len()]
+    } else {
+        let (a, b, c) = (rng.f64() * 300.0, rng.f64() * 200.0 - 100.0, rng.f64() * 100.0);
+        grid.radii_mm()[rows.clone()]
+            .iter()
+            .map(|r| {
+                let u = r / rm;
+                a + b * u * u + c * (3.0 * u).sin()
+            })
+            .collect()
+    };
+    let problem = Dense {
+        m,
+        target,
+        positions,
+        tool_radius: rt,
+        piston,
+        smoothing: if rng.bool() { 0.0 } else { 10f64.powf(-8.0 + 3.0 * rng.f64()) },
+        time_weight: if rng.bool() { 0.0 } else { 10f64.powf(-7.0 + 3.0 * rng.f64()) },
+    };
+    let (_, tau) = problem.scales();
+    let constraints = Constraints {
+        min_dwell_s: if rng.bool() { 0.0 } else { tau * 0.5 * rng.f64() },
+        max_dwell_s: Some(tau * (0.8 + 1.5 * rng.f64())),
+        ..Default::default()
+    };
+    (spec, problem, constraints, samples, rows)
+}
+
+#[test]
+fn objective_matches_an_active_set_reference_on_random_problems() {
+    let mut rng = fastrand::Rng::with_seed(20261122);
+    let mut with_active = 0;
+    let mut worst: f64 = 0.0;
+    let mut cases = 0;
+    while with_active < 60 {
+        cases += 1;
+        assert!(cases < 400, "too few random problems had active bounds");
+        let (spec, dense, constraints, samples, rows) = random_problem(&mut rng);
+        let process = Process::new(spec).unwrap();
+        let rm = process.workpiece_radius_mm();
+        let grid = RadialGrid::new(&process, 0.0, rm, samples).unwrap();
+        let operator = RemovalOperator::assemble(
+            &RemovalKernel::new(&process),
+            grid.radii_mm(),
+            &dense.positions,
+        );
+        let n = dense.positions.len();
+        let problem = DwellProblem {
+            operator: &operator,
+            positions_mm: &dense.positions,
+            tool_radius_mm: process.tool_radius_mm(),
+            rows,
+            target_nm: &dense.target,
+            free_piston: dense.piston,
+            constraints,
+            objective: Objective {
+                smoothing: dense.smoothing,
+                time_weight: dense.time_weight,
+            },
+            time_limit_s: 10.0,
+            formulation: if cases % 2 == 0 { Formulation::Residual } else { Formulation::NormalEquations },
+        };
+        let solution = match optimize(&problem) {
+            Ok(s) => s,
+            Err(e) => panic!("case {cases}: {e:?}"),
+        };
+
+        let (h, f, j0) = dense.quadratic();
+        let mut lo = vec![constraints.min_dwell_s; n];
+        let mut hi = vec![constraints.max_dwell_s.unwrap(); n];
+        if dense.piston {
+            lo.push(0.0);
+            hi.push(f64::INFINITY);
+        }
+        let reference = bounded_qp(&h, &f, &lo, &hi);
+        let active = (0..n)
+            .filter(|&j| reference[j] <= lo[j] || reference[j] >= hi[j])
+            .count();
+        let p_ref = if dense.piston { reference[n] } else { 0.0 };
+        let j_ref = dense.objective(&reference[..n], p_ref);
+        let j_ours = dense.objective(&solution.dwell_s, solution.piston_nm.unwrap_or(0.0));
+        // Sanity of the reference's own quadratic model.
+        let model: f64 = j0
+            + (0..reference.len())
+                .map(|i| f[i] * reference[i] + 0.5 * (0..reference.len()).map(|k| h[i][k] * reference[i] * reference[k]).sum::<f64>())
+                .sum::<f64>();
+        assert!((model - j_ref).abs() <= 1e-9 * j_ref.abs().max(1e-12), "case {cases}: model {model} vs {j_ref}");
+        let rel = (j_ours - j_ref) / j_ref.abs().max(1e-12);
+        assert!(
+            rel.abs() <= 1e-6,
+            "case {cases}: ours {j_ours} vs reference {j_ref} (rel {rel:e}); {:?} {} iterations, piston {:?} vs {p_ref}, formulation {:?}\nours {:?}\nref  {:?}",
+            solution.status, solution.iterations, solution.piston_nm, problem.formulation, solution.dwell_s, &reference[..n]
+        );
+        // Our reported objective is the same function.
+        assert!((solution.objective - j_ours).abs() <= 1e-9 * j_ours.abs().max(1e-12));
+        for &t in &solution.dwell_s {
+            assert!(t >= constraints.min_dwell_s && t <= constraints.max_dwell_s.unwrap());
+        }
+        worst = worst.max(rel.abs());
+        if active > 0 {
+            with_active += 1;
+        }
+    }
+    println!("{with_active} problems with active bounds out of {cases}; worst relative objective difference {worst:e}");
+}
