@@ -6,8 +6,7 @@
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{optimize, Constraints, DwellProblem, Formulation, Objective};
 use preston::physics::{
-    ClearAperture, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel,
-    RemovalOperator,
+    ClearAperture, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel, RemovalOperator,
 };
 
 fn main() {
@@ -35,10 +34,16 @@ fn paper_case(n: usize) -> Case {
     let grid = RadialGrid::new(&process, 0.0, 50.0, n).unwrap();
     let positions = grid.radii_mm().to_vec();
     let aperture = ClearAperture::new(&process, 0.0, 40.0).unwrap();
-    let operator = RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &positions);
+    let operator =
+        RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &positions);
     let rows = aperture_rows(&grid, &aperture);
     let target = vec![100.0; rows.len()];
-    Case { operator, positions, rows, target }
+    Case {
+        operator,
+        positions,
+        rows,
+        target,
+    }
 }
 
 #[divan::bench(args = [501, 1001], sample_count = 10)]

@@ -63,6 +63,12 @@ pub struct ServeArgs {
     /// Largest removal operator, radial samples × tool positions (422 beyond).
     #[arg(long, env = "PRESTON_MAX_OPERATOR_ENTRIES", default_value_t = Limits::default().max_operator_entries)]
     pub max_operator_entries: usize,
+    /// Most candidate positions in one optimization (422 beyond).
+    #[arg(long, env = "PRESTON_MAX_OPTIMIZE_POSITIONS", default_value_t = Limits::default().max_optimize_positions)]
+    pub max_optimize_positions: usize,
+    /// Longest a dwell optimization may run in the solver, in milliseconds.
+    #[arg(long, env = "PRESTON_SOLVER_TIME_LIMIT_MS", default_value_t = 10_000)]
+    pub solver_time_limit_ms: u64,
     /// Computations running at once (default: the number of CPUs).
     #[arg(long, env = "PRESTON_MAX_CONCURRENT_COMPUTATIONS")]
     pub max_concurrent_computations: Option<usize>,
@@ -87,6 +93,8 @@ impl ServeArgs {
             max_positions: self.max_positions,
             max_profiles: self.max_profiles,
             max_operator_entries: self.max_operator_entries,
+            max_optimize_positions: self.max_optimize_positions,
+            solver_time_limit: Duration::from_millis(self.solver_time_limit_ms.max(1)),
             max_concurrent_computations: self
                 .max_concurrent_computations
                 .unwrap_or(defaults.max_concurrent_computations)

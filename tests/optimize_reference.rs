@@ -12,8 +12,7 @@ mod common;
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{optimize, Constraints, DwellProblem, Formulation, Objective};
 use preston::physics::{
-    ClearAperture, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel,
-    RemovalOperator,
+    ClearAperture, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel, RemovalOperator,
 };
 
 /// One random problem in dense form.
@@ -59,9 +58,7 @@ impl Dense {
                 self.positions[k] - self.positions[k - 1],
                 self.positions[k + 1] - self.positions[k],
             );
-            let second = 2.0
-                * ((x[k + 1] - x[k]) / h1 - (x[k] - x[k - 1]) / h0)
-                / (h0 + h1);
+            let second = 2.0 * ((x[k + 1] - x[k]) / h1 - (x[k] - x[k - 1]) / h0) / (h0 + h1);
             curvature += second * second;
         }
         let smooth = if n > 2 {
@@ -172,7 +169,13 @@ fn bounded_qp(h: &[Vec<f64>], f: &[f64], lo: &[f64], hi: &[f64]) -> Vec<f64> {
         let mut blocking = None;
         for (k, &j) in free.iter().enumerate() {
             let d = target[k] - x[j];
-            let room = if d < 0.0 { (lo[j] - x[j]) / d } else if d > 0.0 { (hi[j] - x[j]) / d } else { f64::INFINITY };
+            let room = if d < 0.0 {
+                (lo[j] - x[j]) / d
+            } else if d > 0.0 {
+                (hi[j] - x[j]) / d
+            } else {
+                f64::INFINITY
+            };
             if room < step {
                 step = room;
                 blocking = Some(j);
@@ -182,7 +185,11 @@ fn bounded_qp(h: &[Vec<f64>], f: &[f64], lo: &[f64], hi: &[f64]) -> Vec<f64> {
             x[j] += step * (target[k] - x[j]);
         }
         if let Some(j) = blocking {
-            x[j] = if target[free.iter().position(|&i| i == j).unwrap()] < x[j] { lo[j] } else { hi[j] };
+            x[j] = if target[free.iter().position(|&i| i == j).unwrap()] < x[j] {
+                lo[j]
+            } else {
+                hi[j]
+            };
             let d_lo = (x[j] - lo[j]).abs();
             let d_hi = (x[j] - hi[j]).abs();
             x[j] = if d_lo <= d_hi { lo[j] } else { hi[j] };
@@ -213,7 +220,13 @@ fn bounded_qp(h: &[Vec<f64>], f: &[f64], lo: &[f64], hi: &[f64]) -> Vec<f64> {
 
 fn random_problem(
     rng: &mut fastrand::Rng,
-) -> (ProcessSpec, Dense, Constraints, usize, std::ops::Range<usize>) {
+) -> (
+    ProcessSpec,
+    Dense,
+    Constraints,
+    usize,
+    std::ops::Range<usize>,
+) {
     let rm = 20.0 + 40.0 * rng.f64();
     let rt = rm * (0.1 + 0.3 * rng.f64());
     let tool = (50.0 + 250.0 * rng.f64()) * if rng.bool() { 1.0 } else { -1.0 };
@@ -231,7 +244,7 @@ fn random_problem(
         pressure_kpa: 10.0,
         pressure_model: PressureModel::Uniform,
     };
-    let process = Process::new(spec.clone()).unwrap();
+    let process = Process::new(spec).unwrap();
     let n = rng.usize(4..16);
     let samples = rng.usize(3 * n..4 * n + 10);
     let grid = RadialGrid::new(&process, 0.0, rm, samples).unwrap();
@@ -239,7 +252,11 @@ fn random_problem(
     let positions: Vec<f64> = (0..n)
         .map(|j| reach * 0.9 * (j as f64 + 0.2 + 0.6 * rng.f64()) / n as f64)
         .collect();
-    let inner = if rng.bool() { 0.0 } else { rm * 0.3 * rng.f64() };
+    let inner = if rng.bool() {
+        0.0
+    } else {
+        rm * 0.3 * rng.f64()
+    };
     let outer = rm * (0.6 + 0.4 * rng.f64());
     let aperture = ClearAperture::new(&process, inner, outer).unwrap();
     let rows = aperture_rows(&grid, &aperture);
@@ -252,7 +269,11 @@ fn random_problem(
     let target: Vec<f64> = if rng.bool() && !piston {
         vec![50.0 + 200.0 * rng.f64(); rows.len()]
     } else {
-        let (a, b, c) = (rng.f64() * 300.0, rng.f64() * 200.0 - 100.0, rng.f64() * 100.0);
+        let (a, b, c) = (
+            rng.f64() * 300.0,
+            rng.f64() * 200.0 - 100.0,
+            rng.f64() * 100.0,
+        );
         grid.radii_mm()[rows.clone()]
             .iter()
             .map(|r| {
@@ -267,12 +288,24 @@ fn random_problem(
         positions,
         tool_radius: rt,
         piston,
-        smoothing: if rng.bool() { 0.0 } else { 10f64.powf(-8.0 + 3.0 * rng.f64()) },
-        time_weight: if rng.bool() { 0.0 } else { 10f64.powf(-7.0 + 3.0 * rng.f64()) },
+        smoothing: if rng.bool() {
+            0.0
+        } else {
+            10f64.powf(-8.0 + 3.0 * rng.f64())
+        },
+        time_weight: if rng.bool() {
+            0.0
+        } else {
+            10f64.powf(-7.0 + 3.0 * rng.f64())
+        },
     };
     let (_, tau) = problem.scales();
     let constraints = Constraints {
-        min_dwell_s: if rng.bool() { 0.0 } else { tau * 0.5 * rng.f64() },
+        min_dwell_s: if rng.bool() {
+            0.0
+        } else {
+            tau * 0.5 * rng.f64()
+        },
         max_dwell_s: Some(tau * (0.8 + 1.5 * rng.f64())),
         ..Default::default()
     };
@@ -311,7 +344,11 @@ fn objective_matches_an_active_set_reference_on_random_problems() {
                 time_weight: dense.time_weight,
             },
             time_limit_s: 10.0,
-            formulation: if cases % 2 == 0 { Formulation::Residual } else { Formulation::NormalEquations },
+            formulation: if cases % 2 == 0 {
+                Formulation::Residual
+            } else {
+                Formulation::NormalEquations
+            },
         };
         let solution = match optimize(&problem) {
             Ok(s) => s,
@@ -335,9 +372,18 @@ fn objective_matches_an_active_set_reference_on_random_problems() {
         // Sanity of the reference's own quadratic model.
         let model: f64 = j0
             + (0..reference.len())
-                .map(|i| f[i] * reference[i] + 0.5 * (0..reference.len()).map(|k| h[i][k] * reference[i] * reference[k]).sum::<f64>())
+                .map(|i| {
+                    f[i] * reference[i]
+                        + 0.5
+                            * (0..reference.len())
+                                .map(|k| h[i][k] * reference[i] * reference[k])
+                                .sum::<f64>()
+                })
                 .sum::<f64>();
-        assert!((model - j_ref).abs() <= 1e-9 * j_ref.abs().max(1e-12), "case {cases}: model {model} vs {j_ref}");
+        assert!(
+            (model - j_ref).abs() <= 1e-9 * j_ref.abs().max(1e-12),
+            "case {cases}: model {model} vs {j_ref}"
+        );
         let rel = (j_ours - j_ref) / j_ref.abs().max(1e-12);
         assert!(
             rel.abs() <= 1e-6,

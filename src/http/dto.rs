@@ -215,7 +215,7 @@ impl From<&UniformityMetrics> for MetricsDto {
 /// Tool dwell: positions of the tool centre (mm from the workpiece axis, strictly increasing,
 /// 0 to r_m + r_t under uniform pressure or 0 to r_m under constant force) and the time spent
 /// at each (s, ≥ 0). Same length.
-#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct DwellDto {
     /// Tool-centre radii in mm, strictly increasing.

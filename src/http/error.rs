@@ -29,6 +29,17 @@ pub enum ApiError {
         field: String,
         detail: String,
     },
+    /// The optimizer's constraints cannot all hold; `fields` are those in conflict.
+    Infeasible {
+        fields: Vec<String>,
+        detail: String,
+    },
+    /// The solver stopped without a plan (time or iteration limit, numerical trouble).
+    SolverFailed {
+        kind: &'static str,
+        field: Option<String>,
+        detail: String,
+    },
     /// A request exceeds a documented size limit (grid, positions).
     LimitExceeded {
         field: String,
@@ -73,6 +84,10 @@ pub struct Problem {
     /// Path of the offending input in the request body, e.g. `dwell.positions_mm[3]`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub field: Option<String>,
+    /// For infeasible optimizations: every request field in the conflict (`field` is the
+    /// first of them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conflicts: Option<Vec<String>>,
 }
 
 impl ApiError {
@@ -101,6 +116,8 @@ impl ApiError {
             ApiError::MalformedJson { .. } => StatusCode::BAD_REQUEST,
             ApiError::SchemaMismatch { .. }
             | ApiError::InvalidInput { .. }
+            | ApiError::Infeasible { .. }
+            | ApiError::SolverFailed { .. }
             | ApiError::LimitExceeded { .. } => StatusCode::UNPROCESSABLE_ENTITY,
             ApiError::PayloadTooLarge { .. } => StatusCode::PAYLOAD_TOO_LARGE,
             ApiError::UnsupportedMediaType { .. } => StatusCode::UNSUPPORTED_MEDIA_TYPE,
@@ -131,6 +148,22 @@ impl ApiError {
                 "Invalid input",
                 detail.clone(),
                 Some(field.clone()),
+            ),
+            ApiError::Infeasible { fields, detail } => (
+                "infeasible",
+                "Constraints cannot all hold",
+                detail.clone(),
+                fields.first().cloned(),
+            ),
+            ApiError::SolverFailed {
+                kind,
+                field,
+                detail,
+            } => (
+                *kind,
+                "The solver found no plan",
+                detail.clone(),
+                field.clone(),
             ),
             ApiError::LimitExceeded { field, detail } => (
                 "limit-exceeded",
@@ -187,6 +220,10 @@ impl ApiError {
             status: self.status().as_u16(),
             detail,
             field,
+            conflicts: match self {
+                ApiError::Infeasible { fields, .. } => Some(fields.clone()),
+                _ => None,
+            },
         }
     }
 

@@ -15,6 +15,11 @@ pub struct Limits {
     pub max_profiles: usize,
     /// Largest removal operator, radial samples × tool positions (422 beyond).
     pub max_operator_entries: usize,
+    /// Most candidate positions in one optimization (its Hessian is dense within the band;
+    /// 422 beyond).
+    pub max_optimize_positions: usize,
+    /// Longest a dwell optimization may run in the solver; a request may ask for less.
+    pub solver_time_limit: Duration,
     /// Computations running at once; more wait for a slot.
     pub max_concurrent_computations: usize,
     /// How long a request waits for a computation slot before a 503 with Retry-After.
@@ -29,6 +34,8 @@ impl Default for Limits {
             max_positions: 10_001,
             max_profiles: 201,
             max_operator_entries: 25_000_000,
+            max_optimize_positions: 2001,
+            solver_time_limit: Duration::from_secs(10),
             max_concurrent_computations: std::thread::available_parallelism()
                 .map(|n| n.get())
                 .unwrap_or(2),

@@ -12,6 +12,7 @@ pub mod extract;
 pub mod health;
 pub mod limits;
 pub mod openapi;
+pub mod optimize;
 pub mod predict;
 pub mod removal_function;
 
@@ -130,6 +131,7 @@ pub fn compute_json(endpoint: &str, body: &[u8], limits: &Limits) -> Result<Stri
             limits,
         )?),
         "predict" => encode(predict::compute(&extract::parse_json(body)?, limits)?),
+        "optimize" => encode(optimize::compute(&extract::parse_json(body)?, limits)?),
         other => Err(ApiError::NotFound {
             path: format!("/v1/{other}"),
         }),
@@ -137,7 +139,7 @@ pub fn compute_json(endpoint: &str, body: &[u8], limits: &Limits) -> Result<Stri
 }
 
 /// The endpoints `compute_json` knows.
-pub const COMPUTE_ENDPOINTS: [&str; 2] = ["removal-function", "predict"];
+pub const COMPUTE_ENDPOINTS: [&str; 3] = ["removal-function", "predict", "optimize"];
 
 /// Cross-origin access: none unless origins are configured (`*` allows any).
 pub fn cors_layer(origins: &[String]) -> Option<CorsLayer> {
@@ -168,6 +170,7 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
     let router = Router::new()
         .route("/v1/removal-function", post(removal_function::handler))
         .route("/v1/predict", post(predict::handler))
+        .route("/v1/optimize", post(optimize::handler))
         .route("/healthz", get(health::healthz))
         .route("/readyz", get(health::readyz))
         .route("/openapi.json", get(docs::openapi_json))

@@ -9,7 +9,7 @@ use super::dto::{
     RadialGridDto,
 };
 use super::error::Problem;
-use super::{health, predict, removal_function};
+use super::{health, optimize, predict, removal_function};
 
 #[derive(OpenApi)]
 #[openapi(
@@ -26,11 +26,13 @@ uniform layer. The paper's experiment 1 (workpiece 10 r/min clockwise, tool 200 
 counter-clockwise) is workpiece_rpm = −10, tool_rpm = 200, η = +0.05.\n\n\
 **Errors** are `application/problem+json` (RFC 9457) with the offending input in `field`.\n\n\
 **Limits** (server defaults, configurable): body 4 MiB, radial_grid.count ≤ 10001, tool \
-positions ≤ 10001, removal-function profiles ≤ 201, radial samples × positions ≤ 25,000,000."
+positions ≤ 10001, removal-function profiles ≤ 201, radial samples × positions ≤ 25,000,000, \
+optimization positions ≤ 2001, solver time ≤ 10 s."
     ),
     paths(
         removal_function::handler,
         predict::handler,
+        optimize::handler,
         health::healthz,
         health::readyz,
     ),
@@ -46,13 +48,14 @@ positions ≤ 10001, removal-function profiles ≤ 201, radial samples × positi
     )),
     tags(
         (name = "removal", description = "Removal functions and predictions"),
+        (name = "optimize", description = "Dwell optimization"),
         (name = "service", description = "Probes"),
     )
 )]
 struct ApiDoc;
 
 /// Request examples: (path, fixture text).
-const EXAMPLES: [(&str, &str); 2] = [
+const EXAMPLES: [(&str, &str); 3] = [
     (
         "/v1/removal-function",
         include_str!("../../fixtures/removal_function_paper_exp1.json"),
@@ -60,6 +63,10 @@ const EXAMPLES: [(&str, &str); 2] = [
     (
         "/v1/predict",
         include_str!("../../fixtures/predict_paper_exp2.json"),
+    ),
+    (
+        "/v1/optimize",
+        include_str!("../../fixtures/optimize_paper_exp1.json"),
     ),
 ];
 

@@ -138,7 +138,7 @@ impl Constraints {
     }
 
     /// The first constraint `dwell_s` breaks by more than [`CONSTRAINT_TOLERANCE`] relative to
-    /// the constraint's own size (or to `scale_s` when that size is zero), as
+    /// the constraint's own size (to `scale_s` for a bound of zero), as
     /// (constraint, index, violation in s). `None` when the plan keeps them all.
     pub fn violation(
         &self,
@@ -147,7 +147,8 @@ impl Constraints {
         scale_s: f64,
     ) -> Option<(&'static str, usize, f64)> {
         let exceeds = |excess: f64, size: f64| {
-            excess > CONSTRAINT_TOLERANCE * size.abs().max(scale_s).max(f64::MIN_POSITIVE)
+            let size = if size > 0.0 { size } else { scale_s };
+            excess > CONSTRAINT_TOLERANCE * size.max(f64::MIN_POSITIVE)
         };
         for (j, &t) in dwell_s.iter().enumerate() {
             if !t.is_finite() || exceeds(self.min_dwell_s - t, self.min_dwell_s) {
@@ -192,12 +193,48 @@ mod tests {
     #[test]
     fn each_bad_value_names_its_field() {
         let cases: [(&str, Constraints); 6] = [
-            ("min_dwell_s", Constraints { min_dwell_s: -1.0, ..Default::default() }),
-            ("min_dwell_s", Constraints { min_dwell_s: f64::NAN, ..Default::default() }),
-            ("max_dwell_s", Constraints { max_dwell_s: Some(0.0), ..Default::default() }),
-            ("max_total_time_s", Constraints { max_total_time_s: Some(f64::INFINITY), ..Default::default() }),
-            ("max_feed_mm_per_min", Constraints { max_feed_mm_per_min: Some(-5.0), ..Default::default() }),
-            ("max_dwell_change_s", Constraints { max_dwell_change_s: Some(-0.1), ..Default::default() }),
+            (
+                "min_dwell_s",
+                Constraints {
+                    min_dwell_s: -1.0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "min_dwell_s",
+                Constraints {
+                    min_dwell_s: f64::NAN,
+                    ..Default::default()
+                },
+            ),
+            (
+                "max_dwell_s",
+                Constraints {
+                    max_dwell_s: Some(0.0),
+                    ..Default::default()
+                },
+            ),
+            (
+                "max_total_time_s",
+                Constraints {
+                    max_total_time_s: Some(f64::INFINITY),
+                    ..Default::default()
+                },
+            ),
+            (
+                "max_feed_mm_per_min",
+                Constraints {
+                    max_feed_mm_per_min: Some(-5.0),
+                    ..Default::default()
+                },
+            ),
+            (
+                "max_dwell_change_s",
+                Constraints {
+                    max_dwell_change_s: Some(-0.1),
+                    ..Default::default()
+                },
+            ),
         ];
         for (field, c) in cases {
             match c.validate() {
@@ -205,8 +242,13 @@ mod tests {
                 other => panic!("{field}: expected Invalid, got {other:?}"),
             }
         }
-        let bad = Objective { smoothing: -1.0, time_weight: 0.0 };
-        assert!(matches!(bad.validate(), Err(OptimizeError::Invalid { field, .. }) if field == "smoothing"));
+        let bad = Objective {
+            smoothing: -1.0,
+            time_weight: 0.0,
+        };
+        assert!(
+            matches!(bad.validate(), Err(OptimizeError::Invalid { field, .. }) if field == "smoothing")
+        );
     }
 
     #[test]

@@ -81,8 +81,11 @@ struct Band<'a> {
 impl<'a> Band<'a> {
     fn new(op: &'a RemovalOperator, rows: &Range<usize>) -> Self {
         let n = op.cols();
-        let (mut start, mut end, mut values) =
-            (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+        let (mut start, mut end, mut values) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        );
         for j in 0..n {
             let (first, column) = op.column(j);
             // Clamped into the aperture rows; an empty column gets start = end.
@@ -117,7 +120,11 @@ impl<'a> Band<'a> {
     /// Σ_i M_ij·y_i with y indexed from the first aperture row.
     fn dot_rows(&self, j: usize, y: &[f64], row0: usize) -> f64 {
         let from = self.start[j] - row0;
-        self.values[j].iter().zip(&y[from..]).map(|(m, v)| m * v).sum()
+        self.values[j]
+            .iter()
+            .zip(&y[from..])
+            .map(|(m, v)| m * v)
+            .sum()
     }
 }
 
@@ -255,7 +262,11 @@ fn normal_hessian(problem: &DwellProblem, band: &Band, s: &Scales) -> CscMatrix<
     }
     if problem.free_piston {
         let cross = -1.0 / (s.m * s.rate);
-        p.push_column((0..n).map(|j| (j, cross * band.column_sum(j))).chain([(n, 1.0)]));
+        p.push_column(
+            (0..n)
+                .map(|j| (j, cross * band.column_sum(j)))
+                .chain([(n, 1.0)]),
+        );
     }
     p.build()
 }
@@ -290,7 +301,8 @@ impl Rows {
 
     /// (A, b) with `cols` variables.
     pub(super) fn into_csc(self, cols: usize) -> (CscMatrix<f64>, Vec<f64>) {
-        let a = CscMatrix::new_from_triplets(self.rhs.len(), cols, self.rows, self.cols, self.values);
+        let a =
+            CscMatrix::new_from_triplets(self.rhs.len(), cols, self.rows, self.cols, self.values);
         (a, self.rhs)
     }
 }
@@ -411,7 +423,13 @@ fn assemble(problem: &DwellProblem, band: &Band, s: &Scales) -> ClarabelQp {
                 }
             }
             rows.rhs = g;
-            rows.append(constraint_rows(problem.positions_mm, c, s.dwell_s, true, true));
+            rows.append(constraint_rows(
+                problem.positions_mm,
+                c,
+                s.dwell_s,
+                true,
+                true,
+            ));
             if problem.free_piston {
                 rows.push(&[(nv - 1, -1.0)], 0.0);
             }
@@ -479,9 +497,11 @@ fn solve_once(
         .map_err(|e| OptimizeError::Numerical {
             status: format!("settings rejected: {e}"),
         })?;
-    let mut solver = DefaultSolver::new(&qp.p, &qp.q, &qp.a, &qp.b, &qp.cones, settings)
-        .map_err(|e| OptimizeError::Numerical {
-            status: format!("problem rejected: {e}"),
+    let mut solver =
+        DefaultSolver::new(&qp.p, &qp.q, &qp.a, &qp.b, &qp.cones, settings).map_err(|e| {
+            OptimizeError::Numerical {
+                status: format!("problem rejected: {e}"),
+            }
         })?;
     solver.solve();
     Ok(solver.solution)
@@ -494,7 +514,11 @@ fn map_status(
     let status = match sol.status {
         SolverStatus::Solved => SolveStatus::Solved,
         SolverStatus::AlmostSolved => SolveStatus::AlmostSolved,
-        SolverStatus::MaxTime => return Err(OptimizeError::TimeLimit { limit_s: time_limit_s }),
+        SolverStatus::MaxTime => {
+            return Err(OptimizeError::TimeLimit {
+                limit_s: time_limit_s,
+            })
+        }
         SolverStatus::MaxIterations => {
             return Err(OptimizeError::IterationLimit {
                 iterations: sol.iterations,
@@ -515,12 +539,40 @@ fn map_status(
     Ok((sol.x.clone(), sol.iterations, sol.solve_time, status))
 }
 
+/// The interior-point answer in seconds, with the dwell bounds made exact and, if the total
+/// time is over by the solver's rounding (it sums n small errors), the dwell above the lower
+/// bound shrunk in proportion, which keeps the bounds and the dwell-change rows.
+fn polish(c: &Constraints, x: &[f64], tau: f64) -> Vec<f64> {
+    let mut t: Vec<f64> = x
+        .iter()
+        .map(|x| {
+            let t = (x * tau).max(c.min_dwell_s);
+            c.max_dwell_s.map_or(t, |hi| t.min(hi))
+        })
+        .collect();
+    if let Some(total) = c.max_total_time_s {
+        let sum: f64 = t.iter().sum();
+        let floor = c.min_dwell_s * t.len() as f64;
+        if sum > total && sum > floor {
+            let k = ((total - floor) / (sum - floor)).max(0.0);
+            for tj in &mut t {
+                *tj = c.min_dwell_s + (*tj - c.min_dwell_s) * k;
+            }
+        }
+    }
+    t
+}
+
 /// Finds the plan: validates, checks feasibility (naming conflicting constraints), solves,
 /// clamps the dwell bounds exactly and checks every constraint to
 /// [`super::problem::CONSTRAINT_TOLERANCE`] before returning.
 pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
     let n = problem.positions_mm.len();
-    assert_eq!(n, problem.operator.cols(), "one position per operator column");
+    assert_eq!(
+        n,
+        problem.operator.cols(),
+        "one position per operator column"
+    );
     problem.constraints.validate()?;
     problem.objective.validate()?;
     if problem.rows.is_empty() {
@@ -529,13 +581,21 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
             "the clear aperture holds no radial sample",
         ));
     }
-    assert_eq!(problem.target_nm.len(), problem.rows.len(), "one target per aperture row");
-    feasibility::check(problem.positions_mm, &problem.constraints, problem.time_limit_s)?;
+    assert_eq!(
+        problem.target_nm.len(),
+        problem.rows.len(),
+        "one target per aperture row"
+    );
+    feasibility::check(
+        problem.positions_mm,
+        &problem.constraints,
+        problem.time_limit_s,
+    )?;
 
     let band = Band::new(problem.operator, &problem.rows);
     let m = problem.rows.len() as f64;
     let rate = (0..n).map(|j| band.column_sum(j)).sum::<f64>() / m;
-    if !(rate > 0.0) {
+    if rate.is_nan() || rate <= 0.0 {
         return Err(OptimizeError::invalid(
             "positions_mm",
             "no candidate position removes material inside the clear aperture",
@@ -560,19 +620,12 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
     let qp = assemble(problem, &band, &scales);
     let (v, iterations, solve_time_s, status) = run_clarabel(&qp, problem.time_limit_s)?;
 
+    let dwell_s = polish(&problem.constraints, &v[..n], scales.dwell_s);
     let c = &problem.constraints;
-    let dwell_s: Vec<f64> = v[..n]
-        .iter()
-        .map(|x| {
-            let t = (x * scales.dwell_s).max(c.min_dwell_s);
-            c.max_dwell_s.map_or(t, |hi| t.min(hi))
-        })
-        .collect();
     let piston_nm = problem
         .free_piston
         .then(|| v[v.len() - 1].max(0.0) * scales.depth_nm);
-    if let Some((name, index, excess)) =
-        c.violation(problem.positions_mm, &dwell_s, scales.dwell_s)
+    if let Some((name, index, excess)) = c.violation(problem.positions_mm, &dwell_s, scales.dwell_s)
     {
         return Err(OptimizeError::Numerical {
             status: format!(

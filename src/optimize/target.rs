@@ -48,7 +48,9 @@ pub fn resample_profile(
         if i > 0 && r <= radius_mm[i - 1] {
             return Err(OptimizeError::invalid(
                 format!("radius_mm[{i}]"),
-                format!("radius_mm must be strictly increasing; entry {i} is not above the one before"),
+                format!(
+                    "radius_mm must be strictly increasing; entry {i} is not above the one before"
+                ),
             ));
         }
         if !z.is_finite() {
@@ -102,10 +104,19 @@ mod tests {
             Err(OptimizeError::Invalid { field, .. }) => field,
             other => panic!("expected Invalid, got {other:?}"),
         };
-        assert_eq!(field(resample_profile(&[1.0, 2.0], &[0.0, 0.0], &[0.5])), "radius_mm");
+        assert_eq!(
+            field(resample_profile(&[1.0, 2.0], &[0.0, 0.0], &[0.5])),
+            "radius_mm"
+        );
         assert_eq!(field(resample_profile(&[1.0], &[0.0], &[1.0])), "radius_mm");
-        assert_eq!(field(resample_profile(&[1.0, 2.0], &[0.0], &[1.0])), "depth_nm");
-        assert_eq!(field(resample_profile(&[1.0, 1.0], &[0.0, 0.0], &[1.0])), "radius_mm[1]");
+        assert_eq!(
+            field(resample_profile(&[1.0, 2.0], &[0.0], &[1.0])),
+            "depth_nm"
+        );
+        assert_eq!(
+            field(resample_profile(&[1.0, 1.0], &[0.0, 0.0], &[1.0])),
+            "radius_mm[1]"
+        );
         assert_eq!(
             field(resample_profile(&[1.0, 2.0], &[0.0, f64::NAN], &[1.0])),
             "depth_nm[1]"

@@ -18,4 +18,4 @@ pub use operator::RemovalOperator;
 pub use pressure::PressureModel;
 pub use process::{Eta, Process, ProcessError, ProcessSpec};
 pub use removal::{removal_rate_nm_per_min, RemovalKernel};
-pub use schedule::{ConstantFeed, DwellSchedule, ScheduleError};
+pub use schedule::{check_positions, ConstantFeed, DwellSchedule, ScheduleError};

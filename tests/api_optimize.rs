@@ -1,0 +1,274 @@
+//! `POST /v1/optimize` through the router: defaults and echoes, every class of bad input,
+//! conflicts as 422 `infeasible` naming the constraints, solver limits, CSV.
+
+mod common;
+
+use common::http::{app, app_with, post_json, post_with, Reply};
+use preston::http::Limits;
+use serde_json::{json, Value};
+
+fn body() -> Value {
+    json!({
+        "process": {"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": -10, "tool_rpm": 200},
+        "positions_mm": (0..=50).map(|i| i as f64).collect::<Vec<_>>(),
+        "target": {"uniform_depth_nm": 100},
+        "radial_grid": {"count": 101},
+        "clear_aperture": {"outer_mm": 40}
+    })
+}
+
+async fn optimize(body: Value) -> Reply {
+    post_json(&app(), "/v1/optimize", body.to_string()).await
+}
+
+fn problem(reply: &Reply, status: u16, kind: &str, field: Option<&str>) -> Value {
+    assert_eq!(reply.status.as_u16(), status, "{}", reply.text());
+    assert_eq!(reply.content_type, "application/problem+json");
+    let p = reply.json();
+    assert_eq!(p["type"], format!("urn:preston:problem:{kind}"), "{p}");
+    assert_eq!(p["field"].as_str(), field, "{p}");
+    p
+}
+
+#[tokio::test]
+async fn a_plan_echoes_what_it_used_and_agrees_with_predict() {
+    let reply = optimize(body()).await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let r = reply.json();
+    assert_eq!(r["eta"], 0.05);
+    assert_eq!(r["solver"]["status"], "solved");
+    assert_eq!(r["solver"]["reduced_accuracy"], false);
+    assert_eq!(r["objective"]["smoothing"], 1e-6);
+    assert_eq!(r["objective"]["time_weight"], 2e-6);
+    assert_eq!(
+        r["clear_aperture"],
+        json!({"inner_mm": 0.0, "outer_mm": 40.0})
+    );
+    assert_eq!(r["piston_nm"], Value::Null);
+    let dwell = r["dwell"]["dwell_s"].as_array().unwrap();
+    assert_eq!(dwell.len(), 51);
+    assert_eq!(r["feed_mm_per_min"].as_array().unwrap().len(), 50);
+    let total: f64 = dwell.iter().map(|v| v.as_f64().unwrap()).sum();
+    assert!((r["total_time_s"].as_f64().unwrap() - total).abs() <= 1e-9 * total);
+    // The target and residual are null outside the aperture (radius > 40 mm).
+    assert_eq!(r["target_nm"][81], Value::Null);
+    assert_eq!(r["target_nm"][80], 100.0);
+    // Point dwells 1 mm apart leave a ripple of about ±1 nm between them at η = +0.05.
+    assert!(r["metrics"]["nonuniformity"].as_f64().unwrap() < 0.05);
+
+    // Predict on the returned plan gives the same removal and metrics.
+    let predict = post_json(
+        &app(),
+        "/v1/predict",
+        json!({
+            "process": body()["process"], "dwell": r["dwell"],
+            "radial_grid": {"count": 101}, "clear_aperture": {"outer_mm": 40}
+        })
+        .to_string(),
+    )
+    .await
+    .json();
+    assert_eq!(predict["removal_nm"], r["removal_nm"]);
+    assert_eq!(predict["metrics"], r["metrics"]);
+    // Residual figures follow from the residual array.
+    let residual: Vec<f64> = r["residual_nm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|v| v.as_f64())
+        .collect();
+    assert_eq!(residual.len(), 81);
+    let rms = (residual.iter().map(|v| v * v).sum::<f64>() / 81.0).sqrt();
+    assert!((r["residual"]["rms_nm"].as_f64().unwrap() - rms).abs() <= 1e-12 * rms.max(1e-300));
+}
+
+#[tokio::test]
+async fn constraints_hold_and_the_motion_figures_respect_them() {
+    let mut b = body();
+    b["constraints"] = json!({"min_dwell_s": 20, "max_dwell_s": 400, "max_feed_mm_per_min": 2.0, "max_dwell_change_s": 30});
+    let r = optimize(b).await;
+    assert_eq!(r.status, 200, "{}", r.text());
+    let r = r.json();
+    let dwell: Vec<f64> = serde_json::from_value(r["dwell"]["dwell_s"].clone()).unwrap();
+    assert!(dwell.iter().all(|&t| (20.0..=400.0).contains(&t)));
+    assert!(dwell
+        .windows(2)
+        .all(|w| (w[1] - w[0]).abs() <= 30.0 * (1.0 + 1e-9)));
+    assert!(r["motion"]["peak_feed_mm_per_min"].as_f64().unwrap() <= 2.0 * (1.0 + 1e-9));
+    assert!(
+        r["motion"]["peak_feed_acceleration_mm_per_s2"]
+            .as_f64()
+            .unwrap()
+            >= 0.0
+    );
+}
+
+#[tokio::test]
+async fn conflicting_constraints_are_422_infeasible_listing_them() {
+    let mut b = body();
+    b["constraints"] = json!({"min_dwell_s": 10, "max_total_time_s": 500});
+    let p = problem(
+        &optimize(b).await,
+        422,
+        "infeasible",
+        Some("constraints.min_dwell_s"),
+    );
+    assert_eq!(
+        p["conflicts"],
+        json!(["constraints.min_dwell_s", "constraints.max_total_time_s"])
+    );
+    assert!(p["detail"].as_str().unwrap().contains("510"), "{p}");
+
+    let mut b = body();
+    b["constraints"] = json!({"max_feed_mm_per_min": 60, "max_total_time_s": 45});
+    let p = problem(
+        &optimize(b).await,
+        422,
+        "infeasible",
+        Some("constraints.max_total_time_s"),
+    );
+    assert_eq!(
+        p["conflicts"],
+        json!([
+            "constraints.max_total_time_s",
+            "constraints.max_feed_mm_per_min"
+        ])
+    );
+}
+
+#[tokio::test]
+async fn bad_targets_name_the_field() {
+    let cases = [
+        (json!({}), "target"),
+        (
+            json!({"uniform_depth_nm": 100, "profile": {"radius_mm": [0, 40], "depth_nm": [1, 2]}}),
+            "target",
+        ),
+        (json!({"uniform_depth_nm": -1}), "target.uniform_depth_nm"),
+        (
+            json!({"uniform_depth_nm": 10, "free_piston": true}),
+            "target.free_piston",
+        ),
+        (
+            json!({"profile": {"radius_mm": [0, 30], "depth_nm": [1, 2]}}),
+            "target.profile.radius_mm",
+        ),
+        (
+            json!({"profile": {"radius_mm": [0, 40], "depth_nm": [1]}}),
+            "target.profile.depth_nm",
+        ),
+        (
+            json!({"profile": {"radius_mm": [0, 20, 20, 40], "depth_nm": [1, 2, 3, 4]}}),
+            "target.profile.radius_mm[2]",
+        ),
+    ];
+    for (target, field) in cases {
+        let mut b = body();
+        b["target"] = target;
+        problem(&optimize(b).await, 422, "invalid-input", Some(field));
+    }
+    let mut b = body();
+    b["target"] = json!({"uniform_depth_nm": 100, "depth": 3});
+    problem(
+        &optimize(b).await,
+        422,
+        "schema-mismatch",
+        Some("target.depth"),
+    );
+}
+
+#[tokio::test]
+async fn bad_constraints_objective_and_positions_name_the_field() {
+    let cases = [
+        (
+            "constraints",
+            json!({"max_dwell_s": 0}),
+            "constraints.max_dwell_s",
+        ),
+        (
+            "constraints",
+            json!({"min_dwell_s": -1}),
+            "constraints.min_dwell_s",
+        ),
+        (
+            "constraints",
+            json!({"max_feed_mm_per_min": -3}),
+            "constraints.max_feed_mm_per_min",
+        ),
+        (
+            "constraints",
+            json!({"max_dwell_change_s": -3}),
+            "constraints.max_dwell_change_s",
+        ),
+        (
+            "constraints",
+            json!({"max_total_time_s": 0}),
+            "constraints.max_total_time_s",
+        ),
+        ("objective", json!({"smoothing": -1}), "objective.smoothing"),
+        (
+            "objective",
+            json!({"time_weight": -1}),
+            "objective.time_weight",
+        ),
+        ("solver", json!({"time_limit_s": 0}), "solver.time_limit_s"),
+        (
+            "solver",
+            json!({"time_limit_s": 1e6}),
+            "solver.time_limit_s",
+        ),
+        ("positions_mm", json!([0, 2, 1]), "positions_mm[2]"),
+        ("positions_mm", json!([0, 61]), "positions_mm[1]"),
+        ("positions_mm", json!([]), "positions_mm"),
+    ];
+    for (key, value, field) in cases {
+        let mut b = body();
+        b[key] = value;
+        problem(&optimize(b).await, 422, "invalid-input", Some(field));
+    }
+    // Positions that never reach the aperture.
+    let mut b = body();
+    b["positions_mm"] = json!([55, 58]);
+    problem(
+        &optimize(b).await,
+        422,
+        "invalid-input",
+        Some("positions_mm"),
+    );
+}
+
+#[tokio::test]
+async fn limits_are_enforced() {
+    let app = app_with(Limits {
+        max_optimize_positions: 20,
+        ..Limits::default()
+    });
+    let reply = post_json(&app, "/v1/optimize", body().to_string()).await;
+    problem(&reply, 422, "limit-exceeded", Some("positions_mm"));
+
+    // A solver budget too short to converge is a 422 naming the time limit, not a plan.
+    let mut b = body();
+    b["solver"] = json!({"time_limit_s": 1e-9});
+    problem(
+        &optimize(b).await,
+        422,
+        "solver-time-limit",
+        Some("solver.time_limit_s"),
+    );
+}
+
+#[tokio::test]
+async fn the_plan_is_offered_as_csv() {
+    let reply = post_with(
+        &app(),
+        "/v1/optimize",
+        body().to_string(),
+        &[("accept", "text/csv")],
+    )
+    .await;
+    assert_eq!(reply.status, 200);
+    let text = reply.text();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("position_mm,dwell_s"));
+    assert_eq!(lines.count(), 51);
+}

@@ -1,0 +1,210 @@
+//! Every returned plan keeps its constraints to 1e-9 (relative to the constraint's size),
+//! checked here independently of the library; conflicting constraints are refused with the
+//! conflicting fields named, never answered with a plan that breaks them.
+
+mod common;
+
+use common::paper_process;
+use preston::optimize::target::aperture_rows;
+use preston::optimize::{
+    optimize, Constraints, DwellProblem, Formulation, Motion, Objective, OptimizeError,
+};
+use preston::physics::{ClearAperture, RadialGrid, RemovalKernel, RemovalOperator};
+
+struct Setup {
+    operator: RemovalOperator,
+    positions: Vec<f64>,
+    rows: std::ops::Range<usize>,
+    target: Vec<f64>,
+}
+
+fn setup(workpiece_rpm: f64, tool_rpm: f64, n: usize) -> Setup {
+    let process = paper_process(workpiece_rpm, tool_rpm);
+    let grid = RadialGrid::new(&process, 0.0, 50.0, 2 * n + 1).unwrap();
+    let positions: Vec<f64> = (0..n).map(|j| 50.0 * j as f64 / (n - 1) as f64).collect();
+    let aperture = ClearAperture::new(&process, 0.0, 40.0).unwrap();
+    let operator =
+        RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &positions);
+    let rows = aperture_rows(&grid, &aperture);
+    let target = vec![100.0; rows.len()];
+    Setup {
+        operator,
+        positions,
+        rows,
+        target,
+    }
+}
+
+fn run(s: &Setup, constraints: Constraints) -> Result<Vec<f64>, OptimizeError> {
+    optimize(&DwellProblem {
+        operator: &s.operator,
+        positions_mm: &s.positions,
+        tool_radius_mm: 10.0,
+        rows: s.rows.clone(),
+        target_nm: &s.target,
+        free_piston: false,
+        constraints,
+        objective: Objective::default(),
+        time_limit_s: 30.0,
+        formulation: Formulation::NormalEquations,
+    })
+    .map(|solution| solution.dwell_s)
+}
+
+/// The worst violation of any constraint, relative to that constraint's size (bounds of 0
+/// count against 1 s).
+fn worst_violation(c: &Constraints, positions: &[f64], t: &[f64]) -> f64 {
+    let rel = |excess: f64, size: f64| excess / size.abs().max(1.0);
+    let mut worst: f64 = 0.0;
+    for &tj in t {
+        worst = worst.max(rel(c.min_dwell_s - tj, c.min_dwell_s));
+        if let Some(hi) = c.max_dwell_s {
+            worst = worst.max(rel(tj - hi, hi));
+        }
+    }
+    if let Some(total) = c.max_total_time_s {
+        worst = worst.max(rel(t.iter().sum::<f64>() - total, total));
+    }
+    for j in 0..t.len() - 1 {
+        if let Some(v) = c.max_feed_mm_per_min {
+            // Feed on the segment: Δr over half of each end's dwell, in mm/min.
+            let time = 0.5 * (t[j] + t[j + 1]);
+            let need = 60.0 * (positions[j + 1] - positions[j]) / v;
+            worst = worst.max(rel(need - time, need));
+        }
+        if let Some(d) = c.max_dwell_change_s {
+            worst = worst.max(rel((t[j + 1] - t[j]).abs() - d, d));
+        }
+    }
+    worst
+}
+
+#[test]
+fn random_constraint_sets_give_plans_that_keep_them() {
+    let mut rng = fastrand::Rng::with_seed(4);
+    let (mut plans, mut refused) = (0, 0);
+    for case in 0..40 {
+        let (w, tool) = if case % 2 == 0 {
+            (-10.0, 200.0)
+        } else {
+            (150.0, 150.0)
+        };
+        let s = setup(w, tool, rng.usize(30..120));
+        let n = s.positions.len();
+        // Equal dwell that removes about 100 nm sets the scale of the limits.
+        let unit = {
+            let z = s.operator.apply(&vec![1.0; n]);
+            100.0 / (z[s.rows.clone()].iter().sum::<f64>() / s.rows.len() as f64)
+        };
+        let pick = |rng: &mut fastrand::Rng, lo: f64, hi: f64| {
+            rng.bool().then(|| unit * (lo + (hi - lo) * rng.f64()))
+        };
+        let c = Constraints {
+            min_dwell_s: pick(&mut rng, 0.0, 0.8).unwrap_or(0.0),
+            max_dwell_s: pick(&mut rng, 1.0, 4.0),
+            max_total_time_s: pick(&mut rng, 0.5 * n as f64, 1.5 * n as f64),
+            max_feed_mm_per_min: rng.bool().then(|| {
+                // Segment length h over a dwell of 0.3–2 units.
+                60.0 * (50.0 / (n - 1) as f64) / (unit * (0.3 + 1.7 * rng.f64()))
+            }),
+            max_dwell_change_s: pick(&mut rng, 0.001, 0.2),
+        };
+        match run(&s, c) {
+            Ok(t) => {
+                plans += 1;
+                let v = worst_violation(&c, &s.positions, &t);
+                assert!(v <= 1e-9, "case {case}: violation {v:e} with {c:?}");
+                if let (Some(limit), Some(peak)) = (
+                    c.max_feed_mm_per_min,
+                    Motion::of_plan(&s.positions, &t).peak_feed_mm_per_min,
+                ) {
+                    assert!(
+                        peak <= limit * (1.0 + 1e-9),
+                        "case {case}: feed {peak} > {limit}"
+                    );
+                }
+            }
+            Err(OptimizeError::Infeasible { fields, .. }) => {
+                refused += 1;
+                assert!(!fields.is_empty(), "case {case}: conflicts must be named");
+            }
+            Err(other) => panic!("case {case}: {other:?} with {c:?}"),
+        }
+    }
+    println!("{plans} plans, {refused} infeasible refusals");
+    assert!(
+        plans >= 20 && refused >= 3,
+        "{plans} plans, {refused} refusals"
+    );
+}
+
+fn conflict(s: &Setup, c: Constraints) -> Vec<&'static str> {
+    match run(s, c) {
+        Err(OptimizeError::Infeasible { fields, .. }) => fields,
+        other => panic!("expected a conflict, got {other:?}"),
+    }
+}
+
+#[test]
+fn each_kind_of_conflict_names_its_constraints() {
+    let s = setup(-10.0, 200.0, 51); // 1 mm apart
+    assert_eq!(
+        conflict(
+            &s,
+            Constraints {
+                min_dwell_s: 5.0,
+                max_dwell_s: Some(4.0),
+                ..Default::default()
+            }
+        ),
+        ["min_dwell_s", "max_dwell_s"]
+    );
+    // 51 positions × 10 s = 510 s > 500 s.
+    assert_eq!(
+        conflict(
+            &s,
+            Constraints {
+                min_dwell_s: 10.0,
+                max_total_time_s: Some(500.0),
+                ..Default::default()
+            }
+        ),
+        ["min_dwell_s", "max_total_time_s"]
+    );
+    // 1 mm at 6 mm/min takes 10 s, more than two ends of at most 4 s each.
+    assert_eq!(
+        conflict(
+            &s,
+            Constraints {
+                max_dwell_s: Some(4.0),
+                max_feed_mm_per_min: Some(6.0),
+                ..Default::default()
+            }
+        ),
+        ["max_feed_mm_per_min", "max_dwell_s"]
+    );
+    // 50 mm at 60 mm/min needs at least 50 s of segment time, so ≥ 50 s of dwell.
+    assert_eq!(
+        conflict(
+            &s,
+            Constraints {
+                max_feed_mm_per_min: Some(60.0),
+                max_total_time_s: Some(45.0),
+                ..Default::default()
+            }
+        ),
+        ["max_total_time_s", "max_feed_mm_per_min"]
+    );
+    // Exactly feasible at the boundary is not refused: min dwell 1 s × 51 = 51 s.
+    let t = run(
+        &s,
+        Constraints {
+            min_dwell_s: 1.0,
+            max_total_time_s: Some(51.0),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(t.iter().all(|&x| x >= 1.0));
+    assert!(t.iter().sum::<f64>() <= 51.0 * (1.0 + 1e-9));
+}
