@@ -3,6 +3,7 @@
 //!
 //! - [`physics`]: the pure numerical core (no HTTP, JSON or OpenAPI types).
 //! - [`optimize`]: the dwell optimizer (a QP solved with Clarabel), pure like `physics`.
+//! - [`study`]: equal dwell, the η = −1 recommendation and its η window, η sweeps (pure).
 //! - [`http`]: the axum service, its DTOs and errors.
 //! - [`config`], [`telemetry`], [`server`]: start-up, settings, logging, serving.
 
@@ -11,4 +12,5 @@ pub mod http;
 pub mod optimize;
 pub mod physics;
 pub mod server;
+pub mod study;
 pub mod telemetry;

@@ -62,6 +62,10 @@ fn endpoint_of(fixture: &str) -> &'static str {
         "/v1/predict"
     } else if fixture.starts_with("optimize") {
         "/v1/optimize"
+    } else if fixture.starts_with("recommend") {
+        "/v1/recommend"
+    } else if fixture.starts_with("eta_sweep") {
+        "/v1/studies/eta-sweep"
     } else {
         panic!("no endpoint for fixture {fixture}")
     }

@@ -53,7 +53,7 @@ pub enum ApiError {
     },
     NotAcceptable {
         accept: String,
-        offered: &'static str,
+        offered: String,
     },
     NotFound {
         path: String,

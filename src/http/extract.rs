@@ -128,13 +128,15 @@ fn check_content_type(headers: &HeaderMap) -> Result<(), ApiError> {
 pub enum Format {
     Json,
     Csv,
+    Svg,
 }
 
 impl Format {
-    fn media_type(self) -> &'static str {
+    pub fn media_type(self) -> &'static str {
         match self {
             Format::Json => "application/json",
             Format::Csv => "text/csv",
+            Format::Svg => "image/svg+xml",
         }
     }
 }
@@ -169,11 +171,11 @@ pub fn negotiate(headers: &HeaderMap, offered: &[Format]) -> Result<Format, ApiE
     }
     best.map(|(_, f)| f).ok_or_else(|| ApiError::NotAcceptable {
         accept: accept.to_string(),
-        offered: if offered.contains(&Format::Csv) {
-            "application/json and text/csv"
-        } else {
-            "application/json"
-        },
+        offered: offered
+            .iter()
+            .map(|f| f.media_type())
+            .collect::<Vec<_>>()
+            .join(", "),
     })
 }
 

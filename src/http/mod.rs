@@ -8,12 +8,15 @@ pub mod csv;
 pub mod docs;
 pub mod dto;
 pub mod error;
+pub mod eta_sweep;
 pub mod extract;
 pub mod health;
 pub mod limits;
 pub mod openapi;
 pub mod optimize;
+pub mod plot;
 pub mod predict;
+pub mod recommend;
 pub mod removal_function;
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -86,37 +89,56 @@ impl AppState {
     }
 }
 
+/// Non-JSON renderings a computing endpoint offers.
+pub struct Renderers<Resp> {
+    pub csv: Option<fn(&Resp) -> String>,
+    pub svg: Option<fn(&Resp) -> String>,
+}
+
 /// The shared body of the computing handlers: negotiate the format, compute off the runtime,
-/// render JSON or CSV.
+/// render JSON, CSV or SVG.
 async fn compute_and_render<Req, Resp>(
     state: AppState,
     headers: &axum::http::HeaderMap,
     req: Req,
     compute: fn(&Req, &Limits) -> Result<Resp, ApiError>,
-    to_csv: fn(&Resp) -> String,
+    renderers: Renderers<Resp>,
 ) -> Result<Response, ApiError>
 where
     Req: Send + 'static,
     Resp: Serialize + Send + 'static,
 {
-    let format = extract::negotiate(headers, &[Format::Json, Format::Csv])?;
+    let mut offered = vec![Format::Json];
+    offered.extend(renderers.csv.map(|_| Format::Csv));
+    offered.extend(renderers.svg.map(|_| Format::Svg));
+    let format = extract::negotiate(headers, &offered)?;
     let limits = state.limits.clone();
     let response = state.run(move || compute(&req, &limits)).await?;
-    Ok(render(format, &response, to_csv))
+    Ok(render(format, &response, &renderers))
 }
 
-/// The response body in the negotiated format.
-fn render<T: Serialize>(format: Format, body: &T, to_csv: impl Fn(&T) -> String) -> Response {
-    match format {
-        Format::Json => match serde_json::to_string(body) {
-            Ok(json) => ([(header::CONTENT_TYPE, "application/json")], json).into_response(),
-            Err(e) => ApiError::internal(format!("serialising a response: {e}")).into_response(),
-        },
-        Format::Csv => (
-            [(header::CONTENT_TYPE, "text/csv; charset=utf-8")],
-            to_csv(body),
-        )
-            .into_response(),
+/// The response body in the negotiated format (one the renderers offer).
+fn render<T: Serialize>(format: Format, body: &T, renderers: &Renderers<T>) -> Response {
+    let text = match format {
+        Format::Json => serde_json::to_string(body)
+            .map_err(|e| ApiError::internal(format!("serialising a response: {e}"))),
+        Format::Csv => renderers
+            .csv
+            .map(|f| f(body))
+            .ok_or_else(|| ApiError::internal("CSV negotiated but not offered")),
+        Format::Svg => renderers
+            .svg
+            .map(|f| f(body))
+            .ok_or_else(|| ApiError::internal("SVG negotiated but not offered")),
+    };
+    let content_type = match format {
+        Format::Json => "application/json",
+        Format::Csv => "text/csv; charset=utf-8",
+        Format::Svg => "image/svg+xml",
+    };
+    match text {
+        Ok(text) => ([(header::CONTENT_TYPE, content_type)], text).into_response(),
+        Err(e) => e.into_response(),
     }
 }
 
@@ -132,6 +154,8 @@ pub fn compute_json(endpoint: &str, body: &[u8], limits: &Limits) -> Result<Stri
         )?),
         "predict" => encode(predict::compute(&extract::parse_json(body)?, limits)?),
         "optimize" => encode(optimize::compute(&extract::parse_json(body)?, limits)?),
+        "recommend" => encode(recommend::compute(&extract::parse_json(body)?, limits)?),
+        "studies/eta-sweep" => encode(eta_sweep::compute(&extract::parse_json(body)?, limits)?),
         other => Err(ApiError::NotFound {
             path: format!("/v1/{other}"),
         }),
@@ -139,7 +163,13 @@ pub fn compute_json(endpoint: &str, body: &[u8], limits: &Limits) -> Result<Stri
 }
 
 /// The endpoints `compute_json` knows.
-pub const COMPUTE_ENDPOINTS: [&str; 3] = ["removal-function", "predict", "optimize"];
+pub const COMPUTE_ENDPOINTS: [&str; 5] = [
+    "removal-function",
+    "predict",
+    "optimize",
+    "recommend",
+    "studies/eta-sweep",
+];
 
 /// Cross-origin access: none unless origins are configured (`*` allows any).
 pub fn cors_layer(origins: &[String]) -> Option<CorsLayer> {
@@ -171,6 +201,8 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
         .route("/v1/removal-function", post(removal_function::handler))
         .route("/v1/predict", post(predict::handler))
         .route("/v1/optimize", post(optimize::handler))
+        .route("/v1/recommend", post(recommend::handler))
+        .route("/v1/studies/eta-sweep", post(eta_sweep::handler))
         .route("/healthz", get(health::healthz))
         .route("/readyz", get(health::readyz))
         .route("/openapi.json", get(docs::openapi_json))

@@ -9,7 +9,7 @@ use super::dto::{
     RadialGridDto,
 };
 use super::error::Problem;
-use super::{health, optimize, predict, removal_function};
+use super::{eta_sweep, health, optimize, predict, recommend, removal_function};
 
 #[derive(OpenApi)]
 #[openapi(
@@ -33,6 +33,8 @@ optimization positions ≤ 2001, solver time ≤ 10 s."
         removal_function::handler,
         predict::handler,
         optimize::handler,
+        recommend::handler,
+        eta_sweep::handler,
         health::healthz,
         health::readyz,
     ),
@@ -49,13 +51,14 @@ optimization positions ≤ 2001, solver time ≤ 10 s."
     tags(
         (name = "removal", description = "Removal functions and predictions"),
         (name = "optimize", description = "Dwell optimization"),
+        (name = "recommend", description = "η = −1 recommendation and η studies"),
         (name = "service", description = "Probes"),
     )
 )]
 struct ApiDoc;
 
 /// Request examples: (path, fixture text).
-const EXAMPLES: [(&str, &str); 3] = [
+const EXAMPLES: [(&str, &str); 5] = [
     (
         "/v1/removal-function",
         include_str!("../../fixtures/removal_function_paper_exp1.json"),
@@ -67,6 +70,14 @@ const EXAMPLES: [(&str, &str); 3] = [
     (
         "/v1/optimize",
         include_str!("../../fixtures/optimize_paper_exp1.json"),
+    ),
+    (
+        "/v1/recommend",
+        include_str!("../../fixtures/recommend_paper_exp1.json"),
+    ),
+    (
+        "/v1/studies/eta-sweep",
+        include_str!("../../fixtures/eta_sweep_figure7.json"),
     ),
 ];
 

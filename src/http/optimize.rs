@@ -14,7 +14,9 @@ use super::dto::{
 use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
 use super::limits::Limits;
-use super::{compute_and_render, csv, AppState};
+use super::plot::{Chart, Series};
+use super::recommend::{for_response, RecommendationDto};
+use super::{compute_and_render, csv, plot, AppState, Renderers};
 use crate::optimize::problem::{DEFAULT_SMOOTHING, DEFAULT_TIME_WEIGHT};
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
@@ -155,6 +157,9 @@ pub struct OptimizeResponse {
     pub objective: ObjectiveEcho,
     /// How the solver fared.
     pub solver: SolverDto,
+    /// η = −1 settings and what they would buy (equal dwell removing the target's mean depth);
+    /// null at η = −1.
+    pub recommendation: Option<RecommendationDto>,
 }
 
 /// Feed figures of the plan (see `feed_mm_per_min`).
@@ -364,7 +369,9 @@ pub fn compute(req: &OptimizeRequest, limits: &Limits) -> Result<OptimizeRespons
     let rms = (inside.iter().map(|v| v * v).sum::<f64>() / inside.len() as f64).sqrt();
     let motion = Motion::of_plan(positions, &solution.dwell_s);
     let metrics = UniformityMetrics::over(&grid, &aperture, &removal_nm);
+    let mean_target = target_nm.iter().sum::<f64>() / target_nm.len() as f64 + piston;
     Ok(OptimizeResponse {
+        recommendation: for_response(&process, &grid, &aperture, mean_target),
         eta: process.eta().value(),
         total_time_s: solution.dwell_s.iter().sum(),
         dwell: DwellDto {
@@ -412,6 +419,45 @@ fn to_csv(response: &OptimizeResponse) -> String {
     )
 }
 
+fn to_svg(r: &OptimizeResponse) -> String {
+    let positions = &r.dwell.positions_mm;
+    let midpoints = positions.windows(2).map(|w| 0.5 * (w[0] + w[1]));
+    plot::render(&Chart {
+        title: format!(
+            "Optimized dwell, {:.0} s total ({})",
+            r.total_time_s, r.solver.status
+        ),
+        x_label: "tool position r1 (mm)".to_string(),
+        y_label: "dwell (s)".to_string(),
+        series: vec![Series {
+            name: "dwell at each position".to_string(),
+            points: positions
+                .iter()
+                .copied()
+                .zip(r.dwell.dwell_s.iter().copied())
+                .collect(),
+        }],
+        band: Some((
+            r.clear_aperture.inner_mm,
+            r.clear_aperture.outer_mm,
+            format!(
+                "clear aperture [{}, {}] mm",
+                r.clear_aperture.inner_mm, r.clear_aperture.outer_mm
+            ),
+        )),
+        secondary: Some((
+            "feed (mm/min)".to_string(),
+            Series {
+                name: "feed on each segment".to_string(),
+                points: midpoints
+                    .zip(&r.feed_mm_per_min)
+                    .map(|(x, v)| (x, v.unwrap_or(f64::NAN)))
+                    .collect(),
+            },
+        )),
+    })
+}
+
 /// Optimize a dwell plan.
 ///
 /// Finds dwell times at the candidate positions whose predicted removal matches the target
@@ -427,9 +473,10 @@ fn to_csv(response: &OptimizeResponse) -> String {
     tag = "optimize",
     request_body = OptimizeRequest,
     responses(
-        (status = 200, description = "The optimized plan; as CSV, position and dwell columns", content(
+        (status = 200, description = "The optimized plan; as CSV, position and dwell columns; as SVG, dwell and feed against position", content(
             (OptimizeResponse = "application/json"),
             (String = "text/csv"),
+            (String = "image/svg+xml"),
         )),
         ComputeProblems,
     )
@@ -439,5 +486,9 @@ pub async fn handler(
     headers: HeaderMap,
     ApiJson(req): ApiJson<OptimizeRequest>,
 ) -> Result<Response, ApiError> {
-    compute_and_render(state, &headers, req, compute, to_csv).await
+    let renderers = Renderers {
+        csv: Some(to_csv),
+        svg: Some(to_svg),
+    };
+    compute_and_render(state, &headers, req, compute, renderers).await
 }

@@ -13,7 +13,9 @@ use super::dto::{
 use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
 use super::limits::Limits;
-use super::{compute_and_render, csv, AppState};
+use super::plot::{Chart, Series};
+use super::recommend::{for_response, RecommendationDto};
+use super::{compute_and_render, csv, plot, AppState, Renderers};
 use crate::physics::{DwellSchedule, UniformityMetrics};
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -43,6 +45,9 @@ pub struct PredictResponse {
     pub clear_aperture: ApertureEcho,
     /// Sum of the dwell times, s.
     pub total_time_s: f64,
+    /// η = −1 settings and what they would buy (equal dwell removing this prediction's mean
+    /// depth); null at η = −1.
+    pub recommendation: Option<RecommendationDto>,
 }
 
 pub fn compute(req: &PredictRequest, limits: &Limits) -> Result<PredictResponse, ApiError> {
@@ -71,6 +76,7 @@ pub fn compute(req: &PredictRequest, limits: &Limits) -> Result<PredictResponse,
         metrics: MetricsDto::from(&metrics),
         clear_aperture: ApertureEcho::from(&aperture),
         total_time_s: schedule.total_time_s(),
+        recommendation: for_response(&process, &grid, &aperture, metrics.mean_nm),
     })
 }
 
@@ -78,6 +84,53 @@ fn to_csv(response: &PredictResponse) -> String {
     csv::table(
         &["radius_mm".to_string(), "removal_nm".to_string()],
         &[&response.radius_mm, &response.removal_nm],
+    )
+}
+
+/// Removal against radius with the clear aperture shaded.
+pub fn removal_chart(
+    title: String,
+    radius_mm: &[f64],
+    removal_nm: &[f64],
+    aperture: &ApertureEcho,
+) -> String {
+    plot::render(&Chart {
+        title,
+        x_label: "radius r (mm)".to_string(),
+        y_label: "removal depth (nm)".to_string(),
+        series: vec![Series {
+            name: "predicted removal".to_string(),
+            points: radius_mm
+                .iter()
+                .copied()
+                .zip(removal_nm.iter().copied())
+                .collect(),
+        }],
+        band: Some((
+            aperture.inner_mm,
+            aperture.outer_mm,
+            format!(
+                "clear aperture [{}, {}] mm",
+                aperture.inner_mm, aperture.outer_mm
+            ),
+        )),
+        secondary: None,
+    })
+}
+
+fn to_svg(r: &PredictResponse) -> String {
+    let nonuniformity = r
+        .metrics
+        .nonuniformity
+        .map_or("n/a".to_string(), |n| format!("{:.3} %", 100.0 * n));
+    removal_chart(
+        format!(
+            "Predicted removal, {:.0} s total, nonuniformity {nonuniformity}",
+            r.total_time_s
+        ),
+        &r.radius_mm,
+        &r.removal_nm,
+        &r.clear_aperture,
     )
 }
 
@@ -91,9 +144,10 @@ fn to_csv(response: &PredictResponse) -> String {
     tag = "removal",
     request_body = PredictRequest,
     responses(
-        (status = 200, description = "Predicted removal; as CSV, radius and removal columns", content(
+        (status = 200, description = "Predicted removal; as CSV, radius and removal columns; as SVG, a chart", content(
             (PredictResponse = "application/json"),
             (String = "text/csv"),
+            (String = "image/svg+xml"),
         )),
         ComputeProblems,
     )
@@ -103,5 +157,9 @@ pub async fn handler(
     headers: HeaderMap,
     ApiJson(req): ApiJson<PredictRequest>,
 ) -> Result<Response, ApiError> {
-    compute_and_render(state, &headers, req, compute, to_csv).await
+    let renderers = Renderers {
+        csv: Some(to_csv),
+        svg: Some(to_svg),
+    };
+    compute_and_render(state, &headers, req, compute, renderers).await
 }

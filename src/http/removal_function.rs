@@ -11,7 +11,8 @@ use super::dto::{check_operator_size, ProcessDto, RadialGridDto};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
 use super::limits::Limits;
-use super::{compute_and_render, csv, AppState};
+use super::plot::{Chart, Series};
+use super::{compute_and_render, csv, plot, AppState, Renderers};
 use crate::physics::schedule::check_positions;
 use crate::physics::RemovalKernel;
 
@@ -111,6 +112,32 @@ fn to_csv(response: &RemovalFunctionResponse) -> String {
     csv::table(&header, &columns)
 }
 
+fn to_svg(response: &RemovalFunctionResponse) -> String {
+    plot::render(&Chart {
+        title: match response.eta {
+            Some(eta) => format!("Removal rate R(r; r1) at η = {eta}"),
+            None => "Removal rate R(r; r1), tool stationary".to_string(),
+        },
+        x_label: "radius r (mm)".to_string(),
+        y_label: "removal rate (nm/min)".to_string(),
+        series: response
+            .profiles
+            .iter()
+            .map(|p| Series {
+                name: format!("r1 = {} mm", p.tool_position_mm),
+                points: response
+                    .radius_mm
+                    .iter()
+                    .copied()
+                    .zip(p.removal_rate_nm_per_min.iter().copied())
+                    .collect(),
+            })
+            .collect(),
+        band: None,
+        secondary: None,
+    })
+}
+
 /// Removal rate profiles R(r; r1) of one tool at the given positions.
 ///
 /// Exact closed form (Carlson's elliptic integrals), ~1e-12 relative. `Accept: text/csv`
@@ -121,9 +148,10 @@ fn to_csv(response: &RemovalFunctionResponse) -> String {
     tag = "removal",
     request_body = RemovalFunctionRequest,
     responses(
-        (status = 200, description = "Removal profiles; as CSV, one column per profile", content(
+        (status = 200, description = "Removal profiles; as CSV, one column per profile; as SVG, a chart", content(
             (RemovalFunctionResponse = "application/json"),
             (String = "text/csv"),
+            (String = "image/svg+xml"),
         )),
         ComputeProblems,
     )
@@ -133,5 +161,9 @@ pub async fn handler(
     headers: HeaderMap,
     ApiJson(req): ApiJson<RemovalFunctionRequest>,
 ) -> Result<Response, ApiError> {
-    compute_and_render(state, &headers, req, compute, to_csv).await
+    let renderers = Renderers {
+        csv: Some(to_csv),
+        svg: Some(to_svg),
+    };
+    compute_and_render(state, &headers, req, compute, renderers).await
 }

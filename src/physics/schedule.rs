@@ -139,6 +139,16 @@ impl DwellSchedule {
         })
     }
 
+    /// A schedule from parts already known valid (e.g. a valid schedule's dwell scaled by a
+    /// positive factor).
+    pub(crate) fn new_unchecked(positions_mm: Vec<f64>, dwell_s: Vec<f64>) -> Self {
+        debug_assert_eq!(positions_mm.len(), dwell_s.len());
+        DwellSchedule {
+            positions_mm,
+            dwell_s,
+        }
+    }
+
     pub fn positions_mm(&self) -> &[f64] {
         &self.positions_mm
     }

@@ -1,0 +1,221 @@
+//! `POST /v1/studies/eta-sweep`: uniformity against η with the tool speed held.
+
+use axum::extract::State;
+use axum::http::HeaderMap;
+use axum::response::Response;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::dto::{
+    check_operator_size, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto,
+    RadialGridDto,
+};
+use super::error::{ApiError, ComputeProblems};
+use super::extract::ApiJson;
+use super::limits::Limits;
+use super::plot::{Chart, Series};
+use super::recommend::{equal_dwell_positions, DEFAULT_DEPTH_NM};
+use super::{compute_and_render, csv, plot, AppState, Renderers};
+use crate::physics::DwellSchedule;
+use crate::study::eta_sweep;
+
+/// Most η values in one sweep.
+pub const MAX_ETAS: usize = 201;
+
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct EtaSweepRequest {
+    /// The process; its `tool_rpm` (≠ 0) is held and its `workpiece_rpm` is replaced by
+    /// −η·tool_rpm at each point.
+    pub process: ProcessDto,
+    /// η values (paper convention, η = −workpiece_rpm / tool_rpm), each finite and ≠ 0; at
+    /// most 201. Computed in parallel.
+    #[schema(example = json!([-0.05, -0.25, -0.5, -0.75, -1.0, -1.25, -1.5]))]
+    pub etas: Vec<f64>,
+    /// A dwell schedule used at every point; default equal dwell (a constant feed from 0 to
+    /// min(outer + r_t, reach) mm).
+    pub dwell: Option<DwellDto>,
+    /// Mean depth equal dwell removes at each point, nm (> 0). Default 100. Ignored with `dwell`.
+    #[schema(default = 100.0)]
+    pub depth_nm: Option<f64>,
+    /// Positions (cells) of the equal-dwell pass (≥ 2). Default 200. Ignored with `dwell`.
+    #[schema(default = 200, minimum = 2)]
+    pub equal_dwell_positions: Option<usize>,
+    /// Where removal is computed; default 201 samples from 0 to the workpiece radius.
+    pub radial_grid: Option<RadialGridDto>,
+    /// Where uniformity is judged; default the whole workpiece.
+    pub clear_aperture: Option<ClearApertureDto>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct EtaSweepResponse {
+    /// The tool speed held, r/min (signed, CCW positive).
+    pub tool_rpm: f64,
+    /// The clear aperture used (defaults filled in), mm.
+    pub clear_aperture: ApertureEcho,
+    /// One point per requested η, in request order.
+    pub points: Vec<SweepPointDto>,
+}
+
+/// Uniformity at one η.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct SweepPointDto {
+    /// η (paper convention).
+    pub eta: f64,
+    /// The workpiece speed it implies, −η·tool_rpm, r/min (signed, CCW positive).
+    pub workpiece_rpm: f64,
+    /// Uniformity over the clear aperture, nm.
+    pub metrics: MetricsDto,
+}
+
+pub fn compute(req: &EtaSweepRequest, limits: &Limits) -> Result<EtaSweepResponse, ApiError> {
+    let process = req.process.to_process()?;
+    let grid = RadialGridDto::to_grid(req.radial_grid.as_ref(), &process, limits)?;
+    let aperture = ClearApertureDto::to_aperture(req.clear_aperture.as_ref(), &process, &grid)?;
+    if req.etas.is_empty() || req.etas.len() > MAX_ETAS {
+        return Err(ApiError::limit(
+            "etas",
+            format!(
+                "etas must hold 1 to {MAX_ETAS} values; it has {}",
+                req.etas.len()
+            ),
+        ));
+    }
+    let depth = req.depth_nm.unwrap_or(DEFAULT_DEPTH_NM);
+    if !depth.is_finite() || depth <= 0.0 {
+        return Err(ApiError::invalid(
+            "depth_nm",
+            "depth_nm must be a finite number > 0 nm",
+        ));
+    }
+    let positions = equal_dwell_positions(req.equal_dwell_positions, limits)?;
+    let schedule = match &req.dwell {
+        Some(d) => {
+            check_operator_size(
+                limits,
+                grid.radii_mm().len(),
+                d.positions_mm.len(),
+                "dwell.positions_mm",
+            )?;
+            Some(
+                DwellSchedule::new(&process, d.positions_mm.clone(), d.dwell_s.clone())
+                    .map_err(|e| ApiError::from_schedule("dwell", e))?,
+            )
+        }
+        None => {
+            check_operator_size(
+                limits,
+                grid.radii_mm().len(),
+                positions,
+                "equal_dwell_positions",
+            )?;
+            None
+        }
+    };
+    let spec = *process.spec();
+    let points = eta_sweep(
+        &spec,
+        &req.etas,
+        &grid,
+        &aperture,
+        schedule.as_ref(),
+        positions,
+        depth,
+    )
+    .map_err(|e| ApiError::invalid(e.field, e.message))?;
+    Ok(EtaSweepResponse {
+        tool_rpm: spec.tool_rpm,
+        clear_aperture: ApertureEcho::from(&aperture),
+        points: points
+            .iter()
+            .map(|p| SweepPointDto {
+                eta: p.eta,
+                workpiece_rpm: p.workpiece_rpm,
+                metrics: MetricsDto::from(&p.metrics),
+            })
+            .collect(),
+    })
+}
+
+fn column(r: &EtaSweepResponse, f: impl Fn(&SweepPointDto) -> f64) -> Vec<f64> {
+    r.points.iter().map(f).collect()
+}
+
+fn to_csv(r: &EtaSweepResponse) -> String {
+    let nonuniformity = column(r, |p| p.metrics.nonuniformity.unwrap_or(f64::NAN));
+    csv::table(
+        &[
+            "eta".to_string(),
+            "workpiece_rpm".to_string(),
+            "nonuniformity".to_string(),
+            "mean_nm".to_string(),
+            "pv_nm".to_string(),
+            "rms_nm".to_string(),
+        ],
+        &[
+            &column(r, |p| p.eta),
+            &column(r, |p| p.workpiece_rpm),
+            &nonuniformity,
+            &column(r, |p| p.metrics.mean_nm),
+            &column(r, |p| p.metrics.pv_nm),
+            &column(r, |p| p.metrics.rms_nm),
+        ],
+    )
+}
+
+fn to_svg(r: &EtaSweepResponse) -> String {
+    let mut points: Vec<(f64, f64)> = r
+        .points
+        .iter()
+        .map(|p| (p.eta, 100.0 * p.metrics.nonuniformity.unwrap_or(f64::NAN)))
+        .collect();
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    plot::render(&Chart {
+        title: format!(
+            "Equal-dwell nonuniformity against η (tool {} r/min)",
+            r.tool_rpm
+        ),
+        x_label: "η = −workpiece_rpm / tool_rpm (1)".to_string(),
+        y_label: "nonuniformity pv/mean (%)".to_string(),
+        series: vec![Series {
+            name: format!(
+                "over [{}, {}] mm",
+                r.clear_aperture.inner_mm, r.clear_aperture.outer_mm
+            ),
+            points,
+        }],
+        band: None,
+        secondary: None,
+    })
+}
+
+/// Sweep η with the tool speed held.
+///
+/// For each η, the workpiece turns at −η·tool_rpm and the uniformity of equal dwell (or of the
+/// given dwell schedule) over the clear aperture is reported. `Accept: text/csv` gives a table,
+/// `Accept: image/svg+xml` a chart of nonuniformity against η.
+#[utoipa::path(
+    post,
+    path = "/v1/studies/eta-sweep",
+    tag = "recommend",
+    request_body = EtaSweepRequest,
+    responses(
+        (status = 200, description = "One point per η; as CSV a table, as SVG a chart", content(
+            (EtaSweepResponse = "application/json"),
+            (String = "text/csv"),
+            (String = "image/svg+xml"),
+        )),
+        ComputeProblems,
+    )
+)]
+pub async fn handler(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    ApiJson(req): ApiJson<EtaSweepRequest>,
+) -> Result<Response, ApiError> {
+    let renderers = Renderers {
+        csv: Some(to_csv),
+        svg: Some(to_svg),
+    };
+    compute_and_render(state, &headers, req, compute, renderers).await
+}

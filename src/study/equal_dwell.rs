@@ -1,0 +1,127 @@
+//! Equal dwell: one constant-feed pass over [0, L] (see [`super`]), and what it removes.
+
+use crate::physics::{
+    ClearAperture, ConstantFeed, DwellSchedule, Process, RadialGrid, UniformityMetrics,
+};
+
+/// The equal-dwell pass for a process and aperture, scaled to remove a mean depth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EqualDwell {
+    /// Cell-centre positions, mm, with equal dwell each (s).
+    pub schedule: DwellSchedule,
+    /// The constant feed, mm/min.
+    pub feed_mm_per_min: f64,
+    /// Removal at each grid radius, nm.
+    pub removal_nm: Vec<f64>,
+    pub metrics: UniformityMetrics,
+}
+
+/// Path end L = min(outer + r_t, reach), mm.
+pub fn path_end_mm(process: &Process, aperture: &ClearAperture) -> f64 {
+    (aperture.outer_mm() + process.tool_radius_mm()).min(process.max_tool_position_mm())
+}
+
+impl EqualDwell {
+    /// The pass with `positions` cells whose mean removal over the aperture is `depth_nm`
+    /// (`depth_nm` > 0). `None` when the pass removes nothing inside the aperture.
+    pub fn for_depth(
+        process: &Process,
+        grid: &RadialGrid,
+        aperture: &ClearAperture,
+        positions: usize,
+        depth_nm: f64,
+    ) -> Option<Self> {
+        // One pass at 60 mm/min (1 s/mm), then scaled: removal is linear in the dwell.
+        let unit = ConstantFeed {
+            start_mm: 0.0,
+            stop_mm: path_end_mm(process, aperture),
+            feed_mm_per_min: 60.0,
+            positions,
+        };
+        let schedule = unit.schedule(process).ok()?;
+        let removal = schedule.removal_nm(process, grid);
+        let mean = UniformityMetrics::over(grid, aperture, &removal).mean_nm;
+        if !(mean > 0.0 && mean.is_finite()) {
+            return None;
+        }
+        let k = depth_nm / mean;
+        let removal_nm: Vec<f64> = removal.iter().map(|z| z * k).collect();
+        let dwell: Vec<f64> = schedule.dwell_s().iter().map(|t| t * k).collect();
+        let schedule = DwellSchedule::new(process, schedule.positions_mm().to_vec(), dwell).ok()?;
+        Some(EqualDwell {
+            metrics: UniformityMetrics::over(grid, aperture, &removal_nm),
+            feed_mm_per_min: 60.0 / k,
+            schedule,
+            removal_nm,
+        })
+    }
+
+    /// The same pass removing k times as deep (k > 0): dwell and removal scale by k, the feed
+    /// by 1/k, nonuniformity not at all.
+    pub fn scaled(&self, k: f64) -> Self {
+        let m = &self.metrics;
+        EqualDwell {
+            schedule: DwellSchedule::new_unchecked(
+                self.schedule.positions_mm().to_vec(),
+                self.schedule.dwell_s().iter().map(|t| t * k).collect(),
+            ),
+            feed_mm_per_min: self.feed_mm_per_min / k,
+            removal_nm: self.removal_nm.iter().map(|z| z * k).collect(),
+            metrics: UniformityMetrics {
+                mean_nm: m.mean_nm * k,
+                min_nm: m.min_nm * k,
+                max_nm: m.max_nm * k,
+                pv_nm: m.pv_nm * k,
+                rms_nm: m.rms_nm * k,
+                ..*m
+            },
+        }
+    }
+
+    /// Mean removal rate over the aperture, nm/min.
+    pub fn mean_rate_nm_per_min(&self) -> f64 {
+        60.0 * self.metrics.mean_nm / self.schedule.total_time_s()
+    }
+}
+
+/// Nonuniformity of equal dwell at `process` (scale-free, so no depth is needed); `None` when
+/// the pass removes nothing in the aperture.
+pub fn nonuniformity(
+    process: &Process,
+    grid: &RadialGrid,
+    aperture: &ClearAperture,
+    positions: usize,
+) -> Option<f64> {
+    EqualDwell::for_depth(process, grid, aperture, positions, 1.0)?
+        .metrics
+        .nonuniformity
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::process::tests::paper_spec;
+
+    #[test]
+    fn a_pass_removes_its_depth_and_scales_linearly() {
+        let process = Process::new(paper_spec(-10.0, 200.0)).unwrap();
+        let grid = RadialGrid::default_for(&process);
+        let aperture = ClearAperture::new(&process, 0.0, 40.0).unwrap();
+        let pass = EqualDwell::for_depth(&process, &grid, &aperture, 200, 100.0).unwrap();
+        assert!((pass.metrics.mean_nm - 100.0).abs() < 1e-9);
+        // The path runs to outer + r_t = 50 mm in 200 cells of 0.25 mm, one feed throughout.
+        let positions = pass.schedule.positions_mm();
+        assert_eq!(positions.len(), 200);
+        assert!((positions[199] - 49.875).abs() < 1e-12);
+        let dwell = pass.schedule.dwell_s()[0];
+        assert!((pass.feed_mm_per_min - 60.0 * 0.25 / dwell).abs() < 1e-9 * pass.feed_mm_per_min);
+        let doubled = pass.scaled(2.0);
+        let direct = EqualDwell::for_depth(&process, &grid, &aperture, 200, 200.0).unwrap();
+        assert!((doubled.metrics.pv_nm - direct.metrics.pv_nm).abs() < 1e-9 * direct.metrics.pv_nm);
+        assert!(
+            (doubled.feed_mm_per_min - direct.feed_mm_per_min).abs()
+                < 1e-12 * direct.feed_mm_per_min
+        );
+        assert_eq!(doubled.metrics.nonuniformity, pass.metrics.nonuniformity);
+    }
+}

@@ -1,0 +1,157 @@
+//! The η = −1 recommendation: workpiece and tool turning the same way at the same speed, with
+//! the speed chosen to keep the user's mean removal rate, and what it buys.
+//!
+//! At η = −1 the removal rate is K·P·|ω|·r1·θ0/π: linear in the common speed. So one
+//! equal-dwell pass at a reference speed gives the rate per r/min, and the speed that keeps the
+//! user's current equal-dwell mean rate over the aperture is their ratio. If the machine's
+//! limits forbid it, the fastest allowed speed is taken instead.
+
+use super::equal_dwell::EqualDwell;
+use super::window::{eta_window, EtaWindow};
+use super::StudyError;
+use crate::physics::{ClearAperture, Process, ProcessSpec, RadialGrid};
+
+/// Machine speed limits, r/min (magnitudes, > 0).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SpeedLimits {
+    pub max_workpiece_rpm: Option<f64>,
+    pub max_tool_rpm: Option<f64>,
+}
+
+/// Which rule chose the recommended speed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpeedRule {
+    /// The speed that keeps the current mean removal rate (within the limits).
+    MatchRemovalRate,
+    /// The limits forbid that speed; the fastest allowed is used.
+    FastestAllowed,
+}
+
+/// The recommendation and the comparison behind it, both under equal dwell removing the same
+/// mean depth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recommendation {
+    pub workpiece_rpm: f64,
+    pub tool_rpm: f64,
+    pub rule: SpeedRule,
+    /// Equal dwell at the recommended speeds.
+    pub recommended: EqualDwell,
+    /// Equal dwell at the user's speeds.
+    pub current: EqualDwell,
+    /// current nonuniformity / recommended nonuniformity (`None` if either is undefined or
+    /// the recommended one is 0).
+    pub improvement_factor: Option<f64>,
+    /// `None` when equal dwell at η = −1 is itself above the threshold (e.g. an aperture out
+    /// to the edge, where the pad cannot overhang).
+    pub eta_window: Option<EtaWindow>,
+}
+
+impl Recommendation {
+    /// The same recommendation with both equal-dwell plans removing `depth_nm` (> 0) instead:
+    /// speeds, rule, improvement and window do not depend on the depth.
+    pub fn scaled_to(&self, depth_nm: f64) -> Self {
+        Recommendation {
+            recommended: self
+                .recommended
+                .scaled(depth_nm / self.recommended.metrics.mean_nm),
+            current: self.current.scaled(depth_nm / self.current.metrics.mean_nm),
+            ..self.clone()
+        }
+    }
+}
+
+impl SpeedLimits {
+    pub fn validate(&self) -> Result<(), StudyError> {
+        for (field, v) in [
+            ("max_workpiece_rpm", self.max_workpiece_rpm),
+            ("max_tool_rpm", self.max_tool_rpm),
+        ] {
+            if let Some(v) = v {
+                if !v.is_finite() || v <= 0.0 {
+                    return Err(StudyError::new(
+                        field,
+                        format!("{field} must be a finite number > 0 r/min"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn cap(&self) -> f64 {
+        [self.max_workpiece_rpm, self.max_tool_rpm]
+            .into_iter()
+            .flatten()
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// Recommends η = −1 speeds for `process`, comparing equal dwell of `positions` cells removing
+/// `depth_nm` (> 0) at the user's and the recommended speeds; the η window uses `threshold`.
+pub fn recommend(
+    process: &Process,
+    grid: &RadialGrid,
+    aperture: &ClearAperture,
+    limits: SpeedLimits,
+    depth_nm: f64,
+    threshold: f64,
+    positions: usize,
+) -> Result<Recommendation, StudyError> {
+    limits.validate()?;
+    let no_removal = || {
+        StudyError::new(
+            "clear_aperture",
+            "equal dwell removes nothing inside the clear aperture",
+        )
+    };
+    let current = EqualDwell::for_depth(process, grid, aperture, positions, depth_nm)
+        .ok_or_else(no_removal)?;
+    let spec = *process.spec();
+    let direction = if spec.tool_rpm < 0.0 { -1.0 } else { 1.0 };
+    let at = |speed: f64| -> Result<(Process, EqualDwell), StudyError> {
+        let p = Process::new(ProcessSpec {
+            workpiece_rpm: direction * speed,
+            tool_rpm: direction * speed,
+            ..spec
+        })
+        .map_err(|e| StudyError::new(format!("process.{}", e.field()), e.to_string()))?;
+        let pass = EqualDwell::for_depth(&p, grid, aperture, positions, depth_nm)
+            .ok_or_else(no_removal)?;
+        Ok((p, pass))
+    };
+    // Rate per r/min from a pass at a reference speed (rate ∝ speed at η = −1).
+    let reference = spec.tool_rpm.abs().max(spec.workpiece_rpm.abs());
+    let (_, probe) = at(reference)?;
+    let per_rpm = probe.mean_rate_nm_per_min() / reference;
+    let matching = current.mean_rate_nm_per_min() / per_rpm;
+    let cap = limits.cap();
+    let (speed, rule) = if matching <= cap {
+        (matching, SpeedRule::MatchRemovalRate)
+    } else {
+        (cap, SpeedRule::FastestAllowed)
+    };
+    let (recommended_process, recommended) = at(speed)?;
+    let improvement_factor = match (
+        current.metrics.nonuniformity,
+        recommended.metrics.nonuniformity,
+    ) {
+        (Some(c), Some(r)) if r > 0.0 => Some(c / r),
+        _ => None,
+    };
+    let eta_window = eta_window(
+        recommended_process.spec(),
+        grid,
+        aperture,
+        positions,
+        threshold,
+    );
+    Ok(Recommendation {
+        workpiece_rpm: direction * speed,
+        tool_rpm: direction * speed,
+        rule,
+        recommended,
+        current,
+        improvement_factor,
+        eta_window,
+    })
+}

@@ -1,0 +1,120 @@
+//! The η window: the interval around −1 where equal dwell stays at or below a nonuniformity
+//! threshold, with the tool speed held and the workpiece speed −η·tool.
+//!
+//! N(η) is the equal-dwell nonuniformity. From η = −1 we step outward on each side
+//! (|η + 1| = 0.01·1.5^k) until N exceeds the threshold, then find the crossing in the last
+//! step by the Illinois variant of regula falsi to |Δη| ≤ 1e-10 or |N − threshold| ≤ 1e-9.
+//! On the high side η stays below 0 (η = 0 stops the workpiece); a side that never crosses
+//! within |η + 1| ≤ 50 (or before η = −1e-6) has no bound.
+
+use super::equal_dwell::nonuniformity;
+use crate::physics::{ClearAperture, Process, ProcessSpec, RadialGrid};
+
+/// The η interval, each end `None` when equal dwell stays below the threshold all the way.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EtaWindow {
+    pub low: Option<f64>,
+    pub high: Option<f64>,
+    pub threshold: f64,
+}
+
+/// Equal-dwell nonuniformity at η with the tool speed of `spec` held.
+fn n_at(
+    spec: &ProcessSpec,
+    eta: f64,
+    grid: &RadialGrid,
+    aperture: &ClearAperture,
+    positions: usize,
+) -> f64 {
+    let process = Process::new(ProcessSpec {
+        workpiece_rpm: -eta * spec.tool_rpm,
+        ..*spec
+    })
+    .expect("η ≠ 0 keeps the process valid");
+    nonuniformity(&process, grid, aperture, positions).unwrap_or(f64::INFINITY)
+}
+
+/// The window around −1 for `spec` (whose `tool_rpm` must be ≠ 0), or `None` when equal
+/// dwell at η = −1 itself is above the threshold.
+pub fn eta_window(
+    spec: &ProcessSpec,
+    grid: &RadialGrid,
+    aperture: &ClearAperture,
+    positions: usize,
+    threshold: f64,
+) -> Option<EtaWindow> {
+    let f = |eta: f64| n_at(spec, eta, grid, aperture, positions) - threshold;
+    if f(-1.0) > 0.0 {
+        return None;
+    }
+    let side = |direction: f64| -> Option<f64> {
+        let mut inside = -1.0;
+        let mut step = 0.01;
+        loop {
+            let mut eta = -1.0 + direction * step;
+            if direction > 0.0 && eta >= -1e-6 {
+                eta = -1e-6;
+            }
+            if f(eta) > 0.0 {
+                return Some(crossing(&f, inside, eta));
+            }
+            if (direction > 0.0 && eta >= -1e-6) || step > 50.0 {
+                return None;
+            }
+            inside = eta;
+            step *= 1.5;
+        }
+    };
+    Some(EtaWindow {
+        low: side(-1.0),
+        high: side(1.0),
+        threshold,
+    })
+}
+
+/// The root of `f` between `a` (f ≤ 0) and `b` (f > 0): Illinois regula falsi.
+fn crossing(f: &dyn Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    let (mut fa, mut fb) = (f(a), f(b));
+    let mut last_kept = 0; // which end was kept last time (for the Illinois halving)
+    for _ in 0..100 {
+        let c = if fb.is_finite() {
+            b - fb * (b - a) / (fb - fa)
+        } else {
+            0.5 * (a + b)
+        };
+        let fc = f(c);
+        if fc.abs() <= 1e-9 || (b - a).abs() <= 1e-10 {
+            return c;
+        }
+        if fc > 0.0 {
+            b = c;
+            fb = fc;
+            if last_kept == -1 {
+                fa *= 0.5;
+            }
+            last_kept = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if last_kept == 1 {
+                fb *= 0.5;
+            }
+            last_kept = 1;
+        }
+    }
+    0.5 * (a + b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn illinois_finds_roots_of_kinked_and_curved_functions() {
+        // |η + 1|-like kink and a cubic: roots known exactly.
+        let kink = |x: f64| 3.0 * (x + 1.0).abs() - 0.06;
+        assert!((crossing(&kink, -1.0, -0.9) - (-0.98)).abs() < 1e-9);
+        let cubic = |x: f64| x * x * x - 2.0;
+        assert!((crossing(&cubic, 0.0, 2.0) - 2f64.cbrt()).abs() < 1e-9);
+    }
+}
