@@ -72,7 +72,7 @@ fn endpoint_of(fixture: &str) -> &'static str {
 }
 
 /// Every request fixture is posted; its response must match `fixtures/expected/<name>`.
-/// `PRESTON_BLESS=1 cargo test --test api` rewrites the expected files after a deliberate change.
+/// `PRESTON_BLESS=1 cargo test --release --test api` rewrites the expected files after a deliberate change.
 #[tokio::test]
 async fn every_fixture_returns_its_stored_response() {
     let app = app();
