@@ -75,6 +75,16 @@ pub struct ServeArgs {
     /// How long a request may wait for a computation slot before a 503, in milliseconds.
     #[arg(long, env = "PRESTON_QUEUE_TIMEOUT_MS", default_value_t = 5000)]
     pub queue_timeout_ms: u64,
+    /// Most requests waiting for a computation slot; more get a 503 at once.
+    #[arg(long, env = "PRESTON_MAX_QUEUED_COMPUTATIONS", default_value_t = Limits::default().max_queued_computations)]
+    pub max_queued_computations: usize,
+    /// Longest a computing request may take, waiting included, in milliseconds (503 beyond).
+    #[arg(long, env = "PRESTON_REQUEST_TIMEOUT_MS", default_value_t = 30_000)]
+    pub request_timeout_ms: u64,
+    /// On SIGTERM, how long to keep serving with /readyz at 503 before closing the listener,
+    /// in milliseconds, so load balancers stop sending traffic first. Ctrl-C skips it.
+    #[arg(long, env = "PRESTON_DRAIN_DELAY_MS", default_value_t = 2000)]
+    pub drain_delay_ms: u64,
     /// Origins allowed to call the API from a browser (comma-separated; `*` for any). CORS is
     /// off when empty.
     #[arg(long, env = "PRESTON_CORS_ORIGINS", value_delimiter = ',')]
@@ -100,6 +110,8 @@ impl ServeArgs {
                 .unwrap_or(defaults.max_concurrent_computations)
                 .max(1),
             queue_timeout: Duration::from_millis(self.queue_timeout_ms),
+            max_queued_computations: self.max_queued_computations,
+            request_timeout: Duration::from_millis(self.request_timeout_ms.max(1)),
         }
     }
 }

@@ -1,5 +1,7 @@
-//! Serving: bind, run the router, shut down gracefully on SIGTERM or Ctrl-C (readiness turns
-//! 503 at once, in-flight requests finish, then the process exits).
+//! Serving: bind, run the router, shut down gracefully on SIGTERM or Ctrl-C. On SIGTERM
+//! readiness turns 503 at once and the service keeps answering for the drain delay (so load
+//! balancers see it and stop sending work), then stops accepting connections, lets in-flight
+//! requests finish, and exits. Ctrl-C skips the delay.
 
 use std::future::Future;
 
@@ -14,10 +16,18 @@ pub async fn run(args: ServeArgs) -> std::io::Result<()> {
     let state = AppState::new(args.limits());
     tracing::info!(address = %listener.local_addr()?, "preston listening; docs at /docs");
     let shutdown_state = state.clone();
+    let drain = std::time::Duration::from_millis(args.drain_delay_ms);
     serve_on(listener, state, &args.cors_origins, async move {
-        shutdown_signal().await;
+        let signal = shutdown_signal().await;
         shutdown_state.set_ready(false);
-        tracing::info!("shutdown requested; finishing in-flight requests");
+        if signal == Signal::Terminate && !drain.is_zero() {
+            tracing::info!(
+                delay_ms = drain.as_millis() as u64,
+                "SIGTERM: not ready; draining before closing the listener"
+            );
+            tokio::time::sleep(drain).await;
+        }
+        tracing::info!("shutting down; finishing in-flight requests");
     })
     .await
 }
@@ -35,7 +45,13 @@ pub async fn serve_on(
         .await
 }
 
-async fn shutdown_signal() {
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Signal {
+    Interrupt,
+    Terminate,
+}
+
+async fn shutdown_signal() -> Signal {
     let ctrl_c = async {
         let _ = tokio::signal::ctrl_c().await;
     };
@@ -54,7 +70,7 @@ async fn shutdown_signal() {
     #[cfg(not(unix))]
     let terminate = std::future::pending::<()>();
     tokio::select! {
-        _ = ctrl_c => {},
-        _ = terminate => {},
+        _ = ctrl_c => Signal::Interrupt,
+        _ = terminate => Signal::Terminate,
     }
 }

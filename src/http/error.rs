@@ -88,6 +88,10 @@ pub struct Problem {
     /// first of them).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub conflicts: Option<Vec<String>>,
+    /// The request's `x-request-id` (generated when the client sent none), for matching an
+    /// error report to the server's logs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub request_id: Option<String>,
 }
 
 impl ApiError {
@@ -224,6 +228,7 @@ impl ApiError {
                 ApiError::Infeasible { fields, .. } => Some(fields.clone()),
                 _ => None,
             },
+            request_id: None,
         }
     }
 

@@ -24,6 +24,10 @@ pub struct Limits {
     pub max_concurrent_computations: usize,
     /// How long a request waits for a computation slot before a 503 with Retry-After.
     pub queue_timeout: Duration,
+    /// Most requests waiting for a computation slot; more get a 503 at once.
+    pub max_queued_computations: usize,
+    /// Longest a computing request may take, waiting included (503 beyond).
+    pub request_timeout: Duration,
 }
 
 impl Default for Limits {
@@ -40,6 +44,8 @@ impl Default for Limits {
                 .map(|n| n.get())
                 .unwrap_or(2),
             queue_timeout: Duration::from_secs(5),
+            max_queued_computations: 64,
+            request_timeout: Duration::from_secs(30),
         }
     }
 }

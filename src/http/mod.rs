@@ -1,8 +1,10 @@
 //! The HTTP layer: axum router, handlers, DTOs (serde + utoipa) and the problem+json error.
 //! It owns every wire type and converts them to and from the engine's types in `physics`.
 //!
-//! CPU-heavy work runs on the blocking pool, at most `max_concurrent_computations` at a time;
-//! a request that cannot get a slot within `queue_timeout` is answered 503 with Retry-After.
+//! CPU-heavy work runs on the blocking pool, at most `max_concurrent_computations` at a time,
+//! with a bounded queue in front (see [`AppState::run`]); excess load is answered 503 with
+//! Retry-After. Every request gets an `x-request-id` (kept if the client sent one), which is in
+//! the log span, echoed on the response and written into problem+json bodies.
 
 pub mod csv;
 pub mod docs;
@@ -12,6 +14,7 @@ pub mod eta_sweep;
 pub mod extract;
 pub mod health;
 pub mod limits;
+pub mod metrics;
 pub mod openapi;
 pub mod optimize;
 pub mod plot;
@@ -19,19 +22,21 @@ pub mod predict;
 pub mod recommend;
 pub mod removal_function;
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 
 use axum::extract::{DefaultBodyLimit, Request};
-use axum::http::{header, HeaderValue, Method};
+use axum::http::{header, HeaderName, HeaderValue, Method};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Extension, Router};
 use serde::Serialize;
-use tokio::sync::Semaphore;
+use tokio::sync::{Semaphore, TryAcquireError};
 use tower_http::compression::CompressionLayer;
 use tower_http::cors::{AllowOrigin, CorsLayer};
-use tower_http::trace::TraceLayer;
+use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
+use tower_http::trace::{DefaultOnResponse, TraceLayer};
+use tracing::Level;
 
 use error::ApiError;
 use extract::{BodyLimit, Format};
@@ -42,6 +47,7 @@ pub use limits::Limits;
 pub struct AppState {
     pub limits: Limits,
     slots: Arc<Semaphore>,
+    waiting: Arc<AtomicUsize>,
     ready: Arc<AtomicBool>,
     openapi_json: Arc<str>,
 }
@@ -50,6 +56,7 @@ impl AppState {
     pub fn new(limits: Limits) -> Self {
         AppState {
             slots: Arc::new(Semaphore::new(limits.max_concurrent_computations.max(1))),
+            waiting: Arc::new(AtomicUsize::new(0)),
             limits,
             ready: Arc::new(AtomicBool::new(true)),
             openapi_json: openapi::spec_json().into(),
@@ -66,26 +73,91 @@ impl AppState {
     }
 
     /// Runs `job` on the blocking pool once a computation slot is free.
+    ///
+    /// Load shedding: at most `max_queued_computations` requests wait for a slot (more are
+    /// refused at once), none waits longer than `queue_timeout`, and the whole wait plus
+    /// computation is bounded by `request_timeout`; each refusal is a 503 with Retry-After.
+    /// A computation that outlives its request keeps its slot until it ends, so the number
+    /// running never exceeds the slots.
     pub async fn run<T, F>(&self, job: F) -> Result<T, ApiError>
     where
         T: Send + 'static,
         F: FnOnce() -> Result<T, ApiError> + Send + 'static,
     {
-        let permit = tokio::time::timeout(
-            self.limits.queue_timeout,
-            self.slots.clone().acquire_owned(),
-        )
-        .await
-        .map_err(|_| ApiError::Overloaded {
-            retry_after_s: self.limits.queue_timeout.as_secs().max(1),
-        })?
-        .map_err(|_| ApiError::internal("computation semaphore closed"))?;
-        tokio::task::spawn_blocking(move || {
-            let _permit = permit;
-            job()
-        })
-        .await
-        .map_err(|e| ApiError::internal(format!("computation task failed: {e}")))?
+        let m = metrics::metrics();
+        let retry_after_s = self.limits.queue_timeout.as_secs().max(1);
+        let shed = |reason: &str| {
+            m.shed.with_label_values(&[reason]).inc();
+            ApiError::Overloaded { retry_after_s }
+        };
+        let work = async {
+            let permit = match self.slots.clone().try_acquire_owned() {
+                Ok(permit) => permit,
+                Err(TryAcquireError::Closed) => {
+                    return Err(ApiError::internal("computation semaphore closed"))
+                }
+                Err(TryAcquireError::NoPermits) => {
+                    let _waiting =
+                        Waiting::enter(&self.waiting, self.limits.max_queued_computations)
+                            .ok_or_else(|| shed("queue_full"))?;
+                    tokio::time::timeout(
+                        self.limits.queue_timeout,
+                        self.slots.clone().acquire_owned(),
+                    )
+                    .await
+                    .map_err(|_| shed("queue_timeout"))?
+                    .map_err(|_| ApiError::internal("computation semaphore closed"))?
+                }
+            };
+            tokio::task::spawn_blocking(move || {
+                let _permit = permit;
+                let _running = Running::enter();
+                job()
+            })
+            .await
+            .map_err(|e| ApiError::internal(format!("computation task failed: {e}")))?
+        };
+        tokio::time::timeout(self.limits.request_timeout, work)
+            .await
+            .map_err(|_| shed("request_timeout"))?
+    }
+}
+
+/// A place in the queue for a computation slot, given back on drop.
+struct Waiting(Arc<AtomicUsize>);
+
+impl Waiting {
+    fn enter(count: &Arc<AtomicUsize>, max: usize) -> Option<Self> {
+        count
+            .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| {
+                (n < max).then_some(n + 1)
+            })
+            .ok()?;
+        metrics::metrics().waiting.inc();
+        Some(Waiting(count.clone()))
+    }
+}
+
+impl Drop for Waiting {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
+        metrics::metrics().waiting.dec();
+    }
+}
+
+/// A running computation, counted in the in-flight gauge while it lives.
+struct Running;
+
+impl Running {
+    fn enter() -> Self {
+        metrics::metrics().in_flight.inc();
+        Running
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        metrics::metrics().in_flight.dec();
     }
 }
 
@@ -197,6 +269,7 @@ pub fn cors_layer(origins: &[String]) -> Option<CorsLayer> {
 /// The whole service.
 pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
     let body_limit = state.limits.max_body_bytes;
+    let request_id = HeaderName::from_static(metrics::REQUEST_ID);
     let router = Router::new()
         .route("/v1/removal-function", post(removal_function::handler))
         .route("/v1/predict", post(predict::handler))
@@ -205,6 +278,7 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
         .route("/v1/studies/eta-sweep", post(eta_sweep::handler))
         .route("/healthz", get(health::healthz))
         .route("/readyz", get(health::readyz))
+        .route("/metrics", get(metrics::handler))
         .route("/openapi.json", get(docs::openapi_json))
         .route("/docs", get(docs::redirect))
         .route("/docs/", get(docs::asset))
@@ -215,7 +289,21 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
         .layer(DefaultBodyLimit::max(body_limit))
         .layer(Extension(BodyLimit(body_limit)))
         .layer(CompressionLayer::new())
-        .layer(TraceLayer::new_for_http());
+        .layer(axum::middleware::from_fn(metrics::record))
+        .layer(PropagateRequestIdLayer::new(request_id.clone()))
+        .layer(
+            TraceLayer::new_for_http()
+                .make_span_with(|req: &Request| {
+                    let id = req
+                        .headers()
+                        .get(metrics::REQUEST_ID)
+                        .and_then(|v| v.to_str().ok())
+                        .unwrap_or("-");
+                    tracing::info_span!("request", method = %req.method(), path = %req.uri().path(), request_id = %id)
+                })
+                .on_response(DefaultOnResponse::new().level(Level::INFO)),
+        )
+        .layer(SetRequestIdLayer::new(request_id, MakeRequestUuid));
     match cors {
         Some(cors) => router.layer(cors),
         None => router,

@@ -9,7 +9,7 @@ use super::dto::{
     RadialGridDto,
 };
 use super::error::Problem;
-use super::{eta_sweep, health, optimize, predict, recommend, removal_function};
+use super::{eta_sweep, health, metrics, optimize, predict, recommend, removal_function};
 
 #[derive(OpenApi)]
 #[openapi(
@@ -37,6 +37,7 @@ optimization positions ≤ 2001, solver time ≤ 10 s."
         eta_sweep::handler,
         health::healthz,
         health::readyz,
+        metrics::handler,
     ),
     components(schemas(
         Problem,

@@ -14,6 +14,7 @@ use super::dto::{
 use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
 use super::limits::Limits;
+use super::metrics;
 use super::plot::{Chart, Series};
 use super::recommend::{for_response, RecommendationDto};
 use super::{compute_and_render, csv, plot, AppState, Renderers};
@@ -21,7 +22,7 @@ use crate::optimize::problem::{DEFAULT_SMOOTHING, DEFAULT_TIME_WEIGHT};
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
     optimize, resample_profile, Constraints, DwellProblem, Formulation, Motion, Objective,
-    OptimizeError, SolveStatus,
+    OptimizeError, Solution, SolveStatus,
 };
 use crate::physics::{check_positions, RemovalKernel, RemovalOperator, UniformityMetrics};
 
@@ -240,6 +241,26 @@ fn api_error(err: OptimizeError, prefix: &str, limit_s: f64) -> ApiError {
     }
 }
 
+/// Solver outcome and time in the service metrics.
+fn record_solver(result: &Result<Solution, OptimizeError>) {
+    let m = metrics::metrics();
+    let status = match result {
+        Ok(s) => {
+            m.solver_seconds.observe(s.solve_time_s);
+            match s.status {
+                SolveStatus::Solved => "solved",
+                SolveStatus::AlmostSolved => "almost_solved",
+            }
+        }
+        Err(OptimizeError::Infeasible { .. }) => "infeasible",
+        Err(OptimizeError::TimeLimit { .. }) => "time_limit",
+        Err(OptimizeError::IterationLimit { .. }) => "iteration_limit",
+        Err(OptimizeError::Numerical { .. }) => "numerical_error",
+        Err(OptimizeError::Invalid { .. }) => return,
+    };
+    m.solver_status.with_label_values(&[status]).inc();
+}
+
 fn constraints(dto: Option<&ConstraintsDto>) -> Result<Constraints, ApiError> {
     let dto = dto.cloned().unwrap_or_default();
     let c = Constraints {
@@ -348,8 +369,9 @@ pub fn compute(req: &OptimizeRequest, limits: &Limits) -> Result<OptimizeRespons
         objective,
         time_limit_s,
         formulation: Formulation::default(),
-    })
-    .map_err(|e| api_error(e, "", time_limit_s))?;
+    });
+    record_solver(&solution);
+    let solution = solution.map_err(|e| api_error(e, "", time_limit_s))?;
 
     let removal_nm = operator.apply(&solution.dwell_s);
     let piston = solution.piston_nm.unwrap_or(0.0);

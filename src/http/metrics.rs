@@ -1,0 +1,181 @@
+//! Prometheus metrics (`GET /metrics`, text format 0.0.4) and the middleware that records
+//! every request and stamps its request id into problem+json bodies.
+//!
+//! Metrics (all prefixed `preston_`):
+//! - `http_requests_total{route, method, status}` — requests by matched route
+//!   (`unmatched` for 404s, so paths cannot blow up the label set) and status code;
+//! - `http_request_duration_seconds{route}` — latency histogram;
+//! - `computations_in_flight`, `computations_waiting` — gauges of the computation slots;
+//! - `load_shed_total{reason}` — requests refused with 503 (`queue_full`, `queue_timeout`,
+//!   `request_timeout`);
+//! - `solver_duration_seconds` — Clarabel solve time histogram;
+//! - `solver_status_total{status}` — optimizations by outcome (`solved`, `almost_solved`,
+//!   `infeasible`, `time_limit`, `iteration_limit`, `numerical_error`).
+
+use std::sync::OnceLock;
+use std::time::Instant;
+
+use axum::body::Body;
+use axum::extract::{MatchedPath, Request};
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
+use prometheus::{
+    Encoder, Histogram, HistogramOpts, HistogramVec, IntCounterVec, IntGauge, Opts, Registry,
+    TextEncoder,
+};
+
+/// The request-id header, generated when absent and echoed on the response.
+pub const REQUEST_ID: &str = "x-request-id";
+
+pub struct Metrics {
+    registry: Registry,
+    pub requests: IntCounterVec,
+    pub latency: HistogramVec,
+    pub in_flight: IntGauge,
+    pub waiting: IntGauge,
+    pub shed: IntCounterVec,
+    pub solver_seconds: Histogram,
+    pub solver_status: IntCounterVec,
+}
+
+const LATENCY_BUCKETS: [f64; 14] = [
+    0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0,
+];
+
+impl Metrics {
+    fn new() -> prometheus::Result<Self> {
+        let registry = Registry::new_custom(Some("preston".into()), None)?;
+        let requests = IntCounterVec::new(
+            Opts::new(
+                "http_requests_total",
+                "HTTP requests by route, method and status",
+            ),
+            &["route", "method", "status"],
+        )?;
+        let latency = HistogramVec::new(
+            HistogramOpts::new("http_request_duration_seconds", "HTTP request latency")
+                .buckets(LATENCY_BUCKETS.to_vec()),
+            &["route"],
+        )?;
+        let in_flight = IntGauge::new("computations_in_flight", "Computations running now")?;
+        let waiting = IntGauge::new(
+            "computations_waiting",
+            "Requests waiting for a computation slot",
+        )?;
+        let shed = IntCounterVec::new(
+            Opts::new("load_shed_total", "Requests refused with 503 to shed load"),
+            &["reason"],
+        )?;
+        let solver_seconds = Histogram::with_opts(
+            HistogramOpts::new("solver_duration_seconds", "Dwell QP solve time")
+                .buckets(LATENCY_BUCKETS.to_vec()),
+        )?;
+        let solver_status = IntCounterVec::new(
+            Opts::new("solver_status_total", "Dwell optimizations by outcome"),
+            &["status"],
+        )?;
+        registry.register(Box::new(requests.clone()))?;
+        registry.register(Box::new(latency.clone()))?;
+        registry.register(Box::new(in_flight.clone()))?;
+        registry.register(Box::new(waiting.clone()))?;
+        registry.register(Box::new(shed.clone()))?;
+        registry.register(Box::new(solver_seconds.clone()))?;
+        registry.register(Box::new(solver_status.clone()))?;
+        Ok(Metrics {
+            registry,
+            requests,
+            latency,
+            in_flight,
+            waiting,
+            shed,
+            solver_seconds,
+            solver_status,
+        })
+    }
+
+    /// The text exposition of every metric.
+    pub fn render(&self) -> String {
+        let mut out = Vec::new();
+        // Encoding into memory only fails on a malformed metric, which registration prevents.
+        let _ = TextEncoder::new().encode(&self.registry.gather(), &mut out);
+        String::from_utf8(out).unwrap_or_default()
+    }
+}
+
+/// The process-wide metrics (one service per process; the core's solver timings land here
+/// from the blocking pool without threading a handle through).
+pub fn metrics() -> &'static Metrics {
+    static METRICS: OnceLock<Metrics> = OnceLock::new();
+    METRICS.get_or_init(|| Metrics::new().expect("metric definitions are valid"))
+}
+
+/// Prometheus metrics.
+///
+/// Text exposition format 0.0.4: requests by route and status, latency histograms,
+/// computations in flight and waiting, load shed, solver time and outcomes.
+#[utoipa::path(
+    get,
+    path = "/metrics",
+    tag = "service",
+    responses((status = 200, description = "Prometheus text format", content_type = "text/plain", body = String))
+)]
+pub async fn handler() -> Response {
+    (
+        [(
+            header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
+        metrics().render(),
+    )
+        .into_response()
+}
+
+/// Records the request in the metrics and writes its request id into problem+json bodies
+/// (`request_id` member), so a user's error report can be matched to the logs.
+pub async fn record(request: Request, next: Next) -> Response {
+    let started = Instant::now();
+    let route = request
+        .extensions()
+        .get::<MatchedPath>()
+        .map_or("unmatched".to_string(), |p| p.as_str().to_string());
+    let method = request.method().as_str().to_string();
+    let request_id = request.headers().get(REQUEST_ID).cloned();
+    let response = next.run(request).await;
+    let m = metrics();
+    m.requests
+        .with_label_values(&[&route, &method, response.status().as_str()])
+        .inc();
+    m.latency
+        .with_label_values(&[&route])
+        .observe(started.elapsed().as_secs_f64());
+    match request_id {
+        Some(id) if is_problem(&response) => with_request_id(response, &id).await,
+        _ => response,
+    }
+}
+
+fn is_problem(response: &Response) -> bool {
+    response
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .is_some_and(|v| v.as_bytes().starts_with(b"application/problem+json"))
+}
+
+/// Problem bodies are small JSON objects we wrote ourselves; add `request_id` to them.
+async fn with_request_id(response: Response, id: &HeaderValue) -> Response {
+    let (mut parts, body) = response.into_parts();
+    let Ok(bytes) = axum::body::to_bytes(body, 1 << 20).await else {
+        return (StatusCode::INTERNAL_SERVER_ERROR, "").into_response();
+    };
+    let mut value: serde_json::Value = match serde_json::from_slice(&bytes) {
+        Ok(v) => v,
+        Err(_) => return Response::from_parts(parts, Body::from(bytes)),
+    };
+    if let (Some(object), Ok(id)) = (value.as_object_mut(), id.to_str()) {
+        object.insert("request_id".into(), id.into());
+    }
+    let body = serde_json::to_vec(&value).unwrap_or_else(|_| bytes.to_vec());
+    parts.headers.remove(header::CONTENT_LENGTH);
+    Response::from_parts(parts, Body::from(body))
+}

@@ -1,0 +1,249 @@
+//! Operations: metrics after traffic, request ids, load shedding and timeouts (through the
+//! router), and graceful shutdown of the real binary on SIGTERM.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::http::{app, app_with, get, post_json, post_with};
+use http_body_util::{BodyExt, Full};
+use hyper::body::Bytes;
+use hyper_util::client::legacy::Client;
+use hyper_util::rt::TokioExecutor;
+use preston::http::Limits;
+use serde_json::json;
+
+/// The value of a Prometheus sample line `name{labels} value` whose name and labels contain
+/// all of `parts`.
+fn sample(text: &str, parts: &[&str]) -> Option<f64> {
+    text.lines()
+        .filter(|l| !l.starts_with('#'))
+        .find(|l| parts.iter().all(|p| l.contains(p)))
+        .and_then(|l| l.rsplit(' ').next())
+        .and_then(|v| v.parse().ok())
+}
+
+#[tokio::test]
+async fn metrics_count_requests_and_time_them_and_the_solver() {
+    let app = app();
+    let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
+    for _ in 0..3 {
+        assert_eq!(
+            post_json(&app, "/v1/predict", body.clone()).await.status,
+            200
+        );
+    }
+    assert_eq!(post_json(&app, "/v1/predict", "{").await.status, 400);
+    let optimize = json!({"process": {"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": -10, "tool_rpm": 200},
+                          "positions_mm": [0, 10, 20, 30, 40], "target": {"uniform_depth_nm": 10}, "radial_grid": {"count": 51}});
+    assert_eq!(
+        post_json(&app, "/v1/optimize", optimize.to_string())
+            .await
+            .status,
+        200
+    );
+    assert_eq!(get(&app, "/no/such/thing").await.status, 404);
+
+    let reply = get(&app, "/metrics").await;
+    assert_eq!(reply.status, 200);
+    assert!(reply.content_type.starts_with("text/plain; version=0.0.4"));
+    let text = reply.text();
+    // Counters are process-wide (other tests in this binary add to them): at least ours.
+    let ok = sample(
+        &text,
+        &[
+            "preston_http_requests_total{",
+            "route=\"/v1/predict\"",
+            "status=\"200\"",
+        ],
+    )
+    .unwrap();
+    assert!(ok >= 3.0, "{ok}");
+    assert!(
+        sample(
+            &text,
+            &[
+                "preston_http_requests_total{",
+                "route=\"/v1/predict\"",
+                "status=\"400\""
+            ]
+        )
+        .unwrap()
+            >= 1.0
+    );
+    assert!(
+        sample(
+            &text,
+            &[
+                "preston_http_requests_total{",
+                "route=\"unmatched\"",
+                "status=\"404\""
+            ]
+        )
+        .unwrap()
+            >= 1.0
+    );
+    let count = sample(
+        &text,
+        &["preston_http_request_duration_seconds_count{route=\"/v1/predict\"}"],
+    )
+    .unwrap();
+    assert!(count >= 4.0);
+    assert!(
+        sample(
+            &text,
+            &["preston_http_request_duration_seconds_bucket{route=\"/v1/predict\",le=\"+Inf\"}"]
+        )
+        .unwrap()
+            >= 4.0
+    );
+    assert!(sample(&text, &["preston_solver_status_total{status=\"solved\"}"]).unwrap() >= 1.0);
+    assert!(sample(&text, &["preston_solver_duration_seconds_count"]).unwrap() >= 1.0);
+    assert!(sample(&text, &["preston_computations_in_flight"]).is_some());
+}
+
+#[tokio::test]
+async fn request_ids_are_generated_or_propagated_and_land_in_problems() {
+    let app = app();
+    let reply = post_with(&app, "/v1/predict", "{", &[("x-request-id", "shop-42")]).await;
+    assert_eq!(reply.status, 400);
+    assert_eq!(reply.headers["x-request-id"], "shop-42");
+    assert_eq!(reply.json()["request_id"], "shop-42");
+
+    let reply = post_json(&app, "/v1/predict", "{").await;
+    let generated = reply.headers["x-request-id"].to_str().unwrap().to_string();
+    assert_eq!(generated.len(), 36, "a UUID: {generated}");
+    assert_eq!(reply.json()["request_id"], generated.as_str());
+}
+
+/// A request that holds a computation slot for a while: an n × n optimization (about 0.4 s at
+/// n = 1001 and 1.5 s at 1501 on the reference machine).
+fn slow_optimize_n(n: usize) -> String {
+    json!({"process": {"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": -10, "tool_rpm": 200},
+           "positions_mm": (0..n).map(|i| 50.0 * i as f64 / (n - 1) as f64).collect::<Vec<_>>(),
+           "target": {"uniform_depth_nm": 100}, "radial_grid": {"count": n},
+           "clear_aperture": {"outer_mm": 40}})
+    .to_string()
+}
+
+fn slow_optimize() -> String {
+    slow_optimize_n(1001)
+}
+
+#[tokio::test]
+async fn excess_load_is_shed_with_503_and_retry_after() {
+    let app = app_with(Limits {
+        max_concurrent_computations: 1,
+        max_queued_computations: 0,
+        ..Limits::default()
+    });
+    let busy = {
+        let app = app.clone();
+        tokio::spawn(async move { post_json(&app, "/v1/optimize", slow_optimize()).await })
+    };
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
+    let shed = post_json(&app, "/v1/predict", body).await;
+    assert_eq!(shed.status, 503, "{}", shed.text());
+    assert_eq!(shed.content_type, "application/problem+json");
+    assert_eq!(shed.headers["retry-after"], "5");
+    assert_eq!(
+        busy.await.unwrap().status,
+        200,
+        "the running request is not disturbed"
+    );
+}
+
+#[tokio::test]
+async fn a_request_over_its_time_budget_is_503() {
+    let app = app_with(Limits {
+        request_timeout: Duration::from_millis(20),
+        ..Limits::default()
+    });
+    let reply = post_json(&app, "/v1/optimize", slow_optimize()).await;
+    assert_eq!(reply.status, 503, "{}", reply.text());
+    assert_eq!(reply.json()["type"], "urn:preston:problem:overloaded");
+}
+
+#[test]
+fn sigterm_turns_readiness_503_first_and_lets_a_long_computation_finish() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_preston"))
+        .args([
+            "serve",
+            "--listen",
+            "127.0.0.1:0",
+            "--drain-delay-ms",
+            "300",
+        ])
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    // The log line "… address=127.0.0.1:PORT" tells where it listens.
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    let address = loop {
+        line.clear();
+        assert!(
+            stderr.read_line(&mut line).unwrap() > 0,
+            "server exited early"
+        );
+        if let Some(rest) = line.split("address=").nth(1) {
+            break rest.split_whitespace().next().unwrap().to_string();
+        }
+    };
+    std::thread::spawn(move || for _ in stderr.lines() {});
+
+    let runtime = tokio::runtime::Runtime::new().unwrap();
+    runtime.block_on(async {
+        let client = Client::builder(TokioExecutor::new()).build_http::<Full<Bytes>>();
+        let long = {
+            let client = client.clone();
+            let request = hyper::Request::post(format!("http://{address}/v1/optimize"))
+                .header("content-type", "application/json")
+                .body(Full::new(Bytes::from(slow_optimize_n(1501))))
+                .unwrap();
+            tokio::spawn(async move {
+                let started = Instant::now();
+                let response = client.request(request).await.unwrap();
+                let status = response.status();
+                response.into_body().collect().await.unwrap();
+                (status, started.elapsed())
+            })
+        };
+        tokio::time::sleep(Duration::from_millis(150)).await;
+        let ready = client
+            .get(format!("http://{address}/readyz").parse().unwrap())
+            .await
+            .unwrap();
+        assert_eq!(ready.status(), 200);
+
+        let signalled = Instant::now();
+        let kill = Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(kill.success());
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        let ready = client
+            .get(format!("http://{address}/readyz").parse().unwrap())
+            .await
+            .unwrap();
+        assert_eq!(ready.status(), 503, "readiness turns 503 at once");
+        assert!(
+            !long.is_finished(),
+            "the computation is still running when readiness drops"
+        );
+
+        let (status, took) = long.await.unwrap();
+        assert_eq!(status, 200, "the in-flight computation completes");
+        let after = signalled.elapsed();
+        println!("long request took {took:?}, ending {after:?} after SIGTERM");
+        // It outlived the 300 ms drain: the listener had closed while it ran.
+        assert!(after > Duration::from_millis(300), "{after:?}");
+    });
+    let exit = child.wait().unwrap();
+    assert!(exit.success(), "exits cleanly after draining: {exit:?}");
+}
