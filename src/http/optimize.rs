@@ -59,7 +59,7 @@ pub struct TargetDto {
     #[schema(example = 100.0)]
     pub uniform_depth_nm: Option<f64>,
     /// Remove a measured radial error profile (figure correction).
-    pub profile: Option<ProfileDto>,
+    pub profile: Option<MeasuredProfileDto>,
     /// With `profile`: also remove the least uniform layer p ≥ 0 (nm) that lets the plan fit
     /// best, since polishing can only remove material. Default false.
     #[schema(default = false)]
@@ -70,7 +70,7 @@ pub struct TargetDto {
 /// grid. It must cover the clear aperture's samples.
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
-pub struct ProfileDto {
+pub struct MeasuredProfileDto {
     /// Radii of the measurement, mm, strictly increasing (at least 2).
     pub radius_mm: Vec<f64>,
     /// Depth to remove at each radius, nm (the surface's height above the wanted figure).
