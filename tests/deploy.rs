@@ -10,7 +10,9 @@ use preston::config::Cli;
 use yaml_rust2::{Yaml, YamlLoader};
 
 fn load(name: &str) -> Yaml {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("deploy/k8s").join(name);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("deploy/k8s")
+        .join(name);
     let text = std::fs::read_to_string(&path).unwrap();
     let mut docs = YamlLoader::load_from_str(&text).unwrap();
     assert_eq!(docs.len(), 1, "{name}: one document");
@@ -18,11 +20,18 @@ fn load(name: &str) -> Yaml {
 }
 
 fn strings(y: &Yaml) -> Vec<String> {
-    y.as_vec().unwrap().iter().map(|v| v.as_str().unwrap().to_string()).collect()
+    y.as_vec()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .collect()
 }
 
 fn dockerfile() -> String {
-    std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("deploy/Dockerfile")).unwrap()
+    std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("deploy/Dockerfile"),
+    )
+    .unwrap()
 }
 
 /// The JSON array after `INSTRUCTION ` in the Dockerfile (exec form).
@@ -66,7 +75,12 @@ async fn manifests_match_the_service_and_the_image() {
     // Every env name is a setting the CLI knows (a typo would be silently ignored otherwise).
     for e in env {
         let name = e["name"].as_str().unwrap();
-        let flag = format!("--{}", name.trim_start_matches("PRESTON_").to_lowercase().replace('_', "-"));
+        let flag = format!(
+            "--{}",
+            name.trim_start_matches("PRESTON_")
+                .to_lowercase()
+                .replace('_', "-")
+        );
         let value = e["value"].as_str().unwrap();
         Cli::try_parse_from(["preston", "serve", &flag, value])
             .unwrap_or_else(|err| panic!("{name}: {err}"));
@@ -80,7 +94,12 @@ async fn manifests_match_the_service_and_the_image() {
         assert_eq!(http["port"].as_str(), Some(port_name));
         assert_eq!(get(&app, path).await.status, 200, "{path}");
     }
-    assert!(container["lifecycle"]["preStop"]["sleep"]["seconds"].as_i64().unwrap() > 0);
+    assert!(
+        container["lifecycle"]["preStop"]["sleep"]["seconds"]
+            .as_i64()
+            .unwrap()
+            > 0
+    );
     assert!(!container["resources"]["requests"]["cpu"].is_badvalue());
     assert!(!container["resources"]["limits"]["memory"].is_badvalue());
     let scrape = &deployment["spec"]["template"]["metadata"]["annotations"];
@@ -88,21 +107,37 @@ async fn manifests_match_the_service_and_the_image() {
     assert_eq!(get(&app, "/metrics").await.status, 200);
 
     // Non-root: the pod and the image agree.
-    assert_eq!(deployment["spec"]["template"]["spec"]["securityContext"]["runAsNonRoot"].as_bool(), Some(true));
+    assert_eq!(
+        deployment["spec"]["template"]["spec"]["securityContext"]["runAsNonRoot"].as_bool(),
+        Some(true)
+    );
     assert!(dockerfile().contains("USER nonroot"));
-    assert!(dockerfile().matches("\nFROM ").count() + usize::from(dockerfile().starts_with("FROM ")) >= 2, "multi-stage");
+    assert!(
+        dockerfile().matches("\nFROM ").count() + usize::from(dockerfile().starts_with("FROM "))
+            >= 2,
+        "multi-stage"
+    );
 
     // Service → container port; selector → pod labels.
     let service = load("service.yaml");
     assert_eq!(&service["spec"]["selector"], labels);
-    assert_eq!(service["spec"]["ports"][0]["targetPort"].as_str(), Some(port_name));
+    assert_eq!(
+        service["spec"]["ports"][0]["targetPort"].as_str(),
+        Some(port_name)
+    );
 
     // Autoscaler and disruption budget target the Deployment.
     let name = deployment["metadata"]["name"].as_str().unwrap();
     let hpa = load("hpa.yaml");
-    assert_eq!(hpa["spec"]["scaleTargetRef"]["kind"].as_str(), Some("Deployment"));
+    assert_eq!(
+        hpa["spec"]["scaleTargetRef"]["kind"].as_str(),
+        Some("Deployment")
+    );
     assert_eq!(hpa["spec"]["scaleTargetRef"]["name"].as_str(), Some(name));
-    assert_eq!(hpa["spec"]["metrics"][0]["resource"]["name"].as_str(), Some("cpu"));
+    assert_eq!(
+        hpa["spec"]["metrics"][0]["resource"]["name"].as_str(),
+        Some("cpu")
+    );
     let pdb = load("pdb.yaml");
     assert_eq!(&pdb["spec"]["selector"]["matchLabels"], labels);
 }
