@@ -235,6 +235,13 @@ async fn every_invalid_process_is_a_422_naming_its_field() {
         ("pressure_kpa", json!(-1)),
         ("preston_coefficient_m2_per_n", json!(-1e-13)),
         ("workpiece_rpm", json!(0)),
+        // Outside the model's domain (results would overflow f64; schemathesis found these).
+        ("workpiece_radius_mm", json!(6.8e16)),
+        ("tool_radius_mm", json!(1e-9)),
+        ("workpiece_rpm", json!(-1.7e15)),
+        ("tool_rpm", json!(2e5)),
+        ("preston_coefficient_m2_per_n", json!(6.8e16)),
+        ("pressure_kpa", json!(1e9)),
     ];
     for (field, value) in cases {
         let mut body = predict_body();

@@ -64,14 +64,22 @@ fn random_case(
     let rm = uniform(rng, 5.0, 500.0);
     let rt = rm * uniform(rng, 0.02, 1.2);
     let w = sign(rng) * uniform(rng, 0.5, 500.0);
-    let t = match speeds {
-        Speeds::General => sign(rng) * uniform(rng, 0.5, 3000.0),
-        Speeds::EtaMinusOne => w,
-        Speeds::SmallEta => sign(rng) * w.abs() * 10f64.powf(uniform(rng, 2.0, 6.0)),
-        Speeds::LargeEta => sign(rng) * w.abs() * 10f64.powf(-uniform(rng, 2.0, 6.0)),
-        Speeds::NearMinusOne => w * (1.0 + sign(rng) * 10f64.powf(-uniform(rng, 3.0, 10.0))),
-        Speeds::EtaMinusTwo => 0.5 * w,
-        Speeds::ToolStationary => 0.0,
+    // Speeds stay inside the model's domain (|r/min| ≤ 1e5): tiny |η| comes from a slow
+    // workpiece under a fast tool.
+    let (w, t) = match speeds {
+        Speeds::General => (w, sign(rng) * uniform(rng, 0.5, 3000.0)),
+        Speeds::EtaMinusOne => (w, w),
+        Speeds::SmallEta => {
+            let t = sign(rng) * uniform(rng, 1e3, 1e5);
+            (sign(rng) * t.abs() * 10f64.powf(-uniform(rng, 2.0, 6.0)), t)
+        }
+        Speeds::LargeEta => (w, sign(rng) * w.abs() * 10f64.powf(-uniform(rng, 2.0, 6.0))),
+        Speeds::NearMinusOne => (
+            w,
+            w * (1.0 + sign(rng) * 10f64.powf(-uniform(rng, 3.0, 10.0))),
+        ),
+        Speeds::EtaMinusTwo => (w, 0.5 * w),
+        Speeds::ToolStationary => (w, 0.0),
     };
     let reach = rm + rt;
     let (r, r1) = match geometry {

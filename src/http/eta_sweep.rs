@@ -14,10 +14,10 @@ use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
 use super::limits::Limits;
 use super::plot::{Chart, Series};
-use super::recommend::{equal_dwell_positions, DEFAULT_DEPTH_NM};
+use super::recommend::{check_depth, equal_dwell_positions, DEFAULT_DEPTH_NM};
 use super::{compute_and_render, csv, plot, AppState, Renderers};
 use crate::physics::DwellSchedule;
-use crate::study::eta_sweep;
+use crate::study::{eta_sweep, Frame};
 
 /// Most η values in one sweep.
 pub const MAX_ETAS: usize = 201;
@@ -82,12 +82,7 @@ pub fn compute(req: &EtaSweepRequest, limits: &Limits) -> Result<EtaSweepRespons
         ));
     }
     let depth = req.depth_nm.unwrap_or(DEFAULT_DEPTH_NM);
-    if !depth.is_finite() || depth <= 0.0 {
-        return Err(ApiError::invalid(
-            "depth_nm",
-            "depth_nm must be a finite number > 0 nm",
-        ));
-    }
+    check_depth(depth)?;
     let positions = equal_dwell_positions(req.equal_dwell_positions, limits)?;
     let schedule = match &req.dwell {
         Some(d) => {
@@ -113,16 +108,13 @@ pub fn compute(req: &EtaSweepRequest, limits: &Limits) -> Result<EtaSweepRespons
         }
     };
     let spec = *process.spec();
-    let points = eta_sweep(
-        &spec,
-        &req.etas,
-        &grid,
-        &aperture,
-        schedule.as_ref(),
+    let frame = Frame {
+        grid: &grid,
+        aperture: &aperture,
         positions,
-        depth,
-    )
-    .map_err(|e| ApiError::invalid(e.field, e.message))?;
+    };
+    let points = eta_sweep(&spec, &req.etas, frame, schedule.as_ref(), depth)
+        .map_err(|e| ApiError::invalid(e.field, e.message))?;
     Ok(EtaSweepResponse {
         tool_rpm: spec.tool_rpm,
         clear_aperture: ApertureEcho::from(&aperture),

@@ -18,7 +18,7 @@ use super::metrics;
 use super::plot::{Chart, Series};
 use super::recommend::{for_response, RecommendationDto};
 use super::{compute_and_render, csv, plot, AppState, Renderers};
-use crate::optimize::problem::{DEFAULT_SMOOTHING, DEFAULT_TIME_WEIGHT};
+use crate::optimize::problem::{DEFAULT_SMOOTHING, DEFAULT_TIME_WEIGHT, MAX_DEPTH_NM};
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
     optimize, resample_profile, Constraints, DwellProblem, Formulation, Motion, Objective,
@@ -301,10 +301,10 @@ fn time_limit_s(dto: Option<&SolverOptionsDto>, limits: &Limits) -> Result<f64, 
 fn target_on(target: &TargetDto, aperture_radii: &[f64]) -> Result<(Vec<f64>, bool), ApiError> {
     match (&target.uniform_depth_nm, &target.profile) {
         (Some(depth), None) => {
-            if !depth.is_finite() || *depth < 0.0 {
+            if !(0.0..=MAX_DEPTH_NM).contains(depth) {
                 return Err(ApiError::invalid(
                     "target.uniform_depth_nm",
-                    "target.uniform_depth_nm must be a finite number ≥ 0 nm",
+                    format!("target.uniform_depth_nm must be a number in [0, {MAX_DEPTH_NM}] nm"),
                 ));
             }
             if target.free_piston == Some(true) {

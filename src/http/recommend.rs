@@ -16,8 +16,9 @@ use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
 use super::limits::Limits;
 use super::{compute_and_render, AppState, Renderers};
+use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::physics::{ClearAperture, Process, RadialGrid};
-use crate::study::{recommend, EqualDwell, Recommendation, SpeedLimits, SpeedRule};
+use crate::study::{recommend, EqualDwell, Frame, Recommendation, SpeedLimits, SpeedRule};
 
 /// Default η-window threshold on equal-dwell nonuniformity (2 %).
 pub const DEFAULT_THRESHOLD: f64 = 0.02;
@@ -166,14 +167,12 @@ const CACHE_CAPACITY: usize = 256;
 type CacheKey = Vec<u64>;
 static CACHE: OnceLock<Mutex<HashMap<CacheKey, Arc<Recommendation>>>> = OnceLock::new();
 
-fn cache_key(
-    process: &Process,
-    grid: &RadialGrid,
-    aperture: &ClearAperture,
-    limits: &SpeedLimits,
-    threshold: f64,
-    positions: usize,
-) -> CacheKey {
+fn cache_key(process: &Process, frame: Frame, limits: &SpeedLimits, threshold: f64) -> CacheKey {
+    let Frame {
+        grid,
+        aperture,
+        positions,
+    } = frame;
     let s = process.spec();
     let model = format!("{:?}", s.pressure_model);
     let mut key: Vec<u64> = [
@@ -200,24 +199,21 @@ fn cache_key(
 }
 
 /// The recommendation for these inputs at `depth_nm` (> 0), from the cache when possible.
-#[allow(clippy::too_many_arguments)]
 pub fn recommendation(
     process: &Process,
-    grid: &RadialGrid,
-    aperture: &ClearAperture,
+    frame: Frame,
     limits: SpeedLimits,
     depth_nm: f64,
     threshold: f64,
-    positions: usize,
 ) -> Result<RecommendationDto, ApiError> {
-    let key = cache_key(process, grid, aperture, &limits, threshold, positions);
+    let key = cache_key(process, frame, &limits, threshold);
     let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
     let cached = cache.lock().ok().and_then(|c| c.get(&key).cloned());
     let unit = match cached {
         Some(r) => r,
         None => {
             let r = Arc::new(
-                recommend(process, grid, aperture, limits, 1.0, threshold, positions)
+                recommend(process, frame, limits, 1.0, threshold)
                     .map_err(|e| ApiError::invalid(e.field, e.message))?,
             );
             if let Ok(mut c) = cache.lock() {
@@ -248,14 +244,17 @@ pub fn for_response(
     } else {
         DEFAULT_DEPTH_NM
     };
-    recommendation(
-        process,
+    let frame = Frame {
         grid,
         aperture,
+        positions: DEFAULT_EQUAL_DWELL_POSITIONS,
+    };
+    recommendation(
+        process,
+        frame,
         SpeedLimits::default(),
         depth,
         DEFAULT_THRESHOLD,
-        DEFAULT_EQUAL_DWELL_POSITIONS,
     )
     .ok()
 }
@@ -273,12 +272,7 @@ pub fn compute(req: &RecommendRequest, limits: &Limits) -> Result<RecommendRespo
         .validate()
         .map_err(|e| ApiError::invalid(format!("limits.{}", e.field), e.message))?;
     let depth = req.depth_nm.unwrap_or(DEFAULT_DEPTH_NM);
-    if !depth.is_finite() || depth <= 0.0 {
-        return Err(ApiError::invalid(
-            "depth_nm",
-            "depth_nm must be a finite number > 0 nm",
-        ));
-    }
+    check_depth(depth)?;
     let threshold = req.nonuniformity_threshold.unwrap_or(DEFAULT_THRESHOLD);
     if !threshold.is_finite() || threshold <= 0.0 {
         return Err(ApiError::invalid(
@@ -296,14 +290,28 @@ pub fn compute(req: &RecommendRequest, limits: &Limits) -> Result<RecommendRespo
     Ok(RecommendResponse {
         recommendation: recommendation(
             &process,
-            &grid,
-            &aperture,
+            Frame {
+                grid: &grid,
+                aperture: &aperture,
+                positions,
+            },
             speed_limits,
             depth,
             threshold,
-            positions,
         )?,
     })
+}
+
+/// A requested equal-dwell depth: in (0, 1e9] nm.
+pub fn check_depth(depth_nm: f64) -> Result<(), ApiError> {
+    if depth_nm > 0.0 && depth_nm <= MAX_DEPTH_NM {
+        Ok(())
+    } else {
+        Err(ApiError::invalid(
+            "depth_nm",
+            format!("depth_nm must be a number in (0, {MAX_DEPTH_NM}] nm"),
+        ))
+    }
 }
 
 /// The requested equal-dwell position count, checked.

@@ -65,10 +65,10 @@ impl Objective {
             ("smoothing", self.smoothing),
             ("time_weight", self.time_weight),
         ] {
-            if !value.is_finite() || value < 0.0 {
+            if !(0.0..=MAX_WEIGHT).contains(&value) {
                 return Err(OptimizeError::invalid(
                     field,
-                    format!("{field} must be a finite number ≥ 0"),
+                    format!("{field} must be a number in [0, {MAX_WEIGHT}]"),
                 ));
             }
         }
@@ -86,6 +86,15 @@ pub struct Constraints {
     pub max_dwell_change_s: Option<f64>,
 }
 
+/// Largest time any constraint may name, s (keeps the scaled problem finite).
+pub const MAX_TIME_S: f64 = 1e12;
+/// Feed limits accepted, mm/min.
+pub const FEED_RANGE_MM_PER_MIN: (f64, f64) = (1e-6, 1e9);
+/// Largest objective weight accepted.
+pub const MAX_WEIGHT: f64 = 1e6;
+/// Largest target depth accepted (in magnitude), nm: a metre.
+pub const MAX_DEPTH_NM: f64 = 1e9;
+
 /// Relative tolerance to which a returned plan keeps its constraints.
 pub const CONSTRAINT_TOLERANCE: f64 = 1e-9;
 
@@ -93,32 +102,50 @@ impl Constraints {
     /// Checks each value on its own (finite, signs); conflicts between them are
     /// [`super::feasibility`]'s job.
     pub fn validate(&self) -> Result<(), OptimizeError> {
-        if !self.min_dwell_s.is_finite() || self.min_dwell_s < 0.0 {
-            return Err(OptimizeError::invalid(
+        // (field, value, smallest, largest, whether the smallest is allowed, unit)
+        let checks = [
+            (
                 "min_dwell_s",
-                "min_dwell_s must be a finite number ≥ 0 s",
-            ));
-        }
-        let positive = [
-            ("max_dwell_s", self.max_dwell_s, "s"),
-            ("max_total_time_s", self.max_total_time_s, "s"),
-            ("max_feed_mm_per_min", self.max_feed_mm_per_min, "mm/min"),
+                Some(self.min_dwell_s),
+                0.0,
+                MAX_TIME_S,
+                true,
+                "s",
+            ),
+            ("max_dwell_s", self.max_dwell_s, 0.0, MAX_TIME_S, false, "s"),
+            (
+                "max_total_time_s",
+                self.max_total_time_s,
+                0.0,
+                MAX_TIME_S,
+                false,
+                "s",
+            ),
+            (
+                "max_feed_mm_per_min",
+                self.max_feed_mm_per_min,
+                FEED_RANGE_MM_PER_MIN.0,
+                FEED_RANGE_MM_PER_MIN.1,
+                true,
+                "mm/min",
+            ),
+            (
+                "max_dwell_change_s",
+                self.max_dwell_change_s,
+                0.0,
+                MAX_TIME_S,
+                true,
+                "s",
+            ),
         ];
-        for (field, value, unit) in positive {
-            if let Some(v) = value {
-                if !v.is_finite() || v <= 0.0 {
-                    return Err(OptimizeError::invalid(
-                        field,
-                        format!("{field} must be a finite number > 0 {unit}"),
-                    ));
-                }
-            }
-        }
-        if let Some(v) = self.max_dwell_change_s {
-            if !v.is_finite() || v < 0.0 {
+        for (field, value, lo, hi, closed, unit) in checks {
+            let Some(v) = value else { continue };
+            let above = if closed { v >= lo } else { v > lo };
+            if !(above && v <= hi) {
+                let open = if closed { "[" } else { "(" };
                 return Err(OptimizeError::invalid(
-                    "max_dwell_change_s",
-                    "max_dwell_change_s must be a finite number ≥ 0 s",
+                    field,
+                    format!("{field} must be a number in {open}{lo}, {hi}] {unit}"),
                 ));
             }
         }

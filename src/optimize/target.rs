@@ -3,7 +3,7 @@
 
 use std::ops::Range;
 
-use super::problem::OptimizeError;
+use super::problem::{OptimizeError, MAX_DEPTH_NM};
 use crate::physics::{ClearAperture, RadialGrid};
 
 /// The contiguous range of grid rows inside `aperture` (the grid is ascending).
@@ -53,10 +53,10 @@ pub fn resample_profile(
                 ),
             ));
         }
-        if !z.is_finite() {
+        if !(-MAX_DEPTH_NM..=MAX_DEPTH_NM).contains(&z) {
             return Err(OptimizeError::invalid(
                 format!("depth_nm[{i}]"),
-                format!("depth_nm[{i}] must be a finite number"),
+                format!("depth_nm[{i}] must be a number within ±{MAX_DEPTH_NM} nm"),
             ));
         }
     }

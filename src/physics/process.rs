@@ -33,7 +33,7 @@ pub struct ProcessSpec {
 }
 
 /// Why a [`ProcessSpec`] does not describe a process the radial model can compute.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum ProcessError {
     #[error("{field} must be a finite number")]
     NonFinite { field: &'static str },
@@ -48,13 +48,31 @@ pub enum ProcessError {
          revolutions, which a stationary workpiece never makes"
     )]
     StationaryWorkpiece,
+    #[error("{field} = {value} is outside the range the model computes, [{min}, {max}] {unit}")]
+    OutOfRange {
+        field: &'static str,
+        value: f64,
+        min: f64,
+        max: f64,
+        unit: &'static str,
+    },
 }
+
+/// The domain a process must lie in. Far wider than any polishing machine (a 100 m optic,
+/// 100,000 r/min, 1 GPa), it keeps every intermediate and every result finite in f64: outside
+/// it removal rates can overflow to infinity, which JSON cannot carry.
+pub const RADIUS_RANGE_MM: (f64, f64) = (1e-3, 1e5);
+pub const RPM_MAX: f64 = 1e5;
+pub const PRESTON_COEFFICIENT_MAX_M2_PER_N: f64 = 1e-6;
+pub const PRESSURE_MAX_KPA: f64 = 1e6;
 
 impl ProcessError {
     /// The input field the error is about.
     pub fn field(&self) -> &'static str {
         match self {
-            ProcessError::NonFinite { field } | ProcessError::NonPositiveRadius { field } => field,
+            ProcessError::NonFinite { field }
+            | ProcessError::NonPositiveRadius { field }
+            | ProcessError::OutOfRange { field, .. } => field,
             ProcessError::NonPositivePressure => "pressure_kpa",
             ProcessError::NegativePrestonCoefficient => "preston_coefficient_m2_per_n",
             ProcessError::StationaryWorkpiece => "workpiece_rpm",
@@ -119,6 +137,45 @@ impl Process {
         }
         if spec.workpiece_rpm == 0.0 {
             return Err(ProcessError::StationaryWorkpiece);
+        }
+        let ranges = [
+            (
+                "workpiece_radius_mm",
+                spec.workpiece_radius_mm,
+                RADIUS_RANGE_MM,
+                "mm",
+            ),
+            ("tool_radius_mm", spec.tool_radius_mm, RADIUS_RANGE_MM, "mm"),
+            (
+                "workpiece_rpm",
+                spec.workpiece_rpm,
+                (-RPM_MAX, RPM_MAX),
+                "r/min",
+            ),
+            ("tool_rpm", spec.tool_rpm, (-RPM_MAX, RPM_MAX), "r/min"),
+            (
+                "preston_coefficient_m2_per_n",
+                spec.preston_coefficient_m2_per_n,
+                (0.0, PRESTON_COEFFICIENT_MAX_M2_PER_N),
+                "m²/N",
+            ),
+            (
+                "pressure_kpa",
+                spec.pressure_kpa,
+                (0.0, PRESSURE_MAX_KPA),
+                "kPa",
+            ),
+        ];
+        for (field, value, (min, max), unit) in ranges {
+            if !(min..=max).contains(&value) {
+                return Err(ProcessError::OutOfRange {
+                    field,
+                    value,
+                    min,
+                    max,
+                    unit,
+                });
+            }
         }
         Ok(Process { spec })
     }

@@ -39,6 +39,8 @@ pub enum ScheduleError {
     },
     #[error("dwell_s[{index}] must not be negative")]
     NegativeDwell { index: usize },
+    #[error("dwell_s[{index}] exceeds {max} s (about 31 years), the longest dwell accepted")]
+    DwellTooLong { index: usize, max: f64 },
     #[error("{field} must be greater than {lower}")]
     NotAbove {
         field: &'static str,
@@ -55,7 +57,7 @@ impl ScheduleError {
             | ScheduleError::NotAbove { field, .. } => field,
             ScheduleError::LengthMismatch { .. } => "dwell_s",
             ScheduleError::NotIncreasing { .. } => "positions_mm",
-            ScheduleError::NegativeDwell { .. } => "dwell_s",
+            ScheduleError::NegativeDwell { .. } | ScheduleError::DwellTooLong { .. } => "dwell_s",
         }
     }
 
@@ -65,11 +67,15 @@ impl ScheduleError {
             ScheduleError::NonFinite { index, .. }
             | ScheduleError::NotIncreasing { index }
             | ScheduleError::OutOfRange { index, .. }
-            | ScheduleError::NegativeDwell { index } => Some(*index),
+            | ScheduleError::NegativeDwell { index }
+            | ScheduleError::DwellTooLong { index, .. } => Some(*index),
             _ => None,
         }
     }
 }
+
+/// Longest dwell accepted at one position, s (keeps removal depths finite).
+pub const MAX_DWELL_S: f64 = 1e9;
 
 /// Checks that tool positions are finite, within the process's reach and, when `increasing`,
 /// strictly increasing.
@@ -131,6 +137,12 @@ impl DwellSchedule {
             }
             if t < 0.0 {
                 return Err(ScheduleError::NegativeDwell { index });
+            }
+            if t > MAX_DWELL_S {
+                return Err(ScheduleError::DwellTooLong {
+                    index,
+                    max: MAX_DWELL_S,
+                });
             }
         }
         Ok(DwellSchedule {

@@ -4,6 +4,15 @@ use crate::physics::{
     ClearAperture, ConstantFeed, DwellSchedule, Process, RadialGrid, UniformityMetrics,
 };
 
+/// Where a study looks: the radial grid removal is computed on, the clear aperture it is
+/// judged over, and how many positions (cells) the equal-dwell pass has.
+#[derive(Debug, Clone, Copy)]
+pub struct Frame<'a> {
+    pub grid: &'a RadialGrid,
+    pub aperture: &'a ClearAperture,
+    pub positions: usize,
+}
+
 /// The equal-dwell pass for a process and aperture, scaled to remove a mean depth.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EqualDwell {
@@ -22,15 +31,14 @@ pub fn path_end_mm(process: &Process, aperture: &ClearAperture) -> f64 {
 }
 
 impl EqualDwell {
-    /// The pass with `positions` cells whose mean removal over the aperture is `depth_nm`
-    /// (`depth_nm` > 0). `None` when the pass removes nothing inside the aperture.
-    pub fn for_depth(
-        process: &Process,
-        grid: &RadialGrid,
-        aperture: &ClearAperture,
-        positions: usize,
-        depth_nm: f64,
-    ) -> Option<Self> {
+    /// The pass with `frame.positions` cells whose mean removal over the aperture is
+    /// `depth_nm` (> 0). `None` when the pass removes nothing inside the aperture.
+    pub fn for_depth(process: &Process, frame: Frame, depth_nm: f64) -> Option<Self> {
+        let Frame {
+            grid,
+            aperture,
+            positions,
+        } = frame;
         // One pass at 60 mm/min (1 s/mm), then scaled: removal is linear in the dwell.
         let unit = ConstantFeed {
             start_mm: 0.0,
@@ -86,13 +94,8 @@ impl EqualDwell {
 
 /// Nonuniformity of equal dwell at `process` (scale-free, so no depth is needed); `None` when
 /// the pass removes nothing in the aperture.
-pub fn nonuniformity(
-    process: &Process,
-    grid: &RadialGrid,
-    aperture: &ClearAperture,
-    positions: usize,
-) -> Option<f64> {
-    EqualDwell::for_depth(process, grid, aperture, positions, 1.0)?
+pub fn nonuniformity(process: &Process, frame: Frame) -> Option<f64> {
+    EqualDwell::for_depth(process, frame, 1.0)?
         .metrics
         .nonuniformity
 }
@@ -107,7 +110,12 @@ mod tests {
         let process = Process::new(paper_spec(-10.0, 200.0)).unwrap();
         let grid = RadialGrid::default_for(&process);
         let aperture = ClearAperture::new(&process, 0.0, 40.0).unwrap();
-        let pass = EqualDwell::for_depth(&process, &grid, &aperture, 200, 100.0).unwrap();
+        let frame = Frame {
+            grid: &grid,
+            aperture: &aperture,
+            positions: 200,
+        };
+        let pass = EqualDwell::for_depth(&process, frame, 100.0).unwrap();
         assert!((pass.metrics.mean_nm - 100.0).abs() < 1e-9);
         // The path runs to outer + r_t = 50 mm in 200 cells of 0.25 mm, one feed throughout.
         let positions = pass.schedule.positions_mm();
@@ -116,7 +124,7 @@ mod tests {
         let dwell = pass.schedule.dwell_s()[0];
         assert!((pass.feed_mm_per_min - 60.0 * 0.25 / dwell).abs() < 1e-9 * pass.feed_mm_per_min);
         let doubled = pass.scaled(2.0);
-        let direct = EqualDwell::for_depth(&process, &grid, &aperture, 200, 200.0).unwrap();
+        let direct = EqualDwell::for_depth(&process, frame, 200.0).unwrap();
         assert!((doubled.metrics.pv_nm - direct.metrics.pv_nm).abs() < 1e-9 * direct.metrics.pv_nm);
         assert!(
             (doubled.feed_mm_per_min - direct.feed_mm_per_min).abs()

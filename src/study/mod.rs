@@ -12,7 +12,7 @@ pub mod recommend;
 pub mod sweep;
 mod window;
 
-pub use equal_dwell::EqualDwell;
+pub use equal_dwell::{EqualDwell, Frame};
 pub use recommend::{recommend, Recommendation, SpeedLimits, SpeedRule};
 pub use sweep::{eta_sweep, SweepPoint};
 pub use window::EtaWindow;

@@ -6,10 +6,10 @@
 //! user's current equal-dwell mean rate over the aperture is their ratio. If the machine's
 //! limits forbid it, the fastest allowed speed is taken instead.
 
-use super::equal_dwell::EqualDwell;
+use super::equal_dwell::{EqualDwell, Frame};
 use super::window::{eta_window, EtaWindow};
 use super::StudyError;
-use crate::physics::{ClearAperture, Process, ProcessSpec, RadialGrid};
+use crate::physics::{Process, ProcessSpec};
 
 /// Machine speed limits, r/min (magnitudes, > 0).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -86,16 +86,14 @@ impl SpeedLimits {
     }
 }
 
-/// Recommends η = −1 speeds for `process`, comparing equal dwell of `positions` cells removing
+/// Recommends η = −1 speeds for `process`, comparing equal dwell (of `frame.positions` cells) removing
 /// `depth_nm` (> 0) at the user's and the recommended speeds; the η window uses `threshold`.
 pub fn recommend(
     process: &Process,
-    grid: &RadialGrid,
-    aperture: &ClearAperture,
+    frame: Frame,
     limits: SpeedLimits,
     depth_nm: f64,
     threshold: f64,
-    positions: usize,
 ) -> Result<Recommendation, StudyError> {
     limits.validate()?;
     let no_removal = || {
@@ -104,8 +102,7 @@ pub fn recommend(
             "equal dwell removes nothing inside the clear aperture",
         )
     };
-    let current = EqualDwell::for_depth(process, grid, aperture, positions, depth_nm)
-        .ok_or_else(no_removal)?;
+    let current = EqualDwell::for_depth(process, frame, depth_nm).ok_or_else(no_removal)?;
     let spec = *process.spec();
     let direction = if spec.tool_rpm < 0.0 { -1.0 } else { 1.0 };
     let at = |speed: f64| -> Result<(Process, EqualDwell), StudyError> {
@@ -115,8 +112,7 @@ pub fn recommend(
             ..spec
         })
         .map_err(|e| StudyError::new(format!("process.{}", e.field()), e.to_string()))?;
-        let pass = EqualDwell::for_depth(&p, grid, aperture, positions, depth_nm)
-            .ok_or_else(no_removal)?;
+        let pass = EqualDwell::for_depth(&p, frame, depth_nm).ok_or_else(no_removal)?;
         Ok((p, pass))
     };
     // Rate per r/min from a pass at a reference speed (rate ∝ speed at η = −1).
@@ -138,13 +134,7 @@ pub fn recommend(
         (Some(c), Some(r)) if r > 0.0 => Some(c / r),
         _ => None,
     };
-    let eta_window = eta_window(
-        recommended_process.spec(),
-        grid,
-        aperture,
-        positions,
-        threshold,
-    );
+    let eta_window = eta_window(recommended_process.spec(), frame, threshold);
     Ok(Recommendation {
         workpiece_rpm: direction * speed,
         tool_rpm: direction * speed,

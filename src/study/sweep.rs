@@ -3,11 +3,9 @@
 
 use rayon::prelude::*;
 
-use super::equal_dwell::EqualDwell;
+use super::equal_dwell::{EqualDwell, Frame};
 use super::StudyError;
-use crate::physics::{
-    ClearAperture, DwellSchedule, Process, ProcessSpec, RadialGrid, UniformityMetrics,
-};
+use crate::physics::{DwellSchedule, Process, ProcessSpec, UniformityMetrics};
 
 /// One point of a sweep.
 #[derive(Debug, Clone, PartialEq)]
@@ -18,15 +16,13 @@ pub struct SweepPoint {
 }
 
 /// Sweeps `etas` (each finite and ≠ 0) at the tool speed of `spec` (≠ 0). With `dwell`, that
-/// schedule is used at every point; otherwise equal dwell of `positions` cells removing
+/// schedule is used at every point; otherwise equal dwell of `frame.positions` cells removing
 /// `depth_nm`.
 pub fn eta_sweep(
     spec: &ProcessSpec,
     etas: &[f64],
-    grid: &RadialGrid,
-    aperture: &ClearAperture,
+    frame: Frame,
     dwell: Option<&DwellSchedule>,
-    positions: usize,
     depth_nm: f64,
 ) -> Result<Vec<SweepPoint>, StudyError> {
     if spec.tool_rpm == 0.0 {
@@ -53,9 +49,9 @@ pub fn eta_sweep(
             })
             .map_err(|e| StudyError::new(format!("etas[{i}]"), e.to_string()))?;
             let removal = match dwell {
-                Some(schedule) => schedule.removal_nm(&process, grid),
+                Some(schedule) => schedule.removal_nm(&process, frame.grid),
                 None => {
-                    EqualDwell::for_depth(&process, grid, aperture, positions, depth_nm)
+                    EqualDwell::for_depth(&process, frame, depth_nm)
                         .ok_or_else(|| {
                             StudyError::new(
                                 "clear_aperture",
@@ -68,7 +64,7 @@ pub fn eta_sweep(
             Ok(SweepPoint {
                 eta,
                 workpiece_rpm,
-                metrics: UniformityMetrics::over(grid, aperture, &removal),
+                metrics: UniformityMetrics::over(frame.grid, frame.aperture, &removal),
             })
         })
         .collect()

@@ -7,8 +7,8 @@
 //! On the high side η stays below 0 (η = 0 stops the workpiece); a side that never crosses
 //! within |η + 1| ≤ 50 (or before η = −1e-6) has no bound.
 
-use super::equal_dwell::nonuniformity;
-use crate::physics::{ClearAperture, Process, ProcessSpec, RadialGrid};
+use super::equal_dwell::{nonuniformity, Frame};
+use crate::physics::{Process, ProcessSpec};
 
 /// The η interval, each end `None` when equal dwell stays below the threshold all the way.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -19,31 +19,19 @@ pub struct EtaWindow {
 }
 
 /// Equal-dwell nonuniformity at η with the tool speed of `spec` held.
-fn n_at(
-    spec: &ProcessSpec,
-    eta: f64,
-    grid: &RadialGrid,
-    aperture: &ClearAperture,
-    positions: usize,
-) -> f64 {
+fn n_at(spec: &ProcessSpec, eta: f64, frame: Frame) -> f64 {
     let process = Process::new(ProcessSpec {
         workpiece_rpm: -eta * spec.tool_rpm,
         ..*spec
     })
     .expect("η ≠ 0 keeps the process valid");
-    nonuniformity(&process, grid, aperture, positions).unwrap_or(f64::INFINITY)
+    nonuniformity(&process, frame).unwrap_or(f64::INFINITY)
 }
 
 /// The window around −1 for `spec` (whose `tool_rpm` must be ≠ 0), or `None` when equal
 /// dwell at η = −1 itself is above the threshold.
-pub fn eta_window(
-    spec: &ProcessSpec,
-    grid: &RadialGrid,
-    aperture: &ClearAperture,
-    positions: usize,
-    threshold: f64,
-) -> Option<EtaWindow> {
-    let f = |eta: f64| n_at(spec, eta, grid, aperture, positions) - threshold;
+pub fn eta_window(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Option<EtaWindow> {
+    let f = |eta: f64| n_at(spec, eta, frame) - threshold;
     if f(-1.0) > 0.0 {
         return None;
     }
