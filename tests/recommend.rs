@@ -237,3 +237,23 @@ async fn bad_study_inputs_name_the_field() {
         assert_eq!(reply.json()["field"], field);
     }
 }
+
+#[tokio::test]
+async fn speeds_at_the_edge_of_the_domain_are_answered_not_crashed() {
+    // Schemathesis found these: a workpiece near 100,000 r/min (the model's limit) may ask for
+    // an η = −1 speed beyond it, and the η window would step the workpiece past it.
+    for (w, t) in [(99999.0, 200.0), (99999.0, -99999.0)] {
+        let process = json!({"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": w, "tool_rpm": t});
+        let body = json!({"process": process, "clear_aperture": {"outer_mm": 40}});
+        let rec = post("/v1/recommend", body).await.json()["recommendation"].clone();
+        let speed = rec["tool_rpm"].as_f64().unwrap().abs();
+        assert!(speed <= 1e5, "{rec}");
+        if rec["rule"] == "fastest_allowed" {
+            assert_eq!(speed, 1e5);
+        }
+        let predict = json!({"process": process,
+                             "dwell": {"positions_mm": [10, 20, 30], "dwell_s": [1, 1, 1]}});
+        let reply = post_json(&app(), "/v1/predict", predict.to_string()).await;
+        assert_eq!(reply.status, 200);
+    }
+}

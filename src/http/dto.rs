@@ -25,27 +25,33 @@ fn default_pressure_kpa() -> f64 {
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ProcessDto {
-    /// Workpiece radius r_m in mm (> 0).
-    #[schema(example = 50.0)]
+    /// Workpiece radius r_m in mm, in [0.001, 100000].
+    #[schema(example = 50.0, minimum = 0.001, maximum = 100000.0)]
     pub workpiece_radius_mm: f64,
-    /// Tool (pad) radius r_t in mm (> 0).
-    #[schema(example = 10.0)]
+    /// Tool (pad) radius r_t in mm, in [0.001, 100000].
+    #[schema(example = 10.0, minimum = 0.001, maximum = 100000.0)]
     pub tool_radius_mm: f64,
-    /// Workpiece speed in r/min, signed, lab frame, counter-clockwise positive. Must not be 0:
-    /// the radial model averages over workpiece revolutions.
-    #[schema(example = -10.0)]
+    /// Workpiece speed in r/min, signed, lab frame, counter-clockwise positive, |·| ≤ 100000.
+    /// Must not be 0: the radial model averages over workpiece revolutions.
+    #[schema(example = -10.0, minimum = -100000.0, maximum = 100000.0)]
     pub workpiece_rpm: f64,
-    /// Tool spin in r/min, signed, lab frame, counter-clockwise positive. 0 is allowed (η is
-    /// then undefined and reported as null).
-    #[schema(example = 200.0)]
+    /// Tool spin in r/min, signed, lab frame, counter-clockwise positive, |·| ≤ 100000. 0 is
+    /// allowed (η is then undefined and reported as null).
+    #[schema(example = 200.0, minimum = -100000.0, maximum = 100000.0)]
     pub tool_rpm: f64,
-    /// Preston coefficient K in m²/N (= 1/Pa), ≥ 0. Default 1e-13.
+    /// Preston coefficient K in m²/N (= 1/Pa), in [0, 1e-6]. Default 1e-13.
     #[serde(default = "default_preston_coefficient")]
-    #[schema(default = 1e-13, example = 1e-13)]
+    #[schema(default = 1e-13, example = 1e-13, minimum = 0.0, maximum = 1e-6)]
     pub preston_coefficient_m2_per_n: f64,
-    /// Nominal pad pressure in kPa (> 0), with the whole pad on the workpiece. Default 10.
+    /// Nominal pad pressure in kPa, in (0, 1000000], with the whole pad on the workpiece.
+    /// Default 10.
     #[serde(default = "default_pressure_kpa")]
-    #[schema(default = 10.0, example = 10.0)]
+    #[schema(
+        default = 10.0,
+        example = 10.0,
+        maximum = 1000000.0,
+        exclusive_minimum = 0.0
+    )]
     pub pressure_kpa: f64,
     /// How pressure depends on the tool position. Default `uniform`.
     #[serde(default)]

@@ -98,7 +98,22 @@ impl RemovalKernel {
 }
 
 /// ∫_0^{θ0} V dθ for V² = (a−b)² + 4ab·sin²(θ/2), θ0 = 2ψ0.
+///
+/// The integral is homogeneous of degree 1 in (a, b), so (a, b) are first scaled by a power of
+/// two to magnitude ~1: exact, so ordinary inputs give the same bits, and tiny speeds or radii
+/// (a tool centre 1e-159 mm from the axis) cannot underflow the squares below.
 fn sliding_integral(a: f64, b: f64, psi: HalfAngle) -> f64 {
+    let size = a.abs().max(b.abs());
+    if size == 0.0 {
+        return 0.0;
+    }
+    let exponent = size.log2().floor() as i32;
+    let (down, up) = (2f64.powi(-exponent), 2f64.powi(exponent));
+    up * scaled_sliding_integral(a * down, b * down, psi)
+}
+
+/// [`sliding_integral`] for max(|a|, |b|) in [1, 2).
+fn scaled_sliding_integral(a: f64, b: f64, psi: HalfAngle) -> f64 {
     let ab4 = 4.0 * a * b;
     if ab4 >= 0.0 || psi.sin * psi.sin <= 0.5 {
         2.0 * g(psi.sin, psi.cos, (a - b) * (a - b), ab4)
@@ -130,6 +145,23 @@ pub fn removal_rate_nm_per_min(process: &Process, r_mm: f64, r1_mm: f64) -> f64 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// At r = 0 the pad slides at |ω2|·r1 everywhere on the circle, so R = K·P·|ω2|·r1 exactly,
+    /// also for a tool centre so close to the axis that the squares of the speeds underflow.
+    #[test]
+    fn the_centre_is_exact_down_to_tiny_tool_offsets() {
+        use crate::physics::process::tests::paper_spec;
+        let kernel = RemovalKernel::new(&Process::new(paper_spec(-10.0, 200.0)).unwrap());
+        let per_mm = kernel.rate_nm_per_s(0.0, 1.0);
+        for r1 in [5.0, 1e-3, 1e-100, 2.6e-159, 1e-300] {
+            let rate = kernel.rate_nm_per_s(0.0, r1);
+            assert!(
+                (rate - per_mm * r1).abs() <= 1e-14 * per_mm * r1,
+                "r1 = {r1}: {rate} vs {}",
+                per_mm * r1
+            );
+        }
+    }
 
     /// G against a composite Simpson rule on a smooth integrand (error ~h⁴ ≈ 1e-13).
     #[test]

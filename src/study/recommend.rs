@@ -9,6 +9,7 @@
 use super::equal_dwell::{EqualDwell, Frame};
 use super::window::{eta_window, EtaWindow};
 use super::StudyError;
+use crate::physics::process::RPM_MAX;
 use crate::physics::{Process, ProcessSpec};
 
 /// Machine speed limits, r/min (magnitudes, > 0).
@@ -78,11 +79,12 @@ impl SpeedLimits {
         Ok(())
     }
 
+    /// The fastest common speed allowed: the machine's limits, and the model's domain.
     fn cap(&self) -> f64 {
         [self.max_workpiece_rpm, self.max_tool_rpm]
             .into_iter()
             .flatten()
-            .fold(f64::INFINITY, f64::min)
+            .fold(RPM_MAX, f64::min)
     }
 }
 

@@ -5,7 +5,8 @@
 //! (|η + 1| = 0.01·1.5^k) until N exceeds the threshold, then find the crossing in the last
 //! step by the Illinois variant of regula falsi to |Δη| ≤ 1e-10 or |N − threshold| ≤ 1e-9.
 //! On the high side η stays below 0 (η = 0 stops the workpiece); a side that never crosses
-//! within |η + 1| ≤ 50 (or before η = −1e-6) has no bound.
+//! within |η + 1| ≤ 50 (or before η = −1e-6, or before the workpiece speed leaves the model's
+//! domain) has no bound.
 
 use super::equal_dwell::{nonuniformity, Frame};
 use crate::physics::{Process, ProcessSpec};
@@ -18,21 +19,22 @@ pub struct EtaWindow {
     pub threshold: f64,
 }
 
-/// Equal-dwell nonuniformity at η with the tool speed of `spec` held.
-fn n_at(spec: &ProcessSpec, eta: f64, frame: Frame) -> f64 {
+/// Equal-dwell nonuniformity at η with the tool speed of `spec` held; `None` where the
+/// workpiece speed −η·tool leaves the model's domain.
+fn n_at(spec: &ProcessSpec, eta: f64, frame: Frame) -> Option<f64> {
     let process = Process::new(ProcessSpec {
         workpiece_rpm: -eta * spec.tool_rpm,
         ..*spec
     })
-    .expect("η ≠ 0 keeps the process valid");
-    nonuniformity(&process, frame).unwrap_or(f64::INFINITY)
+    .ok()?;
+    Some(nonuniformity(&process, frame).unwrap_or(f64::INFINITY))
 }
 
 /// The window around −1 for `spec` (whose `tool_rpm` must be ≠ 0), or `None` when equal
 /// dwell at η = −1 itself is above the threshold.
 pub fn eta_window(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Option<EtaWindow> {
-    let f = |eta: f64| n_at(spec, eta, frame) - threshold;
-    if f(-1.0) > 0.0 {
+    let f = |eta: f64| n_at(spec, eta, frame).map(|n| n - threshold);
+    if f(-1.0)? > 0.0 {
         return None;
     }
     let side = |direction: f64| -> Option<f64> {
@@ -43,8 +45,9 @@ pub fn eta_window(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Option<Et
             if direction > 0.0 && eta >= -1e-6 {
                 eta = -1e-6;
             }
-            if f(eta) > 0.0 {
-                return Some(crossing(&f, inside, eta));
+            // Leaving the domain (workpiece beyond the speed limit) ends the search: no bound.
+            if f(eta)? > 0.0 {
+                return Some(crossing(&|x| f(x).unwrap_or(f64::INFINITY), inside, eta));
             }
             if (direction > 0.0 && eta >= -1e-6) || step > 50.0 {
                 return None;
