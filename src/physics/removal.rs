@@ -99,20 +99,24 @@ impl RemovalKernel {
 
 /// ∫_0^{θ0} V dθ for V² = (a−b)² + 4ab·sin²(θ/2), θ0 = 2ψ0.
 ///
-/// The integral is homogeneous of degree 1 in (a, b), so (a, b) are first scaled by a power of
-/// two to magnitude ~1: exact, so ordinary inputs give the same bits, and tiny speeds or radii
-/// (a tool centre 1e-159 mm from the axis) cannot underflow the squares below.
+/// The integral is homogeneous of degree 1 in (a, b), so extreme (a, b) are first scaled by a
+/// power of two to magnitude ~1 (exact): tiny speeds or radii (a tool centre 1e-159 mm from the
+/// axis) then cannot underflow the squares below. Ordinary inputs skip the scaling.
 fn sliding_integral(a: f64, b: f64, psi: HalfAngle) -> f64 {
     let size = a.abs().max(b.abs());
     if size == 0.0 {
         return 0.0;
+    }
+    // Squares of speeds within 2^±400 neither underflow nor overflow: no scaling needed.
+    if (2f64.powi(-400)..=2f64.powi(400)).contains(&size) {
+        return scaled_sliding_integral(a, b, psi);
     }
     let exponent = size.log2().floor() as i32;
     let (down, up) = (2f64.powi(-exponent), 2f64.powi(exponent));
     up * scaled_sliding_integral(a * down, b * down, psi)
 }
 
-/// [`sliding_integral`] for max(|a|, |b|) in [1, 2).
+/// [`sliding_integral`] for max(|a|, |b|) far from under- and overflow.
 fn scaled_sliding_integral(a: f64, b: f64, psi: HalfAngle) -> f64 {
     let ab4 = 4.0 * a * b;
     if ab4 >= 0.0 || psi.sin * psi.sin <= 0.5 {
