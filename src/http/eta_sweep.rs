@@ -83,7 +83,7 @@ pub fn compute(req: &EtaSweepRequest, limits: &Limits) -> Result<EtaSweepRespons
     }
     let depth = req.depth_nm.unwrap_or(DEFAULT_DEPTH_NM);
     check_depth(depth)?;
-    let positions = equal_dwell_positions(req.equal_dwell_positions, limits)?;
+    let positions = equal_dwell_positions(req.equal_dwell_positions)?;
     let schedule = match &req.dwell {
         Some(d) => {
             check_operator_size(

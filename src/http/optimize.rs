@@ -459,14 +459,7 @@ fn to_svg(r: &OptimizeResponse) -> String {
                 .zip(r.dwell.dwell_s.iter().copied())
                 .collect(),
         }],
-        band: Some((
-            r.clear_aperture.inner_mm,
-            r.clear_aperture.outer_mm,
-            format!(
-                "clear aperture [{}, {}] mm",
-                r.clear_aperture.inner_mm, r.clear_aperture.outer_mm
-            ),
-        )),
+        band: Some(plot::aperture_band(&r.clear_aperture)),
         secondary: Some((
             "feed (mm/min)".to_string(),
             Series {

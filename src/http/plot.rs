@@ -5,6 +5,8 @@
 
 use plotters::prelude::*;
 
+use super::dto::ApertureEcho;
+
 /// One line of a chart; non-finite points are left out (a gap in the data, not a zero).
 pub struct Series {
     pub name: String,
@@ -21,6 +23,15 @@ pub struct Chart {
     pub band: Option<(f64, f64, String)>,
     /// A series against a second y axis, with that axis's label.
     pub secondary: Option<(String, Series)>,
+}
+
+/// The band marking a clear aperture.
+pub fn aperture_band(a: &ApertureEcho) -> (f64, f64, String) {
+    (
+        a.inner_mm,
+        a.outer_mm,
+        format!("clear aperture [{}, {}] mm", a.inner_mm, a.outer_mm),
+    )
 }
 
 const WIDTH: u32 = 900;

@@ -88,50 +88,30 @@ fn to_csv(response: &PredictResponse) -> String {
 }
 
 /// Removal against radius with the clear aperture shaded.
-pub fn removal_chart(
-    title: String,
-    radius_mm: &[f64],
-    removal_nm: &[f64],
-    aperture: &ApertureEcho,
-) -> String {
-    plot::render(&Chart {
-        title,
-        x_label: "radius r (mm)".to_string(),
-        y_label: "removal depth (nm)".to_string(),
-        series: vec![Series {
-            name: "predicted removal".to_string(),
-            points: radius_mm
-                .iter()
-                .copied()
-                .zip(removal_nm.iter().copied())
-                .collect(),
-        }],
-        band: Some((
-            aperture.inner_mm,
-            aperture.outer_mm,
-            format!(
-                "clear aperture [{}, {}] mm",
-                aperture.inner_mm, aperture.outer_mm
-            ),
-        )),
-        secondary: None,
-    })
-}
-
 fn to_svg(r: &PredictResponse) -> String {
     let nonuniformity = r
         .metrics
         .nonuniformity
         .map_or("n/a".to_string(), |n| format!("{:.3} %", 100.0 * n));
-    removal_chart(
-        format!(
+    plot::render(&Chart {
+        title: format!(
             "Predicted removal, {:.0} s total, nonuniformity {nonuniformity}",
             r.total_time_s
         ),
-        &r.radius_mm,
-        &r.removal_nm,
-        &r.clear_aperture,
-    )
+        x_label: "radius r (mm)".to_string(),
+        y_label: "removal depth (nm)".to_string(),
+        series: vec![Series {
+            name: "predicted removal".to_string(),
+            points: r
+                .radius_mm
+                .iter()
+                .copied()
+                .zip(r.removal_nm.iter().copied())
+                .collect(),
+        }],
+        band: Some(plot::aperture_band(&r.clear_aperture)),
+        secondary: None,
+    })
 }
 
 /// Predict what a dwell schedule removes.

@@ -123,7 +123,7 @@ pub struct EqualDwellDto {
     pub total_time_s: f64,
 }
 
-impl EqualDwellDto {
+impl From<&EqualDwell> for EqualDwellDto {
     fn from(pass: &EqualDwell) -> Self {
         EqualDwellDto {
             depth_nm: pass.metrics.mean_nm,
@@ -135,8 +135,8 @@ impl EqualDwellDto {
     }
 }
 
-impl RecommendationDto {
-    pub fn from(r: &Recommendation) -> Self {
+impl From<&Recommendation> for RecommendationDto {
+    fn from(r: &Recommendation) -> Self {
         RecommendationDto {
             workpiece_rpm: r.workpiece_rpm,
             tool_rpm: r.tool_rpm,
@@ -280,7 +280,7 @@ pub fn compute(req: &RecommendRequest, limits: &Limits) -> Result<RecommendRespo
             "nonuniformity_threshold must be a finite fraction > 0",
         ));
     }
-    let positions = equal_dwell_positions(req.equal_dwell_positions, limits)?;
+    let positions = equal_dwell_positions(req.equal_dwell_positions)?;
     super::dto::check_operator_size(
         limits,
         grid.radii_mm().len(),
@@ -314,22 +314,14 @@ pub fn check_depth(depth_nm: f64) -> Result<(), ApiError> {
     }
 }
 
-/// The requested equal-dwell position count, checked.
-pub fn equal_dwell_positions(requested: Option<usize>, limits: &Limits) -> Result<usize, ApiError> {
+/// The requested equal-dwell position count (at least 2). Its upper limit is the operator's,
+/// checked with the grid by `check_operator_size`.
+pub fn equal_dwell_positions(requested: Option<usize>) -> Result<usize, ApiError> {
     let n = requested.unwrap_or(DEFAULT_EQUAL_DWELL_POSITIONS);
     if n < 2 {
         return Err(ApiError::invalid(
             "equal_dwell_positions",
             "equal_dwell_positions must be at least 2",
-        ));
-    }
-    if n > limits.max_positions {
-        return Err(ApiError::limit(
-            "equal_dwell_positions",
-            format!(
-                "equal_dwell_positions is {n}; this server allows at most {}",
-                limits.max_positions
-            ),
         ));
     }
     Ok(n)

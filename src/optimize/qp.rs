@@ -64,10 +64,6 @@ pub struct Solution {
     pub solve_time_s: f64,
     /// J at the returned plan (dimensionless, see the module docs).
     pub objective: f64,
-    /// s_d, nm.
-    pub depth_scale_nm: f64,
-    /// τ, s.
-    pub dwell_scale_s: f64,
 }
 
 /// Operator columns cut to the aperture rows: column j covers rows start[j]..end[j] (absolute)
@@ -641,7 +637,5 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
         iterations,
         solve_time_s,
         objective,
-        depth_scale_nm: scales.depth_nm,
-        dwell_scale_s: scales.dwell_s,
     })
 }

@@ -34,11 +34,12 @@ fn n_at(spec: &ProcessSpec, eta: f64, frame: Frame) -> Option<f64> {
 /// dwell at η = −1 itself is above the threshold.
 pub fn eta_window(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Option<EtaWindow> {
     let f = |eta: f64| n_at(spec, eta, frame).map(|n| n - threshold);
-    if f(-1.0)? > 0.0 {
+    let at_minus_one = f(-1.0)?;
+    if at_minus_one > 0.0 {
         return None;
     }
     let side = |direction: f64| -> Option<f64> {
-        let mut inside = -1.0;
+        let mut inside = (-1.0, at_minus_one);
         let mut step = 0.01;
         loop {
             let mut eta = -1.0 + direction * step;
@@ -46,13 +47,15 @@ pub fn eta_window(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Option<Et
                 eta = -1e-6;
             }
             // Leaving the domain (workpiece beyond the speed limit) ends the search: no bound.
-            if f(eta)? > 0.0 {
-                return Some(crossing(&|x| f(x).unwrap_or(f64::INFINITY), inside, eta));
+            let value = f(eta)?;
+            if value > 0.0 {
+                let finite = |x| f(x).unwrap_or(f64::INFINITY);
+                return Some(crossing(&finite, inside, (eta, value)));
             }
             if (direction > 0.0 && eta >= -1e-6) || step > 50.0 {
                 return None;
             }
-            inside = eta;
+            inside = (eta, value);
             step *= 1.5;
         }
     };
@@ -63,9 +66,13 @@ pub fn eta_window(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Option<Et
     })
 }
 
-/// The root of `f` between `a` (f ≤ 0) and `b` (f > 0): Illinois regula falsi.
-fn crossing(f: &dyn Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
-    let (mut fa, mut fb) = (f(a), f(b));
+/// The root of `f` between `a` (f(a) ≤ 0) and `b` (f(b) > 0), given with those values:
+/// Illinois regula falsi.
+fn crossing(
+    f: &dyn Fn(f64) -> f64,
+    (mut a, mut fa): (f64, f64),
+    (mut b, mut fb): (f64, f64),
+) -> f64 {
     let mut last_kept = 0; // which end was kept last time (for the Illinois halving)
     for _ in 0..100 {
         let c = if fb.is_finite() {
@@ -104,8 +111,10 @@ mod tests {
     fn illinois_finds_roots_of_kinked_and_curved_functions() {
         // |η + 1|-like kink and a cubic: roots known exactly.
         let kink = |x: f64| 3.0 * (x + 1.0).abs() - 0.06;
-        assert!((crossing(&kink, -1.0, -0.9) - (-0.98)).abs() < 1e-9);
+        assert!((crossing(&kink, (-1.0, kink(-1.0)), (-0.9, kink(-0.9))) - (-0.98)).abs() < 1e-9);
         let cubic = |x: f64| x * x * x - 2.0;
-        assert!((crossing(&cubic, 0.0, 2.0) - 2f64.cbrt()).abs() < 1e-9);
+        assert!(
+            (crossing(&cubic, (0.0, cubic(0.0)), (2.0, cubic(2.0))) - 2f64.cbrt()).abs() < 1e-9
+        );
     }
 }
