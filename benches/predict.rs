@@ -5,7 +5,8 @@
 use axum::body::Body;
 use axum::http::Request;
 use http_body_util::BodyExt;
-use preston::http::{router, AppState, Limits};
+use preston::config::Limits;
+use preston::http::{router, AppState};
 use tower::ServiceExt;
 
 fn main() {

@@ -1,5 +1,6 @@
-//! Command line and environment configuration. Every server setting has a flag and an
-//! environment variable; the defaults run a local service with no external dependencies.
+//! Command line and environment configuration, and the documented limits. Every server
+//! setting has a flag and an environment variable; the defaults run a local service with no
+//! external dependencies.
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -7,7 +8,7 @@ use std::time::Duration;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
-use crate::http::Limits;
+use crate::usecases::ComputeLimits;
 
 /// Preston: dwell-time planning for dual-rotor small-tool polishing.
 #[derive(Debug, Parser)]
@@ -30,7 +31,8 @@ pub enum Command {
     /// request body in FILE (`-` for standard input). Problems go to standard output as
     /// problem+json, with exit status 2.
     Compute {
-        /// `removal-function` or `predict`.
+        /// The endpoint under `/v1/`: `removal-function`, `predict`, `optimize`, `recommend` or
+        /// `studies/eta-sweep`.
         endpoint: String,
         /// The request body, a JSON file.
         file: PathBuf,
@@ -92,6 +94,70 @@ pub struct ServeArgs {
     /// Log format. The level comes from RUST_LOG (default `info`).
     #[arg(long, env = "PRESTON_LOG_FORMAT", value_enum, default_value_t = LogFormat::Text)]
     pub log_format: LogFormat,
+}
+
+/// Sizes and waits the server refuses to exceed.
+#[derive(Debug, Clone)]
+pub struct Limits {
+    /// Largest request body, bytes (413 beyond).
+    pub max_body_bytes: usize,
+    /// Largest `radial_grid.count` (422 beyond).
+    pub max_radial_samples: usize,
+    /// Most tool positions in one request (dwell or removal-function profiles; 422 beyond).
+    pub max_positions: usize,
+    /// Most removal-function profiles (`tool_positions_mm`) in one request.
+    pub max_profiles: usize,
+    /// Largest removal operator, radial samples × tool positions (422 beyond).
+    pub max_operator_entries: usize,
+    /// Most candidate positions in one optimization (its Hessian is dense within the band;
+    /// 422 beyond).
+    pub max_optimize_positions: usize,
+    /// Longest a dwell optimization may run in the solver; a request may ask for less.
+    pub solver_time_limit: Duration,
+    /// Computations running at once; more wait for a slot.
+    pub max_concurrent_computations: usize,
+    /// How long a request waits for a computation slot before a 503 with Retry-After.
+    pub queue_timeout: Duration,
+    /// Most requests waiting for a computation slot; more get a 503 at once.
+    pub max_queued_computations: usize,
+    /// Longest a computing request may take, waiting included (503 beyond).
+    pub request_timeout: Duration,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        let compute = ComputeLimits::default();
+        Limits {
+            max_body_bytes: 4 * 1024 * 1024,
+            max_radial_samples: compute.max_radial_samples,
+            max_positions: compute.max_positions,
+            max_profiles: compute.max_profiles,
+            max_operator_entries: compute.max_operator_entries,
+            max_optimize_positions: compute.max_optimize_positions,
+            solver_time_limit: compute.solver_time_limit,
+            max_concurrent_computations: std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(2),
+            queue_timeout: Duration::from_secs(5),
+            max_queued_computations: 64,
+            request_timeout: Duration::from_secs(30),
+        }
+    }
+}
+
+impl Limits {
+    /// The limits the use cases enforce.
+    pub fn compute(&self) -> ComputeLimits {
+        ComputeLimits {
+            max_radial_samples: self.max_radial_samples,
+            max_positions: self.max_positions,
+            max_profiles: self.max_profiles,
+            max_operator_entries: self.max_operator_entries,
+            max_optimize_positions: self.max_optimize_positions,
+            solver_time_limit: self.solver_time_limit,
+            ..ComputeLimits::default()
+        }
+    }
 }
 
 impl ServeArgs {

@@ -4,6 +4,7 @@
 //! - [`physics`]: the pure numerical core (no HTTP, JSON or OpenAPI types).
 //! - [`optimize`]: the dwell optimizer (a QP solved with Clarabel), pure like `physics`.
 //! - [`study`]: equal dwell, the η = −1 recommendation and its η window, η sweeps (pure).
+//! - [`usecases`]: one function per use case, on commands checked once (the application layer).
 //! - [`http`]: the axum service, its DTOs and errors.
 //! - [`config`], [`telemetry`], [`server`]: start-up, settings, logging, serving.
 
@@ -14,3 +15,4 @@ pub mod physics;
 pub mod server;
 pub mod study;
 pub mod telemetry;
+pub mod usecases;

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use preston::config::{Cli, Command};
-use preston::http::{compute_json, openapi, COMPUTE_ENDPOINTS};
+use preston::http::{compute_json, openapi, ENDPOINTS};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -39,10 +39,11 @@ fn serve(args: preston::config::ServeArgs) -> ExitCode {
 }
 
 fn compute(endpoint: &str, file: &std::path::Path, args: &preston::config::ServeArgs) -> ExitCode {
-    if !COMPUTE_ENDPOINTS.contains(&endpoint) {
+    if !ENDPOINTS.iter().any(|e| e.name == endpoint) {
+        let names: Vec<&str> = ENDPOINTS.iter().map(|e| e.name).collect();
         eprintln!(
             "preston: unknown endpoint `{endpoint}`; one of: {}",
-            COMPUTE_ENDPOINTS.join(", ")
+            names.join(", ")
         );
         return ExitCode::from(64);
     }

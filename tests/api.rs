@@ -4,7 +4,7 @@
 mod common;
 
 use common::http::{app, app_with, get, post_json, post_with, Reply};
-use preston::http::Limits;
+use preston::config::Limits;
 use serde_json::{json, Value};
 
 fn assert_problem(reply: &Reply, status: u16, field: Option<&str>) {
@@ -107,7 +107,7 @@ async fn every_fixture_returns_its_stored_response() {
     }
 }
 
-/// Independent of the stored files: the removal-function fixture reproduces the DESIGN.md
+/// Independent of the stored files: the removal-function fixture reproduces the docs/MODEL.md
 /// sanity table (r1 = 5 and 20 mm at η = +0.05) to 4 decimals.
 #[tokio::test]
 async fn removal_function_fixture_matches_the_sanity_table() {

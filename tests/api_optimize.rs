@@ -4,7 +4,7 @@
 mod common;
 
 use common::http::{app, app_with, post_json, post_with, Reply};
-use preston::http::Limits;
+use preston::config::Limits;
 use serde_json::{json, Value};
 
 fn body() -> Value {

@@ -1,4 +1,4 @@
-//! The exact η = −1 invariant (DESIGN.md): with constant dwell density τ over a path covering
+//! The exact η = −1 invariant (docs/MODEL.md): with constant dwell density τ over a path covering
 //! [0, r + r_t], removal at r is K·P·|ω|·r_t²·τ/2, whatever r. Checked for the midpoint-rule
 //! constant-feed discretisation over [0, r_m + r_t] = [0, 60] mm at 2001 positions (≤ 0.25 %
 //! everywhere on [0, r_m]) and for its convergence: doubling the positions (4002) at least

@@ -12,7 +12,7 @@ use http_body_util::{BodyExt, Full};
 use hyper::body::Bytes;
 use hyper_util::client::legacy::Client;
 use hyper_util::rt::TokioExecutor;
-use preston::http::Limits;
+use preston::config::Limits;
 use serde_json::json;
 
 /// The value of a Prometheus sample line `name{labels} value` whose name and labels contain

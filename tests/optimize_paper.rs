@@ -6,7 +6,8 @@
 mod common;
 
 use common::{paper_process, read_fixture};
-use preston::http::{compute_json, Limits};
+use preston::config::Limits;
+use preston::http::compute_json;
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{optimize, Constraints, DwellProblem, Formulation, Objective, Solution};
 use preston::physics::{

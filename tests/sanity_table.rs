@@ -1,4 +1,4 @@
-//! The sanity table of DESIGN.md (r_m 50 mm, r_t 10 mm, K 1e-13, 10 kPa; nm/min), to 4 decimals.
+//! The sanity table of docs/MODEL.md (r_m 50 mm, r_t 10 mm, K 1e-13, 10 kPa; nm/min), to 4 decimals.
 
 mod common;
 

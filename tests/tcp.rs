@@ -7,7 +7,8 @@ use http_body_util::{BodyExt, Full};
 use hyper::body::Bytes;
 use hyper_util::client::legacy::Client;
 use hyper_util::rt::TokioExecutor;
-use preston::http::{AppState, Limits};
+use preston::config::Limits;
+use preston::http::AppState;
 use tokio::net::TcpListener;
 
 #[tokio::test]

@@ -1,18 +1,12 @@
 //! The OpenAPI document and the interactive docs (Swagger UI), both served from the binary:
 //! the UI's files are vendored into it at build time, so nothing is fetched at view time.
 
-use std::sync::{Arc, LazyLock};
-
 use axum::extract::{Path, State};
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Redirect, Response};
-use utoipa_swagger_ui::Config;
 
 use super::error::ApiError;
-use super::AppState;
-
-static SWAGGER_CONFIG: LazyLock<Arc<Config<'static>>> =
-    LazyLock::new(|| Arc::new(Config::new(["/openapi.json"]).try_it_out_enabled(true)));
+use super::state::AppState;
 
 /// `GET /openapi.json`: the generated document, byte for byte `openapi/openapi.json`.
 pub async fn openapi_json(State(state): State<AppState>) -> Response {
@@ -28,9 +22,9 @@ pub async fn redirect() -> Redirect {
 }
 
 /// `GET /docs/` and its assets.
-pub async fn asset(path: Option<Path<String>>) -> Response {
+pub async fn asset(State(state): State<AppState>, path: Option<Path<String>>) -> Response {
     let tail = path.map(|Path(p)| p).unwrap_or_default();
-    match utoipa_swagger_ui::serve(&tail, SWAGGER_CONFIG.clone()) {
+    match utoipa_swagger_ui::serve(&tail, state.swagger.clone()) {
         Ok(Some(file)) => {
             let mut response = (
                 StatusCode::OK,

@@ -1,14 +1,13 @@
 //! Request and response objects shared by several endpoints (the v1 contract's stable names),
-//! and their conversion into the engine's validated types.
+//! and their conversion into and out of the core's types.
 
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::error::ApiError;
-use super::limits::Limits;
-use crate::physics::{
-    ClearAperture, PressureModel, Process, ProcessSpec, RadialGrid, UniformityMetrics,
-};
+use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
+use crate::study::{EqualDwell, Recommendation, SpeedRule};
+use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, Setting};
 
 fn default_preston_coefficient() -> f64 {
     1e-13
@@ -70,21 +69,20 @@ pub enum PressureModelDto {
     ConstantForce,
 }
 
-impl ProcessDto {
-    pub fn to_process(&self) -> Result<Process, ApiError> {
-        Process::new(ProcessSpec {
-            workpiece_radius_mm: self.workpiece_radius_mm,
-            tool_radius_mm: self.tool_radius_mm,
-            workpiece_rpm: self.workpiece_rpm,
-            tool_rpm: self.tool_rpm,
-            preston_coefficient_m2_per_n: self.preston_coefficient_m2_per_n,
-            pressure_kpa: self.pressure_kpa,
-            pressure_model: match self.pressure_model {
+impl From<&ProcessDto> for ProcessSpec {
+    fn from(p: &ProcessDto) -> Self {
+        ProcessSpec {
+            workpiece_radius_mm: p.workpiece_radius_mm,
+            tool_radius_mm: p.tool_radius_mm,
+            workpiece_rpm: p.workpiece_rpm,
+            tool_rpm: p.tool_rpm,
+            preston_coefficient_m2_per_n: p.preston_coefficient_m2_per_n,
+            pressure_kpa: p.pressure_kpa,
+            pressure_model: match p.pressure_model {
                 PressureModelDto::Uniform => PressureModel::Uniform,
                 PressureModelDto::ConstantForce => PressureModel::ConstantForce,
             },
-        })
-        .map_err(ApiError::from_process)
+        }
     }
 }
 
@@ -106,30 +104,13 @@ pub struct RadialGridDto {
     pub count: Option<usize>,
 }
 
-impl RadialGridDto {
-    pub fn to_grid(
-        grid: Option<&RadialGridDto>,
-        process: &Process,
-        limits: &Limits,
-    ) -> Result<RadialGrid, ApiError> {
-        let dto = grid.cloned().unwrap_or_default();
-        let count = dto.count.unwrap_or(201);
-        if count > limits.max_radial_samples {
-            return Err(ApiError::limit(
-                "radial_grid.count",
-                format!(
-                    "radial_grid.count is {count}; this server allows at most {}",
-                    limits.max_radial_samples
-                ),
-            ));
-        }
-        RadialGrid::new(
-            process,
-            dto.start_mm.unwrap_or(0.0),
-            dto.stop_mm.unwrap_or(process.workpiece_radius_mm()),
-            count,
-        )
-        .map_err(|e| ApiError::from_grid("radial_grid", e))
+impl From<Option<&RadialGridDto>> for GridSpec {
+    fn from(g: Option<&RadialGridDto>) -> Self {
+        g.map_or_else(GridSpec::default, |g| GridSpec {
+            start_mm: g.start_mm,
+            stop_mm: g.stop_mm,
+            count: g.count,
+        })
     }
 }
 
@@ -146,24 +127,28 @@ pub struct ClearApertureDto {
     pub outer_mm: Option<f64>,
 }
 
-impl ClearApertureDto {
-    pub fn to_aperture(
-        aperture: Option<&ClearApertureDto>,
-        process: &Process,
-        grid: &RadialGrid,
-    ) -> Result<ClearAperture, ApiError> {
-        let dto = aperture.cloned().unwrap_or_default();
-        let aperture = ClearAperture::new(
-            process,
-            dto.inner_mm.unwrap_or(0.0),
-            dto.outer_mm.unwrap_or(process.workpiece_radius_mm()),
-        )
-        .map_err(|e| ApiError::from_grid("clear_aperture", e))?;
-        aperture
-            .check_covered_by(grid)
-            .map_err(|e| ApiError::from_grid("clear_aperture", e))?;
-        Ok(aperture)
+impl From<Option<&ClearApertureDto>> for ApertureSpec {
+    fn from(a: Option<&ClearApertureDto>) -> Self {
+        a.map_or_else(ApertureSpec::default, |a| ApertureSpec {
+            inner_mm: a.inner_mm,
+            outer_mm: a.outer_mm,
+        })
     }
+}
+
+/// The setting of a request: its process, radial grid and clear aperture.
+pub fn setting(
+    process: &ProcessDto,
+    grid: Option<&RadialGridDto>,
+    aperture: Option<&ClearApertureDto>,
+    limits: &ComputeLimits,
+) -> Result<Setting, ApiError> {
+    Ok(Setting::new(
+        process.into(),
+        grid.into(),
+        aperture.into(),
+        limits,
+    )?)
 }
 
 /// The clear aperture actually used (defaults filled in), in mm.
@@ -230,31 +215,94 @@ pub struct DwellDto {
     pub dwell_s: Vec<f64>,
 }
 
-/// Refuses operators larger than the server allows (radial samples × tool positions).
-pub fn check_operator_size(
-    limits: &Limits,
-    samples: usize,
-    positions: usize,
-    positions_field: &str,
-) -> Result<(), ApiError> {
-    if positions > limits.max_positions {
-        return Err(ApiError::limit(
-            positions_field,
-            format!(
-                "{positions_field} has {positions} entries; this server allows at most {}",
-                limits.max_positions
-            ),
-        ));
+/// η = −1 settings: workpiece and tool turning the same way (same sign) at the same speed,
+/// where equal dwell removes a uniform layer. All comparisons use equal dwell (one constant
+/// feed over [0, min(outer + r_t, reach)] mm) removing the same mean depth.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct RecommendationDto {
+    /// Recommended workpiece speed, r/min, signed (lab frame, CCW positive); equals tool_rpm.
+    pub workpiece_rpm: f64,
+    /// Recommended tool speed, r/min, signed; keeps the current tool direction.
+    pub tool_rpm: f64,
+    /// −1.
+    pub eta: f64,
+    /// `match_removal_rate`: the speed keeps the current mean removal rate over the clear
+    /// aperture; `fastest_allowed`: the limits forbid that, so the fastest allowed speed.
+    pub rule: String,
+    /// The interval of η around −1 (tool speed held) where equal-dwell nonuniformity stays at
+    /// or below the threshold; null when even η = −1 is above it.
+    pub eta_window: Option<EtaWindowDto>,
+    /// Predicted uniformity of equal dwell at the recommended speeds, nm.
+    pub metrics: MetricsDto,
+    /// Predicted uniformity of equal dwell at the current speeds, nm.
+    pub current_metrics: MetricsDto,
+    /// Current nonuniformity / recommended nonuniformity; null when undefined.
+    pub improvement_factor: Option<f64>,
+    /// The equal-dwell plan at the recommended speeds.
+    pub equal_dwell: EqualDwellDto,
+    /// The constant feed equal dwell needs at the current speeds for the same depth, mm/min.
+    pub current_feed_mm_per_min: f64,
+}
+
+/// η bounds (paper convention, η = −workpiece_rpm / tool_rpm); null where no bound was found.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct EtaWindowDto {
+    /// Lower η bound (below −1); null if none down to η = −51.
+    pub low: Option<f64>,
+    /// Upper η bound (above −1, below 0); null if none up to η = −1e-6.
+    pub high: Option<f64>,
+    /// The nonuniformity threshold the bounds meet (a fraction).
+    pub nonuniformity_threshold: f64,
+}
+
+/// An equal-dwell plan: one constant feed, the same dwell at every cell centre.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct EqualDwellDto {
+    /// Mean depth it removes over the clear aperture, nm.
+    pub depth_nm: f64,
+    /// The radial feed, mm/min.
+    pub feed_mm_per_min: f64,
+    /// Cell-centre positions, mm.
+    pub positions_mm: Vec<f64>,
+    /// Dwell at each position, s (all equal).
+    pub dwell_s: Vec<f64>,
+    /// Total time, s.
+    pub total_time_s: f64,
+}
+
+impl From<&EqualDwell> for EqualDwellDto {
+    fn from(pass: &EqualDwell) -> Self {
+        EqualDwellDto {
+            depth_nm: pass.metrics.mean_nm,
+            feed_mm_per_min: pass.feed_mm_per_min,
+            positions_mm: pass.schedule.positions_mm().to_vec(),
+            dwell_s: pass.schedule.dwell_s().to_vec(),
+            total_time_s: pass.schedule.total_time_s(),
+        }
     }
-    if samples.saturating_mul(positions) > limits.max_operator_entries {
-        return Err(ApiError::limit(
-            positions_field,
-            format!(
-                "radial_grid.count × {positions_field} = {samples} × {positions} exceeds the \
-                 server's limit of {} removal-operator entries",
-                limits.max_operator_entries
-            ),
-        ));
+}
+
+impl From<&Recommendation> for RecommendationDto {
+    fn from(r: &Recommendation) -> Self {
+        RecommendationDto {
+            workpiece_rpm: r.workpiece_rpm,
+            tool_rpm: r.tool_rpm,
+            eta: -1.0,
+            rule: match r.rule {
+                SpeedRule::MatchRemovalRate => "match_removal_rate",
+                SpeedRule::FastestAllowed => "fastest_allowed",
+            }
+            .to_string(),
+            eta_window: r.eta_window.map(|w| EtaWindowDto {
+                low: w.low,
+                high: w.high,
+                nonuniformity_threshold: w.threshold,
+            }),
+            metrics: MetricsDto::from(&r.recommended.metrics),
+            current_metrics: MetricsDto::from(&r.current.metrics),
+            improvement_factor: r.improvement_factor,
+            equal_dwell: EqualDwellDto::from(&r.recommended),
+            current_feed_mm_per_min: r.current.feed_mm_per_min,
+        }
     }
-    Ok(())
 }

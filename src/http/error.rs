@@ -9,7 +9,11 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 use utoipa::ToSchema;
 
+use crate::optimize::target::ProfileArray;
+use crate::optimize::{OptimizeError, ProfileError};
 use crate::physics::{GridError, ProcessError, ScheduleError};
+use crate::study::StudyError;
+use crate::usecases::{Input, InputError, LimitError, SettingError};
 
 /// An API error. Construct with the helpers; render with `into_response`.
 #[derive(Debug, Clone, PartialEq)]
@@ -283,6 +287,170 @@ impl ApiError {
             field.push_str(&format!("[{index}]"));
         }
         ApiError::invalid(field, err.to_string())
+    }
+}
+
+/// Where each command input sits in the requests.
+fn input_path(input: Input) -> &'static str {
+    match input {
+        Input::ToolPositions => "tool_positions_mm",
+        Input::Dwell => "dwell.positions_mm",
+        Input::Positions => "positions_mm",
+        Input::EqualDwellPositions => "equal_dwell_positions",
+        Input::Etas => "etas",
+        Input::Depth => "depth_nm",
+        Input::NonuniformityThreshold => "nonuniformity_threshold",
+        Input::UniformDepth => "target.uniform_depth_nm",
+        Input::SolverTimeLimit => "solver.time_limit_s",
+    }
+}
+
+impl ApiError {
+    /// A size limit exceeded by the input at `field`.
+    fn from_limit(field: &str, err: LimitError) -> Self {
+        let detail = match err {
+            LimitError::RadialSamples { count, max } => {
+                format!("{field} is {count}; this server allows at most {max}")
+            }
+            LimitError::Positions { count, max } => {
+                format!("{field} has {count} entries; this server allows at most {max}")
+            }
+            LimitError::OperatorEntries {
+                samples,
+                positions,
+                max,
+            } => format!(
+                "radial_grid.count × {field} = {samples} × {positions} exceeds the server's \
+                 limit of {max} removal-operator entries"
+            ),
+            LimitError::Profiles { count, max } => {
+                format!("{field} has {count} entries; this server allows at most {max} profiles")
+            }
+            LimitError::OptimizePositions { count, max } => {
+                format!("{field} has {count} entries; this server optimizes at most {max}")
+            }
+            LimitError::Etas { count, max } => {
+                format!("{field} must hold 1 to {max} values; it has {count}")
+            }
+        };
+        ApiError::limit(field, detail)
+    }
+}
+
+impl From<SettingError> for ApiError {
+    fn from(err: SettingError) -> Self {
+        match err {
+            SettingError::Process(e) => ApiError::from_process(e),
+            SettingError::GridSize(e) => ApiError::from_limit("radial_grid.count", e),
+            SettingError::Grid(e) => ApiError::from_grid("radial_grid", e),
+            SettingError::Aperture(e) => ApiError::from_grid("clear_aperture", e),
+        }
+    }
+}
+
+impl From<InputError> for ApiError {
+    fn from(err: InputError) -> Self {
+        match err {
+            InputError::Setting(e) => e.into(),
+            InputError::Limit { input, error } => ApiError::from_limit(input_path(input), error),
+            InputError::Schedule { input, error } => {
+                let prefix = if input == Input::Dwell { "dwell" } else { "" };
+                ApiError::from_schedule(prefix, error)
+            }
+            InputError::OutOfRange { input, max } => {
+                let field = input_path(input);
+                let detail = match input {
+                    Input::Depth => format!("{field} must be a number in (0, {max}] nm"),
+                    Input::UniformDepth => format!("{field} must be a number in [0, {max}] nm"),
+                    Input::NonuniformityThreshold => {
+                        format!("{field} must be a finite fraction > 0")
+                    }
+                    Input::EqualDwellPositions => format!("{field} must be at least 2"),
+                    Input::SolverTimeLimit => {
+                        format!("{field} must be > 0 and at most this server's limit of {max} s")
+                    }
+                    _ => format!("{field} is out of range (at most {max})"),
+                };
+                ApiError::invalid(field, detail)
+            }
+            InputError::Optimize(e) => e.into(),
+            InputError::Study(e) => e.into(),
+        }
+    }
+}
+
+impl From<ProfileError> for ApiError {
+    fn from(err: ProfileError) -> Self {
+        let (array, index) = err.location();
+        let name = match array {
+            ProfileArray::Radius => "radius_mm",
+            ProfileArray::Depth => "depth_nm",
+        };
+        let field = match index {
+            Some(i) => format!("target.profile.{name}[{i}]"),
+            None => format!("target.profile.{name}"),
+        };
+        ApiError::invalid(field, err.to_string())
+    }
+}
+
+/// Optimizer errors; a time limit is reported by the optimize endpoint, which knows the
+/// server's limit (see `http::optimize`).
+impl From<OptimizeError> for ApiError {
+    fn from(err: OptimizeError) -> Self {
+        let detail = err.to_string();
+        match err {
+            OptimizeError::InvalidConstraint { constraint, .. } => {
+                ApiError::invalid(format!("constraints.{}", constraint.name()), detail)
+            }
+            OptimizeError::InvalidWeight { weight, .. } => {
+                ApiError::invalid(format!("objective.{}", weight.name()), detail)
+            }
+            OptimizeError::Profile(e) => e.into(),
+            OptimizeError::EmptyAperture => ApiError::invalid("clear_aperture", detail),
+            OptimizeError::NoRemovalInAperture => ApiError::invalid("positions_mm", detail),
+            OptimizeError::Infeasible { fields, .. } => ApiError::Infeasible {
+                fields: if fields.is_empty() {
+                    vec!["constraints".to_string()]
+                } else {
+                    fields.iter().map(|f| format!("constraints.{f}")).collect()
+                },
+                detail,
+            },
+            OptimizeError::TimeLimit { .. } => ApiError::SolverFailed {
+                kind: "solver-time-limit",
+                field: Some("solver.time_limit_s".into()),
+                detail,
+            },
+            OptimizeError::IterationLimit { .. } => ApiError::SolverFailed {
+                kind: "solver-iteration-limit",
+                field: None,
+                detail,
+            },
+            OptimizeError::Numerical { .. } => ApiError::SolverFailed {
+                kind: "solver-numerical-error",
+                field: None,
+                detail,
+            },
+        }
+    }
+}
+
+impl From<StudyError> for ApiError {
+    fn from(err: StudyError) -> Self {
+        let detail = err.to_string();
+        let field = match &err {
+            StudyError::NoRemovalInAperture => "clear_aperture".to_string(),
+            StudyError::ToolStationary => "process.tool_rpm".to_string(),
+            StudyError::InvalidEta { index } => {
+                let field = format!("etas[{index}]");
+                return ApiError::invalid(field.clone(), format!("{field}: {detail}"));
+            }
+            StudyError::EtaOutsideDomain { index, .. } => format!("etas[{index}]"),
+            StudyError::InvalidSpeedLimit { limit } => format!("limits.{}", limit.name()),
+            StudyError::RecommendedOutsideDomain(e) => format!("process.{}", e.field()),
+        };
+        ApiError::invalid(field, detail)
     }
 }
 

@@ -7,20 +7,16 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    check_operator_size, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto,
-    RadialGridDto,
+    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
 };
+use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
-use super::limits::Limits;
 use super::plot::{Chart, Series};
-use super::recommend::{check_depth, equal_dwell_positions, DEFAULT_DEPTH_NM};
-use super::{compute_and_render, csv, plot, AppState, Renderers};
-use crate::physics::DwellSchedule;
-use crate::study::{eta_sweep, Frame};
-
-/// Most η values in one sweep.
-pub const MAX_ETAS: usize = 201;
+use super::state::{AppState, Services};
+use super::{csv, plot};
+use crate::usecases::eta_sweep::{eta_sweep, EtaSweepCommand};
+use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -68,65 +64,49 @@ pub struct SweepPointDto {
     pub metrics: MetricsDto,
 }
 
-pub fn compute(req: &EtaSweepRequest, limits: &Limits) -> Result<EtaSweepResponse, ApiError> {
-    let process = req.process.to_process()?;
-    let grid = RadialGridDto::to_grid(req.radial_grid.as_ref(), &process, limits)?;
-    let aperture = ClearApertureDto::to_aperture(req.clear_aperture.as_ref(), &process, &grid)?;
-    if req.etas.is_empty() || req.etas.len() > MAX_ETAS {
-        return Err(ApiError::limit(
-            "etas",
-            format!(
-                "etas must hold 1 to {MAX_ETAS} values; it has {}",
-                req.etas.len()
-            ),
-        ));
+/// `POST /v1/studies/eta-sweep`.
+pub struct EtaSweepEndpoint;
+
+impl Endpoint for EtaSweepEndpoint {
+    type Request = EtaSweepRequest;
+    type Command = EtaSweepCommand;
+    type Response = EtaSweepResponse;
+    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
+    const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
+
+    fn parse(req: EtaSweepRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
+        let setting = setting(
+            &req.process,
+            req.radial_grid.as_ref(),
+            req.clear_aperture.as_ref(),
+            limits,
+        )?;
+        Ok(EtaSweepCommand::new(
+            setting,
+            req.etas,
+            req.dwell.map(|d| (d.positions_mm, d.dwell_s)),
+            req.depth_nm,
+            req.equal_dwell_positions,
+            limits,
+        )?)
     }
-    let depth = req.depth_nm.unwrap_or(DEFAULT_DEPTH_NM);
-    check_depth(depth)?;
-    let positions = equal_dwell_positions(req.equal_dwell_positions)?;
-    let schedule = match &req.dwell {
-        Some(d) => {
-            check_operator_size(
-                limits,
-                grid.radii_mm().len(),
-                d.positions_mm.len(),
-                "dwell.positions_mm",
-            )?;
-            Some(
-                DwellSchedule::new(&process, d.positions_mm.clone(), d.dwell_s.clone())
-                    .map_err(|e| ApiError::from_schedule("dwell", e))?,
-            )
-        }
-        None => {
-            check_operator_size(
-                limits,
-                grid.radii_mm().len(),
-                positions,
-                "equal_dwell_positions",
-            )?;
-            None
-        }
-    };
-    let spec = *process.spec();
-    let frame = Frame {
-        grid: &grid,
-        aperture: &aperture,
-        positions,
-    };
-    let points = eta_sweep(&spec, &req.etas, frame, schedule.as_ref(), depth)
-        .map_err(|e| ApiError::invalid(e.field, e.message))?;
-    Ok(EtaSweepResponse {
-        tool_rpm: spec.tool_rpm,
-        clear_aperture: ApertureEcho::from(&aperture),
-        points: points
-            .iter()
-            .map(|p| SweepPointDto {
-                eta: p.eta,
-                workpiece_rpm: p.workpiece_rpm,
-                metrics: MetricsDto::from(&p.metrics),
-            })
-            .collect(),
-    })
+
+    fn run(command: Self::Command, _: &Services) -> Result<Self::Response, ApiError> {
+        let sweep = eta_sweep(command)?;
+        Ok(EtaSweepResponse {
+            tool_rpm: sweep.tool_rpm,
+            clear_aperture: ApertureEcho::from(sweep.setting.aperture()),
+            points: sweep
+                .points
+                .iter()
+                .map(|p| SweepPointDto {
+                    eta: p.eta,
+                    workpiece_rpm: p.workpiece_rpm,
+                    metrics: MetricsDto::from(&p.metrics),
+                })
+                .collect(),
+        })
+    }
 }
 
 fn column(r: &EtaSweepResponse, f: impl Fn(&SweepPointDto) -> f64) -> Vec<f64> {
@@ -205,9 +185,5 @@ pub async fn handler(
     headers: HeaderMap,
     ApiJson(req): ApiJson<EtaSweepRequest>,
 ) -> Result<Response, ApiError> {
-    let renderers = Renderers {
-        csv: Some(to_csv),
-        svg: Some(to_svg),
-    };
-    compute_and_render(state, &headers, req, compute, renderers).await
+    handle::<EtaSweepEndpoint>(state, &headers, req).await
 }

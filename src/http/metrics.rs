@@ -12,11 +12,12 @@
 //! - `solver_status_total{status}` — optimizations by outcome (`solved`, `almost_solved`,
 //!   `infeasible`, `time_limit`, `iteration_limit`, `numerical_error`).
 
-use std::sync::OnceLock;
 use std::time::Instant;
 
+use super::state::AppState;
+use crate::optimize::{OptimizeError, Solution, SolveStatus};
 use axum::body::Body;
-use axum::extract::{MatchedPath, Request};
+use axum::extract::{MatchedPath, Request, State};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
@@ -28,6 +29,8 @@ use prometheus::{
 /// The request-id header, generated when absent and echoed on the response.
 pub const REQUEST_ID: &str = "x-request-id";
 
+/// The service's metrics in their own registry, owned by the application state (so every
+/// service instance, and every test, counts only its own requests).
 pub struct Metrics {
     registry: Registry,
     pub requests: IntCounterVec,
@@ -42,6 +45,12 @@ pub struct Metrics {
 const LATENCY_BUCKETS: [f64; 14] = [
     0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0,
 ];
+
+impl Default for Metrics {
+    fn default() -> Self {
+        Metrics::new().expect("metric definitions are valid")
+    }
+}
 
 impl Metrics {
     fn new() -> prometheus::Result<Self> {
@@ -103,11 +112,31 @@ impl Metrics {
     }
 }
 
-/// The process-wide metrics (one service per process; the core's solver timings land here
-/// from the blocking pool without threading a handle through).
-pub fn metrics() -> &'static Metrics {
-    static METRICS: OnceLock<Metrics> = OnceLock::new();
-    METRICS.get_or_init(|| Metrics::new().expect("metric definitions are valid"))
+/// How a dwell optimization ended, as the `status` label of `solver_status_total`.
+pub fn solver_outcome(result: Result<&Solution, &OptimizeError>) -> Option<&'static str> {
+    Some(match result {
+        Ok(s) => match s.status {
+            SolveStatus::Solved => "solved",
+            SolveStatus::AlmostSolved => "almost_solved",
+        },
+        Err(OptimizeError::Infeasible { .. }) => "infeasible",
+        Err(OptimizeError::TimeLimit { .. }) => "time_limit",
+        Err(OptimizeError::IterationLimit { .. }) => "iteration_limit",
+        Err(OptimizeError::Numerical { .. }) => "numerical_error",
+        Err(_) => return None,
+    })
+}
+
+impl Metrics {
+    /// Counts a dwell optimization's outcome and, for a plan, its solve time.
+    pub fn record_solver(&self, result: Result<&Solution, &OptimizeError>) {
+        if let Ok(s) = result {
+            self.solver_seconds.observe(s.solve_time_s);
+        }
+        if let Some(status) = solver_outcome(result) {
+            self.solver_status.with_label_values(&[status]).inc();
+        }
+    }
 }
 
 /// Prometheus metrics.
@@ -120,20 +149,20 @@ pub fn metrics() -> &'static Metrics {
     tag = "service",
     responses((status = 200, description = "Prometheus text format", content_type = "text/plain", body = String))
 )]
-pub async fn handler() -> Response {
+pub async fn handler(State(state): State<AppState>) -> Response {
     (
         [(
             header::CONTENT_TYPE,
             "text/plain; version=0.0.4; charset=utf-8",
         )],
-        metrics().render(),
+        state.services.metrics.render(),
     )
         .into_response()
 }
 
 /// Records the request in the metrics and writes its request id into problem+json bodies
 /// (`request_id` member), so a user's error report can be matched to the logs.
-pub async fn record(request: Request, next: Next) -> Response {
+pub async fn record(State(state): State<AppState>, request: Request, next: Next) -> Response {
     let started = Instant::now();
     let route = request
         .extensions()
@@ -142,7 +171,7 @@ pub async fn record(request: Request, next: Next) -> Response {
     let method = request.method().as_str().to_string();
     let request_id = request.headers().get(REQUEST_ID).cloned();
     let response = next.run(request).await;
-    let m = metrics();
+    let m = &state.services.metrics;
     m.requests
         .with_label_values(&[&route, &method, response.status().as_str()])
         .inc();

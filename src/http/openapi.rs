@@ -9,6 +9,7 @@ use super::dto::{
     RadialGridDto,
 };
 use super::error::Problem;
+use super::router::ENDPOINTS;
 use super::{eta_sweep, health, metrics, optimize, predict, recommend, removal_function};
 
 #[derive(OpenApi)]
@@ -58,40 +59,16 @@ optimization positions ≤ 2001, solver time ≤ 10 s."
 )]
 struct ApiDoc;
 
-/// Request examples: (path, fixture text).
-const EXAMPLES: [(&str, &str); 5] = [
-    (
-        "/v1/removal-function",
-        include_str!("../../fixtures/removal_function_paper_exp1.json"),
-    ),
-    (
-        "/v1/predict",
-        include_str!("../../fixtures/predict_paper_exp2.json"),
-    ),
-    (
-        "/v1/optimize",
-        include_str!("../../fixtures/optimize_paper_exp1.json"),
-    ),
-    (
-        "/v1/recommend",
-        include_str!("../../fixtures/recommend_paper_exp1.json"),
-    ),
-    (
-        "/v1/studies/eta-sweep",
-        include_str!("../../fixtures/eta_sweep_figure7.json"),
-    ),
-];
-
 /// The document, with fixture examples attached to the request bodies.
 pub fn spec() -> utoipa::openapi::OpenApi {
     let mut doc = ApiDoc::openapi();
-    for (path, fixture) in EXAMPLES {
+    for endpoint in &ENDPOINTS {
         let example: serde_json::Value =
-            serde_json::from_str(fixture).expect("fixtures are valid JSON");
+            serde_json::from_str(endpoint.example).expect("fixtures are valid JSON");
         let body = doc
             .paths
             .paths
-            .get_mut(path)
+            .get_mut(&endpoint.path())
             .and_then(|item| item.post.as_mut())
             .and_then(|op| op.request_body.as_mut())
             .and_then(|body| body.content.get_mut("application/json"))

@@ -8,23 +8,19 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    check_operator_size, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto,
-    RadialGridDto,
+    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
+    RecommendationDto,
 };
+use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
-use super::limits::Limits;
-use super::metrics;
 use super::plot::{Chart, Series};
-use super::recommend::{for_response, RecommendationDto};
-use super::{compute_and_render, csv, plot, AppState, Renderers};
-use crate::optimize::problem::{DEFAULT_SMOOTHING, DEFAULT_TIME_WEIGHT, MAX_DEPTH_NM};
-use crate::optimize::target::aperture_rows;
-use crate::optimize::{
-    optimize, resample_profile, Constraints, DwellProblem, Formulation, Motion, Objective,
-    OptimizeError, Solution, SolveStatus,
-};
-use crate::physics::{check_positions, RemovalKernel, RemovalOperator, UniformityMetrics};
+use super::state::{AppState, Services};
+use super::{csv, plot};
+use crate::optimize::problem::{DEFAULT_SMOOTHING, DEFAULT_TIME_WEIGHT};
+use crate::optimize::{Constraints, MeasuredProfile, Objective, OptimizeError, SolveStatus};
+use crate::usecases::optimize::{optimize, OptimizeCommand, OptimizedPlan, Target};
+use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -208,230 +204,152 @@ pub struct SolverDto {
     pub solve_time_ms: f64,
 }
 
-/// The core's error, with its field placed in the request.
-fn api_error(err: OptimizeError, prefix: &str, limit_s: f64) -> ApiError {
-    let detail = err.to_string();
-    match err {
-        OptimizeError::Invalid { field, .. } => ApiError::invalid(format!("{prefix}{field}"), detail),
-        OptimizeError::Infeasible { fields, .. } => ApiError::Infeasible {
-            fields: if fields.is_empty() {
-                vec!["constraints".to_string()]
-            } else {
-                fields.iter().map(|f| format!("constraints.{f}")).collect()
+impl ConstraintsDto {
+    fn to_constraints(dto: Option<&ConstraintsDto>) -> Constraints {
+        let dto = dto.cloned().unwrap_or_default();
+        Constraints {
+            min_dwell_s: dto.min_dwell_s.unwrap_or(0.0),
+            max_dwell_s: dto.max_dwell_s,
+            max_total_time_s: dto.max_total_time_s,
+            max_feed_mm_per_min: dto.max_feed_mm_per_min,
+            max_dwell_change_s: dto.max_dwell_change_s,
+        }
+    }
+}
+
+impl ObjectiveDto {
+    fn to_objective(dto: Option<&ObjectiveDto>) -> Objective {
+        let dto = dto.cloned().unwrap_or_default();
+        Objective {
+            smoothing: dto.smoothing.unwrap_or(DEFAULT_SMOOTHING),
+            time_weight: dto.time_weight.unwrap_or(DEFAULT_TIME_WEIGHT),
+        }
+    }
+}
+
+impl TargetDto {
+    /// Exactly one of the two targets; the wire allows both fields, so the shape is checked
+    /// here.
+    fn into_target(self) -> Result<Target, ApiError> {
+        match (self.uniform_depth_nm, self.profile) {
+            (Some(depth), None) => {
+                let target = Target::uniform(depth)?;
+                if self.free_piston == Some(true) {
+                    return Err(ApiError::invalid(
+                        "target.free_piston",
+                        "free_piston applies to a profile target; a uniform depth has no free layer",
+                    ));
+                }
+                Ok(target)
+            }
+            (None, Some(profile)) => Ok(Target::Profile {
+                profile: MeasuredProfile::new(profile.radius_mm, profile.depth_nm)?,
+                free_piston: self.free_piston.unwrap_or(false),
+            }),
+            _ => Err(ApiError::invalid(
+                "target",
+                "give exactly one of target.uniform_depth_nm and target.profile",
+            )),
+        }
+    }
+}
+
+/// `POST /v1/optimize`.
+pub struct OptimizeEndpoint;
+
+impl Endpoint for OptimizeEndpoint {
+    type Request = OptimizeRequest;
+    type Command = (OptimizeCommand, f64);
+    type Response = OptimizeResponse;
+    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
+    const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
+
+    /// The command, with the server's solver time limit (for the time-limit problem's hint).
+    fn parse(req: OptimizeRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
+        let setting = setting(
+            &req.process,
+            req.radial_grid.as_ref(),
+            req.clear_aperture.as_ref(),
+            limits,
+        )?;
+        let command = OptimizeCommand::new(
+            setting,
+            req.positions_mm,
+            req.target.into_target()?,
+            ConstraintsDto::to_constraints(req.constraints.as_ref()),
+            ObjectiveDto::to_objective(req.objective.as_ref()),
+            req.solver.and_then(|s| s.time_limit_s),
+            limits,
+        )?;
+        Ok((command, limits.solver_time_limit.as_secs_f64()))
+    }
+
+    fn run(
+        (command, max_time_limit_s): Self::Command,
+        services: &Services,
+    ) -> Result<Self::Response, ApiError> {
+        let plan = optimize(command, &services.recommender);
+        services
+            .metrics
+            .record_solver(plan.as_ref().map(|p| &p.solution));
+        let plan = plan.map_err(|e| match e {
+            OptimizeError::TimeLimit { .. } => ApiError::SolverFailed {
+                kind: "solver-time-limit",
+                field: Some("solver.time_limit_s".into()),
+                detail: format!(
+                    "{e}; use fewer positions or radial samples, or a longer time limit (at most {max_time_limit_s} s here)"
+                ),
             },
-            detail,
-        },
-        OptimizeError::TimeLimit { .. } => ApiError::SolverFailed {
-            kind: "solver-time-limit",
-            field: Some("solver.time_limit_s".into()),
-            detail: format!(
-                "{detail}; use fewer positions or radial samples, or a longer time limit (at most {limit_s} s here)"
-            ),
-        },
-        OptimizeError::IterationLimit { .. } => ApiError::SolverFailed {
-            kind: "solver-iteration-limit",
-            field: None,
-            detail,
-        },
-        OptimizeError::Numerical { .. } => ApiError::SolverFailed {
-            kind: "solver-numerical-error",
-            field: None,
-            detail,
-        },
+            other => other.into(),
+        })?;
+        Ok(OptimizeResponse::from(plan))
     }
 }
 
-/// Solver outcome and time in the service metrics.
-fn record_solver(result: &Result<Solution, OptimizeError>) {
-    let m = metrics::metrics();
-    let status = match result {
-        Ok(s) => {
-            m.solver_seconds.observe(s.solve_time_s);
-            match s.status {
-                SolveStatus::Solved => "solved",
-                SolveStatus::AlmostSolved => "almost_solved",
-            }
+impl From<OptimizedPlan> for OptimizeResponse {
+    fn from(p: OptimizedPlan) -> Self {
+        let s = &p.solution;
+        OptimizeResponse {
+            recommendation: p.recommendation.as_ref().map(RecommendationDto::from),
+            eta: p.setting.process().eta().value(),
+            total_time_s: p.total_time_s,
+            dwell: DwellDto {
+                positions_mm: p.positions_mm,
+                dwell_s: s.dwell_s.clone(),
+            },
+            feed_mm_per_min: p.motion.segment_feed_mm_per_min,
+            motion: MotionDto {
+                peak_feed_mm_per_min: p.motion.peak_feed_mm_per_min,
+                peak_feed_acceleration_mm_per_s2: p.motion.peak_acceleration_mm_per_s2,
+            },
+            radius_mm: p.setting.grid().radii_mm().to_vec(),
+            removal_nm: p.removal_nm,
+            target_nm: p.target_nm,
+            residual_nm: p.residual_nm,
+            residual: ResidualDto {
+                pv_nm: p.residual_pv_nm,
+                rms_nm: p.residual_rms_nm,
+            },
+            metrics: MetricsDto::from(&p.metrics),
+            clear_aperture: ApertureEcho::from(p.setting.aperture()),
+            piston_nm: s.piston_nm,
+            objective: ObjectiveEcho {
+                smoothing: p.objective.smoothing,
+                time_weight: p.objective.time_weight,
+                value: s.objective,
+            },
+            solver: SolverDto {
+                status: match s.status {
+                    SolveStatus::Solved => "solved",
+                    SolveStatus::AlmostSolved => "almost_solved",
+                }
+                .to_string(),
+                reduced_accuracy: s.status == SolveStatus::AlmostSolved,
+                iterations: s.iterations,
+                solve_time_ms: s.solve_time_s * 1e3,
+            },
         }
-        Err(OptimizeError::Infeasible { .. }) => "infeasible",
-        Err(OptimizeError::TimeLimit { .. }) => "time_limit",
-        Err(OptimizeError::IterationLimit { .. }) => "iteration_limit",
-        Err(OptimizeError::Numerical { .. }) => "numerical_error",
-        Err(OptimizeError::Invalid { .. }) => return,
-    };
-    m.solver_status.with_label_values(&[status]).inc();
-}
-
-fn constraints(dto: Option<&ConstraintsDto>) -> Result<Constraints, ApiError> {
-    let dto = dto.cloned().unwrap_or_default();
-    let c = Constraints {
-        min_dwell_s: dto.min_dwell_s.unwrap_or(0.0),
-        max_dwell_s: dto.max_dwell_s,
-        max_total_time_s: dto.max_total_time_s,
-        max_feed_mm_per_min: dto.max_feed_mm_per_min,
-        max_dwell_change_s: dto.max_dwell_change_s,
-    };
-    c.validate()
-        .map_err(|e| api_error(e, "constraints.", 0.0))?;
-    Ok(c)
-}
-
-fn objective(dto: Option<&ObjectiveDto>) -> Result<Objective, ApiError> {
-    let dto = dto.cloned().unwrap_or_default();
-    let o = Objective {
-        smoothing: dto.smoothing.unwrap_or(DEFAULT_SMOOTHING),
-        time_weight: dto.time_weight.unwrap_or(DEFAULT_TIME_WEIGHT),
-    };
-    o.validate().map_err(|e| api_error(e, "objective.", 0.0))?;
-    Ok(o)
-}
-
-fn time_limit_s(dto: Option<&SolverOptionsDto>, limits: &Limits) -> Result<f64, ApiError> {
-    let max = limits.solver_time_limit.as_secs_f64();
-    match dto.and_then(|s| s.time_limit_s) {
-        None => Ok(max),
-        Some(t) if t.is_finite() && t > 0.0 && t <= max => Ok(t),
-        Some(_) => Err(ApiError::invalid(
-            "solver.time_limit_s",
-            format!("solver.time_limit_s must be > 0 and at most this server's limit of {max} s"),
-        )),
     }
-}
-
-/// The target on the aperture rows, and whether a piston is free.
-fn target_on(target: &TargetDto, aperture_radii: &[f64]) -> Result<(Vec<f64>, bool), ApiError> {
-    match (&target.uniform_depth_nm, &target.profile) {
-        (Some(depth), None) => {
-            if !(0.0..=MAX_DEPTH_NM).contains(depth) {
-                return Err(ApiError::invalid(
-                    "target.uniform_depth_nm",
-                    format!("target.uniform_depth_nm must be a number in [0, {MAX_DEPTH_NM}] nm"),
-                ));
-            }
-            if target.free_piston == Some(true) {
-                return Err(ApiError::invalid(
-                    "target.free_piston",
-                    "free_piston applies to a profile target; a uniform depth has no free layer",
-                ));
-            }
-            Ok((vec![*depth; aperture_radii.len()], false))
-        }
-        (None, Some(profile)) => {
-            let values = resample_profile(&profile.radius_mm, &profile.depth_nm, aperture_radii)
-                .map_err(|e| api_error(e, "target.profile.", 0.0))?;
-            Ok((values, target.free_piston.unwrap_or(false)))
-        }
-        _ => Err(ApiError::invalid(
-            "target",
-            "give exactly one of target.uniform_depth_nm and target.profile",
-        )),
-    }
-}
-
-pub fn compute(req: &OptimizeRequest, limits: &Limits) -> Result<OptimizeResponse, ApiError> {
-    let process = req.process.to_process()?;
-    let grid = RadialGridDto::to_grid(req.radial_grid.as_ref(), &process, limits)?;
-    let aperture = ClearApertureDto::to_aperture(req.clear_aperture.as_ref(), &process, &grid)?;
-    let positions = &req.positions_mm;
-    if positions.len() > limits.max_optimize_positions {
-        return Err(ApiError::limit(
-            "positions_mm",
-            format!(
-                "positions_mm has {} entries; this server optimizes at most {}",
-                positions.len(),
-                limits.max_optimize_positions
-            ),
-        ));
-    }
-    check_operator_size(
-        limits,
-        grid.radii_mm().len(),
-        positions.len(),
-        "positions_mm",
-    )?;
-    check_positions(&process, "positions_mm", positions, true)
-        .map_err(|e| ApiError::from_schedule("", e))?;
-    let constraints = constraints(req.constraints.as_ref())?;
-    let objective = objective(req.objective.as_ref())?;
-    let time_limit_s = time_limit_s(req.solver.as_ref(), limits)?;
-    let rows = aperture_rows(&grid, &aperture);
-    let (target_nm, free_piston) = target_on(&req.target, &grid.radii_mm()[rows.clone()])?;
-
-    let operator =
-        RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), positions);
-    let solution = optimize(&DwellProblem {
-        operator: &operator,
-        positions_mm: positions,
-        tool_radius_mm: process.tool_radius_mm(),
-        rows: rows.clone(),
-        target_nm: &target_nm,
-        free_piston,
-        constraints,
-        objective,
-        time_limit_s,
-        formulation: Formulation::default(),
-    });
-    record_solver(&solution);
-    let solution = solution.map_err(|e| api_error(e, "", time_limit_s))?;
-
-    let removal_nm = operator.apply(&solution.dwell_s);
-    let piston = solution.piston_nm.unwrap_or(0.0);
-    let mut full_target = vec![None; removal_nm.len()];
-    let mut residual = vec![None; removal_nm.len()];
-    for (k, i) in rows.clone().enumerate() {
-        let t = target_nm[k] + piston;
-        full_target[i] = Some(t);
-        residual[i] = Some(removal_nm[i] - t);
-    }
-    let inside: Vec<f64> = residual.iter().flatten().copied().collect();
-    let (lo, hi) = inside
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let rms = (inside.iter().map(|v| v * v).sum::<f64>() / inside.len() as f64).sqrt();
-    let motion = Motion::of_plan(positions, &solution.dwell_s);
-    let metrics = UniformityMetrics::over(&grid, &aperture, &removal_nm);
-    let mean_target = target_nm.iter().sum::<f64>() / target_nm.len() as f64 + piston;
-    Ok(OptimizeResponse {
-        recommendation: for_response(&process, &grid, &aperture, mean_target),
-        eta: process.eta().value(),
-        total_time_s: solution.dwell_s.iter().sum(),
-        dwell: DwellDto {
-            positions_mm: positions.clone(),
-            dwell_s: solution.dwell_s.clone(),
-        },
-        feed_mm_per_min: motion.segment_feed_mm_per_min,
-        motion: MotionDto {
-            peak_feed_mm_per_min: motion.peak_feed_mm_per_min,
-            peak_feed_acceleration_mm_per_s2: motion.peak_acceleration_mm_per_s2,
-        },
-        radius_mm: grid.radii_mm().to_vec(),
-        removal_nm,
-        target_nm: full_target,
-        residual_nm: residual,
-        residual: ResidualDto {
-            pv_nm: hi - lo,
-            rms_nm: rms,
-        },
-        metrics: MetricsDto::from(&metrics),
-        clear_aperture: ApertureEcho::from(&aperture),
-        piston_nm: solution.piston_nm,
-        objective: ObjectiveEcho {
-            smoothing: objective.smoothing,
-            time_weight: objective.time_weight,
-            value: solution.objective,
-        },
-        solver: SolverDto {
-            status: match solution.status {
-                SolveStatus::Solved => "solved",
-                SolveStatus::AlmostSolved => "almost_solved",
-            }
-            .to_string(),
-            reduced_accuracy: solution.status == SolveStatus::AlmostSolved,
-            iterations: solution.iterations,
-            solve_time_ms: solution.solve_time_s * 1e3,
-        },
-    })
 }
 
 fn to_csv(response: &OptimizeResponse) -> String {
@@ -501,9 +419,5 @@ pub async fn handler(
     headers: HeaderMap,
     ApiJson(req): ApiJson<OptimizeRequest>,
 ) -> Result<Response, ApiError> {
-    let renderers = Renderers {
-        csv: Some(to_csv),
-        svg: Some(to_svg),
-    };
-    compute_and_render(state, &headers, req, compute, renderers).await
+    handle::<OptimizeEndpoint>(state, &headers, req).await
 }

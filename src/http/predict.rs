@@ -7,16 +7,17 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    check_operator_size, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto,
-    RadialGridDto,
+    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
+    RecommendationDto,
 };
+use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
-use super::limits::Limits;
 use super::plot::{Chart, Series};
-use super::recommend::{for_response, RecommendationDto};
-use super::{compute_and_render, csv, plot, AppState, Renderers};
-use crate::physics::{DwellSchedule, UniformityMetrics};
+use super::state::{AppState, Services};
+use super::{csv, plot};
+use crate::usecases::predict::{predict, PredictCommand};
+use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -50,34 +51,43 @@ pub struct PredictResponse {
     pub recommendation: Option<RecommendationDto>,
 }
 
-pub fn compute(req: &PredictRequest, limits: &Limits) -> Result<PredictResponse, ApiError> {
-    let process = req.process.to_process()?;
-    let grid = RadialGridDto::to_grid(req.radial_grid.as_ref(), &process, limits)?;
-    let aperture = ClearApertureDto::to_aperture(req.clear_aperture.as_ref(), &process, &grid)?;
-    check_operator_size(
-        limits,
-        grid.radii_mm().len(),
-        req.dwell.positions_mm.len(),
-        "dwell.positions_mm",
-    )?;
-    let schedule = DwellSchedule::new(
-        &process,
-        req.dwell.positions_mm.clone(),
-        req.dwell.dwell_s.clone(),
-    )
-    .map_err(|e| ApiError::from_schedule("dwell", e))?;
+/// `POST /v1/predict`.
+pub struct PredictEndpoint;
 
-    let removal_nm = schedule.removal_nm(&process, &grid);
-    let metrics = UniformityMetrics::over(&grid, &aperture, &removal_nm);
-    Ok(PredictResponse {
-        eta: process.eta().value(),
-        radius_mm: grid.radii_mm().to_vec(),
-        removal_nm,
-        metrics: MetricsDto::from(&metrics),
-        clear_aperture: ApertureEcho::from(&aperture),
-        total_time_s: schedule.total_time_s(),
-        recommendation: for_response(&process, &grid, &aperture, metrics.mean_nm),
-    })
+impl Endpoint for PredictEndpoint {
+    type Request = PredictRequest;
+    type Command = PredictCommand;
+    type Response = PredictResponse;
+    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
+    const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
+
+    fn parse(req: PredictRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
+        let setting = setting(
+            &req.process,
+            req.radial_grid.as_ref(),
+            req.clear_aperture.as_ref(),
+            limits,
+        )?;
+        Ok(PredictCommand::new(
+            setting,
+            req.dwell.positions_mm,
+            req.dwell.dwell_s,
+            limits,
+        )?)
+    }
+
+    fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError> {
+        let p = predict(command, &services.recommender);
+        Ok(PredictResponse {
+            eta: p.setting.process().eta().value(),
+            radius_mm: p.setting.grid().radii_mm().to_vec(),
+            removal_nm: p.removal_nm,
+            metrics: MetricsDto::from(&p.metrics),
+            clear_aperture: ApertureEcho::from(p.setting.aperture()),
+            total_time_s: p.total_time_s,
+            recommendation: p.recommendation.as_ref().map(RecommendationDto::from),
+        })
+    }
 }
 
 fn to_csv(response: &PredictResponse) -> String {
@@ -137,9 +147,5 @@ pub async fn handler(
     headers: HeaderMap,
     ApiJson(req): ApiJson<PredictRequest>,
 ) -> Result<Response, ApiError> {
-    let renderers = Renderers {
-        csv: Some(to_csv),
-        svg: Some(to_svg),
-    };
-    compute_and_render(state, &headers, req, compute, renderers).await
+    handle::<PredictEndpoint>(state, &headers, req).await
 }

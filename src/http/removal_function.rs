@@ -7,14 +7,15 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::dto::{check_operator_size, ProcessDto, RadialGridDto};
+use super::dto::{ProcessDto, RadialGridDto};
+use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::ApiJson;
-use super::limits::Limits;
 use super::plot::{Chart, Series};
-use super::{compute_and_render, csv, plot, AppState, Renderers};
-use crate::physics::schedule::check_positions;
-use crate::physics::RemovalKernel;
+use super::state::{AppState, Services};
+use super::{csv, plot};
+use crate::usecases::removal_function::{removal_function, RemovalFunctionCommand};
+use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -46,52 +47,43 @@ pub struct ProfileDto {
     pub removal_rate_nm_per_min: Vec<f64>,
 }
 
-pub fn compute(
-    req: &RemovalFunctionRequest,
-    limits: &Limits,
-) -> Result<RemovalFunctionResponse, ApiError> {
-    let process = req.process.to_process()?;
-    let grid = RadialGridDto::to_grid(req.radial_grid.as_ref(), &process, limits)?;
-    let positions = &req.tool_positions_mm;
-    if positions.len() > limits.max_profiles {
-        return Err(ApiError::limit(
-            "tool_positions_mm",
-            format!(
-                "tool_positions_mm has {} entries; this server allows at most {} profiles",
-                positions.len(),
-                limits.max_profiles
-            ),
-        ));
-    }
-    check_operator_size(
-        limits,
-        grid.radii_mm().len(),
-        positions.len(),
-        "tool_positions_mm",
-    )?;
-    check_positions(&process, "tool_positions_mm", positions, false)
-        .map_err(|e| ApiError::from_schedule("", e))?;
+/// `POST /v1/removal-function`.
+pub struct RemovalFunctionEndpoint;
 
-    let kernel = RemovalKernel::new(&process);
-    let profiles = positions
-        .iter()
-        .map(|&r1| {
-            let factor = kernel.pressure_factor(r1);
-            ProfileDto {
-                tool_position_mm: r1,
-                removal_rate_nm_per_min: grid
-                    .radii_mm()
-                    .iter()
-                    .map(|&r| 60.0 * factor * kernel.nominal_rate_nm_per_s(r, r1))
-                    .collect(),
-            }
+impl Endpoint for RemovalFunctionEndpoint {
+    type Request = RemovalFunctionRequest;
+    type Command = RemovalFunctionCommand;
+    type Response = RemovalFunctionResponse;
+    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
+    const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
+
+    fn parse(
+        req: RemovalFunctionRequest,
+        limits: &ComputeLimits,
+    ) -> Result<Self::Command, ApiError> {
+        Ok(RemovalFunctionCommand::new(
+            (&req.process).into(),
+            req.radial_grid.as_ref().into(),
+            req.tool_positions_mm,
+            limits,
+        )?)
+    }
+
+    fn run(command: Self::Command, _: &Services) -> Result<Self::Response, ApiError> {
+        let result = removal_function(command);
+        Ok(RemovalFunctionResponse {
+            eta: result.eta,
+            radius_mm: result.grid.radii_mm().to_vec(),
+            profiles: result
+                .profiles
+                .into_iter()
+                .map(|p| ProfileDto {
+                    tool_position_mm: p.tool_position_mm,
+                    removal_rate_nm_per_min: p.removal_rate_nm_per_min,
+                })
+                .collect(),
         })
-        .collect();
-    Ok(RemovalFunctionResponse {
-        eta: process.eta().value(),
-        radius_mm: grid.radii_mm().to_vec(),
-        profiles,
-    })
+    }
 }
 
 fn to_csv(response: &RemovalFunctionResponse) -> String {
@@ -161,9 +153,5 @@ pub async fn handler(
     headers: HeaderMap,
     ApiJson(req): ApiJson<RemovalFunctionRequest>,
 ) -> Result<Response, ApiError> {
-    let renderers = Renderers {
-        csv: Some(to_csv),
-        svg: Some(to_svg),
-    };
-    compute_and_render(state, &headers, req, compute, renderers).await
+    handle::<RemovalFunctionEndpoint>(state, &headers, req).await
 }

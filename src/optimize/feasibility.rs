@@ -16,7 +16,7 @@ use clarabel::algebra::CscMatrix;
 use clarabel::solver::SupportedConeT;
 
 use super::problem::{Constraints, OptimizeError};
-use super::qp::{constraint_rows, run_clarabel, ClarabelQp};
+use super::solver::{constraint_rows, run_clarabel, Budget, ClarabelQp};
 
 /// Relative margin by which a bound must be exceeded before we call it a conflict (well above
 /// the LP's own accuracy, so rounding never refuses a feasible request).
@@ -27,11 +27,7 @@ fn conflict(fields: Vec<&'static str>, detail: String) -> OptimizeError {
 }
 
 /// Refuses constraints that cannot all hold, naming those in conflict.
-pub fn check(
-    positions_mm: &[f64],
-    c: &Constraints,
-    time_limit_s: f64,
-) -> Result<(), OptimizeError> {
+pub fn check(positions_mm: &[f64], c: &Constraints, budget: &Budget) -> Result<(), OptimizeError> {
     let n = positions_mm.len();
     let lo = c.min_dwell_s;
     let need = c.segment_min_dwell_sum_s(positions_mm);
@@ -75,7 +71,7 @@ pub fn check(
     let Some(need) = need else {
         return Ok(());
     };
-    let least = least_total_time_s(positions_mm, c, &need, true, time_limit_s)?;
+    let least = least_total_time_s(positions_mm, c, &need, true, budget)?;
     if least <= total * (1.0 + MARGIN) {
         return Ok(());
     }
@@ -84,7 +80,7 @@ pub fn check(
         fields.push("min_dwell_s");
     }
     if c.max_dwell_change_s.is_some()
-        && least_total_time_s(positions_mm, c, &need, false, time_limit_s)? < least * (1.0 - MARGIN)
+        && least_total_time_s(positions_mm, c, &need, false, budget)? < least * (1.0 - MARGIN)
     {
         fields.push("max_dwell_change_s");
     }
@@ -102,7 +98,7 @@ fn least_total_time_s(
     c: &Constraints,
     need: &[f64],
     with_change: bool,
-    time_limit_s: f64,
+    budget: &Budget,
 ) -> Result<f64, OptimizeError> {
     let n = positions_mm.len();
     // Scale so the LP's variables are of order one.
@@ -120,6 +116,6 @@ fn least_total_time_s(
         b,
         cones: vec![SupportedConeT::NonnegativeConeT(count)],
     };
-    let (x, ..) = run_clarabel(&lp, time_limit_s)?;
+    let (x, ..) = run_clarabel(&lp, budget)?;
     Ok(x.iter().sum::<f64>() * scale)
 }

@@ -56,9 +56,10 @@ pub mod feasibility;
 pub mod motion;
 pub mod problem;
 pub mod qp;
+pub mod solver;
 pub mod target;
 
 pub use motion::Motion;
-pub use problem::{Constraints, Objective, OptimizeError};
+pub use problem::{Constraint, Constraints, Objective, OptimizeError, Weight};
 pub use qp::{optimize, DwellProblem, Formulation, Solution, SolveStatus};
-pub use target::resample_profile;
+pub use target::{resample_profile, MeasuredProfile, ProfileError};

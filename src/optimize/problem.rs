@@ -1,6 +1,8 @@
 //! What the optimizer is asked besides the target: constraints and objective weights, their
 //! validation, and the check that a plan keeps every constraint.
 
+use super::target::ProfileError;
+
 /// Default smoothing weight λ (see the module docs of [`super`]). Chosen on the paper's cases:
 /// it removes neighbour-to-neighbour oscillation while costing the uniform 100 nm plan of
 /// experiment 1 well under 0.1 % of nonuniformity (tests/optimize_paper.rs shows both effects).
@@ -8,14 +10,68 @@ pub const DEFAULT_SMOOTHING: f64 = 1e-6;
 /// Default time weight μ: the mean depth comes out low by about μ of the target.
 pub const DEFAULT_TIME_WEIGHT: f64 = 2e-6;
 
-/// Why an optimization was refused or did not produce a plan. `field` names are relative to
-/// the request's `constraints`, `target` or top level as the variant says.
+/// A constraint of the plan, by name (the names are the request's `constraints` members).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Constraint {
+    MinDwell,
+    MaxDwell,
+    MaxTotalTime,
+    MaxFeed,
+    MaxDwellChange,
+}
+
+impl Constraint {
+    pub fn name(self) -> &'static str {
+        match self {
+            Constraint::MinDwell => "min_dwell_s",
+            Constraint::MaxDwell => "max_dwell_s",
+            Constraint::MaxTotalTime => "max_total_time_s",
+            Constraint::MaxFeed => "max_feed_mm_per_min",
+            Constraint::MaxDwellChange => "max_dwell_change_s",
+        }
+    }
+}
+
+/// A weight of the objective, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Weight {
+    Smoothing,
+    TimeWeight,
+}
+
+impl Weight {
+    pub fn name(self) -> &'static str {
+        match self {
+            Weight::Smoothing => "smoothing",
+            Weight::TimeWeight => "time_weight",
+        }
+    }
+}
+
+/// Why an optimization was refused or did not produce a plan. Each variant says which input
+/// is at fault in the optimizer's own terms; callers place it in their request.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum OptimizeError {
-    /// An input is out of its domain (field named as in the request).
+    /// A constraint's value is out of its domain.
     #[error("{message}")]
-    Invalid { field: String, message: String },
-    /// The constraints cannot all hold; `fields` are the ones in conflict.
+    InvalidConstraint {
+        constraint: Constraint,
+        message: String,
+    },
+    /// An objective weight is out of its domain.
+    #[error("{message}")]
+    InvalidWeight { weight: Weight, message: String },
+    /// The measured profile target is malformed or does not cover the clear aperture.
+    #[error(transparent)]
+    Profile(#[from] ProfileError),
+    /// The clear aperture holds no radial sample.
+    #[error("the clear aperture holds no radial sample")]
+    EmptyAperture,
+    /// No candidate position removes material inside the clear aperture.
+    #[error("no candidate position removes material inside the clear aperture")]
+    NoRemovalInAperture,
+    /// The constraints cannot all hold; `fields` are the names of those in conflict
+    /// ([`Constraint::name`]).
     #[error("{detail}")]
     Infeasible {
         fields: Vec<&'static str>,
@@ -30,15 +86,6 @@ pub enum OptimizeError {
     /// The solver stopped without a trustworthy answer (ill-conditioned input).
     #[error("the solver stopped with status {status}: the problem is too badly conditioned to solve reliably")]
     Numerical { status: String },
-}
-
-impl OptimizeError {
-    pub(crate) fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
-        OptimizeError::Invalid {
-            field: field.into(),
-            message: message.into(),
-        }
-    }
 }
 
 /// Weights of the objective's smoothing and time terms (dimensionless, ≥ 0).
@@ -61,15 +108,16 @@ impl Default for Objective {
 
 impl Objective {
     pub fn validate(&self) -> Result<(), OptimizeError> {
-        for (field, value) in [
-            ("smoothing", self.smoothing),
-            ("time_weight", self.time_weight),
+        for (weight, value) in [
+            (Weight::Smoothing, self.smoothing),
+            (Weight::TimeWeight, self.time_weight),
         ] {
             if !(0.0..=MAX_WEIGHT).contains(&value) {
-                return Err(OptimizeError::invalid(
-                    field,
-                    format!("{field} must be a number in [0, {MAX_WEIGHT}]"),
-                ));
+                let field = weight.name();
+                return Err(OptimizeError::InvalidWeight {
+                    weight,
+                    message: format!("{field} must be a number in [0, {MAX_WEIGHT}]"),
+                });
             }
         }
         Ok(())
@@ -102,19 +150,26 @@ impl Constraints {
     /// Checks each value on its own (finite, signs); conflicts between them are
     /// [`super::feasibility`]'s job.
     pub fn validate(&self) -> Result<(), OptimizeError> {
-        // (field, value, smallest, largest, whether the smallest is allowed, unit)
+        // (constraint, value, smallest, largest, whether the smallest is allowed, unit)
         let checks = [
             (
-                "min_dwell_s",
+                Constraint::MinDwell,
                 Some(self.min_dwell_s),
                 0.0,
                 MAX_TIME_S,
                 true,
                 "s",
             ),
-            ("max_dwell_s", self.max_dwell_s, 0.0, MAX_TIME_S, false, "s"),
             (
-                "max_total_time_s",
+                Constraint::MaxDwell,
+                self.max_dwell_s,
+                0.0,
+                MAX_TIME_S,
+                false,
+                "s",
+            ),
+            (
+                Constraint::MaxTotalTime,
                 self.max_total_time_s,
                 0.0,
                 MAX_TIME_S,
@@ -122,7 +177,7 @@ impl Constraints {
                 "s",
             ),
             (
-                "max_feed_mm_per_min",
+                Constraint::MaxFeed,
                 self.max_feed_mm_per_min,
                 FEED_RANGE_MM_PER_MIN.0,
                 FEED_RANGE_MM_PER_MIN.1,
@@ -130,7 +185,7 @@ impl Constraints {
                 "mm/min",
             ),
             (
-                "max_dwell_change_s",
+                Constraint::MaxDwellChange,
                 self.max_dwell_change_s,
                 0.0,
                 MAX_TIME_S,
@@ -138,15 +193,16 @@ impl Constraints {
                 "s",
             ),
         ];
-        for (field, value, lo, hi, closed, unit) in checks {
+        for (constraint, value, lo, hi, closed, unit) in checks {
             let Some(v) = value else { continue };
             let above = if closed { v >= lo } else { v > lo };
             if !(above && v <= hi) {
                 let open = if closed { "[" } else { "(" };
-                return Err(OptimizeError::invalid(
-                    field,
-                    format!("{field} must be a number in {open}{lo}, {hi}] {unit}"),
-                ));
+                let field = constraint.name();
+                return Err(OptimizeError::InvalidConstraint {
+                    constraint,
+                    message: format!("{field} must be a number in {open}{lo}, {hi}] {unit}"),
+                });
             }
         }
         Ok(())
@@ -265,8 +321,10 @@ mod tests {
         ];
         for (field, c) in cases {
             match c.validate() {
-                Err(OptimizeError::Invalid { field: f, .. }) => assert_eq!(f, field),
-                other => panic!("{field}: expected Invalid, got {other:?}"),
+                Err(OptimizeError::InvalidConstraint { constraint, .. }) => {
+                    assert_eq!(constraint.name(), field)
+                }
+                other => panic!("{field}: expected InvalidConstraint, got {other:?}"),
             }
         }
         let bad = Objective {
@@ -274,7 +332,7 @@ mod tests {
             time_weight: 0.0,
         };
         assert!(
-            matches!(bad.validate(), Err(OptimizeError::Invalid { field, .. }) if field == "smoothing")
+            matches!(bad.validate(), Err(OptimizeError::InvalidWeight { weight, .. }) if weight == Weight::Smoothing)
         );
     }
 

@@ -4,13 +4,13 @@
 use std::ops::Range;
 
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettingsBuilder, DefaultSolution, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-};
+use clarabel::solver::SupportedConeT;
 use rayon::prelude::*;
 
 use super::feasibility;
 use super::problem::{Constraints, Objective, OptimizeError};
+pub use super::solver::SolveStatus;
+use super::solver::{constraint_rows, run_clarabel, Budget, ClarabelQp, CscBuilder, Rows};
 use crate::physics::RemovalOperator;
 
 /// How the least-squares fit reaches Clarabel.
@@ -43,14 +43,6 @@ pub struct DwellProblem<'a> {
     /// Solver wall-clock budget, s.
     pub time_limit_s: f64,
     pub formulation: Formulation,
-}
-
-/// Whether the solver met its full tolerances.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SolveStatus {
-    Solved,
-    /// Converged to Clarabel's reduced tolerances only; the plan still keeps its constraints.
-    AlmostSolved,
 }
 
 /// An optimized plan with the solver's account of it.
@@ -195,36 +187,6 @@ fn objective_value(problem: &DwellProblem, band: &Band, s: &Scales, t: &[f64], p
     fit + smooth + time
 }
 
-/// Compressed sparse columns built column by column (rows ascending within a column).
-struct CscBuilder {
-    rows: usize,
-    colptr: Vec<usize>,
-    rowval: Vec<usize>,
-    nzval: Vec<f64>,
-}
-
-impl CscBuilder {
-    fn new(rows: usize) -> Self {
-        CscBuilder {
-            rows,
-            colptr: vec![0],
-            rowval: Vec::new(),
-            nzval: Vec::new(),
-        }
-    }
-    fn push_column(&mut self, entries: impl IntoIterator<Item = (usize, f64)>) {
-        for (r, v) in entries {
-            self.rowval.push(r);
-            self.nzval.push(v);
-        }
-        self.colptr.push(self.rowval.len());
-    }
-    fn build(self) -> CscMatrix<f64> {
-        let cols = self.colptr.len() - 1;
-        CscMatrix::new(self.rows, cols, self.colptr, self.rowval, self.nzval)
-    }
-}
-
 /// Upper triangle of the normal-equations Hessian on (x, p̃).
 fn normal_hessian(problem: &DwellProblem, band: &Band, s: &Scales) -> CscMatrix<f64> {
     let n = problem.positions_mm.len();
@@ -265,88 +227,6 @@ fn normal_hessian(problem: &DwellProblem, band: &Band, s: &Scales) -> CscMatrix<
         );
     }
     p.build()
-}
-
-/// Constraint rows a·v ≤ b, as triplets and right-hand sides.
-#[derive(Default)]
-pub(super) struct Rows {
-    pub rows: Vec<usize>,
-    pub cols: Vec<usize>,
-    pub values: Vec<f64>,
-    pub rhs: Vec<f64>,
-}
-
-impl Rows {
-    fn push(&mut self, entries: &[(usize, f64)], rhs: f64) {
-        for &(col, v) in entries {
-            self.rows.push(self.rhs.len());
-            self.cols.push(col);
-            self.values.push(v);
-        }
-        self.rhs.push(rhs);
-    }
-
-    /// Appends `other`'s rows below these.
-    fn append(&mut self, other: Rows) {
-        let offset = self.rhs.len();
-        self.rows.extend(other.rows.iter().map(|r| r + offset));
-        self.cols.extend(other.cols);
-        self.values.extend(other.values);
-        self.rhs.extend(other.rhs);
-    }
-
-    /// (A, b) with `cols` variables.
-    pub(super) fn into_csc(self, cols: usize) -> (CscMatrix<f64>, Vec<f64>) {
-        let a =
-            CscMatrix::new_from_triplets(self.rhs.len(), cols, self.rows, self.cols, self.values);
-        (a, self.rhs)
-    }
-}
-
-/// The plan's constraints as rows a·x ≤ b on x = t/τ (the first n variables). `with_total`
-/// leaves out the total-time row (for the least-time LP).
-pub(super) fn constraint_rows(
-    positions_mm: &[f64],
-    c: &Constraints,
-    tau: f64,
-    with_total: bool,
-    with_change: bool,
-) -> Rows {
-    let n = positions_mm.len();
-    let mut rows = Rows::default();
-    for j in 0..n {
-        rows.push(&[(j, -1.0)], -c.min_dwell_s / tau);
-    }
-    if let Some(hi) = c.max_dwell_s {
-        for j in 0..n {
-            rows.push(&[(j, 1.0)], hi / tau);
-        }
-    }
-    if let (Some(total), true) = (c.max_total_time_s, with_total) {
-        let all: Vec<(usize, f64)> = (0..n).map(|j| (j, 1.0)).collect();
-        rows.push(&all, total / tau);
-    }
-    if let Some(need) = c.segment_min_dwell_sum_s(positions_mm) {
-        for (j, need) in need.iter().enumerate() {
-            rows.push(&[(j, -1.0), (j + 1, -1.0)], -need / tau);
-        }
-    }
-    if let (Some(delta), true) = (c.max_dwell_change_s, with_change) {
-        for j in 0..n.saturating_sub(1) {
-            rows.push(&[(j, -1.0), (j + 1, 1.0)], delta / tau);
-            rows.push(&[(j, 1.0), (j + 1, -1.0)], delta / tau);
-        }
-    }
-    rows
-}
-
-/// The QP in Clarabel's form: ½vᵀPv + qᵀv subject to A·v + s = b, s ∈ cones.
-pub(super) struct ClarabelQp {
-    pub p: CscMatrix<f64>,
-    pub q: Vec<f64>,
-    pub a: CscMatrix<f64>,
-    pub b: Vec<f64>,
-    pub cones: Vec<SupportedConeT<f64>>,
 }
 
 fn assemble(problem: &DwellProblem, band: &Band, s: &Scales) -> ClarabelQp {
@@ -445,96 +325,6 @@ fn assemble(problem: &DwellProblem, band: &Band, s: &Scales) -> ClarabelQp {
     }
 }
 
-/// Solves the QP and maps Clarabel's status; `Ok` carries (v, iterations, seconds, status).
-///
-/// The first attempt runs without iterative refinement of the KKT solves: on these banded
-/// Hessians refinement costs about a third of the solve time and does not change the answer
-/// beyond the solver's tolerances (measured in `benches/optimize.rs`). If that attempt stops
-/// on a numerical failure, the solve is repeated with refinement within the remaining time.
-/// One thread: requests are already solved in parallel, one per computing slot.
-pub(super) fn run_clarabel(
-    qp: &ClarabelQp,
-    time_limit_s: f64,
-) -> Result<(Vec<f64>, u32, f64, SolveStatus), OptimizeError> {
-    let first = solve_once(qp, time_limit_s, false)?;
-    let spent = first.solve_time;
-    match first.status {
-        SolverStatus::NumericalError | SolverStatus::InsufficientProgress
-            if time_limit_s - spent > 0.0 =>
-        {
-            let mut second = solve_once(qp, time_limit_s - spent, true)?;
-            second.solve_time += spent;
-            map_status(&second, time_limit_s)
-        }
-        _ => map_status(&first, time_limit_s),
-    }
-}
-
-/// Clarabel's duality-gap tolerance (its default is 1e-8). Its objective leaves out the fit's
-/// constant ½‖d/s_d‖²/m_Ω (about ½), so the gap is absolute on J, and a well-fitted plan has
-/// J ≈ 1e-4: 1e-10 keeps J to about 1e-6 relative (1.1e-7 worst in tests/optimize_reference.rs)
-/// for two or three more iterations; 1e-12 would cost four.
-const GAP_TOLERANCE: f64 = 1e-10;
-
-fn solve_once(
-    qp: &ClarabelQp,
-    time_limit_s: f64,
-    refine: bool,
-) -> Result<DefaultSolution<f64>, OptimizeError> {
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .time_limit(time_limit_s)
-        .direct_solve_method("faer".to_string())
-        .max_threads(1)
-        .iterative_refinement_enable(refine)
-        .tol_gap_abs(GAP_TOLERANCE)
-        .tol_gap_rel(GAP_TOLERANCE)
-        .build()
-        .map_err(|e| OptimizeError::Numerical {
-            status: format!("settings rejected: {e}"),
-        })?;
-    let mut solver =
-        DefaultSolver::new(&qp.p, &qp.q, &qp.a, &qp.b, &qp.cones, settings).map_err(|e| {
-            OptimizeError::Numerical {
-                status: format!("problem rejected: {e}"),
-            }
-        })?;
-    solver.solve();
-    Ok(solver.solution)
-}
-
-fn map_status(
-    sol: &DefaultSolution<f64>,
-    time_limit_s: f64,
-) -> Result<(Vec<f64>, u32, f64, SolveStatus), OptimizeError> {
-    let status = match sol.status {
-        SolverStatus::Solved => SolveStatus::Solved,
-        SolverStatus::AlmostSolved => SolveStatus::AlmostSolved,
-        SolverStatus::MaxTime => {
-            return Err(OptimizeError::TimeLimit {
-                limit_s: time_limit_s,
-            })
-        }
-        SolverStatus::MaxIterations => {
-            return Err(OptimizeError::IterationLimit {
-                iterations: sol.iterations,
-            })
-        }
-        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
-            return Err(OptimizeError::Infeasible {
-                fields: Vec::new(),
-                detail: "the constraints cannot all hold at once".into(),
-            })
-        }
-        other => {
-            return Err(OptimizeError::Numerical {
-                status: format!("{other:?}"),
-            })
-        }
-    };
-    Ok((sol.x.clone(), sol.iterations, sol.solve_time, status))
-}
-
 /// The interior-point answer in seconds, with the dwell bounds made exact and, if the total
 /// time is over by the solver's rounding (it sums n small errors), the dwell above the lower
 /// bound shrunk in proportion, which keeps the bounds and the dwell-change rows.
@@ -559,43 +349,37 @@ fn polish(c: &Constraints, x: &[f64], tau: f64) -> Vec<f64> {
     t
 }
 
-/// Finds the plan: validates, checks feasibility (naming conflicting constraints), solves,
-/// clamps the dwell bounds exactly and checks every constraint to
-/// [`super::problem::CONSTRAINT_TOLERANCE`] before returning.
+/// Finds the plan: checks feasibility (naming conflicting constraints), solves, clamps the
+/// dwell bounds exactly and checks every constraint to
+/// [`super::problem::CONSTRAINT_TOLERANCE`] before returning. The constraints and weights
+/// are expected valid ([`Constraints::validate`], [`Objective::validate`]: callers parse them
+/// once, before asking for a computation slot). The feasibility LP and the QP share one
+/// budget of `time_limit_s`.
 pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
+    let budget = Budget::start(problem.time_limit_s);
     let n = problem.positions_mm.len();
     assert_eq!(
         n,
         problem.operator.cols(),
         "one position per operator column"
     );
-    problem.constraints.validate()?;
-    problem.objective.validate()?;
+    debug_assert!(problem.constraints.validate().is_ok());
+    debug_assert!(problem.objective.validate().is_ok());
     if problem.rows.is_empty() {
-        return Err(OptimizeError::invalid(
-            "clear_aperture",
-            "the clear aperture holds no radial sample",
-        ));
+        return Err(OptimizeError::EmptyAperture);
     }
     assert_eq!(
         problem.target_nm.len(),
         problem.rows.len(),
         "one target per aperture row"
     );
-    feasibility::check(
-        problem.positions_mm,
-        &problem.constraints,
-        problem.time_limit_s,
-    )?;
+    feasibility::check(problem.positions_mm, &problem.constraints, &budget)?;
 
     let band = Band::new(problem.operator, &problem.rows);
     let m = problem.rows.len() as f64;
     let rate = (0..n).map(|j| band.column_sum(j)).sum::<f64>() / m;
     if rate.is_nan() || rate <= 0.0 {
-        return Err(OptimizeError::invalid(
-            "positions_mm",
-            "no candidate position removes material inside the clear aperture",
-        ));
+        return Err(OptimizeError::NoRemovalInAperture);
     }
     let rms = (problem.target_nm.iter().map(|d| d * d).sum::<f64>() / m).sqrt();
     let depth_nm = if rms > 0.0 { rms } else { 1.0 };
@@ -614,7 +398,7 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
     };
 
     let qp = assemble(problem, &band, &scales);
-    let (v, iterations, solve_time_s, status) = run_clarabel(&qp, problem.time_limit_s)?;
+    let (v, iterations, solve_time_s, status) = run_clarabel(&qp, &budget)?;
 
     let dwell_s = polish(&problem.constraints, &v[..n], scales.dwell_s);
     let c = &problem.constraints;

@@ -1,9 +1,9 @@
-//! Targets on the radial grid: a measured profile (radius, depth) resampled by linear
-//! interpolation onto the grid's samples inside the clear aperture.
+//! Targets on the radial grid: a measured profile (radius, depth), checked once and resampled
+//! by linear interpolation onto the grid's samples inside the clear aperture.
 
 use std::ops::Range;
 
-use super::problem::{OptimizeError, MAX_DEPTH_NM};
+use super::problem::MAX_DEPTH_NM;
 use crate::physics::{ClearAperture, RadialGrid};
 
 /// The contiguous range of grid rows inside `aperture` (the grid is ascending).
@@ -14,61 +14,121 @@ pub fn aperture_rows(grid: &RadialGrid, aperture: &ClearAperture) -> Range<usize
     start..end.max(start)
 }
 
+/// Which array of a measured profile an error is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProfileArray {
+    Radius,
+    Depth,
+}
+
+/// Why a measured profile was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProfileError {
+    #[error("a profile needs at least 2 points")]
+    TooFewPoints,
+    #[error("depth_nm has {depth} entries but radius_mm has {radius}: they must match")]
+    LengthMismatch { depth: usize, radius: usize },
+    #[error("radius_mm[{index}] must be a finite number ≥ 0 mm")]
+    BadRadius { index: usize },
+    #[error("radius_mm must be strictly increasing; entry {index} is not above the one before")]
+    NotIncreasing { index: usize },
+    #[error("depth_nm[{index}] must be a number within ±{max} nm")]
+    BadDepth { index: usize, max: f64 },
+    #[error("the profile spans [{lo}, {hi}] mm but the clear aperture's samples span [{first}, {last}] mm: the profile must cover them")]
+    NotCovering {
+        lo: f64,
+        hi: f64,
+        first: f64,
+        last: f64,
+    },
+}
+
+impl ProfileError {
+    /// The array at fault and, when one element is, its index.
+    pub fn location(&self) -> (ProfileArray, Option<usize>) {
+        match *self {
+            ProfileError::TooFewPoints | ProfileError::NotCovering { .. } => {
+                (ProfileArray::Radius, None)
+            }
+            ProfileError::LengthMismatch { .. } => (ProfileArray::Depth, None),
+            ProfileError::BadRadius { index } | ProfileError::NotIncreasing { index } => {
+                (ProfileArray::Radius, Some(index))
+            }
+            ProfileError::BadDepth { index, .. } => (ProfileArray::Depth, Some(index)),
+        }
+    }
+}
+
+/// A measured profile (`radius_mm` strictly increasing, same length as `depth_nm`, at least 2
+/// points, depths within ±[`MAX_DEPTH_NM`]), checked once.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasuredProfile {
+    radius_mm: Vec<f64>,
+    depth_nm: Vec<f64>,
+}
+
+impl MeasuredProfile {
+    pub fn new(radius_mm: Vec<f64>, depth_nm: Vec<f64>) -> Result<Self, ProfileError> {
+        if radius_mm.len() < 2 {
+            return Err(ProfileError::TooFewPoints);
+        }
+        if depth_nm.len() != radius_mm.len() {
+            return Err(ProfileError::LengthMismatch {
+                depth: depth_nm.len(),
+                radius: radius_mm.len(),
+            });
+        }
+        for (i, (&r, &z)) in radius_mm.iter().zip(&depth_nm).enumerate() {
+            if !r.is_finite() || r < 0.0 {
+                return Err(ProfileError::BadRadius { index: i });
+            }
+            if i > 0 && r <= radius_mm[i - 1] {
+                return Err(ProfileError::NotIncreasing { index: i });
+            }
+            if !(-MAX_DEPTH_NM..=MAX_DEPTH_NM).contains(&z) {
+                return Err(ProfileError::BadDepth {
+                    index: i,
+                    max: MAX_DEPTH_NM,
+                });
+            }
+        }
+        Ok(MeasuredProfile {
+            radius_mm,
+            depth_nm,
+        })
+    }
+
+    /// Linear interpolation at each of `radii_mm`, which must lie within the profile's span.
+    pub fn resample(&self, radii_mm: &[f64]) -> Result<Vec<f64>, ProfileError> {
+        resample_checked(&self.radius_mm, &self.depth_nm, radii_mm)
+    }
+}
+
 /// Linear interpolation of the measured profile (`radius_mm` strictly increasing, same length
 /// as `depth_nm`, at least 2 points) at each of `radii_mm`, which must lie within the
-/// profile's span. Field names in errors are relative to the profile object.
+/// profile's span.
 pub fn resample_profile(
     radius_mm: &[f64],
     depth_nm: &[f64],
     radii_mm: &[f64],
-) -> Result<Vec<f64>, OptimizeError> {
-    if radius_mm.len() < 2 {
-        return Err(OptimizeError::invalid(
-            "radius_mm",
-            "a profile needs at least 2 points",
-        ));
-    }
-    if depth_nm.len() != radius_mm.len() {
-        return Err(OptimizeError::invalid(
-            "depth_nm",
-            format!(
-                "depth_nm has {} entries but radius_mm has {}: they must match",
-                depth_nm.len(),
-                radius_mm.len()
-            ),
-        ));
-    }
-    for (i, (&r, &z)) in radius_mm.iter().zip(depth_nm).enumerate() {
-        if !r.is_finite() || r < 0.0 {
-            return Err(OptimizeError::invalid(
-                format!("radius_mm[{i}]"),
-                format!("radius_mm[{i}] must be a finite number ≥ 0 mm"),
-            ));
-        }
-        if i > 0 && r <= radius_mm[i - 1] {
-            return Err(OptimizeError::invalid(
-                format!("radius_mm[{i}]"),
-                format!(
-                    "radius_mm must be strictly increasing; entry {i} is not above the one before"
-                ),
-            ));
-        }
-        if !(-MAX_DEPTH_NM..=MAX_DEPTH_NM).contains(&z) {
-            return Err(OptimizeError::invalid(
-                format!("depth_nm[{i}]"),
-                format!("depth_nm[{i}] must be a number within ±{MAX_DEPTH_NM} nm"),
-            ));
-        }
-    }
+) -> Result<Vec<f64>, ProfileError> {
+    MeasuredProfile::new(radius_mm.to_vec(), depth_nm.to_vec())?.resample(radii_mm)
+}
+
+fn resample_checked(
+    radius_mm: &[f64],
+    depth_nm: &[f64],
+    radii_mm: &[f64],
+) -> Result<Vec<f64>, ProfileError> {
     let (lo, hi) = (radius_mm[0], radius_mm[radius_mm.len() - 1]);
     if let (Some(&first), Some(&last)) = (radii_mm.first(), radii_mm.last()) {
         if first < lo || last > hi {
-            return Err(OptimizeError::invalid(
-                "radius_mm",
-                format!(
-                    "the profile spans [{lo}, {hi}] mm but the clear aperture's samples span [{first}, {last}] mm: the profile must cover them"
-                ),
-            ));
+            return Err(ProfileError::NotCovering {
+                lo,
+                hi,
+                first,
+                last,
+            });
         }
     }
     Ok(radii_mm
@@ -100,9 +160,16 @@ mod tests {
 
     #[test]
     fn refuses_profiles_that_do_not_cover_or_are_malformed() {
-        let field = |r: Result<Vec<f64>, OptimizeError>| match r {
-            Err(OptimizeError::Invalid { field, .. }) => field,
-            other => panic!("expected Invalid, got {other:?}"),
+        let field = |r: Result<Vec<f64>, ProfileError>| match r {
+            Err(e) => {
+                let (array, index) = e.location();
+                let name = match array {
+                    ProfileArray::Radius => "radius_mm",
+                    ProfileArray::Depth => "depth_nm",
+                };
+                index.map_or(name.to_string(), |i| format!("{name}[{i}]"))
+            }
+            other => panic!("expected an error, got {other:?}"),
         };
         assert_eq!(
             field(resample_profile(&[1.0, 2.0], &[0.0, 0.0], &[0.5])),

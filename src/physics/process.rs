@@ -32,6 +32,17 @@ pub struct ProcessSpec {
     pub pressure_model: PressureModel,
 }
 
+impl ProcessSpec {
+    /// The same process with the tool speed held and the workpiece turning at the speed that
+    /// gives the paper's ratio η: workpiece_rpm = −η·tool_rpm.
+    pub fn with_eta(&self, eta: f64) -> ProcessSpec {
+        ProcessSpec {
+            workpiece_rpm: -eta * self.tool_rpm,
+            ..*self
+        }
+    }
+}
+
 /// Why a [`ProcessSpec`] does not describe a process the radial model can compute.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum ProcessError {

@@ -5,7 +5,7 @@
 //! constant feed, discretised as a [`ConstantFeed`](crate::physics::ConstantFeed) (cell centres,
 //! dwell τ·h each). The path ends at L = min(outer + r_t, the tool's reach), so every radius
 //! of the clear aperture sees the whole pad pass over it: at η = −1 the removal is then uniform
-//! right down to the centre (K·P·|ω|·r_t²·τ/2, the invariant in DESIGN.md).
+//! right down to the centre (K·P·|ω|·r_t²·τ/2, the invariant in `docs/MODEL.md`).
 
 pub mod equal_dwell;
 pub mod recommend;
@@ -13,23 +13,31 @@ pub mod sweep;
 mod window;
 
 pub use equal_dwell::{EqualDwell, Frame};
-pub use recommend::{recommend, Recommendation, SpeedLimits, SpeedRule};
-pub use sweep::{eta_sweep, SweepPoint};
-pub use window::EtaWindow;
+pub use recommend::{recommend, Recommendation, SpeedLimit, SpeedLimits, SpeedRule};
+pub use sweep::{eta_sweep, SweepEtas, SweepPoint};
+pub use window::{eta_window, EtaWindow};
 
-/// Why a study was refused; `field` names the input as the request does.
+use crate::physics::ProcessError;
+
+/// Why a study was refused; each variant says which input is at fault.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{message}")]
-pub struct StudyError {
-    pub field: String,
-    pub message: String,
-}
-
-impl StudyError {
-    pub(crate) fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
-        StudyError {
-            field: field.into(),
-            message: message.into(),
-        }
-    }
+pub enum StudyError {
+    /// Equal dwell removes nothing inside the clear aperture.
+    #[error("equal dwell removes nothing inside the clear aperture")]
+    NoRemovalInAperture,
+    /// A sweep holds the tool speed, which is 0.
+    #[error("an η sweep holds the tool speed, so tool_rpm must not be 0")]
+    ToolStationary,
+    /// η number `index` (from 0) of a sweep is not finite or is 0.
+    #[error("η must be finite and not 0 (η = 0 stops the workpiece)")]
+    InvalidEta { index: usize },
+    /// η number `index` puts the workpiece speed outside the model's domain.
+    #[error("{error}")]
+    EtaOutsideDomain { index: usize, error: ProcessError },
+    /// A machine speed limit is not a finite number > 0.
+    #[error("{} must be a finite number > 0 r/min", limit.name())]
+    InvalidSpeedLimit { limit: SpeedLimit },
+    /// The recommended speeds fall outside the model's domain.
+    #[error("{0}")]
+    RecommendedOutsideDomain(ProcessError),
 }

@@ -7,16 +7,32 @@
 //! limits forbid it, the fastest allowed speed is taken instead.
 
 use super::equal_dwell::{EqualDwell, Frame};
-use super::window::{eta_window, EtaWindow};
+use super::window::EtaWindow;
 use super::StudyError;
 use crate::physics::process::RPM_MAX;
 use crate::physics::{Process, ProcessSpec};
 
-/// Machine speed limits, r/min (magnitudes, > 0).
+/// Machine speed limits, r/min (magnitudes, > 0), checked by [`SpeedLimits::new`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SpeedLimits {
-    pub max_workpiece_rpm: Option<f64>,
-    pub max_tool_rpm: Option<f64>,
+    max_workpiece_rpm: Option<f64>,
+    max_tool_rpm: Option<f64>,
+}
+
+/// One of the machine's speed limits, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpeedLimit {
+    MaxWorkpiece,
+    MaxTool,
+}
+
+impl SpeedLimit {
+    pub fn name(self) -> &'static str {
+        match self {
+            SpeedLimit::MaxWorkpiece => "max_workpiece_rpm",
+            SpeedLimit::MaxTool => "max_tool_rpm",
+        }
+    }
 }
 
 /// Which rule chose the recommended speed.
@@ -62,21 +78,33 @@ impl Recommendation {
 }
 
 impl SpeedLimits {
-    pub fn validate(&self) -> Result<(), StudyError> {
-        for (field, v) in [
-            ("max_workpiece_rpm", self.max_workpiece_rpm),
-            ("max_tool_rpm", self.max_tool_rpm),
+    /// Limits of `None` (no limit) or finite numbers > 0 r/min.
+    pub fn new(
+        max_workpiece_rpm: Option<f64>,
+        max_tool_rpm: Option<f64>,
+    ) -> Result<Self, StudyError> {
+        for (limit, v) in [
+            (SpeedLimit::MaxWorkpiece, max_workpiece_rpm),
+            (SpeedLimit::MaxTool, max_tool_rpm),
         ] {
             if let Some(v) = v {
                 if !v.is_finite() || v <= 0.0 {
-                    return Err(StudyError::new(
-                        field,
-                        format!("{field} must be a finite number > 0 r/min"),
-                    ));
+                    return Err(StudyError::InvalidSpeedLimit { limit });
                 }
             }
         }
-        Ok(())
+        Ok(SpeedLimits {
+            max_workpiece_rpm,
+            max_tool_rpm,
+        })
+    }
+
+    pub fn max_workpiece_rpm(&self) -> Option<f64> {
+        self.max_workpiece_rpm
+    }
+
+    pub fn max_tool_rpm(&self) -> Option<f64> {
+        self.max_tool_rpm
     }
 
     /// The fastest common speed allowed: the machine's limits, and the model's domain.
@@ -88,22 +116,18 @@ impl SpeedLimits {
     }
 }
 
-/// Recommends η = −1 speeds for `process`, comparing equal dwell (of `frame.positions` cells) removing
-/// `depth_nm` (> 0) at the user's and the recommended speeds; the η window uses `threshold`.
+/// Recommends η = −1 speeds for `process`, comparing equal dwell (of `frame.positions` cells)
+/// removing `depth_nm` (> 0) at the user's and the recommended speeds. `window` gives the η
+/// window around the recommended settings (see [`super::eta_window`]); it is asked only once
+/// the comparison has succeeded.
 pub fn recommend(
     process: &Process,
     frame: Frame,
     limits: SpeedLimits,
     depth_nm: f64,
-    threshold: f64,
+    window: impl FnOnce() -> Option<EtaWindow>,
 ) -> Result<Recommendation, StudyError> {
-    limits.validate()?;
-    let no_removal = || {
-        StudyError::new(
-            "clear_aperture",
-            "equal dwell removes nothing inside the clear aperture",
-        )
-    };
+    let no_removal = || StudyError::NoRemovalInAperture;
     let current = EqualDwell::for_depth(process, frame, depth_nm).ok_or_else(no_removal)?;
     let spec = *process.spec();
     let direction = if spec.tool_rpm < 0.0 { -1.0 } else { 1.0 };
@@ -113,7 +137,7 @@ pub fn recommend(
             tool_rpm: direction * speed,
             ..spec
         })
-        .map_err(|e| StudyError::new(format!("process.{}", e.field()), e.to_string()))?;
+        .map_err(StudyError::RecommendedOutsideDomain)?;
         let pass = EqualDwell::for_depth(&p, frame, depth_nm).ok_or_else(no_removal)?;
         Ok((p, pass))
     };
@@ -128,7 +152,7 @@ pub fn recommend(
     } else {
         (cap, SpeedRule::FastestAllowed)
     };
-    let (recommended_process, recommended) = at(speed)?;
+    let (_, recommended) = at(speed)?;
     let improvement_factor = match (
         current.metrics.nonuniformity,
         recommended.metrics.nonuniformity,
@@ -136,7 +160,7 @@ pub fn recommend(
         (Some(c), Some(r)) if r > 0.0 => Some(c / r),
         _ => None,
     };
-    let eta_window = eta_window(recommended_process.spec(), frame, threshold);
+    let eta_window = window();
     Ok(Recommendation {
         workpiece_rpm: direction * speed,
         tool_rpm: direction * speed,

@@ -15,55 +15,66 @@ pub struct SweepPoint {
     pub metrics: UniformityMetrics,
 }
 
-/// Sweeps `etas` (each finite and ≠ 0) at the tool speed of `spec` (≠ 0). With `dwell`, that
-/// schedule is used at every point; otherwise equal dwell of `frame.positions` cells removing
-/// `depth_nm`.
+/// The η values of a sweep, checked against the process whose tool speed it holds: the tool
+/// turns (tool_rpm ≠ 0), and each η is finite, not 0, and puts the workpiece speed −η·tool_rpm
+/// inside the model's domain.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepEtas {
+    spec: ProcessSpec,
+    etas: Vec<f64>,
+}
+
+impl SweepEtas {
+    pub fn new(spec: &ProcessSpec, etas: Vec<f64>) -> Result<Self, StudyError> {
+        if spec.tool_rpm == 0.0 {
+            return Err(StudyError::ToolStationary);
+        }
+        for (index, &eta) in etas.iter().enumerate() {
+            if !eta.is_finite() || eta == 0.0 {
+                return Err(StudyError::InvalidEta { index });
+            }
+            Process::new(spec.with_eta(eta))
+                .map_err(|error| StudyError::EtaOutsideDomain { index, error })?;
+        }
+        Ok(SweepEtas { spec: *spec, etas })
+    }
+
+    /// The process whose tool speed is held.
+    pub fn spec(&self) -> &ProcessSpec {
+        &self.spec
+    }
+
+    pub fn etas(&self) -> &[f64] {
+        &self.etas
+    }
+}
+
+/// Sweeps the η values at their process's tool speed. With `dwell`, that schedule is used at
+/// every point; otherwise equal dwell of `frame.positions` cells removing `depth_nm`.
 pub fn eta_sweep(
-    spec: &ProcessSpec,
-    etas: &[f64],
+    etas: &SweepEtas,
     frame: Frame,
     dwell: Option<&DwellSchedule>,
     depth_nm: f64,
 ) -> Result<Vec<SweepPoint>, StudyError> {
-    if spec.tool_rpm == 0.0 {
-        return Err(StudyError::new(
-            "process.tool_rpm",
-            "an η sweep holds the tool speed, so tool_rpm must not be 0",
-        ));
-    }
-    for (i, &eta) in etas.iter().enumerate() {
-        if !eta.is_finite() || eta == 0.0 {
-            return Err(StudyError::new(
-                format!("etas[{i}]"),
-                format!("etas[{i}] must be finite and not 0 (η = 0 stops the workpiece)"),
-            ));
-        }
-    }
-    etas.par_iter()
+    etas.etas
+        .par_iter()
         .enumerate()
-        .map(|(i, &eta)| {
-            let workpiece_rpm = -eta * spec.tool_rpm;
-            let process = Process::new(ProcessSpec {
-                workpiece_rpm,
-                ..*spec
-            })
-            .map_err(|e| StudyError::new(format!("etas[{i}]"), e.to_string()))?;
+        .map(|(index, &eta)| {
+            let spec = etas.spec.with_eta(eta);
+            let process = Process::new(spec)
+                .map_err(|error| StudyError::EtaOutsideDomain { index, error })?;
             let removal = match dwell {
                 Some(schedule) => schedule.removal_nm(&process, frame.grid),
                 None => {
                     EqualDwell::for_depth(&process, frame, depth_nm)
-                        .ok_or_else(|| {
-                            StudyError::new(
-                                "clear_aperture",
-                                "equal dwell removes nothing inside the clear aperture",
-                            )
-                        })?
+                        .ok_or(StudyError::NoRemovalInAperture)?
                         .removal_nm
                 }
             };
             Ok(SweepPoint {
                 eta,
-                workpiece_rpm,
+                workpiece_rpm: spec.workpiece_rpm,
                 metrics: UniformityMetrics::over(frame.grid, frame.aperture, &removal),
             })
         })

@@ -22,17 +22,36 @@ pub struct EtaWindow {
 /// Equal-dwell nonuniformity at η with the tool speed of `spec` held; `None` where the
 /// workpiece speed −η·tool leaves the model's domain.
 fn n_at(spec: &ProcessSpec, eta: f64, frame: Frame) -> Option<f64> {
-    let process = Process::new(ProcessSpec {
-        workpiece_rpm: -eta * spec.tool_rpm,
-        ..*spec
-    })
-    .ok()?;
+    let process = Process::new(spec.with_eta(eta)).ok()?;
     Some(nonuniformity(&process, frame).unwrap_or(f64::INFINITY))
 }
 
-/// The window around −1 for `spec` (whose `tool_rpm` must be ≠ 0), or `None` when equal
-/// dwell at η = −1 itself is above the threshold.
-pub fn eta_window(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Option<EtaWindow> {
+/// Tool speed at which windows are computed, r/min (see [`eta_window`]).
+const WINDOW_TOOL_RPM: f64 = 100.0;
+
+/// The window around −1 for the geometry and pressure model of `process`, or `None` when
+/// equal dwell at η = −1 itself is above the threshold.
+///
+/// Equal-dwell nonuniformity is a ratio of removals, and removal is proportional to K·P and,
+/// at a fixed η, to the speed scale (both speeds scaled by s scale every sliding velocity by
+/// s; reversing both mirrors the motion). So N(η) — and the window — depend on the geometry
+/// (radii, pressure model), the frame and the threshold only. It is computed at one fixed
+/// speed (tool 100 r/min), K and P, which makes it exactly the same, bit for bit, for every
+/// process of that geometry: it can be cached on what it depends on and still answer
+/// deterministically.
+pub fn eta_window(process: &Process, frame: Frame, threshold: f64) -> Option<EtaWindow> {
+    let spec = ProcessSpec {
+        workpiece_rpm: WINDOW_TOOL_RPM,
+        tool_rpm: WINDOW_TOOL_RPM,
+        preston_coefficient_m2_per_n: 1e-13,
+        pressure_kpa: 10.0,
+        ..*process.spec()
+    };
+    window_at(&spec, frame, threshold)
+}
+
+/// The window with the tool speed of `spec` (≠ 0) held.
+fn window_at(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Option<EtaWindow> {
     let f = |eta: f64| n_at(spec, eta, frame).map(|n| n - threshold);
     let at_minus_one = f(-1.0)?;
     if at_minus_one > 0.0 {

@@ -4,7 +4,8 @@ use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use axum::Router;
 use http_body_util::BodyExt;
-use preston::http::{router, AppState, Limits};
+use preston::config::Limits;
+use preston::http::{router, AppState};
 use tower::ServiceExt;
 
 pub struct Reply {

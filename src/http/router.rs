@@ -1,0 +1,171 @@
+//! The router: the endpoint table (one entry per computing endpoint, driving the routes, the
+//! CLI's `compute` command and the OpenAPI examples), the service routes, and the layers every
+//! request passes (request id, tracing, metrics, compression, body limit, CORS).
+
+use axum::extract::{DefaultBodyLimit, Request};
+use axum::http::{header, HeaderName, HeaderValue, Method};
+use axum::routing::{get, post, MethodRouter};
+use axum::{Extension, Router};
+use tower_http::compression::CompressionLayer;
+use tower_http::cors::{AllowOrigin, CorsLayer};
+use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
+use tower_http::trace::{DefaultOnResponse, TraceLayer};
+use tracing::Level;
+
+use super::endpoint::{compute_json as compute_json_of, Endpoint};
+use super::error::ApiError;
+use super::extract::BodyLimit;
+use super::state::{AppState, Services};
+use super::{docs, eta_sweep, health, metrics, optimize, predict, recommend, removal_function};
+use crate::config::Limits;
+use crate::usecases::ComputeLimits;
+
+type ComputeFn = fn(&[u8], &ComputeLimits, &Services) -> Result<String, ApiError>;
+
+/// One computing endpoint.
+pub struct EndpointEntry {
+    /// The path under `/v1/`, and the name the CLI's `compute` command takes.
+    pub name: &'static str,
+    /// A request body (a fixture): the OpenAPI example.
+    pub example: &'static str,
+    route: fn() -> MethodRouter<AppState>,
+    compute: ComputeFn,
+}
+
+impl EndpointEntry {
+    /// The route path, `/v1/<name>`.
+    pub fn path(&self) -> String {
+        format!("/v1/{}", self.name)
+    }
+}
+
+const fn entry<E: Endpoint>(
+    name: &'static str,
+    example: &'static str,
+    route: fn() -> MethodRouter<AppState>,
+) -> EndpointEntry {
+    EndpointEntry {
+        name,
+        example,
+        route,
+        compute: compute_json_of::<E>,
+    }
+}
+
+/// Every computing endpoint.
+pub static ENDPOINTS: [EndpointEntry; 5] = [
+    entry::<removal_function::RemovalFunctionEndpoint>(
+        "removal-function",
+        include_str!("../../fixtures/removal_function_paper_exp1.json"),
+        || post(removal_function::handler),
+    ),
+    entry::<predict::PredictEndpoint>(
+        "predict",
+        include_str!("../../fixtures/predict_paper_exp2.json"),
+        || post(predict::handler),
+    ),
+    entry::<optimize::OptimizeEndpoint>(
+        "optimize",
+        include_str!("../../fixtures/optimize_paper_exp1.json"),
+        || post(optimize::handler),
+    ),
+    entry::<recommend::RecommendEndpoint>(
+        "recommend",
+        include_str!("../../fixtures/recommend_paper_exp1.json"),
+        || post(recommend::handler),
+    ),
+    entry::<eta_sweep::EtaSweepEndpoint>(
+        "studies/eta-sweep",
+        include_str!("../../fixtures/eta_sweep_figure7.json"),
+        || post(eta_sweep::handler),
+    ),
+];
+
+/// The offline twin of the API: the exact JSON body `POST /v1/<endpoint>` would return.
+pub fn compute_json(endpoint: &str, body: &[u8], limits: &Limits) -> Result<String, ApiError> {
+    let entry = ENDPOINTS
+        .iter()
+        .find(|e| e.name == endpoint)
+        .ok_or_else(|| ApiError::NotFound {
+            path: format!("/v1/{endpoint}"),
+        })?;
+    (entry.compute)(body, &limits.compute(), &Services::default())
+}
+
+/// Cross-origin access: none unless origins are configured (`*` allows any).
+pub fn cors_layer(origins: &[String]) -> Option<CorsLayer> {
+    if origins.is_empty() {
+        return None;
+    }
+    let allow = if origins.iter().any(|o| o == "*") {
+        AllowOrigin::any()
+    } else {
+        AllowOrigin::list(
+            origins
+                .iter()
+                .filter_map(|o| HeaderValue::from_str(o).ok())
+                .collect::<Vec<_>>(),
+        )
+    };
+    Some(
+        CorsLayer::new()
+            .allow_origin(allow)
+            .allow_methods([Method::GET, Method::POST])
+            .allow_headers([header::CONTENT_TYPE, header::ACCEPT]),
+    )
+}
+
+/// The whole service.
+pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
+    let body_limit = state.limits.max_body_bytes;
+    let request_id = HeaderName::from_static(metrics::REQUEST_ID);
+    let computing = ENDPOINTS.iter().fold(Router::new(), |router, e| {
+        router.route(&e.path(), (e.route)())
+    });
+    let router = computing
+        .route("/healthz", get(health::healthz))
+        .route("/readyz", get(health::readyz))
+        .route("/metrics", get(metrics::handler))
+        .route("/openapi.json", get(docs::openapi_json))
+        .route("/docs", get(docs::redirect))
+        .route("/docs/", get(docs::asset))
+        .route("/docs/{*path}", get(docs::asset))
+        .fallback(not_found)
+        .method_not_allowed_fallback(method_not_allowed)
+        .layer(DefaultBodyLimit::max(body_limit))
+        .layer(Extension(BodyLimit(body_limit)))
+        .layer(CompressionLayer::new())
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            metrics::record,
+        ))
+        .with_state(state)
+        .layer(PropagateRequestIdLayer::new(request_id.clone()))
+        .layer(
+            TraceLayer::new_for_http()
+                .make_span_with(|req: &Request| {
+                    let id = req
+                        .headers()
+                        .get(metrics::REQUEST_ID)
+                        .and_then(|v| v.to_str().ok())
+                        .unwrap_or("-");
+                    tracing::info_span!("request", method = %req.method(), path = %req.uri().path(), request_id = %id)
+                })
+                .on_response(DefaultOnResponse::new().level(Level::INFO)),
+        )
+        .layer(SetRequestIdLayer::new(request_id, MakeRequestUuid));
+    match cors {
+        Some(cors) => router.layer(cors),
+        None => router,
+    }
+}
+
+async fn not_found(req: Request) -> ApiError {
+    ApiError::NotFound {
+        path: req.uri().path().to_string(),
+    }
+}
+
+async fn method_not_allowed() -> ApiError {
+    ApiError::MethodNotAllowed
+}

@@ -1,0 +1,258 @@
+//! Clarabel plumbing shared by the dwell QP and the feasibility LP: sparse matrices built by
+//! column or by row, the constraint rows of a plan, one solver call with its status mapped to
+//! the optimizer's, and the wall-clock budget the calls share.
+//!
+//! Clarabel solves  min ½vᵀPv + qᵀv  subject to  A·v + s = b, s ∈ K  (K a product of cones).
+//! Every call of one optimization draws on one [`Budget`]: the feasibility LP (at most twice)
+//! and the QP together never run longer than the request's time limit.
+
+use std::time::Instant;
+
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettingsBuilder, DefaultSolution, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+};
+
+use super::problem::{Constraints, OptimizeError};
+
+/// The wall-clock budget of one optimization, shared by every solver call it makes.
+#[derive(Debug, Clone, Copy)]
+pub struct Budget {
+    limit_s: f64,
+    started: Instant,
+}
+
+impl Budget {
+    /// A budget of `limit_s` seconds, starting now.
+    pub fn start(limit_s: f64) -> Self {
+        Budget {
+            limit_s,
+            started: Instant::now(),
+        }
+    }
+
+    /// The whole budget, s.
+    pub fn limit_s(&self) -> f64 {
+        self.limit_s
+    }
+
+    /// Seconds left; a `TimeLimit` error once none are.
+    pub fn remaining_s(&self) -> Result<f64, OptimizeError> {
+        let left = self.limit_s - self.started.elapsed().as_secs_f64();
+        if left > 0.0 {
+            Ok(left)
+        } else {
+            Err(OptimizeError::TimeLimit {
+                limit_s: self.limit_s,
+            })
+        }
+    }
+}
+
+/// Whether the solver met its full tolerances.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolveStatus {
+    Solved,
+    /// Converged to Clarabel's reduced tolerances only; the plan still keeps its constraints.
+    AlmostSolved,
+}
+
+/// Compressed sparse columns built column by column (rows ascending within a column).
+pub(super) struct CscBuilder {
+    rows: usize,
+    colptr: Vec<usize>,
+    rowval: Vec<usize>,
+    nzval: Vec<f64>,
+}
+
+impl CscBuilder {
+    pub(super) fn new(rows: usize) -> Self {
+        CscBuilder {
+            rows,
+            colptr: vec![0],
+            rowval: Vec::new(),
+            nzval: Vec::new(),
+        }
+    }
+    pub(super) fn push_column(&mut self, entries: impl IntoIterator<Item = (usize, f64)>) {
+        for (r, v) in entries {
+            self.rowval.push(r);
+            self.nzval.push(v);
+        }
+        self.colptr.push(self.rowval.len());
+    }
+    pub(super) fn build(self) -> CscMatrix<f64> {
+        let cols = self.colptr.len() - 1;
+        CscMatrix::new(self.rows, cols, self.colptr, self.rowval, self.nzval)
+    }
+}
+
+/// Constraint rows a·v ≤ b, as triplets and right-hand sides.
+#[derive(Default)]
+pub(super) struct Rows {
+    pub rows: Vec<usize>,
+    pub cols: Vec<usize>,
+    pub values: Vec<f64>,
+    pub rhs: Vec<f64>,
+}
+
+impl Rows {
+    pub(super) fn push(&mut self, entries: &[(usize, f64)], rhs: f64) {
+        for &(col, v) in entries {
+            self.rows.push(self.rhs.len());
+            self.cols.push(col);
+            self.values.push(v);
+        }
+        self.rhs.push(rhs);
+    }
+
+    /// Appends `other`'s rows below these.
+    pub(super) fn append(&mut self, other: Rows) {
+        let offset = self.rhs.len();
+        self.rows.extend(other.rows.iter().map(|r| r + offset));
+        self.cols.extend(other.cols);
+        self.values.extend(other.values);
+        self.rhs.extend(other.rhs);
+    }
+
+    /// (A, b) with `cols` variables.
+    pub(super) fn into_csc(self, cols: usize) -> (CscMatrix<f64>, Vec<f64>) {
+        let a =
+            CscMatrix::new_from_triplets(self.rhs.len(), cols, self.rows, self.cols, self.values);
+        (a, self.rhs)
+    }
+}
+
+/// The plan's constraints as rows a·x ≤ b on x = t/τ (the first n variables). `with_total`
+/// leaves out the total-time row (for the least-time LP).
+pub(super) fn constraint_rows(
+    positions_mm: &[f64],
+    c: &Constraints,
+    tau: f64,
+    with_total: bool,
+    with_change: bool,
+) -> Rows {
+    let n = positions_mm.len();
+    let mut rows = Rows::default();
+    for j in 0..n {
+        rows.push(&[(j, -1.0)], -c.min_dwell_s / tau);
+    }
+    if let Some(hi) = c.max_dwell_s {
+        for j in 0..n {
+            rows.push(&[(j, 1.0)], hi / tau);
+        }
+    }
+    if let (Some(total), true) = (c.max_total_time_s, with_total) {
+        let all: Vec<(usize, f64)> = (0..n).map(|j| (j, 1.0)).collect();
+        rows.push(&all, total / tau);
+    }
+    if let Some(need) = c.segment_min_dwell_sum_s(positions_mm) {
+        for (j, need) in need.iter().enumerate() {
+            rows.push(&[(j, -1.0), (j + 1, -1.0)], -need / tau);
+        }
+    }
+    if let (Some(delta), true) = (c.max_dwell_change_s, with_change) {
+        for j in 0..n.saturating_sub(1) {
+            rows.push(&[(j, -1.0), (j + 1, 1.0)], delta / tau);
+            rows.push(&[(j, 1.0), (j + 1, -1.0)], delta / tau);
+        }
+    }
+    rows
+}
+
+/// The QP in Clarabel's form: ½vᵀPv + qᵀv subject to A·v + s = b, s ∈ cones.
+pub(super) struct ClarabelQp {
+    pub p: CscMatrix<f64>,
+    pub q: Vec<f64>,
+    pub a: CscMatrix<f64>,
+    pub b: Vec<f64>,
+    pub cones: Vec<SupportedConeT<f64>>,
+}
+
+/// Solves the QP within what is left of `budget` and maps Clarabel's status; `Ok` carries (v, iterations, seconds, status).
+///
+/// The first attempt runs without iterative refinement of the KKT solves: on these banded
+/// Hessians refinement costs about a third of the solve time and does not change the answer
+/// beyond the solver's tolerances (measured in `benches/optimize.rs`). If that attempt stops
+/// on a numerical failure, the solve is repeated with refinement within what is left of the budget.
+/// One thread: requests are already solved in parallel, one per computing slot.
+pub(super) fn run_clarabel(
+    qp: &ClarabelQp,
+    budget: &Budget,
+) -> Result<(Vec<f64>, u32, f64, SolveStatus), OptimizeError> {
+    let first = solve_once(qp, budget.remaining_s()?, false)?;
+    match first.status {
+        SolverStatus::NumericalError | SolverStatus::InsufficientProgress => {
+            let spent = first.solve_time;
+            let mut second = solve_once(qp, budget.remaining_s()?, true)?;
+            second.solve_time += spent;
+            map_status(&second, budget)
+        }
+        _ => map_status(&first, budget),
+    }
+}
+
+/// Clarabel's duality-gap tolerance (its default is 1e-8). Its objective leaves out the fit's
+/// constant ½‖d/s_d‖²/m_Ω (about ½), so the gap is absolute on J, and a well-fitted plan has
+/// J ≈ 1e-4: 1e-10 keeps J to about 1e-6 relative (1.1e-7 worst in tests/optimize_reference.rs)
+/// for two or three more iterations; 1e-12 would cost four.
+const GAP_TOLERANCE: f64 = 1e-10;
+
+fn solve_once(
+    qp: &ClarabelQp,
+    time_limit_s: f64,
+    refine: bool,
+) -> Result<DefaultSolution<f64>, OptimizeError> {
+    let settings = DefaultSettingsBuilder::default()
+        .verbose(false)
+        .time_limit(time_limit_s)
+        .direct_solve_method("faer".to_string())
+        .max_threads(1)
+        .iterative_refinement_enable(refine)
+        .tol_gap_abs(GAP_TOLERANCE)
+        .tol_gap_rel(GAP_TOLERANCE)
+        .build()
+        .map_err(|e| OptimizeError::Numerical {
+            status: format!("settings rejected: {e}"),
+        })?;
+    let mut solver =
+        DefaultSolver::new(&qp.p, &qp.q, &qp.a, &qp.b, &qp.cones, settings).map_err(|e| {
+            OptimizeError::Numerical {
+                status: format!("problem rejected: {e}"),
+            }
+        })?;
+    solver.solve();
+    Ok(solver.solution)
+}
+
+fn map_status(
+    sol: &DefaultSolution<f64>,
+    budget: &Budget,
+) -> Result<(Vec<f64>, u32, f64, SolveStatus), OptimizeError> {
+    let status = match sol.status {
+        SolverStatus::Solved => SolveStatus::Solved,
+        SolverStatus::AlmostSolved => SolveStatus::AlmostSolved,
+        SolverStatus::MaxTime => {
+            return Err(OptimizeError::TimeLimit {
+                limit_s: budget.limit_s(),
+            })
+        }
+        SolverStatus::MaxIterations => {
+            return Err(OptimizeError::IterationLimit {
+                iterations: sol.iterations,
+            })
+        }
+        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+            return Err(OptimizeError::Infeasible {
+                fields: Vec::new(),
+                detail: "the constraints cannot all hold at once".into(),
+            })
+        }
+        other => {
+            return Err(OptimizeError::Numerical {
+                status: format!("{other:?}"),
+            })
+        }
+    };
+    Ok((sol.x.clone(), sol.iterations, sol.solve_time, status))
+}

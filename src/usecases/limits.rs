@@ -1,0 +1,107 @@
+//! How large a computation may be: grid sizes, operator sizes, the solver's time budget.
+
+use std::time::Duration;
+
+/// Sizes and times the use cases refuse to exceed. The service configures them (flags and
+/// environment variables); the defaults are the documented ones.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ComputeLimits {
+    /// Largest radial grid (samples).
+    pub max_radial_samples: usize,
+    /// Most tool positions in one computation (dwell or removal-function profiles).
+    pub max_positions: usize,
+    /// Most removal-function profiles.
+    pub max_profiles: usize,
+    /// Largest removal operator, radial samples × tool positions.
+    pub max_operator_entries: usize,
+    /// Most candidate positions in one optimization (its Hessian is dense within the band).
+    pub max_optimize_positions: usize,
+    /// Most η values in one sweep.
+    pub max_etas: usize,
+    /// Longest a dwell optimization may spend in the solver (feasibility LP and QP together).
+    pub solver_time_limit: Duration,
+}
+
+impl Default for ComputeLimits {
+    fn default() -> Self {
+        ComputeLimits {
+            max_radial_samples: 10_001,
+            max_positions: 10_001,
+            max_profiles: 201,
+            max_operator_entries: 25_000_000,
+            max_optimize_positions: 2001,
+            max_etas: 201,
+            solver_time_limit: Duration::from_secs(10),
+        }
+    }
+}
+
+/// A size beyond the limits, with the numbers a message needs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum LimitError {
+    #[error("{count} radial samples; at most {max} are allowed")]
+    RadialSamples { count: usize, max: usize },
+    #[error("{count} positions; at most {max} are allowed")]
+    Positions { count: usize, max: usize },
+    #[error("{samples} × {positions} removal-operator entries; at most {max} are allowed")]
+    OperatorEntries {
+        samples: usize,
+        positions: usize,
+        max: usize,
+    },
+    #[error("{count} profiles; at most {max} are allowed")]
+    Profiles { count: usize, max: usize },
+    #[error("{count} positions to optimize; at most {max} are allowed")]
+    OptimizePositions { count: usize, max: usize },
+    #[error("{count} η values; 1 to {max} are allowed")]
+    Etas { count: usize, max: usize },
+}
+
+impl ComputeLimits {
+    pub fn check_radial_samples(&self, count: usize) -> Result<(), LimitError> {
+        let max = self.max_radial_samples;
+        (count <= max)
+            .then_some(())
+            .ok_or(LimitError::RadialSamples { count, max })
+    }
+
+    /// An operator of `samples` radial samples × `positions` tool positions.
+    pub fn check_operator(&self, samples: usize, positions: usize) -> Result<(), LimitError> {
+        if positions > self.max_positions {
+            return Err(LimitError::Positions {
+                count: positions,
+                max: self.max_positions,
+            });
+        }
+        if samples.saturating_mul(positions) > self.max_operator_entries {
+            return Err(LimitError::OperatorEntries {
+                samples,
+                positions,
+                max: self.max_operator_entries,
+            });
+        }
+        Ok(())
+    }
+
+    pub fn check_profiles(&self, count: usize) -> Result<(), LimitError> {
+        let max = self.max_profiles;
+        (count <= max)
+            .then_some(())
+            .ok_or(LimitError::Profiles { count, max })
+    }
+
+    pub fn check_optimize_positions(&self, count: usize) -> Result<(), LimitError> {
+        let max = self.max_optimize_positions;
+        (count <= max)
+            .then_some(())
+            .ok_or(LimitError::OptimizePositions { count, max })
+    }
+
+    pub fn check_etas(&self, count: usize) -> Result<(), LimitError> {
+        let max = self.max_etas;
+        (1..=max)
+            .contains(&count)
+            .then_some(())
+            .ok_or(LimitError::Etas { count, max })
+    }
+}

@@ -1,0 +1,89 @@
+//! The use cases: one function per question a caller can ask — the removal function, a
+//! prediction, an optimized plan, a recommendation, an η sweep. Pure like the rest of the core:
+//! no HTTP, JSON or OpenAPI types.
+//!
+//! Every use case comes in two steps:
+//!
+//! 1. **A command**, built through its constructor from plain values (`Option`s for inputs that
+//!    have defaults). The constructor fills in the defaults, checks every input and every size
+//!    limit, and is cheap (no removal function is evaluated), so a caller can refuse bad input
+//!    before it queues for a computation slot. A command that exists is valid: parse, don't
+//!    validate.
+//! 2. **The computation**, a function taking the command and returning a typed result that holds
+//!    everything a response needs (removal, metrics, residual figures, motion figures, the
+//!    recommendation). It fails only for reasons found by computing (equal dwell removing
+//!    nothing, a solver stopping), never for bad input.
+//!
+//! Errors say which input is wrong in typed terms ([`Input`], and the physics, optimizer and
+//! study error enums); callers map them onto their own field names.
+
+pub mod eta_sweep;
+mod limits;
+pub mod optimize;
+pub mod predict;
+pub mod recommend;
+pub mod removal_function;
+mod setting;
+
+pub use limits::{ComputeLimits, LimitError};
+pub use recommend::Recommender;
+pub use setting::{ApertureSpec, GridSpec, Setting, SettingError};
+
+use crate::optimize::OptimizeError;
+use crate::physics::ScheduleError;
+use crate::study::StudyError;
+
+/// An input of a command, by role (callers name it in their own terms).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Input {
+    /// The tool positions of a removal-function request.
+    ToolPositions,
+    /// A dwell schedule (positions and dwell times).
+    Dwell,
+    /// The candidate positions of an optimization.
+    Positions,
+    /// The number of cells of the equal-dwell pass.
+    EqualDwellPositions,
+    /// The η values of a sweep.
+    Etas,
+    /// The depth equal dwell removes.
+    Depth,
+    /// The η-window threshold on equal-dwell nonuniformity.
+    NonuniformityThreshold,
+    /// A uniform target depth.
+    UniformDepth,
+    /// The solver's time budget.
+    SolverTimeLimit,
+}
+
+/// Why a command could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum InputError {
+    #[error(transparent)]
+    Setting(#[from] SettingError),
+    /// An input is larger than the limits allow.
+    #[error("{input:?}: {error}")]
+    Limit { input: Input, error: LimitError },
+    /// A dwell schedule or list of positions is malformed.
+    #[error("{error}")]
+    Schedule { input: Input, error: ScheduleError },
+    /// A number outside its range; `max` is the largest accepted value.
+    #[error("{input:?} is out of range (at most {max})")]
+    OutOfRange { input: Input, max: f64 },
+    /// Constraints, objective weights or a measured profile.
+    #[error(transparent)]
+    Optimize(#[from] OptimizeError),
+    /// η values or machine speed limits.
+    #[error(transparent)]
+    Study(#[from] StudyError),
+}
+
+impl InputError {
+    fn limit(input: Input) -> impl FnOnce(LimitError) -> InputError {
+        move |error| InputError::Limit { input, error }
+    }
+
+    fn schedule(input: Input) -> impl FnOnce(ScheduleError) -> InputError {
+        move |error| InputError::Schedule { input, error }
+    }
+}

@@ -1,0 +1,209 @@
+//! Optimization: the dwell plan whose removal matches a target over the clear aperture within
+//! the constraints (see [`crate::optimize`] for the QP), with everything a caller reports
+//! about it: removal, target and residual on the grid, motion, metrics, the recommendation.
+
+use std::ops::Range;
+
+use super::{ComputeLimits, Input, InputError, Recommender, Setting};
+use crate::optimize::problem::MAX_DEPTH_NM;
+use crate::optimize::target::aperture_rows;
+use crate::optimize::{
+    optimize as solve, Constraints, DwellProblem, Formulation, MeasuredProfile, Motion, Objective,
+    OptimizeError, Solution,
+};
+use crate::physics::{check_positions, RemovalKernel, RemovalOperator, UniformityMetrics};
+use crate::study::Recommendation;
+
+/// What to remove over the clear aperture.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Target {
+    /// A uniform depth, nm, in [0, 1e9] (checked by [`Target::uniform`]).
+    Uniform { depth_nm: f64 },
+    /// A measured error profile, optionally with a free uniform layer p ≥ 0 on top.
+    Profile {
+        profile: MeasuredProfile,
+        free_piston: bool,
+    },
+}
+
+impl Target {
+    pub fn uniform(depth_nm: f64) -> Result<Self, InputError> {
+        if (0.0..=MAX_DEPTH_NM).contains(&depth_nm) {
+            Ok(Target::Uniform { depth_nm })
+        } else {
+            Err(InputError::OutOfRange {
+                input: Input::UniformDepth,
+                max: MAX_DEPTH_NM,
+            })
+        }
+    }
+}
+
+/// An optimization, checked: positions within reach and limits, the target resampled onto the
+/// aperture's rows, constraints and weights in their domains, a time budget within the limit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OptimizeCommand {
+    setting: Setting,
+    positions_mm: Vec<f64>,
+    rows: Range<usize>,
+    target_nm: Vec<f64>,
+    free_piston: bool,
+    constraints: Constraints,
+    objective: Objective,
+    time_limit_s: f64,
+}
+
+impl OptimizeCommand {
+    /// `time_limit_s` defaults to, and may not exceed, the limits' solver time.
+    pub fn new(
+        setting: Setting,
+        positions_mm: Vec<f64>,
+        target: Target,
+        constraints: Constraints,
+        objective: Objective,
+        time_limit_s: Option<f64>,
+        limits: &ComputeLimits,
+    ) -> Result<Self, InputError> {
+        let input = Input::Positions;
+        limits
+            .check_optimize_positions(positions_mm.len())
+            .map_err(InputError::limit(input))?;
+        limits
+            .check_operator(setting.samples(), positions_mm.len())
+            .map_err(InputError::limit(input))?;
+        check_positions(setting.process(), "positions_mm", &positions_mm, true)
+            .map_err(InputError::schedule(input))?;
+        constraints.validate()?;
+        objective.validate()?;
+        let max_s = limits.solver_time_limit.as_secs_f64();
+        let time_limit_s = match time_limit_s {
+            None => max_s,
+            Some(t) if t.is_finite() && t > 0.0 && t <= max_s => t,
+            Some(_) => {
+                return Err(InputError::OutOfRange {
+                    input: Input::SolverTimeLimit,
+                    max: max_s,
+                })
+            }
+        };
+        let rows = aperture_rows(setting.grid(), setting.aperture());
+        let (target_nm, free_piston) = match target {
+            Target::Uniform { depth_nm } => (vec![depth_nm; rows.len()], false),
+            Target::Profile {
+                profile,
+                free_piston,
+            } => (
+                profile
+                    .resample(&setting.grid().radii_mm()[rows.clone()])
+                    .map_err(OptimizeError::from)?,
+                free_piston,
+            ),
+        };
+        Ok(OptimizeCommand {
+            setting,
+            positions_mm,
+            rows,
+            target_nm,
+            free_piston,
+            constraints,
+            objective,
+            time_limit_s,
+        })
+    }
+}
+
+/// An optimized plan and what it does.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OptimizedPlan {
+    pub setting: Setting,
+    pub positions_mm: Vec<f64>,
+    /// Dwell, piston, solver account and objective value.
+    pub solution: Solution,
+    /// The weights used.
+    pub objective: Objective,
+    pub total_time_s: f64,
+    pub motion: Motion,
+    /// Removal at each grid radius, nm.
+    pub removal_nm: Vec<f64>,
+    /// Target (with the piston) at each grid radius; `None` outside the aperture.
+    pub target_nm: Vec<Option<f64>>,
+    /// removal − target at each grid radius; `None` outside the aperture.
+    pub residual_nm: Vec<Option<f64>>,
+    /// max − min of the residual over the aperture, nm.
+    pub residual_pv_nm: f64,
+    /// √(mean of residual²) over the aperture, nm (an offset counts).
+    pub residual_rms_nm: f64,
+    /// Uniformity of the removal over the aperture.
+    pub metrics: UniformityMetrics,
+    /// η = −1 settings for the target's mean depth; `None` at η = −1.
+    pub recommendation: Option<Recommendation>,
+}
+
+/// Solves the plan. Fails only when the constraints conflict or the solver finds no plan.
+pub fn optimize(
+    command: OptimizeCommand,
+    recommender: &Recommender,
+) -> Result<OptimizedPlan, OptimizeError> {
+    let OptimizeCommand {
+        setting,
+        positions_mm,
+        rows,
+        target_nm,
+        free_piston,
+        constraints,
+        objective,
+        time_limit_s,
+    } = command;
+    let operator = RemovalOperator::assemble(
+        &RemovalKernel::new(setting.process()),
+        setting.grid().radii_mm(),
+        &positions_mm,
+    );
+    let solution = solve(&DwellProblem {
+        operator: &operator,
+        positions_mm: &positions_mm,
+        tool_radius_mm: setting.process().tool_radius_mm(),
+        rows: rows.clone(),
+        target_nm: &target_nm,
+        free_piston,
+        constraints,
+        objective,
+        time_limit_s,
+        formulation: Formulation::default(),
+    })?;
+
+    let removal_nm = operator.apply(&solution.dwell_s);
+    let piston = solution.piston_nm.unwrap_or(0.0);
+    let mut full_target = vec![None; removal_nm.len()];
+    let mut residual = vec![None; removal_nm.len()];
+    for (k, i) in rows.enumerate() {
+        let t = target_nm[k] + piston;
+        full_target[i] = Some(t);
+        residual[i] = Some(removal_nm[i] - t);
+    }
+    let inside: Vec<f64> = residual.iter().flatten().copied().collect();
+    let (lo, hi) = inside
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let rms = (inside.iter().map(|v| v * v).sum::<f64>() / inside.len() as f64).sqrt();
+    let motion = Motion::of_plan(&positions_mm, &solution.dwell_s);
+    let metrics = UniformityMetrics::over(setting.grid(), setting.aperture(), &removal_nm);
+    let mean_target = target_nm.iter().sum::<f64>() / target_nm.len() as f64 + piston;
+    Ok(OptimizedPlan {
+        recommendation: recommender.for_plan(&setting, mean_target),
+        total_time_s: solution.dwell_s.iter().sum(),
+        setting,
+        positions_mm,
+        objective,
+        motion,
+        removal_nm,
+        target_nm: full_target,
+        residual_nm: residual,
+        residual_pv_nm: hi - lo,
+        residual_rms_nm: rms,
+        metrics,
+        solution,
+    })
+}

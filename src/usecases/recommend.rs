@@ -1,0 +1,270 @@
+//! The η = −1 recommendation as a use case, and the [`Recommender`] that serves it from
+//! bounded caches.
+//!
+//! A recommendation costs three equal-dwell passes (the user's speeds, a reference at η = −1
+//! and the recommended speeds) plus the η window, which takes a few dozen more (outward
+//! steps and regula falsi on the equal-dwell nonuniformity N(η)). The window is by far the
+//! dearest part and depends on much less than the process: N(η) is scale-free in the speeds,
+//! K and P (see [`crate::study::eta_window`]), so windows are cached on the geometry, pressure
+//! model, grid, aperture, pass and threshold alone, and every process of one machine set-up
+//! shares one. Whole recommendations (per unit depth; plans scale with the depth) are cached
+//! on every input as well, for callers that ask about the same process again and again.
+//!
+//! Both caches are bounded (emptied when full) and deterministic: what they hold is a
+//! function of the key alone, so a response never depends on what was asked before.
+
+use std::collections::HashMap;
+use std::hash::Hash;
+use std::sync::{Arc, Mutex};
+
+use super::{ComputeLimits, Input, InputError, Setting};
+use crate::optimize::problem::MAX_DEPTH_NM;
+use crate::physics::Process;
+use crate::study::{self, EtaWindow, Frame, Recommendation, SpeedLimits, StudyError};
+
+/// Default η-window threshold on equal-dwell nonuniformity (2 %).
+pub const DEFAULT_THRESHOLD: f64 = 0.02;
+/// Default number of positions (cells) of the equal-dwell pass.
+pub const DEFAULT_EQUAL_DWELL_POSITIONS: usize = 200;
+/// Default depth of the equal-dwell plan, nm.
+pub const DEFAULT_DEPTH_NM: f64 = 100.0;
+/// Entries each cache holds before it is emptied.
+const CACHE_CAPACITY: usize = 256;
+
+/// A recommendation for the user's process within the machine's speed limits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecommendCommand {
+    setting: Setting,
+    limits: SpeedLimits,
+    depth_nm: f64,
+    threshold: f64,
+    positions: usize,
+}
+
+impl RecommendCommand {
+    /// `depth_nm` (default 100) in (0, 1e9] nm; `threshold` (default 0.02) a finite fraction
+    /// > 0; `positions` (default 200) at least 2, within the operator limit.
+    pub fn new(
+        setting: Setting,
+        limits: SpeedLimits,
+        depth_nm: Option<f64>,
+        threshold: Option<f64>,
+        positions: Option<usize>,
+        compute: &ComputeLimits,
+    ) -> Result<Self, InputError> {
+        let depth_nm = equal_dwell_depth(depth_nm)?;
+        let threshold = threshold.unwrap_or(DEFAULT_THRESHOLD);
+        if !threshold.is_finite() || threshold <= 0.0 {
+            return Err(InputError::OutOfRange {
+                input: Input::NonuniformityThreshold,
+                max: f64::MAX,
+            });
+        }
+        let positions = equal_dwell_positions(positions)?;
+        compute
+            .check_operator(setting.samples(), positions)
+            .map_err(InputError::limit(Input::EqualDwellPositions))?;
+        Ok(RecommendCommand {
+            setting,
+            limits,
+            depth_nm,
+            threshold,
+            positions,
+        })
+    }
+
+    pub fn setting(&self) -> &Setting {
+        &self.setting
+    }
+}
+
+/// The depth of an equal-dwell plan: `None` means [`DEFAULT_DEPTH_NM`]; in (0, 1e9] nm.
+pub(super) fn equal_dwell_depth(depth_nm: Option<f64>) -> Result<f64, InputError> {
+    let depth = depth_nm.unwrap_or(DEFAULT_DEPTH_NM);
+    if depth > 0.0 && depth <= MAX_DEPTH_NM {
+        Ok(depth)
+    } else {
+        Err(InputError::OutOfRange {
+            input: Input::Depth,
+            max: MAX_DEPTH_NM,
+        })
+    }
+}
+
+/// The cells of an equal-dwell pass: `None` means [`DEFAULT_EQUAL_DWELL_POSITIONS`]; at least
+/// 2 (the upper bound is the operator's, checked with the grid).
+pub(super) fn equal_dwell_positions(positions: Option<usize>) -> Result<usize, InputError> {
+    let n = positions.unwrap_or(DEFAULT_EQUAL_DWELL_POSITIONS);
+    if n >= 2 {
+        Ok(n)
+    } else {
+        Err(InputError::OutOfRange {
+            input: Input::EqualDwellPositions,
+            max: f64::MAX,
+        })
+    }
+}
+
+/// Recommends η = −1 speeds (see [`crate::study::recommend`]).
+pub fn recommend(
+    command: &RecommendCommand,
+    recommender: &Recommender,
+) -> Result<Recommendation, StudyError> {
+    let RecommendCommand {
+        setting,
+        limits,
+        depth_nm,
+        threshold,
+        positions,
+    } = command;
+    recommender.recommendation(
+        setting.process(),
+        setting.frame(*positions),
+        *limits,
+        *depth_nm,
+        *threshold,
+    )
+}
+
+/// A map that empties itself when it reaches its capacity.
+#[derive(Debug)]
+struct BoundedCache<K, V> {
+    entries: Mutex<HashMap<K, V>>,
+    capacity: usize,
+}
+
+impl<K: Eq + Hash, V: Clone> BoundedCache<K, V> {
+    fn new(capacity: usize) -> Self {
+        BoundedCache {
+            entries: Mutex::new(HashMap::new()),
+            capacity,
+        }
+    }
+
+    /// The value for `key`, computed by `make` (outside the lock) when absent. Values `make`
+    /// refuses are not kept.
+    fn get_or_try<E>(&self, key: K, make: impl FnOnce() -> Result<V, E>) -> Result<V, E> {
+        if let Some(v) = self.entries.lock().ok().and_then(|c| c.get(&key).cloned()) {
+            return Ok(v);
+        }
+        let value = make()?;
+        if let Ok(mut c) = self.entries.lock() {
+            if c.len() >= self.capacity {
+                c.clear();
+            }
+            c.insert(key, value.clone());
+        }
+        Ok(value)
+    }
+}
+
+/// Serves recommendations; one per service, shared by every request.
+#[derive(Debug)]
+pub struct Recommender {
+    /// Whole recommendations per unit depth, keyed by every input.
+    recommendations: BoundedCache<Vec<u64>, Arc<Recommendation>>,
+    /// η windows, keyed by what they depend on.
+    windows: BoundedCache<Vec<u64>, Option<EtaWindow>>,
+}
+
+impl Default for Recommender {
+    fn default() -> Self {
+        Recommender {
+            recommendations: BoundedCache::new(CACHE_CAPACITY),
+            windows: BoundedCache::new(CACHE_CAPACITY),
+        }
+    }
+}
+
+/// The bits of the frame and the geometry: what the η window depends on.
+fn geometry_key(process: &Process, frame: Frame, threshold: f64) -> Vec<u64> {
+    let s = process.spec();
+    let mut key: Vec<u64> = [
+        s.workpiece_radius_mm,
+        s.tool_radius_mm,
+        frame.grid.start_mm(),
+        frame.grid.stop_mm(),
+        frame.aperture.inner_mm(),
+        frame.aperture.outer_mm(),
+        threshold,
+    ]
+    .iter()
+    .map(|v| v.to_bits())
+    .collect();
+    key.extend([
+        frame.grid.radii_mm().len() as u64,
+        frame.positions as u64,
+        s.pressure_model as u64,
+    ]);
+    key
+}
+
+impl Recommender {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The recommendation for these inputs at `depth_nm` (> 0), from the caches when possible.
+    pub fn recommendation(
+        &self,
+        process: &Process,
+        frame: Frame,
+        limits: SpeedLimits,
+        depth_nm: f64,
+        threshold: f64,
+    ) -> Result<Recommendation, StudyError> {
+        let s = process.spec();
+        let mut key = geometry_key(process, frame, threshold);
+        key.extend(
+            [
+                s.workpiece_rpm,
+                s.tool_rpm,
+                s.preston_coefficient_m2_per_n,
+                s.pressure_kpa,
+                limits.max_workpiece_rpm().unwrap_or(-1.0),
+                limits.max_tool_rpm().unwrap_or(-1.0),
+            ]
+            .iter()
+            .map(|v| v.to_bits()),
+        );
+        let unit = self.recommendations.get_or_try(key, || {
+            study::recommend(process, frame, limits, 1.0, || {
+                self.window(process, frame, threshold)
+            })
+            .map(Arc::new)
+        })?;
+        Ok(unit.scaled_to(depth_nm))
+    }
+
+    /// The η window for the geometry of `process`, from the cache when possible.
+    fn window(&self, process: &Process, frame: Frame, threshold: f64) -> Option<EtaWindow> {
+        let key = geometry_key(process, frame, threshold);
+        let window = self.windows.get_or_try(key, || {
+            Ok::<_, ()>(study::eta_window(process, frame, threshold))
+        });
+        window.unwrap_or(None)
+    }
+
+    /// The recommendation a plan (a prediction or an optimized plan) carries: `None` at
+    /// η = −1 or when equal dwell removes nothing in the aperture. Uses the default
+    /// threshold and pass, removing the plan's mean depth (the default depth when that is not
+    /// a positive number).
+    pub fn for_plan(&self, setting: &Setting, mean_depth_nm: f64) -> Option<Recommendation> {
+        if setting.process().is_eta_minus_one() {
+            return None;
+        }
+        let depth = if mean_depth_nm > 0.0 && mean_depth_nm.is_finite() {
+            mean_depth_nm
+        } else {
+            DEFAULT_DEPTH_NM
+        };
+        self.recommendation(
+            setting.process(),
+            setting.frame(DEFAULT_EQUAL_DWELL_POSITIONS),
+            SpeedLimits::default(),
+            depth,
+            DEFAULT_THRESHOLD,
+        )
+        .ok()
+    }
+}
