@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Load test on loopback, bounded in time (about 2 minutes): a sustained run and a 4× overload
+# Load test on loopback, bounded in time (about 3 minutes): a sustained run and a 4× overload
 # run against POST /v1/predict (paper experiment 1, 201 × 201) and POST /v1/optimize (paper
 # experiment 1, 501 × 501), with the service at its defaults. Prints one RESULT line per run
 # (throughput, p50/p99 latency, responses by status, socket errors) and the server's peak RSS.
@@ -20,17 +20,23 @@ for _ in $(seq 100); do
   sleep 0.1
 done
 
-run() { # name, endpoint, fixture, connections[, port]
-  local name=$1 endpoint=$2 fixture=$3 connections=$4 port=${5:-$port}
-  # Warm up (first requests fill the recommendation cache), then measure.
-  BODY="fixtures/$fixture" wrk -t2 -c2 -d2s -s scripts/loadtest.lua \
+run() { # name, endpoint, fixture, connections[, vary]
+  local name=$1 endpoint=$2 fixture=$3 connections=$4 vary=${5:-}
+  # Warm up (first requests fill the caches), then measure.
+  BODY="fixtures/$fixture" VARY="$vary" wrk -t2 -c2 -d2s -s scripts/loadtest.lua \
       "http://127.0.0.1:$port$endpoint" >/dev/null
   echo "== $name: $connections connections, $duration"
-  BODY="fixtures/$fixture" wrk -t2 -c"$connections" -d"$duration" --timeout 30s \
+  BODY="fixtures/$fixture" VARY="$vary" wrk -t2 -c"$connections" -d"$duration" --timeout 30s \
       -s scripts/loadtest.lua "http://127.0.0.1:$port$endpoint" | grep '^RESULT'
 }
 
 run "predict sustained" /v1/predict predict_paper_exp1_201.json 16
+# The same with a new process per request: a new pressure each time (same set-up and η), a new
+# workpiece speed (a new η) each time, a new tool radius (a new set-up) each time: what a
+# stream of different jobs costs against one repeated job.
+run "predict sustained, new pressure per request" /v1/predict predict_paper_exp1_201.json 16 pressure
+run "predict sustained, new speed per request" /v1/predict predict_paper_exp1_201.json 16 speed
+run "predict sustained, new geometry per request" /v1/predict predict_paper_exp1_201.json 16 geometry
 run "predict 4x overload" /v1/predict predict_paper_exp1_201.json 64
 run "optimize sustained" /v1/optimize optimize_paper_exp1.json 2
 run "optimize 4x overload" /v1/optimize optimize_paper_exp1.json 8

@@ -8,10 +8,7 @@ use crate::physics::{ClearAperture, RadialGrid};
 
 /// The contiguous range of grid rows inside `aperture` (the grid is ascending).
 pub fn aperture_rows(grid: &RadialGrid, aperture: &ClearAperture) -> Range<usize> {
-    let radii = grid.radii_mm();
-    let start = radii.partition_point(|&r| r < aperture.inner_mm());
-    let end = radii.partition_point(|&r| r <= aperture.outer_mm());
-    start..end.max(start)
+    grid.rows_in(aperture)
 }
 
 /// Which array of a measured profile an error is about.

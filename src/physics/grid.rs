@@ -118,6 +118,14 @@ impl RadialGrid {
     pub fn start_mm(&self) -> f64 {
         self.start_mm
     }
+    /// The contiguous range of samples inside `aperture` (the grid ascends).
+    pub fn rows_in(&self, aperture: &ClearAperture) -> std::ops::Range<usize> {
+        let radii = &self.radii_mm;
+        let start = radii.partition_point(|&r| r < aperture.inner_mm());
+        let end = radii.partition_point(|&r| r <= aperture.outer_mm());
+        start..end.max(start)
+    }
+
     pub fn stop_mm(&self) -> f64 {
         self.stop_mm
     }

@@ -1,7 +1,8 @@
 //! Equal dwell: one constant-feed pass over [0, L] (see [`super`]), and what it removes.
 
 use crate::physics::{
-    ClearAperture, ConstantFeed, DwellSchedule, Process, RadialGrid, UniformityMetrics,
+    ClearAperture, ConstantFeed, DwellSchedule, Process, ProcessSpec, RadialGrid, RemovalKernel,
+    RemovalOperator, UniformityMetrics,
 };
 
 /// Where a study looks: the radial grid removal is computed on, the clear aperture it is
@@ -20,9 +21,61 @@ pub struct EqualDwell {
     pub schedule: DwellSchedule,
     /// The constant feed, mm/min.
     pub feed_mm_per_min: f64,
-    /// Removal at each grid radius, nm.
-    pub removal_nm: Vec<f64>,
+    /// Removal at each grid radius inside the clear aperture, nm (only these are judged, so
+    /// only these are computed).
+    pub aperture_removal_nm: Vec<f64>,
     pub metrics: UniformityMetrics,
+}
+
+/// The η = −1 setting at which the parts of a study that depend only on the geometry are
+/// computed: both speeds 100 r/min, K = 1e-13 m²/N, P = 10 kPa (see [`EqualDwell::retimed`]
+/// and [`super::eta_window`]).
+pub const CANONICAL_RPM: f64 = 100.0;
+const CANONICAL_PRESTON: f64 = 1e-13;
+const CANONICAL_PRESSURE_KPA: f64 = 10.0;
+
+/// `spec`'s geometry and pressure model at the canonical η = −1 setting.
+pub fn canonical_translation(spec: &ProcessSpec) -> ProcessSpec {
+    ProcessSpec {
+        workpiece_rpm: CANONICAL_RPM,
+        tool_rpm: CANONICAL_RPM,
+        preston_coefficient_m2_per_n: CANONICAL_PRESTON,
+        pressure_kpa: CANONICAL_PRESSURE_KPA,
+        ..*spec
+    }
+}
+
+/// How many times faster `spec` at η = −1 and `speed_rpm` removes than the canonical setting:
+/// at η = −1 the rate K·P·|ω|·r1·θ0/π is linear in speed, K and P together.
+pub fn translation_rate_factor(spec: &ProcessSpec, speed_rpm: f64) -> f64 {
+    (speed_rpm / CANONICAL_RPM)
+        * (spec.preston_coefficient_m2_per_n / CANONICAL_PRESTON)
+        * (spec.pressure_kpa / CANONICAL_PRESSURE_KPA)
+}
+
+/// `spec` at the canonical speed scale, K and P with its η (or, with the tool stationary, its
+/// workpiece direction) kept, and how many times faster `spec` removes: at a fixed η every
+/// sliding speed is |tool speed| times a function of η and the geometry, so removal is linear
+/// in |tool speed|·K·P (in |workpiece speed|·K·P with the tool stationary). `None` when the
+/// canonical speeds would leave the model's domain (|η| > 1000).
+pub fn scale_free(spec: &ProcessSpec) -> Option<(ProcessSpec, f64)> {
+    let (canonical, scale_rpm) = if spec.tool_rpm == 0.0 {
+        (
+            ProcessSpec {
+                workpiece_rpm: CANONICAL_RPM,
+                ..canonical_translation(spec)
+            },
+            spec.workpiece_rpm.abs(),
+        )
+    } else {
+        let eta = -spec.workpiece_rpm / spec.tool_rpm;
+        (
+            canonical_translation(spec).with_eta(eta),
+            spec.tool_rpm.abs(),
+        )
+    };
+    Process::new(canonical).ok()?;
+    Some((canonical, translation_rate_factor(spec, scale_rpm)))
 }
 
 /// Path end L = min(outer + r_t, reach), mm.
@@ -47,8 +100,14 @@ impl EqualDwell {
             positions,
         };
         let schedule = unit.schedule(process).ok()?;
-        let removal = schedule.removal_nm(process, grid);
-        let mean = UniformityMetrics::over(grid, aperture, &removal).mean_nm;
+        let radii = &grid.radii_mm()[grid.rows_in(aperture)];
+        let removal =
+            RemovalOperator::assemble(&RemovalKernel::new(process), radii, schedule.positions_mm())
+                .apply(schedule.dwell_s());
+        if removal.is_empty() {
+            return None;
+        }
+        let mean = UniformityMetrics::of_samples(&removal).mean_nm;
         if !(mean > 0.0 && mean.is_finite()) {
             return None;
         }
@@ -57,10 +116,10 @@ impl EqualDwell {
         let dwell: Vec<f64> = schedule.dwell_s().iter().map(|t| t * k).collect();
         let schedule = DwellSchedule::new(process, schedule.positions_mm().to_vec(), dwell).ok()?;
         Some(EqualDwell {
-            metrics: UniformityMetrics::over(grid, aperture, &removal_nm),
+            metrics: UniformityMetrics::of_samples(&removal_nm),
             feed_mm_per_min: 60.0 / k,
             schedule,
-            removal_nm,
+            aperture_removal_nm: removal_nm,
         })
     }
 
@@ -74,7 +133,7 @@ impl EqualDwell {
                 self.schedule.dwell_s().iter().map(|t| t * k).collect(),
             ),
             feed_mm_per_min: self.feed_mm_per_min / k,
-            removal_nm: self.removal_nm.iter().map(|z| z * k).collect(),
+            aperture_removal_nm: self.aperture_removal_nm.iter().map(|z| z * k).collect(),
             metrics: UniformityMetrics {
                 mean_nm: m.mean_nm * k,
                 min_nm: m.min_nm * k,
@@ -83,6 +142,19 @@ impl EqualDwell {
                 rms_nm: m.rms_nm * k,
                 ..*m
             },
+        }
+    }
+
+    /// The same pass on a process that removes `factor` (> 0) times as fast everywhere: the
+    /// same removal in 1/factor of the time (dwell ÷ factor, feed × factor).
+    pub fn retimed(&self, factor: f64) -> Self {
+        EqualDwell {
+            schedule: DwellSchedule::new_unchecked(
+                self.schedule.positions_mm().to_vec(),
+                self.schedule.dwell_s().iter().map(|t| t / factor).collect(),
+            ),
+            feed_mm_per_min: self.feed_mm_per_min * factor,
+            ..self.clone()
         }
     }
 

@@ -12,8 +12,10 @@ pub mod recommend;
 pub mod sweep;
 mod window;
 
-pub use equal_dwell::{EqualDwell, Frame};
-pub use recommend::{recommend, Recommendation, SpeedLimit, SpeedLimits, SpeedRule};
+pub use equal_dwell::{scale_free, EqualDwell, Frame};
+pub use recommend::{
+    current_pass, recommend, GeometryParts, Recommendation, SpeedLimit, SpeedLimits, SpeedRule,
+};
 pub use sweep::{eta_sweep, SweepEtas, SweepPoint};
 pub use window::{eta_window, EtaWindow};
 

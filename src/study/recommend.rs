@@ -1,13 +1,18 @@
 //! The η = −1 recommendation: workpiece and tool turning the same way at the same speed, with
 //! the speed chosen to keep the user's mean removal rate, and what it buys.
 //!
-//! At η = −1 the removal rate is K·P·|ω|·r1·θ0/π: linear in the common speed. So one
-//! equal-dwell pass at a reference speed gives the rate per r/min, and the speed that keeps the
-//! user's current equal-dwell mean rate over the aperture is their ratio. If the machine's
-//! limits forbid it, the fastest allowed speed is taken instead.
+//! At η = −1 the removal rate is K·P·|ω|·r1·θ0/π: linear in the common speed, K and P. So one
+//! equal-dwell pass at η = −1 at a canonical setting ([`GeometryParts`], which depends on the
+//! geometry and frame alone and can be shared by every process of a machine set-up) gives the
+//! rate per r/min of any process, and the speed that keeps the user's current equal-dwell mean
+//! rate over the aperture is their ratio. If the machine's limits forbid it, the fastest
+//! allowed speed is taken instead. The pass at the recommended speed is the canonical pass
+//! retimed: the same removal, dwell divided by the rate factor.
 
-use super::equal_dwell::{EqualDwell, Frame};
-use super::window::EtaWindow;
+use super::equal_dwell::{
+    canonical_translation, scale_free, translation_rate_factor, EqualDwell, Frame,
+};
+use super::window::{window_at, EtaWindow};
 use super::StudyError;
 use crate::physics::process::RPM_MAX;
 use crate::physics::{Process, ProcessSpec};
@@ -116,35 +121,57 @@ impl SpeedLimits {
     }
 }
 
-/// Recommends η = −1 speeds for `process`, comparing equal dwell (of `frame.positions` cells)
-/// removing `depth_nm` (> 0) at the user's and the recommended speeds. `window` gives the η
-/// window around the recommended settings (see [`super::eta_window`]); it is asked only once
-/// the comparison has succeeded.
+/// What a recommendation needs that depends only on the geometry (radii, pressure model), the
+/// frame and the window threshold — not on the speeds, K or P: equal dwell at η = −1 at the
+/// canonical setting removing 1 nm, and the η window.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GeometryParts {
+    translation: EqualDwell,
+    window: Option<EtaWindow>,
+}
+
+impl GeometryParts {
+    pub fn new(process: &Process, frame: Frame, threshold: f64) -> Result<Self, StudyError> {
+        let canonical = Process::new(canonical_translation(process.spec()))
+            .map_err(StudyError::RecommendedOutsideDomain)?;
+        let translation =
+            EqualDwell::for_depth(&canonical, frame, 1.0).ok_or(StudyError::NoRemovalInAperture)?;
+        Ok(GeometryParts {
+            translation,
+            window: window_at(canonical.spec(), frame, threshold),
+        })
+    }
+}
+
+/// Equal dwell at `process` removing 1 nm, as [`recommend`] compares it: computed at the
+/// process's η at the canonical speed scale, K and P (see [`scale_free`]) and retimed, so
+/// that processes differing only in speed scale, K or P share one pass (bit for bit).
+pub fn current_pass(process: &Process, frame: Frame) -> Result<EqualDwell, StudyError> {
+    let pass = match scale_free(process.spec()) {
+        Some((canonical, factor)) => Process::new(canonical)
+            .ok()
+            .and_then(|p| EqualDwell::for_depth(&p, frame, 1.0))
+            .map(|pass| pass.retimed(factor)),
+        None => EqualDwell::for_depth(process, frame, 1.0),
+    };
+    pass.ok_or(StudyError::NoRemovalInAperture)
+}
+
+/// Recommends η = −1 speeds for `process`, comparing equal dwell removing `depth_nm` (> 0) at
+/// the user's and the recommended speeds. `parts` ([`GeometryParts::new`]) and `current`
+/// ([`current_pass`]) must have been made for `process` in one frame.
 pub fn recommend(
     process: &Process,
-    frame: Frame,
     limits: SpeedLimits,
     depth_nm: f64,
-    window: impl FnOnce() -> Option<EtaWindow>,
+    parts: &GeometryParts,
+    current: &EqualDwell,
 ) -> Result<Recommendation, StudyError> {
-    let no_removal = || StudyError::NoRemovalInAperture;
-    let current = EqualDwell::for_depth(process, frame, depth_nm).ok_or_else(no_removal)?;
+    let current = current.scaled(depth_nm / current.metrics.mean_nm);
     let spec = *process.spec();
     let direction = if spec.tool_rpm < 0.0 { -1.0 } else { 1.0 };
-    let at = |speed: f64| -> Result<(Process, EqualDwell), StudyError> {
-        let p = Process::new(ProcessSpec {
-            workpiece_rpm: direction * speed,
-            tool_rpm: direction * speed,
-            ..spec
-        })
-        .map_err(StudyError::RecommendedOutsideDomain)?;
-        let pass = EqualDwell::for_depth(&p, frame, depth_nm).ok_or_else(no_removal)?;
-        Ok((p, pass))
-    };
-    // Rate per r/min from a pass at a reference speed (rate ∝ speed at η = −1).
-    let reference = spec.tool_rpm.abs().max(spec.workpiece_rpm.abs());
-    let (_, probe) = at(reference)?;
-    let per_rpm = probe.mean_rate_nm_per_min() / reference;
+    let unit = &parts.translation;
+    let per_rpm = unit.mean_rate_nm_per_min() * translation_rate_factor(&spec, 1.0);
     let matching = current.mean_rate_nm_per_min() / per_rpm;
     let cap = limits.cap();
     let (speed, rule) = if matching <= cap {
@@ -152,7 +179,15 @@ pub fn recommend(
     } else {
         (cap, SpeedRule::FastestAllowed)
     };
-    let (_, recommended) = at(speed)?;
+    Process::new(ProcessSpec {
+        workpiece_rpm: direction * speed,
+        tool_rpm: direction * speed,
+        ..spec
+    })
+    .map_err(StudyError::RecommendedOutsideDomain)?;
+    let recommended = unit
+        .retimed(translation_rate_factor(&spec, speed))
+        .scaled(depth_nm / unit.metrics.mean_nm);
     let improvement_factor = match (
         current.metrics.nonuniformity,
         recommended.metrics.nonuniformity,
@@ -160,7 +195,6 @@ pub fn recommend(
         (Some(c), Some(r)) if r > 0.0 => Some(c / r),
         _ => None,
     };
-    let eta_window = window();
     Ok(Recommendation {
         workpiece_rpm: direction * speed,
         tool_rpm: direction * speed,
@@ -168,6 +202,6 @@ pub fn recommend(
         recommended,
         current,
         improvement_factor,
-        eta_window,
+        eta_window: parts.window,
     })
 }

@@ -64,18 +64,22 @@ pub fn eta_sweep(
             let spec = etas.spec.with_eta(eta);
             let process = Process::new(spec)
                 .map_err(|error| StudyError::EtaOutsideDomain { index, error })?;
-            let removal = match dwell {
-                Some(schedule) => schedule.removal_nm(&process, frame.grid),
+            let metrics = match dwell {
+                Some(schedule) => UniformityMetrics::over(
+                    frame.grid,
+                    frame.aperture,
+                    &schedule.removal_nm(&process, frame.grid),
+                ),
                 None => {
                     EqualDwell::for_depth(&process, frame, depth_nm)
                         .ok_or(StudyError::NoRemovalInAperture)?
-                        .removal_nm
+                        .metrics
                 }
             };
             Ok(SweepPoint {
                 eta,
                 workpiece_rpm: spec.workpiece_rpm,
-                metrics: UniformityMetrics::over(frame.grid, frame.aperture, &removal),
+                metrics,
             })
         })
         .collect()

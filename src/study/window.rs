@@ -8,7 +8,7 @@
 //! within |η + 1| ≤ 50 (or before η = −1e-6, or before the workpiece speed leaves the model's
 //! domain) has no bound.
 
-use super::equal_dwell::{nonuniformity, Frame};
+use super::equal_dwell::{canonical_translation, nonuniformity, Frame};
 use crate::physics::{Process, ProcessSpec};
 
 /// The η interval, each end `None` when equal dwell stays below the threshold all the way.
@@ -26,32 +26,22 @@ fn n_at(spec: &ProcessSpec, eta: f64, frame: Frame) -> Option<f64> {
     Some(nonuniformity(&process, frame).unwrap_or(f64::INFINITY))
 }
 
-/// Tool speed at which windows are computed, r/min (see [`eta_window`]).
-const WINDOW_TOOL_RPM: f64 = 100.0;
-
 /// The window around −1 for the geometry and pressure model of `process`, or `None` when
 /// equal dwell at η = −1 itself is above the threshold.
 ///
 /// Equal-dwell nonuniformity is a ratio of removals, and removal is proportional to K·P and,
 /// at a fixed η, to the speed scale (both speeds scaled by s scale every sliding velocity by
 /// s; reversing both mirrors the motion). So N(η) — and the window — depend on the geometry
-/// (radii, pressure model), the frame and the threshold only. It is computed at one fixed
-/// speed (tool 100 r/min), K and P, which makes it exactly the same, bit for bit, for every
-/// process of that geometry: it can be cached on what it depends on and still answer
-/// deterministically.
+/// (radii, pressure model), the frame and the threshold only. It is computed at the canonical
+/// setting ([`canonical_translation`]: tool 100 r/min, fixed K and P), which makes it exactly
+/// the same, bit for bit, for every process of that geometry: it can be cached on what it
+/// depends on and still answer deterministically.
 pub fn eta_window(process: &Process, frame: Frame, threshold: f64) -> Option<EtaWindow> {
-    let spec = ProcessSpec {
-        workpiece_rpm: WINDOW_TOOL_RPM,
-        tool_rpm: WINDOW_TOOL_RPM,
-        preston_coefficient_m2_per_n: 1e-13,
-        pressure_kpa: 10.0,
-        ..*process.spec()
-    };
-    window_at(&spec, frame, threshold)
+    window_at(&canonical_translation(process.spec()), frame, threshold)
 }
 
 /// The window with the tool speed of `spec` (≠ 0) held.
-fn window_at(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Option<EtaWindow> {
+pub(super) fn window_at(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Option<EtaWindow> {
     let f = |eta: f64| n_at(spec, eta, frame).map(|n| n - threshold);
     let at_minus_one = f(-1.0)?;
     if at_minus_one > 0.0 {

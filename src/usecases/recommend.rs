@@ -1,14 +1,15 @@
 //! The η = −1 recommendation as a use case, and the [`Recommender`] that serves it from
 //! bounded caches.
 //!
-//! A recommendation costs three equal-dwell passes (the user's speeds, a reference at η = −1
-//! and the recommended speeds) plus the η window, which takes a few dozen more (outward
-//! steps and regula falsi on the equal-dwell nonuniformity N(η)). The window is by far the
-//! dearest part and depends on much less than the process: N(η) is scale-free in the speeds,
-//! K and P (see [`crate::study::eta_window`]), so windows are cached on the geometry, pressure
-//! model, grid, aperture, pass and threshold alone, and every process of one machine set-up
-//! shares one. Whole recommendations (per unit depth; plans scale with the depth) are cached
-//! on every input as well, for callers that ask about the same process again and again.
+//! A recommendation needs equal dwell at the user's speeds, equal dwell at η = −1, and the η
+//! window (a few dozen more equal-dwell passes: outward steps and regula falsi on the
+//! equal-dwell nonuniformity N(η)). Only the first depends on the user's speeds; the η = −1
+//! pass and the window depend on the geometry, pressure model, grid, aperture, pass and
+//! threshold alone (removal at η = −1 is linear in speed·K·P, and N(η) is scale-free in them:
+//! see [`crate::study::GeometryParts`]). So those are cached on that key, and every process of
+//! one machine set-up shares them: a new process costs one equal-dwell pass. Whole
+//! recommendations (per unit depth; plans scale with the depth) are cached on every input as
+//! well, for callers that ask about the same process again and again.
 //!
 //! Both caches are bounded (emptied when full) and deterministic: what they hold is a
 //! function of the key alone, so a response never depends on what was asked before.
@@ -20,7 +21,9 @@ use std::sync::{Arc, Mutex};
 use super::{ComputeLimits, Input, InputError, Setting};
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::physics::Process;
-use crate::study::{self, EtaWindow, Frame, Recommendation, SpeedLimits, StudyError};
+use crate::study::{
+    self, EqualDwell, Frame, GeometryParts, Recommendation, SpeedLimits, StudyError,
+};
 
 /// Default η-window threshold on equal-dwell nonuniformity (2 %).
 pub const DEFAULT_THRESHOLD: f64 = 0.02;
@@ -163,20 +166,24 @@ impl<K: Eq + Hash, V: Clone> BoundedCache<K, V> {
 pub struct Recommender {
     /// Whole recommendations per unit depth, keyed by every input.
     recommendations: BoundedCache<Vec<u64>, Arc<Recommendation>>,
-    /// η windows, keyed by what they depend on.
-    windows: BoundedCache<Vec<u64>, Option<EtaWindow>>,
+    /// The geometry-only parts (η = −1 pass, η window), keyed by what they depend on.
+    geometry: BoundedCache<Vec<u64>, Arc<GeometryParts>>,
+    /// Equal dwell at the user's speeds per unit depth, keyed by the geometry and η (it is
+    /// linear in speed scale, K and P).
+    current: BoundedCache<Vec<u64>, Arc<EqualDwell>>,
 }
 
 impl Default for Recommender {
     fn default() -> Self {
         Recommender {
             recommendations: BoundedCache::new(CACHE_CAPACITY),
-            windows: BoundedCache::new(CACHE_CAPACITY),
+            geometry: BoundedCache::new(CACHE_CAPACITY),
+            current: BoundedCache::new(CACHE_CAPACITY),
         }
     }
 }
 
-/// The bits of the frame and the geometry: what the η window depends on.
+/// The bits of the frame and the geometry: what [`GeometryParts`] depend on.
 fn geometry_key(process: &Process, frame: Frame, threshold: f64) -> Vec<u64> {
     let s = process.spec();
     let mut key: Vec<u64> = [
@@ -228,21 +235,32 @@ impl Recommender {
             .map(|v| v.to_bits()),
         );
         let unit = self.recommendations.get_or_try(key, || {
-            study::recommend(process, frame, limits, 1.0, || {
-                self.window(process, frame, threshold)
-            })
-            .map(Arc::new)
+            let geometry = geometry_key(process, frame, threshold);
+            let parts = self.geometry.get_or_try(geometry.clone(), || {
+                GeometryParts::new(process, frame, threshold).map(Arc::new)
+            })?;
+            let mut at_eta = geometry;
+            at_eta.extend(
+                // Scale-free passes are keyed by η alone (P = 0 marks them; a real P is > 0).
+                study::scale_free(s)
+                    .map_or(
+                        [
+                            s.workpiece_rpm,
+                            s.tool_rpm,
+                            s.preston_coefficient_m2_per_n,
+                            s.pressure_kpa,
+                        ],
+                        |(c, _)| [c.workpiece_rpm, c.tool_rpm, 0.0, 0.0],
+                    )
+                    .iter()
+                    .map(|v| v.to_bits()),
+            );
+            let current = self
+                .current
+                .get_or_try(at_eta, || study::current_pass(process, frame).map(Arc::new))?;
+            study::recommend(process, limits, 1.0, &parts, &current).map(Arc::new)
         })?;
         Ok(unit.scaled_to(depth_nm))
-    }
-
-    /// The η window for the geometry of `process`, from the cache when possible.
-    fn window(&self, process: &Process, frame: Frame, threshold: f64) -> Option<EtaWindow> {
-        let key = geometry_key(process, frame, threshold);
-        let window = self.windows.get_or_try(key, || {
-            Ok::<_, ()>(study::eta_window(process, frame, threshold))
-        });
-        window.unwrap_or(None)
     }
 
     /// The recommendation a plan (a prediction or an optimized plan) carries: `None` at
