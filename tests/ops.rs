@@ -156,6 +156,99 @@ async fn excess_load_is_shed_with_503_and_retry_after() {
     );
 }
 
+/// Bad input is refused before it queues for a computation slot: with the only slot busy
+/// (and room in the queue), an invalid request to every computing endpoint still gets its 422
+/// at once, naming the field.
+#[tokio::test]
+async fn invalid_requests_are_refused_at_once_while_every_slot_is_busy() {
+    let app = app_with(Limits {
+        max_concurrent_computations: 1,
+        ..Limits::default()
+    });
+    let busy = {
+        let app = app.clone();
+        tokio::spawn(async move { post_json(&app, "/v1/optimize", slow_optimize_n(1501)).await })
+    };
+    // Wait until the optimization holds the slot.
+    let started = Instant::now();
+    while sample(
+        &get(&app, "/metrics").await.text(),
+        &["preston_computations_in_flight"],
+    ) != Some(1.0)
+    {
+        assert!(
+            started.elapsed() < Duration::from_secs(5),
+            "the slot never filled"
+        );
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    let process = json!({"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": -10, "tool_rpm": 200});
+    let stationary = json!({"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": 0, "tool_rpm": 200});
+    let cases = [
+        (
+            "/v1/predict",
+            json!({"process": stationary, "dwell": {"positions_mm": [1], "dwell_s": [1]}}),
+            "process.workpiece_rpm",
+        ),
+        (
+            "/v1/removal-function",
+            json!({"process": process, "tool_positions_mm": [-1]}),
+            "tool_positions_mm[0]",
+        ),
+        (
+            "/v1/optimize",
+            json!({"process": process, "positions_mm": [0, 1], "target": {"uniform_depth_nm": 1}, "constraints": {"max_dwell_s": -1}}),
+            "constraints.max_dwell_s",
+        ),
+        (
+            "/v1/recommend",
+            json!({"process": process, "nonuniformity_threshold": -1}),
+            "nonuniformity_threshold",
+        ),
+        (
+            "/v1/studies/eta-sweep",
+            json!({"process": process, "etas": [-1, 0]}),
+            "etas[1]",
+        ),
+    ];
+    for (path, body, field) in cases {
+        let sent = Instant::now();
+        let reply = post_json(&app, path, body.to_string()).await;
+        let waited = sent.elapsed();
+        assert_eq!(reply.status, 422, "{path}: {}", reply.text());
+        assert_eq!(reply.json()["field"], field, "{path}");
+        assert!(
+            waited < Duration::from_millis(100),
+            "{path}: 422 after {waited:?}"
+        );
+    }
+    assert!(!busy.is_finished(), "the slot stayed busy throughout");
+    assert_eq!(busy.await.unwrap().status, 200);
+}
+
+/// The metrics registry belongs to the service instance: a new one counts only its own requests.
+#[tokio::test]
+async fn each_service_counts_only_its_own_requests() {
+    let app = app();
+    let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
+    let labels = [
+        "preston_http_requests_total",
+        "route=\"/v1/predict\"",
+        "status=\"200\"",
+    ];
+    assert_eq!(sample(&get(&app, "/metrics").await.text(), &labels), None);
+    for _ in 0..3 {
+        assert_eq!(
+            post_json(&app, "/v1/predict", body.clone()).await.status,
+            200
+        );
+    }
+    assert_eq!(
+        sample(&get(&app, "/metrics").await.text(), &labels),
+        Some(3.0)
+    );
+}
+
 #[tokio::test]
 async fn a_request_over_its_time_budget_is_503() {
     let app = app_with(Limits {
