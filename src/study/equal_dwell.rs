@@ -57,7 +57,9 @@ pub fn translation_rate_factor(spec: &ProcessSpec, speed_rpm: f64) -> f64 {
 /// workpiece direction) kept, and how many times faster `spec` removes: at a fixed η every
 /// sliding speed is |tool speed| times a function of η and the geometry, so removal is linear
 /// in |tool speed|·K·P (in |workpiece speed|·K·P with the tool stationary). `None` when the
-/// canonical speeds would leave the model's domain (|η| > 1000).
+/// canonical speeds would leave the model's domain (|η| > 1000) or the factor is not a normal
+/// number (K·P so small that rescaling would under- or overflow): compute such a process
+/// directly.
 pub fn scale_free(spec: &ProcessSpec) -> Option<(ProcessSpec, f64)> {
     let (canonical, scale_rpm) = if spec.tool_rpm == 0.0 {
         (
@@ -75,7 +77,8 @@ pub fn scale_free(spec: &ProcessSpec) -> Option<(ProcessSpec, f64)> {
         )
     };
     Process::new(canonical).ok()?;
-    Some((canonical, translation_rate_factor(spec, scale_rpm)))
+    let factor = translation_rate_factor(spec, scale_rpm);
+    (factor.is_normal() && (1.0 / factor).is_normal()).then_some((canonical, factor))
 }
 
 /// Path end L = min(outer + r_t, reach), mm.
@@ -156,6 +159,13 @@ impl EqualDwell {
             feed_mm_per_min: self.feed_mm_per_min * factor,
             ..self.clone()
         }
+    }
+
+    /// Whether every figure is a finite number (retiming by an extreme factor can overflow).
+    pub fn is_finite(&self) -> bool {
+        self.feed_mm_per_min.is_finite()
+            && self.schedule.dwell_s().iter().all(|t| t.is_finite())
+            && self.aperture_removal_nm.iter().all(|z| z.is_finite())
     }
 
     /// Mean removal rate over the aperture, nm/min.

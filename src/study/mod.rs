@@ -14,7 +14,7 @@ mod window;
 
 pub use equal_dwell::{scale_free, EqualDwell, Frame};
 pub use recommend::{
-    current_pass, recommend, GeometryParts, Recommendation, SpeedLimit, SpeedLimits, SpeedRule,
+    recommend, unit_pass, GeometryParts, Recommendation, SpeedLimit, SpeedLimits, SpeedRule,
 };
 pub use sweep::{eta_sweep, SweepEtas, SweepPoint};
 pub use window::{eta_window, EtaWindow};

@@ -9,9 +9,7 @@
 //! allowed speed is taken instead. The pass at the recommended speed is the canonical pass
 //! retimed: the same removal, dwell divided by the rate factor.
 
-use super::equal_dwell::{
-    canonical_translation, scale_free, translation_rate_factor, EqualDwell, Frame,
-};
+use super::equal_dwell::{canonical_translation, translation_rate_factor, EqualDwell, Frame};
 use super::window::{window_at, EtaWindow};
 use super::StudyError;
 use crate::physics::process::RPM_MAX;
@@ -143,23 +141,16 @@ impl GeometryParts {
     }
 }
 
-/// Equal dwell at `process` removing 1 nm, as [`recommend`] compares it: computed at the
-/// process's η at the canonical speed scale, K and P (see [`scale_free`]) and retimed, so
-/// that processes differing only in speed scale, K or P share one pass (bit for bit).
-pub fn current_pass(process: &Process, frame: Frame) -> Result<EqualDwell, StudyError> {
-    let pass = match scale_free(process.spec()) {
-        Some((canonical, factor)) => Process::new(canonical)
-            .ok()
-            .and_then(|p| EqualDwell::for_depth(&p, frame, 1.0))
-            .map(|pass| pass.retimed(factor)),
-        None => EqualDwell::for_depth(process, frame, 1.0),
-    };
-    pass.ok_or(StudyError::NoRemovalInAperture)
+/// Equal dwell at `spec` removing 1 nm over the frame's aperture.
+pub fn unit_pass(spec: &ProcessSpec, frame: Frame) -> Result<EqualDwell, StudyError> {
+    let process = Process::new(*spec).map_err(StudyError::RecommendedOutsideDomain)?;
+    EqualDwell::for_depth(&process, frame, 1.0).ok_or(StudyError::NoRemovalInAperture)
 }
 
 /// Recommends η = −1 speeds for `process`, comparing equal dwell removing `depth_nm` (> 0) at
 /// the user's and the recommended speeds. `parts` ([`GeometryParts::new`]) and `current`
-/// ([`current_pass`]) must have been made for `process` in one frame.
+/// (equal dwell at the user's speeds, any depth) must have been made for `process` in one
+/// frame.
 pub fn recommend(
     process: &Process,
     limits: SpeedLimits,
@@ -188,6 +179,10 @@ pub fn recommend(
     let recommended = unit
         .retimed(translation_rate_factor(&spec, speed))
         .scaled(depth_nm / unit.metrics.mean_nm);
+    // K·P so small that the rates underflow: the process removes nothing worth planning.
+    if !(per_rpm.is_normal() && recommended.is_finite()) {
+        return Err(StudyError::NoRemovalInAperture);
+    }
     let improvement_factor = match (
         current.metrics.nonuniformity,
         recommended.metrics.nonuniformity,

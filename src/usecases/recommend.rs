@@ -168,8 +168,8 @@ pub struct Recommender {
     recommendations: BoundedCache<Vec<u64>, Arc<Recommendation>>,
     /// The geometry-only parts (η = −1 pass, η window), keyed by what they depend on.
     geometry: BoundedCache<Vec<u64>, Arc<GeometryParts>>,
-    /// Equal dwell at the user's speeds per unit depth, keyed by the geometry and η (it is
-    /// linear in speed scale, K and P).
+    /// Equal dwell per unit depth at the canonical speed scale, K and P, keyed by the geometry
+    /// and η (a process's own pass is this one retimed: it is linear in speed scale, K and P).
     current: BoundedCache<Vec<u64>, Arc<EqualDwell>>,
 }
 
@@ -183,8 +183,9 @@ impl Default for Recommender {
     }
 }
 
-/// The bits of the frame and the geometry: what [`GeometryParts`] depend on.
-fn geometry_key(process: &Process, frame: Frame, threshold: f64) -> Vec<u64> {
+/// The bits of the geometry and the frame: what an equal-dwell pass depends on besides the
+/// speeds, K and P.
+fn frame_key(process: &Process, frame: Frame) -> Vec<u64> {
     let s = process.spec();
     let mut key: Vec<u64> = [
         s.workpiece_radius_mm,
@@ -193,7 +194,6 @@ fn geometry_key(process: &Process, frame: Frame, threshold: f64) -> Vec<u64> {
         frame.grid.stop_mm(),
         frame.aperture.inner_mm(),
         frame.aperture.outer_mm(),
-        threshold,
     ]
     .iter()
     .map(|v| v.to_bits())
@@ -204,6 +204,10 @@ fn geometry_key(process: &Process, frame: Frame, threshold: f64) -> Vec<u64> {
         s.pressure_model as u64,
     ]);
     key
+}
+
+fn bits(values: &[f64]) -> impl Iterator<Item = u64> + '_ {
+    values.iter().map(|v| v.to_bits())
 }
 
 impl Recommender {
@@ -221,43 +225,35 @@ impl Recommender {
         threshold: f64,
     ) -> Result<Recommendation, StudyError> {
         let s = process.spec();
-        let mut key = geometry_key(process, frame, threshold);
-        key.extend(
-            [
-                s.workpiece_rpm,
-                s.tool_rpm,
-                s.preston_coefficient_m2_per_n,
-                s.pressure_kpa,
-                limits.max_workpiece_rpm().unwrap_or(-1.0),
-                limits.max_tool_rpm().unwrap_or(-1.0),
-            ]
-            .iter()
-            .map(|v| v.to_bits()),
-        );
+        let frame_key = frame_key(process, frame);
+        let mut key = frame_key.clone();
+        key.extend(bits(&[
+            threshold,
+            s.workpiece_rpm,
+            s.tool_rpm,
+            s.preston_coefficient_m2_per_n,
+            s.pressure_kpa,
+            limits.max_workpiece_rpm().unwrap_or(-1.0),
+            limits.max_tool_rpm().unwrap_or(-1.0),
+        ]));
         let unit = self.recommendations.get_or_try(key, || {
-            let geometry = geometry_key(process, frame, threshold);
-            let parts = self.geometry.get_or_try(geometry.clone(), || {
+            let mut geometry = frame_key.clone();
+            geometry.extend(bits(&[threshold]));
+            let parts = self.geometry.get_or_try(geometry, || {
                 GeometryParts::new(process, frame, threshold).map(Arc::new)
             })?;
-            let mut at_eta = geometry;
-            at_eta.extend(
-                // Scale-free passes are keyed by η alone (P = 0 marks them; a real P is > 0).
-                study::scale_free(s)
-                    .map_or(
-                        [
-                            s.workpiece_rpm,
-                            s.tool_rpm,
-                            s.preston_coefficient_m2_per_n,
-                            s.pressure_kpa,
-                        ],
-                        |(c, _)| [c.workpiece_rpm, c.tool_rpm, 0.0, 0.0],
-                    )
-                    .iter()
-                    .map(|v| v.to_bits()),
-            );
-            let current = self
-                .current
-                .get_or_try(at_eta, || study::current_pass(process, frame).map(Arc::new))?;
+            // Equal dwell at the user's speeds: the pass at the canonical scale with the same η
+            // (shared by every process of this set-up and η), retimed to this one.
+            let current = match study::scale_free(s) {
+                Some((canonical, factor)) => {
+                    let mut at_eta = frame_key.clone();
+                    at_eta.extend(bits(&[canonical.workpiece_rpm, canonical.tool_rpm]));
+                    self.current
+                        .get_or_try(at_eta, || study::unit_pass(&canonical, frame).map(Arc::new))?
+                        .retimed(factor)
+                }
+                None => study::unit_pass(s, frame)?,
+            };
             study::recommend(process, limits, 1.0, &parts, &current).map(Arc::new)
         })?;
         Ok(unit.scaled_to(depth_nm))
@@ -284,5 +280,84 @@ impl Recommender {
             DEFAULT_THRESHOLD,
         )
         .ok()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::process::tests::paper_spec;
+    use crate::physics::{ClearAperture, ProcessSpec, RadialGrid};
+
+    /// What one service caches for one process must never answer for another: recommendations
+    /// from a shared recommender, asked in turn about processes that share a set-up and η (or
+    /// not), equal those of a fresh one; and they scale as the physics says.
+    #[test]
+    fn cached_parts_never_leak_between_processes() {
+        let base = paper_spec(-10.0, 200.0);
+        let processes = [
+            base,
+            ProcessSpec {
+                workpiece_rpm: -30.0,
+                tool_rpm: 600.0,
+                ..base
+            },
+            ProcessSpec {
+                pressure_kpa: 20.0,
+                ..base
+            },
+            ProcessSpec {
+                workpiece_rpm: -20.0,
+                ..base
+            },
+            ProcessSpec {
+                tool_rpm: 0.0,
+                ..base
+            },
+        ]
+        .map(|s| Process::new(s).unwrap());
+        let grid = RadialGrid::default_for(&processes[0]);
+        let aperture = ClearAperture::new(&processes[0], 0.0, 40.0).unwrap();
+        let frame = Frame {
+            grid: &grid,
+            aperture: &aperture,
+            positions: 200,
+        };
+        let ask = |r: &Recommender, p: &Process| {
+            r.recommendation(p, frame, SpeedLimits::default(), 100.0, 0.02)
+                .unwrap()
+        };
+        let shared = Recommender::new();
+        let answers: Vec<Recommendation> = processes.iter().map(|p| ask(&shared, p)).collect();
+        for (p, answer) in processes.iter().zip(&answers) {
+            assert_eq!(answer, &ask(&Recommender::new(), p), "{:?}", p.spec());
+        }
+        // Three times the speeds (same η): three times the recommended speed, a third of the
+        // dwell, the same uniformity. Twice the pressure doubles both rates: the same speed,
+        // half the time.
+        let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+        assert!(rel(answers[1].tool_rpm, 3.0 * answers[0].tool_rpm) < 1e-12);
+        assert!(
+            rel(
+                answers[1].current.schedule.total_time_s(),
+                answers[0].current.schedule.total_time_s() / 3.0
+            ) < 1e-12
+        );
+        assert_eq!(
+            answers[1].current.metrics.nonuniformity,
+            answers[0].current.metrics.nonuniformity
+        );
+        assert!(rel(answers[2].tool_rpm, answers[0].tool_rpm) < 1e-12);
+        assert!(
+            rel(
+                answers[2].recommended.schedule.total_time_s(),
+                answers[0].recommended.schedule.total_time_s() / 2.0
+            ) < 1e-12
+        );
+        // A different η is a different comparison.
+        assert_ne!(
+            answers[3].current.metrics.nonuniformity,
+            answers[0].current.metrics.nonuniformity
+        );
     }
 }
