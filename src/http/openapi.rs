@@ -1,5 +1,5 @@
 //! The OpenAPI document, generated from the code (utoipa) with request examples taken from
-//! `fixtures/`. Committed as `openapi/openapi.json`; `tests/openapi_drift.rs` fails when the
+//! `fixtures/`. Committed as `openapi/openapi.json`; `tests/it/openapi_drift.rs` fails when the
 //! two differ (regenerate with `cargo run -- openapi > openapi/openapi.json`).
 
 use utoipa::OpenApi;

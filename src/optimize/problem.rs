@@ -5,7 +5,7 @@ use super::target::ProfileError;
 
 /// Default smoothing weight λ (see the module docs of [`super`]). Chosen on the paper's cases:
 /// it removes neighbour-to-neighbour oscillation while costing the uniform 100 nm plan of
-/// experiment 1 well under 0.1 % of nonuniformity (tests/optimize_paper.rs shows both effects).
+/// experiment 1 well under 0.1 % of nonuniformity (tests/it/optimize_paper.rs shows both effects).
 pub const DEFAULT_SMOOTHING: f64 = 1e-6;
 /// Default time weight μ: the mean depth comes out low by about μ of the target.
 pub const DEFAULT_TIME_WEIGHT: f64 = 2e-6;

@@ -194,7 +194,7 @@ pub(super) fn run_clarabel(
 
 /// Clarabel's duality-gap tolerance (its default is 1e-8). Its objective leaves out the fit's
 /// constant ½‖d/s_d‖²/m_Ω (about ½), so the gap is absolute on J, and a well-fitted plan has
-/// J ≈ 1e-4: 1e-10 keeps J to about 1e-6 relative (1.1e-7 worst in tests/optimize_reference.rs)
+/// J ≈ 1e-4: 1e-10 keeps J to about 1e-6 relative (1.1e-7 worst in tests/it/optimize_reference.rs)
 /// for two or three more iterations; 1e-12 would cost four.
 const GAP_TOLERANCE: f64 = 1e-10;
 

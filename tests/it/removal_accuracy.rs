@@ -6,7 +6,7 @@
 //! is negligible against that bound. The peak (max over r of R(r; r1)) only scales the
 //! absolute floor; it is estimated from 65 samples of the profile.
 
-mod common;
+use crate::common;
 
 use common::{adaptive_integral, quadrature_rate_nm_per_min};
 use preston::physics::{removal_rate_nm_per_min, PressureModel, Process, ProcessSpec};

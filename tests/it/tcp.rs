@@ -1,7 +1,7 @@
 //! The service over a real TCP socket with a real HTTP client (hyper), and the offline
 //! `preston compute` command, which must print exactly what the API returns.
 
-mod common;
+use crate::common;
 
 use http_body_util::{BodyExt, Full};
 use hyper::body::Bytes;

@@ -2,7 +2,7 @@
 //! container to the Service, the container command is the Dockerfile's entrypoint and a valid
 //! `preston` invocation, and the autoscaler and disruption budget select the Deployment.
 
-mod common;
+use crate::common;
 
 use clap::Parser;
 use common::http::{app, get};

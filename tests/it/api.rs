@@ -1,7 +1,7 @@
 //! The HTTP contract through the router (in-process): fixtures against stored responses, every
 //! bad-input class, content negotiation, the OpenAPI document and the docs UI.
 
-mod common;
+use crate::common;
 
 use common::http::{app, app_with, get, post_json, post_with, Reply};
 use preston::config::Limits;
@@ -72,7 +72,7 @@ fn endpoint_of(fixture: &str) -> &'static str {
 }
 
 /// Every request fixture is posted; its response must match `fixtures/expected/<name>`.
-/// `PRESTON_BLESS=1 cargo test --release --test api` rewrites the expected files after a deliberate change.
+/// `PRESTON_BLESS=1 cargo test --release --test it api::` rewrites the expected files after a deliberate change.
 #[tokio::test]
 async fn every_fixture_returns_its_stored_response() {
     let app = app();

@@ -1,7 +1,7 @@
 //! Operations: metrics after traffic, request ids, load shedding and timeouts (through the
 //! router), and graceful shutdown of the real binary on SIGTERM.
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};

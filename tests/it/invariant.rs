@@ -9,7 +9,7 @@
 //! 333) or a cell boundary (4002 cells: boundary 667). Paths that miss both still meet the
 //! 0.25 % bound as long as h/r_t ≤ 0.25 %, checked below for 2000 cells.
 
-mod common;
+use crate::common;
 
 use preston::physics::{ConstantFeed, RadialGrid};
 

@@ -1,7 +1,7 @@
 //! `POST /v1/optimize` through the router: defaults and echoes, every class of bad input,
 //! conflicts as 422 `infeasible` naming the constraints, solver limits, CSV.
 
-mod common;
+use crate::common;
 
 use common::http::{app, app_with, post_json, post_with, Reply};
 use preston::config::Limits;

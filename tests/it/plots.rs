@@ -1,8 +1,8 @@
 //! `Accept: image/svg+xml`: every charting endpoint returns an SVG document that parses as XML
 //! and carries its axis titles with units. The charts under docs/ (shown by the README) are
-//! the same requests; `PRESTON_BLESS=1 cargo test --release --test plots` redraws them.
+//! the same requests; `PRESTON_BLESS=1 cargo test --release --test it plots::` redraws them.
 
-mod common;
+use crate::common;
 
 use common::http::{app, post_with};
 use common::read_fixture;

@@ -3,7 +3,7 @@
 //! All with r_m 50, r_t 10, 501 positions and 501 radial samples on [0, 50] mm, aperture
 //! [0, 40] mm, uniform 100 nm unless said.
 
-mod common;
+use crate::common;
 
 use common::{paper_process, read_fixture};
 use preston::config::Limits;

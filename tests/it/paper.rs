@@ -1,7 +1,7 @@
 //! Reproduction of the paper's experiments (Chen, Wang, Liu 2013) from the fixtures: r_m 50 mm,
 //! r_t 10 mm, equal dwell at 1001 positions on [0, 50] mm.
 
-mod common;
+use crate::common;
 
 use preston::physics::{ClearAperture, DwellSchedule, Process, RadialGrid, UniformityMetrics};
 

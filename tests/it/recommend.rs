@@ -1,7 +1,7 @@
 //! The η = −1 recommendation and the η sweep through the API, checked against independent
 //! predictions of the same plans (`/v1/predict`).
 
-mod common;
+use crate::common;
 
 use common::http::{app, post_json, Reply};
 use common::read_fixture;

@@ -2,7 +2,7 @@
 //! checked here independently of the library; conflicting constraints are refused with the
 //! conflicting fields named, never answered with a plan that breaks them.
 
-mod common;
+use crate::common;
 
 use common::paper_process;
 use preston::optimize::target::aperture_rows;

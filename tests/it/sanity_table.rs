@@ -1,6 +1,6 @@
 //! The sanity table of docs/MODEL.md (r_m 50 mm, r_t 10 mm, K 1e-13, 10 kPa; nm/min), to 4 decimals.
 
-mod common;
+use crate::common;
 
 use preston::physics::removal_rate_nm_per_min;
 

@@ -7,8 +7,6 @@
 //! Cholesky solves on the free set, finite termination for a positive definite Hessian). The
 //! objectives must agree to 1e-6 relative; the plans must keep their bounds to 1e-9.
 
-mod common;
-
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{optimize, Constraints, DwellProblem, Formulation, Objective};
 use preston::physics::{

@@ -1,0 +1,20 @@
+//! Preston's integration tests, one module per subject, in one test crate: one link of the
+//! library instead of one per file. Run one subject with `cargo test --release --test it api::`.
+
+mod common;
+
+mod api;
+mod api_optimize;
+mod deploy;
+mod invariant;
+mod openapi_drift;
+mod ops;
+mod optimize_constraints;
+mod optimize_paper;
+mod optimize_reference;
+mod paper;
+mod plots;
+mod recommend;
+mod removal_accuracy;
+mod sanity_table;
+mod tcp;
