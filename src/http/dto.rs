@@ -184,6 +184,7 @@ pub struct MetricsDto {
     /// Root-mean-square deviation from the mean, nm.
     pub rms_nm: f64,
     /// pv_nm / mean_nm, a fraction (0.01 = 1 %); null when nothing is removed in the aperture.
+    #[schema(required = true)]
     pub nonuniformity: Option<f64>,
     /// Number of radial samples inside the clear aperture.
     pub samples: usize,
@@ -228,15 +229,17 @@ pub struct RecommendationDto {
     pub eta: f64,
     /// `match_removal_rate`: the speed keeps the current mean removal rate over the clear
     /// aperture; `fastest_allowed`: the limits forbid that, so the fastest allowed speed.
-    pub rule: String,
+    pub rule: SpeedRuleDto,
     /// The interval of η around −1 (tool speed held) where equal-dwell nonuniformity stays at
     /// or below the threshold; null when even η = −1 is above it.
+    #[schema(required = true)]
     pub eta_window: Option<EtaWindowDto>,
     /// Predicted uniformity of equal dwell at the recommended speeds, nm.
     pub metrics: MetricsDto,
     /// Predicted uniformity of equal dwell at the current speeds, nm.
     pub current_metrics: MetricsDto,
     /// Current nonuniformity / recommended nonuniformity; null when undefined.
+    #[schema(required = true)]
     pub improvement_factor: Option<f64>,
     /// The equal-dwell plan at the recommended speeds.
     pub equal_dwell: EqualDwellDto,
@@ -244,12 +247,24 @@ pub struct RecommendationDto {
     pub current_feed_mm_per_min: f64,
 }
 
+/// Which rule chose the recommended speed.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SpeedRuleDto {
+    /// The speed keeps the current mean removal rate over the clear aperture.
+    MatchRemovalRate,
+    /// The machine's limits forbid that speed; the fastest allowed is used.
+    FastestAllowed,
+}
+
 /// η bounds (paper convention, η = −workpiece_rpm / tool_rpm); null where no bound was found.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct EtaWindowDto {
     /// Lower η bound (below −1); null if none down to η = −51.
+    #[schema(required = true)]
     pub low: Option<f64>,
     /// Upper η bound (above −1, below 0); null if none up to η = −1e-6.
+    #[schema(required = true)]
     pub high: Option<f64>,
     /// The nonuniformity threshold the bounds meet (a fraction).
     pub nonuniformity_threshold: f64,
@@ -289,10 +304,9 @@ impl From<&Recommendation> for RecommendationDto {
             tool_rpm: r.tool_rpm,
             eta: -1.0,
             rule: match r.rule {
-                SpeedRule::MatchRemovalRate => "match_removal_rate",
-                SpeedRule::FastestAllowed => "fastest_allowed",
-            }
-            .to_string(),
+                SpeedRule::MatchRemovalRate => SpeedRuleDto::MatchRemovalRate,
+                SpeedRule::FastestAllowed => SpeedRuleDto::FastestAllowed,
+            },
             eta_window: r.eta_window.map(|w| EtaWindowDto {
                 low: w.low,
                 high: w.high,

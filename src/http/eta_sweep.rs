@@ -169,6 +169,7 @@ fn to_svg(r: &EtaSweepResponse) -> String {
 #[utoipa::path(
     post,
     path = "/v1/studies/eta-sweep",
+    operation_id = "sweepEta",
     tag = "recommend",
     request_body = EtaSweepRequest,
     responses(

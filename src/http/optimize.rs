@@ -124,6 +124,7 @@ pub struct SolverOptionsDto {
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct OptimizeResponse {
     /// Speed ratio η = −workpiece_rpm / tool_rpm (paper convention); null when tool_rpm = 0.
+    #[schema(required = true)]
     pub eta: Option<f64>,
     /// The optimized plan: positions (mm) and dwell at each (s).
     pub dwell: DwellDto,
@@ -149,6 +150,7 @@ pub struct OptimizeResponse {
     /// The clear aperture used (defaults filled in), mm.
     pub clear_aperture: ApertureEcho,
     /// The free piston chosen, nm; null unless the target asked for one.
+    #[schema(required = true)]
     pub piston_nm: Option<f64>,
     /// The objective weights used (defaults filled in) and J at the plan.
     pub objective: ObjectiveEcho,
@@ -156,6 +158,7 @@ pub struct OptimizeResponse {
     pub solver: SolverDto,
     /// η = −1 settings and what they would buy (equal dwell removing the target's mean depth);
     /// null at η = −1.
+    #[schema(required = true)]
     pub recommendation: Option<RecommendationDto>,
 }
 
@@ -164,9 +167,11 @@ pub struct OptimizeResponse {
 pub struct MotionDto {
     /// Highest segment feed, mm/min; null if some segment is crossed in no time or there is
     /// only one position.
+    #[schema(required = true)]
     pub peak_feed_mm_per_min: Option<f64>,
     /// Largest feed change per unit time between consecutive segments, mm/s² (the feed axis's
     /// acceleration); null if some segment is crossed in no time.
+    #[schema(required = true)]
     pub peak_feed_acceleration_mm_per_s2: Option<f64>,
 }
 
@@ -190,12 +195,31 @@ pub struct ObjectiveEcho {
     pub value: f64,
 }
 
+/// How the solver finished a plan it returned.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverStatusDto {
+    /// Converged to full accuracy.
+    Solved,
+    /// Converged to the solver's reduced tolerances only.
+    AlmostSolved,
+}
+
+impl SolverStatusDto {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SolverStatusDto::Solved => "solved",
+            SolverStatusDto::AlmostSolved => "almost_solved",
+        }
+    }
+}
+
 /// The solver's account. Responses differ from run to run only in `solve_time_ms`.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct SolverDto {
     /// `solved`, or `almost_solved` when the solver met only its reduced tolerances (the plan
     /// still keeps every constraint to 1e-9 relative).
-    pub status: String,
+    pub status: SolverStatusDto,
     /// True for `almost_solved`.
     pub reduced_accuracy: bool,
     /// Interior-point iterations.
@@ -340,10 +364,9 @@ impl From<OptimizedPlan> for OptimizeResponse {
             },
             solver: SolverDto {
                 status: match s.status {
-                    SolveStatus::Solved => "solved",
-                    SolveStatus::AlmostSolved => "almost_solved",
-                }
-                .to_string(),
+                    SolveStatus::Solved => SolverStatusDto::Solved,
+                    SolveStatus::AlmostSolved => SolverStatusDto::AlmostSolved,
+                },
                 reduced_accuracy: s.status == SolveStatus::AlmostSolved,
                 iterations: s.iterations,
                 solve_time_ms: s.solve_time_s * 1e3,
@@ -365,7 +388,8 @@ fn to_svg(r: &OptimizeResponse) -> String {
     plot::render(&Chart {
         title: format!(
             "Optimized dwell, {:.0} s total ({})",
-            r.total_time_s, r.solver.status
+            r.total_time_s,
+            r.solver.status.as_str()
         ),
         x_label: "tool position r1 (mm)".to_string(),
         y_label: "dwell (s)".to_string(),
@@ -403,6 +427,7 @@ fn to_svg(r: &OptimizeResponse) -> String {
 #[utoipa::path(
     post,
     path = "/v1/optimize",
+    operation_id = "optimizeDwell",
     tag = "optimize",
     request_body = OptimizeRequest,
     responses(

@@ -35,6 +35,7 @@ pub struct PredictRequest {
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct PredictResponse {
     /// Speed ratio η = −workpiece_rpm / tool_rpm (paper convention); null when tool_rpm = 0.
+    #[schema(required = true)]
     pub eta: Option<f64>,
     /// The radial grid, mm.
     pub radius_mm: Vec<f64>,
@@ -48,6 +49,7 @@ pub struct PredictResponse {
     pub total_time_s: f64,
     /// η = −1 settings and what they would buy (equal dwell removing this prediction's mean
     /// depth); null at η = −1.
+    #[schema(required = true)]
     pub recommendation: Option<RecommendationDto>,
 }
 
@@ -131,6 +133,7 @@ fn to_svg(r: &PredictResponse) -> String {
 #[utoipa::path(
     post,
     path = "/v1/predict",
+    operation_id = "predictRemoval",
     tag = "removal",
     request_body = PredictRequest,
     responses(

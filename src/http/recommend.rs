@@ -104,6 +104,7 @@ impl Endpoint for RecommendEndpoint {
 #[utoipa::path(
     post,
     path = "/v1/recommend",
+    operation_id = "recommendSpeeds",
     tag = "recommend",
     request_body = RecommendRequest,
     responses(

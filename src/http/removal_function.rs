@@ -32,6 +32,7 @@ pub struct RemovalFunctionRequest {
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct RemovalFunctionResponse {
     /// Speed ratio η = −workpiece_rpm / tool_rpm (paper convention); null when tool_rpm = 0.
+    #[schema(required = true)]
     pub eta: Option<f64>,
     /// The radial grid, mm.
     pub radius_mm: Vec<f64>,
@@ -137,6 +138,7 @@ fn to_svg(response: &RemovalFunctionResponse) -> String {
 #[utoipa::path(
     post,
     path = "/v1/removal-function",
+    operation_id = "computeRemovalFunction",
     tag = "removal",
     request_body = RemovalFunctionRequest,
     responses(

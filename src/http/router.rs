@@ -92,7 +92,8 @@ pub fn compute_json(endpoint: &str, body: &[u8], limits: &Limits) -> Result<Stri
     (entry.compute)(body, &limits.compute(), &Services::default())
 }
 
-/// Cross-origin access: none unless origins are configured (`*` allows any).
+/// Cross-origin access: none unless origins are configured (`*` allows any). Browsers may send
+/// `content-type`, `accept` and `x-request-id`, and read `x-request-id` and `retry-after`.
 pub fn cors_layer(origins: &[String]) -> Option<CorsLayer> {
     if origins.is_empty() {
         return None;
@@ -107,11 +108,15 @@ pub fn cors_layer(origins: &[String]) -> Option<CorsLayer> {
                 .collect::<Vec<_>>(),
         )
     };
+    // A front-end sends JSON with an Accept and its own request id, and reads the request id
+    // (to quote in a report) and Retry-After (to back off on a 503).
+    let request_id = HeaderName::from_static(metrics::REQUEST_ID);
     Some(
         CorsLayer::new()
             .allow_origin(allow)
             .allow_methods([Method::GET, Method::POST])
-            .allow_headers([header::CONTENT_TYPE, header::ACCEPT]),
+            .allow_headers([header::CONTENT_TYPE, header::ACCEPT, request_id.clone()])
+            .expose_headers([request_id, header::RETRY_AFTER]),
     )
 }
 

@@ -478,3 +478,67 @@ async fn docs_render_from_the_binary_alone() {
     let init = get(&app, "/docs/swagger-initializer.js").await.text();
     assert!(init.contains("/openapi.json"), "{init}");
 }
+
+/// With CORS on, a browser may send its own request id and read the one on the response (and
+/// Retry-After); without origins configured there are no CORS headers at all.
+#[tokio::test]
+async fn cors_lets_a_front_end_send_and_read_the_request_id() {
+    use axum::body::Body;
+    use axum::http::Request;
+    use preston::http::{cors_layer, router, AppState};
+
+    let cors = router(
+        AppState::new(Limits::default()),
+        cors_layer(&["https://bench.example".to_string()]),
+    );
+    let preflight = Request::builder()
+        .method("OPTIONS")
+        .uri("/v1/predict")
+        .header("origin", "https://bench.example")
+        .header("access-control-request-method", "POST")
+        .header(
+            "access-control-request-headers",
+            "content-type,x-request-id",
+        )
+        .body(Body::empty())
+        .unwrap();
+    let reply = common::http::send(&cors, preflight).await;
+    assert_eq!(reply.status, 200);
+    let allowed = reply.headers["access-control-allow-headers"]
+        .to_str()
+        .unwrap()
+        .to_ascii_lowercase();
+    assert!(allowed.contains("x-request-id"), "{allowed}");
+    assert!(allowed.contains("content-type"), "{allowed}");
+
+    let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
+    let reply = post_with(
+        &cors,
+        "/v1/predict",
+        body,
+        &[
+            ("origin", "https://bench.example"),
+            ("x-request-id", "bench-7"),
+        ],
+    )
+    .await;
+    assert_eq!(reply.status, 200);
+    assert_eq!(reply.headers["x-request-id"], "bench-7");
+    let exposed = reply.headers["access-control-expose-headers"]
+        .to_str()
+        .unwrap()
+        .to_ascii_lowercase();
+    assert!(
+        exposed.contains("x-request-id") && exposed.contains("retry-after"),
+        "{exposed}"
+    );
+
+    let plain = post_with(
+        &app(),
+        "/v1/predict",
+        "{",
+        &[("origin", "https://bench.example")],
+    )
+    .await;
+    assert!(plain.headers.get("access-control-allow-origin").is_none());
+}
