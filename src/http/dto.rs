@@ -211,8 +211,10 @@ impl From<&UniformityMetrics> for MetricsDto {
 #[serde(deny_unknown_fields)]
 pub struct DwellDto {
     /// Tool-centre radii in mm, strictly increasing.
+    #[schema(min_items = 1)]
     pub positions_mm: Vec<f64>,
     /// Dwell time at each position in s (≥ 0), one per position.
+    #[schema(min_items = 1)]
     pub dwell_s: Vec<f64>,
 }
 

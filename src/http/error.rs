@@ -366,6 +366,7 @@ impl From<InputError> for ApiError {
                         format!("{field} must be a finite fraction > 0")
                     }
                     Input::EqualDwellPositions => format!("{field} must be at least 2"),
+                    Input::Etas => format!("{field} must hold 1 to {max} values; it is empty"),
                     Input::SolverTimeLimit => {
                         format!("{field} must be > 0 and at most this server's limit of {max} s")
                     }

@@ -11,7 +11,7 @@ use super::dto::{
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
-use super::extract::ApiJson;
+use super::extract::{object, optional_object, ApiJson};
 use super::plot::{Chart, Series};
 use super::state::{AppState, Services};
 use super::{csv, plot};
@@ -23,13 +23,16 @@ use crate::usecases::ComputeLimits;
 pub struct EtaSweepRequest {
     /// The process; its `tool_rpm` (≠ 0) is held and its `workpiece_rpm` is replaced by
     /// −η·tool_rpm at each point.
+    #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
     /// η values (paper convention, η = −workpiece_rpm / tool_rpm), each finite and ≠ 0; at
     /// most 201. Computed in parallel.
     #[schema(example = json!([-0.05, -0.25, -0.5, -0.75, -1.0, -1.25, -1.5]))]
+    #[schema(min_items = 1)]
     pub etas: Vec<f64>,
     /// A dwell schedule used at every point; default equal dwell (a constant feed from 0 to
     /// min(outer + r_t, reach) mm).
+    #[serde(default, deserialize_with = "optional_object")]
     pub dwell: Option<DwellDto>,
     /// Mean depth equal dwell removes at each point, nm (> 0). Default 100. Ignored with `dwell`.
     #[schema(default = 100.0)]
@@ -38,8 +41,10 @@ pub struct EtaSweepRequest {
     #[schema(default = 200, minimum = 2)]
     pub equal_dwell_positions: Option<usize>,
     /// Where removal is computed; default 201 samples from 0 to the workpiece radius.
+    #[serde(default, deserialize_with = "optional_object")]
     pub radial_grid: Option<RadialGridDto>,
     /// Where uniformity is judged; default the whole workpiece.
+    #[serde(default, deserialize_with = "optional_object")]
     pub clear_aperture: Option<ClearApertureDto>,
 }
 

@@ -9,14 +9,16 @@
 use axum::body::Bytes;
 use axum::extract::{FromRequest, Request};
 use axum::http::{header, HeaderMap, StatusCode};
-use serde::de::DeserializeOwned;
+use serde::de::{DeserializeOwned, Visitor};
+use serde::{Deserialize, Deserializer};
 
 use super::error::ApiError;
 
-/// Parses a JSON body into `T`, mapping serde's errors to problems that name the field.
+/// Parses a JSON body (an object) into `T`, mapping serde's errors to problems that name the
+/// field.
 pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
     let mut deserializer = serde_json::Deserializer::from_slice(bytes);
-    let value = serde_path_to_error::deserialize(&mut deserializer).map_err(|err| {
+    let value = serde_path_to_error::deserialize(ObjectOnly(&mut deserializer)).map_err(|err| {
         let path = err.path().to_string();
         problem_of(&path, err.into_inner())
     })?;
@@ -26,7 +28,7 @@ pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
 }
 
 fn problem_of(path: &str, inner: serde_json::Error) -> ApiError {
-    let message = strip_position(&inner.to_string());
+    let message = object_expected(strip_position(&inner.to_string()));
     let field = field_of(path, &message);
     match inner.classify() {
         serde_json::error::Category::Data => ApiError::SchemaMismatch {
@@ -42,6 +44,69 @@ fn problem_of(path: &str, inner: serde_json::Error) -> ApiError {
             ),
         },
     }
+}
+
+/// serde says "invalid type: sequence, expected struct ProcessDto" where an object was
+/// expected; say it in the API's terms.
+fn object_expected(message: String) -> String {
+    match message
+        .strip_prefix("invalid type: ")
+        .and_then(|rest| rest.split_once(", expected struct "))
+    {
+        Some((got, _)) => {
+            let got = if got == "sequence" { "an array" } else { got };
+            format!("expected a JSON object here, got {got}")
+        }
+        None => message,
+    }
+}
+
+/// A deserializer that gives structs only a JSON object. serde's derive also fills a struct
+/// from an array, by position (`[50, 10, 200, -10]` as a process, with the speeds wherever
+/// they land): the API refuses that. Used for the body (see [`parse_json`]) and, through
+/// [`object`] and [`optional_object`], for every struct-valued request field.
+struct ObjectOnly<D>(D);
+
+impl<'de, D: Deserializer<'de>> Deserializer<'de> for ObjectOnly<D> {
+    type Error = D::Error;
+
+    fn deserialize_any<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, D::Error> {
+        self.0.deserialize_any(visitor)
+    }
+
+    fn deserialize_struct<V: Visitor<'de>>(
+        self,
+        _name: &'static str,
+        _fields: &'static [&'static str],
+        visitor: V,
+    ) -> Result<V::Value, D::Error> {
+        self.0.deserialize_map(visitor)
+    }
+
+    serde::forward_to_deserialize_any! {
+        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes byte_buf
+        option unit unit_struct newtype_struct seq tuple tuple_struct map enum identifier
+        ignored_any
+    }
+}
+
+/// `deserialize_with` for a struct-valued field: a JSON object only (see [`ObjectOnly`]).
+pub fn object<'de, D: Deserializer<'de>, T: Deserialize<'de>>(d: D) -> Result<T, D::Error> {
+    T::deserialize(ObjectOnly(d))
+}
+
+/// `deserialize_with` for an optional struct-valued field (with `#[serde(default)]`): absent
+/// or null, or a JSON object.
+pub fn optional_object<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
+    d: D,
+) -> Result<Option<T>, D::Error> {
+    struct Object<T>(T);
+    impl<'de, T: Deserialize<'de>> Deserialize<'de> for Object<T> {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            object(d).map(Object)
+        }
+    }
+    Ok(Option::<Object<T>>::deserialize(d)?.map(|o| o.0))
 }
 
 /// serde_json appends " at line L column C"; the problem carries the path instead.

@@ -78,9 +78,59 @@ pub fn spec() -> utoipa::openapi::OpenApi {
     doc
 }
 
+/// What JSON Schema can say about the requests but utoipa's attributes cannot: (schema,
+/// property, keyword, value). Positions are strictly increasing (so they are unique; the order
+/// itself is not expressible and is stated in the field's description); the workpiece must
+/// turn; η = 0 would stop it.
+type Constraint = (
+    &'static str,
+    &'static str,
+    &'static str,
+    fn() -> serde_json::Value,
+);
+
+const CONSTRAINTS: [Constraint; 5] = [
+    (
+        "ProcessDto",
+        "workpiece_rpm",
+        "not",
+        || serde_json::json!({"const": 0}),
+    ),
+    ("DwellDto", "positions_mm", "uniqueItems", || {
+        serde_json::json!(true)
+    }),
+    ("OptimizeRequest", "positions_mm", "uniqueItems", || {
+        serde_json::json!(true)
+    }),
+    ("MeasuredProfileDto", "radius_mm", "uniqueItems", || {
+        serde_json::json!(true)
+    }),
+    (
+        "EtaSweepRequest",
+        "etas",
+        "items.not",
+        || serde_json::json!({"const": 0}),
+    ),
+];
+
 /// The document as served and committed: pretty JSON with a final newline.
 pub fn spec_json() -> String {
-    let mut json = spec().to_pretty_json().expect("the spec serialises");
+    let mut doc = serde_json::to_value(spec()).expect("the spec serialises");
+    for (schema, property, keyword, value) in CONSTRAINTS {
+        let mut target = &mut doc["components"]["schemas"][schema]["properties"][property];
+        let mut path = keyword.split('.').peekable();
+        while let Some(key) = path.next() {
+            if path.peek().is_none() {
+                target
+                    .as_object_mut()
+                    .expect("constraints name existing properties")
+                    .insert(key.to_string(), value());
+                break;
+            }
+            target = &mut target[key];
+        }
+    }
+    let mut json = serde_json::to_string_pretty(&doc).expect("the spec serialises");
     json.push('\n');
     json
 }

@@ -13,7 +13,7 @@ use super::dto::{
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
-use super::extract::ApiJson;
+use super::extract::{object, optional_object, ApiJson};
 use super::plot::{Chart, Series};
 use super::state::{AppState, Services};
 use super::{csv, plot};
@@ -26,24 +26,32 @@ use crate::usecases::ComputeLimits;
 #[serde(deny_unknown_fields)]
 pub struct OptimizeRequest {
     /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
+    #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
     /// Candidate tool-centre positions, mm, strictly increasing, within the tool's reach
     /// (0 to r_m + r_t under uniform pressure, 0 to r_m under constant force); at most the
     /// server's max_optimize_positions (2001 by default).
+    #[schema(min_items = 1)]
     pub positions_mm: Vec<f64>,
     /// What to remove over the clear aperture.
+    #[serde(deserialize_with = "object")]
     pub target: TargetDto,
     /// Limits the plan must keep; all optional.
+    #[serde(default, deserialize_with = "optional_object")]
     pub constraints: Option<ConstraintsDto>,
     /// Weights of the objective's smoothing and time terms; defaults documented there.
+    #[serde(default, deserialize_with = "optional_object")]
     pub objective: Option<ObjectiveDto>,
     /// Where removal is computed and the target is matched; default 201 samples from 0 to the
     /// workpiece radius.
+    #[serde(default, deserialize_with = "optional_object")]
     pub radial_grid: Option<RadialGridDto>,
     /// Where the target applies and uniformity is judged (an annulus is allowed); default the
     /// whole workpiece.
+    #[serde(default, deserialize_with = "optional_object")]
     pub clear_aperture: Option<ClearApertureDto>,
     /// Solver settings.
+    #[serde(default, deserialize_with = "optional_object")]
     pub solver: Option<SolverOptionsDto>,
 }
 
@@ -55,6 +63,7 @@ pub struct TargetDto {
     #[schema(example = 100.0)]
     pub uniform_depth_nm: Option<f64>,
     /// Remove a measured radial error profile (figure correction).
+    #[serde(default, deserialize_with = "optional_object")]
     pub profile: Option<MeasuredProfileDto>,
     /// With `profile`: also remove the least uniform layer p ≥ 0 (nm) that lets the plan fit
     /// best, since polishing can only remove material. Default false.
@@ -68,8 +77,10 @@ pub struct TargetDto {
 #[serde(deny_unknown_fields)]
 pub struct MeasuredProfileDto {
     /// Radii of the measurement, mm, strictly increasing (at least 2).
+    #[schema(min_items = 2)]
     pub radius_mm: Vec<f64>,
     /// Depth to remove at each radius, nm (the surface's height above the wanted figure).
+    #[schema(min_items = 2)]
     pub depth_nm: Vec<f64>,
 }
 

@@ -12,7 +12,7 @@ use super::dto::{
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
-use super::extract::ApiJson;
+use super::extract::{object, optional_object, ApiJson};
 use super::plot::{Chart, Series};
 use super::state::{AppState, Services};
 use super::{csv, plot};
@@ -23,12 +23,16 @@ use crate::usecases::ComputeLimits;
 #[serde(deny_unknown_fields)]
 pub struct PredictRequest {
     /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
+    #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
     /// Tool positions (mm) and the dwell time at each (s).
+    #[serde(deserialize_with = "object")]
     pub dwell: DwellDto,
     /// Where to report removal; default 201 samples from 0 to the workpiece radius.
+    #[serde(default, deserialize_with = "optional_object")]
     pub radial_grid: Option<RadialGridDto>,
     /// Where uniformity is judged; default the whole workpiece.
+    #[serde(default, deserialize_with = "optional_object")]
     pub clear_aperture: Option<ClearApertureDto>,
 }
 

@@ -11,7 +11,7 @@ use utoipa::ToSchema;
 use super::dto::{setting, ClearApertureDto, ProcessDto, RadialGridDto, RecommendationDto};
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
-use super::extract::ApiJson;
+use super::extract::{object, optional_object, ApiJson};
 use super::state::{AppState, Services};
 use crate::study::SpeedLimits;
 use crate::usecases::recommend::{recommend, RecommendCommand};
@@ -21,8 +21,10 @@ use crate::usecases::ComputeLimits;
 #[serde(deny_unknown_fields)]
 pub struct RecommendRequest {
     /// The user's current process (radii in mm, signed speeds in r/min, CCW positive).
+    #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
     /// The machine's speed limits; default none.
+    #[serde(default, deserialize_with = "optional_object")]
     pub limits: Option<SpeedLimitsDto>,
     /// Mean depth the equal-dwell plans remove over the clear aperture, nm (> 0). Default 100.
     #[schema(default = 100.0)]
@@ -37,8 +39,10 @@ pub struct RecommendRequest {
     #[schema(default = 200, minimum = 2)]
     pub equal_dwell_positions: Option<usize>,
     /// Where removal is computed; default 201 samples from 0 to the workpiece radius.
+    #[serde(default, deserialize_with = "optional_object")]
     pub radial_grid: Option<RadialGridDto>,
     /// Where uniformity is judged; default the whole workpiece.
+    #[serde(default, deserialize_with = "optional_object")]
     pub clear_aperture: Option<ClearApertureDto>,
 }
 

@@ -10,7 +10,7 @@ use utoipa::ToSchema;
 use super::dto::{ProcessDto, RadialGridDto};
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
-use super::extract::ApiJson;
+use super::extract::{object, optional_object, ApiJson};
 use super::plot::{Chart, Series};
 use super::state::{AppState, Services};
 use super::{csv, plot};
@@ -21,11 +21,14 @@ use crate::usecases::ComputeLimits;
 #[serde(deny_unknown_fields)]
 pub struct RemovalFunctionRequest {
     /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
+    #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
     /// Tool-centre radii in mm, one profile each (any order; 0 to r_m + r_t under uniform
     /// pressure, 0 to r_m under constant force).
+    #[schema(min_items = 1)]
     pub tool_positions_mm: Vec<f64>,
     /// Where to report the profiles; default 201 samples from 0 to the workpiece radius.
+    #[serde(default, deserialize_with = "optional_object")]
     pub radial_grid: Option<RadialGridDto>,
 }
 

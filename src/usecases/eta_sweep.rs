@@ -26,6 +26,12 @@ impl EtaSweepCommand {
         positions: Option<usize>,
         limits: &ComputeLimits,
     ) -> Result<Self, InputError> {
+        if etas.is_empty() {
+            return Err(InputError::OutOfRange {
+                input: Input::Etas,
+                max: limits.max_etas as f64,
+            });
+        }
         limits
             .check_etas(etas.len())
             .map_err(InputError::limit(Input::Etas))?;

@@ -542,3 +542,173 @@ async fn cors_lets_a_front_end_send_and_read_the_request_id() {
     .await;
     assert!(plain.headers.get("access-control-allow-origin").is_none());
 }
+
+fn assert_problem_type(reply: &Reply, kind: &str, field: &str) {
+    assert_problem(reply, 422, Some(field));
+    assert_eq!(
+        reply.json()["type"],
+        format!("urn:preston:problem:{kind}"),
+        "{}",
+        reply.text()
+    );
+}
+
+fn exp1_process() -> Value {
+    json!({"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": -10, "tool_rpm": 200})
+}
+
+/// serde would fill a struct from an array by position (`[50, 10, 200, -10]` as a process,
+/// speeds wherever they land): the body must be an object.
+#[tokio::test]
+async fn an_array_for_the_body_is_refused() {
+    for path in ["/v1/predict", "/v1/optimize", "/v1/recommend"] {
+        let reply = post_json(&app(), path, "[50, 10, 200, -10]").await;
+        assert_problem_type(&reply, "schema-mismatch", "body");
+        let detail = reply.json()["detail"].as_str().unwrap().to_string();
+        assert!(
+            detail.contains("JSON object") && detail.contains("array"),
+            "{detail}"
+        );
+    }
+}
+
+/// The same for every object nested in a request: process, grid, aperture, dwell, target,
+/// profile, constraints, objective, solver, limits.
+#[tokio::test]
+async fn an_array_for_a_nested_object_is_refused() {
+    let dwell = json!({"positions_mm": [1], "dwell_s": [1]});
+    let cases = [
+        (
+            "/v1/predict",
+            json!({"process": [50, 10, 200, -10], "dwell": dwell}),
+            "process",
+        ),
+        (
+            "/v1/predict",
+            json!({"process": exp1_process(), "dwell": [[1], [1]]}),
+            "dwell",
+        ),
+        (
+            "/v1/predict",
+            json!({"process": exp1_process(), "dwell": dwell, "clear_aperture": [0, 40]}),
+            "clear_aperture",
+        ),
+        (
+            "/v1/predict",
+            json!({"process": exp1_process(), "dwell": dwell, "clear_aperture": [0, 40, 99]}),
+            "clear_aperture",
+        ),
+        (
+            "/v1/removal-function",
+            json!({"process": exp1_process(), "tool_positions_mm": [1], "radial_grid": [0, 50, 11]}),
+            "radial_grid",
+        ),
+        (
+            "/v1/optimize",
+            json!({"process": exp1_process(), "positions_mm": [0, 1], "target": [100]}),
+            "target",
+        ),
+        (
+            "/v1/optimize",
+            json!({"process": exp1_process(), "positions_mm": [0, 1], "target": {"profile": [[0, 50], [1, 1]]}}),
+            "target.profile",
+        ),
+        (
+            "/v1/optimize",
+            json!({"process": exp1_process(), "positions_mm": [0, 1], "target": {"uniform_depth_nm": 1}, "constraints": [0, 10]}),
+            "constraints",
+        ),
+        (
+            "/v1/optimize",
+            json!({"process": exp1_process(), "positions_mm": [0, 1], "target": {"uniform_depth_nm": 1}, "objective": [0, 0]}),
+            "objective",
+        ),
+        (
+            "/v1/optimize",
+            json!({"process": exp1_process(), "positions_mm": [0, 1], "target": {"uniform_depth_nm": 1}, "solver": [1]}),
+            "solver",
+        ),
+        (
+            "/v1/recommend",
+            json!({"process": exp1_process(), "limits": [100, 100]}),
+            "limits",
+        ),
+        (
+            "/v1/studies/eta-sweep",
+            json!({"process": exp1_process(), "etas": [-1], "dwell": [[1], [1]]}),
+            "dwell",
+        ),
+    ];
+    for (path, body, field) in cases {
+        let reply = post_json(&app(), path, body.to_string()).await;
+        assert_problem_type(&reply, "schema-mismatch", field);
+    }
+    // Absent or null optional objects still take their defaults.
+    let reply = post_json(
+        &app(),
+        "/v1/predict",
+        json!({"process": exp1_process(), "dwell": dwell, "clear_aperture": null}).to_string(),
+    )
+    .await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+}
+
+/// Empty arrays where at least one entry is needed (the schema says `minItems`).
+#[tokio::test]
+async fn empty_arrays_are_refused() {
+    let cases = [
+        (
+            "/v1/predict",
+            json!({"process": exp1_process(), "dwell": {"positions_mm": [], "dwell_s": []}}),
+            "dwell.positions_mm",
+        ),
+        (
+            "/v1/removal-function",
+            json!({"process": exp1_process(), "tool_positions_mm": []}),
+            "tool_positions_mm",
+        ),
+        (
+            "/v1/optimize",
+            json!({"process": exp1_process(), "positions_mm": [], "target": {"uniform_depth_nm": 1}}),
+            "positions_mm",
+        ),
+        (
+            "/v1/studies/eta-sweep",
+            json!({"process": exp1_process(), "etas": []}),
+            "etas",
+        ),
+    ];
+    for (path, body, field) in cases {
+        let reply = post_json(&app(), path, body.to_string()).await;
+        assert_problem_type(&reply, "invalid-input", field);
+    }
+}
+
+/// A stationary workpiece (the schema says `not: {const: 0}`) on every computing endpoint.
+#[tokio::test]
+async fn a_stationary_workpiece_is_refused() {
+    let process = json!({"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": 0, "tool_rpm": 200});
+    let cases = [
+        (
+            "/v1/removal-function",
+            json!({"process": process, "tool_positions_mm": [1]}),
+        ),
+        (
+            "/v1/predict",
+            json!({"process": process, "dwell": {"positions_mm": [1], "dwell_s": [1]}}),
+        ),
+        (
+            "/v1/optimize",
+            json!({"process": process, "positions_mm": [0, 1], "target": {"uniform_depth_nm": 1}}),
+        ),
+        ("/v1/recommend", json!({"process": process})),
+        (
+            "/v1/studies/eta-sweep",
+            json!({"process": process, "etas": [-1]}),
+        ),
+    ];
+    for (path, body) in cases {
+        let reply = post_json(&app(), path, body.to_string()).await;
+        assert_problem_type(&reply, "invalid-input", "process.workpiece_rpm");
+    }
+}
