@@ -7,7 +7,7 @@ use utoipa::ToSchema;
 use super::error::ApiError;
 use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
 use crate::study::{EqualDwell, Recommendation, SpeedRule};
-use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, Setting};
+use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, Setting, Warning};
 
 fn default_preston_coefficient() -> f64 {
     1e-13
@@ -319,6 +319,74 @@ impl From<&Recommendation> for RecommendationDto {
             improvement_factor: r.improvement_factor,
             equal_dwell: EqualDwellDto::from(&r.recommended),
             current_feed_mm_per_min: r.current.feed_mm_per_min,
+        }
+    }
+}
+
+/// Something about a result the caller should know: the result stands, but may not be what
+/// was meant.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct WarningDto {
+    /// What kind of warning (machine-readable).
+    pub code: WarningCode,
+    /// The request field to look at, if one is; e.g. `constraints.max_total_time_s`.
+    #[schema(required = true)]
+    pub field: Option<String>,
+    /// What it means, in words.
+    pub message: String,
+}
+
+/// The kinds of warning.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum WarningCode {
+    /// The optimized plan sits on the limit named in `field` (a total-time budget, a dwell
+    /// bound, the feed or dwell-change limit): that limit, not the target, decided the plan
+    /// there; relaxing it would fit the target better.
+    ConstraintActive,
+    /// The optimized plan's residual RMS over the clear aperture is more than 10 % of the
+    /// target's RMS.
+    TargetNotMet,
+    /// Every tool position is below 1 mm on a workpiece of 10 mm radius or more: positions are
+    /// in millimetres, and these look like metres.
+    PositionsLookLikeMetres,
+}
+
+impl WarningDto {
+    /// `positions` is the request field holding the tool positions.
+    pub fn new(w: &Warning, positions: &str) -> Self {
+        match w {
+            Warning::ConstraintActive { constraint } => {
+                let name = constraint.name();
+                WarningDto {
+                    code: WarningCode::ConstraintActive,
+                    field: Some(format!("constraints.{name}")),
+                    message: format!(
+                        "the plan sits on {name}: that limit, not the target, decided it there"
+                    ),
+                }
+            }
+            Warning::TargetNotMet {
+                residual_rms_nm,
+                target_rms_nm,
+            } => WarningDto {
+                code: WarningCode::TargetNotMet,
+                field: Some("target".to_string()),
+                message: format!(
+                    "the residual RMS over the clear aperture is {residual_rms_nm:.4} nm, {:.1} % of the target's RMS ({target_rms_nm:.4} nm)",
+                    100.0 * residual_rms_nm / target_rms_nm
+                ),
+            },
+            Warning::PositionsLookLikeMetres {
+                max_position_mm,
+                workpiece_radius_mm,
+            } => WarningDto {
+                code: WarningCode::PositionsLookLikeMetres,
+                field: Some(positions.to_string()),
+                message: format!(
+                    "every position is below 1 mm (at most {max_position_mm} mm) on a workpiece of {workpiece_radius_mm} mm radius: positions are in millimetres; are these in metres?"
+                ),
+            },
         }
     }
 }

@@ -9,7 +9,7 @@ use utoipa::ToSchema;
 
 use super::dto::{
     setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
-    RecommendationDto,
+    RecommendationDto, WarningDto,
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
@@ -171,6 +171,10 @@ pub struct OptimizeResponse {
     /// null at η = −1.
     #[schema(required = true)]
     pub recommendation: Option<RecommendationDto>,
+    /// What the caller should know about this plan: constraints it sits on (so they, not the
+    /// target, decided it), a missed target, positions that look like metres; empty when
+    /// nothing.
+    pub warnings: Vec<WarningDto>,
 }
 
 /// Feed figures of the plan (see `feed_mm_per_min`).
@@ -323,21 +327,40 @@ impl Endpoint for OptimizeEndpoint {
         (command, max_time_limit_s): Self::Command,
         services: &Services,
     ) -> Result<Self::Response, ApiError> {
+        let suspect = command
+            .input_warning()
+            .map(|w| WarningDto::new(&w, "positions_mm"));
         let plan = optimize(command, &services.recommender);
         services
             .metrics
             .record_solver(plan.as_ref().map(|p| &p.solution));
-        let plan = plan.map_err(|e| match e {
-            OptimizeError::TimeLimit { .. } => ApiError::SolverFailed {
-                kind: "solver-time-limit",
-                field: Some("solver.time_limit_s".into()),
-                detail: format!(
-                    "{e}; use fewer positions or radial samples, or a longer time limit (at most {max_time_limit_s} s here)"
-                ),
-            },
-            other => other.into(),
+        let plan = plan.map_err(|e| {
+            let error = match e {
+                OptimizeError::TimeLimit { .. } => ApiError::SolverFailed {
+                    kind: "solver-time-limit",
+                    field: Some("solver.time_limit_s".into()),
+                    detail: format!(
+                        "{e}; use fewer positions or radial samples, or a longer time limit (at most {max_time_limit_s} s here)"
+                    ),
+                },
+                other => other.into(),
+            };
+            with_suspect(error, suspect)
         })?;
         Ok(OptimizeResponse::from(plan))
+    }
+}
+
+/// A solver that found no plan for input that looks wrong (positions in metres): the problem
+/// names that input and says why.
+fn with_suspect(error: ApiError, suspect: Option<WarningDto>) -> ApiError {
+    match (error, suspect) {
+        (ApiError::SolverFailed { kind, detail, .. }, Some(w)) => ApiError::SolverFailed {
+            kind,
+            field: w.field,
+            detail: format!("{detail}. Look at the input first: {}", w.message),
+        },
+        (error, _) => error,
     }
 }
 
@@ -346,6 +369,11 @@ impl From<OptimizedPlan> for OptimizeResponse {
         let s = &p.solution;
         OptimizeResponse {
             recommendation: p.recommendation.as_ref().map(RecommendationDto::from),
+            warnings: p
+                .warnings
+                .iter()
+                .map(|w| WarningDto::new(w, "positions_mm"))
+                .collect(),
             eta: p.setting.process().eta().value(),
             total_time_s: p.total_time_s,
             dwell: DwellDto {

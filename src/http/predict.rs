@@ -8,7 +8,7 @@ use utoipa::ToSchema;
 
 use super::dto::{
     setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
-    RecommendationDto,
+    RecommendationDto, WarningDto,
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
@@ -55,6 +55,9 @@ pub struct PredictResponse {
     /// depth); null at η = −1.
     #[schema(required = true)]
     pub recommendation: Option<RecommendationDto>,
+    /// What the caller should know about this prediction (e.g. positions that look like
+    /// metres); empty when nothing.
+    pub warnings: Vec<WarningDto>,
 }
 
 /// `POST /v1/predict`.
@@ -92,6 +95,11 @@ impl Endpoint for PredictEndpoint {
             clear_aperture: ApertureEcho::from(p.setting.aperture()),
             total_time_s: p.total_time_s,
             recommendation: p.recommendation.as_ref().map(RecommendationDto::from),
+            warnings: p
+                .warnings
+                .iter()
+                .map(|w| WarningDto::new(w, "dwell.positions_mm"))
+                .collect(),
         })
     }
 }

@@ -24,10 +24,12 @@ pub mod predict;
 pub mod recommend;
 pub mod removal_function;
 mod setting;
+mod warnings;
 
 pub use limits::{ComputeLimits, LimitError};
 pub use recommend::Recommender;
 pub use setting::{ApertureSpec, GridSpec, Setting, SettingError};
+pub use warnings::Warning;
 
 use crate::optimize::OptimizeError;
 use crate::physics::ScheduleError;

@@ -4,7 +4,8 @@
 
 use std::ops::Range;
 
-use super::{ComputeLimits, Input, InputError, Recommender, Setting};
+use super::warnings::{active_constraints, positions_unit, TARGET_MISS_FRACTION};
+use super::{ComputeLimits, Input, InputError, Recommender, Setting, Warning};
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
@@ -54,6 +55,12 @@ pub struct OptimizeCommand {
 }
 
 impl OptimizeCommand {
+    /// What looks wrong in the input though it is valid (a unit mistake), for hints on
+    /// solver failures as well as for the plan's warnings.
+    pub fn input_warning(&self) -> Option<Warning> {
+        positions_unit(self.setting.process(), &self.positions_mm)
+    }
+
     /// `time_limit_s` defaults to, and may not exceed, the limits' solver time.
     pub fn new(
         setting: Setting,
@@ -137,6 +144,8 @@ pub struct OptimizedPlan {
     pub metrics: UniformityMetrics,
     /// η = −1 settings for the target's mean depth; `None` at η = −1.
     pub recommendation: Option<Recommendation>,
+    /// Binding constraints, a missed target, a likely unit mistake.
+    pub warnings: Vec<Warning>,
 }
 
 /// Solves the plan. Fails only when the constraints conflict or the solver finds no plan.
@@ -144,6 +153,7 @@ pub fn optimize(
     command: OptimizeCommand,
     recommender: &Recommender,
 ) -> Result<OptimizedPlan, OptimizeError> {
+    let mut warnings: Vec<Warning> = command.input_warning().into_iter().collect();
     let OptimizeCommand {
         setting,
         positions_mm,
@@ -191,7 +201,22 @@ pub fn optimize(
     let motion = Motion::of_plan(&positions_mm, &solution.dwell_s);
     let metrics = UniformityMetrics::over(setting.grid(), setting.aperture(), &removal_nm);
     let mean_target = target_nm.iter().sum::<f64>() / target_nm.len() as f64 + piston;
+    warnings.extend(active_constraints(
+        &constraints,
+        &positions_mm,
+        &solution.dwell_s,
+    ));
+    let target_rms_nm = (target_nm.iter().map(|d| (d + piston).powi(2)).sum::<f64>()
+        / target_nm.len() as f64)
+        .sqrt();
+    if rms > TARGET_MISS_FRACTION * target_rms_nm {
+        warnings.push(Warning::TargetNotMet {
+            residual_rms_nm: rms,
+            target_rms_nm,
+        });
+    }
     Ok(OptimizedPlan {
+        warnings,
         recommendation: recommender.for_plan(&setting, mean_target),
         total_time_s: solution.dwell_s.iter().sum(),
         setting,

@@ -1,6 +1,7 @@
 //! Prediction: the cumulative removal of a dwell schedule and its uniformity.
 
-use super::{ComputeLimits, Input, InputError, Recommender, Setting};
+use super::warnings::positions_unit;
+use super::{ComputeLimits, Input, InputError, Recommender, Setting, Warning};
 use crate::physics::{DwellSchedule, UniformityMetrics};
 use crate::study::Recommendation;
 
@@ -37,13 +38,18 @@ pub struct Prediction {
     pub total_time_s: f64,
     /// η = −1 settings and what they buy; `None` at η = −1.
     pub recommendation: Option<Recommendation>,
+    pub warnings: Vec<Warning>,
 }
 
 pub fn predict(command: PredictCommand, recommender: &Recommender) -> Prediction {
     let PredictCommand { setting, schedule } = command;
     let removal_nm = schedule.removal_nm(setting.process(), setting.grid());
     let metrics = UniformityMetrics::over(setting.grid(), setting.aperture(), &removal_nm);
+    let warnings = positions_unit(setting.process(), schedule.positions_mm())
+        .into_iter()
+        .collect();
     Prediction {
+        warnings,
         recommendation: recommender.for_plan(&setting, metrics.mean_nm),
         total_time_s: schedule.total_time_s(),
         setting,

@@ -272,3 +272,71 @@ async fn the_plan_is_offered_as_csv() {
     assert_eq!(lines.next(), Some("position_mm,dwell_s"));
     assert_eq!(lines.count(), 51);
 }
+
+fn paper_body() -> Value {
+    serde_json::from_slice(
+        &std::fs::read(common::fixture_path("optimize_paper_exp1.json")).unwrap(),
+    )
+    .unwrap()
+}
+
+/// A time budget too short for the target: the plan is `solved`, but the response says the
+/// budget, not the target, decided it, and that the target was missed.
+#[tokio::test]
+async fn a_binding_time_budget_is_reported_as_a_warning() {
+    let mut body = paper_body();
+    body["constraints"] = json!({"max_total_time_s": 10});
+    let reply = post_json(&app(), "/v1/optimize", body.to_string()).await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let r = reply.json();
+    assert_eq!(r["solver"]["status"], "solved");
+    let total = r["total_time_s"].as_f64().unwrap();
+    assert!((total - 10.0).abs() < 1e-6, "{total}");
+    let warnings = r["warnings"].as_array().unwrap();
+    let codes: Vec<(&str, &str)> = warnings
+        .iter()
+        .map(|w| (w["code"].as_str().unwrap(), w["field"].as_str().unwrap()))
+        .collect();
+    assert!(
+        codes.contains(&("constraint_active", "constraints.max_total_time_s")),
+        "{codes:?}"
+    );
+    assert!(codes.contains(&("target_not_met", "target")), "{codes:?}");
+    // The same plan without the budget: nothing to warn about.
+    let reply = post_json(&app(), "/v1/optimize", paper_body().to_string()).await;
+    assert_eq!(reply.json()["warnings"], json!([]));
+}
+
+/// Positions given in metres (0–0.05 on a 50 mm workpiece): whatever the solver makes of
+/// them, the answer points at positions_mm and says why.
+#[tokio::test]
+async fn positions_in_metres_get_a_hint() {
+    let mut body = paper_body();
+    let metres: Vec<f64> = body["positions_mm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_f64().unwrap() / 1000.0)
+        .collect();
+    body["positions_mm"] = json!(metres);
+    let reply = post_json(&app(), "/v1/optimize", body.to_string()).await;
+    let r = reply.json();
+    if reply.status == 200 {
+        let w = &r["warnings"][0];
+        assert_eq!(w["code"], "positions_look_like_metres", "{r}");
+        assert_eq!(w["field"], "positions_mm");
+    } else {
+        assert_eq!(reply.status, 422, "{r}");
+        assert_eq!(r["field"], "positions_mm", "{r}");
+        assert!(r["detail"].as_str().unwrap().contains("metres"), "{r}");
+    }
+    let predict = json!({"process": body["process"], "dwell": {"positions_mm": [0.0, 0.01, 0.02], "dwell_s": [1, 1, 1]}});
+    let r = post_json(&app(), "/v1/predict", predict.to_string())
+        .await
+        .json();
+    assert_eq!(
+        r["warnings"][0]["code"], "positions_look_like_metres",
+        "{r}"
+    );
+    assert_eq!(r["warnings"][0]["field"], "dwell.positions_mm");
+}

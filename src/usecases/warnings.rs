@@ -1,0 +1,83 @@
+//! Warnings: a result that stands but may not be what the caller meant — a constraint, not
+//! the target, decided an optimized plan; the plan misses its target; the input looks like a
+//! unit mistake.
+
+use crate::optimize::{Constraint, Constraints};
+use crate::physics::Process;
+
+/// Relative closeness to a limit at which a plan counts as sitting on it (interior-point
+/// answers come within ~1e-8; the optimizer then clamps to the bounds exactly).
+const ACTIVE: f64 = 1e-6;
+/// A plan whose residual RMS exceeds this fraction of the target's RMS misses its target.
+pub const TARGET_MISS_FRACTION: f64 = 0.1;
+
+/// Something about a result the caller should know.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Warning {
+    /// The plan sits on this limit: relaxing it would let the plan fit the target better.
+    ConstraintActive { constraint: Constraint },
+    /// The plan's residual RMS is more than [`TARGET_MISS_FRACTION`] of the target's RMS.
+    TargetNotMet {
+        residual_rms_nm: f64,
+        target_rms_nm: f64,
+    },
+    /// Every tool position is below 1 mm on a workpiece of 10 mm radius or more: positions in
+    /// metres rather than millimetres?
+    PositionsLookLikeMetres {
+        max_position_mm: f64,
+        workpiece_radius_mm: f64,
+    },
+}
+
+/// The unit check on tool positions.
+pub(super) fn positions_unit(process: &Process, positions_mm: &[f64]) -> Option<Warning> {
+    let max_position_mm = positions_mm.iter().copied().fold(0.0_f64, f64::max);
+    let workpiece_radius_mm = process.workpiece_radius_mm();
+    (max_position_mm < 1.0 && workpiece_radius_mm >= 10.0).then_some(
+        Warning::PositionsLookLikeMetres {
+            max_position_mm,
+            workpiece_radius_mm,
+        },
+    )
+}
+
+/// The limits a plan sits on, in the order of [`Constraints`]' fields.
+pub(super) fn active_constraints(
+    c: &Constraints,
+    positions_mm: &[f64],
+    dwell_s: &[f64],
+) -> Vec<Warning> {
+    let near = |value: f64, limit: f64| (value - limit).abs() <= ACTIVE * limit.abs().max(1e-300);
+    let mut active = Vec::new();
+    if c.min_dwell_s > 0.0 && dwell_s.iter().any(|&t| near(t, c.min_dwell_s)) {
+        active.push(Constraint::MinDwell);
+    }
+    if let Some(hi) = c.max_dwell_s {
+        if dwell_s.iter().any(|&t| near(t, hi)) {
+            active.push(Constraint::MaxDwell);
+        }
+    }
+    if let Some(total) = c.max_total_time_s {
+        if near(dwell_s.iter().sum(), total) {
+            active.push(Constraint::MaxTotalTime);
+        }
+    }
+    if let Some(need) = c.segment_min_dwell_sum_s(positions_mm) {
+        if need
+            .iter()
+            .zip(dwell_s.windows(2))
+            .any(|(&n, w)| near(w[0] + w[1], n))
+        {
+            active.push(Constraint::MaxFeed);
+        }
+    }
+    if let Some(delta) = c.max_dwell_change_s {
+        if delta > 0.0 && dwell_s.windows(2).any(|w| near((w[1] - w[0]).abs(), delta)) {
+            active.push(Constraint::MaxDwellChange);
+        }
+    }
+    active
+        .into_iter()
+        .map(|constraint| Warning::ConstraintActive { constraint })
+        .collect()
+}
