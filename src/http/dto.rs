@@ -40,17 +40,12 @@ pub struct ProcessDto {
     pub tool_rpm: f64,
     /// Preston coefficient K in m²/N (= 1/Pa), in [0, 1e-6]. Default 1e-13.
     #[serde(default = "default_preston_coefficient")]
-    #[schema(default = 1e-13, example = 1e-13, minimum = 0.0, maximum = 1e-6)]
+    #[schema(example = 1e-13, minimum = 0.0, maximum = 1e-6)]
     pub preston_coefficient_m2_per_n: f64,
     /// Nominal pad pressure in kPa, in (0, 1000000], with the whole pad on the workpiece.
     /// Default 10.
     #[serde(default = "default_pressure_kpa")]
-    #[schema(
-        default = 10.0,
-        example = 10.0,
-        maximum = 1000000.0,
-        exclusive_minimum = 0.0
-    )]
+    #[schema(example = 10.0, maximum = 1000000.0, exclusive_minimum = 0.0)]
     pub pressure_kpa: f64,
     /// How pressure depends on the tool position. Default `uniform`.
     #[serde(default)]
@@ -93,14 +88,14 @@ impl From<&ProcessDto> for ProcessSpec {
 #[serde(deny_unknown_fields)]
 pub struct RadialGridDto {
     /// First radius in mm (≥ 0). Default 0.
-    #[schema(default = 0.0, example = 0.0)]
+    #[schema(example = 0.0)]
     pub start_mm: Option<f64>,
     /// Last radius in mm (≤ workpiece radius). Default: the workpiece radius.
     #[schema(example = 50.0)]
     pub stop_mm: Option<f64>,
     /// Number of samples (≥ 2, or 1 when start_mm = stop_mm; at most the server's
     /// max_radial_samples, 10001 by default). Default 201.
-    #[schema(default = 201, example = 201, minimum = 1)]
+    #[schema(example = 201, minimum = 1)]
     pub count: Option<usize>,
 }
 
@@ -120,7 +115,7 @@ impl From<Option<&RadialGridDto>> for GridSpec {
 #[serde(deny_unknown_fields)]
 pub struct ClearApertureDto {
     /// Inner radius in mm (≥ 0). Default 0.
-    #[schema(default = 0.0, example = 0.0)]
+    #[schema(example = 0.0)]
     pub inner_mm: Option<f64>,
     /// Outer radius in mm (> inner_mm, ≤ workpiece radius). Default: the workpiece radius.
     #[schema(example = 40.0)]

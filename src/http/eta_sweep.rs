@@ -35,10 +35,9 @@ pub struct EtaSweepRequest {
     #[serde(default, deserialize_with = "optional_object")]
     pub dwell: Option<DwellDto>,
     /// Mean depth equal dwell removes at each point, nm (> 0). Default 100. Ignored with `dwell`.
-    #[schema(default = 100.0)]
     pub depth_nm: Option<f64>,
     /// Positions (cells) of the equal-dwell pass (≥ 2). Default 200. Ignored with `dwell`.
-    #[schema(default = 200, minimum = 2)]
+    #[schema(minimum = 2)]
     pub equal_dwell_positions: Option<usize>,
     /// Where removal is computed; default 201 samples from 0 to the workpiece radius.
     #[serde(default, deserialize_with = "optional_object")]

@@ -30,6 +30,7 @@ counter-clockwise) is workpiece_rpm = −10, tool_rpm = 200, η = +0.05.\n\n\
 positions ≤ 10001, removal-function profiles ≤ 201, radial samples × positions ≤ 25,000,000, \
 optimization positions ≤ 2001, solver time ≤ 10 s."
     ),
+    servers((url = "/", description = "The service that serves this document")),
     paths(
         removal_function::handler,
         predict::handler,

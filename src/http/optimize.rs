@@ -67,7 +67,6 @@ pub struct TargetDto {
     pub profile: Option<MeasuredProfileDto>,
     /// With `profile`: also remove the least uniform layer p ≥ 0 (nm) that lets the plan fit
     /// best, since polishing can only remove material. Default false.
-    #[schema(default = false)]
     pub free_piston: Option<bool>,
 }
 
@@ -90,7 +89,6 @@ pub struct MeasuredProfileDto {
 #[serde(deny_unknown_fields)]
 pub struct ConstraintsDto {
     /// Least dwell at every position, s (≥ 0). Default 0.
-    #[schema(default = 0.0)]
     pub min_dwell_s: Option<f64>,
     /// Most dwell at any position, s (> 0). Default none.
     pub max_dwell_s: Option<f64>,
@@ -115,11 +113,9 @@ pub struct ConstraintsDto {
 pub struct ObjectiveDto {
     /// λ, dimensionless (≥ 0). Damps dwell that oscillates from one position to the next.
     /// Default 1e-6.
-    #[schema(default = 1e-6)]
     pub smoothing: Option<f64>,
     /// μ, dimensionless (≥ 0). Prefers the quicker of plans that fit about equally well; it
     /// biases the mean depth low by about μ (relative). Default 2e-6.
-    #[schema(default = 2e-6)]
     pub time_weight: Option<f64>,
 }
 

@@ -27,16 +27,14 @@ pub struct RecommendRequest {
     #[serde(default, deserialize_with = "optional_object")]
     pub limits: Option<SpeedLimitsDto>,
     /// Mean depth the equal-dwell plans remove over the clear aperture, nm (> 0). Default 100.
-    #[schema(default = 100.0)]
     pub depth_nm: Option<f64>,
     /// Largest equal-dwell nonuniformity (pv/mean, a fraction) inside the η window, > 0.
     /// Default 0.02.
-    #[schema(default = 0.02)]
     pub nonuniformity_threshold: Option<f64>,
     /// Positions of the equal-dwell pass: a constant feed from 0 to min(outer + r_t, reach) mm
     /// as this many evenly spaced cell centres (≥ 2, at most the server's max_positions).
     /// Default 200.
-    #[schema(default = 200, minimum = 2)]
+    #[schema(minimum = 2)]
     pub equal_dwell_positions: Option<usize>,
     /// Where removal is computed; default 201 samples from 0 to the workpiece radius.
     #[serde(default, deserialize_with = "optional_object")]

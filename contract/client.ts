@@ -1,0 +1,117 @@
+// A small front-end-style client of Preston, typed entirely by the types openapi-typescript
+// generates from the committed openapi/openapi.json (schema.d.ts, not committed), with
+// openapi-fetch. `tsc --strict` must accept it with no hand-edits to the generated types and no
+// type assertions on response bodies; run with node, it posts every POST fixture to the
+// service and checks the typed answers.
+//
+//     node dist/client.js <base url> <fixtures dir>
+
+import { readFileSync, readdirSync } from "node:fs";
+import { join } from "node:path";
+import createClient from "openapi-fetch";
+import type { components, paths } from "./schema.js";
+
+type Schemas = components["schemas"];
+
+const [baseUrl, fixtures] = process.argv.slice(2);
+if (!baseUrl || !fixtures) {
+  throw new Error("usage: client.js <base url> <fixtures dir>");
+}
+// JSON media types (answers are application/json, problems application/problem+json); the
+// endpoints also offer text/csv and image/svg+xml.
+const client = createClient<paths, `${string}/${string}json`>({ baseUrl });
+
+function read<T>(name: string): T {
+  // The request side: a fixture file is the caller's own input.
+  return JSON.parse(readFileSync(join(fixtures, name), "utf8")) as T;
+}
+
+function check(name: string, ok: boolean, what: string): void {
+  if (!ok) {
+    throw new Error(`${name}: ${what}`);
+  }
+}
+
+async function removalFunction(name: string): Promise<void> {
+  const { data, error } = await client.POST("/v1/removal-function", {
+    body: read<Schemas["RemovalFunctionRequest"]>(name),
+  });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const rows = data.radius_mm.length;
+  check(name, data.profiles.every((p) => p.removal_rate_nm_per_min.length === rows), "profile lengths");
+}
+
+async function predict(name: string): Promise<void> {
+  const { data, error } = await client.POST("/v1/predict", {
+    body: read<Schemas["PredictRequest"]>(name),
+  });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const nonuniformity: number | null = data.metrics.nonuniformity;
+  check(name, data.removal_nm.length === data.radius_mm.length, "removal length");
+  check(name, nonuniformity === null || nonuniformity >= 0, "nonuniformity");
+  const rule = data.recommendation?.rule;
+  check(name, rule === undefined || rule === "match_removal_rate" || rule === "fastest_allowed", "rule");
+  check(name, Array.isArray(data.warnings), "warnings");
+}
+
+async function optimize(name: string): Promise<void> {
+  const { data, error } = await client.POST("/v1/optimize", {
+    body: read<Schemas["OptimizeRequest"]>(name),
+  });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const status: Schemas["SolverStatusDto"] = data.solver.status;
+  check(name, status === "solved" || status === "almost_solved", `status ${status}`);
+  check(name, data.dwell.dwell_s.length === data.dwell.positions_mm.length, "plan lengths");
+  check(name, data.warnings.every((w) => typeof w.message === "string"), "warnings");
+}
+
+async function recommend(name: string): Promise<void> {
+  const { data, error } = await client.POST("/v1/recommend", {
+    body: read<Schemas["RecommendRequest"]>(name),
+  });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  check(name, data.recommendation.eta === -1, "eta");
+  const low: number | null | undefined = data.recommendation.eta_window?.low;
+  check(name, low === undefined || low === null || low < -1, "window");
+}
+
+async function etaSweep(name: string): Promise<void> {
+  const body = read<Schemas["EtaSweepRequest"]>(name);
+  const { data, error } = await client.POST("/v1/studies/eta-sweep", { body });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  check(name, data.points.length === body.etas.length, "one point per η");
+}
+
+// An error comes back typed as the problem it is.
+async function problem(): Promise<void> {
+  const body = read<Schemas["PredictRequest"]>("predict_paper_exp2.json");
+  body.process.workpiece_rpm = 0;
+  const { data, error, response } = await client.POST("/v1/predict", { body });
+  check("problem", data === undefined && response.status === 422, `status ${response.status}`);
+  const field: string | null | undefined = error?.field;
+  check("problem", field === "process.workpiece_rpm", `field ${field}`);
+}
+
+const runners: [string, (name: string) => Promise<void>][] = [
+  ["removal_function_", removalFunction],
+  ["predict_", predict],
+  ["optimize_", optimize],
+  ["recommend_", recommend],
+  ["eta_sweep_", etaSweep],
+];
+let calls = 0;
+for (const name of readdirSync(fixtures).filter((f) => f.endsWith(".json")).sort()) {
+  const runner = runners.find(([prefix]) => name.startsWith(prefix));
+  if (!runner) throw new Error(`no operation for fixture ${name}`);
+  await runner[1](name);
+  calls += 1;
+}
+await problem();
+const health = await client.GET("/healthz");
+check("healthz", health.data?.status === "ok", JSON.stringify(health.data));
+console.log(`typescript client: ${calls} fixtures and a problem through the generated types`);
