@@ -256,3 +256,38 @@ fn map_status(
     };
     Ok((sol.x.clone(), sol.iterations, sol.solve_time, status))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every call of one optimization draws on the same budget: what one call spent is gone
+    /// for the next, and an exhausted budget is a time-limit error naming the whole budget.
+    #[test]
+    fn the_budget_is_shared_and_runs_out() {
+        let budget = Budget::start(0.05);
+        let first = budget.remaining_s().unwrap();
+        assert!(first <= 0.05 && first > 0.0);
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        let second = budget.remaining_s().unwrap();
+        assert!(second <= first - 0.019, "{first} then {second}");
+        std::thread::sleep(std::time::Duration::from_millis(40));
+        assert_eq!(
+            budget.remaining_s(),
+            Err(OptimizeError::TimeLimit { limit_s: 0.05 })
+        );
+        // A solver call on an exhausted budget does not start.
+        let lp = ClarabelQp {
+            p: CscMatrix::zeros((1, 1)),
+            q: vec![1.0],
+            a: CscMatrix::new(1, 1, vec![0, 1], vec![0], vec![-1.0]),
+            b: vec![0.0],
+            cones: vec![SupportedConeT::NonnegativeConeT(1)],
+        };
+        assert!(matches!(
+            run_clarabel(&lp, &budget),
+            Err(OptimizeError::TimeLimit { limit_s }) if limit_s == 0.05
+        ));
+        assert!(run_clarabel(&lp, &Budget::start(10.0)).is_ok());
+    }
+}
