@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::error::ApiError;
+use super::extract::optional_count;
 use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
 use crate::study::{EqualDwell, Recommendation, SpeedRule};
 use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, Setting, Warning};
@@ -95,7 +96,8 @@ pub struct RadialGridDto {
     pub stop_mm: Option<f64>,
     /// Number of samples (≥ 2, or 1 when start_mm = stop_mm; at most the server's
     /// max_radial_samples, 10001 by default). Default 201.
-    #[schema(example = 201, minimum = 1)]
+    #[schema(example = 201, minimum = 1, maximum = 1_000_000_000)]
+    #[serde(default, deserialize_with = "optional_count")]
     pub count: Option<usize>,
 }
 

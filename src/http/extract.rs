@@ -109,6 +109,30 @@ pub fn optional_object<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
     Ok(Option::<Object<T>>::deserialize(d)?.map(|o| o.0))
 }
 
+/// `deserialize_with` for an optional count (with `#[serde(default)]`): JSON Schema's
+/// `integer` includes numbers written with a fraction of zero (`204.0`), so those are taken
+/// too; anything else not a whole number ≥ 0 is refused.
+pub fn optional_count<'de, D: Deserializer<'de>>(d: D) -> Result<Option<usize>, D::Error> {
+    use serde::de::Error;
+    let Some(number) = Option::<serde_json::Number>::deserialize(d)? else {
+        return Ok(None);
+    };
+    if let Some(n) = number.as_u64() {
+        return usize::try_from(n)
+            .map(Some)
+            .map_err(|_| D::Error::custom(format!("{n} is too large")));
+    }
+    match number.as_f64() {
+        // Whole numbers up to 2^53 are exact in f64.
+        Some(x) if x.fract() == 0.0 && (0.0..=9_007_199_254_740_992.0).contains(&x) => {
+            Ok(Some(x as usize))
+        }
+        _ => Err(D::Error::custom(format!(
+            "invalid value: {number}, expected a whole number ≥ 0"
+        ))),
+    }
+}
+
 /// serde_json appends " at line L column C"; the problem carries the path instead.
 fn strip_position(message: &str) -> String {
     match message.rfind(" at line ") {

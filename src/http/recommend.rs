@@ -11,7 +11,7 @@ use utoipa::ToSchema;
 use super::dto::{setting, ClearApertureDto, ProcessDto, RadialGridDto, RecommendationDto};
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
-use super::extract::{object, optional_object, ApiJson};
+use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::{AppState, Services};
 use crate::study::SpeedLimits;
 use crate::usecases::recommend::{recommend, RecommendCommand};
@@ -34,7 +34,8 @@ pub struct RecommendRequest {
     /// Positions of the equal-dwell pass: a constant feed from 0 to min(outer + r_t, reach) mm
     /// as this many evenly spaced cell centres (≥ 2, at most the server's max_positions).
     /// Default 200.
-    #[schema(minimum = 2)]
+    #[schema(minimum = 2, maximum = 1_000_000_000)]
+    #[serde(default, deserialize_with = "optional_count")]
     pub equal_dwell_positions: Option<usize>,
     /// Where removal is computed; default 201 samples from 0 to the workpiece radius.
     #[serde(default, deserialize_with = "optional_object")]

@@ -712,3 +712,27 @@ async fn a_stationary_workpiece_is_refused() {
         assert_problem_type(&reply, "invalid-input", "process.workpiece_rpm");
     }
 }
+
+/// JSON Schema's integers include `3.0`; counts take them, and refuse what is not a whole
+/// number ≥ 0, naming the field.
+#[tokio::test]
+async fn counts_take_whole_numbers_written_with_a_fraction() {
+    let body = |count: Value| {
+        json!({"process": exp1_process(), "tool_positions_mm": [5], "radial_grid": {"count": count}})
+            .to_string()
+    };
+    let reply = post_json(&app(), "/v1/removal-function", body(json!(3.0))).await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    assert_eq!(reply.json()["radius_mm"], json!([0.0, 25.0, 50.0]));
+    for bad in [json!(3.5), json!(-1), json!("3")] {
+        let reply = post_json(&app(), "/v1/removal-function", body(bad)).await;
+        assert_problem_type(&reply, "schema-mismatch", "radial_grid.count");
+    }
+    let reply = post_json(
+        &app(),
+        "/v1/recommend",
+        json!({"process": exp1_process(), "equal_dwell_positions": 2.5}).to_string(),
+    )
+    .await;
+    assert_problem_type(&reply, "schema-mismatch", "equal_dwell_positions");
+}
