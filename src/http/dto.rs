@@ -96,7 +96,7 @@ pub struct RadialGridDto {
     pub stop_mm: Option<f64>,
     /// Number of samples (≥ 2, or 1 when start_mm = stop_mm; at most the server's
     /// max_radial_samples, 10001 by default). Default 201.
-    #[schema(example = 201, minimum = 1, maximum = 1_000_000_000)]
+    #[schema(example = 201, minimum = 1, maximum = 1_000_000_000, format = Int32)]
     #[serde(default, deserialize_with = "optional_count")]
     pub count: Option<usize>,
 }
@@ -184,6 +184,7 @@ pub struct MetricsDto {
     #[schema(required = true)]
     pub nonuniformity: Option<f64>,
     /// Number of radial samples inside the clear aperture.
+    #[schema(format = Int32)]
     pub samples: usize,
 }
 

@@ -37,7 +37,7 @@ pub struct EtaSweepRequest {
     /// Mean depth equal dwell removes at each point, nm (> 0). Default 100. Ignored with `dwell`.
     pub depth_nm: Option<f64>,
     /// Positions (cells) of the equal-dwell pass (≥ 2). Default 200. Ignored with `dwell`.
-    #[schema(minimum = 2, maximum = 1_000_000_000)]
+    #[schema(minimum = 2, maximum = 1_000_000_000, format = Int32)]
     #[serde(default, deserialize_with = "optional_count")]
     pub equal_dwell_positions: Option<usize>,
     /// Where removal is computed; default 201 samples from 0 to the workpiece radius.

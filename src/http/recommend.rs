@@ -34,7 +34,7 @@ pub struct RecommendRequest {
     /// Positions of the equal-dwell pass: a constant feed from 0 to min(outer + r_t, reach) mm
     /// as this many evenly spaced cell centres (≥ 2, at most the server's max_positions).
     /// Default 200.
-    #[schema(minimum = 2, maximum = 1_000_000_000)]
+    #[schema(minimum = 2, maximum = 1_000_000_000, format = Int32)]
     #[serde(default, deserialize_with = "optional_count")]
     pub equal_dwell_positions: Option<usize>,
     /// Where removal is computed; default 201 samples from 0 to the workpiece radius.
