@@ -107,8 +107,9 @@ fn sliding_integral(a: f64, b: f64, psi: HalfAngle) -> f64 {
     if size == 0.0 {
         return 0.0;
     }
-    // Squares of speeds within 2^±400 neither underflow nor overflow: no scaling needed.
-    if (2f64.powi(-400)..=2f64.powi(400)).contains(&size) {
+    // Within 2^±300 neither the squares of speeds nor R_D (of degree −3/2 in them, so
+    // ~size⁻³) under- or overflow: no scaling needed.
+    if (2f64.powi(-300)..=2f64.powi(300)).contains(&size) {
         return scaled_sliding_integral(a, b, psi);
     }
     // Scale by 2^−e in two halves: for a subnormal size e is below −1022, and 2^−e itself
@@ -171,14 +172,14 @@ mod tests {
         }
     }
 
-    /// A subnormal sliding speed at the centre (found by schemathesis: tool 2.2e-313 r/min):
-    /// the rescaling must not overflow, and R = K·P·|ω2|·r1 there still (to the precision a
-    /// subnormal result has), never NaN.
+    /// A subnormal or tiny sliding speed at the centre (found by schemathesis: tool 2.2e-313
+    /// and 2.5e-105 r/min): neither the rescaling nor R_D (~speed⁻³) may overflow, and
+    /// R = K·P·|ω2|·r1 there still (to the precision a subnormal result has), never NaN.
     #[test]
     fn the_centre_is_finite_for_subnormal_sliding_speeds() {
         use crate::physics::process::tests::paper_spec;
         use crate::physics::ProcessSpec;
-        for tool_rpm in [-2.2250738585e-313, 1e-320, -5e-324] {
+        for tool_rpm in [-2.2250738585e-313, 1e-320, -5e-324, -2.4936325394808987e-105, 1e-95] {
             let process = Process::new(ProcessSpec {
                 workpiece_rpm: -1e5,
                 tool_rpm,
@@ -194,6 +195,34 @@ mod tests {
                 (rate - expected).abs() <= 1e-2 * expected.max(f64::MIN_POSITIVE) + 1e-322,
                 "tool {tool_rpm}: {rate} vs {expected}"
             );
+        }
+    }
+
+    /// Over every decade of tool speed the API accepts (down to subnormal) and tool offsets
+    /// from 1e-300 mm, with r at the centre, inside and at the edge of the pad, the rate is
+    /// finite and non-negative: no overflow in the rescaling or in R_F/R_D.
+    #[test]
+    fn the_rate_is_finite_over_every_decade_of_speed() {
+        use crate::physics::ProcessSpec;
+        for tool_exp in (-323..=5).step_by(4) {
+            for workpiece_rpm in [-1e5, -1.0, 1e-300, 3.0] {
+                let process = Process::new(ProcessSpec {
+                    workpiece_rpm,
+                    tool_rpm: -(10f64.powi(tool_exp)),
+                    ..crate::physics::process::tests::paper_spec(-10.0, 200.0)
+                })
+                .unwrap();
+                let kernel = RemovalKernel::new(&process);
+                for r1 in [1e-300f64, 1e-100, 7.94e-7, 0.5, 9.0, 45.0] {
+                    for r in [0.0, 1e-200, r1, r1 + 5.0, (r1 + 9.999).min(50.0)] {
+                        let rate = kernel.rate_nm_per_s(r, r1);
+                        assert!(
+                            rate.is_finite() && rate >= 0.0,
+                            "tool 1e{tool_exp}, workpiece {workpiece_rpm}, r {r}, r1 {r1}: {rate}"
+                        );
+                    }
+                }
+            }
         }
     }
 
