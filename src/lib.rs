@@ -10,9 +10,11 @@
 
 pub mod config;
 pub mod http;
+pub mod metrology;
 pub mod optimize;
 pub mod physics;
 pub mod server;
 pub mod study;
+pub mod surface;
 pub mod telemetry;
 pub mod usecases;

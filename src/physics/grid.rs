@@ -10,11 +10,11 @@ pub enum GridError {
     NonFinite { field: &'static str },
     #[error("{field} must not be negative")]
     Negative { field: &'static str },
-    #[error("{field} ({value} mm) lies beyond the workpiece radius ({limit} mm)")]
-    BeyondWorkpiece {
+    #[error("{field} ({value} mm) lies beyond the {} ({} mm)", reach.name, reach.radius_mm)]
+    Beyond {
         field: &'static str,
         value: f64,
-        limit: f64,
+        reach: Reach,
     },
     #[error("{field} must be greater than {lower}")]
     NotAbove {
@@ -37,7 +37,7 @@ impl GridError {
         match self {
             GridError::NonFinite { field }
             | GridError::Negative { field }
-            | GridError::BeyondWorkpiece { field, .. }
+            | GridError::Beyond { field, .. }
             | GridError::NotAbove { field, .. } => field,
             GridError::BadCount => "count",
             GridError::ApertureOutsideGrid { .. } => "clear_aperture",
@@ -45,18 +45,35 @@ impl GridError {
     }
 }
 
-fn check_radius(field: &'static str, value: f64, workpiece_radius: f64) -> Result<(), GridError> {
+/// How far out a grid or aperture may reach, and what that bound is (for messages).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reach {
+    pub radius_mm: f64,
+    /// What the bound is, e.g. "workpiece radius".
+    pub name: &'static str,
+}
+
+impl Reach {
+    pub fn workpiece(process: &Process) -> Reach {
+        Reach {
+            radius_mm: process.workpiece_radius_mm(),
+            name: "workpiece radius",
+        }
+    }
+}
+
+fn check_radius(field: &'static str, value: f64, reach: Reach) -> Result<(), GridError> {
     if !value.is_finite() {
         return Err(GridError::NonFinite { field });
     }
     if value < 0.0 {
         return Err(GridError::Negative { field });
     }
-    if value > workpiece_radius {
-        return Err(GridError::BeyondWorkpiece {
+    if value > reach.radius_mm {
+        return Err(GridError::Beyond {
             field,
             value,
-            limit: workpiece_radius,
+            reach,
         });
     }
     Ok(())
@@ -77,7 +94,17 @@ impl RadialGrid {
         stop_mm: f64,
         count: usize,
     ) -> Result<Self, GridError> {
-        let rm = process.workpiece_radius_mm();
+        Self::within(Reach::workpiece(process), start_mm, stop_mm, count)
+    }
+
+    /// A grid whose radii stay within `reach`.
+    pub fn within(
+        reach: Reach,
+        start_mm: f64,
+        stop_mm: f64,
+        count: usize,
+    ) -> Result<Self, GridError> {
+        let rm = reach;
         check_radius("start_mm", start_mm, rm)?;
         check_radius("stop_mm", stop_mm, rm)?;
         match count {
@@ -140,7 +167,12 @@ pub struct ClearAperture {
 
 impl ClearAperture {
     pub fn new(process: &Process, inner_mm: f64, outer_mm: f64) -> Result<Self, GridError> {
-        let rm = process.workpiece_radius_mm();
+        Self::within(Reach::workpiece(process), inner_mm, outer_mm)
+    }
+
+    /// An aperture within `reach`.
+    pub fn within(reach: Reach, inner_mm: f64, outer_mm: f64) -> Result<Self, GridError> {
+        let rm = reach;
         check_radius("inner_mm", inner_mm, rm)?;
         check_radius("outer_mm", outer_mm, rm)?;
         if outer_mm <= inner_mm {

@@ -179,7 +179,13 @@ mod tests {
     fn the_centre_is_finite_for_subnormal_sliding_speeds() {
         use crate::physics::process::tests::paper_spec;
         use crate::physics::ProcessSpec;
-        for tool_rpm in [-2.2250738585e-313, 1e-320, -5e-324, -2.4936325394808987e-105, 1e-95] {
+        for tool_rpm in [
+            -2.2250738585e-313,
+            1e-320,
+            -5e-324,
+            -2.4936325394808987e-105,
+            1e-95,
+        ] {
             let process = Process::new(ProcessSpec {
                 workpiece_rpm: -1e5,
                 tool_rpm,

@@ -7,6 +7,7 @@ mod api;
 mod api_optimize;
 mod deploy;
 mod invariant;
+mod metrology;
 mod openapi_drift;
 mod ops;
 mod optimize_constraints;
