@@ -87,6 +87,19 @@ async function etaSweep(name: string): Promise<void> {
   check(name, data.points.length === body.etas.length, "one point per η");
 }
 
+async function measurementFit(name: string): Promise<void> {
+  const body = read<Schemas["MeasurementFitRequest"]>(name);
+  const { data, error } = await client.POST("/v1/measurement/fit", { body });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  check(name, data.residual.axial_nm.length === body.profile.x_mm.length, "one residual per point");
+  const radius: number | null = data.alignment.radius_of_curvature_mm;
+  check(name, radius === null || radius !== 0, "radius");
+  // The correction target is a complete optimize target.
+  const target: Schemas["TargetDto"] = data.correction_target;
+  check(name, target.free_piston === true && target.profile !== undefined, "correction target");
+}
+
 // An error comes back typed as the problem it is.
 async function problem(): Promise<void> {
   const body = read<Schemas["PredictRequest"]>("predict_paper_exp2.json");
@@ -103,6 +116,7 @@ const runners: [string, (name: string) => Promise<void>][] = [
   ["optimize_", optimize],
   ["recommend_", recommend],
   ["eta_sweep_", etaSweep],
+  ["measurement_fit_", measurementFit],
 ];
 let calls = 0;
 for (const name of readdirSync(fixtures).filter((f) => f.endsWith(".json")).sort()) {

@@ -15,6 +15,7 @@ client_dir, base_url = sys.argv[1], sys.argv[2]
 sys.path.insert(0, client_dir)
 
 from preston_client import Client  # noqa: E402
+from preston_client.api.metrology import fit_measurement  # noqa: E402
 from preston_client.api.optimize import optimize_dwell  # noqa: E402
 from preston_client.api.recommend import recommend_speeds, sweep_eta  # noqa: E402
 from preston_client.api.removal import compute_removal_function, predict_removal  # noqa: E402
@@ -31,6 +32,11 @@ OPERATIONS = {
     "optimize_": (optimize_dwell, models.OptimizeRequest, models.OptimizeResponse),
     "recommend_": (recommend_speeds, models.RecommendRequest, models.RecommendResponse),
     "eta_sweep_": (sweep_eta, models.EtaSweepRequest, models.EtaSweepResponse),
+    "measurement_fit_": (
+        fit_measurement,
+        models.MeasurementFitRequest,
+        models.MeasurementFitResponse,
+    ),
 }
 
 root = pathlib.Path(__file__).resolve().parent.parent

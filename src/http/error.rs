@@ -9,10 +9,13 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 use utoipa::ToSchema;
 
+use crate::metrology::{Axis, FitError, Parameter, ProbeError, TraceError};
 use crate::optimize::target::ProfileArray;
 use crate::optimize::{OptimizeError, ProfileError};
 use crate::physics::{GridError, ProcessError, ScheduleError};
 use crate::study::StudyError;
+use crate::surface::SurfaceInput;
+use crate::usecases::measurement_fit::{MeasurementError, MeasurementInputError};
 use crate::usecases::{Input, InputError, LimitError, SettingError};
 
 /// An API error. Construct with the helpers; render with `into_response`.
@@ -332,6 +335,9 @@ impl ApiError {
             LimitError::Etas { count, max } => {
                 format!("{field} must hold 1 to {max} values; it has {count}")
             }
+            LimitError::TracePoints { count, max } => {
+                format!("{field} has {count} points; this server fits at most {max}")
+            }
         };
         ApiError::limit(field, detail)
     }
@@ -472,4 +478,120 @@ pub enum ComputeProblems {
     /// Overloaded; retry after Retry-After seconds
     #[response(status = 503, content_type = "application/problem+json")]
     Overloaded(Problem),
+}
+
+fn surface_field(input: Option<SurfaceInput>) -> String {
+    match input {
+        Some(SurfaceInput::RadiusOfCurvature) => "surface.radius_of_curvature_mm".into(),
+        Some(SurfaceInput::ConicConstant) => "surface.conic_constant".into(),
+        Some(SurfaceInput::Power(i)) => format!("surface.coefficients[{i}].power"),
+        Some(SurfaceInput::Value(i)) => format!("surface.coefficients[{i}].value"),
+        None => "surface".into(),
+    }
+}
+
+fn fit_field(parameters: &[Parameter]) -> String {
+    let name = match parameters.first() {
+        Some(Parameter::LateralOffset) => "lateral_offset",
+        Some(Parameter::Tilt) => "tilt",
+        Some(Parameter::Piston) => "piston",
+        Some(Parameter::RadiusOfCurvature) => "radius_of_curvature",
+        None => return "fit".into(),
+    };
+    format!("fit.{name}")
+}
+
+fn parameter_names(parameters: &[Parameter]) -> String {
+    parameters
+        .iter()
+        .map(|p| match p {
+            Parameter::LateralOffset => "lateral_offset",
+            Parameter::Tilt => "tilt",
+            Parameter::Piston => "piston",
+            Parameter::RadiusOfCurvature => "radius_of_curvature",
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// A point the probe cannot place on the design.
+fn off_surface(index: usize, error: &ProbeError) -> ApiError {
+    ApiError::invalid(
+        format!("profile.x_mm[{index}]"),
+        format!("point {index} does not lie over the design: {error}"),
+    )
+}
+
+impl From<MeasurementInputError> for ApiError {
+    fn from(err: MeasurementInputError) -> Self {
+        use MeasurementInputError as E;
+        match err {
+            E::Surface(e) => {
+                let field = surface_field(e.input());
+                ApiError::invalid(field.clone(), format!("{field}: {e}"))
+            }
+            E::Probe(e) => ApiError::invalid("probe_tip_radius_mm", e.to_string()),
+            E::TraceSize(e) => ApiError::from_limit("profile.x_mm", e),
+            E::GridSize(e) => ApiError::from_limit("radial_grid.count", e),
+            E::GridCount => ApiError::invalid(
+                "radial_grid.count",
+                "count must be at least 2: the profile becomes an optimize target",
+            ),
+            E::Grid(e) => ApiError::from_grid("radial_grid", e),
+            E::Aperture(e) => ApiError::from_grid("clear_aperture", e),
+            E::Trace(e) => match &e {
+                TraceError::LengthMismatch { .. } => {
+                    ApiError::invalid("profile.z_mm", e.to_string())
+                }
+                TraceError::NonFinite { axis, index } => {
+                    let axis = if *axis == Axis::X { "x_mm" } else { "z_mm" };
+                    ApiError::invalid(format!("profile.{axis}[{index}]"), e.to_string())
+                }
+                TraceError::TooFewPoints { .. } => ApiError::invalid("profile.x_mm", e.to_string()),
+                TraceError::NothingToFit => ApiError::invalid("fit", e.to_string()),
+                TraceError::Undetermined { parameters, .. } => {
+                    ApiError::invalid(fit_field(parameters), e.to_string())
+                }
+                TraceError::OffSurface { index, error } => off_surface(*index, error),
+            },
+        }
+    }
+}
+
+impl From<MeasurementError> for ApiError {
+    fn from(err: MeasurementError) -> Self {
+        match err {
+            MeasurementError::Fit(FitError::Undetermined { parameters }) => ApiError::invalid(
+                fit_field(&parameters),
+                format!(
+                    "the trace does not determine {} apart: they trade off against each other \
+                     on this surface and span; fit fewer parameters",
+                    parameter_names(&parameters)
+                ),
+            ),
+            MeasurementError::Fit(FitError::LeftSurface { index, error }) => {
+                off_surface(index, &error)
+            }
+            MeasurementError::Fit(
+                e @ (FitError::NotConverged { .. } | FitError::WeightsUnsettled { .. }),
+            ) => ApiError::SolverFailed {
+                kind: "solver-not-converged",
+                field: Some("profile".into()),
+                detail: format!(
+                    "{e}: the trace may not be a meridian of this surface (check surface \
+                         and the units of profile), or the misalignment is too large"
+                ),
+            },
+            MeasurementError::Grid(e) => ApiError::from_grid("radial_grid", e),
+            MeasurementError::Aperture(e) => ApiError::from_grid("clear_aperture", e),
+            MeasurementError::Profile(e) => {
+                let field = match e {
+                    crate::metrology::ProfileError::NotCovered { .. } => "radial_grid",
+                    crate::metrology::ProfileError::ApertureEmpty => "clear_aperture",
+                    crate::metrology::ProfileError::NoPoints => "profile",
+                };
+                ApiError::invalid(field, e.to_string())
+            }
+        }
+    }
 }

@@ -16,6 +16,7 @@ pub mod error;
 pub mod eta_sweep;
 pub mod extract;
 pub mod health;
+pub mod measurement_fit;
 pub mod metrics;
 pub mod openapi;
 pub mod optimize;

@@ -10,7 +10,9 @@ use super::dto::{
 };
 use super::error::Problem;
 use super::router::ENDPOINTS;
-use super::{eta_sweep, health, metrics, optimize, predict, recommend, removal_function};
+use super::{
+    eta_sweep, health, measurement_fit, metrics, optimize, predict, recommend, removal_function,
+};
 
 #[derive(OpenApi)]
 #[openapi(
@@ -28,7 +30,7 @@ counter-clockwise) is workpiece_rpm = −10, tool_rpm = 200, η = +0.05.\n\n\
 **Errors** are `application/problem+json` (RFC 9457) with the offending input in `field`.\n\n\
 **Limits** (server defaults, configurable): body 4 MiB, radial_grid.count ≤ 10001, tool \
 positions ≤ 10001, removal-function profiles ≤ 201, radial samples × positions ≤ 25,000,000, \
-optimization positions ≤ 2001, solver time ≤ 10 s."
+optimization positions ≤ 2001, solver time ≤ 10 s, measured trace points ≤ 100,000."
     ),
     servers((url = "/", description = "The service that serves this document")),
     paths(
@@ -37,6 +39,7 @@ optimization positions ≤ 2001, solver time ≤ 10 s."
         optimize::handler,
         recommend::handler,
         eta_sweep::handler,
+        measurement_fit::handler,
         health::healthz,
         health::readyz,
         metrics::handler,
@@ -55,6 +58,7 @@ optimization positions ≤ 2001, solver time ≤ 10 s."
         (name = "removal", description = "Removal functions and predictions"),
         (name = "optimize", description = "Dwell optimization"),
         (name = "recommend", description = "η = −1 recommendation and η studies"),
+        (name = "metrology", description = "On-machine measurement: fit a probe trace to the design"),
         (name = "service", description = "Probes"),
     )
 )]

@@ -16,7 +16,10 @@ use super::endpoint::{compute_json as compute_json_of, Endpoint};
 use super::error::ApiError;
 use super::extract::BodyLimit;
 use super::state::{AppState, Services};
-use super::{docs, eta_sweep, health, metrics, optimize, predict, recommend, removal_function};
+use super::{
+    docs, eta_sweep, health, measurement_fit, metrics, optimize, predict, recommend,
+    removal_function,
+};
 use crate::config::Limits;
 use crate::usecases::ComputeLimits;
 
@@ -53,7 +56,7 @@ const fn entry<E: Endpoint>(
 }
 
 /// Every computing endpoint.
-pub static ENDPOINTS: [EndpointEntry; 5] = [
+pub static ENDPOINTS: [EndpointEntry; 6] = [
     entry::<removal_function::RemovalFunctionEndpoint>(
         "removal-function",
         include_str!("../../fixtures/removal_function_paper_exp1.json"),
@@ -78,6 +81,11 @@ pub static ENDPOINTS: [EndpointEntry; 5] = [
         "studies/eta-sweep",
         include_str!("../../fixtures/eta_sweep_figure7.json"),
         || post(eta_sweep::handler),
+    ),
+    entry::<measurement_fit::MeasurementFitEndpoint>(
+        "measurement/fit",
+        include_str!("../../fixtures/measurement_fit_asphere.json"),
+        || post(measurement_fit::handler),
     ),
 ];
 

@@ -242,13 +242,14 @@ fn least_squares(
     weights: &[f64],
     start: Params,
     free: &[usize],
+    max_steps: usize,
 ) -> Result<(Params, Evaluation, usize), FitError> {
     let mut p = start;
     let mut eval = evaluate(problem, &p, weights)?;
     let mut current = cost(&eval.residual, weights);
     let total_weight: f64 = weights.iter().sum();
     let mut lambda = 0.0;
-    for steps in 1..=MAX_STEPS {
+    for steps in 1..=max_steps {
         let lin = linearise(&eval, weights, free)?;
         let r: Vec<f64> = eval
             .residual
@@ -305,7 +306,7 @@ fn least_squares(
             lambda / 10.0
         };
     }
-    Err(FitError::NotConverged { steps: MAX_STEPS })
+    Err(FitError::NotConverged { steps: max_steps })
 }
 
 fn median(values: &mut [f64]) -> f64 {
@@ -349,12 +350,18 @@ fn robust_weight(loss: RobustLoss, u: f64) -> f64 {
 
 /// Fits the alignment (and optionally the radius) of a checked problem.
 pub fn fit(problem: &FitProblem) -> Result<FitOutcome, FitError> {
+    fit_within(problem, MAX_STEPS)
+}
+
+/// [`fit`] with at most `max_steps` Levenberg–Marquardt steps per weighting.
+pub fn fit_within(problem: &FitProblem, max_steps: usize) -> Result<FitOutcome, FitError> {
     let free: Vec<usize> = (0..4)
         .filter(|&j| problem.parameters.contains(Parameter::ALL[j]))
         .collect();
     let start = [0.0, 0.0, 0.0, problem.surface.vertex_curvature_per_mm()];
     let mut weights = vec![1.0; problem.x_mm.len()];
-    let (mut p, mut eval, mut iterations) = least_squares(problem, &weights, start, &free)?;
+    let (mut p, mut eval, mut iterations) =
+        least_squares(problem, &weights, start, &free, max_steps)?;
     let mut reweightings = 0;
     let mut scale = None;
     if problem.robust != RobustLoss::None {
@@ -381,7 +388,7 @@ pub fn fit(problem: &FitProblem) -> Result<FitOutcome, FitError> {
             }
             weights = next;
             reweightings += 1;
-            let (q, e, steps) = least_squares(problem, &weights, p, &free)?;
+            let (q, e, steps) = least_squares(problem, &weights, p, &free, max_steps)?;
             (p, eval, iterations) = (q, e, iterations + steps);
         }
     }

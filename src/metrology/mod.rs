@@ -26,7 +26,7 @@ pub mod fit;
 pub mod probe;
 pub mod profile;
 
-pub use fit::{fit, Alignment, FitError, FitOutcome, PointResidual};
+pub use fit::{fit, fit_within, Alignment, FitError, FitOutcome, PointResidual};
 pub use probe::Height;
 pub use probe::{Compensation, Probe, ProbeError};
 pub use profile::{form_error, radial_profile, Coverage, FormError, ProfileError, RadialProfile};

@@ -18,6 +18,8 @@ pub struct ComputeLimits {
     pub max_optimize_positions: usize,
     /// Most η values in one sweep.
     pub max_etas: usize,
+    /// Most points in one measured trace.
+    pub max_trace_points: usize,
     /// Longest a dwell optimization may spend in the solver (feasibility LP and QP together).
     pub solver_time_limit: Duration,
 }
@@ -31,6 +33,7 @@ impl Default for ComputeLimits {
             max_operator_entries: 25_000_000,
             max_optimize_positions: 2001,
             max_etas: 201,
+            max_trace_points: 100_000,
             solver_time_limit: Duration::from_secs(10),
         }
     }
@@ -55,6 +58,8 @@ pub enum LimitError {
     OptimizePositions { count: usize, max: usize },
     #[error("{count} η values; 1 to {max} are allowed")]
     Etas { count: usize, max: usize },
+    #[error("{count} trace points; at most {max} are allowed")]
+    TracePoints { count: usize, max: usize },
 }
 
 impl ComputeLimits {
@@ -103,5 +108,12 @@ impl ComputeLimits {
             .contains(&count)
             .then_some(())
             .ok_or(LimitError::Etas { count, max })
+    }
+
+    pub fn check_trace_points(&self, count: usize) -> Result<(), LimitError> {
+        let max = self.max_trace_points;
+        (count <= max)
+            .then_some(())
+            .ok_or(LimitError::TracePoints { count, max })
     }
 }

@@ -1,5 +1,5 @@
 //! The use cases: one function per question a caller can ask — the removal function, a
-//! prediction, an optimized plan, a recommendation, an η sweep. Pure like the rest of the core:
+//! prediction, an optimized plan, a recommendation, an η sweep, a measurement fit. Pure like the rest of the core:
 //! no HTTP, JSON or OpenAPI types.
 //!
 //! Every use case comes in two steps:
@@ -19,6 +19,7 @@
 
 pub mod eta_sweep;
 mod limits;
+pub mod measurement_fit;
 pub mod optimize;
 pub mod predict;
 pub mod recommend;

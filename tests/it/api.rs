@@ -66,6 +66,8 @@ fn endpoint_of(fixture: &str) -> &'static str {
         "/v1/recommend"
     } else if fixture.starts_with("eta_sweep") {
         "/v1/studies/eta-sweep"
+    } else if fixture.starts_with("measurement_fit") {
+        "/v1/measurement/fit"
     } else {
         panic!("no endpoint for fixture {fixture}")
     }

@@ -4,6 +4,7 @@
 mod common;
 
 mod api;
+mod api_metrology;
 mod api_optimize;
 mod deploy;
 mod invariant;

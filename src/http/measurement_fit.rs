@@ -1,0 +1,667 @@
+//! `POST /v1/measurement/fit`: fit an on-machine probe trace to the design surface; the form
+//! error comes back as a `/v1/optimize` target. The body is JSON, or the probe's own
+//! `text/csv` export (`x_mm,z_mm` columns) with the other fields as query parameters.
+
+use axum::extract::{FromRequest, Query, Request, State};
+use axum::http::{header, HeaderMap};
+use axum::response::Response;
+use serde::{Deserialize, Serialize};
+use utoipa::{IntoParams, ToSchema};
+
+use super::dto::{ApertureEcho, ClearApertureDto, RadialGridDto};
+use super::endpoint::{handle, Endpoint};
+use super::error::{ApiError, ComputeProblems};
+use super::extract::{self, object, optional_object, ApiJson};
+use super::optimize::{MeasuredProfileDto, TargetDto};
+use super::plot::{Chart, Series};
+use super::state::{AppState, Services};
+use super::{csv, plot};
+use crate::metrology::{Compensation, Parameter, RobustLoss};
+use crate::surface::{PolynomialTerm, SurfaceSpec};
+use crate::usecases::measurement_fit::{
+    measurement_fit, FitSelection, MeasurementFitCommand, MeasurementFitSpec,
+};
+use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec};
+
+/// The design surface. z runs along the rotation axis, positive toward the tool; R > 0 puts
+/// the centre of curvature on the tool side (concave as the tool sees it), R < 0 convex.
+/// Sag z(r) = c·r²/(1 + √(1 − (1+k)·c²·r²)) + Σ aᵢ·|r|^i with c = 1/R (ISO 10110-12); the
+/// square root must stay real over the part.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum SurfaceDto {
+    /// A plane.
+    Plane,
+    /// A sphere of vertex radius R (mm, ≠ 0).
+    Sphere { radius_of_curvature_mm: f64 },
+    /// An even asphere with optional polynomial terms of any power 1–40.
+    Asphere {
+        /// Vertex radius R, mm (≠ 0).
+        radius_of_curvature_mm: f64,
+        /// Conic constant k (0 sphere, −1 paraboloid, < −1 hyperboloid). Default 0.
+        #[serde(default)]
+        conic_constant: f64,
+        /// Polynomial terms aᵢ·|r|^i, each power once. Default none.
+        #[serde(default)]
+        coefficients: Vec<CoefficientDto>,
+    },
+}
+
+/// One polynomial term aᵢ·|r|^i.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CoefficientDto {
+    /// The power i, 1 to 40.
+    #[schema(minimum = 1, maximum = 40)]
+    pub power: u32,
+    /// aᵢ in mm^(1−i).
+    pub value: f64,
+}
+
+impl From<&SurfaceDto> for SurfaceSpec {
+    fn from(s: &SurfaceDto) -> Self {
+        match s {
+            SurfaceDto::Plane => SurfaceSpec::Plane,
+            SurfaceDto::Sphere {
+                radius_of_curvature_mm,
+            } => SurfaceSpec::Sphere {
+                radius_of_curvature_mm: *radius_of_curvature_mm,
+            },
+            SurfaceDto::Asphere {
+                radius_of_curvature_mm,
+                conic_constant,
+                coefficients,
+            } => SurfaceSpec::Asphere {
+                radius_of_curvature_mm: *radius_of_curvature_mm,
+                conic_constant: *conic_constant,
+                coefficients: coefficients
+                    .iter()
+                    .map(|c| PolynomialTerm {
+                        power: c.power,
+                        value: c.value,
+                    })
+                    .collect(),
+            },
+        }
+    }
+}
+
+/// A meridian trace in machine coordinates, mm: X across the spindle axis (both sides
+/// allowed, any order), Z along it, positive toward the tool.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TraceDto {
+    /// X of each point, mm.
+    #[schema(min_items = 2)]
+    pub x_mm: Vec<f64>,
+    /// Z of each point, mm (as many as x_mm).
+    #[schema(min_items = 2)]
+    pub z_mm: Vec<f64>,
+}
+
+/// How the probe-tip radius is taken out: `normal` (the tip centre sits on the surface normal;
+/// exact for a ball) or `axial` (the radius subtracted from Z, which errs on slopes).
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum CompensationDto {
+    #[default]
+    Normal,
+    Axial,
+}
+
+/// A robust loss: `none` (least squares, the paper's eq. 3), `huber` (weight 1 within
+/// 1.345·σ̂, then 1.345·σ̂/|e|) or `tukey` (weight (1 − (e/4.685σ̂)²)² within 4.685·σ̂, 0 beyond:
+/// spikes and dust ignored); σ̂ = 1.4826·median|e|, re-estimated as the weights settle.
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RobustDto {
+    #[default]
+    None,
+    Huber,
+    Tukey,
+}
+
+/// Which parameters to fit. Defaults: lateral offset, tilt and piston, less what the surface
+/// cannot determine (a plane has no lateral position; on a sphere a tilt is a lateral offset,
+/// so tilt is left out); not the radius.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FitSelectionDto {
+    /// ΔX, the part's offset from the spindle axis.
+    pub lateral_offset: Option<bool>,
+    /// Δτ, the trace's tilt.
+    pub tilt: Option<bool>,
+    /// Δz, the probe's zero.
+    pub piston: Option<bool>,
+    /// The vertex radius of curvature (conic and polynomial terms held).
+    pub radius_of_curvature: Option<bool>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MeasurementFitRequest {
+    /// The design surface; default a plane.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub surface: Option<SurfaceDto>,
+    /// The measured trace.
+    #[serde(deserialize_with = "object")]
+    pub profile: TraceDto,
+    /// Probe-tip (ball) radius, mm (≥ 0). Default 0; > 0 means the points are tip centres.
+    #[schema(minimum = 0.0)]
+    pub probe_tip_radius_mm: Option<f64>,
+    /// How the tip radius is compensated. Default `normal`.
+    pub compensation: Option<CompensationDto>,
+    /// Which parameters to fit.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub fit: Option<FitSelectionDto>,
+    /// Robust loss. Default `none`.
+    pub robust: Option<RobustDto>,
+    /// Where the radial form-error profile is reported (≥ 2 samples); default 201 samples over
+    /// the radii the trace covers (from the axis out when it crosses the axis).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub radial_grid: Option<RadialGridDto>,
+    /// Where the form error's RMS and PV are taken; default the grid's span.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub clear_aperture: Option<ClearApertureDto>,
+}
+
+/// The fitted placement of the part.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct AlignmentDto {
+    /// ΔX, mm (seed eq. 2: X′ = X·cos Δτ − Z·sin Δτ − ΔX).
+    pub lateral_offset_mm: f64,
+    /// Δτ, rad.
+    pub tilt_rad: f64,
+    /// Δz, mm (Z′ = X·sin Δτ + Z·cos Δτ − Δz).
+    pub piston_mm: f64,
+    /// The vertex radius the residuals refer to (fitted or the design's), mm; null on a plane.
+    #[schema(required = true)]
+    pub radius_of_curvature_mm: Option<f64>,
+}
+
+/// One standard error per alignment parameter; null for a parameter held fixed.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct StandardErrorsDto {
+    /// Of ΔX, mm.
+    #[schema(required = true)]
+    pub lateral_offset_mm: Option<f64>,
+    /// Of Δτ, rad.
+    #[schema(required = true)]
+    pub tilt_rad: Option<f64>,
+    /// Of Δz, mm.
+    #[schema(required = true)]
+    pub piston_mm: Option<f64>,
+    /// Of the vertex radius, mm (from the curvature's by the delta method).
+    #[schema(required = true)]
+    pub radius_of_curvature_mm: Option<f64>,
+}
+
+/// The parameters that were fitted (defaults filled in).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct FittedDto {
+    /// ΔX was fitted.
+    pub lateral_offset: bool,
+    /// Δτ was fitted.
+    pub tilt: bool,
+    /// Δz was fitted.
+    pub piston: bool,
+    /// The vertex radius was fitted.
+    pub radius_of_curvature: bool,
+}
+
+/// Per-point residuals, in the order of the request's points.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct ResidualDto {
+    /// X as measured, mm.
+    pub x_mm: Vec<f64>,
+    /// Z as measured, mm.
+    pub z_mm: Vec<f64>,
+    /// X′, the point in the part's frame, mm.
+    pub aligned_x_mm: Vec<f64>,
+    /// Where the probe touches the design (signed radius), mm.
+    pub contact_x_mm: Vec<f64>,
+    /// e = Z′ − z(X′) along the axis, nm (> 0: material proud of the design).
+    pub axial_nm: Vec<f64>,
+    /// The residual along the surface normal, nm.
+    pub normal_nm: Vec<f64>,
+    /// Each point's weight in the fit (1 without a robust loss; 0 = ignored).
+    pub weight: Vec<f64>,
+}
+
+/// The form error over the clear aperture (points the fit kept).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct FormErrorDto {
+    /// √(Σe²/n) of the axial residual (seed eq. 3), nm.
+    pub rms_nm: f64,
+    /// Peak to valley of the axial residual, nm.
+    pub pv_nm: f64,
+    /// Points inside the clear aperture with weight > 0.
+    #[schema(format = Int32)]
+    pub points: usize,
+    /// RMS difference between the two sides of the axis on the radial grid, nm: form error a
+    /// rotationally symmetric process cannot correct. Null unless the trace covers both sides
+    /// at two grid radii or more.
+    #[schema(required = true)]
+    pub asymmetry_rms_nm: Option<f64>,
+}
+
+/// The radial form-error profile: the normal residual of both sides averaged.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct FormProfileDto {
+    /// Radius, mm.
+    pub radius_mm: Vec<f64>,
+    /// Material to remove along the normal, nm (> 0 = proud).
+    pub depth_nm: Vec<f64>,
+}
+
+/// How the fit went.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct FitReportDto {
+    /// Levenberg–Marquardt steps, over all reweightings.
+    #[schema(format = Int32)]
+    pub iterations: usize,
+    /// Rounds of robust reweighting (0 without a robust loss).
+    #[schema(format = Int32)]
+    pub reweightings: usize,
+    /// The robust scale σ̂ at the final weights, nm; null without a robust loss.
+    #[schema(required = true)]
+    pub robust_scale_nm: Option<f64>,
+    /// Points the fit ignored (weight 0).
+    #[schema(format = Int32)]
+    pub ignored_points: usize,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct MeasurementFitResponse {
+    /// The fitted placement of the trace (seed eq. 2), and the radius used.
+    pub alignment: AlignmentDto,
+    /// Standard errors of the alignment, from the Jacobian at the solution:
+    /// √(σ²·(JᵀWJ)⁻¹ⱼⱼ), σ² = Σwe²/(n − parameters).
+    pub standard_errors: StandardErrorsDto,
+    /// Which parameters were fitted (defaults filled in).
+    pub fitted: FittedDto,
+    /// Per-point residuals, in the request's order.
+    pub residual: ResidualDto,
+    /// RMS and PV of the form error over the clear aperture, and the asymmetry.
+    pub form_error: FormErrorDto,
+    /// The radial form-error profile on the radial grid.
+    pub profile: FormProfileDto,
+    /// The clear aperture the form error was taken over, mm.
+    pub clear_aperture: ApertureEcho,
+    /// The `target` of a `/v1/optimize` request that removes this form error: the profile with
+    /// a free piston (polishing only removes, so the least uniform layer is added).
+    pub correction_target: TargetDto,
+    /// How the fit went.
+    pub solver: FitReportDto,
+}
+
+const NM_PER_MM: f64 = 1e6;
+
+/// `POST /v1/measurement/fit`.
+pub struct MeasurementFitEndpoint;
+
+impl Endpoint for MeasurementFitEndpoint {
+    type Request = MeasurementFitRequest;
+    type Command = MeasurementFitCommand;
+    type Response = MeasurementFitResponse;
+    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
+    const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
+
+    fn parse(req: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
+        let fit = req.fit.unwrap_or_default();
+        let spec = MeasurementFitSpec {
+            surface: req
+                .surface
+                .as_ref()
+                .map_or(SurfaceSpec::Plane, SurfaceSpec::from),
+            x_mm: req.profile.x_mm,
+            z_mm: req.profile.z_mm,
+            probe_tip_radius_mm: req.probe_tip_radius_mm,
+            compensation: req.compensation.map(|c| match c {
+                CompensationDto::Normal => Compensation::Normal,
+                CompensationDto::Axial => Compensation::Axial,
+            }),
+            fit: FitSelection {
+                lateral_offset: fit.lateral_offset,
+                tilt: fit.tilt,
+                piston: fit.piston,
+                radius_of_curvature: fit.radius_of_curvature,
+            },
+            robust: req.robust.map(|r| match r {
+                RobustDto::None => RobustLoss::None,
+                RobustDto::Huber => RobustLoss::Huber,
+                RobustDto::Tukey => RobustLoss::Tukey,
+            }),
+            grid: GridSpec::from(req.radial_grid.as_ref()),
+            aperture: ApertureSpec::from(req.clear_aperture.as_ref()),
+        };
+        Ok(MeasurementFitCommand::new(spec, limits)?)
+    }
+
+    fn run(command: Self::Command, _: &Services) -> Result<Self::Response, ApiError> {
+        let m = measurement_fit(command)?;
+        let points = &m.outcome.points;
+        let column = |f: fn(&crate::metrology::PointResidual) -> f64| -> Vec<f64> {
+            points.iter().map(f).collect()
+        };
+        let se = m.outcome.standard_errors;
+        let profile = FormProfileDto {
+            radius_mm: m.profile.radius_mm.clone(),
+            depth_nm: m.profile.depth_nm.clone(),
+        };
+        Ok(MeasurementFitResponse {
+            alignment: AlignmentDto {
+                lateral_offset_mm: m.outcome.alignment.lateral_offset_mm,
+                tilt_rad: m.outcome.alignment.tilt_rad,
+                piston_mm: m.outcome.alignment.piston_mm,
+                radius_of_curvature_mm: m.outcome.alignment.surface.radius_of_curvature_mm(),
+            },
+            standard_errors: StandardErrorsDto {
+                lateral_offset_mm: se[0],
+                tilt_rad: se[1],
+                piston_mm: se[2],
+                radius_of_curvature_mm: se[3],
+            },
+            fitted: FittedDto {
+                lateral_offset: m.fitted.contains(Parameter::LateralOffset),
+                tilt: m.fitted.contains(Parameter::Tilt),
+                piston: m.fitted.contains(Parameter::Piston),
+                radius_of_curvature: m.fitted.contains(Parameter::RadiusOfCurvature),
+            },
+            residual: ResidualDto {
+                x_mm: column(|p| p.x_mm),
+                z_mm: column(|p| p.z_mm),
+                aligned_x_mm: column(|p| p.aligned_x_mm),
+                contact_x_mm: column(|p| p.contact_mm),
+                axial_nm: column(|p| p.axial_mm * NM_PER_MM),
+                normal_nm: column(|p| p.normal_mm * NM_PER_MM),
+                weight: column(|p| p.weight),
+            },
+            form_error: FormErrorDto {
+                rms_nm: m.form_error.rms_nm,
+                pv_nm: m.form_error.pv_nm,
+                points: m.form_error.points,
+                asymmetry_rms_nm: m.profile.asymmetry_rms_nm,
+            },
+            correction_target: TargetDto {
+                uniform_depth_nm: None,
+                profile: Some(MeasuredProfileDto {
+                    radius_mm: profile.radius_mm.clone(),
+                    depth_nm: profile.depth_nm.clone(),
+                }),
+                free_piston: Some(true),
+            },
+            profile,
+            clear_aperture: ApertureEcho::from(&m.aperture),
+            solver: FitReportDto {
+                iterations: m.outcome.iterations,
+                reweightings: m.outcome.reweightings,
+                robust_scale_nm: m.outcome.robust_scale_mm.map(|s| s * NM_PER_MM),
+                ignored_points: points.iter().filter(|p| p.weight == 0.0).count(),
+            },
+        })
+    }
+}
+
+fn to_csv(r: &MeasurementFitResponse) -> String {
+    let s = &r.residual;
+    csv::table(
+        &[
+            "x_mm",
+            "z_mm",
+            "aligned_x_mm",
+            "contact_x_mm",
+            "axial_nm",
+            "normal_nm",
+            "weight",
+        ]
+        .map(String::from),
+        &[
+            &s.x_mm,
+            &s.z_mm,
+            &s.aligned_x_mm,
+            &s.contact_x_mm,
+            &s.axial_nm,
+            &s.normal_nm,
+            &s.weight,
+        ],
+    )
+}
+
+/// Normal residuals of each side and the averaged profile against radius, aperture shaded.
+fn to_svg(r: &MeasurementFitResponse) -> String {
+    let side = |sign: f64| Series {
+        name: if sign > 0.0 {
+            "residual, x > 0".to_string()
+        } else {
+            "residual, x < 0".to_string()
+        },
+        points: {
+            let mut p: Vec<(f64, f64)> = r
+                .residual
+                .contact_x_mm
+                .iter()
+                .zip(&r.residual.normal_nm)
+                .zip(&r.residual.weight)
+                .filter(|((x, _), &w)| w > 0.0 && x.signum() == sign)
+                .map(|((x, e), _)| (x.abs(), *e))
+                .collect();
+            p.sort_by(|a, b| a.0.total_cmp(&b.0));
+            p
+        },
+    };
+    let mut series = vec![];
+    for s in [side(1.0), side(-1.0)] {
+        if !s.points.is_empty() {
+            series.push(s);
+        }
+    }
+    series.push(Series {
+        name: "form error (both sides averaged)".to_string(),
+        points: r
+            .profile
+            .radius_mm
+            .iter()
+            .copied()
+            .zip(r.profile.depth_nm.iter().copied())
+            .collect(),
+    });
+    plot::render(&Chart {
+        title: format!(
+            "Form error: {:.1} nm RMS, {:.1} nm PV over the clear aperture",
+            r.form_error.rms_nm, r.form_error.pv_nm
+        ),
+        x_label: "radius r (mm)".to_string(),
+        y_label: "residual along the normal (nm)".to_string(),
+        series,
+        band: Some(plot::aperture_band(&r.clear_aperture)),
+        secondary: None,
+    })
+}
+
+/// Query parameters for a `text/csv` body: each is the JSON field of the same name (a JSON
+/// value; enum names may be written bare), e.g.
+/// `?surface={"kind":"sphere","radius_of_curvature_mm":100}&robust=tukey`. Not allowed with
+/// a JSON body (put the fields in the body).
+#[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+#[allow(dead_code)] // documents the query; the handler reads it as name/value pairs
+pub struct CsvQuery {
+    /// `surface` as JSON, e.g. `{"kind":"sphere","radius_of_curvature_mm":100}`.
+    surface: Option<String>,
+    /// `probe_tip_radius_mm`, mm.
+    probe_tip_radius_mm: Option<f64>,
+    /// `compensation`: `normal` or `axial`.
+    compensation: Option<String>,
+    /// `fit` as JSON, e.g. `{"radius_of_curvature":true}`.
+    fit: Option<String>,
+    /// `robust`: `none`, `huber` or `tukey`.
+    robust: Option<String>,
+    /// `radial_grid` as JSON.
+    radial_grid: Option<String>,
+    /// `clear_aperture` as JSON.
+    clear_aperture: Option<String>,
+}
+
+const QUERY_FIELDS: [&str; 7] = [
+    "surface",
+    "probe_tip_radius_mm",
+    "compensation",
+    "fit",
+    "robust",
+    "radial_grid",
+    "clear_aperture",
+];
+
+/// The request from a JSON body, or from a `text/csv` trace and the query.
+pub struct FitBody(MeasurementFitRequest);
+
+impl<S: Send + Sync> FromRequest<S> for FitBody {
+    type Rejection = ApiError;
+
+    async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
+        let query: Vec<(String, String)> = Query::try_from_uri(req.uri())
+            .map(|Query(q)| q)
+            .map_err(|e| ApiError::invalid("query", e.body_text()))?;
+        if !is_csv(req.headers()) {
+            if let Some((name, _)) = query.first() {
+                return Err(ApiError::invalid(
+                    name.clone(),
+                    format!(
+                        "query parameters configure text/csv bodies; with a JSON body put \
+                         `{name}` in the body"
+                    ),
+                ));
+            }
+            return ApiJson::from_request(req, state)
+                .await
+                .map(|ApiJson(r)| FitBody(r));
+        }
+        let bytes = extract::read_body(req, state).await?;
+        let (x_mm, z_mm) = parse_trace_csv(&bytes)?;
+        let mut body = serde_json::Map::new();
+        for (name, value) in query {
+            if !QUERY_FIELDS.contains(&name.as_str()) {
+                return Err(ApiError::SchemaMismatch {
+                    detail: format!(
+                        "unknown query parameter `{name}`, expected one of {}",
+                        QUERY_FIELDS.join(", ")
+                    ),
+                    field: name,
+                });
+            }
+            // A JSON value, or a bare word for an enum name.
+            let value = serde_json::from_str(&value).unwrap_or(serde_json::Value::String(value));
+            if body.insert(name.clone(), value).is_some() {
+                return Err(ApiError::invalid(name, "given twice"));
+            }
+        }
+        body.insert(
+            "profile".to_string(),
+            serde_json::json!({ "x_mm": x_mm, "z_mm": z_mm }),
+        );
+        let text = serde_json::to_vec(&body).map_err(|e| ApiError::internal(e.to_string()))?;
+        extract::parse_json(&text).map(FitBody)
+    }
+}
+
+fn is_csv(headers: &HeaderMap) -> bool {
+    headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.split(';').next())
+        .is_some_and(|essence| essence.trim().eq_ignore_ascii_case("text/csv"))
+}
+
+/// A probe export: optional `#` comment lines, an optional header naming `x_mm` and `z_mm`
+/// (other columns ignored), then one point per row; without a header the first two columns
+/// are x and z.
+fn parse_trace_csv(bytes: &[u8]) -> Result<(Vec<f64>, Vec<f64>), ApiError> {
+    let mut reader = ::csv::ReaderBuilder::new()
+        .has_headers(false)
+        .comment(Some(b'#'))
+        .trim(::csv::Trim::All)
+        .flexible(true)
+        .from_reader(bytes);
+    let (mut x_mm, mut z_mm) = (Vec::new(), Vec::new());
+    let mut columns: Option<(usize, usize)> = None;
+    for (line, record) in reader.records().enumerate() {
+        let record = record.map_err(|e| ApiError::invalid("profile", format!("CSV: {e}")))?;
+        if record.iter().all(str::is_empty) {
+            continue;
+        }
+        let (xi, zi) = match columns {
+            Some(c) => c,
+            None => {
+                let find = |name: &str| {
+                    let name_of = |h: &str| h.trim_matches('"').eq_ignore_ascii_case(name);
+                    record.iter().position(name_of)
+                };
+                if let (Some(x), Some(z)) = (find("x_mm"), find("z_mm")) {
+                    columns = Some((x, z));
+                    continue;
+                }
+                if record.get(0).is_none_or(|v| v.parse::<f64>().is_err()) {
+                    return Err(ApiError::invalid(
+                        "profile",
+                        "a CSV trace starts with a header naming the columns x_mm and z_mm \
+                         (or with a row of numbers: x then z)",
+                    ));
+                }
+                columns = Some((0, 1));
+                (0, 1)
+            }
+        };
+        let index = x_mm.len();
+        for (column, axis, values) in [(xi, "x_mm", &mut x_mm), (zi, "z_mm", &mut z_mm)] {
+            let text = record.get(column).unwrap_or("");
+            let value: f64 = text
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| {
+                    ApiError::invalid(
+                        format!("profile.{axis}[{index}]"),
+                        format!("CSV row {}: `{text}` is not a finite number", line + 1),
+                    )
+                })?;
+            values.push(value);
+        }
+    }
+    Ok((x_mm, z_mm))
+}
+
+/// Fit a probe trace to the design surface (on-machine measurement).
+///
+/// Finds the lateral offset ΔX, tilt Δτ and piston Δz of the trace (optionally the vertex
+/// radius) minimising the RMS axial residual, by Levenberg–Marquardt on analytic derivatives
+/// (optionally robust), and returns the per-point residuals, the form error's RMS and PV, the
+/// radial form-error profile (both sides of the axis averaged) and a ready `/v1/optimize`
+/// target. The body may be JSON, or `text/csv` with `x_mm,z_mm` columns and the other fields
+/// as query parameters. `Accept: text/csv` returns the residual table; `image/svg+xml` a chart.
+#[utoipa::path(
+    post,
+    path = "/v1/measurement/fit",
+    operation_id = "fitMeasurement",
+    tag = "metrology",
+    params(CsvQuery),
+    request_body(content(
+        (MeasurementFitRequest = "application/json"),
+        (String = "text/csv", example = "x_mm,z_mm\n-10.0,0.1667\n0.0,0.0\n10.0,0.1667\n"),
+    )),
+    responses(
+        (status = 200, description = "The alignment, residuals, form error and correction target; as CSV, the residual table; as SVG, a chart", content(
+            (MeasurementFitResponse = "application/json"),
+            (String = "text/csv"),
+            (String = "image/svg+xml"),
+        )),
+        ComputeProblems,
+    )
+)]
+pub async fn handler(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    FitBody(req): FitBody,
+) -> Result<Response, ApiError> {
+    handle::<MeasurementFitEndpoint>(state, &headers, req).await
+}
