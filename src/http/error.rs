@@ -191,7 +191,10 @@ impl ApiError {
             ApiError::UnsupportedMediaType { content_type } => (
                 "unsupported-media-type",
                 "Unsupported media type",
-                format!("content-type `{content_type}` is not accepted; send application/json"),
+                format!(
+                    "content-type `{content_type}` is not accepted; send application/json \
+                     (/v1/measurement/fit also takes text/csv)"
+                ),
                 None,
             ),
             ApiError::NotAcceptable { accept, offered } => (
