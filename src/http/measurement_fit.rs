@@ -31,7 +31,7 @@ use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec};
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum SurfaceDto {
     /// A plane.
-    Plane,
+    Plane {},
     /// A sphere of vertex radius R (mm, ≠ 0).
     Sphere { radius_of_curvature_mm: f64 },
     /// An even asphere with optional polynomial terms of any power 1–40.
@@ -61,7 +61,7 @@ pub struct CoefficientDto {
 impl From<&SurfaceDto> for SurfaceSpec {
     fn from(s: &SurfaceDto) -> Self {
         match s {
-            SurfaceDto::Plane => SurfaceSpec::Plane,
+            SurfaceDto::Plane {} => SurfaceSpec::Plane,
             SurfaceDto::Sphere {
                 radius_of_curvature_mm,
             } => SurfaceSpec::Sphere {

@@ -135,6 +135,17 @@ pub fn spec_json() -> String {
             target = &mut target[key];
         }
     }
+    // The surface variants are closed objects (serde denies unknown fields), and a zero
+    // radius is a plane, which has its own kind.
+    let variants = doc["components"]["schemas"]["SurfaceDto"]["oneOf"]
+        .as_array_mut()
+        .expect("SurfaceDto is a oneOf");
+    for variant in variants {
+        variant["additionalProperties"] = serde_json::json!(false);
+        if let Some(radius) = variant["properties"].get_mut("radius_of_curvature_mm") {
+            radius["not"] = serde_json::json!({"const": 0});
+        }
+    }
     let mut json = serde_json::to_string_pretty(&doc).expect("the spec serialises");
     json.push('\n');
     json

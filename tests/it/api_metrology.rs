@@ -217,6 +217,17 @@ async fn bad_input_is_named() {
             "profile".into()
         )
     );
+    // Unknown members of a surface are refused (each variant is a closed object).
+    let extra = json!({"surface": {"kind": "plane", "tilt": 1},
+                       "profile": {"x_mm": [0, 1, 2], "z_mm": [0, 0, 0]}});
+    assert_eq!(
+        refused(extra, None).await,
+        (
+            422,
+            "urn:preston:problem:schema-mismatch".into(),
+            "surface.tilt".into()
+        )
+    );
     // A CSV without the columns.
     assert_eq!(
         refused(json!(null), Some("a,b\n1,2\n")).await,
