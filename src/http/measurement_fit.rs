@@ -211,7 +211,7 @@ pub struct FittedDto {
 
 /// Per-point residuals, in the order of the request's points.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
-pub struct ResidualDto {
+pub struct PointResidualsDto {
     /// X as measured, mm.
     pub x_mm: Vec<f64>,
     /// Z as measured, mm.
@@ -281,7 +281,7 @@ pub struct MeasurementFitResponse {
     /// Which parameters were fitted (defaults filled in).
     pub fitted: FittedDto,
     /// Per-point residuals, in the request's order.
-    pub residual: ResidualDto,
+    pub residual: PointResidualsDto,
     /// RMS and PV of the form error over the clear aperture, and the asymmetry.
     pub form_error: FormErrorDto,
     /// The radial form-error profile on the radial grid.
@@ -368,7 +368,7 @@ impl Endpoint for MeasurementFitEndpoint {
                 piston: m.fitted.contains(Parameter::Piston),
                 radius_of_curvature: m.fitted.contains(Parameter::RadiusOfCurvature),
             },
-            residual: ResidualDto {
+            residual: PointResidualsDto {
                 x_mm: column(|p| p.x_mm),
                 z_mm: column(|p| p.z_mm),
                 aligned_x_mm: column(|p| p.aligned_x_mm),
