@@ -493,26 +493,26 @@ fn surface_field(input: Option<SurfaceInput>) -> String {
     }
 }
 
+/// The request's name for a fitted parameter (a member of `fit`).
+fn parameter_name(parameter: Parameter) -> &'static str {
+    match parameter {
+        Parameter::LateralOffset => "lateral_offset",
+        Parameter::Tilt => "tilt",
+        Parameter::Piston => "piston",
+        Parameter::RadiusOfCurvature => "radius_of_curvature",
+    }
+}
+
 fn fit_field(parameters: &[Parameter]) -> String {
-    let name = match parameters.first() {
-        Some(Parameter::LateralOffset) => "lateral_offset",
-        Some(Parameter::Tilt) => "tilt",
-        Some(Parameter::Piston) => "piston",
-        Some(Parameter::RadiusOfCurvature) => "radius_of_curvature",
-        None => return "fit".into(),
-    };
-    format!("fit.{name}")
+    parameters
+        .first()
+        .map_or("fit".into(), |&p| format!("fit.{}", parameter_name(p)))
 }
 
 fn parameter_names(parameters: &[Parameter]) -> String {
     parameters
         .iter()
-        .map(|p| match p {
-            Parameter::LateralOffset => "lateral_offset",
-            Parameter::Tilt => "tilt",
-            Parameter::Piston => "piston",
-            Parameter::RadiusOfCurvature => "radius_of_curvature",
-        })
+        .map(|&p| parameter_name(p))
         .collect::<Vec<_>>()
         .join(", ")
 }

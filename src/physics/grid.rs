@@ -62,7 +62,8 @@ impl Reach {
     }
 }
 
-fn check_radius(field: &'static str, value: f64, reach: Reach) -> Result<(), GridError> {
+/// A radius for `field`: finite, ≥ 0 and within `reach`.
+pub fn check_radius(field: &'static str, value: f64, reach: Reach) -> Result<(), GridError> {
     if !value.is_finite() {
         return Err(GridError::NonFinite { field });
     }

@@ -12,7 +12,7 @@ pub mod process;
 pub mod removal;
 pub mod schedule;
 
-pub use grid::{ClearAperture, GridError, RadialGrid, Reach};
+pub use grid::{check_radius, ClearAperture, GridError, RadialGrid, Reach};
 pub use metrics::UniformityMetrics;
 pub use operator::RemovalOperator;
 pub use pressure::PressureModel;

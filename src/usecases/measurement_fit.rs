@@ -9,7 +9,7 @@ use crate::metrology::{
     fit, form_error, radial_profile, Compensation, Coverage, FitError, FitOutcome, FitParameters,
     FitProblem, FormError, Probe, ProbeError, ProfileError, RadialProfile, RobustLoss, TraceError,
 };
-use crate::physics::{ClearAperture, GridError, RadialGrid, Reach};
+use crate::physics::{check_radius, ClearAperture, GridError, RadialGrid, Reach};
 use crate::surface::{Surface, SurfaceError, SurfaceSpec};
 
 /// Which parameters to fit, as asked (`None`: the default for the surface, see
@@ -77,18 +77,15 @@ fn check_span(
     upper: Option<f64>,
     names: (&'static str, &'static str),
 ) -> Result<(), GridError> {
-    let (lo, hi) = (lower.unwrap_or(0.0), upper.unwrap_or(f64::MAX));
+    // The trace's reach is known only after the fit; until then, no bound.
+    let unbounded = Reach {
+        radius_mm: f64::INFINITY,
+        name: "measured radius",
+    };
     for (value, field) in [(lower, names.0), (upper, names.1)] {
-        if let Some(v) = value {
-            if !v.is_finite() {
-                return Err(GridError::NonFinite { field });
-            }
-            if v < 0.0 {
-                return Err(GridError::Negative { field });
-            }
-        }
+        value.map_or(Ok(()), |v| check_radius(field, v, unbounded))?;
     }
-    if hi <= lo {
+    if upper.is_some_and(|hi| hi <= lower.unwrap_or(0.0)) {
         return Err(GridError::NotAbove {
             field: names.1,
             lower: names.0,
