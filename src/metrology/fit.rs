@@ -93,7 +93,30 @@ struct Evaluation {
     residual: Vec<f64>,
     /// Rows of ∂e/∂p over all four parameters.
     jacobian: Vec<[f64; 4]>,
-    points: Vec<PointResidual>,
+    /// X′ of each point.
+    aligned: Vec<f64>,
+    /// Where the probe touches the design.
+    contact: Vec<f64>,
+}
+
+impl Evaluation {
+    /// The per-point report, built once for the answer (not on every trial step).
+    fn points(&self, problem: &FitProblem, weights: &[f64]) -> Vec<PointResidual> {
+        (0..self.residual.len())
+            .map(|i| {
+                let e = self.residual[i];
+                PointResidual {
+                    x_mm: problem.x_mm[i],
+                    z_mm: problem.z_mm[i],
+                    aligned_x_mm: self.aligned[i],
+                    contact_mm: self.contact[i],
+                    axial_mm: e,
+                    normal_mm: e / self.jacobian[i][0].hypot(1.0), // e·cos θ, z′ = ∂e/∂ΔX
+                    weight: weights[i],
+                }
+            })
+            .collect()
+    }
 }
 
 fn surface_at(problem: &FitProblem, p: &Params) -> Surface {
@@ -104,17 +127,16 @@ fn surface_at(problem: &FitProblem, p: &Params) -> Surface {
     }
 }
 
-fn evaluate(problem: &FitProblem, p: &Params, weights: &[f64]) -> Result<Evaluation, FitError> {
+fn evaluate(problem: &FitProblem, p: &Params) -> Result<Evaluation, FitError> {
     let [dx, tau, dz, _] = *p;
     let surface = surface_at(problem, p);
     let probe: &Probe = &problem.probe;
     let (sin, cos) = tau.sin_cos();
     let n = problem.x_mm.len();
-    let (mut residual, mut jacobian, mut points) = (
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-    );
+    let mut residual = Vec::with_capacity(n);
+    let mut jacobian = Vec::with_capacity(n);
+    let mut aligned = Vec::with_capacity(n);
+    let mut contact = Vec::with_capacity(n);
     for (index, (&x, &z)) in problem.x_mm.iter().zip(&problem.z_mm).enumerate() {
         let xa = x * cos - z * sin - dx;
         let za = x * sin + z * cos - dz;
@@ -129,20 +151,14 @@ fn evaluate(problem: &FitProblem, p: &Params, weights: &[f64]) -> Result<Evaluat
             -1.0,
             -surface.sag_derivative_by_curvature(h.contact_mm),
         ]);
-        points.push(PointResidual {
-            x_mm: x,
-            z_mm: z,
-            aligned_x_mm: xa,
-            contact_mm: h.contact_mm,
-            axial_mm: e,
-            normal_mm: e / h.slope.hypot(1.0),
-            weight: weights[index],
-        });
+        aligned.push(xa);
+        contact.push(h.contact_mm);
     }
     Ok(Evaluation {
         residual,
         jacobian,
-        points,
+        aligned,
+        contact,
     })
 }
 
@@ -245,7 +261,7 @@ fn least_squares(
     max_steps: usize,
 ) -> Result<(Params, Evaluation, usize), FitError> {
     let mut p = start;
-    let mut eval = evaluate(problem, &p, weights)?;
+    let mut eval = evaluate(problem, &p)?;
     let mut current = cost(&eval.residual, weights);
     let total_weight: f64 = weights.iter().sum();
     let mut lambda = 0.0;
@@ -277,7 +293,7 @@ fn least_squares(
             for (k, &j) in free.iter().enumerate() {
                 trial[j] += step[k] / lin.scales[k];
             }
-            if let Ok(next) = evaluate(problem, &trial, weights) {
+            if let Ok(next) = evaluate(problem, &trial) {
                 let next_cost = cost(&next.residual, weights);
                 if next_cost < current {
                     let stalled = current - next_cost <= 1e-14 * current;
@@ -412,7 +428,7 @@ pub fn fit_within(problem: &FitProblem, max_steps: usize) -> Result<FitOutcome, 
             surface: surface_at(problem, &p),
         },
         standard_errors,
-        points: eval.points,
+        points: eval.points(problem, &weights),
         iterations,
         reweightings,
         robust_scale_mm: scale,
