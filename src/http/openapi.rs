@@ -146,7 +146,54 @@ pub fn spec_json() -> String {
             radius["not"] = serde_json::json!({"const": 0});
         }
     }
+    query_mirrors_body(&mut doc, "/v1/measurement/fit", "MeasurementFitRequest");
     let mut json = serde_json::to_string_pretty(&doc).expect("the spec serialises");
     json.push('\n');
     json
+}
+
+/// The `text/csv` form of an operation takes the JSON body's other fields as query
+/// parameters; each parameter gets exactly that field's schema (less its `null` branch):
+/// objects as JSON-encoded values (`content: application/json`), numbers and enum names as
+/// they are. A bare `type: string` would admit strings the service must refuse.
+fn query_mirrors_body(doc: &mut serde_json::Value, path: &str, body_schema: &str) {
+    let properties = doc["components"]["schemas"][body_schema]["properties"].clone();
+    let schemas = doc["components"]["schemas"].clone();
+    let parameters = doc["paths"][path]["post"]["parameters"]
+        .as_array_mut()
+        .expect("the operation has query parameters");
+    for parameter in parameters {
+        let name = parameter["name"].as_str().expect("parameters are named");
+        let field = &properties[name];
+        let mut schema = match field["oneOf"].as_array() {
+            Some(branches) => branches
+                .iter()
+                .find(|b| b["type"] != "null")
+                .expect("an optional field has a non-null branch")
+                .clone(),
+            None => field.clone(),
+        };
+        let parameter = parameter.as_object_mut().expect("a parameter is an object");
+        if let Some(types) = schema["type"].as_array() {
+            let not_null: Vec<_> = types.iter().filter(|t| *t != "null").cloned().collect();
+            schema["type"] = serde_json::Value::Array(not_null);
+            if let [only] = schema["type"].as_array().map(Vec::as_slice).unwrap_or(&[]) {
+                schema["type"] = only.clone();
+            }
+        }
+        let referenced = schema["$ref"]
+            .as_str()
+            .and_then(|r| r.rsplit('/').next())
+            .map(|n| &schemas[n]);
+        let is_object = referenced.is_some_and(|s| s["type"] == "object" || s["oneOf"].is_array());
+        parameter.remove("schema");
+        if is_object {
+            parameter.insert(
+                "content".to_string(),
+                serde_json::json!({"application/json": {"schema": schema}}),
+            );
+        } else {
+            parameter.insert("schema".to_string(), schema);
+        }
+    }
 }
