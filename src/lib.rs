@@ -10,6 +10,7 @@
 
 pub mod config;
 pub mod http;
+pub mod machine;
 pub mod metrology;
 pub mod optimize;
 pub mod physics;

@@ -1,0 +1,250 @@
+//! A program as G-code, RS274/NGC dialect (LinuxCNC): G21 millimetres, G90 absolute, G93
+//! inverse-time feed (default: every polishing move carries F = 1/duration in min⁻¹, so its
+//! time is exact whatever the axes do) or G94 (F = the X–Z path feed in mm/min; a move of B
+//! alone carries deg/min), G4 P dwells in seconds, G1 for every move in contact. The approach
+//! and retract run in G94 at their own feed.
+//!
+//! **Spindle directions.** Speeds are signed in one lab frame, counter-clockwise positive as
+//! seen from the tool side. M3/M4 mean clockwise/counter-clockwise as seen from the spindle
+//! looking at its work, so a positive tool speed is counter-clockwise to the tool spindle
+//! (its `ccw` word) while a positive workpiece speed is clockwise to the workpiece spindle,
+//! which looks from the other side (its `cw` word). The words are configurable; the defaults
+//! address the workpiece as spindle 0 (`M3`, `M4`, `M5`) and the tool as spindle 1
+//! (`M3 $1`, `M4 $1`, `M5 $1`).
+
+use std::fmt::Write;
+
+use super::program::{BlockKind, Program};
+
+/// How polishing moves carry their feed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FeedMode {
+    /// G93: F = 1/duration (min⁻¹).
+    InverseTime,
+    /// G94: F in mm/min along the X–Z path.
+    UnitsPerMinute,
+}
+
+/// The words that turn one spindle clockwise, counter-clockwise (as seen from that spindle
+/// looking at its work) and stop it. The speed follows as `S<|rpm|>`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SpindleWords {
+    pub cw: String,
+    pub ccw: String,
+    pub stop: String,
+}
+
+impl SpindleWords {
+    pub fn workpiece_default() -> Self {
+        SpindleWords {
+            cw: "M3".into(),
+            ccw: "M4".into(),
+            stop: "M5".into(),
+        }
+    }
+
+    pub fn tool_default() -> Self {
+        SpindleWords {
+            cw: "M3 $1".into(),
+            ccw: "M4 $1".into(),
+            stop: "M5 $1".into(),
+        }
+    }
+}
+
+/// How the G-code is written.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct GcodeFormat {
+    pub feed_mode: FeedMode,
+    /// Decimals of X, Z (mm) and B (deg).
+    pub decimals: u32,
+    pub workpiece_spindle: SpindleWords,
+    pub tool_spindle: SpindleWords,
+}
+
+/// Most decimals of a coordinate (0.1 nm).
+pub const MAX_DECIMALS: u32 = 7;
+/// Decimals of a dwell time, s.
+const TIME_DECIMALS: usize = 6;
+/// Significant digits of an inverse-time feed.
+const FEED_DIGITS: i32 = 10;
+
+/// A format that could not be written safely.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum GcodeFormatError {
+    #[error("decimals must be from 0 to {MAX_DECIMALS}")]
+    Decimals,
+    /// `spindle` is `workpiece_spindle` or `tool_spindle`, `word` is `cw`, `ccw` or `stop`.
+    #[error(
+        "{spindle}.{word} must be 1 to 32 printable ASCII characters without parentheses or \
+         semicolons (they would start a comment)"
+    )]
+    Word {
+        spindle: &'static str,
+        word: &'static str,
+    },
+}
+
+impl Default for GcodeFormat {
+    fn default() -> Self {
+        GcodeFormat {
+            feed_mode: FeedMode::InverseTime,
+            decimals: 4,
+            workpiece_spindle: SpindleWords::workpiece_default(),
+            tool_spindle: SpindleWords::tool_default(),
+        }
+    }
+}
+
+impl GcodeFormat {
+    pub fn check(&self) -> Result<(), GcodeFormatError> {
+        if self.decimals > MAX_DECIMALS {
+            return Err(GcodeFormatError::Decimals);
+        }
+        for (spindle, words) in [
+            ("workpiece_spindle", &self.workpiece_spindle),
+            ("tool_spindle", &self.tool_spindle),
+        ] {
+            for (word, text) in [("cw", &words.cw), ("ccw", &words.ccw), ("stop", &words.stop)] {
+                let fine = (1..=32).contains(&text.len())
+                    && text
+                        .chars()
+                        .all(|c| (' '..='~').contains(&c) && !"();".contains(c));
+                if !fine || text.trim().is_empty() {
+                    return Err(GcodeFormatError::Word { spindle, word });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `value` with `decimals` decimals, never as `-0`.
+fn fixed(value: f64, decimals: usize) -> String {
+    let text = format!("{value:.decimals$}");
+    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+        text.trim_start_matches('-').to_string()
+    } else {
+        text
+    }
+}
+
+/// `value` (> 0) with `FEED_DIGITS` significant digits, no exponent.
+fn significant(value: f64) -> String {
+    let magnitude = value.abs().log10().floor() as i32;
+    fixed(value, (FEED_DIGITS - 1 - magnitude).max(0) as usize)
+}
+
+/// A comment line: parentheses inside would end it early.
+fn comment(text: &str) -> String {
+    let clean: String = text
+        .chars()
+        .map(|c| if "()".contains(c) || c.is_control() { ' ' } else { c })
+        .collect();
+    format!("({clean})")
+}
+
+fn spindle_on(words: &SpindleWords, rpm: f64, clockwise_when_positive: bool) -> String {
+    if rpm == 0.0 {
+        return words.stop.clone();
+    }
+    let clockwise = (rpm > 0.0) == clockwise_when_positive;
+    let word = if clockwise { &words.cw } else { &words.ccw };
+    format!("{word} S{}", fixed(rpm.abs(), 3))
+}
+
+/// The program as G-code. `header` lines become comments; `workpiece_rpm` and `tool_rpm` are
+/// the signed lab-frame speeds.
+pub fn write(
+    program: &Program,
+    header: &[String],
+    workpiece_rpm: f64,
+    tool_rpm: f64,
+    format: &GcodeFormat,
+) -> String {
+    let d = format.decimals as usize;
+    let mut out = String::with_capacity(64 * (program.blocks().len() + 16));
+    for line in header {
+        out.push_str(&comment(line));
+        out.push('\n');
+    }
+    let axes = |x: f64, z: f64, b: f64| format!("X{} Z{} B{}", fixed(x, d), fixed(z, d), fixed(b, d));
+    let start = program.start();
+    out.push_str("G21 G90 G94\n");
+    let _ = writeln!(out, "G0 {}", axes(start.x_mm, start.z_mm, start.b_deg));
+    let _ = writeln!(out, "{}", spindle_on(&format.workpiece_spindle, workpiece_rpm, true));
+    let _ = writeln!(out, "{}", spindle_on(&format.tool_spindle, tool_rpm, false));
+    let mut inverse_time = false;
+    let mut before = start;
+    for block in program.blocks() {
+        let p = block.end;
+        let polishing = matches!(block.kind, BlockKind::Dwell | BlockKind::Move);
+        let want_inverse = polishing && format.feed_mode == FeedMode::InverseTime;
+        if want_inverse != inverse_time {
+            out.push_str(if want_inverse { "G93\n" } else { "G94\n" });
+            inverse_time = want_inverse;
+        }
+        match block.kind {
+            BlockKind::Dwell => {
+                let _ = writeln!(out, "G4 P{}", fixed(block.duration_s, TIME_DECIMALS));
+            }
+            _ => {
+                let feed = if inverse_time {
+                    60.0 / block.duration_s
+                } else {
+                    let path = (p.x_mm - before.x_mm).hypot(p.z_mm - before.z_mm);
+                    let path = if path > 0.0 { path } else { (p.b_deg - before.b_deg).abs() };
+                    60.0 * path / block.duration_s
+                };
+                let _ = writeln!(
+                    out,
+                    "G1 {} F{}",
+                    axes(p.x_mm, p.z_mm, p.b_deg),
+                    significant(feed)
+                );
+            }
+        }
+        before = p;
+    }
+    if inverse_time {
+        out.push_str("G94\n");
+    }
+    let _ = writeln!(out, "{}", format.tool_spindle.stop);
+    let _ = writeln!(out, "{}", format.workpiece_spindle.stop);
+    out.push_str("M2\n");
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_are_written_plainly() {
+        assert_eq!(fixed(-0.00001, 4), "0.0000");
+        assert_eq!(fixed(-1.23456, 4), "-1.2346");
+        assert_eq!(significant(60.0 / 7.0), "8.571428571");
+        assert_eq!(significant(0.06), "0.06000000000");
+        assert_eq!(significant(12000.0), "12000.00000");
+    }
+
+    #[test]
+    fn spindle_directions_follow_the_lab_convention() {
+        let (w, t) = (SpindleWords::workpiece_default(), SpindleWords::tool_default());
+        // Paper experiment 1: workpiece −10 (clockwise from the tool side), tool +200.
+        assert_eq!(spindle_on(&w, -10.0, true), "M4 S10.000");
+        assert_eq!(spindle_on(&t, 200.0, false), "M4 $1 S200.000");
+        assert_eq!(spindle_on(&w, 10.0, true), "M3 S10.000");
+        assert_eq!(spindle_on(&t, 0.0, false), "M5 $1");
+    }
+
+    #[test]
+    fn words_that_would_open_a_comment_are_refused() {
+        let mut f = GcodeFormat::default();
+        f.tool_spindle.cw = "M3 (x".into();
+        assert!(f.check().is_err());
+        f.tool_spindle.cw = "M3\nG0".into();
+        assert!(f.check().is_err());
+        assert!(GcodeFormat::default().check().is_ok());
+    }
+}

@@ -1,0 +1,338 @@
+//! A dwell plan as blocks of axis motion (module docs of [`super`] for the model) and the
+//! axis kinematics of those blocks.
+//!
+//! **Removal.** The program spends t_j within the cell [m_{j−1}, m_j] of each position at a
+//! constant feed, so it removes Σ_j t_j·⟨R(r; ·)⟩ over the cells, and the plan's
+//! Σ_j t_j·R(r; r_j) is the midpoint rule of that integral: the same discretisation as a
+//! constant-feed pass (`physics::schedule`), with error O(w²·R″) per cell of width w where
+//! R(r; ·) is smooth and O(w^1.5) where the pad's edge crosses r. At the two ends the cell is
+//! one-sided (half a dwell at the position, half on the way to the first midpoint), a first-order
+//! error of at most t·w·|∂R/∂r1|/8 there.
+
+use super::limits::{Drive, Limit};
+use super::pose::{Pose, Tool};
+use crate::surface::Surface;
+
+/// What a block does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BlockKind {
+    /// From above the first pose down to it, before polishing.
+    Approach,
+    /// A stop at a position (the first and last half-dwells).
+    Dwell,
+    /// Polishing motion between two poses, linear in every axis.
+    Move,
+    /// Up from the last pose, after polishing.
+    Retract,
+}
+
+/// One block: where it ends and how long it takes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Block {
+    pub kind: BlockKind,
+    /// The radial position of the pad centre at the block's end, mm.
+    pub position_mm: f64,
+    /// Arc length from the vertex to `position_mm` along the meridian, mm.
+    pub arc_length_mm: f64,
+    pub end: Pose,
+    pub duration_s: f64,
+}
+
+/// One axis's motion over the program.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisMotion {
+    /// Lowest and highest position reached (including the start), in the axis unit.
+    pub min: f64,
+    pub max: f64,
+    /// Velocity in each block, unit/min (0 in a dwell).
+    pub velocity_per_min: Vec<f64>,
+    /// Velocity change entering block k (k = 0: from rest; k = blocks: back to rest), unit/s².
+    pub acceleration_per_s2: Vec<f64>,
+    pub peak_velocity_per_min: f64,
+    pub peak_acceleration_per_s2: f64,
+}
+
+impl AxisMotion {
+    /// `positions`: the axis at the program's start and at the end of each block.
+    fn of(positions: &[f64], durations_s: &[f64]) -> AxisMotion {
+        let velocity_per_min: Vec<f64> = positions
+            .windows(2)
+            .zip(durations_s)
+            .map(|(p, &d)| 60.0 * (p[1] - p[0]) / d)
+            .collect();
+        // At rest (a zero-length block) before the first block and after the last.
+        let n = velocity_per_min.len();
+        let velocity = |k: usize| if k == 0 || k > n { 0.0 } else { velocity_per_min[k - 1] };
+        let duration = |k: usize| if k == 0 || k > n { 0.0 } else { durations_s[k - 1] };
+        let acceleration_per_s2: Vec<f64> = (0..=n)
+            .map(|k| {
+                let dv = (velocity(k + 1) - velocity(k)) / 60.0;
+                dv / (0.5 * (duration(k) + duration(k + 1)))
+            })
+            .collect();
+        let peak = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        AxisMotion {
+            min: positions.iter().copied().fold(f64::INFINITY, f64::min),
+            max: positions.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            peak_velocity_per_min: peak(&velocity_per_min),
+            peak_acceleration_per_s2: peak(&acceleration_per_s2),
+            velocity_per_min,
+            acceleration_per_s2,
+        }
+    }
+
+    pub fn travel(&self) -> f64 {
+        self.max - self.min
+    }
+}
+
+/// How the program gets onto the part and off it: along the tool axis by `clearance_mm` at
+/// `feed_mm_per_min` (no approach or retract when the clearance is 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Approach {
+    pub clearance_mm: f64,
+    pub feed_mm_per_min: f64,
+}
+
+/// Why a plan gives no program.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProgramError {
+    #[error("every dwell is 0 s: there is nothing to program")]
+    NoDwell,
+    /// An interior position with zero dwell: its cell would be crossed in no time.
+    #[error(
+        "dwell_s[{index}] is 0 s between positions with dwell: the tool would cross its cell \
+         in no time (infinite feed); give every position between the first and last with \
+         dwell some dwell (e.g. optimize with constraints.min_dwell_s or machine limits)"
+    )]
+    ZeroInteriorDwell { index: usize },
+}
+
+/// A program: the blocks, each axis's motion, and what it polishes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Program {
+    start: Pose,
+    blocks: Vec<Block>,
+    motion: [AxisMotion; 3],
+    /// Positions of the plan left out at each end because their dwell is 0.
+    pub skipped: (usize, usize),
+    /// Time of the dwell and move blocks: the plan's total, s.
+    pub polishing_time_s: f64,
+    /// Time of every block, approach and retract included, s.
+    pub program_time_s: f64,
+    /// Largest distance, along the normal, of the pad centre from the surface halfway
+    /// through a move (where linear interpolation of X, Z and B strays furthest), mm.
+    pub max_path_deviation_mm: f64,
+}
+
+impl Program {
+    /// The program of a plan (positions strictly increasing, within the surface's domain,
+    /// dwell ≥ 0; the caller checks these).
+    pub fn new(
+        surface: &Surface,
+        tool: &Tool,
+        positions_mm: &[f64],
+        dwell_s: &[f64],
+        approach: Approach,
+    ) -> Result<Program, ProgramError> {
+        let first = dwell_s.iter().position(|&t| t > 0.0).ok_or(ProgramError::NoDwell)?;
+        let last = dwell_s.iter().rposition(|&t| t > 0.0).unwrap_or(first);
+        if let Some(index) = (first..=last).find(|&j| dwell_s[j] == 0.0) {
+            return Err(ProgramError::ZeroInteriorDwell { index });
+        }
+        let (r, t) = (&positions_mm[first..=last], &dwell_s[first..=last]);
+        let block = |kind, position_mm: f64, duration_s| Block {
+            kind,
+            position_mm,
+            arc_length_mm: surface.arc_length_mm(position_mm),
+            end: tool.pose(surface, position_mm),
+            duration_s,
+        };
+        let n = r.len();
+        let mut blocks = Vec::with_capacity(n + 4);
+        if n == 1 {
+            blocks.push(block(BlockKind::Dwell, r[0], t[0]));
+        } else {
+            blocks.push(block(BlockKind::Dwell, r[0], 0.5 * t[0]));
+            for j in 0..n - 1 {
+                let middle = 0.5 * (r[j] + r[j + 1]);
+                let time = if j == 0 { 0.5 * t[0] } else { t[j] };
+                blocks.push(block(BlockKind::Move, middle, time));
+            }
+            blocks.push(block(BlockKind::Move, r[n - 1], 0.5 * t[n - 1]));
+            blocks.push(block(BlockKind::Dwell, r[n - 1], 0.5 * t[n - 1]));
+        }
+        let polishing_time_s = t.iter().sum();
+        let first_pose = blocks[0].end;
+        let mut start = first_pose;
+        if approach.clearance_mm > 0.0 {
+            let lift = |pose: &Pose| lifted(pose, approach.clearance_mm);
+            let duration_s = 60.0 * approach.clearance_mm / approach.feed_mm_per_min;
+            start = lift(&first_pose);
+            let retract = Block {
+                kind: BlockKind::Retract,
+                end: lift(&blocks[blocks.len() - 1].end),
+                duration_s,
+                ..blocks[blocks.len() - 1]
+            };
+            blocks.insert(
+                0,
+                Block {
+                    kind: BlockKind::Approach,
+                    duration_s,
+                    ..blocks[0]
+                },
+            );
+            blocks.push(retract);
+        }
+        let durations: Vec<f64> = blocks.iter().map(|b| b.duration_s).collect();
+        let motion = [0, 1, 2].map(|axis| {
+            let positions: Vec<f64> = std::iter::once(start.axes()[axis])
+                .chain(blocks.iter().map(|b| b.end.axes()[axis]))
+                .collect();
+            AxisMotion::of(&positions, &durations)
+        });
+        let max_path_deviation_mm = path_deviation(surface, tool, start, &blocks);
+        Ok(Program {
+            start,
+            program_time_s: durations.iter().sum(),
+            blocks,
+            motion,
+            skipped: (first, positions_mm.len() - 1 - last),
+            polishing_time_s,
+            max_path_deviation_mm,
+        })
+    }
+
+    /// The pose before the first block (above the first position when there is an approach).
+    pub fn start(&self) -> Pose {
+        self.start
+    }
+
+    pub fn blocks(&self) -> &[Block] {
+        &self.blocks
+    }
+
+    pub fn motion(&self, drive: Drive) -> &AxisMotion {
+        &self.motion[axis_index(drive)]
+    }
+
+    /// The axis at the start and at the end of each block.
+    pub fn axis_positions(&self, drive: Drive) -> Vec<f64> {
+        let axis = axis_index(drive);
+        std::iter::once(self.start.axes()[axis])
+            .chain(self.blocks.iter().map(|b| b.end.axes()[axis]))
+            .collect()
+    }
+
+    /// The block an entry of [`Program::axis_positions`] (travel limits) or of
+    /// [`AxisMotion`]'s lists belongs to.
+    pub fn block_of(&self, limit: Limit, index: usize) -> usize {
+        let last = self.blocks.len() - 1;
+        match limit {
+            // Entry 0 is the start, before block 0.
+            Limit::Min | Limit::Max => index.saturating_sub(1),
+            _ => index.min(last),
+        }
+    }
+}
+
+fn axis_index(drive: Drive) -> usize {
+    match drive {
+        Drive::X => 0,
+        Drive::Z => 1,
+        _ => 2,
+    }
+}
+
+/// The pose with the pad moved `clearance_mm` away from the part along the tool axis.
+fn lifted(pose: &Pose, clearance_mm: f64) -> Pose {
+    let (sin, cos) = pose.b_deg.to_radians().sin_cos();
+    Pose {
+        x_mm: pose.x_mm - clearance_mm * sin,
+        z_mm: pose.z_mm + clearance_mm * cos,
+        b_deg: pose.b_deg,
+    }
+}
+
+/// The largest normal distance of the pad centre from the surface at the middle of a move.
+fn path_deviation(surface: &Surface, tool: &Tool, start: Pose, blocks: &[Block]) -> f64 {
+    let mut before = start;
+    let mut worst = 0.0_f64;
+    for b in blocks {
+        if b.kind == BlockKind::Move {
+            let [x0, z0, b0] = before.axes();
+            let [x1, z1, b1] = b.end.axes();
+            let middle = Pose {
+                x_mm: 0.5 * (x0 + x1),
+                z_mm: 0.5 * (z0 + z1),
+                b_deg: 0.5 * (b0 + b1),
+            };
+            let (x, z) = tool.pad_centre(&middle);
+            let cos = surface.slope_angle_rad(x).cos();
+            let deviation = ((z - surface.sag_mm(x)) * cos).abs();
+            if deviation.is_finite() {
+                worst = worst.max(deviation);
+            }
+        }
+        before = b.end;
+    }
+    worst
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::Orientation;
+
+    fn flat_program(dwell: &[f64], clearance_mm: f64) -> Result<Program, ProgramError> {
+        let positions: Vec<f64> = (0..dwell.len()).map(|j| j as f64).collect();
+        let tool = Tool::new(0.0, Orientation::Vertical).unwrap();
+        let approach = Approach {
+            clearance_mm,
+            feed_mm_per_min: 60.0,
+        };
+        Program::new(&Surface::plane(), &tool, &positions, dwell, approach)
+    }
+
+    #[test]
+    fn each_position_gets_its_dwell_within_its_cell() {
+        let p = flat_program(&[2.0, 4.0, 6.0], 0.0).unwrap();
+        let kinds: Vec<_> = p.blocks().iter().map(|b| b.kind).collect();
+        use BlockKind::*;
+        assert_eq!(kinds, [Dwell, Move, Move, Move, Dwell]);
+        let ends: Vec<_> = p.blocks().iter().map(|b| b.position_mm).collect();
+        assert_eq!(ends, [0.0, 0.5, 1.5, 2.0, 2.0]);
+        let durations: Vec<_> = p.blocks().iter().map(|b| b.duration_s).collect();
+        assert_eq!(durations, [1.0, 1.0, 4.0, 3.0, 3.0]);
+        assert_eq!(p.polishing_time_s, 12.0);
+        // X: 0.5 mm in 1 s, 1 mm in 4 s, 0.5 mm in 3 s → 30, 15, 10 mm/min.
+        assert_eq!(p.motion(Drive::X).velocity_per_min, [0.0, 30.0, 15.0, 10.0, 0.0]);
+        // From the dwell into the first move: 0.5 mm/s over (1 + 1)/2 s.
+        assert_eq!(p.motion(Drive::X).acceleration_per_s2[1], 0.5);
+    }
+
+    #[test]
+    fn zero_dwell_ends_are_skipped_and_interior_ones_refused() {
+        let p = flat_program(&[0.0, 0.0, 2.0, 2.0, 0.0], 0.0).unwrap();
+        assert_eq!(p.skipped, (2, 1));
+        assert_eq!(p.blocks()[0].position_mm, 2.0);
+        assert_eq!(
+            flat_program(&[1.0, 0.0, 1.0], 0.0),
+            Err(ProgramError::ZeroInteriorDwell { index: 1 })
+        );
+        assert_eq!(flat_program(&[0.0, 0.0], 0.0), Err(ProgramError::NoDwell));
+    }
+
+    #[test]
+    fn approach_and_retract_are_along_the_tool_axis() {
+        let p = flat_program(&[2.0, 2.0], 3.0).unwrap();
+        assert_eq!(p.start().z_mm, 3.0);
+        let blocks = p.blocks();
+        assert_eq!(blocks[0].kind, BlockKind::Approach);
+        assert_eq!(blocks[0].duration_s, 3.0);
+        assert_eq!(blocks.last().unwrap().end.z_mm, 3.0);
+        assert_eq!(p.polishing_time_s, 4.0);
+        assert_eq!(p.program_time_s, 10.0);
+    }
+}
