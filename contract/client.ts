@@ -100,6 +100,19 @@ async function measurementFit(name: string): Promise<void> {
   check(name, target.free_piston === true && target.profile !== undefined, "correction target");
 }
 
+async function program(name: string): Promise<void> {
+  const body = read<Schemas["ProgramRequest"]>(name);
+  const { data, error } = await client.POST("/v1/program", { body });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const polishing = data.blocks
+    .filter((b) => b.kind === "dwell" || b.kind === "move")
+    .reduce((sum, b) => sum + b.duration_s, 0);
+  check(name, Math.abs(polishing - data.total_time_s) < 1e-9 * data.total_time_s, "total time");
+  const velocity: number | null = data.axes.b.utilisation.velocity;
+  check(name, velocity === null || velocity <= 1, "B velocity within its limit");
+}
+
 // An error comes back typed as the problem it is.
 async function problem(): Promise<void> {
   const body = read<Schemas["PredictRequest"]>("predict_paper_exp2.json");
@@ -117,6 +130,7 @@ const runners: [string, (name: string) => Promise<void>][] = [
   ["recommend_", recommend],
   ["eta_sweep_", etaSweep],
   ["measurement_fit_", measurementFit],
+  ["program_", program],
 ];
 let calls = 0;
 for (const name of readdirSync(fixtures).filter((f) => f.endsWith(".json")).sort()) {

@@ -15,6 +15,7 @@ client_dir, base_url = sys.argv[1], sys.argv[2]
 sys.path.insert(0, client_dir)
 
 from preston_client import Client  # noqa: E402
+from preston_client.api.machine import generate_program  # noqa: E402
 from preston_client.api.metrology import fit_measurement  # noqa: E402
 from preston_client.api.optimize import optimize_dwell  # noqa: E402
 from preston_client.api.recommend import recommend_speeds, sweep_eta  # noqa: E402
@@ -37,6 +38,7 @@ OPERATIONS = {
         models.MeasurementFitRequest,
         models.MeasurementFitResponse,
     ),
+    "program_": (generate_program, models.ProgramRequest, models.ProgramResponse),
 }
 
 root = pathlib.Path(__file__).resolve().parent.parent

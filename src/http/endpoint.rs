@@ -22,6 +22,8 @@ pub trait Endpoint: 'static {
     const CSV: Option<fn(&Self::Response) -> String> = None;
     /// `Accept: image/svg+xml`, when offered.
     const SVG: Option<fn(&Self::Response) -> String> = None;
+    /// `Accept: text/x-gcode`, when offered.
+    const GCODE: Option<fn(&Self::Response) -> String> = None;
 
     /// The request as the use case's command: every check, no computation.
     fn parse(request: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError>;
@@ -34,6 +36,7 @@ fn offered<E: Endpoint>() -> Vec<Format> {
     let mut offered = vec![Format::Json];
     offered.extend(E::CSV.map(|_| Format::Csv));
     offered.extend(E::SVG.map(|_| Format::Svg));
+    offered.extend(E::GCODE.map(|_| Format::Gcode));
     offered
 }
 
@@ -73,11 +76,15 @@ fn render<E: Endpoint>(format: Format, body: &E::Response) -> Response {
         Format::Svg => E::SVG
             .map(|f| f(body))
             .ok_or_else(|| ApiError::internal("SVG negotiated but not offered")),
+        Format::Gcode => E::GCODE
+            .map(|f| f(body))
+            .ok_or_else(|| ApiError::internal("G-code negotiated but not offered")),
     };
     let content_type = match format {
         Format::Json => "application/json",
         Format::Csv => "text/csv; charset=utf-8",
         Format::Svg => "image/svg+xml",
+        Format::Gcode => "text/x-gcode; charset=utf-8",
     };
     match text {
         Ok(text) => ([(header::CONTENT_TYPE, content_type)], text).into_response(),

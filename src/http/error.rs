@@ -41,6 +41,11 @@ pub enum ApiError {
         fields: Vec<String>,
         detail: String,
     },
+    /// A machine program would break the machine's stated limits; every violation listed.
+    MachineLimits {
+        violations: Vec<LimitViolation>,
+        detail: String,
+    },
     /// The solver stopped without a plan (time or iteration limit, numerical trouble).
     SolverFailed {
         kind: &'static str,
@@ -95,10 +100,34 @@ pub struct Problem {
     /// first of them).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub conflicts: Option<Vec<String>>,
+    /// For machine programs: every limit the program would break (`field` is the first).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub violations: Option<Vec<LimitViolation>>,
     /// The request's `x-request-id` (generated when the client sent none), for matching an
     /// error report to the server's logs.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub request_id: Option<String>,
+}
+
+/// A machine limit a program would break.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct LimitViolation {
+    /// The limit in the request, e.g. `machine.x.max_velocity_mm_per_min`.
+    pub field: String,
+    /// `x`, `z`, `b`, `workpiece_spindle` or `tool_spindle`.
+    pub axis: String,
+    /// The limit's member name, e.g. `max_acceleration_deg_per_s2`.
+    pub limit: String,
+    /// The stated limit, in the unit its name gives.
+    pub limit_value: f64,
+    /// The worst value the program would reach (a position, or a magnitude of velocity,
+    /// acceleration or spindle speed), same unit.
+    pub value: f64,
+    /// Index into the program's blocks of the first block that breaks it (null for a spindle
+    /// speed, which holds for the whole program).
+    pub first_block: Option<usize>,
+    /// How many blocks break it.
+    pub blocks: usize,
 }
 
 impl ApiError {
@@ -128,6 +157,7 @@ impl ApiError {
             ApiError::SchemaMismatch { .. }
             | ApiError::InvalidInput { .. }
             | ApiError::Infeasible { .. }
+            | ApiError::MachineLimits { .. }
             | ApiError::SolverFailed { .. }
             | ApiError::LimitExceeded { .. } => StatusCode::UNPROCESSABLE_ENTITY,
             ApiError::PayloadTooLarge { .. } => StatusCode::PAYLOAD_TOO_LARGE,
@@ -165,6 +195,12 @@ impl ApiError {
                 "Constraints cannot all hold",
                 detail.clone(),
                 fields.first().cloned(),
+            ),
+            ApiError::MachineLimits { violations, detail } => (
+                "machine-limits",
+                "The program would exceed the machine's limits",
+                detail.clone(),
+                violations.first().map(|v| v.field.clone()),
             ),
             ApiError::SolverFailed {
                 kind,
@@ -236,6 +272,10 @@ impl ApiError {
             field,
             conflicts: match self {
                 ApiError::Infeasible { fields, .. } => Some(fields.clone()),
+                _ => None,
+            },
+            violations: match self {
+                ApiError::MachineLimits { violations, .. } => Some(violations.clone()),
                 _ => None,
             },
             request_id: None,
@@ -313,7 +353,7 @@ fn input_path(input: Input) -> &'static str {
 
 impl ApiError {
     /// A size limit exceeded by the input at `field`.
-    fn from_limit(field: &str, err: LimitError) -> Self {
+    pub(super) fn from_limit(field: &str, err: LimitError) -> Self {
         let detail = match err {
             LimitError::RadialSamples { count, max } => {
                 format!("{field} is {count}; this server allows at most {max}")
@@ -483,7 +523,7 @@ pub enum ComputeProblems {
     Overloaded(Problem),
 }
 
-fn surface_field(input: Option<SurfaceInput>) -> String {
+pub(super) fn surface_field(input: Option<SurfaceInput>) -> String {
     match input {
         Some(SurfaceInput::RadiusOfCurvature) => "surface.radius_of_curvature_mm".into(),
         Some(SurfaceInput::ConicConstant) => "surface.conic_constant".into(),

@@ -223,6 +223,7 @@ pub enum Format {
     Json,
     Csv,
     Svg,
+    Gcode,
 }
 
 impl Format {
@@ -231,6 +232,7 @@ impl Format {
             Format::Json => "application/json",
             Format::Csv => "text/csv",
             Format::Svg => "image/svg+xml",
+            Format::Gcode => "text/x-gcode",
         }
     }
 }

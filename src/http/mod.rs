@@ -22,6 +22,7 @@ pub mod openapi;
 pub mod optimize;
 pub mod plot;
 pub mod predict;
+pub mod program;
 pub mod recommend;
 pub mod removal_function;
 pub mod router;

@@ -11,7 +11,8 @@ use super::dto::{
 use super::error::Problem;
 use super::router::ENDPOINTS;
 use super::{
-    eta_sweep, health, measurement_fit, metrics, optimize, predict, recommend, removal_function,
+    eta_sweep, health, measurement_fit, metrics, optimize, predict, program, recommend,
+    removal_function,
 };
 
 #[derive(OpenApi)]
@@ -40,6 +41,7 @@ optimization positions ≤ 2001, solver time ≤ 10 s, measured trace points ≤
         recommend::handler,
         eta_sweep::handler,
         measurement_fit::handler,
+        program::handler,
         health::healthz,
         health::readyz,
         metrics::handler,
@@ -59,6 +61,7 @@ optimization positions ≤ 2001, solver time ≤ 10 s, measured trace points ≤
         (name = "optimize", description = "Dwell optimization"),
         (name = "recommend", description = "η = −1 recommendation and η studies"),
         (name = "metrology", description = "On-machine measurement: fit a probe trace to the design"),
+        (name = "machine", description = "Machine programs: axis motion within limits, G-code"),
         (name = "service", description = "Probes"),
     )
 )]

@@ -17,7 +17,7 @@ use super::error::ApiError;
 use super::extract::BodyLimit;
 use super::state::{AppState, Services};
 use super::{
-    docs, eta_sweep, health, measurement_fit, metrics, optimize, predict, recommend,
+    docs, eta_sweep, health, measurement_fit, metrics, optimize, predict, program, recommend,
     removal_function,
 };
 use crate::config::Limits;
@@ -56,7 +56,7 @@ const fn entry<E: Endpoint>(
 }
 
 /// Every computing endpoint.
-pub static ENDPOINTS: [EndpointEntry; 6] = [
+pub static ENDPOINTS: [EndpointEntry; 7] = [
     entry::<removal_function::RemovalFunctionEndpoint>(
         "removal-function",
         include_str!("../../fixtures/removal_function_paper_exp1.json"),
@@ -86,6 +86,11 @@ pub static ENDPOINTS: [EndpointEntry; 6] = [
         "measurement/fit",
         include_str!("../../fixtures/measurement_fit_asphere.json"),
         || post(measurement_fit::handler),
+    ),
+    entry::<program::ProgramEndpoint>(
+        "program",
+        include_str!("../../fixtures/program_sphere.json"),
+        || post(program::handler),
     ),
 ];
 

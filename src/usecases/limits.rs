@@ -72,12 +72,7 @@ impl ComputeLimits {
 
     /// An operator of `samples` radial samples × `positions` tool positions.
     pub fn check_operator(&self, samples: usize, positions: usize) -> Result<(), LimitError> {
-        if positions > self.max_positions {
-            return Err(LimitError::Positions {
-                count: positions,
-                max: self.max_positions,
-            });
-        }
+        self.check_positions(positions)?;
         if samples.saturating_mul(positions) > self.max_operator_entries {
             return Err(LimitError::OperatorEntries {
                 samples,
@@ -86,6 +81,14 @@ impl ComputeLimits {
             });
         }
         Ok(())
+    }
+
+    /// Tool positions in one computation (a dwell plan, removal-function profiles).
+    pub fn check_positions(&self, count: usize) -> Result<(), LimitError> {
+        let max = self.max_positions;
+        (count <= max)
+            .then_some(())
+            .ok_or(LimitError::Positions { count, max })
     }
 
     pub fn check_profiles(&self, count: usize) -> Result<(), LimitError> {

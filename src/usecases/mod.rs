@@ -22,6 +22,7 @@ mod limits;
 pub mod measurement_fit;
 pub mod optimize;
 pub mod predict;
+pub mod program;
 pub mod recommend;
 pub mod removal_function;
 mod setting;

@@ -8,6 +8,7 @@ mod api_metrology;
 mod api_optimize;
 mod deploy;
 mod invariant;
+mod machine;
 mod metrology;
 mod openapi_drift;
 mod ops;

@@ -1,0 +1,253 @@
+//! A machine program from a dwell plan: poses, blocks and axis motion ([`crate::machine`]),
+//! checked against the machine's limits, and its G-code.
+
+use super::limits::{ComputeLimits, LimitError};
+use crate::machine::{
+    gcode, Approach, Drive, GcodeFormat, GcodeFormatError, LimitsError, MachineLimits,
+    Orientation, Program, ProgramError, Tool, ToolError, Violation,
+};
+use crate::physics::{DwellSchedule, Process, ProcessError, ProcessSpec, ScheduleError};
+use crate::surface::{Surface, SurfaceError, SurfaceSpec};
+
+/// Clearance of the approach and retract along the tool axis by default, mm.
+pub const DEFAULT_CLEARANCE_MM: f64 = 5.0;
+/// Feed of the approach and retract by default, mm/min (less where an axis limit needs it).
+pub const DEFAULT_APPROACH_FEED_MM_PER_MIN: f64 = 100.0;
+/// Largest clearance accepted, mm.
+pub const MAX_CLEARANCE_MM: f64 = 1000.0;
+
+/// A program as asked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProgramSpec {
+    pub process: ProcessSpec,
+    pub surface: SurfaceSpec,
+    pub positions_mm: Vec<f64>,
+    pub dwell_s: Vec<f64>,
+    /// Default 0.
+    pub pivot_length_mm: Option<f64>,
+    /// Default normal.
+    pub orientation: Option<Orientation>,
+    pub machine: MachineLimits,
+    /// Default [`DEFAULT_CLEARANCE_MM`].
+    pub clearance_mm: Option<f64>,
+    /// Default [`DEFAULT_APPROACH_FEED_MM_PER_MIN`], lowered to what the axis limits allow.
+    pub approach_feed_mm_per_min: Option<f64>,
+    pub format: GcodeFormat,
+    /// Written into the G-code header (e.g. a digest of the request).
+    pub request_digest: String,
+}
+
+/// Why a program request was refused before computing.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProgramInputError {
+    #[error(transparent)]
+    Process(ProcessError),
+    #[error(transparent)]
+    Surface(SurfaceError),
+    /// A plan position where the surface is not defined.
+    #[error("dwell.positions_mm[{index}]: {error}")]
+    PositionOffSurface { index: usize, error: SurfaceError },
+    #[error(transparent)]
+    Size(LimitError),
+    #[error(transparent)]
+    Schedule(ScheduleError),
+    #[error(transparent)]
+    Tool(ToolError),
+    #[error(transparent)]
+    Limits(LimitsError),
+    #[error(transparent)]
+    Format(GcodeFormatError),
+    #[error("clearance_mm must be a finite number from 0 to {MAX_CLEARANCE_MM} mm")]
+    Clearance,
+    #[error("feed_mm_per_min must be a positive finite number")]
+    ApproachFeed,
+}
+
+/// A checked program request.
+#[derive(Debug, Clone)]
+pub struct ProgramCommand {
+    process: Process,
+    surface: Surface,
+    schedule: DwellSchedule,
+    tool: Tool,
+    machine: MachineLimits,
+    clearance_mm: f64,
+    approach_feed_mm_per_min: Option<f64>,
+    format: GcodeFormat,
+    request_digest: String,
+}
+
+impl ProgramCommand {
+    pub fn new(spec: ProgramSpec, limits: &ComputeLimits) -> Result<Self, ProgramInputError> {
+        use ProgramInputError as E;
+        let process = Process::new(spec.process).map_err(E::Process)?;
+        let surface = Surface::new(&spec.surface).map_err(E::Surface)?;
+        limits
+            .check_positions(spec.positions_mm.len())
+            .map_err(E::Size)?;
+        let schedule =
+            DwellSchedule::new(&process, spec.positions_mm, spec.dwell_s).map_err(E::Schedule)?;
+        // Positions increase from ≥ 0: the last is the farthest from the axis.
+        if let Some(index) = schedule.positions_mm().len().checked_sub(1) {
+            let r = schedule.positions_mm()[index];
+            surface
+                .check_defined_to(r)
+                .map_err(|error| E::PositionOffSurface { index, error })?;
+        }
+        let tool = Tool::new(
+            spec.pivot_length_mm.unwrap_or(0.0),
+            spec.orientation.unwrap_or(Orientation::Normal),
+        )
+        .map_err(E::Tool)?;
+        spec.machine.check().map_err(E::Limits)?;
+        spec.format.check().map_err(E::Format)?;
+        let clearance_mm = spec.clearance_mm.unwrap_or(DEFAULT_CLEARANCE_MM);
+        if !(0.0..=MAX_CLEARANCE_MM).contains(&clearance_mm) {
+            return Err(E::Clearance);
+        }
+        if spec
+            .approach_feed_mm_per_min
+            .is_some_and(|f| !(f.is_finite() && f > 0.0))
+        {
+            return Err(E::ApproachFeed);
+        }
+        Ok(ProgramCommand {
+            process,
+            surface,
+            schedule,
+            tool,
+            machine: spec.machine,
+            clearance_mm,
+            approach_feed_mm_per_min: spec.approach_feed_mm_per_min,
+            format: spec.format,
+            request_digest: spec.request_digest,
+        })
+    }
+}
+
+/// Why a checked request gives no program.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProgramFailure {
+    #[error(transparent)]
+    Plan(ProgramError),
+    /// The program would break these limits (never emitted).
+    #[error("the program would exceed {} machine limit(s)", .0.len())]
+    Limits(Vec<Violation>),
+}
+
+/// A program within every stated limit, and its G-code.
+#[derive(Debug, Clone)]
+pub struct MachineProgram {
+    pub program: Program,
+    pub process: Process,
+    pub surface: Surface,
+    pub tool: Tool,
+    pub machine: MachineLimits,
+    pub approach: Approach,
+    pub gcode: String,
+}
+
+/// The approach feed: the one asked, or the default lowered so that neither X nor Z exceeds
+/// its velocity limit moving along the tool axis at either end of the plan.
+fn approach_feed(command: &ProgramCommand) -> f64 {
+    if let Some(feed) = command.approach_feed_mm_per_min {
+        return feed;
+    }
+    let positions = command.schedule.positions_mm();
+    let ends = [positions[0], positions[positions.len() - 1]];
+    let mut feed = DEFAULT_APPROACH_FEED_MM_PER_MIN;
+    for r in ends {
+        let (sin, cos) = command.tool.pose(&command.surface, r).b_deg.to_radians().sin_cos();
+        for (share, limit) in [(sin, &command.machine.x), (cos, &command.machine.z)] {
+            if let Some(v) = limit.max_velocity_per_min.filter(|_| share.abs() > 0.0) {
+                feed = feed.min(v / share.abs());
+            }
+        }
+    }
+    feed
+}
+
+pub fn program(command: ProgramCommand) -> Result<MachineProgram, ProgramFailure> {
+    let approach = Approach {
+        clearance_mm: command.clearance_mm,
+        feed_mm_per_min: approach_feed(&command),
+    };
+    let program = Program::new(
+        &command.surface,
+        &command.tool,
+        command.schedule.positions_mm(),
+        command.schedule.dwell_s(),
+        approach,
+    )
+    .map_err(ProgramFailure::Plan)?;
+    let spec = command.process.spec();
+    let violations = command
+        .machine
+        .violations(&program, (spec.workpiece_rpm, spec.tool_rpm));
+    if !violations.is_empty() {
+        return Err(ProgramFailure::Limits(violations));
+    }
+    let header = header(&command, &program);
+    let gcode = gcode::write(
+        &program,
+        &header,
+        spec.workpiece_rpm,
+        spec.tool_rpm,
+        &command.format,
+    );
+    Ok(MachineProgram {
+        program,
+        process: command.process,
+        surface: command.surface,
+        tool: command.tool,
+        machine: command.machine,
+        approach,
+        gcode,
+    })
+}
+
+/// The G-code's header comments: what was planned, for whom, from which request.
+fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
+    let spec = command.process.spec();
+    let eta = match command.process.eta().value() {
+        Some(eta) => format!("{eta}"),
+        None => "undefined (tool stationary)".to_string(),
+    };
+    let surface = match command.surface.radius_of_curvature_mm() {
+        None => "plane".to_string(),
+        Some(r) if command.surface.is_sphere() => format!("sphere R = {r} mm"),
+        Some(r) => format!("asphere R = {r} mm"),
+    };
+    let axes: Vec<String> = Drive::AXES
+        .iter()
+        .map(|&d| {
+            let m = program.motion(d);
+            format!(
+                "{} {:.4} to {:.4} {}",
+                d.name().to_uppercase(),
+                m.min,
+                m.max,
+                d.unit()
+            )
+        })
+        .collect();
+    vec![
+        "Preston machine program".to_string(),
+        format!(
+            "process: workpiece {} rpm, tool {} rpm (lab frame, CCW positive from the tool side), eta = {eta}",
+            spec.workpiece_rpm, spec.tool_rpm
+        ),
+        format!(
+            "workpiece radius {} mm, tool radius {} mm, surface {surface}",
+            spec.workpiece_radius_mm, spec.tool_radius_mm
+        ),
+        format!(
+            "plan: {} positions, total time {:.3} s; program with approach and retract {:.3} s",
+            command.schedule.positions_mm().len(),
+            program.polishing_time_s,
+            program.program_time_s
+        ),
+        format!("axes: {}", axes.join(", ")),
+        format!("request sha256 {}", command.request_digest),
+    ]
+}
