@@ -88,14 +88,19 @@ pub struct SpindleLimitDto {
 #[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MachineDto {
+    /// X, the radial axis (mm).
     #[serde(default, deserialize_with = "optional_object")]
     pub x: Option<LinearAxisDto>,
+    /// Z, the axial axis (mm, positive toward the tool).
     #[serde(default, deserialize_with = "optional_object")]
     pub z: Option<LinearAxisDto>,
+    /// B, the tool's tilt in the meridian plane (deg, B = θ the slope angle).
     #[serde(default, deserialize_with = "optional_object")]
     pub b: Option<RotaryAxisDto>,
+    /// The workpiece spindle's speed limit.
     #[serde(default, deserialize_with = "optional_object")]
     pub workpiece_spindle: Option<SpindleLimitDto>,
+    /// The tool spindle's speed limit.
     #[serde(default, deserialize_with = "optional_object")]
     pub tool_spindle: Option<SpindleLimitDto>,
 }
@@ -150,8 +155,10 @@ pub struct FormatDto {
     #[serde(default, deserialize_with = "optional_count")]
     #[schema(value_type = Option<u32>, minimum = 0, maximum = 7)]
     pub decimals: Option<usize>,
+    /// Words for the workpiece spindle (default spindle 0: `M3`, `M4`, `M5`); a positive workpiece speed is clockwise as its spindle sees it.
     #[serde(default, deserialize_with = "optional_object")]
     pub workpiece_spindle: Option<SpindleWordsDto>,
+    /// Words for the tool spindle (default spindle 1: `M3 $1`, `M4 $1`, `M5 $1`); a positive tool speed is counter-clockwise as its spindle sees it.
     #[serde(default, deserialize_with = "optional_object")]
     pub tool_spindle: Option<SpindleWordsDto>,
 }
@@ -159,6 +166,7 @@ pub struct FormatDto {
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ProgramRequest {
+    /// The polishing process (its speeds become the spindle commands).
     #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
     /// The surface; default a plane. Positions are radial coordinates of surface points.
@@ -196,14 +204,19 @@ pub enum BlockKindDto {
 /// One block of the program: the pose at its end and its duration.
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
 pub struct BlockDto {
+    /// What the block does.
     pub kind: BlockKindDto,
     /// Radial position of the pad centre at the block's end, mm.
     pub position_mm: f64,
     /// Arc length from the vertex to position_mm along the meridian, mm.
     pub arc_length_mm: f64,
+    /// X at the block's end, mm.
     pub x_mm: f64,
+    /// Z at the block's end, mm.
     pub z_mm: f64,
+    /// B at the block's end, deg.
     pub b_deg: f64,
+    /// How long the block takes, s (> 0).
     pub duration_s: f64,
     /// The X–Z path feed (the G94 F word), mm/min; null in a dwell.
     #[schema(required = true)]
@@ -219,8 +232,10 @@ pub struct UtilisationDto {
     /// Travel used over the range from the minimum to the maximum (both stated).
     #[schema(required = true)]
     pub travel: Option<f64>,
+    /// Peak |velocity| over its limit.
     #[schema(required = true)]
     pub velocity: Option<f64>,
+    /// Peak |acceleration| over its limit.
     #[schema(required = true)]
     pub acceleration: Option<f64>,
 }
@@ -228,22 +243,34 @@ pub struct UtilisationDto {
 /// How a linear axis moves over the program.
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
 pub struct LinearAxisReport {
+    /// Lowest position reached, mm (start included).
     pub min_mm: f64,
+    /// Highest position reached, mm.
     pub max_mm: f64,
+    /// max_mm − min_mm.
     pub travel_mm: f64,
+    /// Largest |velocity| of any block, mm/min.
     pub peak_velocity_mm_per_min: f64,
+    /// Largest |acceleration| between blocks (from and to rest at the ends), mm/s².
     pub peak_acceleration_mm_per_s2: f64,
+    /// Fraction of each stated limit used.
     pub utilisation: UtilisationDto,
 }
 
 /// How the tilt axis moves over the program.
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
 pub struct RotaryAxisReport {
+    /// Lowest angle reached, deg (start included).
     pub min_deg: f64,
+    /// Highest angle reached, deg.
     pub max_deg: f64,
+    /// max_deg − min_deg.
     pub travel_deg: f64,
+    /// Largest |angular velocity| of any block, deg/min.
     pub peak_velocity_deg_per_min: f64,
+    /// Largest |angular acceleration| between blocks, deg/s².
     pub peak_acceleration_deg_per_s2: f64,
+    /// Fraction of each stated limit used.
     pub utilisation: UtilisationDto,
 }
 
@@ -251,8 +278,11 @@ pub struct RotaryAxisReport {
 /// blocks over the time between their midpoints.
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
 pub struct AxesDto {
+    /// X, the radial axis.
     pub x: LinearAxisReport,
+    /// Z, the axial axis.
     pub z: LinearAxisReport,
+    /// B, the tilt axis.
     pub b: RotaryAxisReport,
 }
 
@@ -261,6 +291,7 @@ pub struct AxesDto {
 pub struct SpindlesDto {
     /// Signed, lab frame (CCW positive seen from the tool side).
     pub workpiece_rpm: f64,
+    /// Signed, lab frame.
     pub tool_rpm: f64,
     /// η = −workpiece_rpm/tool_rpm; null when the tool does not turn.
     #[schema(required = true)]
@@ -276,18 +307,37 @@ pub struct SkippedDto {
     pub trailing: usize,
 }
 
+/// Axis positions: X and Z in mm (design frame), B in degrees.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
+pub struct PoseDto {
+    /// X, mm.
+    pub x_mm: f64,
+    /// Z, mm.
+    pub z_mm: f64,
+    /// B, deg.
+    pub b_deg: f64,
+}
+
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
 pub struct ProgramResponse {
+    /// Where the program starts (the G0 before block 0): above the first position by the
+    /// approach clearance.
+    pub start: PoseDto,
+    /// The program's blocks in order: approach, dwell, moves, dwell, retract.
     pub blocks: Vec<BlockDto>,
     /// The dwell and move blocks' time: the plan's total time, s.
     pub total_time_s: f64,
     /// Every block's time, approach and retract included, s.
     pub program_time_s: f64,
+    /// Per-axis travel, peak velocity and acceleration, and utilisation of the limits.
     pub axes: AxesDto,
+    /// The spindle speeds programmed.
     pub spindles: SpindlesDto,
+    /// Zero-dwell positions left out at the ends of the plan.
     pub skipped_positions: SkippedDto,
-    /// The approach as programmed (feed after lowering for the axis limits).
+    /// The approach's clearance along the tool axis, mm.
     pub approach_clearance_mm: f64,
+    /// The approach and retract feed as programmed (after lowering for the axis limits), mm/min.
     pub approach_feed_mm_per_min: f64,
     /// Largest distance of the pad centre from the surface, along the normal, halfway through
     /// a move (linear interpolation of X, Z and B between poses), mm.
@@ -480,7 +530,13 @@ impl Endpoint for ProgramEndpoint {
         };
         let (b_utilisation, b) = axis_report(p.motion(Drive::B), &m.machine.b);
         let spec = m.process.spec();
+        let start = p.start();
         Ok(ProgramResponse {
+            start: PoseDto {
+                x_mm: start.x_mm,
+                z_mm: start.z_mm,
+                b_deg: start.b_deg,
+            },
             blocks,
             total_time_s: p.polishing_time_s,
             program_time_s: p.program_time_s,

@@ -68,6 +68,8 @@ fn endpoint_of(fixture: &str) -> &'static str {
         "/v1/studies/eta-sweep"
     } else if fixture.starts_with("measurement_fit") {
         "/v1/measurement/fit"
+    } else if fixture.starts_with("program") {
+        "/v1/program"
     } else {
         panic!("no endpoint for fixture {fixture}")
     }

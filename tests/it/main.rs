@@ -6,6 +6,7 @@ mod common;
 mod api;
 mod api_metrology;
 mod api_optimize;
+mod api_program;
 mod deploy;
 mod invariant;
 mod machine;
