@@ -410,9 +410,9 @@ impl From<&FormatDto> for GcodeFormat {
                 None => default.feed_mode,
             },
             // Out of range values are refused by the check (u32::MAX is > 7).
-            decimals: f.decimals.map_or(default.decimals, |d| {
-                u32::try_from(d).unwrap_or(u32::MAX)
-            }),
+            decimals: f
+                .decimals
+                .map_or(default.decimals, |d| u32::try_from(d).unwrap_or(u32::MAX)),
             workpiece_spindle: spindle_words(&f.workpiece_spindle, default.workpiece_spindle),
             tool_spindle: spindle_words(&f.tool_spindle, default.tool_spindle),
         }
@@ -471,7 +471,10 @@ impl Endpoint for ProgramEndpoint {
         let approach = req.approach.clone().unwrap_or_default();
         let spec = ProgramSpec {
             process: ProcessSpec::from(&req.process),
-            surface: req.surface.as_ref().map_or(SurfaceSpec::Plane, SurfaceSpec::from),
+            surface: req
+                .surface
+                .as_ref()
+                .map_or(SurfaceSpec::Plane, SurfaceSpec::from),
             positions_mm: req.dwell.positions_mm,
             dwell_s: req.dwell.dwell_s,
             pivot_length_mm: tool.pivot_length_mm,
@@ -479,10 +482,18 @@ impl Endpoint for ProgramEndpoint {
                 OrientationDto::Normal => Orientation::Normal,
                 OrientationDto::Vertical => Orientation::Vertical,
             }),
-            machine: req.machine.as_ref().map(MachineLimits::from).unwrap_or_default(),
+            machine: req
+                .machine
+                .as_ref()
+                .map(MachineLimits::from)
+                .unwrap_or_default(),
             clearance_mm: approach.clearance_mm,
             approach_feed_mm_per_min: approach.feed_mm_per_min,
-            format: req.format.as_ref().map(GcodeFormat::from).unwrap_or_default(),
+            format: req
+                .format
+                .as_ref()
+                .map(GcodeFormat::from)
+                .unwrap_or_default(),
             request_digest: digest,
         };
         Ok(ProgramCommand::new(spec, limits)?)

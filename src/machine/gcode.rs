@@ -105,7 +105,11 @@ impl GcodeFormat {
             ("workpiece_spindle", &self.workpiece_spindle),
             ("tool_spindle", &self.tool_spindle),
         ] {
-            for (word, text) in [("cw", &words.cw), ("ccw", &words.ccw), ("stop", &words.stop)] {
+            for (word, text) in [
+                ("cw", &words.cw),
+                ("ccw", &words.ccw),
+                ("stop", &words.stop),
+            ] {
                 let fine = (1..=32).contains(&text.len())
                     && text
                         .chars()
@@ -122,7 +126,11 @@ impl GcodeFormat {
 /// `value` with `decimals` decimals, never as `-0`.
 fn fixed(value: f64, decimals: usize) -> String {
     let text = format!("{value:.decimals$}");
-    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+    if text
+        .trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
         text.trim_start_matches('-').to_string()
     } else {
         text
@@ -139,7 +147,13 @@ fn significant(value: f64) -> String {
 fn comment(text: &str) -> String {
     let clean: String = text
         .chars()
-        .map(|c| if "()".contains(c) || c.is_control() { ' ' } else { c })
+        .map(|c| {
+            if "()".contains(c) || c.is_control() {
+                ' '
+            } else {
+                c
+            }
+        })
         .collect();
     format!("({clean})")
 }
@@ -168,11 +182,16 @@ pub fn write(
         out.push_str(&comment(line));
         out.push('\n');
     }
-    let axes = |x: f64, z: f64, b: f64| format!("X{} Z{} B{}", fixed(x, d), fixed(z, d), fixed(b, d));
+    let axes =
+        |x: f64, z: f64, b: f64| format!("X{} Z{} B{}", fixed(x, d), fixed(z, d), fixed(b, d));
     let start = program.start();
     out.push_str("G21 G90 G94\n");
     let _ = writeln!(out, "G0 {}", axes(start.x_mm, start.z_mm, start.b_deg));
-    let _ = writeln!(out, "{}", spindle_on(&format.workpiece_spindle, workpiece_rpm, true));
+    let _ = writeln!(
+        out,
+        "{}",
+        spindle_on(&format.workpiece_spindle, workpiece_rpm, true)
+    );
     let _ = writeln!(out, "{}", spindle_on(&format.tool_spindle, tool_rpm, false));
     let mut inverse_time = false;
     let mut before = start;
@@ -193,7 +212,11 @@ pub fn write(
                     60.0 / block.duration_s
                 } else {
                     let path = (p.x_mm - before.x_mm).hypot(p.z_mm - before.z_mm);
-                    let path = if path > 0.0 { path } else { (p.b_deg - before.b_deg).abs() };
+                    let path = if path > 0.0 {
+                        path
+                    } else {
+                        (p.b_deg - before.b_deg).abs()
+                    };
                     60.0 * path / block.duration_s
                 };
                 let _ = writeln!(
@@ -230,7 +253,10 @@ mod tests {
 
     #[test]
     fn spindle_directions_follow_the_lab_convention() {
-        let (w, t) = (SpindleWords::workpiece_default(), SpindleWords::tool_default());
+        let (w, t) = (
+            SpindleWords::workpiece_default(),
+            SpindleWords::tool_default(),
+        );
         // Paper experiment 1: workpiece −10 (clockwise from the tool side), tool +200.
         assert_eq!(spindle_on(&w, -10.0, true), "M4 S10.000");
         assert_eq!(spindle_on(&t, 200.0, false), "M4 $1 S200.000");

@@ -136,7 +136,11 @@ impl MachineLimits {
             (self.tool_max_rpm, Drive::ToolSpindle),
         ] {
             if value.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
-                return Err(error(drive, Limit::MaxRpm, "must be a positive finite number"));
+                return Err(error(
+                    drive,
+                    Limit::MaxRpm,
+                    "must be a positive finite number",
+                ));
             }
         }
         Ok(())
@@ -166,34 +170,38 @@ impl MachineLimits {
             let limits = self.axis(drive);
             let motion = program.motion(drive);
             let positions = program.axis_positions(drive);
-            let checks: [(Option<f64>, Limit, &dyn Fn(usize) -> f64, bool); 4] = [
-                (limits.min, Limit::Min, &|k| positions[k], false),
-                (limits.max, Limit::Max, &|k| positions[k], true),
+            let speed = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| x.abs()).collect() };
+            let checks = [
+                (limits.min, Limit::Min, positions.clone(), false),
+                (limits.max, Limit::Max, positions, true),
                 (
                     limits.max_velocity_per_min,
                     Limit::MaxVelocity,
-                    &|k| motion.velocity_per_min[k].abs(),
+                    speed(&motion.velocity_per_min),
                     true,
                 ),
                 (
                     limits.max_acceleration_per_s2,
                     Limit::MaxAcceleration,
-                    &|k| motion.acceleration_per_s2[k].abs(),
+                    speed(&motion.acceleration_per_s2),
                     true,
                 ),
             ];
-            for (limit_value, limit, value_at, upper) in checks {
+            for (limit_value, limit, values, upper) in checks {
                 let Some(limit_value) = limit_value else {
                     continue;
                 };
-                let count = match limit {
-                    Limit::Min | Limit::Max => positions.len(),
-                    Limit::MaxVelocity => motion.velocity_per_min.len(),
-                    _ => motion.acceleration_per_s2.len(),
+                let breaks = |v: f64| {
+                    if upper {
+                        v > limit_value
+                    } else {
+                        v < limit_value
+                    }
                 };
-                let breaks = |v: f64| if upper { v > limit_value } else { v < limit_value };
-                let bad: Vec<(usize, f64)> = (0..count)
-                    .map(|k| (k, value_at(k)))
+                let bad: Vec<(usize, f64)> = values
+                    .iter()
+                    .copied()
+                    .enumerate()
                     .filter(|&(_, v)| breaks(v))
                     .collect();
                 if let Some(&(first, _)) = bad.first() {
@@ -215,7 +223,11 @@ impl MachineLimits {
             }
         }
         for (max, rpm, drive) in [
-            (self.workpiece_max_rpm, spindle_rpm.0, Drive::WorkpieceSpindle),
+            (
+                self.workpiece_max_rpm,
+                spindle_rpm.0,
+                Drive::WorkpieceSpindle,
+            ),
             (self.tool_max_rpm, spindle_rpm.1, Drive::ToolSpindle),
         ] {
             if let Some(max) = max.filter(|&m| rpm.abs() > m) {

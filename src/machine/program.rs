@@ -64,8 +64,20 @@ impl AxisMotion {
             .collect();
         // At rest (a zero-length block) before the first block and after the last.
         let n = velocity_per_min.len();
-        let velocity = |k: usize| if k == 0 || k > n { 0.0 } else { velocity_per_min[k - 1] };
-        let duration = |k: usize| if k == 0 || k > n { 0.0 } else { durations_s[k - 1] };
+        let velocity = |k: usize| {
+            if k == 0 || k > n {
+                0.0
+            } else {
+                velocity_per_min[k - 1]
+            }
+        };
+        let duration = |k: usize| {
+            if k == 0 || k > n {
+                0.0
+            } else {
+                durations_s[k - 1]
+            }
+        };
         let acceleration_per_s2: Vec<f64> = (0..=n)
             .map(|k| {
                 let dv = (velocity(k + 1) - velocity(k)) / 60.0;
@@ -137,7 +149,10 @@ impl Program {
         dwell_s: &[f64],
         approach: Approach,
     ) -> Result<Program, ProgramError> {
-        let first = dwell_s.iter().position(|&t| t > 0.0).ok_or(ProgramError::NoDwell)?;
+        let first = dwell_s
+            .iter()
+            .position(|&t| t > 0.0)
+            .ok_or(ProgramError::NoDwell)?;
         let last = dwell_s.iter().rposition(|&t| t > 0.0).unwrap_or(first);
         if let Some(index) = (first..=last).find(|&j| dwell_s[j] == 0.0) {
             return Err(ProgramError::ZeroInteriorDwell { index });
@@ -309,7 +324,10 @@ mod tests {
         assert_eq!(durations, [1.0, 1.0, 4.0, 3.0, 3.0]);
         assert_eq!(p.polishing_time_s, 12.0);
         // X: 0.5 mm in 1 s, 1 mm in 4 s, 0.5 mm in 3 s → 30, 15, 10 mm/min.
-        assert_eq!(p.motion(Drive::X).velocity_per_min, [0.0, 30.0, 15.0, 10.0, 0.0]);
+        assert_eq!(
+            p.motion(Drive::X).velocity_per_min,
+            [0.0, 30.0, 15.0, 10.0, 0.0]
+        );
         // From the dwell into the first move: 0.5 mm/s over (1 + 1)/2 s.
         assert_eq!(p.motion(Drive::X).acceleration_per_s2[1], 0.5);
     }

@@ -3,8 +3,8 @@
 
 use super::limits::{ComputeLimits, LimitError};
 use crate::machine::{
-    gcode, Approach, Drive, GcodeFormat, GcodeFormatError, LimitsError, MachineLimits,
-    Orientation, Program, ProgramError, Tool, ToolError, Violation,
+    gcode, Approach, Drive, GcodeFormat, GcodeFormatError, LimitsError, MachineLimits, Orientation,
+    Program, ProgramError, Tool, ToolError, Violation,
 };
 use crate::physics::{DwellSchedule, Process, ProcessError, ProcessSpec, ScheduleError};
 use crate::surface::{Surface, SurfaceError, SurfaceSpec};
@@ -157,7 +157,12 @@ fn approach_feed(command: &ProgramCommand) -> f64 {
     let ends = [positions[0], positions[positions.len() - 1]];
     let mut feed = DEFAULT_APPROACH_FEED_MM_PER_MIN;
     for r in ends {
-        let (sin, cos) = command.tool.pose(&command.surface, r).b_deg.to_radians().sin_cos();
+        let (sin, cos) = command
+            .tool
+            .pose(&command.surface, r)
+            .b_deg
+            .to_radians()
+            .sin_cos();
         for (share, limit) in [(sin, &command.machine.x), (cos, &command.machine.z)] {
             if let Some(v) = limit.max_velocity_per_min.filter(|_| share.abs() > 0.0) {
                 feed = feed.min(v / share.abs());

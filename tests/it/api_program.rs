@@ -30,7 +30,11 @@ async fn axis_motion_recomputed_from_the_blocks_agrees_with_the_report() {
     assert_eq!(status, 200, "{body}");
     let blocks = body["blocks"].as_array().unwrap();
     let durations: Vec<f64> = blocks.iter().map(|b| number(&b["duration_s"])).collect();
-    for (axis, key, unit) in [("x", "x_mm", "mm"), ("z", "z_mm", "mm"), ("b", "b_deg", "deg")] {
+    for (axis, key, unit) in [
+        ("x", "x_mm", "mm"),
+        ("z", "z_mm", "mm"),
+        ("b", "b_deg", "deg"),
+    ] {
         let mut positions = vec![number(&body["start"][key])];
         positions.extend(blocks.iter().map(|b| number(&b[key])));
         let velocity: Vec<f64> = (0..blocks.len())
@@ -38,7 +42,11 @@ async fn axis_motion_recomputed_from_the_blocks_agrees_with_the_report() {
             .collect();
         let mut peak_acceleration = 0.0_f64;
         for k in 0..=blocks.len() {
-            let (v0, d0) = if k == 0 { (0.0, 0.0) } else { (velocity[k - 1], durations[k - 1]) };
+            let (v0, d0) = if k == 0 {
+                (0.0, 0.0)
+            } else {
+                (velocity[k - 1], durations[k - 1])
+            };
             let (v1, d1) = velocity.get(k).map_or((0.0, 0.0), |&v| (v, durations[k]));
             peak_acceleration = peak_acceleration.max(((v1 - v0) / 60.0 / (0.5 * (d0 + d1))).abs());
         }
@@ -47,10 +55,19 @@ async fn axis_motion_recomputed_from_the_blocks_agrees_with_the_report() {
         let reported_v = number(&report[format!("peak_velocity_{unit}_per_min")]);
         let reported_a = number(&report[format!("peak_acceleration_{unit}_per_s2")]);
         // Same formulas in a different order of operations: agreement to rounding.
-        assert!((reported_v - peak_velocity).abs() <= 1e-9 * peak_velocity.max(1.0), "{axis}");
-        assert!((reported_a - peak_acceleration).abs() <= 1e-9 * peak_acceleration.max(1.0), "{axis}");
+        assert!(
+            (reported_v - peak_velocity).abs() <= 1e-9 * peak_velocity.max(1.0),
+            "{axis}"
+        );
+        assert!(
+            (reported_a - peak_acceleration).abs() <= 1e-9 * peak_acceleration.max(1.0),
+            "{axis}"
+        );
         let lo = positions.iter().copied().fold(f64::INFINITY, f64::min);
-        assert!((number(&report[format!("min_{unit}")]) - lo).abs() < 1e-12, "{axis}");
+        assert!(
+            (number(&report[format!("min_{unit}")]) - lo).abs() < 1e-12,
+            "{axis}"
+        );
     }
     let polishing: f64 = blocks
         .iter()
@@ -124,7 +141,10 @@ async fn gcode_and_csv_answers() {
         &app,
         "/v1/program",
         FIXTURE,
-        &[("content-type", "application/json"), ("accept", "text/x-gcode")],
+        &[
+            ("content-type", "application/json"),
+            ("accept", "text/x-gcode"),
+        ],
     )
     .await;
     assert_eq!(gcode.status, 200);
@@ -149,12 +169,27 @@ async fn gcode_and_csv_answers() {
 #[tokio::test]
 async fn bad_input_is_named() {
     let cases = [
-        (json!({"dwell": {"positions_mm": [0, 1, 2], "dwell_s": [1, 0, 1]}}), "dwell.dwell_s[1]"),
-        (json!({"format": {"tool_spindle": {"cw": "M3 (x"}}}), "format.tool_spindle.cw"),
+        (
+            json!({"dwell": {"positions_mm": [0, 1, 2], "dwell_s": [1, 0, 1]}}),
+            "dwell.dwell_s[1]",
+        ),
+        (
+            json!({"format": {"tool_spindle": {"cw": "M3 (x"}}}),
+            "format.tool_spindle.cw",
+        ),
         (json!({"format": {"decimals": 9}}), "format.decimals"),
-        (json!({"machine": {"z": {"min_mm": 5, "max_mm": 5}}}), "machine.z.max_mm"),
-        (json!({"tool": {"pivot_length_mm": -1}}), "tool.pivot_length_mm"),
-        (json!({"surface": {"kind": "sphere", "radius_of_curvature_mm": 30}}), "dwell.positions_mm[40]"),
+        (
+            json!({"machine": {"z": {"min_mm": 5, "max_mm": 5}}}),
+            "machine.z.max_mm",
+        ),
+        (
+            json!({"tool": {"pivot_length_mm": -1}}),
+            "tool.pivot_length_mm",
+        ),
+        (
+            json!({"surface": {"kind": "sphere", "radius_of_curvature_mm": 30}}),
+            "dwell.positions_mm[40]",
+        ),
     ];
     for (patch, field) in cases {
         let mut request = fixture();

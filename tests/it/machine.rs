@@ -33,9 +33,21 @@ fn poses_on_spheres_match_the_closed_form() {
             let z = radius - radius.signum() * (radius * radius - r * r).sqrt();
             let (x, z, b) = (r - pivot * sin, z + pivot * cos, sin.asin().to_degrees());
             // 1e-9 mm and deg: the largest term is L ≈ 75 mm, so this is ~1e-11 relative.
-            assert!((pose.x_mm - x).abs() < 1e-9, "R {radius}, r {r}: X {} vs {x}", pose.x_mm);
-            assert!((pose.z_mm - z).abs() < 1e-9, "R {radius}, r {r}: Z {} vs {z}", pose.z_mm);
-            assert!((pose.b_deg - b).abs() < 1e-9, "R {radius}, r {r}: B {} vs {b}", pose.b_deg);
+            assert!(
+                (pose.x_mm - x).abs() < 1e-9,
+                "R {radius}, r {r}: X {} vs {x}",
+                pose.x_mm
+            );
+            assert!(
+                (pose.z_mm - z).abs() < 1e-9,
+                "R {radius}, r {r}: Z {} vs {z}",
+                pose.z_mm
+            );
+            assert!(
+                (pose.b_deg - b).abs() < 1e-9,
+                "R {radius}, r {r}: B {} vs {b}",
+                pose.b_deg
+            );
         }
     }
 }
@@ -71,8 +83,14 @@ fn poses_on_an_asphere_match_an_independent_sag() {
         let slope = c * r / root + 4.0 * a4 * r.powi(3) + 6.0 * a6 * r.powi(5);
         let theta = slope.atan();
         let pose = tool.pose(&surface, r);
-        assert!((pose.x_mm - (r - pivot * theta.sin())).abs() < 1e-9, "r {r}");
-        assert!((pose.z_mm - (z + pivot * theta.cos())).abs() < 1e-9, "r {r}");
+        assert!(
+            (pose.x_mm - (r - pivot * theta.sin())).abs() < 1e-9,
+            "r {r}"
+        );
+        assert!(
+            (pose.z_mm - (z + pivot * theta.cos())).abs() < 1e-9,
+            "r {r}"
+        );
         assert!((pose.b_deg - theta.to_degrees()).abs() < 1e-9, "r {r}");
         // Vertical: X = r, Z = z + L, B = 0.
         let pose = vertical.pose(&surface, r);
@@ -145,8 +163,11 @@ fn gcode_reads_back_through_an_independent_parser() {
     // (f32 spacing there ≤ 7.6e-6), so the bound is half the last written digit plus that.
     let bound = 0.5e-4 + 1e-5;
     for (code, block) in moves.iter().zip(&expected) {
-        for (letter, value) in [('X', block.end.x_mm), ('Z', block.end.z_mm), ('B', block.end.b_deg)]
-        {
+        for (letter, value) in [
+            ('X', block.end.x_mm),
+            ('Z', block.end.z_mm),
+            ('B', block.end.b_deg),
+        ] {
             let read = f64::from(code.value_for(letter).unwrap());
             assert!((read - value).abs() < bound, "{letter}: {read} vs {value}");
         }
