@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::error::ApiError;
-use super::extract::optional_count;
+use super::extract::{count, optional_count};
 use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
 use crate::study::{EqualDwell, Recommendation, SpeedRule};
 use crate::surface::{PolynomialTerm, SurfaceSpec};
@@ -419,8 +419,9 @@ pub enum SurfaceDto {
 #[serde(deny_unknown_fields)]
 pub struct CoefficientDto {
     /// The power i, 1 to 40.
-    #[schema(minimum = 1, maximum = 40)]
-    pub power: u32,
+    #[serde(deserialize_with = "count")]
+    #[schema(value_type = u32, minimum = 1, maximum = 40)]
+    pub power: usize,
     /// aᵢ in mm^(1−i).
     pub value: f64,
 }
@@ -444,7 +445,8 @@ impl From<&SurfaceDto> for SurfaceSpec {
                 coefficients: coefficients
                     .iter()
                     .map(|c| PolynomialTerm {
-                        power: c.power,
+                        // Beyond u32 is beyond 1–40: refused by the surface check.
+                        power: u32::try_from(c.power).unwrap_or(u32::MAX),
                         value: c.value,
                     })
                     .collect(),

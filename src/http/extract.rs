@@ -133,6 +133,12 @@ pub fn optional_count<'de, D: Deserializer<'de>>(d: D) -> Result<Option<usize>, 
     }
 }
 
+/// `deserialize_with` for a required count: like [`optional_count`], present.
+pub fn count<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    use serde::de::Error;
+    optional_count(d)?.ok_or_else(|| D::Error::custom("expected a whole number ≥ 0, not null"))
+}
+
 /// serde_json appends " at line L column C"; the problem carries the path instead.
 fn strip_position(message: &str) -> String {
     match message.rfind(" at line ") {

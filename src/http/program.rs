@@ -113,9 +113,9 @@ pub struct ApproachDto {
     /// approach or retract). Default 5.
     #[schema(minimum = 0.0, maximum = 1000.0)]
     pub clearance_mm: Option<f64>,
-    /// Feed of the approach and retract, mm/min (> 0). Default 100, lowered so that no axis
-    /// velocity limit is exceeded.
-    #[schema(exclusive_minimum = 0.0)]
+    /// Feed of the approach and retract, mm/min (0.001 to 1000000). Default 100, lowered so
+    /// that no axis velocity limit is exceeded (not below 0.001).
+    #[schema(minimum = 0.001, maximum = 1000000.0)]
     pub feed_mm_per_min: Option<f64>,
 }
 

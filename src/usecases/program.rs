@@ -15,6 +15,8 @@ pub const DEFAULT_CLEARANCE_MM: f64 = 5.0;
 pub const DEFAULT_APPROACH_FEED_MM_PER_MIN: f64 = 100.0;
 /// Largest clearance accepted, mm.
 pub const MAX_CLEARANCE_MM: f64 = 1000.0;
+/// Approach feeds accepted, mm/min (keeps the approach's duration finite and meaningful).
+pub const APPROACH_FEED_RANGE_MM_PER_MIN: std::ops::RangeInclusive<f64> = 0.001..=1e6;
 
 /// A program as asked.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,7 +61,7 @@ pub enum ProgramInputError {
     Format(GcodeFormatError),
     #[error("clearance_mm must be a finite number from 0 to {MAX_CLEARANCE_MM} mm")]
     Clearance,
-    #[error("feed_mm_per_min must be a positive finite number")]
+    #[error("feed_mm_per_min must be from 0.001 to 1000000 mm/min")]
     ApproachFeed,
 }
 
@@ -107,7 +109,7 @@ impl ProgramCommand {
         }
         if spec
             .approach_feed_mm_per_min
-            .is_some_and(|f| !(f.is_finite() && f > 0.0))
+            .is_some_and(|f| !APPROACH_FEED_RANGE_MM_PER_MIN.contains(&f))
         {
             return Err(E::ApproachFeed);
         }
@@ -169,7 +171,8 @@ fn approach_feed(command: &ProgramCommand) -> f64 {
             }
         }
     }
-    feed
+    // A limit tighter than the slowest approach is then reported as a violation.
+    feed.max(*APPROACH_FEED_RANGE_MM_PER_MIN.start())
 }
 
 pub fn program(command: ProgramCommand) -> Result<MachineProgram, ProgramFailure> {
