@@ -218,7 +218,8 @@ pub struct BlockDto {
     pub b_deg: f64,
     /// How long the block takes, s (> 0).
     pub duration_s: f64,
-    /// The X–Z path feed (the G94 F word), mm/min; null in a dwell.
+    /// The X–Z path feed (the G94 F word), mm/min (deg/min for a move of B alone); null in a
+    /// dwell.
     #[schema(required = true)]
     pub feed_mm_per_min: Option<f64>,
     /// 1/duration, 1/min (the G93 F word); null in a dwell.
@@ -502,14 +503,12 @@ impl Endpoint for ProgramEndpoint {
     fn run(command: ProgramCommand, _: &Services) -> Result<ProgramResponse, ApiError> {
         let m = program(command)?;
         let p = &m.program;
-        let mut before = p.start();
         let blocks = p
             .blocks()
             .iter()
-            .map(|b| {
-                let moving = b.kind != BlockKind::Dwell;
-                let path = (b.end.x_mm - before.x_mm).hypot(b.end.z_mm - before.z_mm);
-                before = b.end;
+            .enumerate()
+            .map(|(index, b)| {
+                let feed = p.path_feed_per_min(index);
                 BlockDto {
                     kind: match b.kind {
                         BlockKind::Approach => BlockKindDto::Approach,
@@ -523,8 +522,8 @@ impl Endpoint for ProgramEndpoint {
                     z_mm: b.end.z_mm,
                     b_deg: b.end.b_deg,
                     duration_s: b.duration_s,
-                    feed_mm_per_min: moving.then(|| 60.0 * path / b.duration_s),
-                    inverse_time_per_min: moving.then(|| 60.0 / b.duration_s),
+                    feed_mm_per_min: feed,
+                    inverse_time_per_min: feed.map(|_| 60.0 / b.duration_s),
                 }
             })
             .collect();

@@ -194,8 +194,7 @@ pub fn write(
     );
     let _ = writeln!(out, "{}", spindle_on(&format.tool_spindle, tool_rpm, false));
     let mut inverse_time = false;
-    let mut before = start;
-    for block in program.blocks() {
+    for (index, block) in program.blocks().iter().enumerate() {
         let p = block.end;
         let polishing = matches!(block.kind, BlockKind::Dwell | BlockKind::Move);
         let want_inverse = polishing && format.feed_mode == FeedMode::InverseTime;
@@ -203,21 +202,15 @@ pub fn write(
             out.push_str(if want_inverse { "G93\n" } else { "G94\n" });
             inverse_time = want_inverse;
         }
-        match block.kind {
-            BlockKind::Dwell => {
+        match program.path_feed_per_min(index) {
+            None => {
                 let _ = writeln!(out, "G4 P{}", fixed(block.duration_s, TIME_DECIMALS));
             }
-            _ => {
+            Some(path_feed) => {
                 let feed = if inverse_time {
                     60.0 / block.duration_s
                 } else {
-                    let path = (p.x_mm - before.x_mm).hypot(p.z_mm - before.z_mm);
-                    let path = if path > 0.0 {
-                        path
-                    } else {
-                        (p.b_deg - before.b_deg).abs()
-                    };
-                    60.0 * path / block.duration_s
+                    path_feed
                 };
                 let _ = writeln!(
                     out,
@@ -227,7 +220,6 @@ pub fn write(
                 );
             }
         }
-        before = p;
     }
     if inverse_time {
         out.push_str("G94\n");

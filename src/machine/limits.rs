@@ -169,25 +169,26 @@ impl MachineLimits {
         for drive in Drive::AXES {
             let limits = self.axis(drive);
             let motion = program.motion(drive);
-            let positions = program.axis_positions(drive);
-            let speed = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| x.abs()).collect() };
+            // (limit, values, compared as magnitudes, an upper bound)
             let checks = [
-                (limits.min, Limit::Min, positions.clone(), false),
-                (limits.max, Limit::Max, positions, true),
+                (limits.min, Limit::Min, &motion.positions, false, false),
+                (limits.max, Limit::Max, &motion.positions, false, true),
                 (
                     limits.max_velocity_per_min,
                     Limit::MaxVelocity,
-                    speed(&motion.velocity_per_min),
+                    &motion.velocity_per_min,
+                    true,
                     true,
                 ),
                 (
                     limits.max_acceleration_per_s2,
                     Limit::MaxAcceleration,
-                    speed(&motion.acceleration_per_s2),
+                    &motion.acceleration_per_s2,
+                    true,
                     true,
                 ),
             ];
-            for (limit_value, limit, values, upper) in checks {
+            for (limit_value, limit, values, magnitude, upper) in checks {
                 let Some(limit_value) = limit_value else {
                     continue;
                 };
@@ -200,7 +201,7 @@ impl MachineLimits {
                 };
                 let bad: Vec<(usize, f64)> = values
                     .iter()
-                    .copied()
+                    .map(|&v| if magnitude { v.abs() } else { v })
                     .enumerate()
                     .filter(|&(_, v)| breaks(v))
                     .collect();

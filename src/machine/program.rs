@@ -43,6 +43,8 @@ pub struct Block {
 /// One axis's motion over the program.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisMotion {
+    /// The axis at the program's start and at the end of each block, in the axis unit.
+    pub positions: Vec<f64>,
     /// Lowest and highest position reached (including the start), in the axis unit.
     pub min: f64,
     pub max: f64,
@@ -56,7 +58,7 @@ pub struct AxisMotion {
 
 impl AxisMotion {
     /// `positions`: the axis at the program's start and at the end of each block.
-    fn of(positions: &[f64], durations_s: &[f64]) -> AxisMotion {
+    fn of(positions: Vec<f64>, durations_s: &[f64]) -> AxisMotion {
         let velocity_per_min: Vec<f64> = positions
             .windows(2)
             .zip(durations_s)
@@ -92,6 +94,7 @@ impl AxisMotion {
             peak_acceleration_per_s2: peak(&acceleration_per_s2),
             velocity_per_min,
             acceleration_per_s2,
+            positions,
         }
     }
 
@@ -207,7 +210,7 @@ impl Program {
             let positions: Vec<f64> = std::iter::once(start.axes()[axis])
                 .chain(blocks.iter().map(|b| b.end.axes()[axis]))
                 .collect();
-            AxisMotion::of(&positions, &durations)
+            AxisMotion::of(positions, &durations)
         });
         let max_path_deviation_mm = path_deviation(surface, tool, start, &blocks);
         Ok(Program {
@@ -234,16 +237,30 @@ impl Program {
         &self.motion[axis_index(drive)]
     }
 
-    /// The axis at the start and at the end of each block.
-    pub fn axis_positions(&self, drive: Drive) -> Vec<f64> {
-        let axis = axis_index(drive);
-        std::iter::once(self.start.axes()[axis])
-            .chain(self.blocks.iter().map(|b| b.end.axes()[axis]))
-            .collect()
+    /// The block an entry of an [`AxisMotion`]'s lists belongs to (`positions` for travel
+    /// limits).
+    /// A move's feed as G94 states it: the X–Z path length over the duration, mm/min, or
+    /// B's angle per minute for a move of B alone; `None` for a dwell.
+    pub fn path_feed_per_min(&self, index: usize) -> Option<f64> {
+        let block = &self.blocks[index];
+        if block.kind == BlockKind::Dwell {
+            return None;
+        }
+        let before = if index == 0 {
+            self.start
+        } else {
+            self.blocks[index - 1].end
+        };
+        let after = block.end;
+        let path = (after.x_mm - before.x_mm).hypot(after.z_mm - before.z_mm);
+        let path = if path > 0.0 {
+            path
+        } else {
+            (after.b_deg - before.b_deg).abs()
+        };
+        Some(60.0 * path / block.duration_s)
     }
 
-    /// The block an entry of [`Program::axis_positions`] (travel limits) or of
-    /// [`AxisMotion`]'s lists belongs to.
     pub fn block_of(&self, limit: Limit, index: usize) -> usize {
         let last = self.blocks.len() - 1;
         match limit {
