@@ -70,6 +70,7 @@ fn run(bencher: divan::Bencher, n: usize, formulation: Formulation) {
             objective: Objective::default(),
             time_limit_s: 60.0,
             formulation,
+            axes: &[],
         };
         optimize(&problem).unwrap()
     });

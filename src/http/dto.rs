@@ -340,7 +340,7 @@ pub struct WarningDto {
 #[serde(rename_all = "snake_case")]
 pub enum WarningCode {
     /// The optimized plan sits on the limit named in `field` (a total-time budget, a dwell
-    /// bound, the feed or dwell-change limit): that limit, not the target, decided the plan
+    /// bound, the feed or dwell-change limit, a machine axis's velocity or acceleration): that limit, not the target, decided the plan
     /// there; relaxing it would fit the target better.
     ConstraintActive,
     /// The optimized plan's residual RMS over the clear aperture is more than 10 % of the
@@ -349,6 +349,12 @@ pub enum WarningCode {
     /// Every tool position is below 1 mm on a workpiece of 10 mm radius or more: positions are
     /// in millimetres, and these look like metres.
     PositionsLookLikeMetres,
+    /// The surface is curved, but removal was computed with the flat model; the surface
+    /// shaped only the machine's poses and limits.
+    FlatRemovalModel,
+    /// The plan has zero dwell between positions with dwell at the position in `field`: no
+    /// machine program can run it (set `constraints.min_dwell_s` > 0).
+    NotProgrammable,
 }
 
 impl WarningDto {
@@ -374,6 +380,25 @@ impl WarningDto {
                 message: format!(
                     "the residual RMS over the clear aperture is {residual_rms_nm:.4} nm, {:.1} % of the target's RMS ({target_rms_nm:.4} nm)",
                     100.0 * residual_rms_nm / target_rms_nm
+                ),
+            },
+            Warning::MachineLimitActive { field } => WarningDto {
+                code: WarningCode::ConstraintActive,
+                field: Some(field.to_string()),
+                message: format!(
+                    "the plan sits on {field}: the machine, not the target, decided it there"
+                ),
+            },
+            Warning::FlatRemovalModel => WarningDto {
+                code: WarningCode::FlatRemovalModel,
+                field: Some("surface".to_string()),
+                message: "the surface is curved but removal is computed with the flat model (radius in place of arc length); the surface shapes the machine's poses and limits only".to_string(),
+            },
+            Warning::NotProgrammable { index } => WarningDto {
+                code: WarningCode::NotProgrammable,
+                field: Some(format!("{positions}[{index}]")),
+                message: format!(
+                    "the plan has zero dwell at {positions}[{index}] between positions with dwell, so no program can cross its cell (no limited axis moves there): give constraints.min_dwell_s > 0 or a velocity limit on X"
                 ),
             },
             Warning::PositionsLookLikeMetres {

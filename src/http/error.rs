@@ -463,7 +463,18 @@ impl From<OptimizeError> for ApiError {
                 fields: if fields.is_empty() {
                     vec!["constraints".to_string()]
                 } else {
-                    fields.iter().map(|f| format!("constraints.{f}")).collect()
+                    // Constraints are named within `constraints`; machine limits come
+                    // with their whole path (`machine.x.…`).
+                    fields
+                        .iter()
+                        .map(|f| {
+                            if f.contains('.') {
+                                f.to_string()
+                            } else {
+                                format!("constraints.{f}")
+                            }
+                        })
+                        .collect()
                 },
                 detail,
             },

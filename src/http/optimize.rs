@@ -9,17 +9,20 @@ use utoipa::ToSchema;
 
 use super::dto::{
     setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
-    RecommendationDto, WarningDto,
+    RecommendationDto, SurfaceDto, WarningDto,
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::{object, optional_object, ApiJson};
 use super::plot::{Chart, Series};
+use super::program::{machine_limits_error, machine_setup, MachineDto, ToolDto};
 use super::state::{AppState, Services};
 use super::{csv, plot};
 use crate::optimize::problem::{DEFAULT_SMOOTHING, DEFAULT_TIME_WEIGHT};
 use crate::optimize::{Constraints, MeasuredProfile, Objective, OptimizeError, SolveStatus};
-use crate::usecases::optimize::{optimize, OptimizeCommand, OptimizedPlan, Target};
+use crate::usecases::optimize::{
+    optimize, MachineFitError, OptimizeCommand, OptimizedPlan, Target,
+};
 use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -53,6 +56,20 @@ pub struct OptimizeRequest {
     /// Solver settings.
     #[serde(default, deserialize_with = "optional_object")]
     pub solver: Option<SolverOptionsDto>,
+    /// The machine the plan must run on: with it, every axis velocity and acceleration limit
+    /// becomes a constraint on the dwell, so that `/v1/program` with the same surface, tool
+    /// and machine accepts the plan. Positions that put an axis outside its travel, or speeds
+    /// over a spindle's limit, are refused (422 `machine-limits`). Default: no machine.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub machine: Option<MachineDto>,
+    /// The surface, for the machine's poses; default a plane. Removal is still computed with
+    /// the flat model (a warning says so on a curved surface).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub surface: Option<SurfaceDto>,
+    /// The tool as the machine carries it, for the machine's poses; default: pivot at the pad
+    /// face, B following the normal.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub tool: Option<ToolDto>,
 }
 
 /// The target: exactly one of `uniform_depth_nm` and `profile`.
@@ -316,6 +333,18 @@ impl Endpoint for OptimizeEndpoint {
             req.solver.and_then(|s| s.time_limit_s),
             limits,
         )?;
+        let command = match req.machine {
+            None => command,
+            Some(machine) => {
+                let machine = machine_setup(req.surface.as_ref(), req.tool.as_ref(), &machine)?;
+                command.with_machine(machine).map_err(|e| match e {
+                    MachineFitError::PositionOffSurface { index, .. } => {
+                        ApiError::invalid(format!("positions_mm[{index}]"), e.to_string())
+                    }
+                    MachineFitError::Limits(found) => machine_limits_error(&found, "positions"),
+                })?
+            }
+        };
         Ok((command, limits.solver_time_limit.as_secs_f64()))
     }
 

@@ -15,10 +15,11 @@ use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::{AppState, Services};
 use crate::machine::{
     AxisLimits, AxisMotion, BlockKind, Drive, FeedMode, GcodeFormat, GcodeFormatError, Limit,
-    MachineLimits, Orientation, SpindleWords,
+    MachineLimits, Orientation, SpindleWords, Tool, Violation,
 };
 use crate::physics::ProcessSpec;
-use crate::surface::SurfaceSpec;
+use crate::surface::{Surface, SurfaceSpec};
+use crate::usecases::optimize::Machine;
 use crate::usecases::program::{
     program, ProgramCommand, ProgramFailure, ProgramInputError, ProgramSpec,
 };
@@ -114,7 +115,7 @@ pub struct ApproachDto {
     #[schema(minimum = 0.0, maximum = 1000.0)]
     pub clearance_mm: Option<f64>,
     /// Feed of the approach and retract, mm/min (0.001 to 1000000). Default 100, lowered so
-    /// that no axis velocity limit is exceeded (not below 0.001).
+    /// that no axis velocity or acceleration limit is exceeded (not below 0.001).
     #[schema(minimum = 0.001, maximum = 1000000.0)]
     pub feed_mm_per_min: Option<f64>,
 }
@@ -479,10 +480,7 @@ impl Endpoint for ProgramEndpoint {
             positions_mm: req.dwell.positions_mm,
             dwell_s: req.dwell.dwell_s,
             pivot_length_mm: tool.pivot_length_mm,
-            orientation: tool.orientation.map(|o| match o {
-                OrientationDto::Normal => Orientation::Normal,
-                OrientationDto::Vertical => Orientation::Vertical,
-            }),
+            orientation: tool.orientation.map(Orientation::from),
             machine: req
                 .machine
                 .as_ref()
@@ -579,6 +577,75 @@ impl Endpoint for ProgramEndpoint {
     }
 }
 
+/// The 422 `machine-limits` problem listing every violation; `what` reaches the values
+/// (`program`, or the optimization's `positions`).
+pub fn machine_limits_error(found: &[Violation], what: &str) -> ApiError {
+    let violations: Vec<LimitViolation> = found
+        .iter()
+        .map(|v| LimitViolation {
+            field: limit_field(v.drive, v.limit),
+            axis: v.drive.name().to_string(),
+            limit: v.limit.name(v.drive).to_string(),
+            limit_value: v.limit_value,
+            value: v.value,
+            first_block: v.first_block,
+            blocks: v.blocks,
+        })
+        .collect();
+    let detail = violations
+        .iter()
+        .map(|v| {
+            let at = v
+                .first_block
+                .map_or(String::new(), |b| format!(" from block {b}"));
+            format!(
+                "{} = {} but the {what} reach {}{at} ({} block(s))",
+                v.field, v.limit_value, v.value, v.blocks
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    ApiError::MachineLimits {
+        detail: format!("no program within the machine's limits: {detail}"),
+        violations,
+    }
+}
+
+/// The surface, tool and limits of a machine as given (for `/v1/optimize`), each checked and
+/// any error naming its field.
+pub fn machine_setup(
+    surface: Option<&SurfaceDto>,
+    tool: Option<&ToolDto>,
+    machine: &MachineDto,
+) -> Result<Machine, ApiError> {
+    let surface = Surface::new(&surface.map_or(SurfaceSpec::Plane, SurfaceSpec::from))
+        .map_err(ProgramInputError::Surface)?;
+    let tool_dto = tool.cloned().unwrap_or_default();
+    let tool = Tool::new(
+        tool_dto.pivot_length_mm.unwrap_or(0.0),
+        tool_dto
+            .orientation
+            .map_or(Orientation::Normal, Orientation::from),
+    )
+    .map_err(ProgramInputError::Tool)?;
+    let limits = MachineLimits::from(machine);
+    limits.check().map_err(ProgramInputError::Limits)?;
+    Ok(Machine {
+        surface,
+        tool,
+        limits,
+    })
+}
+
+impl From<OrientationDto> for Orientation {
+    fn from(o: OrientationDto) -> Self {
+        match o {
+            OrientationDto::Normal => Orientation::Normal,
+            OrientationDto::Vertical => Orientation::Vertical,
+        }
+    }
+}
+
 impl From<ProgramFailure> for ApiError {
     fn from(err: ProgramFailure) -> Self {
         match err {
@@ -591,37 +658,7 @@ impl From<ProgramFailure> for ApiError {
                 };
                 ApiError::invalid(field, e.to_string())
             }
-            ProgramFailure::Limits(found) => {
-                let violations: Vec<LimitViolation> = found
-                    .iter()
-                    .map(|v| LimitViolation {
-                        field: limit_field(v.drive, v.limit),
-                        axis: v.drive.name().to_string(),
-                        limit: v.limit.name(v.drive).to_string(),
-                        limit_value: v.limit_value,
-                        value: v.value,
-                        first_block: v.first_block,
-                        blocks: v.blocks,
-                    })
-                    .collect();
-                let detail = violations
-                    .iter()
-                    .map(|v| {
-                        let at = v
-                            .first_block
-                            .map_or(String::new(), |b| format!(" from block {b}"));
-                        format!(
-                            "{} = {} but the program reaches {}{at} ({} block(s))",
-                            v.field, v.limit_value, v.value, v.blocks
-                        )
-                    })
-                    .collect::<Vec<_>>()
-                    .join("; ");
-                ApiError::MachineLimits {
-                    detail: format!("no program within the machine's limits: {detail}"),
-                    violations,
-                }
-            }
+            ProgramFailure::Limits(found) => machine_limits_error(&found, "program would"),
         }
     }
 }

@@ -49,4 +49,7 @@ pub mod program;
 pub use gcode::{FeedMode, GcodeFormat, GcodeFormatError, SpindleWords};
 pub use limits::{AxisLimits, Drive, Limit, LimitsError, MachineLimits, Violation};
 pub use pose::{Orientation, Pose, Tool, ToolError};
-pub use program::{Approach, AxisMotion, Block, BlockKind, Program, ProgramError};
+pub use program::{
+    cell_boundaries_mm, cell_share, cell_travel, Approach, AxisMotion, Block, BlockKind, Program,
+    ProgramError,
+};

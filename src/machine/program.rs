@@ -174,12 +174,9 @@ impl Program {
             blocks.push(block(BlockKind::Dwell, r[0], t[0]));
         } else {
             blocks.push(block(BlockKind::Dwell, r[0], 0.5 * t[0]));
-            for j in 0..n - 1 {
-                let middle = 0.5 * (r[j] + r[j + 1]);
-                let time = if j == 0 { 0.5 * t[0] } else { t[j] };
-                blocks.push(block(BlockKind::Move, middle, time));
+            for (j, &end) in cell_boundaries_mm(r)[1..].iter().enumerate() {
+                blocks.push(block(BlockKind::Move, end, cell_share(j, n) * t[j]));
             }
-            blocks.push(block(BlockKind::Move, r[n - 1], 0.5 * t[n - 1]));
             blocks.push(block(BlockKind::Dwell, r[n - 1], 0.5 * t[n - 1]));
         }
         let polishing_time_s = t.iter().sum();
@@ -269,6 +266,44 @@ impl Program {
             _ => index.min(last),
         }
     }
+}
+
+/// Where each position's cell begins and ends: r_0, the midpoints m_0 … m_{n−2}, r_{n−1}
+/// (n + 1 entries for n ≥ 2 positions; the single position of a one-position plan).
+pub fn cell_boundaries_mm(positions_mm: &[f64]) -> Vec<f64> {
+    let n = positions_mm.len();
+    if n < 2 {
+        return positions_mm.to_vec();
+    }
+    let mut ends = Vec::with_capacity(n + 1);
+    ends.push(positions_mm[0]);
+    ends.extend(positions_mm.windows(2).map(|w| 0.5 * (w[0] + w[1])));
+    ends.push(positions_mm[n - 1]);
+    ends
+}
+
+/// The share of position j's dwell spent moving across its cell: half at either end of a
+/// plan of n ≥ 2 positions (the other half is the stop there), all of it inside.
+pub fn cell_share(j: usize, n: usize) -> f64 {
+    if n > 1 && (j == 0 || j == n - 1) {
+        0.5
+    } else {
+        1.0
+    }
+}
+
+/// How far each axis (X, Z in mm; B in deg) moves across each position's cell: the poses at
+/// [`cell_boundaries_mm`] differenced, exactly as the program's move blocks are. Empty for a
+/// single position (it has no move).
+pub fn cell_travel(surface: &Surface, tool: &Tool, positions_mm: &[f64]) -> [Vec<f64>; 3] {
+    if positions_mm.len() < 2 {
+        return [Vec::new(), Vec::new(), Vec::new()];
+    }
+    let poses: Vec<[f64; 3]> = cell_boundaries_mm(positions_mm)
+        .iter()
+        .map(|&r| tool.pose(surface, r).axes())
+        .collect();
+    [0, 1, 2].map(|axis| poses.windows(2).map(|w| w[1][axis] - w[0][axis]).collect())
 }
 
 fn axis_index(drive: Drive) -> usize {

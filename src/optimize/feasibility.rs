@@ -1,20 +1,24 @@
 //! Conflicts between constraints, found before the QP is solved and reported by name.
 //!
-//! Given the dwell bounds lo ≤ t_j ≤ hi, the feed rows t_j + t_{j+1} ≥ c_j, the change rows
-//! |t_{j+1} − t_j| ≤ δ and the total Σ t_j ≤ T, only three conflicts are possible:
+//! Given the dwell bounds lo_j ≤ t_j ≤ hi (lo_j: `min_dwell_s`, raised where the machine's
+//! velocity limits or its acceleration at the ends ask more, see [`super::kinematics`]), the
+//! feed rows t_j + t_{j+1} ≥ c_j, the change rows |t_{j+1} − t_j| ≤ δ and the total
+//! Σ t_j ≤ T, only three conflicts are possible:
 //!
-//! - lo > hi;
+//! - lo_j > hi;
 //! - a feed row asks more than both ends can give: c_j > 2·hi;
 //! - the least total time the other rows allow exceeds T. Without a feed limit that least time
-//!   is n·lo (constant dwell lo keeps every other row); with one it is the value of the LP
+//!   is Σ lo_j unless a change limit binds between unequal floors; otherwise it is the value of the LP
 //!   min Σ t subject to the other rows, solved here with Clarabel.
 //!
-//! Otherwise the constant plan t_j = max(lo, max_j c_j/2) keeps the bounds, feed and change
-//! rows, so the feasible set is not empty.
+//! Otherwise the constant plan t_j = max(max_j lo_j, max_j c_j/2) keeps the bounds, feed and
+//! change rows, so the feasible set is not empty. (The machine's acceleration limits between
+//! cells are not convex; the optimizer checks its own starting plan against them.)
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::SupportedConeT;
 
+use super::kinematics::Floor;
 use super::problem::{Constraints, OptimizeError};
 use super::solver::{constraint_rows, run_clarabel, Budget, ClarabelQp};
 
@@ -26,17 +30,39 @@ fn conflict(fields: Vec<&'static str>, detail: String) -> OptimizeError {
     OptimizeError::Infeasible { fields, detail }
 }
 
-/// Refuses constraints that cannot all hold, naming those in conflict.
-pub fn check(positions_mm: &[f64], c: &Constraints, budget: &Budget) -> Result<(), OptimizeError> {
-    let n = positions_mm.len();
-    let lo = c.min_dwell_s;
+/// The distinct limits that set positive floors, in order of first appearance.
+fn floor_fields(floors: &[Floor]) -> Vec<&'static str> {
+    let mut fields = Vec::new();
+    for f in floors.iter().filter(|f| f.dwell_s > 0.0) {
+        if !fields.contains(&f.field) {
+            fields.push(f.field);
+        }
+    }
+    fields
+}
+
+/// Refuses constraints that cannot all hold, naming those in conflict. `floors`: each
+/// position's least dwell (`min_dwell_s` raised by the machine's limits).
+pub fn check(
+    positions_mm: &[f64],
+    c: &Constraints,
+    floors: &[Floor],
+    budget: &Budget,
+) -> Result<(), OptimizeError> {
     let need = c.segment_min_dwell_sum_s(positions_mm);
     if let Some(hi) = c.max_dwell_s {
-        if lo > hi {
-            return Err(conflict(
-                vec!["min_dwell_s", "max_dwell_s"],
-                format!("min_dwell_s ({lo} s) exceeds max_dwell_s ({hi} s)"),
-            ));
+        if let Some((j, floor)) = floors
+            .iter()
+            .enumerate()
+            .find(|(_, f)| f.dwell_s > hi * (1.0 + MARGIN))
+        {
+            let (lo, field) = (floor.dwell_s, floor.field);
+            let detail = if field == "min_dwell_s" {
+                format!("min_dwell_s ({lo} s) exceeds max_dwell_s ({hi} s)")
+            } else {
+                format!("positions_mm[{j}] needs at least {lo} s of dwell to keep {field}, more than max_dwell_s ({hi} s)")
+            };
+            return Err(conflict(vec![field, "max_dwell_s"], detail));
         }
         if let Some(need) = &need {
             if let Some((j, c_j)) = need
@@ -59,35 +85,49 @@ pub fn check(positions_mm: &[f64], c: &Constraints, budget: &Budget) -> Result<(
     let Some(total) = c.max_total_time_s else {
         return Ok(());
     };
-    let floor = n as f64 * lo;
-    if floor > total * (1.0 + MARGIN) {
-        return Err(conflict(
-            vec!["min_dwell_s", "max_total_time_s"],
+    let least: f64 = floors.iter().map(|f| f.dwell_s).sum();
+    if least > total * (1.0 + MARGIN) {
+        let mut fields = floor_fields(floors);
+        let detail = if fields == ["min_dwell_s"] {
+            let n = floors.len();
             format!(
-                "min_dwell_s ({lo} s) × {n} positions = {floor} s exceeds max_total_time_s ({total} s)"
-            ),
-        ));
+                "min_dwell_s ({} s) × {n} positions = {least} s exceeds max_total_time_s ({total} s)",
+                c.min_dwell_s
+            )
+        } else {
+            format!(
+                "the least dwell at each position ({}) adds up to {least} s, more than max_total_time_s ({total} s)",
+                fields.join(", ")
+            )
+        };
+        fields.push("max_total_time_s");
+        return Err(conflict(fields, detail));
     }
-    let Some(need) = need else {
+    // Without feed rows, Σ lo_j is the least time unless a change limit binds between
+    // unequal floors.
+    let uneven = floors.windows(2).any(|w| w[0].dwell_s != w[1].dwell_s);
+    if need.is_none() && !(uneven && c.max_dwell_change_s.is_some()) {
         return Ok(());
-    };
-    let least = least_total_time_s(positions_mm, c, &need, true, budget)?;
+    }
+    let least = least_total_time_s(positions_mm, c, floors, true, budget)?;
     if least <= total * (1.0 + MARGIN) {
         return Ok(());
     }
-    let mut fields = vec!["max_total_time_s", "max_feed_mm_per_min"];
-    if lo > 0.0 {
-        fields.push("min_dwell_s");
+    let mut fields = vec!["max_total_time_s"];
+    if need.is_some() {
+        fields.push("max_feed_mm_per_min");
     }
+    fields.extend(floor_fields(floors));
     if c.max_dwell_change_s.is_some()
-        && least_total_time_s(positions_mm, c, &need, false, budget)? < least * (1.0 - MARGIN)
+        && least_total_time_s(positions_mm, c, floors, false, budget)? < least * (1.0 - MARGIN)
     {
         fields.push("max_dwell_change_s");
     }
     Err(conflict(
-        fields,
+        fields.clone(),
         format!(
-            "the plan needs at least {least:.6} s in total to keep max_feed_mm_per_min (and the other dwell limits), more than max_total_time_s ({total} s)"
+            "the plan needs at least {least:.6} s in total to keep {}, more than max_total_time_s ({total} s)",
+            fields[1..].join(", ")
         ),
     ))
 }
@@ -96,17 +136,21 @@ pub fn check(positions_mm: &[f64], c: &Constraints, budget: &Budget) -> Result<(
 fn least_total_time_s(
     positions_mm: &[f64],
     c: &Constraints,
-    need: &[f64],
+    floors: &[Floor],
     with_change: bool,
     budget: &Budget,
 ) -> Result<f64, OptimizeError> {
     let n = positions_mm.len();
     // Scale so the LP's variables are of order one.
+    let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
+    let need = c.segment_min_dwell_sum_s(positions_mm).unwrap_or_default();
     let scale = need
         .iter()
-        .fold(c.min_dwell_s, |m, &c_j| m.max(0.5 * c_j))
+        .map(|c_j| 0.5 * c_j)
+        .chain(floors_s.iter().copied())
+        .fold(0.0_f64, f64::max)
         .max(f64::MIN_POSITIVE);
-    let rows = constraint_rows(positions_mm, c, scale, false, with_change);
+    let rows = constraint_rows(positions_mm, c, &floors_s, scale, false, with_change);
     let count = rows.rhs.len();
     let (a, b) = rows.into_csc(n);
     let lp = ClarabelQp {

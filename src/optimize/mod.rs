@@ -53,6 +53,7 @@
 //! rows, ½‖e‖² on extra variables) was measured against it and is slower: see `benches/optimize.rs`.
 
 pub mod feasibility;
+pub mod kinematics;
 pub mod motion;
 pub mod problem;
 pub mod qp;

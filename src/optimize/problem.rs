@@ -1,6 +1,7 @@
 //! What the optimizer is asked besides the target: constraints and objective weights, their
 //! validation, and the check that a plan keeps every constraint.
 
+use super::kinematics::Floor;
 use super::target::ProfileError;
 
 /// Default smoothing weight λ (see the module docs of [`super`]). Chosen on the paper's cases:
@@ -222,20 +223,22 @@ impl Constraints {
 
     /// The first constraint `dwell_s` breaks by more than [`CONSTRAINT_TOLERANCE`] relative to
     /// the constraint's own size (to `scale_s` for a bound of zero), as
-    /// (constraint, index, violation in s). `None` when the plan keeps them all.
+    /// (constraint, index, violation in s). `None` when the plan keeps them all. `floors`:
+    /// each position's least dwell ([`super::kinematics::floors`]).
     pub fn violation(
         &self,
         positions_mm: &[f64],
         dwell_s: &[f64],
+        floors: &[Floor],
         scale_s: f64,
     ) -> Option<(&'static str, usize, f64)> {
         let exceeds = |excess: f64, size: f64| {
             let size = if size > 0.0 { size } else { scale_s };
             excess > CONSTRAINT_TOLERANCE * size.max(f64::MIN_POSITIVE)
         };
-        for (j, &t) in dwell_s.iter().enumerate() {
-            if !t.is_finite() || exceeds(self.min_dwell_s - t, self.min_dwell_s) {
-                return Some(("min_dwell_s", j, self.min_dwell_s - t));
+        for ((j, &t), floor) in dwell_s.iter().enumerate().zip(floors) {
+            if !t.is_finite() || exceeds(floor.dwell_s - t, floor.dwell_s) {
+                return Some((floor.field, j, floor.dwell_s - t));
             }
             if let Some(hi) = self.max_dwell_s {
                 if exceeds(t - hi, hi) {
@@ -346,8 +349,12 @@ mod tests {
             max_feed_mm_per_min: Some(30.0), // 2 s per 1 mm segment → t_j + t_{j+1} ≥ 4
             max_dwell_change_s: Some(5.0),
         };
-        assert_eq!(c.violation(&positions, &[2.0, 2.0, 2.0], 1.0), None);
-        let broken = |d: [f64; 3]| c.violation(&positions, &d, 1.0).map(|v| v.0);
+        let floors = super::super::kinematics::floors(&[], 3, c.min_dwell_s);
+        assert_eq!(
+            c.violation(&positions, &[2.0, 2.0, 2.0], &floors, 1.0),
+            None
+        );
+        let broken = |d: [f64; 3]| c.violation(&positions, &d, &floors, 1.0).map(|v| v.0);
         assert_eq!(broken([0.5, 4.0, 4.0]), Some("min_dwell_s"));
         assert_eq!(broken([2.0, 11.0, 6.0]), Some("max_dwell_s"));
         assert_eq!(broken([8.0, 9.0, 8.0]), Some("max_total_time_s"));

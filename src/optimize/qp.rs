@@ -8,6 +8,10 @@ use clarabel::solver::SupportedConeT;
 use rayon::prelude::*;
 
 use super::feasibility;
+use super::kinematics::{
+    acceleration_rows, constant_dwell_for_acceleration, floors, limits_acceleration,
+    peak_acceleration_ratio, AxisPath, Floor, CCP_TOLERANCE, MARGIN, MAX_CCP_ITERATIONS,
+};
 use super::problem::{Constraints, Objective, OptimizeError};
 pub use super::solver::SolveStatus;
 use super::solver::{constraint_rows, run_clarabel, Budget, ClarabelQp, CscBuilder, Rows};
@@ -43,6 +47,8 @@ pub struct DwellProblem<'a> {
     /// Solver wall-clock budget, s.
     pub time_limit_s: f64,
     pub formulation: Formulation,
+    /// The machine's axes as the plan drives them (empty: no machine limits).
+    pub axes: &'a [AxisPath],
 }
 
 /// An optimized plan with the solver's account of it.
@@ -229,15 +235,26 @@ fn normal_hessian(problem: &DwellProblem, band: &Band, s: &Scales) -> CscMatrix<
     p.build()
 }
 
-fn assemble(problem: &DwellProblem, band: &Band, s: &Scales) -> ClarabelQp {
+/// The QP for Clarabel. `floors_s`: each position's least dwell. With `around` (a scaled plan
+/// that keeps the machine's acceleration limits), the between-cell acceleration rows made
+/// convex around it are added, with their cone variables u_j ≥ 1/x_j after the others
+/// ([`super::kinematics`]).
+fn assemble(
+    problem: &DwellProblem,
+    band: &Band,
+    s: &Scales,
+    floors_s: &[f64],
+    around: Option<&[f64]>,
+) -> ClarabelQp {
     let n = problem.positions_mm.len();
     let m = problem.rows.len();
     let g: Vec<f64> = problem.target_nm.iter().map(|d| d / s.depth_nm).collect();
     let time = problem.objective.time_weight / s.n;
     let c = &problem.constraints;
-    match problem.formulation {
+    let piston = usize::from(problem.free_piston);
+    // (P's columns, q, rows, how many of the rows are equalities at the top)
+    let (mut p, mut q, mut rows, equalities) = match problem.formulation {
         Formulation::NormalEquations => {
-            let nv = n + usize::from(problem.free_piston);
             let lin = 1.0 / (s.m * s.rate);
             let mut q: Vec<f64> = (0..n)
                 .map(|j| time - lin * band.dot_rows(j, &g, problem.rows.start))
@@ -245,23 +262,12 @@ fn assemble(problem: &DwellProblem, band: &Band, s: &Scales) -> ClarabelQp {
             if problem.free_piston {
                 q.push(g.iter().sum::<f64>() / s.m);
             }
-            let mut rows = constraint_rows(problem.positions_mm, c, s.dwell_s, true, true);
-            if problem.free_piston {
-                rows.push(&[(nv - 1, -1.0)], 0.0);
-            }
-            let count = rows.rhs.len();
-            let (a, b) = rows.into_csc(nv);
-            ClarabelQp {
-                p: normal_hessian(problem, band, s),
-                q,
-                a,
-                b,
-                cones: vec![SupportedConeT::NonnegativeConeT(count)],
-            }
+            let rows = constraint_rows(problem.positions_mm, c, floors_s, s.dwell_s, true, true);
+            (normal_hessian(problem, band, s), q, rows, 0)
         }
         Formulation::Residual => {
             // Variables (x, e, [p̃]); rows: M·x/ā − e − p̃ = g (zero cone), then inequalities.
-            let nv = n + m + usize::from(problem.free_piston);
+            let nv = n + m + piston;
             let smooth = smoothing_band(problem.positions_mm, s.smoothing);
             let mut p = CscBuilder::new(nv);
             for (k, diag) in smooth.iter().enumerate() {
@@ -302,59 +308,228 @@ fn assemble(problem: &DwellProblem, band: &Band, s: &Scales) -> ClarabelQp {
             rows.append(constraint_rows(
                 problem.positions_mm,
                 c,
+                floors_s,
                 s.dwell_s,
                 true,
                 true,
             ));
-            if problem.free_piston {
-                rows.push(&[(nv - 1, -1.0)], 0.0);
-            }
-            let count = rows.rhs.len();
-            let (a, b) = rows.into_csc(nv);
-            ClarabelQp {
-                p: p.build(),
-                q,
-                a,
-                b,
-                cones: vec![
-                    SupportedConeT::ZeroConeT(m),
-                    SupportedConeT::NonnegativeConeT(count - m),
-                ],
+            (p.build(), q, rows, m)
+        }
+    };
+    let mut nv = q.len();
+    if problem.free_piston {
+        rows.push(&[(nv - 1, -1.0)], 0.0);
+    }
+    let mut cones = Vec::new();
+    if equalities > 0 {
+        cones.push(SupportedConeT::ZeroConeT(equalities));
+    }
+    let Some(x0) = around else {
+        cones.push(SupportedConeT::NonnegativeConeT(
+            rows.rhs.len() - equalities,
+        ));
+        let (a, b) = rows.into_csc(nv);
+        return ClarabelQp { p, q, a, b, cones };
+    };
+    // One cone variable per position a row needs it for, numbered after the others.
+    let accel = acceleration_rows(problem.axes, x0, s.dwell_s);
+    let mut u_index = vec![None; n];
+    for row in &accel {
+        for &(j, _) in &row.u {
+            if u_index[j].is_none() {
+                u_index[j] = Some(nv);
+                nv += 1;
             }
         }
     }
+    for row in &accel {
+        let entries: Vec<(usize, f64)> = row
+            .x
+            .iter()
+            .copied()
+            .chain(
+                row.u
+                    .iter()
+                    .map(|&(j, v)| (u_index[j].expect("numbered above"), v)),
+            )
+            .collect();
+        rows.push(&entries, row.rhs);
+    }
+    cones.push(SupportedConeT::NonnegativeConeT(
+        rows.rhs.len() - equalities,
+    ));
+    // (x_j + u_j, u_j − x_j, 2) in the second-order cone ⟺ x_j·u_j ≥ 1, x_j + u_j ≥ 0.
+    for (j, u) in u_index.iter().enumerate() {
+        if let Some(u) = *u {
+            rows.push(&[(j, -1.0), (u, -1.0)], 0.0);
+            rows.push(&[(j, 1.0), (u, -1.0)], 0.0);
+            rows.push(&[], 2.0);
+            cones.push(SupportedConeT::SecondOrderConeT(3));
+        }
+    }
+    q.resize(nv, 0.0);
+    p = extend_columns(p, nv);
+    let (a, b) = rows.into_csc(nv);
+    ClarabelQp { p, q, a, b, cones }
+}
+
+/// `p` with empty columns (and rows) added up to `size`.
+fn extend_columns(p: CscMatrix<f64>, size: usize) -> CscMatrix<f64> {
+    let mut colptr = p.colptr;
+    let last = *colptr.last().expect("a CSC matrix has a column pointer");
+    colptr.resize(size + 1, last);
+    CscMatrix::new(size, size, colptr, p.rowval, p.nzval)
 }
 
 /// The interior-point answer in seconds, with the dwell bounds made exact and, if the total
-/// time is over by the solver's rounding (it sums n small errors), the dwell above the lower
-/// bound shrunk in proportion, which keeps the bounds and the dwell-change rows.
-fn polish(c: &Constraints, x: &[f64], tau: f64) -> Vec<f64> {
+/// time is over by the solver's rounding (it sums n small errors), the dwell above each floor
+/// shrunk in proportion, which keeps the bounds and the dwell-change rows.
+fn polish(c: &Constraints, floors_s: &[f64], x: &[f64], tau: f64) -> Vec<f64> {
     let mut t: Vec<f64> = x
         .iter()
-        .map(|x| {
-            let t = (x * tau).max(c.min_dwell_s);
+        .zip(floors_s)
+        .map(|(x, &lo)| {
+            let t = (x * tau).max(lo);
             c.max_dwell_s.map_or(t, |hi| t.min(hi))
         })
         .collect();
     if let Some(total) = c.max_total_time_s {
         let sum: f64 = t.iter().sum();
-        let floor = c.min_dwell_s * t.len() as f64;
+        let floor: f64 = floors_s.iter().sum();
         if sum > total && sum > floor {
             let k = ((total - floor) / (sum - floor)).max(0.0);
-            for tj in &mut t {
-                *tj = c.min_dwell_s + (*tj - c.min_dwell_s) * k;
+            for (tj, lo) in t.iter_mut().zip(floors_s) {
+                *tj = lo + (*tj - lo) * k;
             }
         }
     }
     t
 }
 
+/// One solve of the QP (around a plan for the acceleration rows, or without them), polished.
+struct Attempt {
+    dwell_s: Vec<f64>,
+    piston_nm: Option<f64>,
+    status: SolveStatus,
+    iterations: u32,
+    solve_time_s: f64,
+    objective: f64,
+}
+
+fn attempt(
+    problem: &DwellProblem,
+    band: &Band,
+    scales: &Scales,
+    floors_s: &[f64],
+    around: Option<&[f64]>,
+    budget: &Budget,
+) -> Result<Attempt, OptimizeError> {
+    let n = problem.positions_mm.len();
+    let qp = assemble(problem, band, scales, floors_s, around);
+    let (v, iterations, solve_time_s, status) = run_clarabel(&qp, budget)?;
+    let dwell_s = polish(&problem.constraints, floors_s, &v[..n], scales.dwell_s);
+    let piston_index = match problem.formulation {
+        Formulation::NormalEquations => n,
+        Formulation::Residual => n + problem.rows.len(),
+    };
+    let piston_nm = problem
+        .free_piston
+        .then(|| v[piston_index].max(0.0) * scales.depth_nm);
+    let objective = objective_value(problem, band, scales, &dwell_s, piston_nm.unwrap_or(0.0));
+    Ok(Attempt {
+        dwell_s,
+        piston_nm,
+        status,
+        iterations,
+        solve_time_s,
+        objective,
+    })
+}
+
+fn keeps_acceleration(axes: &[AxisPath], dwell_s: &[f64]) -> bool {
+    axes.iter()
+        .all(|a| peak_acceleration_ratio(a, dwell_s) <= 1.0 - 0.5 * MARGIN)
+}
+
+/// The plan within the machine's acceleration limits between cells, by the convex–concave
+/// procedure of [`super::kinematics`] from the constant dwell that keeps every row.
+fn within_acceleration(
+    problem: &DwellProblem,
+    band: &Band,
+    scales: &Scales,
+    floors: &[Floor],
+    budget: &Budget,
+) -> Result<Attempt, OptimizeError> {
+    let n = problem.positions_mm.len();
+    let c = &problem.constraints;
+    let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
+    let feed = c.segment_min_dwell_sum_s(problem.positions_mm);
+    let start_s = floors_s
+        .iter()
+        .copied()
+        .chain(feed.iter().flatten().map(|c_j| 0.5 * c_j))
+        .fold(constant_dwell_for_acceleration(problem.axes, n), f64::max);
+    let fields: Vec<&'static str> = problem
+        .axes
+        .iter()
+        .filter(|a| a.max_acceleration_per_s2.is_some())
+        .map(|a| a.acceleration_field)
+        .collect();
+    let refuse = |bound: &'static str, detail: String| {
+        let mut all = fields.clone();
+        all.push(bound);
+        Err(OptimizeError::Infeasible {
+            fields: all,
+            detail,
+        })
+    };
+    if let Some(hi) = c.max_dwell_s.filter(|&hi| start_s > hi) {
+        return refuse(
+            "max_dwell_s",
+            format!("within the machine's acceleration limits the optimizer starts from a constant dwell of {start_s} s per position, more than max_dwell_s ({hi} s)"),
+        );
+    }
+    if let Some(total) = c.max_total_time_s.filter(|&t| start_s * n as f64 > t) {
+        return refuse(
+            "max_total_time_s",
+            format!(
+                "within the machine's acceleration limits the optimizer starts from a constant dwell of {start_s} s per position, {} s in total, more than max_total_time_s ({total} s)",
+                start_s * n as f64
+            ),
+        );
+    }
+    let tau = scales.dwell_s;
+    let mut around = vec![start_s / tau; n];
+    let mut best: Option<Attempt> = None;
+    let (mut iterations, mut solve_time_s) = (0, 0.0);
+    for _ in 0..MAX_CCP_ITERATIONS {
+        let next = attempt(problem, band, scales, &floors_s, Some(&around), budget)?;
+        iterations += next.iterations;
+        solve_time_s += next.solve_time_s;
+        let settled = best
+            .as_ref()
+            .is_some_and(|b| b.objective - next.objective <= CCP_TOLERANCE * b.objective.abs());
+        // Each iterate keeps the limits; a solver's rounding may cost a little objective.
+        around = next.dwell_s.iter().map(|t| t / tau).collect();
+        if best.as_ref().is_none_or(|b| next.objective <= b.objective) {
+            best = Some(next);
+        }
+        if settled {
+            break;
+        }
+    }
+    let mut best = best.expect("at least one iteration");
+    best.iterations = iterations;
+    best.solve_time_s = solve_time_s;
+    Ok(best)
+}
+
 /// Finds the plan: checks feasibility (naming conflicting constraints), solves, clamps the
-/// dwell bounds exactly and checks every constraint to
+/// dwell bounds exactly and checks every constraint (the machine's limits included) to
 /// [`super::problem::CONSTRAINT_TOLERANCE`] before returning. The constraints and weights
 /// are expected valid ([`Constraints::validate`], [`Objective::validate`]: callers parse them
-/// once, before asking for a computation slot). The feasibility LP and the QP share one
-/// budget of `time_limit_s`.
+/// once, before asking for a computation slot). Every solver call shares one budget of
+/// `time_limit_s`.
 pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
     let budget = Budget::start(problem.time_limit_s);
     let n = problem.positions_mm.len();
@@ -373,7 +548,9 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
         problem.rows.len(),
         "one target per aperture row"
     );
-    feasibility::check(problem.positions_mm, &problem.constraints, &budget)?;
+    let c = &problem.constraints;
+    let floors = floors(problem.axes, n, c.min_dwell_s);
+    feasibility::check(problem.positions_mm, c, &floors, &budget)?;
 
     let band = Band::new(problem.operator, &problem.rows);
     let m = problem.rows.len() as f64;
@@ -397,15 +574,17 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
         },
     };
 
-    let qp = assemble(problem, &band, &scales);
-    let (v, iterations, solve_time_s, status) = run_clarabel(&qp, &budget)?;
-
-    let dwell_s = polish(&problem.constraints, &v[..n], scales.dwell_s);
-    let c = &problem.constraints;
-    let piston_nm = problem
-        .free_piston
-        .then(|| v[v.len() - 1].max(0.0) * scales.depth_nm);
-    if let Some((name, index, excess)) = c.violation(problem.positions_mm, &dwell_s, scales.dwell_s)
+    let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
+    let mut plan = attempt(problem, &band, &scales, &floors_s, None, &budget)?;
+    if limits_acceleration(problem.axes) && !keeps_acceleration(problem.axes, &plan.dwell_s) {
+        let first = (plan.iterations, plan.solve_time_s);
+        plan = within_acceleration(problem, &band, &scales, &floors, &budget)?;
+        plan.iterations += first.0;
+        plan.solve_time_s += first.1;
+    }
+    let status = plan.status;
+    if let Some((name, index, excess)) =
+        c.violation(problem.positions_mm, &plan.dwell_s, &floors, scales.dwell_s)
     {
         return Err(OptimizeError::Numerical {
             status: format!(
@@ -413,13 +592,25 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
             ),
         });
     }
-    let objective = objective_value(problem, &band, &scales, &dwell_s, piston_nm.unwrap_or(0.0));
+    if let Some(axis) = problem
+        .axes
+        .iter()
+        .find(|a| peak_acceleration_ratio(a, &plan.dwell_s) > 1.0)
+    {
+        return Err(OptimizeError::Numerical {
+            status: format!(
+                "{status:?}, but the plan exceeds {} by a factor {}",
+                axis.acceleration_field,
+                peak_acceleration_ratio(axis, &plan.dwell_s)
+            ),
+        });
+    }
     Ok(Solution {
-        dwell_s,
-        piston_nm,
+        dwell_s: plan.dwell_s,
+        piston_nm: plan.piston_nm,
         status,
-        iterations,
-        solve_time_s,
-        objective,
+        iterations: plan.iterations,
+        solve_time_s: plan.solve_time_s,
+        objective: plan.objective,
     })
 }

@@ -123,19 +123,21 @@ impl Rows {
     }
 }
 
-/// The plan's constraints as rows a·x ≤ b on x = t/τ (the first n variables). `with_total`
-/// leaves out the total-time row (for the least-time LP).
+/// The plan's constraints as rows a·x ≤ b on x = t/τ (the first n variables): the floor of
+/// each position (`floors_s`: `min_dwell_s` raised by the machine's limits), then the
+/// constraints'. `with_total` leaves out the total-time row (for the least-time LP).
 pub(super) fn constraint_rows(
     positions_mm: &[f64],
     c: &Constraints,
+    floors_s: &[f64],
     tau: f64,
     with_total: bool,
     with_change: bool,
 ) -> Rows {
     let n = positions_mm.len();
     let mut rows = Rows::default();
-    for j in 0..n {
-        rows.push(&[(j, -1.0)], -c.min_dwell_s / tau);
+    for (j, floor) in floors_s.iter().enumerate() {
+        rows.push(&[(j, -1.0)], -floor / tau);
     }
     if let Some(hi) = c.max_dwell_s {
         for j in 0..n {

@@ -6,6 +6,10 @@ use std::ops::Range;
 
 use super::warnings::{active_constraints, positions_unit, TARGET_MISS_FRACTION};
 use super::{ComputeLimits, Input, InputError, Recommender, Setting, Warning};
+use crate::machine::{
+    cell_travel, Approach, Drive, Limit, MachineLimits, Program, ProgramError, Tool, Violation,
+};
+use crate::optimize::kinematics::AxisPath;
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
@@ -14,6 +18,7 @@ use crate::optimize::{
 };
 use crate::physics::{check_positions, RemovalKernel, RemovalOperator, UniformityMetrics};
 use crate::study::Recommendation;
+use crate::surface::{Surface, SurfaceError};
 
 /// What to remove over the clear aperture.
 #[derive(Debug, Clone, PartialEq)]
@@ -40,10 +45,32 @@ impl Target {
     }
 }
 
+/// The machine a plan must run on: the surface and tool that give the axes' poses, and the
+/// machine's limits (checked, [`MachineLimits::check`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Machine {
+    pub surface: Surface,
+    pub tool: Tool,
+    pub limits: MachineLimits,
+}
+
+/// Why a machine does not fit the optimization's positions (no dwell could fix it).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MachineFitError {
+    /// A candidate position where the surface is not defined.
+    #[error("positions_mm[{index}]: {error}")]
+    PositionOffSurface { index: usize, error: SurfaceError },
+    /// Poses outside an axis's travel or a spindle over its speed, whatever the dwell; the
+    /// blocks are those of the program without approach.
+    #[error("the positions or the process exceed {} machine limit(s) whatever the dwell", .0.len())]
+    Limits(Vec<Violation>),
+}
+
 /// An optimization, checked: positions within reach and limits, the target resampled onto the
 /// aperture's rows, constraints and weights in their domains, a time budget within the limit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OptimizeCommand {
+    machine: Option<Machine>,
     setting: Setting,
     positions_mm: Vec<f64>,
     rows: Range<usize>,
@@ -107,6 +134,7 @@ impl OptimizeCommand {
             ),
         };
         Ok(OptimizeCommand {
+            machine: None,
             setting,
             positions_mm,
             rows,
@@ -117,6 +145,143 @@ impl OptimizeCommand {
             time_limit_s,
         })
     }
+}
+
+impl OptimizeCommand {
+    /// The plan must also run on `machine`: its axis velocity and acceleration limits become
+    /// constraints on the dwell ([`crate::optimize::kinematics`]). Refused when the positions
+    /// leave the surface, or put an axis outside its travel or a spindle over its speed (which
+    /// no dwell can change).
+    pub fn with_machine(mut self, machine: Machine) -> Result<Self, MachineFitError> {
+        let positions = &self.positions_mm;
+        let last = positions.len() - 1;
+        machine
+            .surface
+            .check_defined_to(positions[last])
+            .map_err(|error| MachineFitError::PositionOffSurface { index: last, error })?;
+        // Travel and spindle speed do not depend on the dwell: check them on unit dwell.
+        let program = Program::new(
+            &machine.surface,
+            &machine.tool,
+            positions,
+            &vec![1.0; positions.len()],
+            NO_APPROACH,
+        )
+        .expect("positive dwell everywhere gives a program");
+        let spec = self.setting.process().spec();
+        let fixed: Vec<Violation> = machine
+            .limits
+            .violations(&program, (spec.workpiece_rpm, spec.tool_rpm))
+            .into_iter()
+            .filter(|v| matches!(v.limit, Limit::Min | Limit::Max | Limit::MaxRpm))
+            .collect();
+        if !fixed.is_empty() {
+            return Err(MachineFitError::Limits(fixed));
+        }
+        self.machine = Some(machine);
+        Ok(self)
+    }
+}
+
+/// The optimizer's plan is the polishing motion alone; the program adds its approach.
+const NO_APPROACH: Approach = Approach {
+    clearance_mm: 0.0,
+    feed_mm_per_min: 1.0,
+};
+
+/// The machine's axes as the plan at `positions_mm` drives them.
+fn axis_paths(machine: &Machine, positions_mm: &[f64]) -> Vec<AxisPath> {
+    let travel = cell_travel(&machine.surface, &machine.tool, positions_mm);
+    Drive::AXES
+        .iter()
+        .zip(travel)
+        .map(|(&drive, cell_travel)| {
+            let limits = machine.limits.axis(drive);
+            AxisPath {
+                cell_travel,
+                max_velocity_per_s: limits.max_velocity_per_min.map(|v| v / 60.0),
+                max_acceleration_per_s2: limits.max_acceleration_per_s2,
+                velocity_field: machine_field(drive, Limit::MaxVelocity),
+                acceleration_field: machine_field(drive, Limit::MaxAcceleration),
+            }
+        })
+        .collect()
+}
+
+/// A machine limit's name in the request (`machine.<axis>.<limit>`).
+pub fn machine_field(drive: Drive, limit: Limit) -> &'static str {
+    match (drive, limit) {
+        (Drive::X, Limit::MaxVelocity) => "machine.x.max_velocity_mm_per_min",
+        (Drive::X, Limit::MaxAcceleration) => "machine.x.max_acceleration_mm_per_s2",
+        (Drive::Z, Limit::MaxVelocity) => "machine.z.max_velocity_mm_per_min",
+        (Drive::Z, Limit::MaxAcceleration) => "machine.z.max_acceleration_mm_per_s2",
+        (Drive::B, Limit::MaxVelocity) => "machine.b.max_velocity_deg_per_min",
+        (Drive::B, Limit::MaxAcceleration) => "machine.b.max_acceleration_deg_per_s2",
+        _ => "machine",
+    }
+}
+
+/// The program the plan gives on its machine, checked: a plan that breaks a limit is a
+/// defect of the optimizer, never returned.
+fn machine_warnings(
+    machine: &Machine,
+    process: &crate::physics::Process,
+    positions_mm: &[f64],
+    dwell_s: &[f64],
+    axes: &[AxisPath],
+) -> Result<Vec<Warning>, OptimizeError> {
+    let mut warnings = Vec::new();
+    if !machine.surface.is_plane() {
+        warnings.push(Warning::FlatRemovalModel);
+    }
+    let program = match Program::new(
+        &machine.surface,
+        &machine.tool,
+        positions_mm,
+        dwell_s,
+        NO_APPROACH,
+    ) {
+        Ok(program) => program,
+        Err(ProgramError::ZeroInteriorDwell { index }) => {
+            warnings.push(Warning::NotProgrammable { index });
+            return Ok(warnings);
+        }
+        Err(ProgramError::NoDwell) => return Ok(warnings),
+    };
+    let spec = process.spec();
+    let broken = machine
+        .limits
+        .violations(&program, (spec.workpiece_rpm, spec.tool_rpm));
+    if let Some(v) = broken.first() {
+        return Err(OptimizeError::Numerical {
+            status: format!(
+                "the plan's program would exceed {} ({} > {})",
+                machine_field(v.drive, v.limit),
+                v.value,
+                v.limit_value
+            ),
+        });
+    }
+    // Which limits the plan sits on (to 1e-6 relative, as for the constraints).
+    for (axis, drive) in axes.iter().zip(Drive::AXES) {
+        let motion = program.motion(drive);
+        let limits = machine.limits.axis(drive);
+        let near = |peak: f64, limit: Option<f64>| limit.is_some_and(|l| peak >= l * (1.0 - 1e-5));
+        if near(motion.peak_velocity_per_min, limits.max_velocity_per_min) {
+            warnings.push(Warning::MachineLimitActive {
+                field: axis.velocity_field,
+            });
+        }
+        if near(
+            motion.peak_acceleration_per_s2,
+            limits.max_acceleration_per_s2,
+        ) {
+            warnings.push(Warning::MachineLimitActive {
+                field: axis.acceleration_field,
+            });
+        }
+    }
+    Ok(warnings)
 }
 
 /// An optimized plan and what it does.
@@ -155,6 +320,7 @@ pub fn optimize(
 ) -> Result<OptimizedPlan, OptimizeError> {
     let mut warnings: Vec<Warning> = command.input_warning().into_iter().collect();
     let OptimizeCommand {
+        machine,
         setting,
         positions_mm,
         rows,
@@ -169,6 +335,9 @@ pub fn optimize(
         setting.grid().radii_mm(),
         &positions_mm,
     );
+    let axes = machine
+        .as_ref()
+        .map_or_else(Vec::new, |m| axis_paths(m, &positions_mm));
     let solution = solve(&DwellProblem {
         operator: &operator,
         positions_mm: &positions_mm,
@@ -180,7 +349,17 @@ pub fn optimize(
         objective,
         time_limit_s,
         formulation: Formulation::default(),
+        axes: &axes,
     })?;
+    if let Some(machine) = &machine {
+        warnings.extend(machine_warnings(
+            machine,
+            setting.process(),
+            &positions_mm,
+            &solution.dwell_s,
+            &axes,
+        )?);
+    }
 
     let removal_nm = operator.apply(&solution.dwell_s);
     let piston = solution.piston_nm.unwrap_or(0.0);

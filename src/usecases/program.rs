@@ -150,7 +150,9 @@ pub struct MachineProgram {
 }
 
 /// The approach feed: the one asked, or the default lowered so that neither X nor Z exceeds
-/// its velocity limit moving along the tool axis at either end of the plan.
+/// its velocity or acceleration limit moving along the tool axis at either end of the plan.
+/// An axis taking the share s of feed f over the clearance c starts from rest at
+/// a = s·(f/60) / (d/2) with d = 60·c/f, so a ≤ a_max needs f ≤ 60·√(a_max·c / (2·s)).
 fn approach_feed(command: &ProgramCommand) -> f64 {
     if let Some(feed) = command.approach_feed_mm_per_min {
         return feed;
@@ -166,8 +168,17 @@ fn approach_feed(command: &ProgramCommand) -> f64 {
             .to_radians()
             .sin_cos();
         for (share, limit) in [(sin, &command.machine.x), (cos, &command.machine.z)] {
-            if let Some(v) = limit.max_velocity_per_min.filter(|_| share.abs() > 0.0) {
-                feed = feed.min(v / share.abs());
+            let share = share.abs();
+            if share == 0.0 {
+                continue;
+            }
+            if let Some(v) = limit.max_velocity_per_min {
+                feed = feed.min(v / share);
+            }
+            if let Some(a) = limit.max_acceleration_per_s2 {
+                // Below the bound by a hair, so rounding never puts it over.
+                let bound = 60.0 * (a * command.clearance_mm / (2.0 * share)).sqrt();
+                feed = feed.min(bound * (1.0 - 1e-9));
             }
         }
     }

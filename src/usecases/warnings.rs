@@ -21,6 +21,14 @@ pub enum Warning {
         residual_rms_nm: f64,
         target_rms_nm: f64,
     },
+    /// The plan sits on this machine limit (its request name, e.g.
+    /// `machine.x.max_velocity_mm_per_min`) somewhere.
+    MachineLimitActive { field: &'static str },
+    /// Removal was computed with the flat model although the surface is curved.
+    FlatRemovalModel,
+    /// With the machine given, the plan still has zero dwell at this position between positions
+    /// with dwell (no limited axis moves across its cell), which no program can run.
+    NotProgrammable { index: usize },
     /// Every tool position is below 1 mm on a workpiece of 10 mm radius or more: positions in
     /// metres rather than millimetres?
     PositionsLookLikeMetres {

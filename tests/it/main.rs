@@ -4,6 +4,7 @@
 mod common;
 
 mod api;
+mod api_machine_plan;
 mod api_metrology;
 mod api_optimize;
 mod api_program;

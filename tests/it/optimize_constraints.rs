@@ -47,6 +47,7 @@ fn run(s: &Setup, constraints: Constraints) -> Result<Vec<f64>, OptimizeError> {
         objective: Objective::default(),
         time_limit_s: 30.0,
         formulation: Formulation::NormalEquations,
+        axes: &[],
     })
     .map(|solution| solution.dwell_s)
 }

@@ -49,6 +49,7 @@ fn solve(c: &Case, objective: Objective) -> Solution {
         objective,
         time_limit_s: 60.0,
         formulation: Formulation::NormalEquations,
+        axes: &[],
     })
     .unwrap()
 }

@@ -347,6 +347,7 @@ fn objective_matches_an_active_set_reference_on_random_problems() {
             } else {
                 Formulation::NormalEquations
             },
+            axes: &[],
         };
         let solution = match optimize(&problem) {
             Ok(s) => s,
