@@ -117,7 +117,8 @@ pub struct ConstraintsDto {
     /// Largest change of dwell between neighbouring positions, s (≥ 0): the linear surrogate
     /// for the feed axis's acceleration limit. On positions spaced h mm apart with a feed limit
     /// v (mm/s), a dwell change δ keeps the feed acceleration at or below δ·v³/h² mm/s², so
-    /// choose δ = a_max·h²/v³ for an acceleration limit a_max. Default none.
+    /// choose δ = a_max·h²/v³ for an acceleration limit a_max (or give `machine`, whose
+    /// acceleration limits the optimizer keeps exactly). Default none.
     pub max_dwell_change_s: Option<f64>,
 }
 
@@ -333,17 +334,22 @@ impl Endpoint for OptimizeEndpoint {
             req.solver.and_then(|s| s.time_limit_s),
             limits,
         )?;
-        let command = match req.machine {
-            None => command,
-            Some(machine) => {
-                let machine = machine_setup(req.surface.as_ref(), req.tool.as_ref(), &machine)?;
-                command.with_machine(machine).map_err(|e| match e {
-                    MachineFitError::PositionOffSurface { index, .. } => {
-                        ApiError::invalid(format!("positions_mm[{index}]"), e.to_string())
-                    }
-                    MachineFitError::Limits(found) => machine_limits_error(&found, "positions"),
-                })?
-            }
+        // A surface or tool alone is checked (and a curved surface warned about) as well.
+        let given = req.machine.is_some() || req.surface.is_some() || req.tool.is_some();
+        let command = if given {
+            let machine = machine_setup(
+                req.surface.as_ref(),
+                req.tool.as_ref(),
+                &req.machine.unwrap_or_default(),
+            )?;
+            command.with_machine(machine).map_err(|e| match e {
+                MachineFitError::PositionOffSurface { index, .. } => {
+                    ApiError::invalid(format!("positions_mm[{index}]"), e.to_string())
+                }
+                MachineFitError::Limits(found) => machine_limits_error(&found, "positions"),
+            })?
+        } else {
+            command
         };
         Ok((command, limits.solver_time_limit.as_secs_f64()))
     }

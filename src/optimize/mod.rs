@@ -39,6 +39,7 @@
 //! Σ t_j ≤ max_total_time_s                                  total time
 //! (t_j + t_{j+1})/2 ≥ 60·(r1_{j+1} − r1_j)/max_feed         feed on each segment
 //! |t_{j+1} − t_j| ≤ max_dwell_change_s                      acceleration surrogate
+//! machine axis velocity and acceleration limits             see [`kinematics`]
 //! ```
 //!
 //! The tool crosses segment j (between neighbouring positions) in half of each end's dwell,

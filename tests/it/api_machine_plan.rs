@@ -241,3 +241,26 @@ async fn machine_limits_in_conflict_with_constraints_are_named() {
         "machine.x.max_acceleration_mm_per_s2"
     );
 }
+
+/// A surface or tool given without a machine is still checked, and a curved surface warned
+/// about (removal is the flat model's until curved removal lands).
+#[tokio::test]
+async fn surface_and_tool_alone_are_checked() {
+    let (mut request, _) = requests(&json!({}));
+    request["tool"] = json!({"pivot_length_mm": -1.0});
+    let (status, problem) = post("/v1/optimize", &request).await;
+    assert_eq!(status, 422, "{problem}");
+    assert_eq!(problem["field"], "tool.pivot_length_mm");
+
+    request["tool"] = json!({"pivot_length_mm": 10.0});
+    request["surface"] = json!({"kind": "sphere", "radius_of_curvature_mm": 30.0});
+    let (status, problem) = post("/v1/optimize", &request).await;
+    assert_eq!(status, 422, "{problem}");
+    // The sphere of radius 30 mm ends at r = 30; the positions reach 50.
+    assert_eq!(problem["field"], "positions_mm[100]");
+
+    request["surface"] = json!({"kind": "sphere", "radius_of_curvature_mm": 300.0});
+    let (status, plan) = post("/v1/optimize", &request).await;
+    assert_eq!(status, 200, "{plan}");
+    assert_eq!(plan["warnings"][0]["code"], "flat_removal_model");
+}
