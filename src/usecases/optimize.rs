@@ -145,9 +145,7 @@ impl OptimizeCommand {
             time_limit_s,
         })
     }
-}
 
-impl OptimizeCommand {
     /// The plan must also run on `machine`: its axis velocity and acceleration limits become
     /// constraints on the dwell ([`crate::optimize::kinematics`]). Refused when the positions
     /// leave the surface, or put an axis outside its travel or a spindle over its speed (which
@@ -208,8 +206,9 @@ fn axis_paths(machine: &Machine, positions_mm: &[f64]) -> Vec<AxisPath> {
         .collect()
 }
 
-/// A machine limit's name in the request (`machine.<axis>.<limit>`).
-pub fn machine_field(drive: Drive, limit: Limit) -> &'static str {
+/// A machine axis limit's name in the request (`machine.<axis>.<limit>`); the limits on
+/// dwell are velocity and acceleration.
+fn machine_field(drive: Drive, limit: Limit) -> &'static str {
     match (drive, limit) {
         (Drive::X, Limit::MaxVelocity) => "machine.x.max_velocity_mm_per_min",
         (Drive::X, Limit::MaxAcceleration) => "machine.x.max_acceleration_mm_per_s2",
@@ -262,7 +261,7 @@ fn machine_warnings(
             ),
         });
     }
-    // Which limits the plan sits on (to 1e-6 relative, as for the constraints).
+    // Which limits the plan sits on: within 1e-5 of the limit (the optimizer keeps 1e-6 below).
     for (axis, drive) in axes.iter().zip(Drive::AXES) {
         let motion = program.motion(drive);
         let limits = machine.limits.axis(drive);
