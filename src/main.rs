@@ -1,6 +1,6 @@
 //! The `preston` binary: `serve` (default), `openapi`, `compute`. Thin by design.
 
-use std::io::Read;
+use std::io::{ErrorKind, Read, Write};
 use std::process::ExitCode;
 
 use clap::Parser;
@@ -10,10 +10,7 @@ use preston::http::{compute_json, openapi, ENDPOINTS};
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Some(Command::Openapi) => {
-            print!("{}", openapi::spec_json());
-            ExitCode::SUCCESS
-        }
+        Some(Command::Openapi) => output(&openapi::spec_json(), ExitCode::SUCCESS),
         Some(Command::Compute { endpoint, file }) => compute(&endpoint, &file, &cli.serve),
         Some(Command::Serve(args)) => serve(args),
         None => serve(cli.serve),
@@ -58,13 +55,21 @@ fn compute(endpoint: &str, file: &std::path::Path, args: &preston::config::Serve
         return ExitCode::from(66);
     }
     match compute_json(endpoint, &body, &args.limits()) {
-        Ok(json) => {
-            println!("{json}");
-            ExitCode::SUCCESS
-        }
-        Err(problem) => {
-            println!("{}", problem.to_json());
-            ExitCode::from(2)
+        Ok(json) => output(&format!("{json}\n"), ExitCode::SUCCESS),
+        Err(problem) => output(&format!("{}\n", problem.to_json()), ExitCode::from(2)),
+    }
+}
+
+/// Writes `text` to standard output and exits with `code`. A reader that stopped reading
+/// (`preston compute … | head`) is not an error; any other write failure is (exit 74).
+fn output(text: &str, code: ExitCode) -> ExitCode {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => code,
+        Err(e) if e.kind() == ErrorKind::BrokenPipe => code,
+        Err(e) => {
+            eprintln!("preston: cannot write the output: {e}");
+            ExitCode::from(74)
         }
     }
 }

@@ -98,3 +98,27 @@ fn compute_reports_problems_with_exit_status_2() {
     assert_eq!(problem["field"], "process.workpiece_rpm");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A reader that stops early (`preston openapi | head`) is no error: the binary exits with
+/// its usual status and says nothing on standard error (it used to panic on the broken pipe).
+#[test]
+fn output_to_a_closed_pipe_is_not_an_error() {
+    use std::io::Read;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_preston"))
+        .arg("openapi")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdout = child.stdout.take().unwrap();
+    let mut first = [0u8; 16];
+    stdout.read_exact(&mut first).unwrap();
+    drop(stdout); // the reader goes away with most of the document unread
+    let output = child.wait_with_output().unwrap();
+    assert!(output.status.success(), "{output:?}");
+    assert!(
+        output.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
