@@ -382,13 +382,16 @@ impl WarningDto {
                     100.0 * residual_rms_nm / target_rms_nm
                 ),
             },
-            Warning::MachineLimitActive { field } => WarningDto {
-                code: WarningCode::ConstraintActive,
-                field: Some(field.to_string()),
-                message: format!(
-                    "the plan sits on {field}: the machine, not the target, decided it there"
-                ),
-            },
+            Warning::MachineLimitActive { drive, limit } => {
+                let field = limit.field(*drive);
+                WarningDto {
+                    code: WarningCode::ConstraintActive,
+                    message: format!(
+                        "the plan sits on {field}: the machine, not the target, decided it there"
+                    ),
+                    field: Some(field),
+                }
+            }
             Warning::FlatRemovalModel => WarningDto {
                 code: WarningCode::FlatRemovalModel,
                 field: Some("surface".to_string()),

@@ -11,7 +11,7 @@ use utoipa::ToSchema;
 
 use crate::metrology::{Axis, FitError, Parameter, ProbeError, TraceError};
 use crate::optimize::target::ProfileArray;
-use crate::optimize::{OptimizeError, ProfileError};
+use crate::optimize::{Bound, OptimizeError, ProfileError};
 use crate::physics::{GridError, ProcessError, ScheduleError};
 use crate::study::StudyError;
 use crate::surface::SurfaceInput;
@@ -463,16 +463,11 @@ impl From<OptimizeError> for ApiError {
                 fields: if fields.is_empty() {
                     vec!["constraints".to_string()]
                 } else {
-                    // Constraints are named within `constraints`; machine limits come
-                    // with their whole path (`machine.x.…`).
                     fields
                         .iter()
-                        .map(|f| {
-                            if f.contains('.') {
-                                f.to_string()
-                            } else {
-                                format!("constraints.{f}")
-                            }
+                        .map(|f| match f {
+                            Bound::Constraint(c) => format!("constraints.{}", c.name()),
+                            Bound::Machine(drive, limit) => limit.field(*drive),
                         })
                         .collect()
                 },

@@ -14,7 +14,7 @@ use super::error::{surface_field, ApiError, ComputeProblems, LimitViolation};
 use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::{AppState, Services};
 use crate::machine::{
-    AxisLimits, AxisMotion, BlockKind, Drive, FeedMode, GcodeFormat, GcodeFormatError, Limit,
+    AxisLimits, AxisMotion, BlockKind, Drive, FeedMode, GcodeFormat, GcodeFormatError,
     MachineLimits, Orientation, SpindleWords, Tool, Violation,
 };
 use crate::physics::ProcessSpec;
@@ -421,11 +421,6 @@ impl From<&FormatDto> for GcodeFormat {
     }
 }
 
-/// Where a limit sits in the request.
-fn limit_field(drive: Drive, limit: Limit) -> String {
-    format!("machine.{}.{}", drive.name(), limit.name(drive))
-}
-
 fn utilisation(used: f64, limit: Option<f64>) -> Option<f64> {
     limit.map(|l| used / l)
 }
@@ -583,7 +578,7 @@ pub fn machine_limits_error(found: &[Violation], what: &str) -> ApiError {
     let violations: Vec<LimitViolation> = found
         .iter()
         .map(|v| LimitViolation {
-            field: limit_field(v.drive, v.limit),
+            field: v.limit.field(v.drive),
             axis: v.drive.name().to_string(),
             limit: v.limit.name(v.drive).to_string(),
             limit_value: v.limit_value,
@@ -740,7 +735,7 @@ impl From<ProgramInputError> for ApiError {
             E::Size(e) => ApiError::from_limit("dwell.positions_mm", e),
             E::Schedule(e) => ApiError::from_schedule("dwell", e),
             E::Tool(_) => ApiError::invalid("tool.pivot_length_mm", detail),
-            E::Limits(e) => ApiError::invalid(limit_field(e.drive, e.limit), detail),
+            E::Limits(e) => ApiError::invalid(e.limit.field(e.drive), detail),
             E::Format(e) => {
                 let field = match e {
                     GcodeFormatError::Decimals => "format.decimals".to_string(),

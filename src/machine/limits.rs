@@ -65,6 +65,13 @@ impl Limit {
     }
 }
 
+impl Limit {
+    /// The limit's path in a request: `machine.<drive>.<limit>`.
+    pub fn field(self, drive: Drive) -> String {
+        format!("machine.{}.{}", drive.name(), self.name(drive))
+    }
+}
+
 /// One axis's limits; `None` = unlimited. Velocities per minute, accelerations per s², in the
 /// axis's unit (mm or deg).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

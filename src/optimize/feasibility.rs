@@ -19,26 +19,39 @@ use clarabel::algebra::CscMatrix;
 use clarabel::solver::SupportedConeT;
 
 use super::kinematics::Floor;
-use super::problem::{Constraints, OptimizeError};
+use super::problem::{Bound, Constraint, Constraints, OptimizeError};
 use super::solver::{constraint_rows, run_clarabel, Budget, ClarabelQp};
 
 /// Relative margin by which a bound must be exceeded before we call it a conflict (well above
 /// the LP's own accuracy, so rounding never refuses a feasible request).
 const MARGIN: f64 = 1e-7;
 
-fn conflict(fields: Vec<&'static str>, detail: String) -> OptimizeError {
+const MIN_DWELL: Bound = Bound::Constraint(Constraint::MinDwell);
+const MAX_DWELL: Bound = Bound::Constraint(Constraint::MaxDwell);
+const MAX_TOTAL_TIME: Bound = Bound::Constraint(Constraint::MaxTotalTime);
+const MAX_FEED: Bound = Bound::Constraint(Constraint::MaxFeed);
+
+fn conflict(fields: Vec<Bound>, detail: String) -> OptimizeError {
     OptimizeError::Infeasible { fields, detail }
 }
 
 /// The distinct limits that set positive floors, in order of first appearance.
-fn floor_fields(floors: &[Floor]) -> Vec<&'static str> {
-    let mut fields = Vec::new();
+fn floor_bounds(floors: &[Floor]) -> Vec<Bound> {
+    let mut bounds = Vec::new();
     for f in floors.iter().filter(|f| f.dwell_s > 0.0) {
-        if !fields.contains(&f.field) {
-            fields.push(f.field);
+        if !bounds.contains(&f.bound) {
+            bounds.push(f.bound);
         }
     }
-    fields
+    bounds
+}
+
+fn names(bounds: &[Bound]) -> String {
+    bounds
+        .iter()
+        .map(|b| b.name())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Refuses constraints that cannot all hold, naming those in conflict. `floors`: each
@@ -56,13 +69,16 @@ pub fn check(
             .enumerate()
             .find(|(_, f)| f.dwell_s > hi * (1.0 + MARGIN))
         {
-            let (lo, field) = (floor.dwell_s, floor.field);
-            let detail = if field == "min_dwell_s" {
+            let lo = floor.dwell_s;
+            let detail = if floor.bound == MIN_DWELL {
                 format!("min_dwell_s ({lo} s) exceeds max_dwell_s ({hi} s)")
             } else {
-                format!("positions_mm[{j}] needs at least {lo} s of dwell to keep {field}, more than max_dwell_s ({hi} s)")
+                format!(
+                    "positions_mm[{j}] needs at least {lo} s of dwell to keep {}, more than max_dwell_s ({hi} s)",
+                    floor.bound.name()
+                )
             };
-            return Err(conflict(vec![field, "max_dwell_s"], detail));
+            return Err(conflict(vec![floor.bound, MAX_DWELL], detail));
         }
         if let Some(need) = &need {
             if let Some((j, c_j)) = need
@@ -71,7 +87,7 @@ pub fn check(
                 .find(|(_, &c_j)| c_j > 2.0 * hi * (1.0 + MARGIN))
             {
                 return Err(conflict(
-                    vec!["max_feed_mm_per_min", "max_dwell_s"],
+                    vec![MAX_FEED, MAX_DWELL],
                     format!(
                         "crossing from positions_mm[{j}] to positions_mm[{}] ({} mm) at no more than max_feed_mm_per_min needs {c_j} s of dwell at its two ends together, but max_dwell_s allows only {} s",
                         j + 1,
@@ -87,8 +103,8 @@ pub fn check(
     };
     let least: f64 = floors.iter().map(|f| f.dwell_s).sum();
     if least > total * (1.0 + MARGIN) {
-        let mut fields = floor_fields(floors);
-        let detail = if fields == ["min_dwell_s"] {
+        let mut fields = floor_bounds(floors);
+        let detail = if fields == [MIN_DWELL] {
             let n = floors.len();
             format!(
                 "min_dwell_s ({} s) × {n} positions = {least} s exceeds max_total_time_s ({total} s)",
@@ -97,10 +113,10 @@ pub fn check(
         } else {
             format!(
                 "the least dwell at each position ({}) adds up to {least} s, more than max_total_time_s ({total} s)",
-                fields.join(", ")
+                names(&fields)
             )
         };
-        fields.push("max_total_time_s");
+        fields.push(MAX_TOTAL_TIME);
         return Err(conflict(fields, detail));
     }
     // Without feed rows, Σ lo_j is the least time unless a change limit binds between
@@ -113,23 +129,21 @@ pub fn check(
     if least <= total * (1.0 + MARGIN) {
         return Ok(());
     }
-    let mut fields = vec!["max_total_time_s"];
+    let mut fields = vec![MAX_TOTAL_TIME];
     if need.is_some() {
-        fields.push("max_feed_mm_per_min");
+        fields.push(MAX_FEED);
     }
-    fields.extend(floor_fields(floors));
+    fields.extend(floor_bounds(floors));
     if c.max_dwell_change_s.is_some()
         && least_total_time_s(positions_mm, c, floors, false, budget)? < least * (1.0 - MARGIN)
     {
-        fields.push("max_dwell_change_s");
+        fields.push(Bound::Constraint(Constraint::MaxDwellChange));
     }
-    Err(conflict(
-        fields.clone(),
-        format!(
-            "the plan needs at least {least:.6} s in total to keep {}, more than max_total_time_s ({total} s)",
-            fields[1..].join(", ")
-        ),
-    ))
+    let detail = format!(
+        "the plan needs at least {least:.6} s in total to keep {}, more than max_total_time_s ({total} s)",
+        names(&fields[1..])
+    );
+    Err(conflict(fields, detail))
 }
 
 /// min Σ t over the bounds, feed rows and (if `with_change`) change rows: a small sparse LP.

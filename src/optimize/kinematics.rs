@@ -34,11 +34,13 @@
 //! Every limit is applied with a relative margin of [`MARGIN`], so that rounding in the
 //! program's own arithmetic never puts a plan over its limit.
 
-use crate::machine::cell_share;
+use super::problem::{Bound, Constraint};
+use crate::machine::{cell_share, Drive, Limit};
 
 /// One axis of the machine as the plan drives it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisPath {
+    pub drive: Drive,
     /// The axis's travel across each position's cell, in its unit (mm or deg); one per
     /// position (empty for a single position, which has no move).
     pub cell_travel: Vec<f64>,
@@ -46,9 +48,16 @@ pub struct AxisPath {
     pub max_velocity_per_s: Option<f64>,
     /// Largest |acceleration|, unit/s².
     pub max_acceleration_per_s2: Option<f64>,
-    /// The request's names of the two limits, for errors.
-    pub velocity_field: &'static str,
-    pub acceleration_field: &'static str,
+}
+
+impl AxisPath {
+    pub fn velocity_bound(&self) -> Bound {
+        Bound::Machine(self.drive, Limit::MaxVelocity)
+    }
+
+    pub fn acceleration_bound(&self) -> Bound {
+        Bound::Machine(self.drive, Limit::MaxAcceleration)
+    }
 }
 
 /// Relative margin kept below every axis limit.
@@ -62,7 +71,7 @@ pub const MAX_CCP_ITERATIONS: usize = 40;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Floor {
     pub dwell_s: f64,
-    pub field: &'static str,
+    pub bound: Bound,
 }
 
 /// Per-position floors: `min_dwell_s`, the velocity limits and the end accelerations, each
@@ -71,20 +80,20 @@ pub fn floors(axes: &[AxisPath], n: usize, min_dwell_s: f64) -> Vec<Floor> {
     let mut floors = vec![
         Floor {
             dwell_s: min_dwell_s,
-            field: "min_dwell_s",
+            bound: Bound::Constraint(Constraint::MinDwell),
         };
         n
     ];
-    let mut raise = |j: usize, dwell_s: f64, field| {
+    let mut raise = |j: usize, dwell_s: f64, bound| {
         if dwell_s > floors[j].dwell_s {
-            floors[j] = Floor { dwell_s, field };
+            floors[j] = Floor { dwell_s, bound };
         }
     };
     for axis in axes {
         if let Some(v) = axis.max_velocity_per_s {
             let v = v * (1.0 - MARGIN);
             for (j, c) in axis.cell_travel.iter().enumerate() {
-                raise(j, c.abs() / (cell_share(j, n) * v), axis.velocity_field);
+                raise(j, c.abs() / (cell_share(j, n) * v), axis.velocity_bound());
             }
         }
         if let (Some(a), Some(first), Some(last)) = (
@@ -93,11 +102,11 @@ pub fn floors(axes: &[AxisPath], n: usize, min_dwell_s: f64) -> Vec<Floor> {
             axis.cell_travel.last(),
         ) {
             let a = a * (1.0 - MARGIN);
-            raise(0, 2.0 * (first.abs() / a).sqrt(), axis.acceleration_field);
+            raise(0, 2.0 * (first.abs() / a).sqrt(), axis.acceleration_bound());
             raise(
                 n - 1,
                 2.0 * (last.abs() / a).sqrt(),
-                axis.acceleration_field,
+                axis.acceleration_bound(),
             );
         }
     }
@@ -224,11 +233,10 @@ mod tests {
 
     fn axis(cell_travel: Vec<f64>, v: Option<f64>, a: Option<f64>) -> AxisPath {
         AxisPath {
+            drive: Drive::X,
             cell_travel,
             max_velocity_per_s: v,
             max_acceleration_per_s2: a,
-            velocity_field: "v",
-            acceleration_field: "a",
         }
     }
 
@@ -240,9 +248,9 @@ mod tests {
         let m = 1.0 / (1.0 - MARGIN);
         // Ends: velocity 0.5/(½·2) = 0.5 s; acceleration 2·√0.5 = 1.414 s.
         assert!((f[0].dwell_s - 2.0 * (0.5 * m).sqrt()).abs() < 1e-12);
-        assert_eq!(f[0].field, "a");
+        assert_eq!(f[0].bound, x.acceleration_bound());
         assert!((f[1].dwell_s - 0.5 * m).abs() < 1e-12);
-        assert_eq!(f[1].field, "v");
+        assert_eq!(f[1].bound, x.velocity_bound());
         // At the floors the program's end acceleration is at the limit (less the margin).
         let t = [f[0].dwell_s, 1.0, 1.0, f[3].dwell_s];
         let r = peak_acceleration_ratio(&x, &t);

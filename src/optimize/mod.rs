@@ -62,6 +62,6 @@ pub mod solver;
 pub mod target;
 
 pub use motion::Motion;
-pub use problem::{Constraint, Constraints, Objective, OptimizeError, Weight};
+pub use problem::{Bound, Constraint, Constraints, Objective, OptimizeError, Weight};
 pub use qp::{optimize, DwellProblem, Formulation, Solution, SolveStatus};
 pub use target::{resample_profile, MeasuredProfile, ProfileError};

@@ -3,6 +3,7 @@
 
 use super::kinematics::Floor;
 use super::target::ProfileError;
+use crate::machine::{Drive, Limit};
 
 /// Default smoothing weight λ (see the module docs of [`super`]). Chosen on the paper's cases:
 /// it removes neighbour-to-neighbour oscillation while costing the uniform 100 nm plan of
@@ -29,6 +30,24 @@ impl Constraint {
             Constraint::MaxTotalTime => "max_total_time_s",
             Constraint::MaxFeed => "max_feed_mm_per_min",
             Constraint::MaxDwellChange => "max_dwell_change_s",
+        }
+    }
+}
+
+/// A limit a plan keeps: one of its constraints, or a machine axis's velocity or
+/// acceleration limit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Bound {
+    Constraint(Constraint),
+    Machine(Drive, Limit),
+}
+
+impl Bound {
+    /// Its name: the constraint's member name, or the limit's `machine.<axis>.<limit>`.
+    pub fn name(self) -> String {
+        match self {
+            Bound::Constraint(c) => c.name().to_string(),
+            Bound::Machine(drive, limit) => limit.field(drive),
         }
     }
 }
@@ -71,13 +90,9 @@ pub enum OptimizeError {
     /// No candidate position removes material inside the clear aperture.
     #[error("no candidate position removes material inside the clear aperture")]
     NoRemovalInAperture,
-    /// The constraints cannot all hold; `fields` are the names of those in conflict
-    /// ([`Constraint::name`]).
+    /// The constraints cannot all hold; `fields` are those in conflict.
     #[error("{detail}")]
-    Infeasible {
-        fields: Vec<&'static str>,
-        detail: String,
-    },
+    Infeasible { fields: Vec<Bound>, detail: String },
     /// The solver ran out of its time budget before converging.
     #[error("the solver reached its time limit of {limit_s} s before converging")]
     TimeLimit { limit_s: f64 },
@@ -231,32 +246,32 @@ impl Constraints {
         dwell_s: &[f64],
         floors: &[Floor],
         scale_s: f64,
-    ) -> Option<(&'static str, usize, f64)> {
+    ) -> Option<(Bound, usize, f64)> {
         let exceeds = |excess: f64, size: f64| {
             let size = if size > 0.0 { size } else { scale_s };
             excess > CONSTRAINT_TOLERANCE * size.max(f64::MIN_POSITIVE)
         };
         for ((j, &t), floor) in dwell_s.iter().enumerate().zip(floors) {
             if !t.is_finite() || exceeds(floor.dwell_s - t, floor.dwell_s) {
-                return Some((floor.field, j, floor.dwell_s - t));
+                return Some((floor.bound, j, floor.dwell_s - t));
             }
             if let Some(hi) = self.max_dwell_s {
                 if exceeds(t - hi, hi) {
-                    return Some(("max_dwell_s", j, t - hi));
+                    return Some((Bound::Constraint(Constraint::MaxDwell), j, t - hi));
                 }
             }
         }
         if let Some(total) = self.max_total_time_s {
             let sum: f64 = dwell_s.iter().sum();
             if exceeds(sum - total, total) {
-                return Some(("max_total_time_s", 0, sum - total));
+                return Some((Bound::Constraint(Constraint::MaxTotalTime), 0, sum - total));
             }
         }
         if let Some(need) = self.segment_min_dwell_sum_s(positions_mm) {
             for (j, c) in need.iter().enumerate() {
                 let have = dwell_s[j] + dwell_s[j + 1];
                 if exceeds(c - have, *c) {
-                    return Some(("max_feed_mm_per_min", j, c - have));
+                    return Some((Bound::Constraint(Constraint::MaxFeed), j, c - have));
                 }
             }
         }
@@ -264,7 +279,11 @@ impl Constraints {
             for (j, w) in dwell_s.windows(2).enumerate() {
                 let change = (w[1] - w[0]).abs();
                 if exceeds(change - delta, delta) {
-                    return Some(("max_dwell_change_s", j, change - delta));
+                    return Some((
+                        Bound::Constraint(Constraint::MaxDwellChange),
+                        j,
+                        change - delta,
+                    ));
                 }
             }
         }
@@ -354,14 +373,26 @@ mod tests {
             c.violation(&positions, &[2.0, 2.0, 2.0], &floors, 1.0),
             None
         );
-        let broken = |d: [f64; 3]| c.violation(&positions, &d, &floors, 1.0).map(|v| v.0);
-        assert_eq!(broken([0.5, 4.0, 4.0]), Some("min_dwell_s"));
-        assert_eq!(broken([2.0, 11.0, 6.0]), Some("max_dwell_s"));
-        assert_eq!(broken([8.0, 9.0, 8.0]), Some("max_total_time_s"));
-        assert_eq!(broken([1.0, 2.5, 2.0]), Some("max_feed_mm_per_min"));
-        assert_eq!(broken([2.0, 8.0, 2.0]), Some("max_dwell_change_s"));
+        let broken = |d: [f64; 3]| {
+            c.violation(&positions, &d, &floors, 1.0)
+                .map(|v| v.0.name())
+        };
+        assert_eq!(broken([0.5, 4.0, 4.0]).as_deref(), Some("min_dwell_s"));
+        assert_eq!(broken([2.0, 11.0, 6.0]).as_deref(), Some("max_dwell_s"));
+        assert_eq!(broken([8.0, 9.0, 8.0]).as_deref(), Some("max_total_time_s"));
+        assert_eq!(
+            broken([1.0, 2.5, 2.0]).as_deref(),
+            Some("max_feed_mm_per_min")
+        );
+        assert_eq!(
+            broken([2.0, 8.0, 2.0]).as_deref(),
+            Some("max_dwell_change_s")
+        );
         // Within the relative tolerance is kept; just beyond it is not.
-        assert_eq!(broken([10.0 * (1.0 + 1e-10), 6.0, 2.0]), None);
-        assert_eq!(broken([10.0 * (1.0 + 1e-8), 6.0, 2.0]), Some("max_dwell_s"));
+        assert_eq!(broken([10.0 * (1.0 + 1e-10), 6.0, 2.0]).as_deref(), None);
+        assert_eq!(
+            broken([10.0 * (1.0 + 1e-8), 6.0, 2.0]).as_deref(),
+            Some("max_dwell_s")
+        );
     }
 }

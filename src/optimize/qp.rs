@@ -12,7 +12,7 @@ use super::kinematics::{
     acceleration_rows, constant_dwell_for_acceleration, floors, limits_acceleration,
     peak_acceleration_ratio, AxisPath, Floor, CCP_TOLERANCE, MARGIN, MAX_CCP_ITERATIONS,
 };
-use super::problem::{Constraints, Objective, OptimizeError};
+use super::problem::{Bound, Constraint, Constraints, Objective, OptimizeError};
 pub use super::solver::SolveStatus;
 use super::solver::{constraint_rows, run_clarabel, Budget, ClarabelQp, CscBuilder, Rows};
 use crate::physics::RemovalOperator;
@@ -469,15 +469,15 @@ fn within_acceleration(
         .copied()
         .chain(feed.iter().flatten().map(|c_j| 0.5 * c_j))
         .fold(constant_dwell_for_acceleration(problem.axes, n), f64::max);
-    let fields: Vec<&'static str> = problem
+    let fields: Vec<Bound> = problem
         .axes
         .iter()
         .filter(|a| a.max_acceleration_per_s2.is_some())
-        .map(|a| a.acceleration_field)
+        .map(|a| a.acceleration_bound())
         .collect();
-    let refuse = |bound: &'static str, detail: String| {
+    let refuse = |bound: Constraint, detail: String| {
         let mut all = fields.clone();
-        all.push(bound);
+        all.push(Bound::Constraint(bound));
         Err(OptimizeError::Infeasible {
             fields: all,
             detail,
@@ -485,13 +485,13 @@ fn within_acceleration(
     };
     if let Some(hi) = c.max_dwell_s.filter(|&hi| start_s > hi) {
         return refuse(
-            "max_dwell_s",
+            Constraint::MaxDwell,
             format!("within the machine's acceleration limits the optimizer starts from a constant dwell of {start_s} s per position, more than max_dwell_s ({hi} s)"),
         );
     }
     if let Some(total) = c.max_total_time_s.filter(|&t| start_s * n as f64 > t) {
         return refuse(
-            "max_total_time_s",
+            Constraint::MaxTotalTime,
             format!(
                 "within the machine's acceleration limits the optimizer starts from a constant dwell of {start_s} s per position, {} s in total, more than max_total_time_s ({total} s)",
                 start_s * n as f64
@@ -583,25 +583,26 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
         plan.solve_time_s += first.1;
     }
     let status = plan.status;
-    if let Some((name, index, excess)) =
+    if let Some((bound, index, excess)) =
         c.violation(problem.positions_mm, &plan.dwell_s, &floors, scales.dwell_s)
     {
         return Err(OptimizeError::Numerical {
             status: format!(
-                "{status:?}, but the plan breaks {name} at index {index} by {excess:e} s"
+                "{status:?}, but the plan breaks {} at index {index} by {excess:e} s",
+                bound.name()
             ),
         });
     }
-    if let Some(axis) = problem
+    if let Some((axis, ratio)) = problem
         .axes
         .iter()
-        .find(|a| peak_acceleration_ratio(a, &plan.dwell_s) > 1.0)
+        .map(|a| (a, peak_acceleration_ratio(a, &plan.dwell_s)))
+        .find(|&(_, ratio)| ratio > 1.0)
     {
         return Err(OptimizeError::Numerical {
             status: format!(
-                "{status:?}, but the plan exceeds {} by a factor {}",
-                axis.acceleration_field,
-                peak_acceleration_ratio(axis, &plan.dwell_s)
+                "{status:?}, but the plan exceeds {} by a factor {ratio}",
+                axis.acceleration_bound().name()
             ),
         });
     }

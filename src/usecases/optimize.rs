@@ -196,28 +196,13 @@ fn axis_paths(machine: &Machine, positions_mm: &[f64]) -> Vec<AxisPath> {
         .map(|(&drive, cell_travel)| {
             let limits = machine.limits.axis(drive);
             AxisPath {
+                drive,
                 cell_travel,
                 max_velocity_per_s: limits.max_velocity_per_min.map(|v| v / 60.0),
                 max_acceleration_per_s2: limits.max_acceleration_per_s2,
-                velocity_field: machine_field(drive, Limit::MaxVelocity),
-                acceleration_field: machine_field(drive, Limit::MaxAcceleration),
             }
         })
         .collect()
-}
-
-/// A machine axis limit's name in the request (`machine.<axis>.<limit>`); the limits on
-/// dwell are velocity and acceleration.
-fn machine_field(drive: Drive, limit: Limit) -> &'static str {
-    match (drive, limit) {
-        (Drive::X, Limit::MaxVelocity) => "machine.x.max_velocity_mm_per_min",
-        (Drive::X, Limit::MaxAcceleration) => "machine.x.max_acceleration_mm_per_s2",
-        (Drive::Z, Limit::MaxVelocity) => "machine.z.max_velocity_mm_per_min",
-        (Drive::Z, Limit::MaxAcceleration) => "machine.z.max_acceleration_mm_per_s2",
-        (Drive::B, Limit::MaxVelocity) => "machine.b.max_velocity_deg_per_min",
-        (Drive::B, Limit::MaxAcceleration) => "machine.b.max_acceleration_deg_per_s2",
-        _ => "machine",
-    }
 }
 
 /// The program the plan gives on its machine, checked: a plan that breaks a limit is a
@@ -227,7 +212,6 @@ fn machine_warnings(
     process: &crate::physics::Process,
     positions_mm: &[f64],
     dwell_s: &[f64],
-    axes: &[AxisPath],
 ) -> Result<Vec<Warning>, OptimizeError> {
     let mut warnings = Vec::new();
     if !machine.surface.is_plane() {
@@ -255,20 +239,21 @@ fn machine_warnings(
         return Err(OptimizeError::Numerical {
             status: format!(
                 "the plan's program would exceed {} ({} > {})",
-                machine_field(v.drive, v.limit),
+                v.limit.field(v.drive),
                 v.value,
                 v.limit_value
             ),
         });
     }
     // Which limits the plan sits on: within 1e-5 of the limit (the optimizer keeps 1e-6 below).
-    for (axis, drive) in axes.iter().zip(Drive::AXES) {
+    for drive in Drive::AXES {
         let motion = program.motion(drive);
         let limits = machine.limits.axis(drive);
         let near = |peak: f64, limit: Option<f64>| limit.is_some_and(|l| peak >= l * (1.0 - 1e-5));
         if near(motion.peak_velocity_per_min, limits.max_velocity_per_min) {
             warnings.push(Warning::MachineLimitActive {
-                field: axis.velocity_field,
+                drive,
+                limit: Limit::MaxVelocity,
             });
         }
         if near(
@@ -276,7 +261,8 @@ fn machine_warnings(
             limits.max_acceleration_per_s2,
         ) {
             warnings.push(Warning::MachineLimitActive {
-                field: axis.acceleration_field,
+                drive,
+                limit: Limit::MaxAcceleration,
             });
         }
     }
@@ -356,7 +342,6 @@ pub fn optimize(
             setting.process(),
             &positions_mm,
             &solution.dwell_s,
-            &axes,
         )?);
     }
 

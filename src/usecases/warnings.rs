@@ -2,6 +2,7 @@
 //! the target, decided an optimized plan; the plan misses its target; the input looks like a
 //! unit mistake.
 
+use crate::machine::{Drive, Limit};
 use crate::optimize::{Constraint, Constraints};
 use crate::physics::Process;
 
@@ -21,9 +22,8 @@ pub enum Warning {
         residual_rms_nm: f64,
         target_rms_nm: f64,
     },
-    /// The plan sits on this machine limit (its request name, e.g.
-    /// `machine.x.max_velocity_mm_per_min`) somewhere.
-    MachineLimitActive { field: &'static str },
+    /// The plan sits on this axis limit of the machine somewhere.
+    MachineLimitActive { drive: Drive, limit: Limit },
     /// Removal was computed with the flat model although the surface is curved.
     FlatRemovalModel,
     /// With the machine given, the plan still has zero dwell at this position between positions
