@@ -1,7 +1,7 @@
 //! Removal-operator assembly, paper geometry (r_m 50 mm, r_t 10 mm): radial samples on [0, 50]
 //! mm × tool positions on [0, 50] mm, at η = +0.05 (general closed form) and η = −1 (fast path).
 
-use preston::physics::{PressureModel, Process, ProcessSpec, RemovalKernel, RemovalOperator};
+use preston::physics::{Part, PressureModel, Process, ProcessSpec, RemovalKernel, RemovalOperator};
 
 fn main() {
     divan::main();
@@ -17,6 +17,7 @@ fn kernel(workpiece_rpm: f64, tool_rpm: f64) -> RemovalKernel {
             preston_coefficient_m2_per_n: 1e-13,
             pressure_kpa: 10.0,
             pressure_model: PressureModel::Uniform,
+            part: Part::flat(),
         })
         .unwrap(),
     )

@@ -5,7 +5,7 @@
 
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{optimize, Constraints, DwellProblem, Formulation, Objective};
-use preston::physics::{
+use preston::physics::{Part, 
     ClearAperture, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel, RemovalOperator,
 };
 
@@ -29,6 +29,7 @@ fn paper_case(n: usize) -> Case {
         preston_coefficient_m2_per_n: 1e-13,
         pressure_kpa: 10.0,
         pressure_model: PressureModel::Uniform,
+        part: Part::flat(),
     })
     .unwrap();
     let grid = RadialGrid::new(&process, 0.0, 50.0, n).unwrap();

@@ -107,6 +107,12 @@ pub struct Surface {
     terms: Vec<PolynomialTerm>,
 }
 
+impl Default for Surface {
+    fn default() -> Surface {
+        Surface::plane()
+    }
+}
+
 impl Surface {
     pub fn new(spec: &SurfaceSpec) -> Result<Surface, SurfaceError> {
         let radius = |r: f64| {
@@ -346,8 +352,12 @@ impl Surface {
     /// Newton on s(r) = target from r = target (s ≥ r, so r ≤ target), each step integrating
     /// only the stretch since the last iterate; bisection keeps it inside the bracket.
     fn invert_arc(&self, target: f64) -> f64 {
-        let (mut lo, mut hi) = (0.0, target.min(self.domain_mm()));
-        let mut r = hi;
+        // Just inside a finite domain, where the slope is still finite (the arc there is the
+        // most the surface has; beyond it the caller sees s(r) fall short of the target).
+        let (mut lo, mut hi) = (0.0, target.min(self.domain_mm() * (1.0 - 1e-12)));
+        // Start inside, away from a domain edge where the arc integral is ill-conditioned
+        // (each step only adds the stretch since the last iterate, so a poor start would stay).
+        let mut r = if target < self.domain_mm() { hi } else { 0.5 * hi };
         let mut s = self.arc_between(0.0, r);
         for _ in 0..100 {
             let miss = s - target;
@@ -392,6 +402,9 @@ fn gauss_legendre(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> f64 {
 
 /// ∫ₐᵇ f by bisection until a panel's rule and its two halves agree to `tol` per unit length
 /// (absolute), with a floor at the rounding of the panel's value.
+/// Most panels one arc-length integral is split into.
+const MAX_PANELS: usize = 20_000;
+
 fn adaptive_gauss_legendre(f: &dyn Fn(f64) -> f64, a: f64, b: f64, tol: f64) -> f64 {
     if b <= a {
         return 0.0;
@@ -399,12 +412,21 @@ fn adaptive_gauss_legendre(f: &dyn Fn(f64) -> f64, a: f64, b: f64, tol: f64) -> 
     let density = tol / (b - a).max(1.0);
     let mut stack = vec![(a, b, gauss_legendre(f, a, b))];
     let mut total = 0.0;
+    let mut panels = 0;
     while let Some((a, b, whole)) = stack.pop() {
+        panels += 1;
         let m = 0.5 * (a + b);
         let (left, right) = (gauss_legendre(f, a, m), gauss_legendre(f, m, b));
         let error = (left + right - whole).abs();
+        // A non-finite panel (outside the domain) cannot improve by splitting: it is kept,
+        // and the total is not finite.
         if error <= density * (b - a)
+            || !error.is_finite()
             || error <= 4.0 * f64::EPSILON * whole.abs()
+            // Near the edge of a conic's domain the slope itself is ill-conditioned (1 − q²
+            // cancels), so rounding noise may never let two rules agree: a panel budget keeps
+            // the cost bounded, the result then as good as the slope can be evaluated.
+            || panels >= MAX_PANELS
             || m <= a
             || m >= b
         {

@@ -8,6 +8,7 @@ use super::error::ApiError;
 use super::extract::{count, optional_count};
 use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
 use crate::study::{EqualDwell, Recommendation, SpeedRule};
+use crate::physics::Part;
 use crate::surface::{PolynomialTerm, SurfaceSpec};
 use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, Setting, Warning};
 
@@ -79,6 +80,7 @@ impl From<&ProcessDto> for ProcessSpec {
                 PressureModelDto::Uniform => PressureModel::Uniform,
                 PressureModelDto::ConstantForce => PressureModel::ConstantForce,
             },
+            part: Part::flat(),
         }
     }
 }

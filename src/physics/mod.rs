@@ -4,6 +4,7 @@
 
 pub mod carlson;
 pub mod contact;
+pub mod curved;
 pub mod grid;
 pub mod metrics;
 pub mod operator;
@@ -12,6 +13,7 @@ pub mod process;
 pub mod removal;
 pub mod schedule;
 
+pub use curved::{Orientation, Part};
 pub use grid::{check_radius, ClearAperture, GridError, RadialGrid, Reach};
 pub use metrics::UniformityMetrics;
 pub use operator::RemovalOperator;

@@ -43,13 +43,11 @@ impl RemovalOperator {
         let entries = *col_ptr.last().unwrap();
         let mut values = vec![0.0; entries];
 
+        let rings = kernel.rings(radii_mm);
         let fill = |(j, column): (usize, &mut [f64])| {
-            let r1 = positions_mm[j];
-            let factor = kernel.pressure_factor(r1);
-            let rows = &radii_mm[first_row[j]..first_row[j] + column.len()];
-            for (value, &r) in column.iter_mut().zip(rows) {
-                *value = factor * kernel.nominal_rate_nm_per_s(r, r1);
-            }
+            let rows = first_row[j]..first_row[j] + column.len();
+            let column_rings = rings.as_deref().map(|r| &r[rows.clone()]);
+            kernel.fill_column(positions_mm[j], &radii_mm[rows], column_rings, column);
         };
         let columns = split_columns(&mut values, &col_ptr);
         if entries >= PARALLEL_MIN_ENTRIES {

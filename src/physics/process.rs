@@ -14,10 +14,12 @@
 
 use std::f64::consts::PI;
 
+use super::curved::Part;
 use super::pressure::PressureModel;
+use crate::surface::SurfaceError;
 
 /// Raw process parameters as a caller supplies them (units in the names).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ProcessSpec {
     pub workpiece_radius_mm: f64,
     pub tool_radius_mm: f64,
@@ -30,6 +32,9 @@ pub struct ProcessSpec {
     /// Nominal pad pressure in kPa (with the whole pad on the workpiece).
     pub pressure_kpa: f64,
     pub pressure_model: PressureModel,
+    /// The part's surface and the pad's spin axis (default: a plane). On a curved part the
+    /// radii stay radial coordinates of surface points; the workpiece radius is the edge's.
+    pub part: Part,
 }
 
 impl ProcessSpec {
@@ -38,14 +43,27 @@ impl ProcessSpec {
     pub fn with_eta(&self, eta: f64) -> ProcessSpec {
         ProcessSpec {
             workpiece_rpm: -eta * self.tool_rpm,
-            ..*self
+            ..self.clone()
         }
     }
 }
 
 /// Why a [`ProcessSpec`] does not describe a process the radial model can compute.
-#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ProcessError {
+    /// The surface does not hold the pad wherever it may go: it must be defined (slope below
+    /// 90°) out to the arc length `reach_arc_mm` from the vertex.
+    #[error(
+        "the surface must hold the pad wherever it may go, out to {reach_arc_mm} mm of arc from \
+         the vertex (the workpiece edge plus {overhang} the pad radius along the surface): {error}"
+    )]
+    SurfaceReach {
+        reach_arc_mm: f64,
+        overhang: &'static str,
+        error: SurfaceError,
+    },
+    #[error("the surface must reach the workpiece edge: {0}")]
+    SurfaceEdge(SurfaceError),
     #[error("{field} must be a finite number")]
     NonFinite { field: &'static str },
     #[error("{field} must be greater than zero")]
@@ -87,6 +105,9 @@ impl ProcessError {
             ProcessError::NonPositivePressure => "pressure_kpa",
             ProcessError::NegativePrestonCoefficient => "preston_coefficient_m2_per_n",
             ProcessError::StationaryWorkpiece => "workpiece_rpm",
+            ProcessError::SurfaceReach { .. } | ProcessError::SurfaceEdge(_) => {
+                "workpiece_radius_mm"
+            }
         }
     }
 }
@@ -109,7 +130,7 @@ impl Eta {
 }
 
 /// A validated polishing process.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Process {
     spec: ProcessSpec,
 }
@@ -188,7 +209,45 @@ impl Process {
                 });
             }
         }
-        Ok(Process { spec })
+        let process = Process { spec };
+        process.check_reach()?;
+        Ok(process)
+    }
+
+    /// On a curved part, the surface must be defined under the pad at its farthest position.
+    fn check_reach(&self) -> Result<(), ProcessError> {
+        let surface = &self.spec.part.surface;
+        if surface.is_plane() {
+            return Ok(());
+        }
+        let (pads, overhang) = match self.spec.pressure_model {
+            PressureModel::Uniform => (2.0, "twice"),
+            PressureModel::ConstantForce => (1.0, "once"),
+        };
+        let edge = self.spec.workpiece_radius_mm;
+        let fail = |reach_arc_mm, error| ProcessError::SurfaceReach {
+            reach_arc_mm,
+            overhang,
+            error,
+        };
+        surface
+            .check_defined_to(edge)
+            .map_err(ProcessError::SurfaceEdge)?;
+        let reach_arc_mm = surface.arc_length_mm(edge) + pads * self.spec.tool_radius_mm;
+        let reach = surface.radius_at_arc_length(reach_arc_mm);
+        let held = surface.check_defined_to(reach).and_then(|()| {
+            // The inverse saturates where the meridian turns vertical or the domain ends.
+            let back = surface.arc_length_mm(reach);
+            if (back - reach_arc_mm).abs() <= 1e-9 * reach_arc_mm {
+                Ok(())
+            } else {
+                Err(SurfaceError::OutOfDomain {
+                    radius_mm: reach,
+                    domain_mm: surface.domain_mm(),
+                })
+            }
+        });
+        held.map_err(|e| fail(reach_arc_mm, e))
     }
 
     pub fn spec(&self) -> &ProcessSpec {
@@ -202,6 +261,24 @@ impl Process {
     }
     pub fn pressure_model(&self) -> PressureModel {
         self.spec.pressure_model
+    }
+    pub fn part(&self) -> &Part {
+        &self.spec.part
+    }
+
+    /// Arc length along the surface from the vertex to radius `r_mm` (r on a plane).
+    pub fn arc_length_mm(&self, r_mm: f64) -> f64 {
+        self.spec.part.surface.arc_length_mm(r_mm)
+    }
+
+    /// The radius `by_mm` farther out along the surface than `r_mm` (r + by on a plane).
+    pub fn radius_past_mm(&self, r_mm: f64, by_mm: f64) -> f64 {
+        let surface = &self.spec.part.surface;
+        if surface.is_plane() {
+            r_mm + by_mm
+        } else {
+            surface.radius_at_arc_length(surface.arc_length_mm(r_mm) + by_mm)
+        }
     }
 
     /// Workpiece speed in the paper's convention (clockwise positive), rad/s.
@@ -231,9 +308,12 @@ impl Process {
     /// The farthest tool-centre radius the model accepts, mm. Under uniform pressure the pad may
     /// run off the edge until it no longer touches (r_m + r_t); under constant force the pressure
     /// grows without bound as the overlap vanishes, so the centre must stay on the workpiece.
+    /// On a curved part the overhang r_t is measured along the surface.
     pub fn max_tool_position_mm(&self) -> f64 {
         match self.spec.pressure_model {
-            PressureModel::Uniform => self.spec.workpiece_radius_mm + self.spec.tool_radius_mm,
+            PressureModel::Uniform => {
+                self.radius_past_mm(self.spec.workpiece_radius_mm, self.spec.tool_radius_mm)
+            }
             PressureModel::ConstantForce => self.spec.workpiece_radius_mm,
         }
     }
@@ -258,6 +338,7 @@ pub(crate) mod tests {
             preston_coefficient_m2_per_n: 1e-13,
             pressure_kpa: 10.0,
             pressure_model: PressureModel::Uniform,
+            part: Part::flat(),
         }
     }
 

@@ -33,11 +33,13 @@ use std::f64::consts::PI;
 
 use super::carlson::rf_rd;
 use super::contact::{half_angle, HalfAngle};
+use super::curved::{CurvedKernel, Ring};
 use super::pressure::{pressure_factor, PressureModel};
 use super::process::Process;
 
-/// Everything about a process that the removal function needs, precomputed once.
-#[derive(Debug, Clone, Copy)]
+/// Everything about a process that the removal function needs, precomputed once. On a curved
+/// part the rate comes from [`super::curved`]; on a plane from the closed form here.
+#[derive(Debug, Clone)]
 pub struct RemovalKernel {
     omega_sum: f64,
     omega2: f64,
@@ -47,6 +49,7 @@ pub struct RemovalKernel {
     /// K·P/π in (nm/s) per (mm/s · rad).
     scale: f64,
     translation: bool,
+    curved: Option<CurvedKernel>,
 }
 
 impl RemovalKernel {
@@ -59,6 +62,17 @@ impl RemovalKernel {
             pressure_model: process.pressure_model(),
             scale: process.preston_rate_scale() / PI,
             translation: process.is_eta_minus_one(),
+            curved: (!process.part().is_flat()).then(|| {
+                CurvedKernel::new(
+                    process.part().clone(),
+                    -process.omega1_rad_per_s(),
+                    process.omega2_rad_per_s(),
+                    process.tool_radius_mm(),
+                    process.workpiece_radius_mm(),
+                    process.pressure_model(),
+                    process.preston_rate_scale() / PI,
+                )
+            }),
         }
     }
 
@@ -73,6 +87,9 @@ impl RemovalKernel {
 
     /// Pressure relative to nominal with the tool at `r1_mm` (see [`super::pressure`]).
     pub fn pressure_factor(&self, r1_mm: f64) -> f64 {
+        if let Some(curved) = &self.curved {
+            return curved.pressure_factor(r1_mm);
+        }
         pressure_factor(
             self.pressure_model,
             self.workpiece_radius,
@@ -83,6 +100,9 @@ impl RemovalKernel {
 
     /// Removal rate at nominal pressure, nm/s; multiply by [`Self::pressure_factor`].
     pub fn nominal_rate_nm_per_s(&self, r_mm: f64, r1_mm: f64) -> f64 {
+        if let Some(curved) = &self.curved {
+            return curved.nominal_rate_nm_per_s(&Ring::at(curved.surface(), r_mm), &curved.site(r1_mm));
+        }
         let psi = half_angle(r_mm, r1_mm, self.tool_radius);
         if !psi.is_contact() {
             return 0.0;
@@ -94,6 +114,34 @@ impl RemovalKernel {
             sliding_integral(self.omega_sum * r_mm, b, psi)
         };
         self.scale * integral
+    }
+}
+
+impl RemovalKernel {
+    /// What a column fill needs of the sample radii, computed once per operator: the ring
+    /// geometry on a curved part (sag and slope), nothing on a plane.
+    pub fn rings(&self, radii_mm: &[f64]) -> Option<Vec<Ring>> {
+        let curved = self.curved.as_ref()?;
+        Some(radii_mm.iter().map(|&r| Ring::at(curved.surface(), r)).collect())
+    }
+
+    /// Rates in nm/s at `radii_mm` with the tool at `r1_mm` into `out`; `rings` are
+    /// [`Self::rings`] of the same radii.
+    pub fn fill_column(&self, r1_mm: f64, radii_mm: &[f64], rings: Option<&[Ring]>, out: &mut [f64]) {
+        let factor = self.pressure_factor(r1_mm);
+        match (&self.curved, rings) {
+            (Some(curved), Some(rings)) => {
+                let site = curved.site(r1_mm);
+                for (value, ring) in out.iter_mut().zip(rings) {
+                    *value = factor * curved.nominal_rate_nm_per_s(ring, &site);
+                }
+            }
+            _ => {
+                for (value, &r) in out.iter_mut().zip(radii_mm) {
+                    *value = factor * self.nominal_rate_nm_per_s(r, r1_mm);
+                }
+            }
+        }
     }
 }
 

@@ -41,7 +41,7 @@ pub fn canonical_translation(spec: &ProcessSpec) -> ProcessSpec {
         tool_rpm: CANONICAL_RPM,
         preston_coefficient_m2_per_n: CANONICAL_PRESTON,
         pressure_kpa: CANONICAL_PRESSURE_KPA,
-        ..*spec
+        ..spec.clone()
     }
 }
 
@@ -76,7 +76,7 @@ pub fn scale_free(spec: &ProcessSpec) -> Option<(ProcessSpec, f64)> {
             spec.tool_rpm.abs(),
         )
     };
-    Process::new(canonical).ok()?;
+    Process::new(canonical.clone()).ok()?;
     let factor = translation_rate_factor(spec, scale_rpm);
     (factor.is_normal() && (1.0 / factor).is_normal()).then_some((canonical, factor))
 }

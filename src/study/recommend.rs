@@ -143,7 +143,7 @@ impl GeometryParts {
 
 /// Equal dwell at `spec` removing 1 nm over the frame's aperture.
 pub fn unit_pass(spec: &ProcessSpec, frame: Frame) -> Result<EqualDwell, StudyError> {
-    let process = Process::new(*spec).map_err(StudyError::RecommendedOutsideDomain)?;
+    let process = Process::new(spec.clone()).map_err(StudyError::RecommendedOutsideDomain)?;
     EqualDwell::for_depth(&process, frame, 1.0).ok_or(StudyError::NoRemovalInAperture)
 }
 
@@ -159,10 +159,10 @@ pub fn recommend(
     current: &EqualDwell,
 ) -> Result<Recommendation, StudyError> {
     let current = current.scaled(depth_nm / current.metrics.mean_nm);
-    let spec = *process.spec();
+    let spec = process.spec();
     let direction = if spec.tool_rpm < 0.0 { -1.0 } else { 1.0 };
     let unit = &parts.translation;
-    let per_rpm = unit.mean_rate_nm_per_min() * translation_rate_factor(&spec, 1.0);
+    let per_rpm = unit.mean_rate_nm_per_min() * translation_rate_factor(spec, 1.0);
     let matching = current.mean_rate_nm_per_min() / per_rpm;
     let cap = limits.cap();
     let (speed, rule) = if matching <= cap {
@@ -173,11 +173,11 @@ pub fn recommend(
     Process::new(ProcessSpec {
         workpiece_rpm: direction * speed,
         tool_rpm: direction * speed,
-        ..spec
+        ..spec.clone()
     })
     .map_err(StudyError::RecommendedOutsideDomain)?;
     let recommended = unit
-        .retimed(translation_rate_factor(&spec, speed))
+        .retimed(translation_rate_factor(spec, speed))
         .scaled(depth_nm / unit.metrics.mean_nm);
     // K·P so small that the rates underflow: the process removes nothing worth planning.
     if !(per_rpm.is_normal() && recommended.is_finite()) {

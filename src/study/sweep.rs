@@ -36,7 +36,7 @@ impl SweepEtas {
             Process::new(spec.with_eta(eta))
                 .map_err(|error| StudyError::EtaOutsideDomain { index, error })?;
         }
-        Ok(SweepEtas { spec: *spec, etas })
+        Ok(SweepEtas { spec: spec.clone(), etas })
     }
 
     /// The process whose tool speed is held.
@@ -62,7 +62,7 @@ pub fn eta_sweep(
         .enumerate()
         .map(|(index, &eta)| {
             let spec = etas.spec.with_eta(eta);
-            let process = Process::new(spec)
+            let process = Process::new(spec.clone())
                 .map_err(|error| StudyError::EtaOutsideDomain { index, error })?;
             let metrics = match dwell {
                 Some(schedule) => UniformityMetrics::over(

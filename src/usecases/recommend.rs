@@ -296,23 +296,23 @@ mod tests {
     fn cached_parts_never_leak_between_processes() {
         let base = paper_spec(-10.0, 200.0);
         let processes = [
-            base,
+            base.clone(),
             ProcessSpec {
                 workpiece_rpm: -30.0,
                 tool_rpm: 600.0,
-                ..base
+                ..base.clone()
             },
             ProcessSpec {
                 pressure_kpa: 20.0,
-                ..base
+                ..base.clone()
             },
             ProcessSpec {
                 workpiece_rpm: -20.0,
-                ..base
+                ..base.clone()
             },
             ProcessSpec {
                 tool_rpm: 0.0,
-                ..base
+                ..base.clone()
             },
         ]
         .map(|s| Process::new(s).unwrap());

@@ -9,7 +9,7 @@
 
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{optimize, Constraints, DwellProblem, Formulation, Objective};
-use preston::physics::{
+use preston::physics::{Part, 
     ClearAperture, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel, RemovalOperator,
 };
 
@@ -241,8 +241,9 @@ fn random_problem(
         preston_coefficient_m2_per_n: 1e-13,
         pressure_kpa: 10.0,
         pressure_model: PressureModel::Uniform,
+        part: Part::flat(),
     };
-    let process = Process::new(spec).unwrap();
+    let process = Process::new(spec.clone()).unwrap();
     let n = rng.usize(4..16);
     let samples = rng.usize(3 * n..4 * n + 10);
     let grid = RadialGrid::new(&process, 0.0, rm, samples).unwrap();

@@ -9,7 +9,7 @@
 use crate::common;
 
 use common::{adaptive_integral, quadrature_rate_nm_per_min};
-use preston::physics::{removal_rate_nm_per_min, PressureModel, Process, ProcessSpec};
+use preston::physics::{Part, removal_rate_nm_per_min, PressureModel, Process, ProcessSpec};
 
 #[test]
 fn quadrature_integrates_known_integrals() {
@@ -132,6 +132,7 @@ fn random_case(
         preston_coefficient_m2_per_n: 10f64.powf(uniform(rng, -15.0, -12.0)),
         pressure_kpa: uniform(rng, 1.0, 50.0),
         pressure_model: PressureModel::Uniform,
+        part: Part::flat(),
     };
     (spec, r, r1)
 }
@@ -166,7 +167,7 @@ fn closed_form_matches_adaptive_quadrature_on_random_parameters() {
         let s = speeds[case % speeds.len()];
         let g = geometries[(case / speeds.len()) % geometries.len()];
         let (spec, r, r1) = random_case(&mut rng, s, g);
-        let process = Process::new(spec).unwrap();
+        let process = Process::new(spec.clone()).unwrap();
         let closed = removal_rate_nm_per_min(&process, r, r1);
         let reference = quadrature_rate_nm_per_min(&spec, r, r1);
         let peak = (0..=64)

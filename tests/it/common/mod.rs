@@ -3,7 +3,7 @@
 
 pub mod http;
 
-use preston::physics::{PressureModel, Process, ProcessSpec};
+use preston::physics::{Part, PressureModel, Process, ProcessSpec};
 
 /// Gauss–Kronrod (7, 15) nodes on [−1, 1] (non-negative half) and weights.
 const XGK: [f64; 8] = [
@@ -153,6 +153,7 @@ pub fn paper_spec(workpiece_rpm: f64, tool_rpm: f64) -> ProcessSpec {
         preston_coefficient_m2_per_n: 1e-13,
         pressure_kpa: 10.0,
         pressure_model: PressureModel::Uniform,
+        part: Part::flat(),
     }
 }
 

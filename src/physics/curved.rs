@@ -1,0 +1,364 @@
+//! Removal on a curved part: a surface of revolution z(r) turning about its axis at ω_w, and a
+//! pad of radius r_t that conforms to it, centred on the surface point P₀ at radial position
+//! r1 and spinning at ω_t about its axis a (lab frame, counter-clockwise positive seen from
+//! the tool, as everywhere in Preston).
+//!
+//! **Kinematics.** A surface point X at radius r and azimuth φ (measured from the pad centre's
+//! meridian) moves with the workpiece at ω_w·ẑ × X; the pad moves there at ω_t·a × (X − P₀).
+//! The sliding velocity is the difference, less its part along the surface normal m(X):
+//!
+//! ```text
+//! v = ω_w·ẑ × X − ω_t·a × (X − P₀),     v_t = v − (v·m)·m
+//! ```
+//!
+//! The spin axis a is the surface normal at P₀ (orientation `normal`), or ẑ (orientation
+//! `vertical`, for machines without a tilt axis: the pad still conforms to the surface and
+//! presses along the normal, but it spins about a vertical axis through P₀). Writing
+//! X = (r·cosφ, r·sinφ, z), P₀ = (r1, 0, z₁), a = (a_x, 0, a_z) and m = (−sinθ·cosφ,
+//! −sinθ·sinφ, cosθ) (θ the slope angle at r), the components are
+//!
+//! ```text
+//! v = (A·r·sinφ,  B − A·r·cosφ,  C·r·sinφ),   A = ω_t·a_z − ω_w,  B = ω_t·(a_z·r1 + a_x·(z − z₁)),
+//! C = −ω_t·a_x,    v·m = D·sinφ,   D = C·r·cosθ − B·sinθ
+//! |v_t|² = E·sin²φ + (B − A·r·cosφ)²,   E = (A² + C²)·r² − D²
+//! ```
+//!
+//! On a plane (θ = 0, a = ẑ) this is the flat model's V² = a² + b² − 2ab·cosφ.
+//!
+//! **Contact.** The pad covers the points within geodesic distance r_t of P₀. On a sphere of
+//! radius ρ that is exactly the ball |X − P₀| ≤ c_t with the chord c_t = 2ρ·sin(r_t/(2ρ)). On an
+//! asphere Preston uses the same ball with ρ = 1/H, H = (κ_m + κ_s)/2 the mean curvature at P₀
+//! (κ_m = z″·cos³θ meridional, κ_s = sinθ/r sagittal). It is exact on planes and spheres; on
+//! an asphere, since a geodesic of length s has chord s − κ_n²·s³/24 + O(s⁴) (κ_n the normal
+//! curvature along it, κ_n = H + Δ·cos2ψ by Euler with Δ = (κ_m − κ_s)/2), the contact edge
+//! lies within r_t³·|Δ|·(2|H| + |Δ|)/24 (leading order) of the geodesic circle.
+//! A ring of radius r meets the ball in one arc |φ| ≤ φ₀ with
+//!
+//! ```text
+//! |X − P₀|² = (r − r1)² + (z − z₁)² + 4·r·r1·sin²(φ/2)  ⇒  the flat contact of a pad of radius
+//! c_eff = √(c_t² − (z − z₁)²)
+//! ```
+//!
+//! so φ₀ comes in closed form from [`super::contact::half_angle`] (exact at tangency).
+//!
+//! **The rate.** R(r; r1) = K·P/π·∫₀^φ₀ |v_t| dφ (|v_t| is even in φ), along the normal. The
+//! integrand is smooth except where the sliding speed nearly vanishes, so the integral is taken
+//! by adaptive Gauss–Kronrod (7, 15) with QUADPACK's error estimate, to an absolute tolerance of
+//! 1e-12 of the largest speed on the arc times the arc; the band |r − r1| < c_t ≤ r_t stays
+//! that of the flat operator.
+
+use super::contact::half_angle;
+use super::pressure::{pressure_factor, PressureModel};
+use crate::surface::Surface;
+
+/// How the pad's spin axis is carried.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Orientation {
+    /// Along the surface normal at the pad centre (B follows the normal).
+    #[default]
+    Normal,
+    /// Parallel to the workpiece axis (no tilt axis).
+    Vertical,
+}
+
+/// The part under the pad: its surface and how the pad's spin axis is carried.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Part {
+    pub surface: Surface,
+    pub orientation: Orientation,
+}
+
+impl Part {
+    pub fn flat() -> Part {
+        Part::default()
+    }
+
+    pub fn is_flat(&self) -> bool {
+        self.surface.is_plane()
+    }
+}
+
+/// The geometry of one ring: a surface point at radius r on the pad centre's meridian.
+#[derive(Debug, Clone, Copy)]
+pub struct Ring {
+    r: f64,
+    z: f64,
+    sin: f64,
+    cos: f64,
+}
+
+impl Ring {
+    pub fn at(surface: &Surface, r: f64) -> Ring {
+        let (sin, cos) = surface.slope_angle_rad(r).sin_cos();
+        Ring {
+            r,
+            z: surface.sag_mm(r),
+            sin,
+            cos,
+        }
+    }
+}
+
+/// The removal kernel of a curved part (see the module docs). Speeds in rad/s, lab frame.
+#[derive(Debug, Clone)]
+pub struct CurvedKernel {
+    part: Part,
+    omega_workpiece: f64,
+    omega_tool: f64,
+    tool_radius: f64,
+    /// Arc length of the workpiece edge, mm (for the constant-force pressure).
+    edge_arc_mm: f64,
+    pressure_model: PressureModel,
+    /// K·P/π in (nm/s) per (mm/s · rad).
+    scale: f64,
+}
+
+/// A pad position: its centre, spin axis and contact chord.
+#[derive(Debug, Clone, Copy)]
+pub struct Site {
+    r1: f64,
+    z1: f64,
+    axis_x: f64,
+    axis_z: f64,
+    chord: f64,
+}
+
+impl CurvedKernel {
+    pub fn new(
+        part: Part,
+        omega_workpiece: f64,
+        omega_tool: f64,
+        tool_radius: f64,
+        workpiece_radius: f64,
+        pressure_model: PressureModel,
+        scale: f64,
+    ) -> CurvedKernel {
+        let edge_arc_mm = part.surface.arc_length_mm(workpiece_radius);
+        CurvedKernel {
+            part,
+            omega_workpiece,
+            omega_tool,
+            tool_radius,
+            edge_arc_mm,
+            pressure_model,
+            scale,
+        }
+    }
+
+    pub fn surface(&self) -> &Surface {
+        &self.part.surface
+    }
+
+    /// The pad at radial position `r1_mm`.
+    pub fn site(&self, r1_mm: f64) -> Site {
+        let surface = &self.part.surface;
+        let (sin1, cos1) = surface.slope_angle_rad(r1_mm).sin_cos();
+        let (axis_x, axis_z) = match self.part.orientation {
+            Orientation::Normal => (-sin1, cos1),
+            Orientation::Vertical => (0.0, 1.0),
+        };
+        let meridional = surface.second_derivative(r1_mm) * cos1 * cos1 * cos1;
+        let sagittal = if r1_mm > 0.0 {
+            sin1 / r1_mm
+        } else {
+            surface.second_derivative(0.0)
+        };
+        let mean = 0.5 * (meridional + sagittal);
+        let half = 0.5 * self.tool_radius * mean;
+        // 2·sin(h)/H = r_t·sin(h)/h; the quotient is 1 − h²/6 + … for tiny h.
+        let chord = if half.abs() < 1e-8 {
+            self.tool_radius * (1.0 - half * half / 6.0)
+        } else {
+            self.tool_radius * half.sin() / half
+        };
+        Site {
+            r1: r1_mm,
+            z1: surface.sag_mm(r1_mm),
+            axis_x,
+            axis_z,
+            chord,
+        }
+    }
+
+    /// Pressure relative to nominal with the pad at `r1_mm`: under constant force the flat
+    /// lens formula with arc lengths in place of radii (the pad and the part's edge measured
+    /// along the surface).
+    pub fn pressure_factor(&self, r1_mm: f64) -> f64 {
+        match self.pressure_model {
+            PressureModel::Uniform => 1.0,
+            PressureModel::ConstantForce => pressure_factor(
+                self.pressure_model,
+                self.edge_arc_mm,
+                self.tool_radius,
+                self.part.surface.arc_length_mm(r1_mm),
+            ),
+        }
+    }
+
+    /// Removal rate at nominal pressure on `ring` with the pad at `site`, nm/s.
+    pub fn nominal_rate_nm_per_s(&self, ring: &Ring, site: &Site) -> f64 {
+        let dz = ring.z - site.z1;
+        let reach2 = site.chord * site.chord - dz * dz;
+        if reach2 <= 0.0 {
+            return 0.0;
+        }
+        let psi = half_angle(ring.r, site.r1, reach2.sqrt());
+        if !psi.is_contact() {
+            return 0.0;
+        }
+        let phi0 = 2.0 * psi.radians();
+        let (w, t) = (self.omega_workpiece, self.omega_tool);
+        let a = t * site.axis_z - w;
+        let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
+        let c = -t * site.axis_x;
+        let d = c * ring.r * ring.cos - b * ring.sin;
+        let e = (a * a + c * c) * ring.r * ring.r - d * d;
+        let f = a * ring.r;
+        let speed = |phi: f64| {
+            let (s, co) = phi.sin_cos();
+            let along = b - f * co;
+            (e * s * s + along * along).max(0.0).sqrt()
+        };
+        // No sliding speed on the arc exceeds |B| + |A·r| + √|E|.
+        let bound = b.abs() + f.abs() + e.abs().sqrt();
+        if bound == 0.0 {
+            return 0.0;
+        }
+        self.scale * adaptive_gauss_kronrod(&speed, phi0, 1e-12 * bound * phi0)
+    }
+}
+
+/// Gauss–Kronrod (7, 15) nodes on [−1, 1] (non-negative half) and weights.
+const XGK: [f64; 8] = [
+    0.991_455_371_120_812_6,
+    0.949_107_912_342_758_5,
+    0.864_864_423_359_769_1,
+    0.741_531_185_599_394_4,
+    0.586_087_235_467_691_1,
+    0.405_845_151_377_397_2,
+    0.207_784_955_007_898_5,
+    0.0,
+];
+const WGK: [f64; 8] = [
+    0.022_935_322_010_529_22,
+    0.063_092_092_629_978_55,
+    0.104_790_010_322_250_18,
+    0.140_653_259_715_525_92,
+    0.169_004_726_639_267_9,
+    0.190_350_578_064_785_4,
+    0.204_432_940_075_298_9,
+    0.209_482_141_084_727_83,
+];
+/// Gauss 7-point weights at XGK[1], XGK[3], XGK[5], XGK[7].
+const WG: [f64; 4] = [
+    0.129_484_966_168_869_7,
+    0.279_705_391_489_276_7,
+    0.381_830_050_505_118_9,
+    0.417_959_183_673_469_4,
+];
+
+/// One panel: the Kronrod value and QUADPACK's error estimate.
+fn gk15(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
+    let centre = 0.5 * (a + b);
+    let half = 0.5 * (b - a);
+    let fc = f(centre);
+    let mut kronrod = WGK[7] * fc;
+    let mut gauss = WG[3] * fc;
+    let mut values = [0.0; 14];
+    for k in 0..7 {
+        let (lo, hi) = (f(centre - half * XGK[k]), f(centre + half * XGK[k]));
+        values[2 * k] = lo;
+        values[2 * k + 1] = hi;
+        kronrod += WGK[k] * (lo + hi);
+        if k % 2 == 1 {
+            gauss += WG[k / 2] * (lo + hi);
+        }
+    }
+    // QUADPACK's estimate: |K − G| scaled by the integrand's variation about its mean, which
+    // is far less pessimistic than |K − G| itself for smooth integrands.
+    let mean = 0.5 * kronrod;
+    let mut spread = WGK[7] * (fc - mean).abs();
+    for k in 0..7 {
+        spread += WGK[k] * ((values[2 * k] - mean).abs() + (values[2 * k + 1] - mean).abs());
+    }
+    let spread = spread * half.abs();
+    let mut error = ((kronrod - gauss) * half).abs();
+    if spread > 0.0 && error > 0.0 {
+        error = spread * (200.0 * error / spread).powf(1.5).min(1.0);
+    }
+    (kronrod * half, error)
+}
+
+/// Most panels one integral may be split into (each a 15-point rule); far more than any
+/// integrand here needs (a near-zero sliding speed takes a few dozen).
+const MAX_PANELS: usize = 2000;
+
+/// ∫₀^`b` f by adaptive bisection of Gauss–Kronrod (7, 15) panels, each panel accepted when its
+/// error estimate is within its width's share of `tol` (absolute) or the panel can no longer
+/// be split in floating point.
+pub fn adaptive_gauss_kronrod(f: &dyn Fn(f64) -> f64, b: f64, tol: f64) -> f64 {
+    let density = tol / b;
+    let mut stack = vec![(0.0, b)];
+    let mut total = 0.0;
+    let mut panels = 0;
+    while let Some((lo, hi)) = stack.pop() {
+        panels += 1;
+        let (value, error) = gk15(f, lo, hi);
+        let mid = 0.5 * (lo + hi);
+        if error <= density * (hi - lo) || mid <= lo || mid >= hi || panels >= MAX_PANELS {
+            total += value;
+        } else {
+            stack.push((mid, hi));
+            stack.push((lo, mid));
+        }
+    }
+    total
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gauss_kronrod_is_exact_for_polynomials_and_adapts_to_kinks() {
+        // K15 integrates degree 22 exactly.
+        let p = |x: f64| 3.0 * x.powi(22) - x.powi(7) + 2.0;
+        let exact = 3.0 / 23.0 * 2f64.powi(23) - 2f64.powi(8) / 8.0 + 4.0;
+        let got = adaptive_gauss_kronrod(&p, 2.0, 1e-12);
+        assert!((got - exact).abs() < 1e-12 * exact, "{got} vs {exact}");
+        // A kink inside: ∫₀³ |x − 1| dx = ½ + 2.
+        let got = adaptive_gauss_kronrod(&|x: f64| (x - 1.0).abs(), 3.0, 1e-13);
+        assert!((got - 2.5).abs() < 1e-12, "{got}");
+    }
+
+    /// On a sphere the mean-curvature chord is the geodesic's: 2ρ·sin(r_t/(2ρ)), at the vertex
+    /// and off it, concave and convex.
+    #[test]
+    fn the_contact_chord_on_a_sphere_is_exact() {
+        use crate::surface::SurfaceSpec;
+        for radius in [60.0, -60.0, 1000.0] {
+            let surface = Surface::new(&SurfaceSpec::Sphere {
+                radius_of_curvature_mm: radius,
+            })
+            .unwrap();
+            let kernel = CurvedKernel::new(
+                Part {
+                    surface,
+                    orientation: Orientation::Normal,
+                },
+                1.0,
+                2.0,
+                8.0,
+                40.0,
+                PressureModel::Uniform,
+                1.0,
+            );
+            let rho: f64 = f64::abs(radius);
+            let exact = 2.0 * rho * (4.0 / rho).sin();
+            for r1 in [0.0, 10.0, 45.0] {
+                let chord = kernel.site(r1).chord;
+                assert!((chord - exact).abs() < 1e-12 * exact, "{radius} {r1}");
+            }
+        }
+    }
+}
