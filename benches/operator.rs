@@ -1,13 +1,22 @@
 //! Removal-operator assembly, paper geometry (r_m 50 mm, r_t 10 mm): radial samples on [0, 50]
-//! mm × tool positions on [0, 50] mm, at η = +0.05 (general closed form) and η = −1 (fast path).
+//! mm × tool positions on [0, 50] mm, at η = +0.05 (general closed form) and η = −1 (fast path)
+//! on a plane, and at η = +0.05 on a sphere (R = 100 mm) and an asphere (R = 100 mm, k = −0.5,
+//! a₄ = 1e-7, a₆ = −2e-11), where each entry is an adaptive quadrature.
 
-use preston::physics::{Part, PressureModel, Process, ProcessSpec, RemovalKernel, RemovalOperator};
+use preston::physics::{
+    Orientation, Part, PressureModel, Process, ProcessSpec, RemovalKernel, RemovalOperator,
+};
+use preston::surface::{PolynomialTerm, Surface, SurfaceSpec};
 
 fn main() {
     divan::main();
 }
 
 fn kernel(workpiece_rpm: f64, tool_rpm: f64) -> RemovalKernel {
+    kernel_on(workpiece_rpm, tool_rpm, Part::flat())
+}
+
+fn kernel_on(workpiece_rpm: f64, tool_rpm: f64, part: Part) -> RemovalKernel {
     RemovalKernel::new(
         &Process::new(ProcessSpec {
             workpiece_radius_mm: 50.0,
@@ -17,7 +26,7 @@ fn kernel(workpiece_rpm: f64, tool_rpm: f64) -> RemovalKernel {
             preston_coefficient_m2_per_n: 1e-13,
             pressure_kpa: 10.0,
             pressure_model: PressureModel::Uniform,
-            part: Part::flat(),
+            part,
         })
         .unwrap(),
     )
@@ -37,6 +46,50 @@ fn eta_plus_0_05(bencher: divan::Bencher, n: usize) {
 #[divan::bench(args = [1001, 2001])]
 fn eta_minus_1(bencher: divan::Bencher, n: usize) {
     let k = kernel(150.0, 150.0);
+    let grid = linspace(n);
+    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &grid));
+}
+
+fn part(spec: SurfaceSpec) -> Part {
+    Part {
+        surface: Surface::new(&spec).unwrap(),
+        orientation: Orientation::Normal,
+    }
+}
+
+#[divan::bench(args = [1001])]
+fn sphere_eta_plus_0_05(bencher: divan::Bencher, n: usize) {
+    let k = kernel_on(
+        -10.0,
+        200.0,
+        part(SurfaceSpec::Sphere {
+            radius_of_curvature_mm: 100.0,
+        }),
+    );
+    let grid = linspace(n);
+    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &grid));
+}
+
+#[divan::bench(args = [1001])]
+fn asphere_eta_plus_0_05(bencher: divan::Bencher, n: usize) {
+    let k = kernel_on(
+        -10.0,
+        200.0,
+        part(SurfaceSpec::Asphere {
+            radius_of_curvature_mm: 100.0,
+            conic_constant: -0.5,
+            coefficients: vec![
+                PolynomialTerm {
+                    power: 4,
+                    value: 1e-7,
+                },
+                PolynomialTerm {
+                    power: 6,
+                    value: -2e-11,
+                },
+            ],
+        }),
+    );
     let grid = linspace(n);
     bencher.bench(|| RemovalOperator::assemble(&k, &grid, &grid));
 }

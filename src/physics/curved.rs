@@ -44,7 +44,7 @@
 //! **The rate.** R(r; r1) = K·P/π·∫₀^φ₀ |v_t| dφ (|v_t| is even in φ), along the normal. The
 //! integrand is smooth except where the sliding speed nearly vanishes, so the integral is taken
 //! by adaptive Gauss–Kronrod (7, 15) with QUADPACK's error estimate, to an absolute tolerance of
-//! 1e-12 of the largest speed on the arc times the arc; the band |r − r1| < c_t ≤ r_t stays
+//! 1e-10 of the largest speed on the arc times the arc; the band |r − r1| < c_t ≤ r_t stays
 //! that of the flat operator.
 
 use super::contact::half_angle;
@@ -214,17 +214,16 @@ impl CurvedKernel {
         let d = c * ring.r * ring.cos - b * ring.sin;
         let e = (a * a + c * c) * ring.r * ring.r - d * d;
         let f = a * ring.r;
-        let speed = |phi: f64| {
-            let (s, co) = phi.sin_cos();
-            let along = b - f * co;
-            (e * s * s + along * along).max(0.0).sqrt()
+        let speed = |cos: f64, sin: f64| {
+            let along = b - f * cos;
+            (e * sin * sin + along * along).max(0.0).sqrt()
         };
         // No sliding speed on the arc exceeds |B| + |A·r| + √|E|.
         let bound = b.abs() + f.abs() + e.abs().sqrt();
         if bound == 0.0 {
             return 0.0;
         }
-        self.scale * adaptive_gauss_kronrod(&speed, phi0, 1e-12 * bound * phi0)
+        self.scale * adaptive_gauss_kronrod(&speed, phi0, 1e-10 * bound * phi0)
     }
 }
 
@@ -257,18 +256,22 @@ const WG: [f64; 4] = [
     0.417_959_183_673_469_4,
 ];
 
-/// One panel: the Kronrod value and QUADPACK's error estimate.
-fn gk15(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
+/// One panel of ∫ g(cos φ, sin φ) dφ over [a, b]: the Kronrod value and QUADPACK's error
+/// estimate. The nodes' cosines and sines come by angle addition from the centre's and the
+/// offsets', 8 trigonometric calls instead of 15.
+fn gk15<G: Fn(f64, f64) -> f64>(g: &G, a: f64, b: f64) -> (f64, f64) {
     let centre = 0.5 * (a + b);
     let half = 0.5 * (b - a);
-    let fc = f(centre);
+    let (sin_c, cos_c) = centre.sin_cos();
+    let fc = g(cos_c, sin_c);
     let mut kronrod = WGK[7] * fc;
     let mut gauss = WG[3] * fc;
-    let mut values = [0.0; 14];
-    for k in 0..7 {
-        let (lo, hi) = (f(centre - half * XGK[k]), f(centre + half * XGK[k]));
-        values[2 * k] = lo;
-        values[2 * k + 1] = hi;
+    let mut values = [(0.0, 0.0); 7];
+    for (k, value) in values.iter_mut().enumerate() {
+        let (sin_d, cos_d) = (half * XGK[k]).sin_cos();
+        let lo = g(cos_c * cos_d + sin_c * sin_d, sin_c * cos_d - cos_c * sin_d);
+        let hi = g(cos_c * cos_d - sin_c * sin_d, sin_c * cos_d + cos_c * sin_d);
+        *value = (lo, hi);
         kronrod += WGK[k] * (lo + hi);
         if k % 2 == 1 {
             gauss += WG[k / 2] * (lo + hi);
@@ -278,8 +281,8 @@ fn gk15(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
     // is far less pessimistic than |K − G| itself for smooth integrands.
     let mean = 0.5 * kronrod;
     let mut spread = WGK[7] * (fc - mean).abs();
-    for k in 0..7 {
-        spread += WGK[k] * ((values[2 * k] - mean).abs() + (values[2 * k + 1] - mean).abs());
+    for (k, (lo, hi)) in values.iter().enumerate() {
+        spread += WGK[k] * ((lo - mean).abs() + (hi - mean).abs());
     }
     let spread = spread * half.abs();
     let mut error = ((kronrod - gauss) * half).abs();
@@ -293,17 +296,17 @@ fn gk15(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
 /// integrand here needs (a near-zero sliding speed takes a few dozen).
 const MAX_PANELS: usize = 2000;
 
-/// ∫₀^`b` f by adaptive bisection of Gauss–Kronrod (7, 15) panels, each panel accepted when its
-/// error estimate is within its width's share of `tol` (absolute) or the panel can no longer
-/// be split in floating point.
-pub fn adaptive_gauss_kronrod(f: &dyn Fn(f64) -> f64, b: f64, tol: f64) -> f64 {
+/// ∫₀^`b` g(cos φ, sin φ) dφ by adaptive bisection of Gauss–Kronrod (7, 15) panels, each panel
+/// accepted when its error estimate is within its width's share of `tol` (absolute) or the
+/// panel can no longer be split in floating point.
+pub fn adaptive_gauss_kronrod<G: Fn(f64, f64) -> f64>(g: &G, b: f64, tol: f64) -> f64 {
     let density = tol / b;
     let mut stack = vec![(0.0, b)];
     let mut total = 0.0;
     let mut panels = 0;
     while let Some((lo, hi)) = stack.pop() {
         panels += 1;
-        let (value, error) = gk15(f, lo, hi);
+        let (value, error) = gk15(g, lo, hi);
         let mid = 0.5 * (lo + hi);
         if error <= density * (hi - lo) || mid <= lo || mid >= hi || panels >= MAX_PANELS {
             total += value;
@@ -322,12 +325,16 @@ mod tests {
     #[test]
     fn gauss_kronrod_is_exact_for_polynomials_and_adapts_to_kinks() {
         // K15 integrates degree 22 exactly.
-        let p = |x: f64| 3.0 * x.powi(22) - x.powi(7) + 2.0;
+        // The rule sees cos φ and sin φ; φ = atan2(sin, cos) recovers the variable.
+        let p = |c: f64, s: f64| {
+            let x = s.atan2(c);
+            3.0 * x.powi(22) - x.powi(7) + 2.0
+        };
         let exact = 3.0 / 23.0 * 2f64.powi(23) - 2f64.powi(8) / 8.0 + 4.0;
         let got = adaptive_gauss_kronrod(&p, 2.0, 1e-12);
         assert!((got - exact).abs() < 1e-12 * exact, "{got} vs {exact}");
         // A kink inside: ∫₀³ |x − 1| dx = ½ + 2.
-        let got = adaptive_gauss_kronrod(&|x: f64| (x - 1.0).abs(), 3.0, 1e-13);
+        let got = adaptive_gauss_kronrod(&|c: f64, s: f64| (s.atan2(c) - 1.0).abs(), 3.0, 1e-13);
         assert!((got - 2.5).abs() < 1e-12, "{got}");
     }
 
