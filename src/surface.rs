@@ -198,6 +198,21 @@ impl Surface {
         (self.curvature != 0.0).then(|| 1.0 / self.curvature)
     }
 
+    /// Every number that defines the surface, as bits (equal surfaces give equal keys): for
+    /// caches keyed on the geometry.
+    pub fn key_bits(&self) -> Vec<u64> {
+        // The term count first, so that a key followed by other numbers stays unambiguous.
+        let mut key = vec![
+            self.terms.len() as u64,
+            self.curvature.to_bits(),
+            self.conic.to_bits(),
+        ];
+        for term in &self.terms {
+            key.extend([u64::from(term.power), term.value.to_bits()]);
+        }
+        key
+    }
+
     pub fn is_plane(&self) -> bool {
         self.curvature == 0.0 && self.terms.is_empty()
     }

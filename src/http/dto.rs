@@ -8,8 +8,10 @@ use super::error::ApiError;
 use super::extract::{count, optional_count};
 use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
 use crate::study::{EqualDwell, Recommendation, SpeedRule};
-use crate::physics::Part;
-use crate::surface::{PolynomialTerm, SurfaceSpec};
+use super::error::surface_error;
+use super::program::ToolDto;
+use crate::physics::{Orientation, Part};
+use crate::surface::{PolynomialTerm, Surface, SurfaceSpec};
 use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, Setting, Warning};
 
 fn default_preston_coefficient() -> f64 {
@@ -136,15 +138,48 @@ impl From<Option<&ClearApertureDto>> for ApertureSpec {
     }
 }
 
-/// The setting of a request: its process, radial grid and clear aperture.
-pub fn setting(
+/// The part a request describes: its `surface` (default a plane) and the pad's spin axis from
+/// `tool.orientation` (default `normal`), the surface checked and any error naming its field.
+pub fn part(surface: Option<&SurfaceDto>, tool: Option<&ToolDto>) -> Result<Part, ApiError> {
+    let surface = Surface::new(&surface.map_or(SurfaceSpec::Plane, SurfaceSpec::from))
+        .map_err(surface_error)?;
+    let orientation = tool
+        .and_then(|t| t.orientation)
+        .map_or(Orientation::Normal, Orientation::from);
+    Ok(Part {
+        surface,
+        orientation,
+    })
+}
+
+/// The process of a request on its part.
+pub fn process_spec(
     process: &ProcessDto,
+    surface: Option<&SurfaceDto>,
+    tool: Option<&ToolDto>,
+) -> Result<ProcessSpec, ApiError> {
+    Ok(ProcessSpec {
+        part: part(surface, tool)?,
+        ..process.into()
+    })
+}
+
+/// Where the request's process, part and pad act: the members every computing request shares.
+pub struct Place<'a> {
+    pub process: &'a ProcessDto,
+    pub surface: Option<&'a SurfaceDto>,
+    pub tool: Option<&'a ToolDto>,
+}
+
+/// The setting of a request: its process on its part, radial grid and clear aperture.
+pub fn setting(
+    place: Place,
     grid: Option<&RadialGridDto>,
     aperture: Option<&ClearApertureDto>,
     limits: &ComputeLimits,
 ) -> Result<Setting, ApiError> {
     Ok(Setting::new(
-        process.into(),
+        process_spec(place.process, place.surface, place.tool)?,
         grid.into(),
         aperture.into(),
         limits,
@@ -351,9 +386,6 @@ pub enum WarningCode {
     /// Every tool position is below 1 mm on a workpiece of 10 mm radius or more: positions are
     /// in millimetres, and these look like metres.
     PositionsLookLikeMetres,
-    /// The surface is curved, but removal was computed with the flat model; the surface
-    /// shaped only the machine's poses and limits.
-    FlatRemovalModel,
     /// The plan has zero dwell between positions with dwell at the position in `field`: no
     /// machine program can run it (set `constraints.min_dwell_s` > 0).
     NotProgrammable,
@@ -394,11 +426,6 @@ impl WarningDto {
                     field: Some(field),
                 }
             }
-            Warning::FlatRemovalModel => WarningDto {
-                code: WarningCode::FlatRemovalModel,
-                field: Some("surface".to_string()),
-                message: "the surface is curved but removal is computed with the flat model (radius in place of arc length); the surface shapes the machine's poses and limits only".to_string(),
-            },
             Warning::NotProgrammable { index } => WarningDto {
                 code: WarningCode::NotProgrammable,
                 field: Some(format!("{positions}[{index}]")),

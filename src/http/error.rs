@@ -14,7 +14,7 @@ use crate::optimize::target::ProfileArray;
 use crate::optimize::{Bound, OptimizeError, ProfileError};
 use crate::physics::{GridError, ProcessError, ScheduleError};
 use crate::study::StudyError;
-use crate::surface::SurfaceInput;
+use crate::surface::{SurfaceError, SurfaceInput};
 use crate::usecases::measurement_fit::{MeasurementError, MeasurementInputError};
 use crate::usecases::{Input, InputError, LimitError, SettingError};
 
@@ -527,6 +527,12 @@ pub enum ComputeProblems {
     /// Overloaded; retry after Retry-After seconds
     #[response(status = 503, content_type = "application/problem+json")]
     Overloaded(Problem),
+}
+
+/// A surface that was refused, at its field.
+pub(super) fn surface_error(e: SurfaceError) -> ApiError {
+    let field = surface_field(e.input());
+    ApiError::invalid(field.clone(), format!("{field}: {e}"))
 }
 
 pub(super) fn surface_field(input: Option<SurfaceInput>) -> String {

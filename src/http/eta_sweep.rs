@@ -6,7 +6,8 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::dto::{
+use super::program::ToolDto;
+use super::dto::{Place, SurfaceDto, 
     setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
 };
 use super::endpoint::{handle, Endpoint};
@@ -25,6 +26,16 @@ pub struct EtaSweepRequest {
     /// −η·tool_rpm at each point.
     #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
+    /// The part's surface; default a plane. Positions and radial grids are radial coordinates
+    /// (distance from the axis, mm) of surface points; removal is along the surface normal,
+    /// computed for a pad that conforms to the surface (see the model documentation).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub surface: Option<SurfaceDto>,
+    /// The pad's spin axis: `tool.orientation` `normal` (default; along the surface normal at
+    /// the pad centre) or `vertical` (parallel to the workpiece axis). Only the orientation
+    /// matters here.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub tool: Option<ToolDto>,
     /// η values (paper convention, η = −workpiece_rpm / tool_rpm), each finite and ≠ 0; at
     /// most 201. Computed in parallel.
     #[schema(example = json!([-0.05, -0.25, -0.5, -0.75, -1.0, -1.25, -1.5]))]
@@ -81,7 +92,11 @@ impl Endpoint for EtaSweepEndpoint {
 
     fn parse(req: EtaSweepRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let setting = setting(
-            &req.process,
+            Place {
+                process: &req.process,
+                surface: req.surface.as_ref(),
+                tool: req.tool.as_ref(),
+            },
             req.radial_grid.as_ref(),
             req.clear_aperture.as_ref(),
             limits,

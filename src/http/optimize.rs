@@ -7,7 +7,7 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::dto::{
+use super::dto::{Place, 
     setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
     RecommendationDto, SurfaceDto, WarningDto,
 };
@@ -153,6 +153,10 @@ pub struct OptimizeResponse {
     pub eta: Option<f64>,
     /// The optimized plan: positions (mm) and dwell at each (s).
     pub dwell: DwellDto,
+    /// Arc length along the surface from the vertex to each position of `dwell`, mm; present
+    /// only on a curved surface.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_arc_length_mm: Option<Vec<f64>>,
     /// Mean radial feed on each segment between neighbouring positions, mm/min (one fewer
     /// than positions); null where both ends have zero dwell (the axis would jump).
     pub feed_mm_per_min: Vec<Option<f64>>,
@@ -162,6 +166,10 @@ pub struct OptimizeResponse {
     pub motion: MotionDto,
     /// The radial grid, mm.
     pub radius_mm: Vec<f64>,
+    /// Arc length along the surface from the vertex to each radius of `radius_mm`, mm; present
+    /// only on a curved surface.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arc_length_mm: Option<Vec<f64>>,
     /// Predicted removal depth at each radius of `radius_mm`, nm.
     pub removal_nm: Vec<f64>,
     /// The target at each radius (including the piston), nm; null outside the clear aperture.
@@ -320,7 +328,11 @@ impl Endpoint for OptimizeEndpoint {
     /// The command, with the server's solver time limit (for the time-limit problem's hint).
     fn parse(req: OptimizeRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let setting = setting(
-            &req.process,
+            Place {
+                process: &req.process,
+                surface: req.surface.as_ref(),
+                tool: req.tool.as_ref(),
+            },
             req.radial_grid.as_ref(),
             req.clear_aperture.as_ref(),
             limits,
@@ -407,6 +419,8 @@ impl From<OptimizedPlan> for OptimizeResponse {
                 .collect(),
             eta: p.setting.process().eta().value(),
             total_time_s: p.total_time_s,
+            position_arc_length_mm: p.setting.process().arc_lengths_mm(&p.positions_mm),
+            arc_length_mm: p.setting.process().arc_lengths_mm(p.setting.grid().radii_mm()),
             dwell: DwellDto {
                 positions_mm: p.positions_mm,
                 dwell_s: s.dwell_s.clone(),

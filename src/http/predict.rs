@@ -6,7 +6,8 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::dto::{
+use super::program::ToolDto;
+use super::dto::{Place, SurfaceDto, 
     setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
     RecommendationDto, WarningDto,
 };
@@ -25,6 +26,16 @@ pub struct PredictRequest {
     /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
     #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
+    /// The part's surface; default a plane. Positions and radial grids are radial coordinates
+    /// (distance from the axis, mm) of surface points; removal is along the surface normal,
+    /// computed for a pad that conforms to the surface (see the model documentation).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub surface: Option<SurfaceDto>,
+    /// The pad's spin axis: `tool.orientation` `normal` (default; along the surface normal at
+    /// the pad centre) or `vertical` (parallel to the workpiece axis). Only the orientation
+    /// matters here.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub tool: Option<ToolDto>,
     /// Tool positions (mm) and the dwell time at each (s).
     #[serde(deserialize_with = "object")]
     pub dwell: DwellDto,
@@ -43,6 +54,10 @@ pub struct PredictResponse {
     pub eta: Option<f64>,
     /// The radial grid, mm.
     pub radius_mm: Vec<f64>,
+    /// Arc length along the surface from the vertex to each radius of `radius_mm`, mm; present
+    /// only on a curved surface.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arc_length_mm: Option<Vec<f64>>,
     /// Cumulative removal depth at each radius of `radius_mm`, nm.
     pub removal_nm: Vec<f64>,
     /// Uniformity over the clear aperture.
@@ -72,7 +87,11 @@ impl Endpoint for PredictEndpoint {
 
     fn parse(req: PredictRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let setting = setting(
-            &req.process,
+            Place {
+                process: &req.process,
+                surface: req.surface.as_ref(),
+                tool: req.tool.as_ref(),
+            },
             req.radial_grid.as_ref(),
             req.clear_aperture.as_ref(),
             limits,
@@ -90,6 +109,7 @@ impl Endpoint for PredictEndpoint {
         Ok(PredictResponse {
             eta: p.setting.process().eta().value(),
             radius_mm: p.setting.grid().radii_mm().to_vec(),
+            arc_length_mm: p.setting.process().arc_lengths_mm(p.setting.grid().radii_mm()),
             removal_nm: p.removal_nm,
             metrics: MetricsDto::from(&p.metrics),
             clear_aperture: ApertureEcho::from(p.setting.aperture()),

@@ -10,7 +10,7 @@ use utoipa::ToSchema;
 
 use super::dto::{DwellDto, ProcessDto, SurfaceDto};
 use super::endpoint::{handle, Endpoint};
-use super::error::{surface_field, ApiError, ComputeProblems, LimitViolation};
+use super::error::{surface_error, ApiError, ComputeProblems, LimitViolation};
 use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::{AppState, Services};
 use crate::machine::{
@@ -725,10 +725,7 @@ impl From<ProgramInputError> for ApiError {
         let detail = err.to_string();
         match err {
             E::Process(e) => ApiError::from_process(e),
-            E::Surface(e) => {
-                let field = surface_field(e.input());
-                ApiError::invalid(field.clone(), format!("{field}: {e}"))
-            }
+            E::Surface(e) => surface_error(e),
             E::PositionOffSurface { index, .. } => {
                 ApiError::invalid(format!("dwell.positions_mm[{index}]"), detail)
             }

@@ -8,7 +8,8 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::dto::{setting, ClearApertureDto, ProcessDto, RadialGridDto, RecommendationDto};
+use super::program::ToolDto;
+use super::dto::{Place, SurfaceDto, setting, ClearApertureDto, ProcessDto, RadialGridDto, RecommendationDto};
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::{object, optional_count, optional_object, ApiJson};
@@ -23,6 +24,16 @@ pub struct RecommendRequest {
     /// The user's current process (radii in mm, signed speeds in r/min, CCW positive).
     #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
+    /// The part's surface; default a plane. Positions and radial grids are radial coordinates
+    /// (distance from the axis, mm) of surface points; removal is along the surface normal,
+    /// computed for a pad that conforms to the surface (see the model documentation).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub surface: Option<SurfaceDto>,
+    /// The pad's spin axis: `tool.orientation` `normal` (default; along the surface normal at
+    /// the pad centre) or `vertical` (parallel to the workpiece axis). Only the orientation
+    /// matters here.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub tool: Option<ToolDto>,
     /// The machine's speed limits; default none.
     #[serde(default, deserialize_with = "optional_object")]
     pub limits: Option<SpeedLimitsDto>,
@@ -71,7 +82,11 @@ impl Endpoint for RecommendEndpoint {
 
     fn parse(req: RecommendRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let setting = setting(
-            &req.process,
+            Place {
+                process: &req.process,
+                surface: req.surface.as_ref(),
+                tool: req.tool.as_ref(),
+            },
             req.radial_grid.as_ref(),
             req.clear_aperture.as_ref(),
             limits,

@@ -7,7 +7,8 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::dto::{ProcessDto, RadialGridDto};
+use super::program::ToolDto;
+use super::dto::{process_spec, SurfaceDto, ProcessDto, RadialGridDto};
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::{object, optional_object, ApiJson};
@@ -23,6 +24,16 @@ pub struct RemovalFunctionRequest {
     /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
     #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
+    /// The part's surface; default a plane. Positions and radial grids are radial coordinates
+    /// (distance from the axis, mm) of surface points; removal is along the surface normal,
+    /// computed for a pad that conforms to the surface (see the model documentation).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub surface: Option<SurfaceDto>,
+    /// The pad's spin axis: `tool.orientation` `normal` (default; along the surface normal at
+    /// the pad centre) or `vertical` (parallel to the workpiece axis). Only the orientation
+    /// matters here.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub tool: Option<ToolDto>,
     /// Tool-centre radii in mm, one profile each (any order; 0 to r_m + r_t under uniform
     /// pressure, 0 to r_m under constant force).
     #[schema(min_items = 1)]
@@ -39,6 +50,10 @@ pub struct RemovalFunctionResponse {
     pub eta: Option<f64>,
     /// The radial grid, mm.
     pub radius_mm: Vec<f64>,
+    /// Arc length along the surface from the vertex to each radius of `radius_mm`, mm; present
+    /// only on a curved surface.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arc_length_mm: Option<Vec<f64>>,
     /// One removal profile per requested tool position, in request order.
     pub profiles: Vec<ProfileDto>,
 }
@@ -66,7 +81,7 @@ impl Endpoint for RemovalFunctionEndpoint {
         limits: &ComputeLimits,
     ) -> Result<Self::Command, ApiError> {
         Ok(RemovalFunctionCommand::new(
-            (&req.process).into(),
+            process_spec(&req.process, req.surface.as_ref(), req.tool.as_ref())?,
             req.radial_grid.as_ref().into(),
             req.tool_positions_mm,
             limits,
@@ -78,6 +93,7 @@ impl Endpoint for RemovalFunctionEndpoint {
         Ok(RemovalFunctionResponse {
             eta: result.eta,
             radius_mm: result.grid.radii_mm().to_vec(),
+            arc_length_mm: result.arc_length_mm,
             profiles: result
                 .profiles
                 .into_iter()

@@ -2,14 +2,9 @@
 
 use crate::surface::Surface;
 
-/// How the tool spindle is carried.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Orientation {
-    /// B follows the surface normal: the pad's axis on the normal at its centre.
-    Normal,
-    /// No tilt (B = 0): the tool spindle stays parallel to the workpiece axis.
-    Vertical,
-}
+/// How the tool spindle is carried: `Normal` (B follows the surface normal) or `Vertical`
+/// (B = 0). The same choice sets the pad's spin axis in the removal model.
+pub use crate::physics::Orientation;
 
 /// The tool as the machine carries it.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -271,6 +271,12 @@ impl Process {
         self.spec.part.surface.arc_length_mm(r_mm)
     }
 
+    /// Arc lengths of `radii_mm`, mm; `None` on a plane (where they are the radii).
+    pub fn arc_lengths_mm(&self, radii_mm: &[f64]) -> Option<Vec<f64>> {
+        let surface = &self.spec.part.surface;
+        (!surface.is_plane()).then(|| radii_mm.iter().map(|&r| surface.arc_length_mm(r)).collect())
+    }
+
     /// The radius `by_mm` farther out along the surface than `r_mm` (r + by on a plane).
     pub fn radius_past_mm(&self, r_mm: f64, by_mm: f64) -> f64 {
         let surface = &self.spec.part.surface;

@@ -189,7 +189,7 @@ pub struct ConstantFeed {
 }
 
 impl ConstantFeed {
-    /// Dwell density τ = 60 / feed, s per mm of path.
+    /// Dwell density τ = 60 / feed, s per mm of path (of arc on a curved part).
     pub fn dwell_density_s_per_mm(&self) -> f64 {
         60.0 / self.feed_mm_per_min
     }
@@ -221,11 +221,18 @@ impl ConstantFeed {
             });
         }
         let n = self.positions;
-        let length = self.stop_mm - self.start_mm;
+        // Cells of equal arc length (equal radius on a plane): constant dwell per unit length
+        // along the surface.
+        let surface = &process.part().surface;
+        let start = process.arc_length_mm(self.start_mm);
+        let length = process.arc_length_mm(self.stop_mm) - start;
         // Cell k is [a + k·h, a + (k+1)·h]; its centre computed as one division so that
         // centres that are exact in decimal (e.g. r_t) come out exact.
         let positions: Vec<f64> = (0..n)
-            .map(|k| self.start_mm + length * (2 * k + 1) as f64 / (2 * n) as f64)
+            .map(|k| {
+                let centre = start + length * (2 * k + 1) as f64 / (2 * n) as f64;
+                surface.radius_at_arc_length(centre)
+            })
             .collect();
         let dwell = vec![self.dwell_density_s_per_mm() * length / n as f64; n];
         DwellSchedule::new(process, positions, dwell)

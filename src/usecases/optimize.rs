@@ -214,9 +214,6 @@ fn machine_warnings(
     dwell_s: &[f64],
 ) -> Result<Vec<Warning>, OptimizeError> {
     let mut warnings = Vec::new();
-    if !machine.surface.is_plane() {
-        warnings.push(Warning::FlatRemovalModel);
-    }
     let program = match Program::new(
         &machine.surface,
         &machine.tool,

@@ -49,6 +49,8 @@ pub struct RemovalFunction {
     /// η; `None` when the tool is stationary.
     pub eta: Option<f64>,
     pub grid: RadialGrid,
+    /// Arc length from the vertex of each grid radius, mm; `None` on a plane.
+    pub arc_length_mm: Option<Vec<f64>>,
     /// In the order of the command's positions.
     pub profiles: Vec<Profile>,
 }
@@ -60,22 +62,22 @@ pub fn removal_function(command: RemovalFunctionCommand) -> RemovalFunction {
         tool_positions_mm,
     } = command;
     let kernel = RemovalKernel::new(&process);
+    let radii = grid.radii_mm();
+    let rings = kernel.rings(radii);
     let profiles = tool_positions_mm
         .iter()
         .map(|&r1| {
-            let factor = kernel.pressure_factor(r1);
+            let mut rates = vec![0.0; radii.len()];
+            kernel.fill_column(r1, radii, rings.as_deref(), &mut rates);
             Profile {
                 tool_position_mm: r1,
-                removal_rate_nm_per_min: grid
-                    .radii_mm()
-                    .iter()
-                    .map(|&r| 60.0 * factor * kernel.nominal_rate_nm_per_s(r, r1))
-                    .collect(),
+                removal_rate_nm_per_min: rates.into_iter().map(|rate| 60.0 * rate).collect(),
             }
         })
         .collect();
     RemovalFunction {
         eta: process.eta().value(),
+        arc_length_mm: process.arc_lengths_mm(radii),
         grid,
         profiles,
     }

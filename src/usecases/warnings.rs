@@ -24,8 +24,6 @@ pub enum Warning {
     },
     /// The plan sits on this axis limit of the machine somewhere.
     MachineLimitActive { drive: Drive, limit: Limit },
-    /// Removal was computed with the flat model although the surface is curved.
-    FlatRemovalModel,
     /// With the machine given, the plan still has zero dwell at this position between positions
     /// with dwell (no limited axis moves across its cell), which no program can run.
     NotProgrammable { index: usize },

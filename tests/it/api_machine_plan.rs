@@ -189,9 +189,14 @@ async fn sphere_plan_within_b_and_z_limits_is_programmable() {
     });
     pipeline(
         setup,
+        // The plain plan (curved removal) leaves near-empty cells the axes would cross in a
+        // blink: it breaks every velocity limit and two acceleration limits.
         &[
             "machine.b.max_velocity_deg_per_min",
             "machine.b.max_acceleration_deg_per_s2",
+            "machine.x.max_velocity_mm_per_min",
+            "machine.x.max_acceleration_mm_per_s2",
+            "machine.z.max_velocity_mm_per_min",
         ],
         "machine.b.max_acceleration_deg_per_s2",
         0.5,
@@ -242,8 +247,8 @@ async fn machine_limits_in_conflict_with_constraints_are_named() {
     );
 }
 
-/// A surface or tool given without a machine is still checked, and a curved surface warned
-/// about (removal is the flat model's until curved removal lands).
+/// A surface or tool given without a machine is still checked, and a curved surface shapes
+/// the removal (the response carries arc lengths).
 #[tokio::test]
 async fn surface_and_tool_alone_are_checked() {
     let (mut request, _) = requests(&json!({}));
@@ -256,11 +261,18 @@ async fn surface_and_tool_alone_are_checked() {
     request["surface"] = json!({"kind": "sphere", "radius_of_curvature_mm": 30.0});
     let (status, problem) = post("/v1/optimize", &request).await;
     assert_eq!(status, 422, "{problem}");
-    // The sphere of radius 30 mm ends at r = 30; the positions reach 50.
-    assert_eq!(problem["field"], "positions_mm[100]");
+    // The sphere of radius 30 mm ends at r = 30; the workpiece edge is at 50.
+    assert_eq!(problem["field"], "process.workpiece_radius_mm");
 
     request["surface"] = json!({"kind": "sphere", "radius_of_curvature_mm": 300.0});
     let (status, plan) = post("/v1/optimize", &request).await;
     assert_eq!(status, 200, "{plan}");
-    assert_eq!(plan["warnings"][0]["code"], "flat_removal_model");
+    // s(r) = 300·asin(r/300): 50 mm of radius is 50.23 mm of arc.
+    let arcs = plan["arc_length_mm"].as_array().unwrap();
+    let last = arcs.last().unwrap().as_f64().unwrap();
+    assert!((last - 300.0 * (50.0f64 / 300.0).asin()).abs() < 1e-9, "{last}");
+    assert_eq!(
+        plan["position_arc_length_mm"].as_array().unwrap().len(),
+        plan["dwell"]["positions_mm"].as_array().unwrap().len()
+    );
 }
