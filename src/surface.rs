@@ -372,7 +372,11 @@ impl Surface {
         let (mut lo, mut hi) = (0.0, target.min(self.domain_mm() * (1.0 - 1e-12)));
         // Start inside, away from a domain edge where the arc integral is ill-conditioned
         // (each step only adds the stretch since the last iterate, so a poor start would stay).
-        let mut r = if target < self.domain_mm() { hi } else { 0.5 * hi };
+        let mut r = if target < self.domain_mm() {
+            hi
+        } else {
+            0.5 * hi
+        };
         let mut s = self.arc_between(0.0, r);
         for _ in 0..100 {
             let miss = s - target;

@@ -4,13 +4,13 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
+use super::error::surface_error;
 use super::error::ApiError;
 use super::extract::{count, optional_count};
-use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
-use crate::study::{EqualDwell, Recommendation, SpeedRule};
-use super::error::surface_error;
 use super::program::ToolDto;
+use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
 use crate::physics::{Orientation, Part};
+use crate::study::{EqualDwell, Recommendation, SpeedRule};
 use crate::surface::{PolynomialTerm, Surface, SurfaceSpec};
 use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, Setting, Warning};
 

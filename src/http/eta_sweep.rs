@@ -6,14 +6,15 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::program::ToolDto;
-use super::dto::{Place, SurfaceDto, 
-    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
+use super::dto::{
+    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, Place, ProcessDto,
+    RadialGridDto, SurfaceDto,
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::plot::{Chart, Series};
+use super::program::ToolDto;
 use super::state::{AppState, Services};
 use super::{csv, plot};
 use crate::usecases::eta_sweep::{eta_sweep, EtaSweepCommand};

@@ -7,9 +7,9 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::dto::{Place, 
-    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
-    RecommendationDto, SurfaceDto, WarningDto,
+use super::dto::{
+    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, Place, ProcessDto,
+    RadialGridDto, RecommendationDto, SurfaceDto, WarningDto,
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
@@ -420,7 +420,10 @@ impl From<OptimizedPlan> for OptimizeResponse {
             eta: p.setting.process().eta().value(),
             total_time_s: p.total_time_s,
             position_arc_length_mm: p.setting.process().arc_lengths_mm(&p.positions_mm),
-            arc_length_mm: p.setting.process().arc_lengths_mm(p.setting.grid().radii_mm()),
+            arc_length_mm: p
+                .setting
+                .process()
+                .arc_lengths_mm(p.setting.grid().radii_mm()),
             dwell: DwellDto {
                 positions_mm: p.positions_mm,
                 dwell_s: s.dwell_s.clone(),

@@ -6,15 +6,15 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::program::ToolDto;
-use super::dto::{Place, SurfaceDto, 
-    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
-    RecommendationDto, WarningDto,
+use super::dto::{
+    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, Place, ProcessDto,
+    RadialGridDto, RecommendationDto, SurfaceDto, WarningDto,
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::{object, optional_object, ApiJson};
 use super::plot::{Chart, Series};
+use super::program::ToolDto;
 use super::state::{AppState, Services};
 use super::{csv, plot};
 use crate::usecases::predict::{predict, PredictCommand};
@@ -109,7 +109,10 @@ impl Endpoint for PredictEndpoint {
         Ok(PredictResponse {
             eta: p.setting.process().eta().value(),
             radius_mm: p.setting.grid().radii_mm().to_vec(),
-            arc_length_mm: p.setting.process().arc_lengths_mm(p.setting.grid().radii_mm()),
+            arc_length_mm: p
+                .setting
+                .process()
+                .arc_lengths_mm(p.setting.grid().radii_mm()),
             removal_nm: p.removal_nm,
             metrics: MetricsDto::from(&p.metrics),
             clear_aperture: ApertureEcho::from(p.setting.aperture()),

@@ -8,11 +8,13 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::program::ToolDto;
-use super::dto::{Place, SurfaceDto, setting, ClearApertureDto, ProcessDto, RadialGridDto, RecommendationDto};
+use super::dto::{
+    setting, ClearApertureDto, Place, ProcessDto, RadialGridDto, RecommendationDto, SurfaceDto,
+};
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::{object, optional_count, optional_object, ApiJson};
+use super::program::ToolDto;
 use super::state::{AppState, Services};
 use crate::study::SpeedLimits;
 use crate::usecases::recommend::{recommend, RecommendCommand};

@@ -7,12 +7,12 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::program::ToolDto;
-use super::dto::{process_spec, SurfaceDto, ProcessDto, RadialGridDto};
+use super::dto::{process_spec, ProcessDto, RadialGridDto, SurfaceDto};
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::{object, optional_object, ApiJson};
 use super::plot::{Chart, Series};
+use super::program::ToolDto;
 use super::state::{AppState, Services};
 use super::{csv, plot};
 use crate::usecases::removal_function::{removal_function, RemovalFunctionCommand};

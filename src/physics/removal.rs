@@ -101,7 +101,8 @@ impl RemovalKernel {
     /// Removal rate at nominal pressure, nm/s; multiply by [`Self::pressure_factor`].
     pub fn nominal_rate_nm_per_s(&self, r_mm: f64, r1_mm: f64) -> f64 {
         if let Some(curved) = &self.curved {
-            return curved.nominal_rate_nm_per_s(&Ring::at(curved.surface(), r_mm), &curved.site(r1_mm));
+            return curved
+                .nominal_rate_nm_per_s(&Ring::at(curved.surface(), r_mm), &curved.site(r1_mm));
         }
         let psi = half_angle(r_mm, r1_mm, self.tool_radius);
         if !psi.is_contact() {
@@ -122,12 +123,23 @@ impl RemovalKernel {
     /// geometry on a curved part (sag and slope), nothing on a plane.
     pub fn rings(&self, radii_mm: &[f64]) -> Option<Vec<Ring>> {
         let curved = self.curved.as_ref()?;
-        Some(radii_mm.iter().map(|&r| Ring::at(curved.surface(), r)).collect())
+        Some(
+            radii_mm
+                .iter()
+                .map(|&r| Ring::at(curved.surface(), r))
+                .collect(),
+        )
     }
 
     /// Rates in nm/s at `radii_mm` with the tool at `r1_mm` into `out`; `rings` are
     /// [`Self::rings`] of the same radii.
-    pub fn fill_column(&self, r1_mm: f64, radii_mm: &[f64], rings: Option<&[Ring]>, out: &mut [f64]) {
+    pub fn fill_column(
+        &self,
+        r1_mm: f64,
+        radii_mm: &[f64],
+        rings: Option<&[Ring]>,
+        out: &mut [f64],
+    ) {
         let factor = self.pressure_factor(r1_mm);
         match (&self.curved, rings) {
             (Some(curved), Some(rings)) => {

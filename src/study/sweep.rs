@@ -36,7 +36,10 @@ impl SweepEtas {
             Process::new(spec.with_eta(eta))
                 .map_err(|error| StudyError::EtaOutsideDomain { index, error })?;
         }
-        Ok(SweepEtas { spec: spec.clone(), etas })
+        Ok(SweepEtas {
+            spec: spec.clone(),
+            etas,
+        })
     }
 
     /// The process whose tool speed is held.

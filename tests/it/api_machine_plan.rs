@@ -270,7 +270,10 @@ async fn surface_and_tool_alone_are_checked() {
     // s(r) = 300·asin(r/300): 50 mm of radius is 50.23 mm of arc.
     let arcs = plan["arc_length_mm"].as_array().unwrap();
     let last = arcs.last().unwrap().as_f64().unwrap();
-    assert!((last - 300.0 * (50.0f64 / 300.0).asin()).abs() < 1e-9, "{last}");
+    assert!(
+        (last - 300.0 * (50.0f64 / 300.0).asin()).abs() < 1e-9,
+        "{last}"
+    );
     assert_eq!(
         plan["position_arc_length_mm"].as_array().unwrap().len(),
         plan["dwell"]["positions_mm"].as_array().unwrap().len()

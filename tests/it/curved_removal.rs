@@ -20,7 +20,7 @@ use preston::surface::{PolynomialTerm, Surface, SurfaceSpec};
 
 /// A surface as this test knows it: z = c·r²/(1 + √(1 − (1+k)c²r²)) + a4·r⁴ + a6·r⁶.
 #[derive(Debug, Clone, Copy)]
-struct Shape {
+pub struct Shape {
     radius: f64,
     conic: f64,
     a4: f64,
@@ -28,7 +28,7 @@ struct Shape {
 }
 
 impl Shape {
-    fn sphere(radius: f64) -> Shape {
+    pub fn sphere(radius: f64) -> Shape {
         Shape {
             radius,
             conic: 0.0,
@@ -105,17 +105,17 @@ fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 }
 
 #[derive(Debug, Clone, Copy)]
-struct Case {
-    shape: Shape,
-    workpiece_rpm: f64,
-    tool_rpm: f64,
-    tool_radius: f64,
-    workpiece_radius: f64,
-    vertical: bool,
+pub struct Case {
+    pub shape: Shape,
+    pub workpiece_rpm: f64,
+    pub tool_rpm: f64,
+    pub tool_radius: f64,
+    pub workpiece_radius: f64,
+    pub vertical: bool,
 }
 
 impl Case {
-    fn spec(&self) -> ProcessSpec {
+    pub fn spec(&self) -> ProcessSpec {
         ProcessSpec {
             workpiece_radius_mm: self.workpiece_radius,
             tool_radius_mm: self.tool_radius,
@@ -163,7 +163,7 @@ impl Case {
     }
 
     /// The reference rate in nm/min at r with the pad at r1.
-    fn rate(&self, r: f64, r1: f64) -> f64 {
+    pub fn rate(&self, r: f64, r1: f64) -> f64 {
         let rpm = 2.0 * PI / 60.0;
         let (ww, wt) = (self.workpiece_rpm * rpm, self.tool_rpm * rpm);
         let s = &self.shape;
@@ -183,7 +183,11 @@ impl Case {
             let v = sub(workpiece, tool);
             let m = s.normal(r, phi);
             let along = dot(v, m);
-            let t = [v[0] - along * m[0], v[1] - along * m[1], v[2] - along * m[2]];
+            let t = [
+                v[0] - along * m[0],
+                v[1] - along * m[1],
+                v[2] - along * m[2],
+            ];
             dot(t, t).sqrt()
         };
         // The contact is one arc about φ = 0 (the distance grows with |φ|); its end is found by

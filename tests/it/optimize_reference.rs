@@ -9,8 +9,9 @@
 
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{optimize, Constraints, DwellProblem, Formulation, Objective};
-use preston::physics::{Part, 
-    ClearAperture, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel, RemovalOperator,
+use preston::physics::{
+    ClearAperture, Part, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel,
+    RemovalOperator,
 };
 
 /// One random problem in dense form.

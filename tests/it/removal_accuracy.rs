@@ -9,7 +9,7 @@
 use crate::common;
 
 use common::{adaptive_integral, quadrature_rate_nm_per_min};
-use preston::physics::{Part, removal_rate_nm_per_min, PressureModel, Process, ProcessSpec};
+use preston::physics::{removal_rate_nm_per_min, Part, PressureModel, Process, ProcessSpec};
 
 #[test]
 fn quadrature_integrates_known_integrals() {
