@@ -8,6 +8,7 @@ use super::error::surface_error;
 use super::error::ApiError;
 use super::extract::{count, optional_count};
 use super::program::ToolDto;
+use crate::machine::Tool;
 use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
 use crate::physics::{Orientation, Part};
 use crate::study::{EqualDwell, Recommendation, SpeedRule};
@@ -146,6 +147,12 @@ pub fn part(surface: Option<&SurfaceDto>, tool: Option<&ToolDto>) -> Result<Part
     let orientation = tool
         .and_then(|t| t.orientation)
         .map_or(Orientation::Normal, Orientation::from);
+    // The whole tool is checked, though only its orientation matters to removal: what the
+    // schema refuses is refused everywhere.
+    if let Some(pivot) = tool.and_then(|t| t.pivot_length_mm) {
+        Tool::new(pivot, orientation)
+            .map_err(|e| ApiError::invalid("tool.pivot_length_mm", e.to_string()))?;
+    }
     Ok(Part {
         surface,
         orientation,

@@ -62,12 +62,13 @@ pub struct OptimizeRequest {
     /// over a spindle's limit, are refused (422 `machine-limits`). Default: no machine.
     #[serde(default, deserialize_with = "optional_object")]
     pub machine: Option<MachineDto>,
-    /// The surface, for the machine's poses; default a plane. Removal is still computed with
-    /// the flat model (a warning says so on a curved surface).
+    /// The part's surface; default a plane. Positions and the radial grid are radial
+    /// coordinates of surface points; removal is along the normal, for a pad that conforms to
+    /// the surface. With `machine`, the surface also gives the axes' poses.
     #[serde(default, deserialize_with = "optional_object")]
     pub surface: Option<SurfaceDto>,
-    /// The tool as the machine carries it, for the machine's poses; default: pivot at the pad
-    /// face, B following the normal.
+    /// The tool as the machine carries it; default: pivot at the pad face, B following the
+    /// normal. `orientation` is also the pad's spin axis in the removal model.
     #[serde(default, deserialize_with = "optional_object")]
     pub tool: Option<ToolDto>,
 }
