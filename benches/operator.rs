@@ -57,25 +57,30 @@ fn part(spec: SurfaceSpec) -> Part {
     }
 }
 
-#[divan::bench(args = [1001])]
-fn sphere_eta_plus_0_05(bencher: divan::Bencher, n: usize) {
-    let k = kernel_on(
-        -10.0,
-        200.0,
-        part(SurfaceSpec::Sphere {
-            radius_of_curvature_mm: 100.0,
-        }),
-    );
+/// Assembly at η = +0.05 on a curved part.
+fn curved(bencher: divan::Bencher, n: usize, surface: SurfaceSpec) {
+    let k = kernel_on(-10.0, 200.0, part(surface));
     let grid = linspace(n);
     bencher.bench(|| RemovalOperator::assemble(&k, &grid, &grid));
 }
 
 #[divan::bench(args = [1001])]
+fn sphere_eta_plus_0_05(bencher: divan::Bencher, n: usize) {
+    curved(
+        bencher,
+        n,
+        SurfaceSpec::Sphere {
+            radius_of_curvature_mm: 100.0,
+        },
+    );
+}
+
+#[divan::bench(args = [1001])]
 fn asphere_eta_plus_0_05(bencher: divan::Bencher, n: usize) {
-    let k = kernel_on(
-        -10.0,
-        200.0,
-        part(SurfaceSpec::Asphere {
+    curved(
+        bencher,
+        n,
+        SurfaceSpec::Asphere {
             radius_of_curvature_mm: 100.0,
             conic_constant: -0.5,
             coefficients: vec![
@@ -88,8 +93,6 @@ fn asphere_eta_plus_0_05(bencher: divan::Bencher, n: usize) {
                     value: -2e-11,
                 },
             ],
-        }),
+        },
     );
-    let grid = linspace(n);
-    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &grid));
 }

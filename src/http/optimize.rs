@@ -338,6 +338,7 @@ impl Endpoint for OptimizeEndpoint {
             req.clear_aperture.as_ref(),
             limits,
         )?;
+        let surface = setting.process().part().surface.clone();
         let command = OptimizeCommand::new(
             setting,
             req.positions_mm,
@@ -347,11 +348,11 @@ impl Endpoint for OptimizeEndpoint {
             req.solver.and_then(|s| s.time_limit_s),
             limits,
         )?;
-        // A surface or tool alone is checked (and a curved surface warned about) as well.
+        // With a surface or tool alone the positions are checked against the poses as well.
         let given = req.machine.is_some() || req.surface.is_some() || req.tool.is_some();
         let command = if given {
             let machine = machine_setup(
-                req.surface.as_ref(),
+                &surface,
                 req.tool.as_ref(),
                 &req.machine.unwrap_or_default(),
             )?;

@@ -606,15 +606,15 @@ pub fn machine_limits_error(found: &[Violation], what: &str) -> ApiError {
     }
 }
 
-/// The surface, tool and limits of a machine as given (for `/v1/optimize`), each checked and
-/// any error naming its field.
+/// The machine a plan must run on (for `/v1/optimize`): the part's surface, already checked
+/// with the process, and the tool and limits as given, each checked and any error naming its
+/// field.
 pub fn machine_setup(
-    surface: Option<&SurfaceDto>,
+    surface: &Surface,
     tool: Option<&ToolDto>,
     machine: &MachineDto,
 ) -> Result<Machine, ApiError> {
-    let surface = Surface::new(&surface.map_or(SurfaceSpec::Plane, SurfaceSpec::from))
-        .map_err(ProgramInputError::Surface)?;
+    let surface = surface.clone();
     let tool_dto = tool.cloned().unwrap_or_default();
     let tool = Tool::new(
         tool_dto.pivot_length_mm.unwrap_or(0.0),

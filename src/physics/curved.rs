@@ -299,7 +299,7 @@ const MAX_PANELS: usize = 2000;
 /// ∫₀^`b` g(cos φ, sin φ) dφ by adaptive bisection of Gauss–Kronrod (7, 15) panels, each panel
 /// accepted when its error estimate is within its width's share of `tol` (absolute) or the
 /// panel can no longer be split in floating point.
-pub fn adaptive_gauss_kronrod<G: Fn(f64, f64) -> f64>(g: &G, b: f64, tol: f64) -> f64 {
+fn adaptive_gauss_kronrod<G: Fn(f64, f64) -> f64>(g: &G, b: f64, tol: f64) -> f64 {
     let density = tol / b;
     let mut stack = vec![(0.0, b)];
     let mut total = 0.0;

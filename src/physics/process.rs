@@ -279,12 +279,9 @@ impl Process {
 
     /// The radius `by_mm` farther out along the surface than `r_mm` (r + by on a plane).
     pub fn radius_past_mm(&self, r_mm: f64, by_mm: f64) -> f64 {
+        // On a plane both maps are the identity, so this is exactly r + by there.
         let surface = &self.spec.part.surface;
-        if surface.is_plane() {
-            r_mm + by_mm
-        } else {
-            surface.radius_at_arc_length(surface.arc_length_mm(r_mm) + by_mm)
-        }
+        surface.radius_at_arc_length(surface.arc_length_mm(r_mm) + by_mm)
     }
 
     /// Workpiece speed in the paper's convention (clockwise positive), rad/s.
