@@ -1,10 +1,11 @@
 //! The dwell optimizer on the paper's experiment 1 (workpiece −10, tool 200 r/min, r_m 50,
 //! r_t 10): uniform 100 nm over [0, 40] mm, positions and radial samples evenly spaced on
 //! [0, 50] mm. Operator assembly is outside the timed part; the QP build and the Clarabel
-//! solve are inside. Both formulations are measured (see `preston::optimize`).
+//! solve are inside. Both dwell bases and both formulations are measured (see
+//! `preston::optimize`).
 
 use preston::optimize::target::aperture_rows;
-use preston::optimize::{optimize, Constraints, DwellProblem, Formulation, Objective};
+use preston::optimize::{optimize, Constraints, DwellBasis, DwellProblem, Formulation, Objective};
 use preston::physics::{
     ClearAperture, Part, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel,
     RemovalOperator,
@@ -48,17 +49,36 @@ fn paper_case(n: usize) -> Case {
     }
 }
 
-#[divan::bench(args = [501, 1001], sample_count = 10)]
-fn normal_equations(bencher: divan::Bencher, n: usize) {
-    run(bencher, n, Formulation::NormalEquations);
+/// The default: the dwell as a spline (43 functions here) when positions are fine.
+#[divan::bench(args = [501, 1001, 2001], sample_count = 20)]
+fn spline(bencher: divan::Bencher, n: usize) {
+    run(bencher, n, Formulation::NormalEquations, DwellBasis::Auto);
 }
 
-#[divan::bench(args = [501, 1001], sample_count = 10)]
-fn residual(bencher: divan::Bencher, n: usize) {
-    run(bencher, n, Formulation::Residual);
+/// The spline in the residual formulation.
+#[divan::bench(args = [501, 2001], sample_count = 20)]
+fn spline_residual(bencher: divan::Bencher, n: usize) {
+    run(bencher, n, Formulation::Residual, DwellBasis::Auto);
 }
 
-fn run(bencher: divan::Bencher, n: usize, formulation: Formulation) {
+/// A variable per position, normal equations (the optimizer before the spline basis).
+#[divan::bench(args = [501, 1001], sample_count = 10)]
+fn positions(bencher: divan::Bencher, n: usize) {
+    run(
+        bencher,
+        n,
+        Formulation::NormalEquations,
+        DwellBasis::Positions,
+    );
+}
+
+/// A variable per position, residual formulation.
+#[divan::bench(args = [501, 1001], sample_count = 10)]
+fn positions_residual(bencher: divan::Bencher, n: usize) {
+    run(bencher, n, Formulation::Residual, DwellBasis::Positions);
+}
+
+fn run(bencher: divan::Bencher, n: usize, formulation: Formulation, basis: DwellBasis) {
     let case = paper_case(n);
     bencher.bench(|| {
         let problem = DwellProblem {
@@ -72,6 +92,7 @@ fn run(bencher: divan::Bencher, n: usize, formulation: Formulation) {
             objective: Objective::default(),
             time_limit_s: 60.0,
             formulation,
+            basis,
             axes: &[],
         };
         optimize(&problem).unwrap()

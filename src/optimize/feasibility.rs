@@ -20,7 +20,7 @@ use clarabel::solver::SupportedConeT;
 
 use super::kinematics::Floor;
 use super::problem::{Bound, Constraint, Constraints, OptimizeError};
-use super::solver::{constraint_rows, run_clarabel, Budget, ClarabelQp};
+use super::solver::{constraint_rows, run_clarabel, Budget, ClarabelQp, GAP_TOLERANCE};
 
 /// Relative margin by which a bound must be exceeded before we call it a conflict (well above
 /// the LP's own accuracy, so rounding never refuses a feasible request).
@@ -164,10 +164,11 @@ fn least_total_time_s(
         .chain(floors_s.iter().copied())
         .fold(0.0_f64, f64::max)
         .max(f64::MIN_POSITIVE);
-    let rows = constraint_rows(positions_mm, c, &floors_s, scale, false, with_change);
+    let rows = constraint_rows(positions_mm, c, &floors_s, scale, false, with_change, 0.0);
     let count = rows.rhs.len();
     let (a, b) = rows.into_csc(n);
     let lp = ClarabelQp {
+        gap: GAP_TOLERANCE,
         p: CscMatrix::zeros((n, n)),
         q: vec![1.0; n],
         a,

@@ -48,11 +48,25 @@
 //! |a| ≤ h·δ / T_min³ with T_min the shortest segment time; with a feed limit v_max (mm/s),
 //! T_min ≥ h/v_max, so δ = a_max·h²/v_max³ guarantees an acceleration limit a_max.
 //!
+//! # The dwell's representation
+//!
+//! When the positions are finer than the pad can resolve, the variables are not the n dwells
+//! but the coefficients of a cubic B-spline with knots r_t/8 apart (t = S·c, see [`basis`]):
+//! tens of variables whatever n, with every constraint above still a row at the positions.
+//! This is what makes the optimizer's cost grow like n (the rows) and n² (the operator) instead
+//! of n³ (a Hessian dense within a band 2·r_t/h wide, factorised at every interior-point
+//! iteration), and it gives the feed axis a smooth dwell. Coarse positions keep a variable
+//! each, as does the rare problem the spline cannot solve (a total time only unshaped dwell
+//! meets, or rows the solver keeps less tightly than the tolerance): the positions' own QP
+//! then answers.
+//!
 //! The QP goes to Clarabel (interior point, sparse LDLᵀ) as dense normal equations: the
-//! Hessian MᵀM/m_Ω is banded (positions more than 2·r_t apart never share a sample), built from
-//! the operator's column bands in parallel. The residual formulation (M·x − e = d as equality
-//! rows, ½‖e‖² on extra variables) was measured against it and is slower: see `benches/optimize.rs`.
+//! Hessian (MS)ᵀMS/m_Ω is banded (functions more than 2·r_t apart never share a sample), built
+//! from the operator's column bands in parallel. The residual formulation (M·S·c − e = d as
+//! equality rows, ½‖e‖² on extra variables) was measured against it and is slower: see
+//! `benches/optimize.rs`.
 
+pub mod basis;
 pub mod feasibility;
 pub mod kinematics;
 pub mod motion;
@@ -61,6 +75,7 @@ pub mod qp;
 pub mod solver;
 pub mod target;
 
+pub use basis::DwellBasis;
 pub use motion::Motion;
 pub use problem::{Bound, Constraint, Constraints, Objective, OptimizeError, Weight};
 pub use qp::{optimize, DwellProblem, Formulation, Solution, SolveStatus};

@@ -1,12 +1,14 @@
 //! The dwell QP (see [`super`] for the mathematics) assembled for Clarabel in one of two
 //! formulations, solved, and its answer mapped back to seconds and checked.
 
+use std::borrow::Cow;
 use std::ops::Range;
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::SupportedConeT;
 use rayon::prelude::*;
 
+use super::basis::{Basis, DwellBasis};
 use super::feasibility;
 use super::kinematics::{
     acceleration_rows, constant_dwell_for_acceleration, floors, limits_acceleration,
@@ -14,7 +16,10 @@ use super::kinematics::{
 };
 use super::problem::{Bound, Constraint, Constraints, Objective, OptimizeError};
 pub use super::solver::SolveStatus;
-use super::solver::{constraint_rows, run_clarabel, Budget, ClarabelQp, CscBuilder, Rows};
+use super::solver::{
+    constraint_rows, run_clarabel, Budget, ClarabelQp, CscBuilder, Rows, GAP_TOLERANCE,
+    SPLINE_GAP_TOLERANCE, SPLINE_ROW_MARGIN,
+};
 use crate::physics::RemovalOperator;
 
 /// How the least-squares fit reaches Clarabel.
@@ -47,6 +52,8 @@ pub struct DwellProblem<'a> {
     /// Solver wall-clock budget, s.
     pub time_limit_s: f64,
     pub formulation: Formulation,
+    /// How the QP represents the dwell ([`super::basis`]).
+    pub basis: DwellBasis,
     /// The machine's axes as the plan drives them (empty: no machine limits).
     pub axes: &'a [AxisPath],
 }
@@ -64,12 +71,13 @@ pub struct Solution {
     pub objective: f64,
 }
 
-/// Operator columns cut to the aperture rows: column j covers rows start[j]..end[j] (absolute)
-/// with values[j]; both bounds are non-decreasing in j because positions increase.
+/// Columns cut to the aperture rows: column j covers rows start[j]..end[j] (absolute) with
+/// values[j]; both bounds are non-decreasing in j because positions increase. The operator's
+/// own columns are borrowed; those of M·S (one per basis function) are computed.
 struct Band<'a> {
     start: Vec<usize>,
     end: Vec<usize>,
-    values: Vec<&'a [f64]>,
+    values: Vec<Cow<'a, [f64]>>,
 }
 
 impl<'a> Band<'a> {
@@ -87,13 +95,54 @@ impl<'a> Band<'a> {
             let hi = (first + column.len()).clamp(rows.start, rows.end);
             start.push(lo);
             end.push(hi.max(lo));
-            values.push(if hi > lo {
+            values.push(Cow::Borrowed(if hi > lo {
                 &column[lo - first..hi - first]
             } else {
                 &[]
-            });
+            }));
         }
         Band { start, end, values }
+    }
+
+    /// The columns of M·S: column k is Σ_j S_jk·M_j over the positions B_k reaches.
+    fn through(&self, basis: &Basis) -> Band<'a> {
+        if basis.is_positions() {
+            return Band {
+                start: self.start.clone(),
+                end: self.end.clone(),
+                values: self.values.clone(),
+            };
+        }
+        let columns: Vec<(usize, usize, Cow<'a, [f64]>)> = (0..basis.size())
+            .into_par_iter()
+            .map(|k| {
+                let reach = basis.support(k);
+                let lo = self.start[reach.start];
+                let hi = self.end[reach.end - 1].max(lo);
+                let mut column = vec![0.0; hi - lo];
+                for j in reach {
+                    let Some((_, w)) = basis.terms(j).find(|&(v, _)| v == k) else {
+                        continue;
+                    };
+                    let from = self.start[j] - lo;
+                    for (o, m) in column[from..].iter_mut().zip(self.values[j].iter()) {
+                        *o += w * m;
+                    }
+                }
+                (lo, hi, Cow::Owned(column))
+            })
+            .collect();
+        let mut band = Band {
+            start: Vec::with_capacity(columns.len()),
+            end: Vec::with_capacity(columns.len()),
+            values: Vec::with_capacity(columns.len()),
+        };
+        for (lo, hi, column) in columns {
+            band.start.push(lo);
+            band.end.push(hi);
+            band.values.push(column);
+        }
+        band
     }
 
     fn dot(&self, j: usize, k: usize) -> f64 {
@@ -150,18 +199,60 @@ fn second_differences(positions_mm: &[f64]) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// The upper band of w·D2ᵀD2: `[diag, first super-diagonal, second super-diagonal]` per column
-/// index j (entries (j, j), (j−1, j), (j−2, j)).
-fn smoothing_band(positions_mm: &[f64], weight: f64) -> Vec<[f64; 3]> {
-    let mut band = vec![[0.0; 3]; positions_mm.len()];
-    for (r, c) in second_differences(positions_mm).iter().enumerate() {
-        for a in 0..3 {
-            for b in a..3 {
-                band[r + b][b - a] += weight * c[a] * c[b];
+/// The upper band of w·(D2·S)ᵀ(D2·S) on the variables: `band[k][d]` is entry (k − d, k).
+/// On the positions (S = I) the band is three wide.
+fn smoothing_band(positions_mm: &[f64], basis: &Basis, weight: f64) -> Vec<Vec<f64>> {
+    let forms: Vec<Vec<(usize, f64)>> = second_differences(positions_mm)
+        .iter()
+        .enumerate()
+        .map(|(r, c)| basis.form(&[(r, c[0]), (r + 1, c[1]), (r + 2, c[2])]))
+        .collect();
+    let width = forms
+        .iter()
+        .filter_map(|f| Some(f.last()?.0 - f.first()?.0))
+        .max()
+        .unwrap_or(0);
+    let mut band = vec![vec![0.0; width + 1]; basis.size()];
+    for form in &forms {
+        for (a, &(i, u)) in form.iter().enumerate() {
+            for &(k, v) in &form[a..] {
+                band[k][k - i] += weight * u * v;
             }
         }
     }
     band
+}
+
+/// The QP's variables: the basis of the dwell, the operator's columns through it (M·S), and
+/// the smoothing term on them.
+struct Variables<'a> {
+    basis: Basis,
+    band: Band<'a>,
+    smooth: Vec<Vec<f64>>,
+}
+
+impl<'a> Variables<'a> {
+    fn new(problem: &DwellProblem, operator: &Band<'a>, basis: Basis, s: &Scales) -> Self {
+        Variables {
+            band: operator.through(&basis),
+            smooth: smoothing_band(problem.positions_mm, &basis, s.smoothing),
+            basis,
+        }
+    }
+
+    fn size(&self) -> usize {
+        self.basis.size()
+    }
+
+    /// The smoothing Hessian's entry (j, k), j ≤ k.
+    fn smoothing(&self, j: usize, k: usize) -> f64 {
+        self.smooth[k].get(k - j).copied().unwrap_or(0.0)
+    }
+
+    /// How far above the diagonal the smoothing term reaches.
+    fn smoothing_width(&self) -> usize {
+        self.smooth.first().map_or(0, |c| c.len() - 1)
+    }
 }
 
 /// Evaluates J at dwell `t` (s) and piston `p` (nm): the reported objective, the same for
@@ -171,7 +262,7 @@ fn objective_value(problem: &DwellProblem, band: &Band, s: &Scales, t: &[f64], p
     let mut removal = vec![0.0; rows.len()];
     for (j, &tj) in t.iter().enumerate() {
         let from = band.start[j] - rows.start;
-        for (o, m) in removal[from..].iter_mut().zip(band.values[j]) {
+        for (o, m) in removal[from..].iter_mut().zip(band.values[j].iter()) {
             *o += m * tj;
         }
     }
@@ -193,12 +284,13 @@ fn objective_value(problem: &DwellProblem, band: &Band, s: &Scales, t: &[f64], p
     fit + smooth + time
 }
 
-/// Upper triangle of the normal-equations Hessian on (x, p̃).
-fn normal_hessian(problem: &DwellProblem, band: &Band, s: &Scales) -> CscMatrix<f64> {
-    let n = problem.positions_mm.len();
+/// Upper triangle of the normal-equations Hessian on (c, p̃).
+fn normal_hessian(problem: &DwellProblem, vars: &Variables, s: &Scales) -> CscMatrix<f64> {
+    let band = &vars.band;
+    let n = vars.size();
     let nv = n + usize::from(problem.free_piston);
-    let smooth = smoothing_band(problem.positions_mm, s.smoothing);
     let fit = 1.0 / (s.m * s.rate * s.rate);
+    let width = vars.smoothing_width();
     let columns: Vec<Vec<(usize, f64)>> = (0..n)
         .into_par_iter()
         .with_min_len(16)
@@ -209,13 +301,9 @@ fn normal_hessian(problem: &DwellProblem, band: &Band, s: &Scales) -> CscMatrix<
             } else {
                 k
             };
-            let from = overlap_from.min(k.saturating_sub(2));
+            let from = overlap_from.min(k.saturating_sub(width));
             (from..=k)
-                .map(|j| {
-                    let d = k - j;
-                    let sm = if d < 3 { smooth[k][d] } else { 0.0 };
-                    (j, fit * band.dot(j, k) + sm)
-                })
+                .map(|j| (j, fit * band.dot(j, k) + vars.smoothing(j, k)))
                 .filter(|&(_, v)| v != 0.0)
                 .collect()
         })
@@ -235,45 +323,66 @@ fn normal_hessian(problem: &DwellProblem, band: &Band, s: &Scales) -> CscMatrix<
     p.build()
 }
 
-/// The QP for Clarabel. `floors_s`: each position's least dwell. With `around` (a scaled plan
-/// that keeps the machine's acceleration limits), the between-cell acceleration rows made
-/// convex around it are added, with their cone variables u_j ≥ 1/x_j after the others
-/// ([`super::kinematics`]).
+/// The QP for Clarabel on the variables (c, [e], [p̃], [u]). `floors_s`: each position's least
+/// dwell. With `around` (a scaled plan that keeps the machine's acceleration limits), the
+/// between-cell acceleration rows made convex around it are added, with their cone variables
+/// u_j ≥ 1/x_j after the others ([`super::kinematics`]). Rows on the dwell at the positions
+/// reach the variables through the basis.
 fn assemble(
     problem: &DwellProblem,
-    band: &Band,
+    vars: &Variables,
     s: &Scales,
     floors_s: &[f64],
     around: Option<&[f64]>,
 ) -> ClarabelQp {
-    let n = problem.positions_mm.len();
+    let band = &vars.band;
+    let basis = &vars.basis;
+    let n = vars.size();
     let m = problem.rows.len();
     let g: Vec<f64> = problem.target_nm.iter().map(|d| d / s.depth_nm).collect();
-    let time = problem.objective.time_weight / s.n;
+    // μ·Σ_j x_j/n_positions = Σ_k c_k·(μ/n_positions)·Σ_j S_jk.
+    let time: Vec<f64> = basis.transpose_apply(&vec![
+        problem.objective.time_weight / s.n;
+        basis.positions_len()
+    ]);
     let c = &problem.constraints;
     let piston = usize::from(problem.free_piston);
+    let (margin, gap) = if basis.is_positions() {
+        (0.0, GAP_TOLERANCE)
+    } else {
+        (SPLINE_ROW_MARGIN, SPLINE_GAP_TOLERANCE)
+    };
+    let position_rows = constraint_rows(
+        problem.positions_mm,
+        c,
+        floors_s,
+        s.dwell_s,
+        true,
+        true,
+        margin,
+    )
+    .through(basis);
     // (P's columns, q, rows, how many of the rows are equalities at the top)
     let (mut p, mut q, mut rows, equalities) = match problem.formulation {
         Formulation::NormalEquations => {
             let lin = 1.0 / (s.m * s.rate);
             let mut q: Vec<f64> = (0..n)
-                .map(|j| time - lin * band.dot_rows(j, &g, problem.rows.start))
+                .map(|k| time[k] - lin * band.dot_rows(k, &g, problem.rows.start))
                 .collect();
             if problem.free_piston {
                 q.push(g.iter().sum::<f64>() / s.m);
             }
-            let rows = constraint_rows(problem.positions_mm, c, floors_s, s.dwell_s, true, true);
-            (normal_hessian(problem, band, s), q, rows, 0)
+            (normal_hessian(problem, vars, s), q, position_rows, 0)
         }
         Formulation::Residual => {
-            // Variables (x, e, [p̃]); rows: M·x/ā − e − p̃ = g (zero cone), then inequalities.
+            // Variables (c, e, [p̃]); rows: M·S·c/ā − e − p̃ = g (zero cone), then inequalities.
             let nv = n + m + piston;
-            let smooth = smoothing_band(problem.positions_mm, s.smoothing);
+            let width = vars.smoothing_width();
             let mut p = CscBuilder::new(nv);
-            for (k, diag) in smooth.iter().enumerate() {
+            for k in 0..n {
                 p.push_column(
-                    (k.saturating_sub(2)..=k)
-                        .map(|j| (j, diag[k - j]))
+                    (k.saturating_sub(width)..=k)
+                        .map(|j| (j, vars.smoothing(j, k)))
                         .filter(|&(_, v)| v != 0.0),
                 );
             }
@@ -283,14 +392,14 @@ fn assemble(
             if problem.free_piston {
                 p.push_column([]);
             }
-            let mut q = vec![time; n];
+            let mut q = time;
             q.resize(nv, 0.0);
 
             let mut rows = Rows::default();
-            for j in 0..n {
-                for (k, &v) in band.values[j].iter().enumerate() {
-                    rows.rows.push(band.start[j] - problem.rows.start + k);
-                    rows.cols.push(j);
+            for k in 0..n {
+                for (i, &v) in band.values[k].iter().enumerate() {
+                    rows.rows.push(band.start[k] - problem.rows.start + i);
+                    rows.cols.push(k);
                     rows.values.push(v / s.rate);
                 }
             }
@@ -305,14 +414,7 @@ fn assemble(
                 }
             }
             rows.rhs = g;
-            rows.append(constraint_rows(
-                problem.positions_mm,
-                c,
-                floors_s,
-                s.dwell_s,
-                true,
-                true,
-            ));
+            rows.append(position_rows);
             (p.build(), q, rows, m)
         }
     };
@@ -329,11 +431,18 @@ fn assemble(
             rows.rhs.len() - equalities,
         ));
         let (a, b) = rows.into_csc(nv);
-        return ClarabelQp { p, q, a, b, cones };
+        return ClarabelQp {
+            gap,
+            p,
+            q,
+            a,
+            b,
+            cones,
+        };
     };
     // One cone variable per position a row needs it for, numbered after the others.
     let accel = acceleration_rows(problem.axes, x0, s.dwell_s);
-    let mut u_index = vec![None; n];
+    let mut u_index = vec![None; basis.positions_len()];
     for row in &accel {
         for &(j, _) in &row.u {
             if u_index[j].is_none() {
@@ -343,16 +452,12 @@ fn assemble(
         }
     }
     for row in &accel {
-        let entries: Vec<(usize, f64)> = row
-            .x
-            .iter()
-            .copied()
-            .chain(
-                row.u
-                    .iter()
-                    .map(|&(j, v)| (u_index[j].expect("numbered above"), v)),
-            )
-            .collect();
+        let mut entries = basis.form(&row.x);
+        entries.extend(
+            row.u
+                .iter()
+                .map(|&(j, v)| (u_index[j].expect("numbered above"), v)),
+        );
         rows.push(&entries, row.rhs);
     }
     cones.push(SupportedConeT::NonnegativeConeT(
@@ -361,8 +466,12 @@ fn assemble(
     // (x_j + u_j, u_j − x_j, 2) in the second-order cone ⟺ x_j·u_j ≥ 1, x_j + u_j ≥ 0.
     for (j, u) in u_index.iter().enumerate() {
         if let Some(u) = *u {
-            rows.push(&[(j, -1.0), (u, -1.0)], 0.0);
-            rows.push(&[(j, 1.0), (u, -1.0)], 0.0);
+            let mut sum = basis.form(&[(j, -1.0)]);
+            sum.push((u, -1.0));
+            rows.push(&sum, 0.0);
+            let mut difference = basis.form(&[(j, 1.0)]);
+            difference.push((u, -1.0));
+            rows.push(&difference, 0.0);
             rows.push(&[], 2.0);
             cones.push(SupportedConeT::SecondOrderConeT(3));
         }
@@ -370,7 +479,14 @@ fn assemble(
     q.resize(nv, 0.0);
     p = extend_columns(p, nv);
     let (a, b) = rows.into_csc(nv);
-    ClarabelQp { p, q, a, b, cones }
+    ClarabelQp {
+        gap,
+        p,
+        q,
+        a,
+        b,
+        cones,
+    }
 }
 
 /// `p` with empty columns (and rows) added up to `size`.
@@ -418,16 +534,22 @@ struct Attempt {
 
 fn attempt(
     problem: &DwellProblem,
-    band: &Band,
+    operator: &Band,
+    vars: &Variables,
     scales: &Scales,
     floors_s: &[f64],
     around: Option<&[f64]>,
     budget: &Budget,
 ) -> Result<Attempt, OptimizeError> {
-    let n = problem.positions_mm.len();
-    let qp = assemble(problem, band, scales, floors_s, around);
+    let n = vars.size();
+    let qp = assemble(problem, vars, scales, floors_s, around);
     let (v, iterations, solve_time_s, status) = run_clarabel(&qp, budget)?;
-    let dwell_s = polish(&problem.constraints, floors_s, &v[..n], scales.dwell_s);
+    let dwell_s = polish(
+        &problem.constraints,
+        floors_s,
+        &vars.basis.dwell(&v[..n]),
+        scales.dwell_s,
+    );
     let piston_index = match problem.formulation {
         Formulation::NormalEquations => n,
         Formulation::Residual => n + problem.rows.len(),
@@ -435,7 +557,13 @@ fn attempt(
     let piston_nm = problem
         .free_piston
         .then(|| v[piston_index].max(0.0) * scales.depth_nm);
-    let objective = objective_value(problem, band, scales, &dwell_s, piston_nm.unwrap_or(0.0));
+    let objective = objective_value(
+        problem,
+        operator,
+        scales,
+        &dwell_s,
+        piston_nm.unwrap_or(0.0),
+    );
     Ok(Attempt {
         dwell_s,
         piston_nm,
@@ -455,7 +583,8 @@ fn keeps_acceleration(axes: &[AxisPath], dwell_s: &[f64]) -> bool {
 /// procedure of [`super::kinematics`] from the constant dwell that keeps every row.
 fn within_acceleration(
     problem: &DwellProblem,
-    band: &Band,
+    operator: &Band,
+    vars: &Variables,
     scales: &Scales,
     floors: &[Floor],
     budget: &Budget,
@@ -503,7 +632,15 @@ fn within_acceleration(
     let mut best: Option<Attempt> = None;
     let (mut iterations, mut solve_time_s) = (0, 0.0);
     for _ in 0..MAX_CCP_ITERATIONS {
-        let next = attempt(problem, band, scales, &floors_s, Some(&around), budget)?;
+        let next = attempt(
+            problem,
+            operator,
+            vars,
+            scales,
+            &floors_s,
+            Some(&around),
+            budget,
+        )?;
         iterations += next.iterations;
         solve_time_s += next.solve_time_s;
         let settled = best
@@ -522,6 +659,65 @@ fn within_acceleration(
     best.iterations = iterations;
     best.solve_time_s = solve_time_s;
     Ok(best)
+}
+
+/// Refuses a plan that breaks a constraint or the machine's acceleration limits by more than
+/// the tolerance (a solver's inaccuracy: the QP keeps them all).
+fn check_plan(
+    problem: &DwellProblem,
+    floors: &[Floor],
+    scales: &Scales,
+    plan: &Attempt,
+) -> Result<(), OptimizeError> {
+    let status = plan.status;
+    if let Some((bound, index, excess)) =
+        problem
+            .constraints
+            .violation(problem.positions_mm, &plan.dwell_s, floors, scales.dwell_s)
+    {
+        return Err(OptimizeError::Numerical {
+            status: format!(
+                "{status:?}, but the plan breaks {} at index {index} by {excess:e} s",
+                bound.name()
+            ),
+        });
+    }
+    if let Some((axis, ratio)) = problem
+        .axes
+        .iter()
+        .map(|a| (a, peak_acceleration_ratio(a, &plan.dwell_s)))
+        .find(|&(_, ratio)| ratio > 1.0)
+    {
+        return Err(OptimizeError::Numerical {
+            status: format!(
+                "{status:?}, but the plan exceeds {} by a factor {ratio}",
+                axis.acceleration_bound().name()
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The plan with the dwell in `basis`: the QP, then, if the machine's acceleration limits
+/// between cells are not kept, the convex–concave procedure.
+fn plan_in(
+    problem: &DwellProblem,
+    operator: &Band,
+    basis: Basis,
+    scales: &Scales,
+    floors: &[Floor],
+    budget: &Budget,
+) -> Result<Attempt, OptimizeError> {
+    let vars = Variables::new(problem, operator, basis, scales);
+    let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
+    let mut plan = attempt(problem, operator, &vars, scales, &floors_s, None, budget)?;
+    if limits_acceleration(problem.axes) && !keeps_acceleration(problem.axes, &plan.dwell_s) {
+        let first = (plan.iterations, plan.solve_time_s);
+        plan = within_acceleration(problem, operator, &vars, scales, floors, budget)?;
+        plan.iterations += first.0;
+        plan.solve_time_s += first.1;
+    }
+    Ok(plan)
 }
 
 /// Finds the plan: checks feasibility (naming conflicting constraints), solves, clamps the
@@ -574,42 +770,33 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
         },
     };
 
-    let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
-    let mut plan = attempt(problem, &band, &scales, &floors_s, None, &budget)?;
-    if limits_acceleration(problem.axes) && !keeps_acceleration(problem.axes, &plan.dwell_s) {
-        let first = (plan.iterations, plan.solve_time_s);
-        plan = within_acceleration(problem, &band, &scales, &floors, &budget)?;
-        plan.iterations += first.0;
-        plan.solve_time_s += first.1;
-    }
-    let status = plan.status;
-    if let Some((bound, index, excess)) =
-        c.violation(problem.positions_mm, &plan.dwell_s, &floors, scales.dwell_s)
-    {
-        return Err(OptimizeError::Numerical {
-            status: format!(
-                "{status:?}, but the plan breaks {} at index {index} by {excess:e} s",
-                bound.name()
-            ),
-        });
-    }
-    if let Some((axis, ratio)) = problem
-        .axes
-        .iter()
-        .map(|a| (a, peak_acceleration_ratio(a, &plan.dwell_s)))
-        .find(|&(_, ratio)| ratio > 1.0)
-    {
-        return Err(OptimizeError::Numerical {
-            status: format!(
-                "{status:?}, but the plan exceeds {} by a factor {ratio}",
-                axis.acceleration_bound().name()
-            ),
-        });
-    }
+    let basis = Basis::new(problem.positions_mm, rt, problem.basis);
+    let checked = |basis: Basis| {
+        let plan = plan_in(problem, &band, basis, &scales, &floors, &budget)?;
+        check_plan(problem, &floors, &scales, &plan).map(|()| plan)
+    };
+    let plan = if basis.is_positions() {
+        checked(basis)?
+    } else {
+        // The spline holds every constant plan, so it is feasible whenever the positions are,
+        // unless the total time is so tight that only dwell it cannot shape meets it. Its rows
+        // are combinations of the positions' rows, which the solver keeps less tightly. In
+        // either case the positions' own variables answer.
+        match checked(basis) {
+            Err(OptimizeError::Infeasible { fields, .. }) if fields.is_empty() => {
+                checked(Basis::positions(n))?
+            }
+            Err(OptimizeError::Numerical { status }) => {
+                eprintln!("FALLBACK {status}");
+                checked(Basis::positions(n))?
+            }
+            other => other?,
+        }
+    };
     Ok(Solution {
         dwell_s: plan.dwell_s,
         piston_nm: plan.piston_nm,
-        status,
+        status: plan.status,
         iterations: plan.iterations,
         solve_time_s: plan.solve_time_s,
         objective: plan.objective,

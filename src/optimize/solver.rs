@@ -13,6 +13,7 @@ use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolution, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
 };
 
+use super::basis::Basis;
 use super::problem::{Constraints, OptimizeError};
 
 /// The wall-clock budget of one optimization, shared by every solver call it makes.
@@ -87,6 +88,14 @@ impl CscBuilder {
     }
 }
 
+/// Relative tightening of the feed and dwell-change rows in a spline basis. There the rows of
+/// neighbouring positions are nearly parallel (the dwell changes slowly between them), and the
+/// solver keeps them less tightly than rows on the positions' own variables; unlike the bounds
+/// and the total, polishing cannot restore them. A hundred times the tolerance a plan is
+/// checked to ([`super::problem::CONSTRAINT_TOLERANCE`]), far below anything a machine could
+/// tell.
+pub(super) const SPLINE_ROW_MARGIN: f64 = 1e-7;
+
 /// Constraint rows a·v ≤ b, as triplets and right-hand sides.
 #[derive(Default)]
 pub(super) struct Rows {
@@ -115,6 +124,26 @@ impl Rows {
         self.rhs.extend(other.rhs);
     }
 
+    /// These rows on the dwell at the positions (the first variables) as rows on `basis`'s
+    /// variables (the same row indices; repeated entries are summed when assembled).
+    pub(super) fn through(self, basis: &Basis) -> Rows {
+        if basis.is_positions() {
+            return self;
+        }
+        let mut out = Rows {
+            rhs: self.rhs,
+            ..Rows::default()
+        };
+        for ((r, j), v) in self.rows.into_iter().zip(self.cols).zip(self.values) {
+            for (k, w) in basis.terms(j) {
+                out.rows.push(r);
+                out.cols.push(k);
+                out.values.push(v * w);
+            }
+        }
+        out
+    }
+
     /// (A, b) with `cols` variables.
     pub(super) fn into_csc(self, cols: usize) -> (CscMatrix<f64>, Vec<f64>) {
         let a =
@@ -125,7 +154,8 @@ impl Rows {
 
 /// The plan's constraints as rows a·x ≤ b on x = t/τ (the first n variables): the floor of
 /// each position (`floors_s`: `min_dwell_s` raised by the machine's limits), then the
-/// constraints'. `with_total` leaves out the total-time row (for the least-time LP).
+/// constraints'. `with_total` leaves out the total-time row (for the least-time LP); `margin`
+/// tightens the feed and change rows by that fraction of their size.
 pub(super) fn constraint_rows(
     positions_mm: &[f64],
     c: &Constraints,
@@ -133,6 +163,7 @@ pub(super) fn constraint_rows(
     tau: f64,
     with_total: bool,
     with_change: bool,
+    margin: f64,
 ) -> Rows {
     let n = positions_mm.len();
     let mut rows = Rows::default();
@@ -150,11 +181,12 @@ pub(super) fn constraint_rows(
     }
     if let Some(need) = c.segment_min_dwell_sum_s(positions_mm) {
         for (j, need) in need.iter().enumerate() {
-            rows.push(&[(j, -1.0), (j + 1, -1.0)], -need / tau);
+            rows.push(&[(j, -1.0), (j + 1, -1.0)], -need * (1.0 + margin) / tau);
         }
     }
     if let (Some(delta), true) = (c.max_dwell_change_s, with_change) {
         for j in 0..n.saturating_sub(1) {
+            let delta = delta * (1.0 - margin);
             rows.push(&[(j, -1.0), (j + 1, 1.0)], delta / tau);
             rows.push(&[(j, 1.0), (j + 1, -1.0)], delta / tau);
         }
@@ -164,6 +196,8 @@ pub(super) fn constraint_rows(
 
 /// The QP in Clarabel's form: ½vᵀPv + qᵀv subject to A·v + s = b, s ∈ cones.
 pub(super) struct ClarabelQp {
+    /// Duality-gap tolerance, absolute and relative ([`GAP_TOLERANCE`] unless said).
+    pub gap: f64,
     pub p: CscMatrix<f64>,
     pub q: Vec<f64>,
     pub a: CscMatrix<f64>,
@@ -197,8 +231,11 @@ pub(super) fn run_clarabel(
 /// Clarabel's duality-gap tolerance (its default is 1e-8). Its objective leaves out the fit's
 /// constant ½‖d/s_d‖²/m_Ω (about ½), so the gap is absolute on J, and a well-fitted plan has
 /// J ≈ 1e-4: 1e-10 keeps J to about 1e-6 relative (1.1e-7 worst in tests/it/optimize_reference.rs)
-/// for two or three more iterations; 1e-12 would cost four.
-const GAP_TOLERANCE: f64 = 1e-10;
+/// for two or three more iterations on a variable per position; 1e-12 would cost four.
+pub(super) const GAP_TOLERANCE: f64 = 1e-10;
+/// The gap for the spline basis's small QP, whose plans fit better (J down to ~1e-6): four
+/// more iterations cost little there.
+pub(super) const SPLINE_GAP_TOLERANCE: f64 = 1e-12;
 
 fn solve_once(
     qp: &ClarabelQp,
@@ -211,8 +248,8 @@ fn solve_once(
         .direct_solve_method("faer".to_string())
         .max_threads(1)
         .iterative_refinement_enable(refine)
-        .tol_gap_abs(GAP_TOLERANCE)
-        .tol_gap_rel(GAP_TOLERANCE)
+        .tol_gap_abs(qp.gap)
+        .tol_gap_rel(qp.gap)
         .build()
         .map_err(|e| OptimizeError::Numerical {
             status: format!("settings rejected: {e}"),
@@ -280,6 +317,7 @@ mod tests {
         );
         // A solver call on an exhausted budget does not start.
         let lp = ClarabelQp {
+            gap: GAP_TOLERANCE,
             p: CscMatrix::zeros((1, 1)),
             q: vec![1.0],
             a: CscMatrix::new(1, 1, vec![0, 1], vec![0], vec![-1.0]),

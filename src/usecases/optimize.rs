@@ -13,8 +13,8 @@ use crate::optimize::kinematics::AxisPath;
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
-    optimize as solve, Constraints, DwellProblem, Formulation, MeasuredProfile, Motion, Objective,
-    OptimizeError, Solution,
+    optimize as solve, Constraints, DwellBasis, DwellProblem, Formulation, MeasuredProfile, Motion,
+    Objective, OptimizeError, Solution,
 };
 use crate::physics::{check_positions, RemovalKernel, RemovalOperator, UniformityMetrics};
 use crate::study::Recommendation;
@@ -331,6 +331,7 @@ pub fn optimize(
         objective,
         time_limit_s,
         formulation: Formulation::default(),
+        basis: DwellBasis::default(),
         axes: &axes,
     })?;
     if let Some(machine) = &machine {

@@ -118,18 +118,19 @@ async fn request_ids_are_generated_or_propagated_and_land_in_problems() {
     assert_eq!(reply.json()["request_id"], generated.as_str());
 }
 
-/// A request that holds a computation slot for a while: an n × n optimization (about 0.4 s at
-/// n = 1001 and 1.5 s at 1501 on the reference machine).
-fn slow_optimize_n(n: usize) -> String {
-    json!({"process": {"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": -10, "tool_rpm": 200},
-           "positions_mm": (0..n).map(|i| 50.0 * i as f64 / (n - 1) as f64).collect::<Vec<_>>(),
-           "target": {"uniform_depth_nm": 100}, "radial_grid": {"count": n},
-           "clear_aperture": {"outer_mm": 40}})
-    .to_string()
-}
+/// A request that holds a computation slot for a while (about 2 s on the reference machine): an η sweep on an asphere, each
+/// point an equal-dwell pass over a 2001-sample grid with 2000 positions (curved removal is
+/// several times the flat cost). (The optimizer is too quick for this since its dwell went
+/// into a spline basis.)
+const SLOW_PATH: &str = "/v1/studies/eta-sweep";
 
-fn slow_optimize() -> String {
-    slow_optimize_n(1001)
+fn slow_computation() -> String {
+    json!({"process": {"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": 7.5, "tool_rpm": 150},
+           "surface": {"kind": "asphere", "radius_of_curvature_mm": -150, "conic_constant": -0.5,
+                       "coefficients": [{"power": 4, "value": 1e-7}]},
+           "etas": [-0.05, -0.25, -0.5, -0.75, -1.25, -1.5, -1.75, -2.0],
+           "equal_dwell_positions": 2000, "radial_grid": {"count": 2001}})
+    .to_string()
 }
 
 #[tokio::test]
@@ -141,7 +142,7 @@ async fn excess_load_is_shed_with_503_and_retry_after() {
     });
     let busy = {
         let app = app.clone();
-        tokio::spawn(async move { post_json(&app, "/v1/optimize", slow_optimize()).await })
+        tokio::spawn(async move { post_json(&app, SLOW_PATH, slow_computation()).await })
     };
     tokio::time::sleep(Duration::from_millis(100)).await;
     let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
@@ -167,9 +168,9 @@ async fn invalid_requests_are_refused_at_once_while_every_slot_is_busy() {
     });
     let busy = {
         let app = app.clone();
-        tokio::spawn(async move { post_json(&app, "/v1/optimize", slow_optimize_n(1501)).await })
+        tokio::spawn(async move { post_json(&app, SLOW_PATH, slow_computation()).await })
     };
-    // Wait until the optimization holds the slot.
+    // Wait until the slow computation holds the slot.
     let started = Instant::now();
     while sample(
         &get(&app, "/metrics").await.text(),
@@ -255,7 +256,7 @@ async fn a_request_over_its_time_budget_is_503() {
         request_timeout: Duration::from_millis(20),
         ..Limits::default()
     });
-    let reply = post_json(&app, "/v1/optimize", slow_optimize()).await;
+    let reply = post_json(&app, SLOW_PATH, slow_computation()).await;
     assert_eq!(reply.status, 503, "{}", reply.text());
     assert_eq!(reply.json()["type"], "urn:preston:problem:overloaded");
 }
@@ -294,9 +295,9 @@ fn sigterm_turns_readiness_503_first_and_lets_a_long_computation_finish() {
         let client = Client::builder(TokioExecutor::new()).build_http::<Full<Bytes>>();
         let long = {
             let client = client.clone();
-            let request = hyper::Request::post(format!("http://{address}/v1/optimize"))
+            let request = hyper::Request::post(format!("http://{address}{SLOW_PATH}"))
                 .header("content-type", "application/json")
-                .body(Full::new(Bytes::from(slow_optimize_n(1501))))
+                .body(Full::new(Bytes::from(slow_computation())))
                 .unwrap();
             tokio::spawn(async move {
                 let started = Instant::now();

@@ -7,7 +7,7 @@ use crate::common;
 use common::paper_process;
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{
-    optimize, Constraints, DwellProblem, Formulation, Motion, Objective, OptimizeError,
+    optimize, Constraints, DwellBasis, DwellProblem, Formulation, Motion, Objective, OptimizeError,
 };
 use preston::physics::{ClearAperture, RadialGrid, RemovalKernel, RemovalOperator};
 
@@ -47,6 +47,7 @@ fn run(s: &Setup, constraints: Constraints) -> Result<Vec<f64>, OptimizeError> {
         objective: Objective::default(),
         time_limit_s: 30.0,
         formulation: Formulation::NormalEquations,
+        basis: DwellBasis::Auto,
         axes: &[],
     })
     .map(|solution| solution.dwell_s)
@@ -90,7 +91,8 @@ fn random_constraint_sets_give_plans_that_keep_them() {
         } else {
             (150.0, 150.0)
         };
-        let s = setup(w, tool, rng.usize(30..120));
+        // Up to 85 positions keep a variable each; from 86 on the dwell is a 43-function spline.
+        let s = setup(w, tool, rng.usize(30..240));
         let n = s.positions.len();
         // Equal dwell that removes about 100 nm sets the scale of the limits.
         let unit = {
