@@ -1,12 +1,21 @@
 //! `POST /v1/predict` through the router (in-process, no socket): the paper's experiment 1
 //! with 201 radial samples and 201 tool positions (fixtures/predict_paper_exp1_201.json).
-//! Covers JSON parsing, validation, operator assembly, metrics and serialisation.
+//! Covers JSON parsing, validation, the operator (from the cache after the first request),
+//! metrics and serialisation.
+//!
+//! And the prediction use case on 1001 radial samples × 1001 positions, repeated on the same
+//! process: with the operator from the cache, and with no cache (assembled every time).
 
 use axum::body::Body;
 use axum::http::Request;
 use http_body_util::BodyExt;
 use preston::config::Limits;
 use preston::http::{router, AppState};
+use preston::physics::{Part, PressureModel, ProcessSpec};
+use preston::usecases::predict::{predict, PredictCommand};
+use preston::usecases::{
+    ApertureSpec, ComputeLimits, GridSpec, OperatorCache, Recommender, Setting,
+};
 use tower::ServiceExt;
 
 fn main() {
@@ -36,4 +45,45 @@ fn predict_paper_201x201(bencher: divan::Bencher) {
             response.into_body().collect().await.unwrap().to_bytes()
         })
     });
+}
+
+fn paper_1001() -> PredictCommand {
+    let limits = ComputeLimits::default();
+    let setting = Setting::new(
+        ProcessSpec {
+            workpiece_radius_mm: 50.0,
+            tool_radius_mm: 10.0,
+            workpiece_rpm: -10.0,
+            tool_rpm: 200.0,
+            preston_coefficient_m2_per_n: 1e-13,
+            pressure_kpa: 10.0,
+            pressure_model: PressureModel::Uniform,
+            part: Part::flat(),
+        },
+        GridSpec {
+            start_mm: Some(0.0),
+            stop_mm: Some(50.0),
+            count: Some(1001),
+        },
+        ApertureSpec {
+            inner_mm: Some(0.0),
+            outer_mm: Some(40.0),
+        },
+        &limits,
+    )
+    .unwrap();
+    let positions: Vec<f64> = (0..1001).map(|j| 0.05 * j as f64).collect();
+    PredictCommand::new(setting, positions, vec![10.0; 1001], &limits).unwrap()
+}
+
+#[divan::bench(args = [true, false], sample_count = 50)]
+fn predict_1001x1001_operator_cached(bencher: divan::Bencher, cached: bool) {
+    let recommender = Recommender::new();
+    let operators = OperatorCache::new(if cached { 64 << 20 } else { 0 });
+    let command = paper_1001();
+    // The first request fills the caches (operator, recommendation).
+    predict(command.clone(), &recommender, &operators);
+    bencher
+        .with_inputs(|| command.clone())
+        .bench_values(|c| predict(c, &recommender, &operators));
 }

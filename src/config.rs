@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+use crate::usecases::operators::DEFAULT_OPERATOR_CACHE_BYTES;
 use crate::usecases::ComputeLimits;
 
 /// Preston: dwell-time planning for dual-rotor small-tool polishing.
@@ -83,6 +84,10 @@ pub struct ServeArgs {
     /// Longest a computing request may take, waiting included, in milliseconds (503 beyond).
     #[arg(long, env = "PRESTON_REQUEST_TIMEOUT_MS", default_value_t = 30_000)]
     pub request_timeout_ms: u64,
+    /// Memory for removal operators kept for reuse by later predictions and optimizations on
+    /// the same process, grid and positions, in MiB (0: none kept).
+    #[arg(long, env = "PRESTON_OPERATOR_CACHE_MIB", default_value_t = Limits::default().operator_cache_bytes / MIB)]
+    pub operator_cache_mib: usize,
     /// On SIGTERM, how long to keep serving with /readyz at 503 before closing the listener,
     /// in milliseconds, so load balancers stop sending traffic first. Ctrl-C skips it.
     #[arg(long, env = "PRESTON_DRAIN_DELAY_MS", default_value_t = 2000)]
@@ -122,7 +127,11 @@ pub struct Limits {
     pub max_queued_computations: usize,
     /// Longest a computing request may take, waiting included (503 beyond).
     pub request_timeout: Duration,
+    /// Memory for the operator cache, bytes (0: none kept).
+    pub operator_cache_bytes: usize,
 }
+
+const MIB: usize = 1024 * 1024;
 
 impl Default for Limits {
     fn default() -> Self {
@@ -141,6 +150,7 @@ impl Default for Limits {
             queue_timeout: Duration::from_secs(5),
             max_queued_computations: 64,
             request_timeout: Duration::from_secs(30),
+            operator_cache_bytes: DEFAULT_OPERATOR_CACHE_BYTES,
         }
     }
 }
@@ -178,6 +188,7 @@ impl ServeArgs {
             queue_timeout: Duration::from_millis(self.queue_timeout_ms),
             max_queued_computations: self.max_queued_computations,
             request_timeout: Duration::from_millis(self.request_timeout_ms.max(1)),
+            operator_cache_bytes: self.operator_cache_mib.saturating_mul(MIB),
         }
     }
 }

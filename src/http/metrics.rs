@@ -10,20 +10,27 @@
 //!   `request_timeout`);
 //! - `solver_duration_seconds` — Clarabel solve time histogram;
 //! - `solver_status_total{status}` — optimizations by outcome (`solved`, `almost_solved`,
-//!   `infeasible`, `time_limit`, `iteration_limit`, `numerical_error`).
+//!   `infeasible`, `time_limit`, `iteration_limit`, `numerical_error`);
+//! - `operator_cache_requests_total{result}` — removal operators taken from the cache (`hit`)
+//!   or assembled (`miss`); `operator_cache_evictions_total`; `operator_cache_bytes` and
+//!   `operator_cache_entries` — what it holds (read from the cache at each scrape).
 
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use super::state::AppState;
 use crate::optimize::{OptimizeError, Solution, SolveStatus};
+use crate::usecases::OperatorCache;
 use axum::body::Body;
 use axum::extract::{MatchedPath, Request, State};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
+use prometheus::core::{Collector, Desc};
+use prometheus::proto::MetricFamily;
 use prometheus::{
-    Encoder, Histogram, HistogramOpts, HistogramVec, IntCounterVec, IntGauge, Opts, Registry,
-    TextEncoder,
+    Encoder, Histogram, HistogramOpts, HistogramVec, IntCounter, IntCounterVec, IntGauge, Opts,
+    Registry, TextEncoder,
 };
 
 /// The request-id header, generated when absent and echoed on the response.
@@ -101,6 +108,12 @@ impl Metrics {
             solver_seconds,
             solver_status,
         })
+    }
+
+    /// Reports `cache`'s counts and size with the other metrics (once per service).
+    pub fn watch_operator_cache(&self, cache: Arc<OperatorCache>) -> prometheus::Result<()> {
+        self.registry
+            .register(Box::new(OperatorCacheCollector::new(cache)?))
     }
 
     /// The text exposition of every metric.
@@ -208,4 +221,72 @@ async fn with_request_id(response: Response, id: &HeaderValue) -> Response {
     let body = serde_json::to_vec(&value).unwrap_or_else(|_| bytes.to_vec());
     parts.headers.remove(header::CONTENT_LENGTH);
     Response::from_parts(parts, Body::from(body))
+}
+
+/// The operator cache's own counts, read at each scrape (the cache is pure and keeps them).
+struct OperatorCacheCollector {
+    cache: Arc<OperatorCache>,
+    requests: IntCounterVec,
+    evictions: IntCounter,
+    bytes: IntGauge,
+    entries: IntGauge,
+    /// One scrape at a time sets the metrics from the cache's counts.
+    scrape: Mutex<()>,
+}
+
+impl OperatorCacheCollector {
+    fn new(cache: Arc<OperatorCache>) -> prometheus::Result<Self> {
+        Ok(OperatorCacheCollector {
+            cache,
+            requests: IntCounterVec::new(
+                Opts::new(
+                    "operator_cache_requests_total",
+                    "Removal operators taken from the cache (hit) or assembled (miss)",
+                ),
+                &["result"],
+            )?,
+            evictions: IntCounter::with_opts(Opts::new(
+                "operator_cache_evictions_total",
+                "Operators dropped from the cache to stay within its memory",
+            ))?,
+            bytes: IntGauge::with_opts(Opts::new(
+                "operator_cache_bytes",
+                "Memory the cached operators hold",
+            ))?,
+            entries: IntGauge::with_opts(Opts::new(
+                "operator_cache_entries",
+                "Operators in the cache",
+            ))?,
+            scrape: Mutex::new(()),
+        })
+    }
+}
+
+impl Collector for OperatorCacheCollector {
+    fn desc(&self) -> Vec<&Desc> {
+        let mut all = self.requests.desc();
+        all.extend(self.evictions.desc());
+        all.extend(self.bytes.desc());
+        all.extend(self.entries.desc());
+        all
+    }
+
+    fn collect(&self) -> Vec<MetricFamily> {
+        let _one = self.scrape.lock();
+        let stats = self.cache.stats();
+        let set = |counter: &IntCounter, value: u64| {
+            counter.reset();
+            counter.inc_by(value);
+        };
+        set(&self.requests.with_label_values(&["hit"]), stats.hits);
+        set(&self.requests.with_label_values(&["miss"]), stats.misses);
+        set(&self.evictions, stats.evictions);
+        self.bytes.set(stats.bytes as i64);
+        self.entries.set(stats.entries as i64);
+        let mut families = self.requests.collect();
+        families.extend(self.evictions.collect());
+        families.extend(self.bytes.collect());
+        families.extend(self.entries.collect());
+        families
+    }
 }

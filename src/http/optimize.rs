@@ -375,7 +375,7 @@ impl Endpoint for OptimizeEndpoint {
         let suspect = command
             .input_warning()
             .map(|w| WarningDto::new(&w, "positions_mm"));
-        let plan = optimize(command, &services.recommender);
+        let plan = optimize(command, &services.recommender, &services.operators);
         services
             .metrics
             .record_solver(plan.as_ref().map(|p| &p.solution));

@@ -105,7 +105,7 @@ impl Endpoint for PredictEndpoint {
     }
 
     fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError> {
-        let p = predict(command, &services.recommender);
+        let p = predict(command, &services.recommender, &services.operators);
         Ok(PredictResponse {
             eta: p.setting.process().eta().value(),
             radius_mm: p.setting.grid().radii_mm().to_vec(),

@@ -12,12 +12,13 @@ use super::error::ApiError;
 use super::metrics::Metrics;
 use super::openapi;
 use crate::config::Limits;
-use crate::usecases::{ComputeLimits, Recommender};
+use crate::usecases::{ComputeLimits, OperatorCache, Recommender};
 
 /// What a computation may use besides its command.
 #[derive(Clone, Default)]
 pub struct Services {
     pub recommender: Arc<Recommender>,
+    pub operators: Arc<OperatorCache>,
     pub metrics: Arc<Metrics>,
 }
 
@@ -37,12 +38,20 @@ pub struct AppState {
 
 impl AppState {
     pub fn new(limits: Limits) -> Self {
+        let services = Services {
+            operators: Arc::new(OperatorCache::new(limits.operator_cache_bytes)),
+            ..Services::default()
+        };
+        services
+            .metrics
+            .watch_operator_cache(services.operators.clone())
+            .expect("the operator cache's metrics are registered once");
         AppState {
             slots: Arc::new(Semaphore::new(limits.max_concurrent_computations.max(1))),
             waiting: Arc::new(AtomicUsize::new(0)),
             compute: limits.compute(),
             limits,
-            services: Services::default(),
+            services,
             ready: Arc::new(AtomicBool::new(true)),
             openapi_json: openapi::spec_json().into(),
             swagger: Arc::new(Config::new(["/openapi.json"]).try_it_out_enabled(true)),

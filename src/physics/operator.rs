@@ -75,6 +75,12 @@ impl RemovalOperator {
         self.values.len()
     }
 
+    /// Heap memory the operator holds, bytes.
+    pub fn heap_bytes(&self) -> usize {
+        std::mem::size_of::<f64>() * self.values.len()
+            + std::mem::size_of::<usize>() * (self.first_row.len() + self.col_ptr.len())
+    }
+
     /// Column j as (first row, rates in nm/s of the consecutive rows from there).
     pub fn column(&self, j: usize) -> (usize, &[f64]) {
         (

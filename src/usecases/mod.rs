@@ -20,6 +20,7 @@
 pub mod eta_sweep;
 mod limits;
 pub mod measurement_fit;
+pub mod operators;
 pub mod optimize;
 pub mod predict;
 pub mod program;
@@ -29,6 +30,7 @@ mod setting;
 mod warnings;
 
 pub use limits::{ComputeLimits, LimitError};
+pub use operators::{OperatorCache, OperatorCacheStats};
 pub use recommend::Recommender;
 pub use setting::{ApertureSpec, GridSpec, Setting, SettingError};
 pub use warnings::Warning;

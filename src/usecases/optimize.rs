@@ -5,7 +5,7 @@
 use std::ops::Range;
 
 use super::warnings::{active_constraints, positions_unit, TARGET_MISS_FRACTION};
-use super::{ComputeLimits, Input, InputError, Recommender, Setting, Warning};
+use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::machine::{
     cell_travel, Approach, Drive, Limit, MachineLimits, Program, ProgramError, Tool, Violation,
 };
@@ -16,7 +16,7 @@ use crate::optimize::{
     optimize as solve, Constraints, DwellBasis, DwellProblem, Formulation, MeasuredProfile, Motion,
     Objective, OptimizeError, Solution,
 };
-use crate::physics::{check_positions, RemovalKernel, RemovalOperator, UniformityMetrics};
+use crate::physics::{check_positions, UniformityMetrics};
 use crate::study::Recommendation;
 use crate::surface::{Surface, SurfaceError};
 
@@ -299,6 +299,7 @@ pub struct OptimizedPlan {
 pub fn optimize(
     command: OptimizeCommand,
     recommender: &Recommender,
+    operators: &OperatorCache,
 ) -> Result<OptimizedPlan, OptimizeError> {
     let mut warnings: Vec<Warning> = command.input_warning().into_iter().collect();
     let OptimizeCommand {
@@ -312,11 +313,7 @@ pub fn optimize(
         objective,
         time_limit_s,
     } = command;
-    let operator = RemovalOperator::assemble(
-        &RemovalKernel::new(setting.process()),
-        setting.grid().radii_mm(),
-        &positions_mm,
-    );
+    let operator = operators.operator(setting.process(), setting.grid().radii_mm(), &positions_mm);
     let axes = machine
         .as_ref()
         .map_or_else(Vec::new, |m| axis_paths(m, &positions_mm));

@@ -1,7 +1,7 @@
 //! Prediction: the cumulative removal of a dwell schedule and its uniformity.
 
 use super::warnings::positions_unit;
-use super::{ComputeLimits, Input, InputError, Recommender, Setting, Warning};
+use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::physics::{DwellSchedule, UniformityMetrics};
 use crate::study::Recommendation;
 
@@ -41,9 +41,20 @@ pub struct Prediction {
     pub warnings: Vec<Warning>,
 }
 
-pub fn predict(command: PredictCommand, recommender: &Recommender) -> Prediction {
+/// The prediction, with the operator from (or into) `operators`.
+pub fn predict(
+    command: PredictCommand,
+    recommender: &Recommender,
+    operators: &OperatorCache,
+) -> Prediction {
     let PredictCommand { setting, schedule } = command;
-    let removal_nm = schedule.removal_nm(setting.process(), setting.grid());
+    let removal_nm = operators
+        .operator(
+            setting.process(),
+            setting.grid().radii_mm(),
+            schedule.positions_mm(),
+        )
+        .apply(schedule.dwell_s());
     let metrics = UniformityMetrics::over(setting.grid(), setting.aperture(), &removal_nm);
     let warnings = positions_unit(setting.process(), schedule.positions_mm())
         .into_iter()

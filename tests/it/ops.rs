@@ -250,6 +250,34 @@ async fn each_service_counts_only_its_own_requests() {
     );
 }
 
+/// Repeated predictions and optimizations on one process, grid and positions share one
+/// operator: the first assembles it, the others hit, and the answers are the same bytes;
+/// with no cache memory every request assembles its own.
+#[tokio::test]
+async fn repeated_requests_share_the_operator_and_metrics_count_hits() {
+    let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
+    let hits = ["preston_operator_cache_requests_total", "result=\"hit\""];
+    let misses = ["preston_operator_cache_requests_total", "result=\"miss\""];
+    for (budget, expect_hits) in [(Limits::default().operator_cache_bytes, 2.0), (0, 0.0)] {
+        let app = app_with(Limits {
+            operator_cache_bytes: budget,
+            ..Limits::default()
+        });
+        let mut answers = Vec::new();
+        for _ in 0..3 {
+            let reply = post_json(&app, "/v1/predict", body.clone()).await;
+            assert_eq!(reply.status, 200);
+            answers.push(reply.text());
+        }
+        assert!(answers.iter().all(|a| *a == answers[0]));
+        let metrics = get(&app, "/metrics").await.text();
+        assert_eq!(sample(&metrics, &hits), Some(expect_hits), "{metrics}");
+        assert_eq!(sample(&metrics, &misses), Some(3.0 - expect_hits));
+        let held = sample(&metrics, &["preston_operator_cache_entries"]);
+        assert_eq!(held, Some(if budget > 0 { 1.0 } else { 0.0 }));
+    }
+}
+
 #[tokio::test]
 async fn a_request_over_its_time_budget_is_503() {
     let app = app_with(Limits {
