@@ -114,8 +114,8 @@ pub struct Limits {
     pub max_profiles: usize,
     /// Largest removal operator, radial samples × tool positions (422 beyond).
     pub max_operator_entries: usize,
-    /// Most candidate positions in one optimization (its Hessian is dense within the band;
-    /// 422 beyond).
+    /// Most candidate positions in one optimization (bounds the rows of its QP and the rare
+    /// fallback to a variable per position, whose Hessian is dense within the band; 422 beyond).
     pub max_optimize_positions: usize,
     /// Longest a dwell optimization may run in the solver; a request may ask for less.
     pub solver_time_limit: Duration,

@@ -33,7 +33,10 @@ pub struct OptimizeRequest {
     pub process: ProcessDto,
     /// Candidate tool-centre positions, mm, strictly increasing, within the tool's reach
     /// (0 to r_m + r_t under uniform pressure, 0 to r_m under constant force); at most the
-    /// server's max_optimize_positions (2001 by default).
+    /// server's max_optimize_positions (2001 by default). When there are at least twice as many
+    /// as knots r_t/8 apart over their span allow, the dwell is solved as a cubic B-spline on
+    /// those knots, sampled at the positions (smooth for the feed axis; every constraint still
+    /// holds at each position).
     #[schema(min_items = 1)]
     pub positions_mm: Vec<f64>,
     /// What to remove over the clear aperture.
@@ -511,8 +514,10 @@ fn to_svg(r: &OptimizeResponse) -> String {
 /// aperture in the least-squares sense, with a light smoothing and time preference, within
 /// the constraints. Conflicting constraints give a 422 `infeasible` problem listing them in
 /// `conflicts`; a solver that stops without a plan gives a 422 `solver-*` problem. Every
-/// returned plan keeps its constraints to 1e-9 relative. `Accept: text/csv` returns the plan
-/// (position and dwell columns).
+/// returned plan keeps its constraints to 1e-9 relative. Fine positions are solved through a
+/// smooth spline basis (see `positions_mm`), which keeps the solve to milliseconds; the removal
+/// operator of a process, grid and positions is cached for repeated requests. `Accept:
+/// text/csv` returns the plan (position and dwell columns).
 #[utoipa::path(
     post,
     path = "/v1/optimize",

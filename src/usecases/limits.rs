@@ -14,7 +14,8 @@ pub struct ComputeLimits {
     pub max_profiles: usize,
     /// Largest removal operator, radial samples × tool positions.
     pub max_operator_entries: usize,
-    /// Most candidate positions in one optimization (its Hessian is dense within the band).
+    /// Most candidate positions in one optimization (bounds the rows of its QP and the rare
+    /// fallback to a variable per position, whose Hessian is dense within the band).
     pub max_optimize_positions: usize,
     /// Most η values in one sweep.
     pub max_etas: usize,

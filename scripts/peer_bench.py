@@ -1,0 +1,247 @@
+"""Preston's /v1/optimize against the obvious Python alternative, side by side, in one run.
+
+The problem is the paper's experiment 1 (workpiece 50 mm at -10 r/min, tool 10 mm at
+200 r/min, lab frame, eta = +0.05): remove a uniform 100 nm over the clear aperture
+[0, 40] mm, with n tool positions evenly spaced on [0, 50] mm and the removal sampled at the
+same n radii.
+
+The peer builds the removal matrix with numpy/scipy (the closed form in incomplete elliptic
+integrals of the second kind, written here from docs/MODEL.md) and solves the dense
+non-negative least squares  min ||M t - d||^2, t >= 0  with cvxpy + Clarabel. It is timed
+in-process (matrix, problem and solve), which spares it any HTTP cost. Preston is timed end to
+end over HTTP on loopback (request body sent, JSON response read), twice: with its operator
+cache off (the operator assembled on every request) and at its defaults (the operator cached
+after the first request). The first request of each is a warm-up (it also computes the
+eta = -1 recommendation Preston's response carries, cached afterwards) and is not counted.
+
+Each plan is then checked independently: its removal is evaluated with this script's closed
+form on a grid 4x finer than the request's, and the nonuniformity (PV / mean over the
+aperture) reported.
+
+Usage: python scripts/peer_bench.py --binary target/release/preston [--sizes 501 1001 2001]
+(scripts/peer_bench.sh makes the virtualenv, builds Preston and runs this.)
+"""
+
+import argparse
+import http.client
+import json
+import socket
+import statistics
+import subprocess
+import time
+
+import cvxpy as cp
+import numpy as np
+from scipy.special import ellipe, ellipeinc
+
+WORKPIECE_MM, TOOL_MM = 50.0, 10.0
+WORKPIECE_RPM, TOOL_RPM = -10.0, 200.0
+K_M2_PER_N, P_KPA = 1e-13, 10.0
+OUTER_MM, DEPTH_NM = 40.0, 100.0
+
+
+def removal_matrix(radii, positions):
+    """R(r; r1) in nm/s for every radius (rows) and position (columns).
+
+    R = K P / pi * int_0^theta0 V dtheta with V^2 = a^2 + b^2 - 2ab cos(theta),
+    a = (w1 + w2) r, b = w2 r1 (paper frame: w1 = -workpiece, w2 = tool, rad/s); the integral
+    is 2|a+b| [E(m) - E(pi/2 - theta0/2 | m)] with m = 4ab/(a+b)^2 when ab >= 0, and
+    2|a-b| E(theta0/2 | m) with m = -4ab/(a-b)^2 otherwise.
+    """
+    w1 = -WORKPIECE_RPM * 2 * np.pi / 60
+    w2 = TOOL_RPM * 2 * np.pi / 60
+    r = np.asarray(radii)[:, None]
+    r1 = np.asarray(positions)[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = (r**2 + r1**2 - TOOL_MM**2) / (2 * r * r1)
+        theta0 = np.arccos(np.clip(c, -1.0, 1.0))
+    # On the axis (r = 0 or r1 = 0) the point is under the pad all round or not at all; on
+    # the pad's edge there, the limit from off the axis (a half circle).
+    axis = (r * r1) == 0
+    gap = np.abs(r - r1)
+    theta0 = np.where(
+        axis, np.where(gap < TOOL_MM, np.pi, np.where(gap == TOOL_MM, np.pi / 2, 0.0)), theta0
+    )
+    a = (w1 + w2) * r
+    b = w2 * r1
+    ab = a * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m_same = np.where(a + b != 0, 4 * ab / (a + b) ** 2, 0.0)
+        m_opp = np.where(a - b != 0, -4 * ab / (a - b) ** 2, 0.0)
+    same = 2 * np.abs(a + b) * (
+        ellipe(np.clip(m_same, 0, 1)) - ellipeinc(np.pi / 2 - theta0 / 2, np.clip(m_same, 0, 1))
+    )
+    opposite = 2 * np.abs(a - b) * ellipeinc(theta0 / 2, np.clip(m_opp, 0, 1))
+    integral = np.where(ab >= 0, same, opposite)
+    integral = np.where(theta0 > 0, integral, 0.0)
+    # K [m^2/N] * P [kPa -> Pa] * V [mm/s -> m/s] -> m/s, then nm/s.
+    return K_M2_PER_N * P_KPA * 1e3 * 1e-3 * 1e9 / np.pi * integral
+
+
+def grid(n):
+    return np.linspace(0.0, WORKPIECE_MM, n)
+
+
+def nonuniformity(removal):
+    return (removal.max() - removal.min()) / removal.mean()
+
+
+def check(positions, dwell, n):
+    """PV/mean of the plan's removal over the aperture on a grid 4x finer than the request's."""
+    fine = grid(4 * (n - 1) + 1)
+    fine = fine[fine <= OUTER_MM]
+    return nonuniformity(removal_matrix(fine, positions) @ np.asarray(dwell))
+
+
+def peer(n):
+    """cvxpy + Clarabel on the dense NNLS: (seconds, dwell)."""
+    started = time.perf_counter()
+    radii = grid(n)
+    inside = radii <= OUTER_MM
+    m = removal_matrix(radii[inside], radii)
+    t = cp.Variable(n)
+    problem = cp.Problem(
+        cp.Minimize(cp.sum_squares(m @ t - DEPTH_NM)), [t >= 0]
+    )
+    problem.solve(solver=cp.CLARABEL)
+    took = time.perf_counter() - started
+    return took, np.maximum(t.value, 0.0)
+
+
+def request_body(n):
+    return json.dumps(
+        {
+            "process": {
+                "workpiece_radius_mm": WORKPIECE_MM,
+                "tool_radius_mm": TOOL_MM,
+                "workpiece_rpm": WORKPIECE_RPM,
+                "tool_rpm": TOOL_RPM,
+                "preston_coefficient_m2_per_n": K_M2_PER_N,
+                "pressure_kpa": P_KPA,
+            },
+            "positions_mm": grid(n).tolist(),
+            "target": {"uniform_depth_nm": DEPTH_NM},
+            "radial_grid": {"start_mm": 0, "stop_mm": WORKPIECE_MM, "count": n},
+            "clear_aperture": {"inner_mm": 0, "outer_mm": OUTER_MM},
+        }
+    ).encode()
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Preston:
+    def __init__(self, binary, *flags):
+        self.port = free_port()
+        self.process = subprocess.Popen(
+            [binary, "--listen", f"127.0.0.1:{self.port}", *flags],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        for _ in range(200):
+            try:
+                self.connection = http.client.HTTPConnection("127.0.0.1", self.port)
+                self.connection.request("GET", "/healthz")
+                self.connection.getresponse().read()
+                return
+            except OSError:
+                time.sleep(0.05)
+        raise RuntimeError("Preston did not start")
+
+    def optimize(self, body):
+        """(seconds, parsed response) for one request, end to end."""
+        started = time.perf_counter()
+        self.connection.request(
+            "POST", "/v1/optimize", body, {"content-type": "application/json"}
+        )
+        response = self.connection.getresponse()
+        data = response.read()
+        took = time.perf_counter() - started
+        if response.status != 200:
+            raise RuntimeError(f"{response.status}: {data[:300]!r}")
+        return took, json.loads(data)
+
+    def stop(self):
+        self.process.terminate()
+        self.process.wait()
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--binary", default="target/release/preston")
+    parser.add_argument("--sizes", type=int, nargs="+", default=[501, 1001, 2001])
+    parser.add_argument("--preston-runs", type=int, default=20)
+    parser.add_argument("--peer-runs", type=int, default=3)
+    args = parser.parse_args()
+
+    # The closed form here against Preston's removal function (a few columns).
+    cold = Preston(args.binary, "--operator-cache-mib", "0")
+    warm = Preston(args.binary)
+    probe = [0.0, 3.0, 10.0, 25.0, 44.0]
+    cold.connection.request(
+        "POST",
+        "/v1/removal-function",
+        json.dumps(
+            {
+                "process": json.loads(request_body(2))["process"],
+                "tool_positions_mm": probe,
+                "radial_grid": {"start_mm": 0, "stop_mm": WORKPIECE_MM, "count": 501},
+            }
+        ),
+        {"content-type": "application/json"},
+    )
+    profiles = json.loads(cold.connection.getresponse().read())["profiles"]
+    ours = removal_matrix(grid(501), probe)
+    agreement = max(
+        np.max(np.abs(np.asarray(p["removal_rate_nm_per_min"]) / 60 - ours[:, k])) / ours.max()
+        for k, p in enumerate(profiles)
+    )
+    print(f"closed form here vs Preston's removal function: {agreement:.1e} of the peak")
+
+    rows = []
+    for n in args.sizes:
+        body = request_body(n)
+        timings = {}
+        plan = None
+        for name, server in (("cold", cold), ("warm", warm)):
+            server.optimize(body)  # warm-up, not counted
+            runs = [server.optimize(body) for _ in range(args.preston_runs)]
+            timings[name] = statistics.median(t for t, _ in runs)
+            plan = runs[-1][1]
+        peer_runs = [peer(n) for _ in range(args.peer_runs)]
+        peer_s = statistics.median(t for t, _ in peer_runs)
+        positions = plan["dwell"]["positions_mm"]
+        rows.append(
+            (
+                n,
+                timings["cold"],
+                timings["warm"],
+                peer_s,
+                plan["metrics"]["nonuniformity"],
+                check(positions, plan["dwell"]["dwell_s"], n),
+                check(grid(n), peer_runs[-1][1], n),
+            )
+        )
+    cold.stop()
+    warm.stop()
+
+    print()
+    print(
+        "| positions | Preston, operator assembled | Preston, operator cached | cvxpy + Clarabel "
+        "| ratio (assembled / cached) | nonuniformity: Preston reports | Preston, checked 4x finer "
+        "| cvxpy, checked 4x finer |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for n, cold_s, warm_s, peer_s, reported, checked, peer_checked in rows:
+        print(
+            f"| {n} | {cold_s * 1e3:.1f} ms | {warm_s * 1e3:.1f} ms | {peer_s * 1e3:.0f} ms "
+            f"| {peer_s / cold_s:.0f}x / {peer_s / warm_s:.0f}x | {reported:.2e} | {checked:.2e} "
+            f"| {peer_checked:.2e} |"
+        )
+
+
+if __name__ == "__main__":
+    main()
