@@ -96,6 +96,14 @@ pub struct ServeArgs {
     /// off when empty.
     #[arg(long, env = "PRESTON_CORS_ORIGINS", value_delimiter = ',')]
     pub cors_origins: Vec<String>,
+    /// API keys file: one key per line as `name:<SHA-256 hex of the key>` (`#` comments, blank
+    /// lines ignored). With it every /v1 request needs `Authorization: Bearer <key>`; SIGHUP
+    /// reloads it. Without it the API is open.
+    #[arg(long, env = "PRESTON_API_KEYS_FILE")]
+    pub api_keys_file: Option<PathBuf>,
+    /// With an API keys file, require a key for /metrics too (it is open by default).
+    #[arg(long, env = "PRESTON_METRICS_REQUIRE_KEY")]
+    pub metrics_require_key: bool,
     /// Log format. The level comes from RUST_LOG (default `info`).
     #[arg(long, env = "PRESTON_LOG_FORMAT", value_enum, default_value_t = LogFormat::Text)]
     pub log_format: LogFormat,

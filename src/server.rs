@@ -1,19 +1,34 @@
 //! Serving: bind, run the router, shut down gracefully on SIGTERM or Ctrl-C. On SIGTERM
 //! readiness turns 503 at once and the service keeps answering for the drain delay (so load
 //! balancers see it and stop sending work), then stops accepting connections, lets in-flight
-//! requests finish, and exits. Ctrl-C skips the delay.
+//! requests finish, and exits. Ctrl-C skips the delay. With an API keys file, SIGHUP reloads it.
 
 use std::future::Future;
+use std::sync::Arc;
 
 use tokio::net::TcpListener;
 
 use crate::config::ServeArgs;
+use crate::http::auth::Auth;
 use crate::http::{cors_layer, router, AppState};
 
 /// Runs the service with `args` until a shutdown signal.
 pub async fn run(args: ServeArgs) -> std::io::Result<()> {
+    let mut state = AppState::new(args.limits());
+    match &args.api_keys_file {
+        Some(path) => {
+            let auth = Auth::load(path.clone(), args.metrics_require_key)
+                .map(Arc::new)
+                .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))?;
+            tracing::info!(file = %path.display(), "API keys required on /v1");
+            reload_on_hangup(auth.clone());
+            state = state.with_auth(auth);
+        }
+        None => tracing::warn!(
+            "no API keys file: the API is open to anyone who can reach it (--api-keys-file)"
+        ),
+    }
     let listener = TcpListener::bind(args.listen).await?;
-    let state = AppState::new(args.limits());
     tracing::info!(address = %listener.local_addr()?, "preston listening; docs at /docs");
     let shutdown_state = state.clone();
     let drain = std::time::Duration::from_millis(args.drain_delay_ms);
@@ -43,6 +58,32 @@ pub async fn serve_on(
     axum::serve(listener, app)
         .with_graceful_shutdown(shutdown)
         .await
+}
+
+/// Reloads the keys file on each SIGHUP; a malformed file keeps the keys in force (logged).
+fn reload_on_hangup(auth: Arc<Auth>) {
+    #[cfg(unix)]
+    tokio::spawn(async move {
+        let mut hangups = match tokio::signal::unix::signal(
+            tokio::signal::unix::SignalKind::hangup(),
+        ) {
+            Ok(signal) => signal,
+            Err(e) => {
+                tracing::warn!(error = %e, "cannot listen for SIGHUP: API keys will not reload");
+                return;
+            }
+        };
+        while hangups.recv().await.is_some() {
+            match auth.reload() {
+                Ok(keys) => {
+                    tracing::info!(file = %auth.path().display(), keys, "API keys reloaded")
+                }
+                Err(e) => {
+                    tracing::error!(error = %e, "API keys not reloaded; the previous keys stay in force")
+                }
+            }
+        }
+    });
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

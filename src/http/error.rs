@@ -9,6 +9,7 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 use utoipa::ToSchema;
 
+use super::auth::Refusal;
 use crate::metrology::{Axis, FitError, Parameter, ProbeError, TraceError};
 use crate::optimize::target::ProfileArray;
 use crate::optimize::{Bound, OptimizeError, ProfileError};
@@ -71,6 +72,10 @@ pub enum ApiError {
         path: String,
     },
     MethodNotAllowed,
+    /// A guarded path without a known API key (`WWW-Authenticate: Bearer`).
+    Unauthorized {
+        reason: Refusal,
+    },
     /// No computation slot came free in time: retry after the given seconds.
     Overloaded {
         retry_after_s: u64,
@@ -165,6 +170,7 @@ impl ApiError {
             ApiError::NotAcceptable { .. } => StatusCode::NOT_ACCEPTABLE,
             ApiError::NotFound { .. } => StatusCode::NOT_FOUND,
             ApiError::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
+            ApiError::Unauthorized { .. } => StatusCode::UNAUTHORIZED,
             ApiError::Overloaded { .. } => StatusCode::SERVICE_UNAVAILABLE,
             ApiError::Internal { .. } => StatusCode::INTERNAL_SERVER_ERROR,
         }
@@ -251,6 +257,21 @@ impl ApiError {
                 "this resource does not support that method".to_string(),
                 None,
             ),
+            ApiError::Unauthorized { reason } => (
+                "unauthorized",
+                "API key required",
+                match reason {
+                    Refusal::Missing => {
+                        "this path needs an API key: send `Authorization: Bearer <key>`"
+                    }
+                    Refusal::Malformed => {
+                        "the Authorization header must be `Bearer <key>` with a non-empty key"
+                    }
+                    Refusal::Unknown => "the API key is not valid",
+                }
+                .to_string(),
+                None,
+            ),
             ApiError::Overloaded { retry_after_s } => (
                 "overloaded",
                 "Service overloaded",
@@ -299,8 +320,22 @@ impl IntoResponse for ApiError {
             header::CONTENT_TYPE,
             HeaderValue::from_static("application/problem+json"),
         );
-        if let ApiError::Overloaded { retry_after_s } = self {
-            headers.insert(header::RETRY_AFTER, HeaderValue::from(retry_after_s));
+        match self {
+            ApiError::Overloaded { retry_after_s } => {
+                headers.insert(header::RETRY_AFTER, HeaderValue::from(retry_after_s));
+            }
+            // RFC 6750: a request with no credentials gets the bare challenge.
+            ApiError::Unauthorized { reason } => {
+                headers.insert(
+                    header::WWW_AUTHENTICATE,
+                    HeaderValue::from_static(match reason {
+                        Refusal::Missing => "Bearer realm=\"preston\"",
+                        Refusal::Malformed => "Bearer realm=\"preston\", error=\"invalid_request\"",
+                        Refusal::Unknown => "Bearer realm=\"preston\", error=\"invalid_token\"",
+                    }),
+                );
+            }
+            _ => {}
         }
         response
     }
@@ -524,6 +559,9 @@ pub enum ComputeProblems {
     /// Invalid input, naming the field
     #[response(status = 422, content_type = "application/problem+json")]
     Invalid(Problem),
+    /// No valid API key (only when the service has keys configured); `WWW-Authenticate: Bearer`
+    #[response(status = 401, content_type = "application/problem+json")]
+    Unauthorized(Problem),
     /// Overloaded; retry after Retry-After seconds
     #[response(status = 503, content_type = "application/problem+json")]
     Overloaded(Problem),

@@ -2,8 +2,9 @@
 //! every request and stamps its request id into problem+json bodies.
 //!
 //! Metrics (all prefixed `preston_`):
-//! - `http_requests_total{route, method, status}` — requests by matched route
-//!   (`unmatched` for 404s, so paths cannot blow up the label set) and status code;
+//! - `http_requests_total{route, method, status, key}` — requests by matched route
+//!   (`unmatched` for 404s, so paths cannot blow up the label set), status code and API key
+//!   name (`-` without one);
 //! - `http_request_duration_seconds{route}` — latency histogram;
 //! - `computations_in_flight`, `computations_waiting` — gauges of the computation slots;
 //! - `load_shed_total{reason}` — requests refused with 503 (`queue_full`, `queue_timeout`,
@@ -18,6 +19,7 @@
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+use super::auth::KeyName;
 use super::state::AppState;
 use crate::optimize::{OptimizeError, Solution, SolveStatus};
 use crate::usecases::OperatorCache;
@@ -67,7 +69,7 @@ impl Metrics {
                 "http_requests_total",
                 "HTTP requests by route, method and status",
             ),
-            &["route", "method", "status"],
+            &["route", "method", "status", "key"],
         )?;
         let latency = HistogramVec::new(
             HistogramOpts::new("http_request_duration_seconds", "HTTP request latency")
@@ -161,7 +163,11 @@ impl Metrics {
     path = "/metrics",
     operation_id = "getMetrics",
     tag = "service",
-    responses((status = 200, description = "Prometheus text format", content_type = "text/plain", body = String))
+    responses(
+        (status = 200, description = "Prometheus text format", content_type = "text/plain", body = String),
+        (status = 401, description = "Only when the service runs with `--metrics-require-key`: no valid API key", content_type = "application/problem+json", body = super::error::Problem),
+    ),
+    security(("bearer" = []), ())
 )]
 pub async fn handler(State(state): State<AppState>) -> Response {
     (
@@ -185,9 +191,14 @@ pub async fn record(State(state): State<AppState>, request: Request, next: Next)
     let method = request.method().as_str().to_string();
     let request_id = request.headers().get(REQUEST_ID).cloned();
     let response = next.run(request).await;
+    let key = response
+        .extensions()
+        .get::<KeyName>()
+        .map_or("-", |k| &*k.0)
+        .to_string();
     let m = &state.services.metrics;
     m.requests
-        .with_label_values(&[&route, &method, response.status().as_str()])
+        .with_label_values(&[&route, &method, response.status().as_str(), &key])
         .inc();
     m.latency
         .with_label_values(&[&route])

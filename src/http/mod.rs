@@ -8,6 +8,7 @@
 //! Retry-After. Every request gets an `x-request-id` (kept if the client sent one), which is in
 //! the log span, echoed on the response and written into problem+json bodies.
 
+pub mod auth;
 pub mod csv;
 pub mod docs;
 pub mod dto;

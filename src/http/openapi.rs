@@ -2,6 +2,7 @@
 //! `fixtures/`. Committed as `openapi/openapi.json`; `tests/it/openapi_drift.rs` fails when the
 //! two differ (regenerate with `cargo run -- openapi > openapi/openapi.json`).
 
+use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityRequirement, SecurityScheme};
 use utoipa::OpenApi;
 
 use super::dto::{
@@ -29,6 +30,8 @@ means workpiece and tool turn the same way at the same speed, where equal dwell 
 uniform layer. The paper's experiment 1 (workpiece 10 r/min clockwise, tool 200 r/min \
 counter-clockwise) is workpiece_rpm = −10, tool_rpm = 200, η = +0.05.\n\n\
 **Errors** are `application/problem+json` (RFC 9457) with the offending input in `field`.\n\n\
+**Authentication.** A service run with an API keys file needs `Authorization: Bearer <key>` on \
+every `/v1` operation (401 otherwise); the probes, `/openapi.json` and `/docs` stay open.\n\n\
 **Limits** (server defaults, configurable): body 4 MiB, radial_grid.count ≤ 10001, tool \
 positions ≤ 10001, removal-function profiles ≤ 201, radial samples × positions ≤ 25,000,000, \
 optimization positions ≤ 2001, solver time ≤ 10 s, measured trace points ≤ 100,000."
@@ -82,6 +85,36 @@ pub fn spec() -> utoipa::openapi::OpenApi {
             .and_then(|body| body.content.get_mut("application/json"))
             .expect("every example path has a JSON request body");
         body.example = Some(example);
+    }
+    // API keys: every /v1 operation takes a bearer key, needed only when the service runs
+    // with a keys file (hence the empty alternative).
+    doc.components
+        .get_or_insert_with(Default::default)
+        .add_security_scheme(
+            "bearer",
+            SecurityScheme::Http(
+                HttpBuilder::new()
+                    .scheme(HttpAuthScheme::Bearer)
+                    .description(Some(
+                        "An API key, when the service is run with a keys file \
+(`--api-keys-file`): `Authorization: Bearer <key>`. Without one it is not needed. A missing, \
+malformed or unknown key is a 401 problem with `WWW-Authenticate: Bearer`.",
+                    ))
+                    .build(),
+            ),
+        );
+    for (path, item) in doc.paths.paths.iter_mut() {
+        if path.starts_with("/v1/") {
+            for operation in [item.get.as_mut(), item.post.as_mut()]
+                .into_iter()
+                .flatten()
+            {
+                operation.security = Some(vec![
+                    SecurityRequirement::new("bearer", Vec::<String>::new()),
+                    SecurityRequirement::default(),
+                ]);
+            }
+        }
     }
     doc
 }

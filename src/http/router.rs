@@ -12,6 +12,7 @@ use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetReques
 use tower_http::trace::{DefaultOnResponse, TraceLayer};
 use tracing::Level;
 
+use super::auth;
 use super::endpoint::{compute_json as compute_json_of, Endpoint};
 use super::error::ApiError;
 use super::extract::BodyLimit;
@@ -106,7 +107,8 @@ pub fn compute_json(endpoint: &str, body: &[u8], limits: &Limits) -> Result<Stri
 }
 
 /// Cross-origin access: none unless origins are configured (`*` allows any). Browsers may send
-/// `content-type`, `accept` and `x-request-id`, and read `x-request-id` and `retry-after`.
+/// `content-type`, `accept`, `authorization` (an API key) and `x-request-id`, and read
+/// `x-request-id`, `retry-after` and `www-authenticate`.
 pub fn cors_layer(origins: &[String]) -> Option<CorsLayer> {
     if origins.is_empty() {
         return None;
@@ -128,8 +130,13 @@ pub fn cors_layer(origins: &[String]) -> Option<CorsLayer> {
         CorsLayer::new()
             .allow_origin(allow)
             .allow_methods([Method::GET, Method::POST])
-            .allow_headers([header::CONTENT_TYPE, header::ACCEPT, request_id.clone()])
-            .expose_headers([request_id, header::RETRY_AFTER]),
+            .allow_headers([
+                header::CONTENT_TYPE,
+                header::ACCEPT,
+                header::AUTHORIZATION,
+                request_id.clone(),
+            ])
+            .expose_headers([request_id, header::RETRY_AFTER, header::WWW_AUTHENTICATE]),
     )
 }
 
@@ -155,6 +162,10 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
         .layer(CompressionLayer::new())
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
+            auth::authenticate,
+        ))
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
             metrics::record,
         ))
         .with_state(state)
@@ -167,7 +178,8 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
                         .get(metrics::REQUEST_ID)
                         .and_then(|v| v.to_str().ok())
                         .unwrap_or("-");
-                    tracing::info_span!("request", method = %req.method(), path = %req.uri().path(), request_id = %id)
+                    // `key`: the API key's name, once authenticated.
+                    tracing::info_span!("request", method = %req.method(), path = %req.uri().path(), request_id = %id, key = tracing::field::Empty)
                 })
                 .on_response(DefaultOnResponse::new().level(Level::INFO)),
         )

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use tokio::sync::{Semaphore, TryAcquireError};
 use utoipa_swagger_ui::Config;
 
+use super::auth::Auth;
 use super::error::ApiError;
 use super::metrics::Metrics;
 use super::openapi;
@@ -29,6 +30,8 @@ pub struct AppState {
     /// The part of `limits` the use cases enforce.
     pub compute: ComputeLimits,
     pub services: Services,
+    /// API keys, when configured (`None`: every path is open).
+    pub auth: Option<Arc<Auth>>,
     slots: Arc<Semaphore>,
     waiting: Arc<AtomicUsize>,
     ready: Arc<AtomicBool>,
@@ -52,10 +55,17 @@ impl AppState {
             compute: limits.compute(),
             limits,
             services,
+            auth: None,
             ready: Arc::new(AtomicBool::new(true)),
             openapi_json: openapi::spec_json().into(),
             swagger: Arc::new(Config::new(["/openapi.json"]).try_it_out_enabled(true)),
         }
+    }
+
+    /// The same state with `auth` guarding `/v1/*` (and `/metrics` if it says so).
+    pub fn with_auth(mut self, auth: Arc<Auth>) -> Self {
+        self.auth = Some(auth);
+        self
     }
 
     /// Marks the service as not ready (e.g. while shutting down); `/readyz` then answers 503.

@@ -8,6 +8,7 @@ mod api_machine_plan;
 mod api_metrology;
 mod api_optimize;
 mod api_program;
+mod auth;
 mod curved_plans;
 mod curved_removal;
 mod deploy;

@@ -1,0 +1,316 @@
+//! API keys over a real socket with the real binary: no key, a malformed header, a wrong key
+//! and a right one; the open endpoints; `/metrics` behind a key when asked; SIGHUP reloading a
+//! new set (and keeping the old one when the new file is malformed); a malformed file at
+//! start-up. The client is a few lines of HTTP/1.1 on a `TcpStream`, so nothing between the
+//! test and the service interprets the headers.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use sha2::{Digest, Sha256};
+
+use crate::common;
+
+fn sha256_hex(key: &str) -> String {
+    Sha256::digest(key.as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+struct Reply {
+    status: u16,
+    headers: String,
+    body: String,
+}
+
+/// One request on a fresh connection (`Connection: close`).
+fn http(address: &str, method: &str, path: &str, headers: &[&str], body: &[u8]) -> Reply {
+    let mut stream = TcpStream::connect(address).unwrap();
+    let mut request =
+        format!("{method} {path} HTTP/1.1\r\nHost: {address}\r\nConnection: close\r\n");
+    for h in headers {
+        request.push_str(h);
+        request.push_str("\r\n");
+    }
+    if !body.is_empty() {
+        request.push_str(&format!(
+            "Content-Type: application/json\r\nContent-Length: {}\r\n",
+            body.len()
+        ));
+    }
+    request.push_str("\r\n");
+    stream.write_all(request.as_bytes()).unwrap();
+    stream.write_all(body).unwrap();
+    let mut raw = Vec::new();
+    stream.read_to_end(&mut raw).unwrap();
+    let text = String::from_utf8_lossy(&raw).to_string();
+    let (head, body) = text.split_once("\r\n\r\n").unwrap_or((&text, ""));
+    let status = head.split(' ').nth(1).unwrap().parse().unwrap();
+    Reply {
+        status,
+        headers: head.to_ascii_lowercase(),
+        body: body.to_string(),
+    }
+}
+
+/// The service on an ephemeral port with `args`, its address, and what it has logged.
+struct Service {
+    child: Child,
+    address: String,
+    log: Arc<Mutex<String>>,
+}
+
+impl Service {
+    fn start(args: &[&str]) -> Service {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_preston"))
+            .args(["--listen", "127.0.0.1:0", "--drain-delay-ms", "0"])
+            .args(args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut stderr = BufReader::new(child.stderr.take().unwrap());
+        let log = Arc::new(Mutex::new(String::new()));
+        let mut line = String::new();
+        let address = loop {
+            line.clear();
+            assert!(
+                stderr.read_line(&mut line).unwrap() > 0,
+                "server exited early: {}",
+                log.lock().unwrap()
+            );
+            log.lock().unwrap().push_str(&line);
+            if let Some(rest) = line.split("address=").nth(1) {
+                break rest.split_whitespace().next().unwrap().to_string();
+            }
+        };
+        let sink = log.clone();
+        std::thread::spawn(move || {
+            for line in stderr.lines().map_while(Result::ok) {
+                sink.lock().unwrap().push_str(&(line + "\n"));
+            }
+        });
+        Service {
+            child,
+            address,
+            log,
+        }
+    }
+
+    fn predict(&self, headers: &[&str]) -> Reply {
+        let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
+        http(&self.address, "POST", "/v1/predict", headers, &body)
+    }
+
+    fn hang_up(&self) {
+        let status = Command::new("kill")
+            .args(["-HUP", &self.child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+    }
+
+    /// Waits until the log has `count` lines containing `text`.
+    fn wait_for_log(&self, text: &str, count: usize) {
+        let started = Instant::now();
+        while self.log.lock().unwrap().matches(text).count() < count {
+            assert!(
+                started.elapsed() < Duration::from_secs(10),
+                "no {text:?} in the log:\n{}",
+                self.log.lock().unwrap()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Service {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn keys_file(name: &str, lines: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("preston-auth-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, lines).unwrap();
+    path
+}
+
+fn arg(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+#[test]
+fn keys_guard_v1_and_name_the_caller_while_health_and_docs_stay_open() {
+    let file = keys_file(
+        "keys.txt",
+        &format!(
+            "# test keys\nmes:{}\n\nengineering:{}\n",
+            sha256_hex("mes-key-1"),
+            sha256_hex("eng-key-2")
+        ),
+    );
+    let service = Service::start(&["--api-keys-file", arg(&file)]);
+    let cases: [(&[&str], &str, &str); 5] = [
+        (&[], "bearer realm=\"preston\"\r", "needs an API key"),
+        (
+            &["Authorization: Basic bWVzOmtleQ=="],
+            "error=\"invalid_request\"",
+            "must be `Bearer <key>`",
+        ),
+        (
+            &["Authorization: Bearer"],
+            "error=\"invalid_request\"",
+            "must be `Bearer <key>`",
+        ),
+        (
+            &["Authorization: Bearer mes-key-2"],
+            "error=\"invalid_token\"",
+            "not valid",
+        ),
+        (
+            &["Authorization: Bearer MES-KEY-1"],
+            "error=\"invalid_token\"",
+            "not valid",
+        ),
+    ];
+    for (headers, challenge, detail) in cases {
+        let reply = service.predict(headers);
+        assert_eq!(reply.status, 401, "{headers:?}: {}", reply.body);
+        assert!(
+            reply
+                .headers
+                .contains("content-type: application/problem+json"),
+            "{}",
+            reply.headers
+        );
+        let www = reply
+            .headers
+            .lines()
+            .find(|l| l.starts_with("www-authenticate:"))
+            .unwrap_or_else(|| panic!("{headers:?}: no challenge in {}", reply.headers));
+        assert!(format!("{www}\r").contains(challenge), "{headers:?}: {www}");
+        let problem: serde_json::Value = serde_json::from_str(&reply.body).unwrap();
+        assert_eq!(problem["type"], "urn:preston:problem:unauthorized");
+        assert!(
+            problem["detail"].as_str().unwrap().contains(detail),
+            "{problem}"
+        );
+        // The refusal never echoes a key or names the configured ones.
+        for secret in ["mes-key", "eng-key", "mes\"", "engineering"] {
+            assert!(!reply.body.contains(secret), "{}", reply.body);
+        }
+    }
+    for (key, name) in [("mes-key-1", "mes"), ("eng-key-2", "engineering")] {
+        let header = format!("Authorization: Bearer {key}");
+        let reply = service.predict(&[&header]);
+        assert_eq!(reply.status, 200, "{}", reply.body);
+        // Scheme names are case-insensitive.
+        let lower = format!("authorization: bearer {key}");
+        assert_eq!(service.predict(&[&lower]).status, 200);
+        service.wait_for_log(&format!("key=\"{name}\""), 2);
+    }
+    assert!(!service.log.lock().unwrap().contains("mes-key-1"));
+    for path in ["/healthz", "/readyz", "/openapi.json", "/docs/", "/metrics"] {
+        let reply = http(&service.address, "GET", path, &[], b"");
+        assert_eq!(reply.status, 200, "{path}");
+    }
+    let metrics = http(&service.address, "GET", "/metrics", &[], b"").body;
+    assert!(metrics.contains("key=\"mes\""), "{metrics}");
+    assert!(metrics.contains("status=\"401\""));
+    // A wrong method or path under /v1 is refused for the key before anything else.
+    assert_eq!(
+        http(&service.address, "GET", "/v1/nothing", &[], b"").status,
+        401
+    );
+}
+
+#[test]
+fn metrics_can_require_a_key() {
+    let file = keys_file(
+        "metrics-keys.txt",
+        &format!("ops:{}\n", sha256_hex("ops-key")),
+    );
+    let service = Service::start(&["--api-keys-file", arg(&file), "--metrics-require-key"]);
+    assert_eq!(
+        http(&service.address, "GET", "/metrics", &[], b"").status,
+        401
+    );
+    let reply = http(
+        &service.address,
+        "GET",
+        "/metrics",
+        &["Authorization: Bearer ops-key"],
+        b"",
+    );
+    assert_eq!(reply.status, 200);
+    assert_eq!(
+        http(&service.address, "GET", "/healthz", &[], b"").status,
+        200
+    );
+}
+
+#[test]
+fn sighup_reloads_the_keys_and_a_malformed_file_keeps_the_old_ones() {
+    let file = keys_file("reload.txt", &format!("old:{}\n", sha256_hex("old-key")));
+    let service = Service::start(&["--api-keys-file", arg(&file)]);
+    let old = ["Authorization: Bearer old-key"];
+    let new = ["Authorization: Bearer new-key"];
+    assert_eq!(service.predict(&old).status, 200);
+    assert_eq!(service.predict(&new).status, 401);
+
+    std::fs::write(&file, format!("new:{}\n", sha256_hex("new-key"))).unwrap();
+    service.hang_up();
+    service.wait_for_log("API keys reloaded", 1);
+    assert_eq!(service.predict(&new).status, 200);
+    assert_eq!(
+        service.predict(&old).status,
+        401,
+        "a removed key stops working"
+    );
+
+    std::fs::write(&file, "new:not-a-digest\n").unwrap();
+    service.hang_up();
+    service.wait_for_log("API keys not reloaded", 1);
+    assert!(service.log.lock().unwrap().contains("line 1"));
+    assert_eq!(service.predict(&new).status, 200, "the previous keys stay");
+}
+
+#[test]
+fn a_malformed_keys_file_stops_the_service_at_start_naming_the_line() {
+    let file = keys_file(
+        "bad.txt",
+        &format!(
+            "# ok so far\nmes:{}\nerp {}\n",
+            sha256_hex("a"),
+            sha256_hex("b")
+        ),
+    );
+    let output = Command::new(env!("CARGO_BIN_EXE_preston"))
+        .args(["--listen", "127.0.0.1:0", "--api-keys-file", arg(&file)])
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("bad.txt, line 3: "), "{stderr}");
+    assert!(stderr.contains("no ':'"), "{stderr}");
+    let missing = Command::new(env!("CARGO_BIN_EXE_preston"))
+        .args([
+            "--listen",
+            "127.0.0.1:0",
+            "--api-keys-file",
+            "/nonexistent/keys",
+        ])
+        .output()
+        .unwrap();
+    assert!(!missing.status.success());
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("cannot read /nonexistent/keys"));
+}
