@@ -104,6 +104,13 @@ pub struct ServeArgs {
     /// With an API keys file, require a key for /metrics too (it is open by default).
     #[arg(long, env = "PRESTON_METRICS_REQUIRE_KEY")]
     pub metrics_require_key: bool,
+    /// Requests per second each client may make to /v1: per API key when keys are configured
+    /// (default 50), else per client address (default off). 0 turns it off.
+    #[arg(long, env = "PRESTON_RATE_LIMIT_PER_SECOND")]
+    pub rate_limit_per_second: Option<f64>,
+    /// Requests a client may make at once beyond its rate (default twice the rate, at least 1).
+    #[arg(long, env = "PRESTON_RATE_LIMIT_BURST")]
+    pub rate_limit_burst: Option<u32>,
     /// Log format. The level comes from RUST_LOG (default `info`).
     #[arg(long, env = "PRESTON_LOG_FORMAT", value_enum, default_value_t = LogFormat::Text)]
     pub log_format: LogFormat,
@@ -178,7 +185,26 @@ impl Limits {
     }
 }
 
+/// The per-key rate limit when keys are configured and no rate is given, requests per second.
+pub const DEFAULT_KEY_RATE_PER_SECOND: f64 = 50.0;
+
 impl ServeArgs {
+    /// The rate limit asked for, as (requests per second, burst); `None` when off.
+    pub fn rate_limit(&self) -> Option<(f64, u32)> {
+        let default = self
+            .api_keys_file
+            .is_some()
+            .then_some(DEFAULT_KEY_RATE_PER_SECOND);
+        let rate = self.rate_limit_per_second.or(default)?;
+        if rate == 0.0 {
+            return None;
+        }
+        let burst = self
+            .rate_limit_burst
+            .unwrap_or_else(|| (2.0 * rate).ceil().clamp(1.0, u32::MAX as f64) as u32);
+        Some((rate, burst))
+    }
+
     pub fn limits(&self) -> Limits {
         let defaults = Limits::default();
         Limits {

@@ -10,6 +10,7 @@ use tokio::net::TcpListener;
 
 use crate::config::ServeArgs;
 use crate::http::auth::Auth;
+use crate::http::ratelimit::RateLimit;
 use crate::http::{cors_layer, router, AppState};
 
 /// Runs the service with `args` until a shutdown signal.
@@ -27,6 +28,21 @@ pub async fn run(args: ServeArgs) -> std::io::Result<()> {
         None => tracing::warn!(
             "no API keys file: the API is open to anyone who can reach it (--api-keys-file)"
         ),
+    }
+    if let Some((rate, burst)) = args.rate_limit() {
+        let limit = RateLimit::new(rate, burst).ok_or_else(|| {
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!("--rate-limit-per-second ({rate}) must be a positive number and --rate-limit-burst ({burst}) at least 1"),
+            )
+        })?;
+        let per = if args.api_keys_file.is_some() {
+            "API key"
+        } else {
+            "client address"
+        };
+        tracing::info!(per_second = rate, burst, per, "rate limit on /v1");
+        state = state.with_rate_limit(Arc::new(limit));
     }
     let listener = TcpListener::bind(args.listen).await?;
     tracing::info!(address = %listener.local_addr()?, "preston listening; docs at /docs");
@@ -55,9 +71,13 @@ pub async fn serve_on(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
     let app = router(state, cors_layer(cors_origins));
-    axum::serve(listener, app)
-        .with_graceful_shutdown(shutdown)
-        .await
+    // The peer address, for rate limits by client address.
+    axum::serve(
+        listener,
+        app.into_make_service_with_connect_info::<std::net::SocketAddr>(),
+    )
+    .with_graceful_shutdown(shutdown)
+    .await
 }
 
 /// Reloads the keys file on each SIGHUP; a malformed file keeps the keys in force (logged).

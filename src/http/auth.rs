@@ -181,7 +181,8 @@ impl Auth {
     }
 }
 
-/// The authenticated key's name, on the response (for the request metrics).
+/// The authenticated key's name, on the request (for the rate limit) and on the response (for
+/// the request metrics).
 #[derive(Debug, Clone)]
 pub struct KeyName(pub Arc<str>);
 
@@ -223,6 +224,8 @@ pub async fn authenticate(State(state): State<AppState>, request: Request, next:
     match name {
         Ok(name) => {
             tracing::Span::current().record("key", &*name);
+            let mut request = request;
+            request.extensions_mut().insert(KeyName(name.clone()));
             let mut response = next.run(request).await;
             response.extensions_mut().insert(KeyName(name));
             response

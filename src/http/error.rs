@@ -76,6 +76,12 @@ pub enum ApiError {
     Unauthorized {
         reason: Refusal,
     },
+    /// The client's rate limit is spent: retry after the given seconds.
+    RateLimited {
+        retry_after_s: u64,
+        per_second: f64,
+        burst: u32,
+    },
     /// No computation slot came free in time: retry after the given seconds.
     Overloaded {
         retry_after_s: u64,
@@ -171,6 +177,7 @@ impl ApiError {
             ApiError::NotFound { .. } => StatusCode::NOT_FOUND,
             ApiError::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
             ApiError::Unauthorized { .. } => StatusCode::UNAUTHORIZED,
+            ApiError::RateLimited { .. } => StatusCode::TOO_MANY_REQUESTS,
             ApiError::Overloaded { .. } => StatusCode::SERVICE_UNAVAILABLE,
             ApiError::Internal { .. } => StatusCode::INTERNAL_SERVER_ERROR,
         }
@@ -272,6 +279,18 @@ impl ApiError {
                 .to_string(),
                 None,
             ),
+            ApiError::RateLimited {
+                retry_after_s,
+                per_second,
+                burst,
+            } => (
+                "rate-limited",
+                "Too many requests",
+                format!(
+                    "this client may make {per_second} requests per second with bursts of {burst}; retry in {retry_after_s} s"
+                ),
+                None,
+            ),
             ApiError::Overloaded { retry_after_s } => (
                 "overloaded",
                 "Service overloaded",
@@ -321,7 +340,8 @@ impl IntoResponse for ApiError {
             HeaderValue::from_static("application/problem+json"),
         );
         match self {
-            ApiError::Overloaded { retry_after_s } => {
+            ApiError::Overloaded { retry_after_s }
+            | ApiError::RateLimited { retry_after_s, .. } => {
                 headers.insert(header::RETRY_AFTER, HeaderValue::from(retry_after_s));
             }
             // RFC 6750: a request with no credentials gets the bare challenge.
@@ -562,6 +582,10 @@ pub enum ComputeProblems {
     /// No valid API key (only when the service has keys configured); `WWW-Authenticate: Bearer`
     #[response(status = 401, content_type = "application/problem+json")]
     Unauthorized(Problem),
+    /// The client's rate limit is spent (only when the service limits rates); retry after
+    /// Retry-After seconds
+    #[response(status = 429, content_type = "application/problem+json")]
+    RateLimited(Problem),
     /// Overloaded; retry after Retry-After seconds
     #[response(status = 503, content_type = "application/problem+json")]
     Overloaded(Problem),

@@ -24,6 +24,7 @@ pub mod optimize;
 pub mod plot;
 pub mod predict;
 pub mod program;
+pub mod ratelimit;
 pub mod recommend;
 pub mod removal_function;
 pub mod router;

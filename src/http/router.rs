@@ -12,11 +12,11 @@ use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetReques
 use tower_http::trace::{DefaultOnResponse, TraceLayer};
 use tracing::Level;
 
-use super::auth;
 use super::endpoint::{compute_json as compute_json_of, Endpoint};
 use super::error::ApiError;
 use super::extract::BodyLimit;
 use super::state::{AppState, Services};
+use super::{auth, ratelimit};
 use super::{
     docs, eta_sweep, health, measurement_fit, metrics, optimize, predict, program, recommend,
     removal_function,
@@ -160,6 +160,10 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
         .layer(DefaultBodyLimit::max(body_limit))
         .layer(Extension(BodyLimit(body_limit)))
         .layer(CompressionLayer::new())
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            ratelimit::limit,
+        ))
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             auth::authenticate,

@@ -12,6 +12,7 @@ use super::auth::Auth;
 use super::error::ApiError;
 use super::metrics::Metrics;
 use super::openapi;
+use super::ratelimit::RateLimit;
 use crate::config::Limits;
 use crate::usecases::{ComputeLimits, OperatorCache, Recommender};
 
@@ -32,6 +33,8 @@ pub struct AppState {
     pub services: Services,
     /// API keys, when configured (`None`: every path is open).
     pub auth: Option<Arc<Auth>>,
+    /// Per-client rate limit, when configured.
+    pub rate_limit: Option<Arc<RateLimit>>,
     slots: Arc<Semaphore>,
     waiting: Arc<AtomicUsize>,
     ready: Arc<AtomicBool>,
@@ -56,6 +59,7 @@ impl AppState {
             limits,
             services,
             auth: None,
+            rate_limit: None,
             ready: Arc::new(AtomicBool::new(true)),
             openapi_json: openapi::spec_json().into(),
             swagger: Arc::new(Config::new(["/openapi.json"]).try_it_out_enabled(true)),
@@ -65,6 +69,12 @@ impl AppState {
     /// The same state with `auth` guarding `/v1/*` (and `/metrics` if it says so).
     pub fn with_auth(mut self, auth: Arc<Auth>) -> Self {
         self.auth = Some(auth);
+        self
+    }
+
+    /// The same state with `limit` on each client of `/v1/*`.
+    pub fn with_rate_limit(mut self, limit: Arc<RateLimit>) -> Self {
+        self.rate_limit = Some(limit);
         self
     }
 

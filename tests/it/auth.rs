@@ -1,7 +1,7 @@
 //! API keys over a real socket with the real binary: no key, a malformed header, a wrong key
 //! and a right one; the open endpoints; `/metrics` behind a key when asked; SIGHUP reloading a
 //! new set (and keeping the old one when the new file is malformed); a malformed file at
-//! start-up. The client is a few lines of HTTP/1.1 on a `TcpStream`, so nothing between the
+//! start-up; rate limits per key (a burst gets 429 while another key goes on) and per address. The client is a few lines of HTTP/1.1 on a `TcpStream`, so nothing between the
 //! test and the service interprets the headers.
 
 use std::io::{BufRead, BufReader, Read, Write};
@@ -313,4 +313,82 @@ fn a_malformed_keys_file_stops_the_service_at_start_naming_the_line() {
         .unwrap();
     assert!(!missing.status.success());
     assert!(String::from_utf8_lossy(&missing.stderr).contains("cannot read /nonexistent/keys"));
+}
+
+#[test]
+fn a_burst_over_a_keys_limit_gets_429_with_retry_after_and_other_keys_go_on() {
+    let file = keys_file(
+        "limited.txt",
+        &format!(
+            "batch:{}\nmes:{}\n",
+            sha256_hex("batch-key"),
+            sha256_hex("mes-key")
+        ),
+    );
+    let service = Service::start(&[
+        "--api-keys-file",
+        arg(&file),
+        "--rate-limit-per-second",
+        "0.5",
+        "--rate-limit-burst",
+        "3",
+    ]);
+    let batch = ["Authorization: Bearer batch-key"];
+    for _ in 0..3 {
+        assert_eq!(service.predict(&batch).status, 200);
+    }
+    let refused = service.predict(&batch);
+    assert_eq!(refused.status, 429, "{}", refused.body);
+    assert!(
+        refused.headers.contains("retry-after: 2"),
+        "{}",
+        refused.headers
+    );
+    assert!(refused
+        .headers
+        .contains("content-type: application/problem+json"));
+    let problem: serde_json::Value = serde_json::from_str(&refused.body).unwrap();
+    assert_eq!(problem["type"], "urn:preston:problem:rate-limited");
+    // The MES is unaffected by the batch script's burst; the probes are never limited.
+    for _ in 0..3 {
+        assert_eq!(
+            service.predict(&["Authorization: Bearer mes-key"]).status,
+            200
+        );
+    }
+    for _ in 0..5 {
+        assert_eq!(
+            http(&service.address, "GET", "/healthz", &[], b"").status,
+            200
+        );
+    }
+    let metrics = http(&service.address, "GET", "/metrics", &[], b"").body;
+    assert!(
+        metrics.contains("key=\"batch\",method=\"POST\",route=\"/v1/predict\",status=\"429\"} 1"),
+        "{metrics}"
+    );
+}
+
+#[test]
+fn without_keys_the_limit_is_per_address_and_off_by_default() {
+    let open = Service::start(&[]);
+    for _ in 0..8 {
+        assert_eq!(open.predict(&[]).status, 200);
+    }
+    let limited = Service::start(&["--rate-limit-per-second", "0.2", "--rate-limit-burst", "2"]);
+    assert_eq!(limited.predict(&[]).status, 200);
+    assert_eq!(limited.predict(&[]).status, 200);
+    let refused = limited.predict(&[]);
+    assert_eq!(refused.status, 429);
+    assert!(
+        refused.headers.contains("retry-after: 5"),
+        "{}",
+        refused.headers
+    );
+    let bad = Command::new(env!("CARGO_BIN_EXE_preston"))
+        .args(["--listen", "127.0.0.1:0", "--rate-limit-per-second=-1"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--rate-limit-per-second"));
 }
