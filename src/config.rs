@@ -38,6 +38,16 @@ pub enum Command {
         /// The request body, a JSON file.
         file: PathBuf,
     },
+    /// Exit 0 when the service on this host answers `GET /healthz` with 200, 1 otherwise (for
+    /// container health checks: the image has no shell or curl).
+    Healthcheck {
+        /// The address the service listens on; a wildcard (0.0.0.0, [::]) is probed on loopback.
+        #[arg(long, env = "PRESTON_LISTEN", default_value = "127.0.0.1:8080")]
+        listen: SocketAddr,
+        /// How long to wait for the connection and again for the answer, in milliseconds.
+        #[arg(long, default_value_t = 2000)]
+        timeout_ms: u64,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]

@@ -6,9 +6,11 @@
 //! - [`study`]: equal dwell, the η = −1 recommendation and its η window, η sweeps (pure).
 //! - [`usecases`]: one function per use case, on commands checked once (the application layer).
 //! - [`http`]: the axum service, its DTOs and errors.
-//! - [`config`], [`telemetry`], [`server`]: start-up, settings, logging, serving.
+//! - [`config`], [`telemetry`], [`server`]: start-up, settings, logging, serving;
+//!   [`healthcheck`]: the container health probe.
 
 pub mod config;
+pub mod healthcheck;
 pub mod http;
 pub mod machine;
 pub mod metrology;

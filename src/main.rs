@@ -1,4 +1,4 @@
-//! The `preston` binary: `serve` (default), `openapi`, `compute`. Thin by design.
+//! The `preston` binary: `serve` (default), `openapi`, `compute`, `healthcheck`. Thin by design.
 
 use std::io::{ErrorKind, Read, Write};
 use std::process::ExitCode;
@@ -13,6 +13,16 @@ fn main() -> ExitCode {
         Some(Command::Openapi) => output(&openapi::spec_json(), ExitCode::SUCCESS),
         Some(Command::Compute { endpoint, file }) => compute(&endpoint, &file, &cli.serve),
         Some(Command::Serve(args)) => serve(args),
+        Some(Command::Healthcheck { listen, timeout_ms }) => {
+            let addr = preston::healthcheck::target(listen);
+            match preston::healthcheck::probe(addr, std::time::Duration::from_millis(timeout_ms)) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(why) => {
+                    eprintln!("preston: unhealthy: {why}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         None => serve(cli.serve),
     }
 }

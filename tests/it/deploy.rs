@@ -1,12 +1,15 @@
 //! The deployment files agree with the service: probe paths are served, ports line up from the
 //! container to the Service, the container command is the Dockerfile's entrypoint and a valid
-//! `preston` invocation, and the autoscaler and disruption budget select the Deployment.
+//! `preston` invocation, and the autoscaler and disruption budget select the Deployment; the
+//! API keys file the container is told to read is the read-only Secret mount; the
+//! NetworkPolicy guards these pods' port; everything lives in Preston's namespace; the image's
+//! HEALTHCHECK is a `preston healthcheck` the CLI accepts. (Schemas and scanner: `.ci/run`.)
 
 use crate::common;
 
 use clap::Parser;
 use common::http::{app, get};
-use preston::config::Cli;
+use preston::config::{Cli, Command};
 use yaml_rust2::{Yaml, YamlLoader};
 
 fn load(name: &str) -> Yaml {
@@ -32,6 +35,16 @@ fn dockerfile() -> String {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("deploy/Dockerfile"),
     )
     .unwrap()
+}
+
+/// The Dockerfile's instructions, continuation lines joined.
+fn instructions() -> Vec<String> {
+    dockerfile()
+        .replace("\\\n", " ")
+        .lines()
+        .filter(|l| !l.trim_start().starts_with('#'))
+        .map(str::to_string)
+        .collect()
 }
 
 /// The JSON array after `INSTRUCTION ` in the Dockerfile (exec form).
@@ -140,4 +153,104 @@ async fn manifests_match_the_service_and_the_image() {
     );
     let pdb = load("pdb.yaml");
     assert_eq!(&pdb["spec"]["selector"]["matchLabels"], labels);
+}
+
+#[test]
+fn keys_come_from_a_read_only_secret_and_only_named_peers_get_in() {
+    let deployment = load("deployment.yaml");
+    let pod = &deployment["spec"]["template"]["spec"];
+    let container = &pod["containers"][0];
+
+    // Every object in Preston's own namespace.
+    let namespace = load("namespace.yaml");
+    assert_eq!(namespace["kind"].as_str(), Some("Namespace"));
+    let ns = namespace["metadata"]["name"].as_str().unwrap();
+    assert_ne!(ns, "default");
+    for name in [
+        "deployment.yaml",
+        "service.yaml",
+        "hpa.yaml",
+        "pdb.yaml",
+        "networkpolicy.yaml",
+    ] {
+        assert_eq!(
+            load(name)["metadata"]["namespace"].as_str(),
+            Some(ns),
+            "{name}"
+        );
+    }
+
+    // PRESTON_API_KEYS_FILE is <mountPath>/<item path> of a read-only Secret volume.
+    let keys_file = container["env"]
+        .as_vec()
+        .unwrap()
+        .iter()
+        .find(|e| e["name"].as_str() == Some("PRESTON_API_KEYS_FILE"))
+        .and_then(|e| e["value"].as_str())
+        .expect("the container is given a keys file");
+    let (dir, file) = keys_file.rsplit_once('/').unwrap();
+    let mount = container["volumeMounts"]
+        .as_vec()
+        .unwrap()
+        .iter()
+        .find(|m| m["mountPath"].as_str() == Some(dir))
+        .expect("the keys file's directory is a mount");
+    assert_eq!(mount["readOnly"].as_bool(), Some(true));
+    let volume = pod["volumes"]
+        .as_vec()
+        .unwrap()
+        .iter()
+        .find(|v| v["name"] == mount["name"])
+        .unwrap();
+    let secret = &volume["secret"];
+    assert!(!secret["secretName"].is_badvalue());
+    assert!(secret["items"]
+        .as_vec()
+        .unwrap()
+        .iter()
+        .any(|i| i["path"].as_str() == Some(file)));
+    // Readable by the pod's group (fsGroup) only: 0440.
+    assert_eq!(secret["defaultMode"].as_i64(), Some(0o440));
+    assert_eq!(
+        pod["securityContext"]["fsGroup"],
+        pod["securityContext"]["runAsGroup"]
+    );
+    assert_eq!(pod["automountServiceAccountToken"].as_bool(), Some(false));
+    assert_eq!(
+        pod["securityContext"]["seccompProfile"]["type"].as_str(),
+        Some("RuntimeDefault")
+    );
+
+    // The NetworkPolicy selects these pods, admits only named sources on the http port and
+    // denies all egress.
+    let policy = load("networkpolicy.yaml");
+    assert_eq!(
+        &policy["spec"]["podSelector"]["matchLabels"],
+        &deployment["spec"]["template"]["metadata"]["labels"]
+    );
+    let port_name = container["ports"][0]["name"].as_str().unwrap();
+    let rules = policy["spec"]["ingress"].as_vec().unwrap();
+    assert!(!rules.is_empty());
+    for rule in rules {
+        let from = rule["from"].as_vec().unwrap();
+        assert!(from
+            .iter()
+            .all(|peer| !peer["namespaceSelector"]["matchLabels"].is_badvalue()));
+        assert_eq!(rule["ports"][0]["port"].as_str(), Some(port_name));
+    }
+    assert_eq!(policy["spec"]["egress"].as_vec().map(Vec::len), Some(0));
+    assert!(strings(&policy["spec"]["policyTypes"]).contains(&"Egress".to_string()));
+}
+
+#[test]
+fn the_image_health_check_is_a_preston_healthcheck() {
+    let line = instructions()
+        .into_iter()
+        .find(|l| l.starts_with("HEALTHCHECK "))
+        .expect("a HEALTHCHECK");
+    let exec = &line[line.find("CMD [").expect("exec form") + 4..];
+    let command: Vec<String> = serde_json::from_str(exec).unwrap();
+    assert_eq!(command[0], exec_form("ENTRYPOINT")[0]);
+    let cli = Cli::try_parse_from(&command).expect("the health check's arguments parse");
+    assert!(matches!(cli.command, Some(Command::Healthcheck { .. })));
 }
