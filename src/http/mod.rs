@@ -29,6 +29,7 @@ pub mod recommend;
 pub mod removal_function;
 pub mod router;
 pub mod state;
+pub mod workbench;
 
 pub use router::{compute_json, cors_layer, router, EndpointEntry, ENDPOINTS};
 pub use state::{AppState, Services};

@@ -19,7 +19,7 @@ use super::state::{AppState, Services};
 use super::{auth, ratelimit};
 use super::{
     docs, eta_sweep, health, measurement_fit, metrics, optimize, predict, program, recommend,
-    removal_function,
+    removal_function, workbench,
 };
 use crate::config::Limits;
 use crate::usecases::ComputeLimits;
@@ -148,6 +148,8 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
         router.route(&e.path(), (e.route)())
     });
     let router = computing
+        .route("/", get(workbench::page))
+        .route("/workbench/{name}", get(workbench::asset))
         .route("/healthz", get(health::healthz))
         .route("/readyz", get(health::readyz))
         .route("/metrics", get(metrics::handler))

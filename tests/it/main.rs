@@ -26,3 +26,4 @@ mod recommend;
 mod removal_accuracy;
 mod sanity_table;
 mod tcp;
+mod workbench;

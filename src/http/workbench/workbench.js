@@ -1,0 +1,697 @@
+// Preston workbench: the page behind GET /. Plain JavaScript, no library and no build step:
+// every number comes from the API, every input is validated by the API (a problem+json error
+// is shown next to the input its `field` names), and charts are drawn here from the JSON.
+'use strict';
+
+(() => {
+  const SVG_NS = 'http://www.w3.org/2000/svg'; // a namespace name, never fetched
+  const KEY_STORE = 'preston-api-key';
+  const VIEWS = ['predict', 'optimize', 'measure'];
+  const COLOURS = ['#1f77b4', '#d62728', '#2ca02c', '#9467bd', '#ff7f0e'];
+
+  const $ = (selector, root = document) => root.querySelector(selector);
+  const $$ = (selector, root = document) => Array.from(root.querySelectorAll(selector));
+  const section = (view) => $(`section[data-view="${view}"]`);
+
+  /** An element with attributes and children (strings become text, never HTML). */
+  function h(tag, attrs = {}, ...children) {
+    const el = document.createElement(tag);
+    for (const [k, v] of Object.entries(attrs)) el.setAttribute(k, v);
+    for (const c of children) el.append(c);
+    return el;
+  }
+
+  function svg(tag, attrs = {}, text) {
+    const el = document.createElementNS(SVG_NS, tag);
+    for (const [k, v] of Object.entries(attrs)) el.setAttribute(k, String(v));
+    if (text !== undefined) el.textContent = text;
+    return el;
+  }
+
+  // ---------------------------------------------------------------- calling the API
+
+  /** A problem+json answer (or a network failure in the same shape). */
+  class Problem extends Error {
+    constructor(problem) {
+      super(problem.detail || problem.title);
+      this.problem = problem;
+    }
+  }
+
+  const calls = { predict: [], optimize: [], measure: [] };
+
+  function apiKey() {
+    return sessionStorage.getItem(KEY_STORE) || '';
+  }
+
+  /** POSTs `body` to `path`; JSON in and out unless told otherwise. */
+  async function post(view, path, body, { accept = 'application/json', csv = false, query } = {}) {
+    const url = path + (query ? `?${new URLSearchParams(query)}` : '');
+    const headers = { 'Content-Type': csv ? 'text/csv' : 'application/json', Accept: accept };
+    if (apiKey()) headers.Authorization = `Bearer ${apiKey()}`;
+    const text = csv ? body : JSON.stringify(body);
+    if (accept === 'application/json') record(view, url, headers, text);
+    let response;
+    try {
+      response = await fetch(url, { method: 'POST', headers, body: text });
+    } catch (e) {
+      throw new Problem({ title: 'The service cannot be reached', detail: String(e.message || e) });
+    }
+    if (!response.ok) {
+      let problem;
+      try {
+        problem = await response.json();
+      } catch {
+        problem = { title: response.statusText, detail: `HTTP ${response.status}` };
+      }
+      problem.status = response.status;
+      problem.retry_after = response.headers.get('Retry-After');
+      throw new Problem(problem);
+    }
+    return accept === 'application/json' ? response.json() : response.text();
+  }
+
+  /** Shows each call as the curl command that repeats it (the key stays a variable). */
+  function record(view, url, headers, text) {
+    const lines = [`curl -s -X POST '${location.origin}${url}'`];
+    for (const [k, v] of Object.entries(headers)) {
+      lines.push(k === 'Authorization' ? `-H 'Authorization: Bearer $PRESTON_API_KEY'` : `-H '${k}: ${v}'`);
+    }
+    const shown = text.length > 4000 ? `${text.slice(0, 4000)}… (${text.length} bytes)` : text;
+    lines.push(`--data-binary '${shown.replace(/'/g, "'\\''")}'`);
+    calls[view].push(lines.join(' \\\n  '));
+    $('details.api pre', section(view)).textContent = calls[view].join('\n\n');
+  }
+
+  // ---------------------------------------------------------------- reading the inputs
+
+  /** The input's value as the API should see it: a number when it reads as one, the text
+   * otherwise (so the API names the field), nothing when empty. */
+  function value(id) {
+    const text = document.getElementById(id).value.trim();
+    if (text === '') return undefined;
+    const n = Number(text);
+    return Number.isFinite(n) ? n : text;
+  }
+
+  function defined(object) {
+    return Object.fromEntries(Object.entries(object).filter(([, v]) => v !== undefined));
+  }
+
+  function processInput() {
+    return defined({
+      workpiece_radius_mm: value('workpiece_radius_mm'),
+      tool_radius_mm: value('tool_radius_mm'),
+      workpiece_rpm: value('workpiece_rpm'),
+      tool_rpm: value('tool_rpm'),
+      preston_coefficient_m2_per_n: value('preston_coefficient_m2_per_n'),
+      pressure_kpa: value('pressure_kpa'),
+    });
+  }
+
+  function surfaceInput() {
+    const kind = $('#surface_kind').value;
+    if (kind === 'plane') return { kind };
+    const surface = defined({ kind, radius_of_curvature_mm: value('radius_of_curvature_mm') });
+    if (kind === 'asphere') {
+      Object.assign(surface, defined({ conic_constant: value('conic_constant') }));
+      const terms = $('#coefficients').value.split(',').map((t) => t.trim()).filter(Boolean);
+      surface.coefficients = terms.map((term) => {
+        const [power, coefficient] = term.split(':').map((s) => s.trim());
+        const p = Number(power);
+        const c = Number(coefficient);
+        return {
+          power: Number.isFinite(p) ? p : power,
+          value: coefficient !== undefined && Number.isFinite(c) ? c : (coefficient ?? null),
+        };
+      });
+    }
+    return surface;
+  }
+
+  function apertureInput() {
+    return defined({ inner_mm: value('aperture_inner_mm'), outer_mm: value('aperture_outer_mm') });
+  }
+
+  /** Tool positions 0, h, 2h, … up to the aperture's outer radius plus the tool radius. */
+  function positions(stepId) {
+    const step = value(stepId);
+    const end = Number(value('aperture_outer_mm') ?? value('workpiece_radius_mm')) + Number(value('tool_radius_mm'));
+    if (typeof step !== 'number' || !(step > 0)) {
+      throw fieldProblem(stepId, 'The position step must be a positive number of mm.');
+    }
+    if (!Number.isFinite(end)) return []; // the API names the radius that is wrong
+    const count = Math.floor(end / step + 1e-9) + 1;
+    if (count > 100000) throw fieldProblem(stepId, `${count} positions: choose a larger step.`);
+    const list = Array.from({ length: count }, (_, i) => Number((i * step).toPrecision(12)));
+    if (end - list[list.length - 1] > 1e-9 * end) list.push(Number(end.toPrecision(12)));
+    return list;
+  }
+
+  /** A problem this page finds itself, in the API's shape, for an input the API never sees. */
+  function fieldProblem(id, detail) {
+    return new Problem({ title: 'Invalid input', detail, input: id });
+  }
+
+  function parseEtas(text) {
+    const t = text.trim();
+    const range = t.split(':').map(Number);
+    if (range.length === 3 && range.every(Number.isFinite) && range[2] !== 0) {
+      const [from, to, step] = range;
+      const n = Math.floor((to - from) / step + 1e-9) + 1;
+      if (n >= 1 && n <= 1000) return Array.from({ length: n }, (_, i) => Number((from + i * step).toPrecision(12)));
+    }
+    return t.split(/[\s,]+/).filter(Boolean).map((s) => (Number.isFinite(Number(s)) ? Number(s) : s));
+  }
+
+  // ---------------------------------------------------------------- problems next to fields
+
+  function clearProblems(view) {
+    const root = section(view);
+    $('.problem', root).textContent = '';
+    for (const el of $$('[aria-invalid="true"]')) el.removeAttribute('aria-invalid');
+    for (const el of $$('.field .error')) el.textContent = '';
+    $('#api-key-error').textContent = '';
+  }
+
+  /** The input whose data-field is the longest prefix of the problem's field, in this view
+   * or the shared set-up. */
+  function inputFor(view, field) {
+    let best = null;
+    for (const el of [...$$('[data-field]', section(view)), ...$$('[data-field]', $('#setup'))]) {
+      const f = el.dataset.field;
+      const match = field === f || field.startsWith(`${f}.`) || field.startsWith(`${f}[`);
+      if (match && (!best || f.length > best.dataset.field.length)) best = el;
+    }
+    return best;
+  }
+
+  function errorSlot(input) {
+    const field = input.closest('.field');
+    let slot = $('.error', field);
+    if (!slot) {
+      slot = h('span', { class: 'error', id: `${input.id}-error`, role: 'alert' });
+      field.append(slot);
+      const described = input.getAttribute('aria-describedby');
+      input.setAttribute('aria-describedby', described ? `${described} ${slot.id}` : slot.id);
+    }
+    return slot;
+  }
+
+  function showProblem(view, error) {
+    const p = error instanceof Problem ? error.problem : { title: 'Error', detail: String(error) };
+    const general = $('.problem', section(view));
+    if (p.status === 401) {
+      $('#api-key-error').textContent = p.detail;
+      $('#api-key').setAttribute('aria-invalid', 'true');
+    }
+    const input = p.input ? document.getElementById(p.input) : p.field ? inputFor(view, p.field) : null;
+    if (input) {
+      input.setAttribute('aria-invalid', 'true');
+      errorSlot(input).textContent = p.detail;
+    }
+    const parts = [`${p.title}: ${p.detail}`];
+    if (p.field) parts.push(`(field ${p.field}${p.conflicts ? `; in conflict: ${p.conflicts.join(', ')}` : ''})`);
+    if (p.retry_after) parts.push(`Retry after ${p.retry_after} s.`);
+    if (p.request_id) parts.push(`Request id ${p.request_id}.`);
+    general.textContent = parts.join(' ');
+  }
+
+  // ---------------------------------------------------------------- charts
+
+  function niceTicks(lo, hi, wanted = 6) {
+    const raw = (hi - lo) / wanted;
+    const magnitude = 10 ** Math.floor(Math.log10(raw));
+    const r = raw / magnitude;
+    const step = (r >= 7.5 ? 10 : r >= 3.5 ? 5 : r >= 1.5 ? 2 : 1) * magnitude;
+    const ticks = [];
+    for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) {
+      ticks.push(Math.abs(v) < step * 1e-9 ? 0 : Number(v.toPrecision(12)));
+    }
+    return ticks;
+  }
+
+  function extent(values, fromZero) {
+    let lo = Math.min(...values);
+    let hi = Math.max(...values);
+    if (!Number.isFinite(lo) || !Number.isFinite(hi)) return [0, 1];
+    if (fromZero) {
+      lo = Math.min(lo, 0);
+      hi = Math.max(hi, 0);
+    }
+    if (hi - lo <= 1e-12 * Math.max(Math.abs(hi), Math.abs(lo), 1e-300)) {
+      const pad = Math.max(Math.abs(hi), 1) * 0.05;
+      return [lo - pad, hi + pad];
+    }
+    const pad = 0.05 * (hi - lo);
+    return [fromZero && lo === 0 ? 0 : lo - pad, hi + pad];
+  }
+
+  const label = (v) => String(Number(v.toPrecision(6)));
+
+  /**
+   * A line chart: axes titled with their units, a legend, an optional shaded x band (the clear
+   * aperture, the η window) and an optional dashed horizontal line (a threshold).
+   */
+  function lineChart({ title, xLabel, yLabel, series, band, hline, fromZero = true }) {
+    const W = 560;
+    const H = 330;
+    const m = { l: 66, r: 14, t: 30, b: 44 };
+    const points = series.flatMap((s) => s.points).filter(([x, y]) => Number.isFinite(x) && Number.isFinite(y));
+    const [x0, x1] = extent([...points.map((p) => p[0]), ...(band ? [band.from, band.to] : [])], false);
+    const [y0, y1] = extent([...points.map((p) => p[1]), ...(hline ? [hline.y] : [])], fromZero);
+    const X = (x) => m.l + ((x - x0) / (x1 - x0)) * (W - m.l - m.r);
+    const Y = (y) => H - m.b - ((y - y0) / (y1 - y0)) * (H - m.t - m.b);
+    const root = svg('svg', { viewBox: `0 0 ${W} ${H}`, role: 'img', 'aria-label': title });
+    root.append(svg('title', {}, title));
+    if (band) {
+      const bx0 = X(Math.max(band.from, x0));
+      const bx1 = X(Math.min(band.to, x1));
+      root.append(svg('rect', { class: 'band', x: bx0, y: m.t, width: Math.max(bx1 - bx0, 1), height: H - m.t - m.b }));
+      root.append(svg('text', { x: bx0 + 4, y: m.t + 12, class: 'band-label' }, band.label));
+    }
+    for (const t of niceTicks(x0, x1)) {
+      root.append(svg('line', { class: 'grid', x1: X(t), x2: X(t), y1: m.t, y2: H - m.b }));
+      root.append(svg('text', { x: X(t), y: H - m.b + 14, 'text-anchor': 'middle' }, label(t)));
+    }
+    for (const t of niceTicks(y0, y1)) {
+      root.append(svg('line', { class: 'grid', x1: m.l, x2: W - m.r, y1: Y(t), y2: Y(t) }));
+      root.append(svg('text', { x: m.l - 5, y: Y(t) + 4, 'text-anchor': 'end' }, label(t)));
+    }
+    root.append(svg('rect', { class: 'axis', x: m.l, y: m.t, width: W - m.l - m.r, height: H - m.t - m.b, fill: 'none' }));
+    root.append(svg('text', { class: 'x-label', x: (m.l + W - m.r) / 2, y: H - 8, 'text-anchor': 'middle' }, xLabel));
+    root.append(svg('text', {
+      class: 'y-label', x: 0, y: 0, 'text-anchor': 'middle',
+      transform: `translate(14 ${(m.t + H - m.b) / 2}) rotate(-90)`,
+    }, yLabel));
+    if (hline) {
+      root.append(svg('line', { x1: m.l, x2: W - m.r, y1: Y(hline.y), y2: Y(hline.y), stroke: '#b3261e', 'stroke-dasharray': '5 4' }));
+      root.append(svg('text', { x: W - m.r - 4, y: Y(hline.y) - 4, 'text-anchor': 'end' }, hline.label));
+    }
+    let legendX = m.l;
+    series.forEach((s, i) => {
+      const colour = s.colour || COLOURS[i % COLOURS.length];
+      let d = '';
+      let pen = 'M';
+      for (const [x, y] of s.points) {
+        if (Number.isFinite(x) && Number.isFinite(y)) {
+          d += `${pen}${X(x).toFixed(2)} ${Y(y).toFixed(2)}`;
+          pen = 'L';
+        } else {
+          pen = 'M'; // a gap in the data, not a zero
+        }
+      }
+      const path = svg('path', { class: 'series', d, stroke: colour, 'data-series': s.name });
+      if (s.dashed) path.setAttribute('stroke-dasharray', '6 4');
+      root.append(path);
+      if (s.markers) {
+        for (const [x, y] of s.points) {
+          if (Number.isFinite(x) && Number.isFinite(y)) root.append(svg('circle', { cx: X(x), cy: Y(y), r: 2.5, fill: colour }));
+        }
+      }
+      root.append(svg('line', { x1: legendX, x2: legendX + 18, y1: 14, y2: 14, stroke: colour, 'stroke-width': 2 }));
+      const text = svg('text', { x: legendX + 22, y: 18 }, s.name);
+      root.append(text);
+      legendX += 30 + 6.2 * s.name.length;
+    });
+    return root;
+  }
+
+  function draw(view, name, chart) {
+    const plot = $(`figure[data-chart="${name}"] .plot`, section(view));
+    plot.replaceChildren(lineChart(chart));
+  }
+
+  const zip = (xs, ys) => xs.map((x, i) => [x, ys[i]]);
+  const apertureBand = (a) => ({ from: a.inner_mm, to: a.outer_mm, label: `clear aperture ${a.inner_mm}–${a.outer_mm} mm` });
+
+  // ---------------------------------------------------------------- downloads
+
+  function saveText(filename, type, text) {
+    const a = h('a', { href: URL.createObjectURL(new Blob([text], { type })), download: filename });
+    document.body.append(a);
+    a.click();
+    a.remove();
+  }
+
+  /** Download links under a chart: the JSON answer, and CSV/SVG asked of the API on click
+   * (`again(accept)` repeats the request with another Accept). */
+  function downloads(view, name, response, again, formats = ['csv', 'svg']) {
+    const box = $(`figure[data-chart="${name}"] .downloads`, section(view));
+    const types = { csv: 'text/csv', svg: 'image/svg+xml' };
+    const links = [h('a', {
+      href: URL.createObjectURL(new Blob([JSON.stringify(response, null, 1)], { type: 'application/json' })),
+      download: `preston-${name}.json`,
+    }, 'JSON')];
+    for (const format of formats) {
+      const a = h('a', { href: '#', 'data-format': format }, format.toUpperCase());
+      a.addEventListener('click', async (event) => {
+        event.preventDefault();
+        try {
+          saveText(`preston-${name}.${format}`, types[format], await again(types[format]));
+        } catch (e) {
+          showProblem(view, e);
+        }
+      });
+      links.push(a);
+    }
+    box.replaceChildren('Download: ', ...links);
+  }
+
+  /** `again` for a JSON request. */
+  const repeat = (view, path, request) => (accept) => post(view, path, request, { accept });
+
+  // ---------------------------------------------------------------- the machine program
+
+  async function program(view, dwell) {
+    const box = $(`[data-program="${view}"]`);
+    box.replaceChildren(h('p', { class: 'status' }, 'Writing the machine program…'));
+    const request = { process: processInput(), surface: surfaceInput(), dwell };
+    try {
+      const [p, gcode] = await Promise.all([
+        post(view, '/v1/program', request),
+        post(view, '/v1/program', request, { accept: 'text/x-gcode' }),
+      ]);
+      const link = h('a', {
+        href: URL.createObjectURL(new Blob([gcode], { type: 'text/x-gcode' })),
+        download: 'preston-program.ngc',
+        'data-download': 'program',
+      }, 'Download the machine program (G-code, .ngc)');
+      const csv = h('a', { href: '#' }, 'blocks as CSV');
+      csv.addEventListener('click', async (event) => {
+        event.preventDefault();
+        try {
+          saveText('preston-program.csv', 'text/csv', await repeat(view, '/v1/program', request)('text/csv'));
+        } catch (e) {
+          showProblem(view, e);
+        }
+      });
+      const skipped = p.skipped_positions.leading + p.skipped_positions.trailing;
+      box.replaceChildren(
+        h('h3', {}, 'Machine program'),
+        h('p', {}, `${p.blocks.length} blocks, ${fmtTime(p.program_time_s)} with approach and retract`
+          + `${skipped ? `, ${skipped} zero-dwell end positions left out` : ''}. `, link, ' · ', csv),
+        h('pre', { 'aria-label': 'G-code, first lines' }, gcode.split('\n').slice(0, 14).join('\n') + '\n…'),
+      );
+    } catch (e) {
+      box.replaceChildren();
+      showProblem(view, e);
+    }
+  }
+
+  // ---------------------------------------------------------------- summaries
+
+  function fmtTime(s) {
+    if (!Number.isFinite(s)) return '–';
+    const hours = Math.floor(s / 3600);
+    const minutes = Math.floor((s % 3600) / 60);
+    return hours ? `${hours} h ${minutes} min (${label(s)} s)` : minutes ? `${minutes} min ${Math.round(s % 60)} s` : `${label(s)} s`;
+  }
+
+  const pct = (f) => (f === null || f === undefined ? 'n/a' : `${(100 * f).toPrecision(3)} %`);
+
+  function summary(view, name, items) {
+    $(`[data-summary="${name}"]`, section(view)).replaceChildren(
+      ...items.map(([term, detail, cls]) => h('div', {}, h('dt', {}, term), h('dd', cls ? { class: cls } : {}, detail))),
+    );
+  }
+
+  // ---------------------------------------------------------------- the views
+
+  async function runPredict() {
+    const view = 'predict';
+    const process = processInput();
+    const surface = surfaceInput();
+    const clear_aperture = apertureInput();
+    const depth_nm = value('depth_nm');
+    const outer = Number(clear_aperture.outer_mm ?? process.workpiece_radius_mm);
+    const rfRequest = {
+      process, surface,
+      tool_positions_mm: Number.isFinite(outer) ? [0.2, 0.5, 0.85].map((f) => Number((f * outer).toFixed(1))) : [],
+    };
+    const recommendRequest = defined({ process, surface, clear_aperture, depth_nm });
+    const sweepRequest = defined({ process, surface, clear_aperture, depth_nm, etas: parseEtas($('#sweep_etas').value) });
+    const [rf, rec, sweep] = await Promise.all([
+      post(view, '/v1/removal-function', rfRequest),
+      post(view, '/v1/recommend', recommendRequest),
+      post(view, '/v1/studies/eta-sweep', sweepRequest),
+    ]);
+    const r = rec.recommendation;
+    const dwell = { positions_mm: r.equal_dwell.positions_mm, dwell_s: r.equal_dwell.dwell_s };
+    const recommended = { ...process, workpiece_rpm: r.workpiece_rpm, tool_rpm: r.tool_rpm };
+    const predictRequest = { process, surface, dwell, clear_aperture };
+    const [now, better] = await Promise.all([
+      post(view, '/v1/predict', predictRequest),
+      post(view, '/v1/predict', { ...predictRequest, process: recommended }),
+    ]);
+
+    draw(view, 'removal-function', {
+      title: 'Removal function',
+      xLabel: 'radius r (mm)', yLabel: 'removal rate (nm/min)',
+      series: rf.profiles.map((p) => ({ name: `tool at ${p.tool_position_mm} mm`, points: zip(rf.radius_mm, p.removal_rate_nm_per_min) })),
+    });
+    downloads(view, 'removal-function', rf, repeat(view, '/v1/removal-function', rfRequest));
+    const eta = now.eta ?? (process.tool_rpm ? -process.workpiece_rpm / process.tool_rpm : NaN);
+    draw(view, 'predict', {
+      title: 'Predicted removal, equal dwell',
+      xLabel: 'radius r (mm)', yLabel: 'removal depth (nm)',
+      series: [
+        { name: `now (η = ${label(eta)}), ${pct(now.metrics.nonuniformity)}`, points: zip(now.radius_mm, now.removal_nm) },
+        { name: `η = −1, ${pct(better.metrics.nonuniformity)}`, points: zip(better.radius_mm, better.removal_nm) },
+      ],
+      band: apertureBand(now.clear_aperture),
+    });
+    downloads(view, 'predict', now, repeat(view, '/v1/predict', predictRequest));
+    const w = r.eta_window;
+    draw(view, 'eta-sweep', {
+      title: 'Equal-dwell nonuniformity against η',
+      xLabel: 'η = −workpiece_rpm / tool_rpm (1)', yLabel: 'nonuniformity pv/mean (%)',
+      series: [{ name: `tool at ${label(sweep.tool_rpm)} r/min`, points: sweep.points.map((p) => [p.eta, 100 * (p.metrics.nonuniformity ?? NaN)]), markers: true }],
+      band: w ? { from: w.low, to: w.high, label: `η window ${label(w.low)} … ${label(w.high)}` } : undefined,
+      hline: w ? { y: 100 * w.nonuniformity_threshold, label: `threshold ${pct(w.nonuniformity_threshold)}` } : undefined,
+    });
+    downloads(view, 'eta-sweep', sweep, repeat(view, '/v1/studies/eta-sweep', sweepRequest));
+    summary(view, 'recommend', [
+      ['η = −1 speeds (workpiece, tool)', `${label(r.workpiece_rpm)}, ${label(r.tool_rpm)} r/min`],
+      ['η window', w ? `${label(w.low)} … ${label(w.high)}` : 'none'],
+      ['Nonuniformity now', pct(r.current_metrics.nonuniformity)],
+      ['Nonuniformity at η = −1', pct(r.metrics.nonuniformity), 'good'],
+      ['Improvement', r.improvement_factor ? `${label(r.improvement_factor)}×` : 'n/a'],
+      ['Equal-dwell time', fmtTime(r.equal_dwell.total_time_s)],
+    ]);
+  }
+
+  /** Optimizes a plan for `target`, draws it and writes its machine program. */
+  async function plan(view, chart, target, stepId) {
+    const process = processInput();
+    const surface = surfaceInput();
+    const clear_aperture = apertureInput();
+    const constraints = view === 'optimize' ? defined({
+      min_dwell_s: value('min_dwell_s'),
+      max_dwell_s: value('max_dwell_s'),
+      max_total_time_s: value('max_total_time_s'),
+      max_feed_mm_per_min: value('max_feed_mm_per_min'),
+    }) : {};
+    const request = defined({ process, surface, clear_aperture, target, positions_mm: positions(stepId) });
+    if (Object.keys(constraints).length) request.constraints = constraints;
+    const o = await post(view, '/v1/optimize', request);
+    const a = o.clear_aperture;
+    const inside = (x) => x >= a.inner_mm && x <= a.outer_mm;
+    draw(view, chart, {
+      title: 'Planned removal against the target',
+      xLabel: 'radius r (mm)', yLabel: 'removal depth (nm)',
+      series: [
+        { name: 'planned removal', points: zip(o.radius_mm, o.removal_nm) },
+        { name: 'target', points: zip(o.radius_mm, o.target_nm).map(([x, y]) => [x, inside(x) ? y : NaN]), dashed: true, colour: '#444' },
+      ],
+      band: apertureBand(a),
+    });
+    downloads(view, chart, o, repeat(view, '/v1/optimize', request));
+    return o;
+  }
+
+  /** What a plan achieved: uniformity for a uniform layer, the residual for a correction. */
+  function planSummary(o, uniform) {
+    return [
+      ['Total dwell', fmtTime(o.total_time_s)],
+      uniform
+        ? ['Nonuniformity', pct(o.metrics.nonuniformity), 'good']
+        : ['Uniform layer added', `${label(o.piston_nm ?? 0)} nm`],
+      ['Residual RMS / PV', `${label(o.residual.rms_nm)} / ${label(o.residual.pv_nm)} nm`, uniform ? '' : 'good'],
+      ['Solver', `${o.solver.status}, ${o.solver.iterations} iterations, ${label(o.solver.solve_time_ms)} ms`],
+      ...o.warnings.map((w) => ['Warning', w.message]),
+    ];
+  }
+
+  async function runOptimize() {
+    const view = 'optimize';
+    const o = await plan(view, 'optimize-removal', defined({ uniform_depth_nm: value('target_depth_nm') }), 'position_step_mm');
+    draw(view, 'optimize-dwell', {
+      title: 'Dwell plan',
+      xLabel: 'tool position (mm)', yLabel: 'dwell (s)',
+      series: [{ name: 'dwell per position', points: zip(o.dwell.positions_mm, o.dwell.dwell_s) }],
+    });
+    $('figure[data-chart="optimize-dwell"] .downloads', section(view)).replaceChildren();
+    summary(view, 'optimize', planSummary(o, true));
+    await program(view, o.dwell);
+  }
+
+  async function runMeasure() {
+    const view = 'measure';
+    const surface = surfaceInput();
+    const query = defined({
+      surface: JSON.stringify(surface),
+      clear_aperture: JSON.stringify(apertureInput()),
+      probe_tip_radius_mm: $('#probe_tip_radius_mm').value.trim() || undefined,
+      robust: $('#robust').value,
+    });
+    const trace = $('#trace_csv').value;
+    const fitAs = (accept) => post(view, '/v1/measurement/fit', trace, { csv: true, query, accept });
+    const fit = await fitAs('application/json');
+    draw(view, 'form-error', {
+      title: 'Form error',
+      xLabel: 'radius r (mm)', yLabel: 'material to remove along the normal (nm)',
+      series: [{ name: 'form error, both sides averaged', points: zip(fit.profile.radius_mm, fit.profile.depth_nm) }],
+      band: apertureBand(fit.clear_aperture),
+      fromZero: false,
+    });
+    downloads(view, 'form-error', fit, fitAs);
+    const f = fit.form_error;
+    const al = fit.alignment;
+    const items = [
+      ['Form error RMS / PV', `${label(f.rms_nm)} / ${label(f.pv_nm)} nm`],
+      ['Asymmetry RMS', f.asymmetry_rms_nm === null ? 'n/a' : `${label(f.asymmetry_rms_nm)} nm`],
+      ['Alignment', `x ${label(1000 * al.lateral_offset_mm)} µm, tilt ${label(1e6 * al.tilt_rad)} µrad, piston ${label(1000 * al.piston_mm)} µm`],
+      ['Points used', `${f.points} (${fit.solver.ignored_points ?? 0} ignored)`],
+    ];
+    summary(view, 'measure', items);
+    const o = await plan(view, 'correction', fit.correction_target, 'correction_step_mm');
+    summary(view, 'measure', [...items, ...planSummary(o, false)]);
+    await program(view, o.dwell);
+  }
+
+  const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure };
+
+  async function run(view) {
+    const root = section(view);
+    const status = $('.status', root);
+    const button = $('button[type="submit"]', root);
+    clearProblems(view);
+    calls[view] = [];
+    saveState(view);
+    status.textContent = 'Computing…';
+    button.disabled = true;
+    try {
+      await RUNS[view]();
+      status.textContent = `Done at ${new Date().toLocaleTimeString()}.`;
+      root.dataset.ran = 'ok';
+    } catch (e) {
+      status.textContent = '';
+      root.dataset.ran = 'problem';
+      showProblem(view, e);
+    } finally {
+      button.disabled = false;
+    }
+  }
+
+  // ---------------------------------------------------------------- the example trace
+
+  /** The OpenAPI document's example request for the fit, as CSV and surface settings. */
+  async function loadExampleTrace() {
+    const spec = await (await fetch('/openapi.json')).json();
+    const example = spec.paths['/v1/measurement/fit'].post.requestBody.content['application/json'].example;
+    const { x_mm, z_mm } = example.profile;
+    $('#trace_csv').value = ['x_mm,z_mm', ...x_mm.map((x, i) => `${x},${z_mm[i]}`)].join('\n');
+    const s = example.surface || { kind: 'plane' };
+    $('#surface_kind').value = s.kind;
+    if (s.radius_of_curvature_mm !== undefined) $('#radius_of_curvature_mm').value = s.radius_of_curvature_mm;
+    $('#conic_constant').value = s.conic_constant ?? 0;
+    $('#coefficients').value = (s.coefficients || []).map((c) => `${c.power}:${c.value}`).join(', ');
+    if (example.probe_tip_radius_mm !== undefined) $('#probe_tip_radius_mm').value = example.probe_tip_radius_mm;
+    if (example.robust) $('#robust').value = example.robust;
+    showSurfaceFields();
+  }
+
+  // ---------------------------------------------------------------- state in the URL
+
+  function namedInputs() {
+    return $$('input[name], select[name]');
+  }
+
+  function saveState(view) {
+    const params = new URLSearchParams({ view });
+    for (const el of namedInputs()) params.set(el.name, el.value);
+    history.replaceState(null, '', `#${params}`);
+  }
+
+  function loadState() {
+    const params = new URLSearchParams(location.hash.slice(1));
+    for (const el of namedInputs()) {
+      if (params.has(el.name)) el.value = params.get(el.name);
+    }
+    const view = params.get('view');
+    return VIEWS.includes(view) ? view : 'predict';
+  }
+
+  function showSurfaceFields() {
+    const kind = $('#surface_kind').value;
+    for (const el of $$('.curved')) el.hidden = kind === 'plane';
+    for (const el of $$('.aspheric')) el.hidden = kind !== 'asphere';
+  }
+
+  function select(view, focus = false) {
+    for (const v of VIEWS) {
+      const tab = $(`#tab-${v}`);
+      tab.setAttribute('aria-selected', String(v === view));
+      tab.tabIndex = v === view ? 0 : -1;
+      section(v).hidden = v !== view;
+    }
+    if (focus) $(`#tab-${view}`).focus();
+    saveState(view);
+  }
+
+  function start() {
+    const view = loadState();
+    showSurfaceFields();
+    $('#surface_kind').addEventListener('change', showSurfaceFields);
+    const key = $('#api-key');
+    key.value = apiKey();
+    key.addEventListener('change', () => {
+      if (key.value) sessionStorage.setItem(KEY_STORE, key.value);
+      else sessionStorage.removeItem(KEY_STORE);
+    });
+    for (const tab of $$('[role="tab"]')) {
+      tab.addEventListener('click', () => {
+        select(tab.dataset.view);
+        if (tab.dataset.view === 'optimize' && !section('optimize').dataset.ran) run('optimize');
+      });
+      tab.addEventListener('keydown', (event) => {
+        const step = { ArrowRight: 1, ArrowLeft: -1 }[event.key];
+        if (!step) return;
+        const next = VIEWS[(VIEWS.indexOf(tab.dataset.view) + step + VIEWS.length) % VIEWS.length];
+        select(next, true);
+      });
+    }
+    for (const form of $$('form[data-run]')) {
+      form.addEventListener('submit', (event) => {
+        event.preventDefault();
+        run(form.dataset.run);
+      });
+    }
+    // Enter in a set-up field reruns the view on show.
+    $('#setup').addEventListener('submit', (event) => {
+      event.preventDefault();
+      const shown = VIEWS.find((v) => !section(v).hidden);
+      run(shown);
+    });
+    $('#example-trace').addEventListener('click', () => loadExampleTrace().catch((e) => showProblem('measure', e)));
+    $('#trace_file').addEventListener('change', async (event) => {
+      const file = event.target.files[0];
+      if (file) $('#trace_csv').value = await file.text();
+    });
+    select(view);
+    if (view !== 'measure') run(view);
+  }
+
+  start();
+})();

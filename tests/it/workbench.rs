@@ -1,0 +1,177 @@
+//! The workbench page at `GET /`: served from the binary with a policy that admits only this
+//! origin, referencing no external URL, and wired to the API it calls — every path it posts to
+//! is a route, every field it names in an error mapping is a request field of the OpenAPI
+//! document, every element its script looks up by id exists. (The browser test,
+//! `tests/browser/workbench.py`, drives the page itself in chromium.)
+
+use crate::common;
+
+use common::http::{app, get};
+use preston::http::workbench::{ASSETS, CONTENT_SECURITY_POLICY};
+use preston::http::{openapi, ENDPOINTS};
+use serde_json::Value;
+
+fn asset(name: &str) -> &'static str {
+    ASSETS.iter().find(|(n, _, _)| *n == name).unwrap().2
+}
+
+/// Every `open…close` substring of `text`, without the delimiters.
+fn between<'a>(text: &'a str, open: &str, close: char) -> Vec<&'a str> {
+    text.match_indices(open)
+        .filter_map(|(i, _)| {
+            let rest = &text[i + open.len()..];
+            rest.find(close).map(|end| &rest[..end])
+        })
+        .collect()
+}
+
+#[tokio::test]
+async fn the_page_and_its_assets_are_served_with_a_same_origin_policy() {
+    let app = app();
+    let page = get(&app, "/").await;
+    assert_eq!(page.status, 200);
+    assert!(page.content_type.starts_with("text/html"));
+    assert_eq!(page.body, asset("index.html").as_bytes());
+    let csp = page.headers["content-security-policy"].to_str().unwrap();
+    assert_eq!(csp, CONTENT_SECURITY_POLICY);
+    // No source but 'self' (and the page's own blob:/data: URLs) for anything.
+    for directive in csp.split(';') {
+        for source in directive.split_whitespace().skip(1) {
+            assert!(
+                ["'self'", "'none'", "data:", "blob:"].contains(&source),
+                "{directive}"
+            );
+        }
+    }
+    assert!(csp.contains("default-src 'none'"));
+    for (path, kind) in [
+        ("/workbench/workbench.js", "text/javascript"),
+        ("/workbench/workbench.css", "text/css"),
+    ] {
+        let reply = get(&app, path).await;
+        assert_eq!(reply.status, 200, "{path}");
+        assert!(reply.content_type.starts_with(kind), "{path}");
+        assert_eq!(reply.headers["x-content-type-options"], "nosniff");
+    }
+    let missing = get(&app, "/workbench/other.js").await;
+    assert_eq!(missing.status, 404);
+    assert_eq!(missing.content_type, "application/problem+json");
+}
+
+#[test]
+fn the_page_references_no_external_url() {
+    let html = asset("index.html");
+    let script = asset("workbench.js");
+    let style = asset("workbench.css");
+    // Attributes that load or link: same-origin paths, fragments, or the empty data: icon.
+    for value in between(html, "src=\"", '"')
+        .into_iter()
+        .chain(between(html, "href=\"", '"'))
+    {
+        let local = (value.starts_with('/') && !value.starts_with("//"))
+            || value.starts_with('#')
+            || value == "data:,";
+        assert!(local, "index.html links to `{value}`");
+    }
+    // No scheme anywhere but the SVG namespace name (an identifier, never fetched).
+    for (name, text) in [
+        ("index.html", html),
+        ("workbench.js", script),
+        ("workbench.css", style),
+    ] {
+        for (i, _) in text.match_indices("://") {
+            let start = text[..i].rfind(['\'', '"', ' ', '(']).map_or(0, |s| s + 1);
+            let url: String = text[start..]
+                .chars()
+                .take_while(|c| !matches!(c, '\'' | '"' | ' ' | ')'))
+                .collect();
+            assert_eq!(url, "http://www.w3.org/2000/svg", "{name} names `{url}`");
+        }
+        assert!(!text.contains("@import"), "{name}");
+        assert!(!text.contains("url("), "{name}");
+    }
+    // The script calls only its own origin.
+    for call in between(script, "fetch(", ')') {
+        assert!(
+            call == "url, { method: 'POST', headers, body: text }" || call == "'/openapi.json'",
+            "fetch({call})"
+        );
+    }
+}
+
+/// Every property path (`a`, `a.b`) of the computing endpoints' request bodies, following
+/// `$ref`, `oneOf` and `anyOf`.
+fn request_fields() -> Vec<String> {
+    let spec: Value = serde_json::from_str(&openapi::spec_json()).unwrap();
+    let resolve = |v: &Value| -> Value {
+        match v.get("$ref").and_then(Value::as_str) {
+            Some(r) => spec["components"]["schemas"][r.rsplit('/').next().unwrap()].clone(),
+            None => v.clone(),
+        }
+    };
+    fn properties(v: &Value, resolve: &dyn Fn(&Value) -> Value) -> Vec<(String, Value)> {
+        let v = resolve(v);
+        let mut out: Vec<(String, Value)> = v["properties"]
+            .as_object()
+            .map(|p| p.iter().map(|(k, s)| (k.clone(), s.clone())).collect())
+            .unwrap_or_default();
+        for key in ["oneOf", "anyOf"] {
+            for alternative in v[key].as_array().into_iter().flatten() {
+                out.extend(properties(alternative, resolve));
+            }
+        }
+        out
+    }
+    let mut fields = Vec::new();
+    for paths in spec["paths"].as_object().unwrap().values() {
+        let Some(content) = paths["post"]["requestBody"]["content"].as_object() else {
+            continue;
+        };
+        for (name, schema) in properties(&content["application/json"]["schema"], &resolve) {
+            for (inner, _) in properties(&schema, &resolve) {
+                fields.push(format!("{name}.{inner}"));
+            }
+            fields.push(name);
+        }
+    }
+    fields
+}
+
+#[test]
+fn the_page_is_wired_to_the_api() {
+    let html = asset("index.html");
+    let script = asset("workbench.js");
+
+    // Fields the page maps errors to are fields of the requests.
+    let fields = request_fields();
+    let named = between(html, "data-field=\"", '"');
+    assert!(named.len() >= 20, "{} inputs name a field", named.len());
+    for field in named {
+        assert!(
+            fields.iter().any(|f| f == field),
+            "data-field `{field}` is no request field"
+        );
+    }
+
+    // Paths the script posts to are the service's.
+    let mut posted: Vec<&str> = between(script, "post(view, '", '\'');
+    posted.extend(between(script, "repeat(view, '", '\''));
+    assert!(posted.len() >= 6);
+    for path in posted {
+        assert!(
+            ENDPOINTS.iter().any(|e| e.path() == path),
+            "the script posts to {path}"
+        );
+    }
+
+    // Elements the script looks up by id exist.
+    let ids = between(html, "id=\"", '"');
+    for id in between(script, "$('#", '\'')
+        .into_iter()
+        .chain(between(script, "value('", '\''))
+        .chain(between(script, "getElementById('", '\''))
+    {
+        let id = id.split([' ', '.', '[']).next().unwrap();
+        assert!(ids.contains(&id), "the script looks up #{id}");
+    }
+}
