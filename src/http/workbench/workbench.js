@@ -572,26 +572,45 @@
 
   const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure };
 
-  async function run(view) {
+  /** One pass of a view: 'ok' or 'problem' (shown). */
+  async function pass(view) {
     const root = section(view);
     const status = $('.status', root);
-    const button = $('button[type="submit"]', root);
     clearProblems(view);
     calls[view] = [];
     saveState(view);
+    root.dataset.setup = setupStamp();
     status.textContent = 'Computing…';
-    button.disabled = true;
     try {
       await RUNS[view]();
       status.textContent = `Done at ${new Date().toLocaleTimeString()}.`;
-      root.dataset.ran = 'ok';
+      return 'ok';
     } catch (e) {
       status.textContent = '';
-      root.dataset.ran = 'problem';
       showProblem(view, e);
-    } finally {
-      button.disabled = false;
+      return 'problem';
     }
+  }
+
+  const running = {};
+
+  /** Runs a view; asked again while running, it runs once more afterwards with the inputs as
+   * they are then, so results are never older than the last request. */
+  async function run(view) {
+    if (running[view]) {
+      running[view] = 'again';
+      return;
+    }
+    const root = section(view);
+    root.setAttribute('aria-busy', 'true');
+    let outcome;
+    do {
+      running[view] = true;
+      outcome = await pass(view);
+    } while (running[view] === 'again');
+    running[view] = false;
+    root.removeAttribute('aria-busy');
+    root.dataset.ran = outcome;
   }
 
   // ---------------------------------------------------------------- the example trace
@@ -613,6 +632,11 @@
   }
 
   // ---------------------------------------------------------------- state in the URL
+
+  /** The shared set-up as one string: a view whose last run used another is out of date. */
+  function setupStamp() {
+    return $$('input, select', $('#setup')).map((el) => el.value).join('\u0000');
+  }
 
   function namedInputs() {
     return $$('input[name], select[name]');
@@ -662,8 +686,12 @@
     });
     for (const tab of $$('[role="tab"]')) {
       tab.addEventListener('click', () => {
-        select(tab.dataset.view);
-        if (tab.dataset.view === 'optimize' && !section('optimize').dataset.ran) run('optimize');
+        const view = tab.dataset.view;
+        select(view);
+        // Rerun a view whose results are from another set-up; measure waits for its trace.
+        const shown = section(view);
+        const ranBefore = shown.dataset.setup !== undefined;
+        if ((view !== 'measure' || ranBefore) && shown.dataset.setup !== setupStamp()) run(view);
       });
       tab.addEventListener('keydown', (event) => {
         const step = { ArrowRight: 1, ArrowLeft: -1 }[event.key];
