@@ -492,14 +492,7 @@
       max_total_time_s: value('max_total_time_s'),
       max_feed_mm_per_min: value('max_feed_mm_per_min'),
     }) : {};
-    const positions_mm = positions(stepId);
-    const request = defined({ process, surface, clear_aperture, target, positions_mm });
-    // Judge the plan on a grid as fine as its positions (the API's default is 201 samples).
-    const radius = Number(process.workpiece_radius_mm);
-    const step = Number(value(stepId));
-    if (radius > 0 && step > 0) {
-      request.radial_grid = { start_mm: 0, stop_mm: radius, count: Math.min(Math.max(Math.round(radius / step) + 1, 201), 2001) };
-    }
+    const request = defined({ process, surface, clear_aperture, target, positions_mm: positions(stepId) });
     if (Object.keys(constraints).length) request.constraints = constraints;
     const o = await post(view, '/v1/optimize', request);
     const a = o.clear_aperture;
