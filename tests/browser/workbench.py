@@ -26,7 +26,7 @@ from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
-from selenium.webdriver.support.ui import Select, WebDriverWait
+from selenium.webdriver.support.ui import WebDriverWait
 
 ROOT = Path(__file__).resolve().parents[2]
 TIMEOUT_S = 60
@@ -38,7 +38,7 @@ def free_port():
         return s.getsockname()[1]
 
 
-class Service_:
+class Preston:
     """The release binary on a free loopback port."""
 
     def __init__(self, binary, *args):
@@ -163,7 +163,7 @@ class Page:
 
 
 def main_flow(binary, screenshots):
-    service = Service_(binary)
+    service = Preston(binary)
     driver = browser()
     page = Page(driver)
     try:
@@ -278,7 +278,7 @@ def keyed_flow(binary):
     keys = tempfile.NamedTemporaryFile("w", suffix=".keys", delete=False)
     keys.write(f"browser:{hashlib.sha256(key.encode()).hexdigest()}\n")
     keys.close()
-    service = Service_(binary, "--api-keys-file", keys.name)
+    service = Preston(binary, "--api-keys-file", keys.name)
     driver = browser()
     page = Page(driver)
     page.allowed_console.append("401")
