@@ -19,6 +19,7 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use sha2::{Digest, Sha256};
 
+use super::endpoint::is_api_path;
 use super::error::ApiError;
 use super::state::AppState;
 
@@ -177,7 +178,7 @@ impl Auth {
     }
 
     fn guards(&self, path: &str) -> bool {
-        path.starts_with("/v1/") || (self.metrics_need_key && path == "/metrics")
+        is_api_path(path) || (self.metrics_need_key && path == "/metrics")
     }
 }
 

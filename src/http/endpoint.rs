@@ -13,6 +13,15 @@ use super::extract::{self, Format};
 use super::state::{AppState, Services};
 use crate::usecases::ComputeLimits;
 
+/// Where the computing endpoints live: every path under it is the API proper, the part API
+/// keys, rate limits and the OpenAPI security requirement apply to.
+pub const API_PREFIX: &str = "/v1/";
+
+/// Whether `path` is under [`API_PREFIX`].
+pub fn is_api_path(path: &str) -> bool {
+    path.starts_with(API_PREFIX)
+}
+
 /// A computing endpoint: its wire types and the steps between them.
 pub trait Endpoint: 'static {
     type Request: DeserializeOwned + Send + 'static;

@@ -9,6 +9,7 @@ use super::dto::{
     ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, PressureModelDto, ProcessDto,
     RadialGridDto,
 };
+use super::endpoint::is_api_path;
 use super::error::Problem;
 use super::router::ENDPOINTS;
 use super::{
@@ -31,7 +32,8 @@ uniform layer. The paper's experiment 1 (workpiece 10 r/min clockwise, tool 200 
 counter-clockwise) is workpiece_rpm = −10, tool_rpm = 200, η = +0.05.\n\n\
 **Errors** are `application/problem+json` (RFC 9457) with the offending input in `field`.\n\n\
 **Authentication.** A service run with an API keys file needs `Authorization: Bearer <key>` on \
-every `/v1` operation (401 otherwise); the probes, `/openapi.json` and `/docs` stay open.\n\n\
+every `/v1` operation (401 otherwise); the probes, `/openapi.json`, `/docs` and the workbench \
+page `/` stay open.\n\n\
 **Limits** (server defaults, configurable): body 4 MiB, radial_grid.count ≤ 10001, tool \
 positions ≤ 10001, removal-function profiles ≤ 201, radial samples × positions ≤ 25,000,000, \
 optimization positions ≤ 2001, solver time ≤ 10 s, measured trace points ≤ 100,000."
@@ -104,7 +106,7 @@ malformed or unknown key is a 401 problem with `WWW-Authenticate: Bearer`.",
             ),
         );
     for (path, item) in doc.paths.paths.iter_mut() {
-        if path.starts_with("/v1/") {
+        if is_api_path(path) {
             for operation in [item.get.as_mut(), item.post.as_mut()]
                 .into_iter()
                 .flatten()

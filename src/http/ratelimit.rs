@@ -17,6 +17,7 @@ use governor::clock::{Clock, DefaultClock};
 use governor::{DefaultKeyedRateLimiter, Quota};
 
 use super::auth::KeyName;
+use super::endpoint::is_api_path;
 use super::error::ApiError;
 use super::state::AppState;
 
@@ -87,7 +88,7 @@ pub async fn limit(State(state): State<AppState>, request: Request, next: Next) 
     let Some(limit) = state.rate_limit.as_ref() else {
         return next.run(request).await;
     };
-    if !request.uri().path().starts_with("/v1/") {
+    if !is_api_path(request.uri().path()) {
         return next.run(request).await;
     }
     let client = match request.extensions().get::<KeyName>() {

@@ -12,7 +12,7 @@ use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetReques
 use tower_http::trace::{DefaultOnResponse, TraceLayer};
 use tracing::Level;
 
-use super::endpoint::{compute_json as compute_json_of, Endpoint};
+use super::endpoint::{compute_json as compute_json_of, Endpoint, API_PREFIX};
 use super::error::ApiError;
 use super::extract::BodyLimit;
 use super::state::{AppState, Services};
@@ -39,7 +39,7 @@ pub struct EndpointEntry {
 impl EndpointEntry {
     /// The route path, `/v1/<name>`.
     pub fn path(&self) -> String {
-        format!("/v1/{}", self.name)
+        format!("{API_PREFIX}{}", self.name)
     }
 }
 
@@ -101,7 +101,7 @@ pub fn compute_json(endpoint: &str, body: &[u8], limits: &Limits) -> Result<Stri
         .iter()
         .find(|e| e.name == endpoint)
         .ok_or_else(|| ApiError::NotFound {
-            path: format!("/v1/{endpoint}"),
+            path: format!("{API_PREFIX}{endpoint}"),
         })?;
     (entry.compute)(body, &limits.compute(), &Services::default())
 }
