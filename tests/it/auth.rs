@@ -1,19 +1,19 @@
 //! API keys over a real socket with the real binary: no key, a malformed header, a wrong key
 //! and a right one; the open endpoints; `/metrics` behind a key when asked; SIGHUP reloading a
 //! new set (and keeping the old one when the new file is malformed); a malformed file at
-//! start-up; rate limits per key (a burst gets 429 while another key goes on) and per address. The client is a few lines of HTTP/1.1 on a `TcpStream`, so nothing between the
-//! test and the service interprets the headers.
+//! start-up; rate limits per key (a burst gets 429 while another key goes on) and per address.
+//! The service is `common::service`; the client is a few lines of HTTP/1.1 on a `TcpStream`, so
+//! nothing between the test and the service interprets the headers.
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::process::Command;
 
 use sha2::{Digest, Sha256};
 
 use crate::common;
+use common::service::Service;
 
 fn sha256_hex(key: &str) -> String {
     Sha256::digest(key.as_bytes())
@@ -58,82 +58,10 @@ fn http(address: &str, method: &str, path: &str, headers: &[&str], body: &[u8]) 
     }
 }
 
-/// The service on an ephemeral port with `args`, its address, and what it has logged.
-struct Service {
-    child: Child,
-    address: String,
-    log: Arc<Mutex<String>>,
-}
-
-impl Service {
-    fn start(args: &[&str]) -> Service {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_preston"))
-            .args(["--listen", "127.0.0.1:0", "--drain-delay-ms", "0"])
-            .args(args)
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let mut stderr = BufReader::new(child.stderr.take().unwrap());
-        let log = Arc::new(Mutex::new(String::new()));
-        let mut line = String::new();
-        let address = loop {
-            line.clear();
-            assert!(
-                stderr.read_line(&mut line).unwrap() > 0,
-                "server exited early: {}",
-                log.lock().unwrap()
-            );
-            log.lock().unwrap().push_str(&line);
-            if let Some(rest) = line.split("address=").nth(1) {
-                break rest.split_whitespace().next().unwrap().to_string();
-            }
-        };
-        let sink = log.clone();
-        std::thread::spawn(move || {
-            for line in stderr.lines().map_while(Result::ok) {
-                sink.lock().unwrap().push_str(&(line + "\n"));
-            }
-        });
-        Service {
-            child,
-            address,
-            log,
-        }
-    }
-
-    fn predict(&self, headers: &[&str]) -> Reply {
-        let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
-        http(&self.address, "POST", "/v1/predict", headers, &body)
-    }
-
-    fn hang_up(&self) {
-        let status = Command::new("kill")
-            .args(["-HUP", &self.child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(status.success());
-    }
-
-    /// Waits until the log has `count` lines containing `text`.
-    fn wait_for_log(&self, text: &str, count: usize) {
-        let started = Instant::now();
-        while self.log.lock().unwrap().matches(text).count() < count {
-            assert!(
-                started.elapsed() < Duration::from_secs(10),
-                "no {text:?} in the log:\n{}",
-                self.log.lock().unwrap()
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Service {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
+/// `POST /v1/predict` of the paper's experiment 2 with `headers`.
+fn predict(service: &Service, headers: &[&str]) -> Reply {
+    let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
+    http(&service.address, "POST", "/v1/predict", headers, &body)
 }
 
 fn keys_file(name: &str, lines: &str) -> PathBuf {
@@ -183,7 +111,7 @@ fn keys_guard_v1_and_name_the_caller_while_health_and_docs_stay_open() {
         ),
     ];
     for (headers, challenge, detail) in cases {
-        let reply = service.predict(headers);
+        let reply = predict(&service, headers);
         assert_eq!(reply.status, 401, "{headers:?}: {}", reply.body);
         assert!(
             reply
@@ -211,11 +139,11 @@ fn keys_guard_v1_and_name_the_caller_while_health_and_docs_stay_open() {
     }
     for (key, name) in [("mes-key-1", "mes"), ("eng-key-2", "engineering")] {
         let header = format!("Authorization: Bearer {key}");
-        let reply = service.predict(&[&header]);
+        let reply = predict(&service, &[&header]);
         assert_eq!(reply.status, 200, "{}", reply.body);
         // Scheme names are case-insensitive.
         let lower = format!("authorization: bearer {key}");
-        assert_eq!(service.predict(&[&lower]).status, 200);
+        assert_eq!(predict(&service, &[&lower]).status, 200);
         service.wait_for_log(&format!("key=\"{name}\""), 2);
     }
     assert!(!service.log.lock().unwrap().contains("mes-key-1"));
@@ -264,24 +192,28 @@ fn sighup_reloads_the_keys_and_a_malformed_file_keeps_the_old_ones() {
     let service = Service::start(&["--api-keys-file", arg(&file)]);
     let old = ["Authorization: Bearer old-key"];
     let new = ["Authorization: Bearer new-key"];
-    assert_eq!(service.predict(&old).status, 200);
-    assert_eq!(service.predict(&new).status, 401);
+    assert_eq!(predict(&service, &old).status, 200);
+    assert_eq!(predict(&service, &new).status, 401);
 
     std::fs::write(&file, format!("new:{}\n", sha256_hex("new-key"))).unwrap();
-    service.hang_up();
+    service.signal("HUP");
     service.wait_for_log("API keys reloaded", 1);
-    assert_eq!(service.predict(&new).status, 200);
+    assert_eq!(predict(&service, &new).status, 200);
     assert_eq!(
-        service.predict(&old).status,
+        predict(&service, &old).status,
         401,
         "a removed key stops working"
     );
 
     std::fs::write(&file, "new:not-a-digest\n").unwrap();
-    service.hang_up();
+    service.signal("HUP");
     service.wait_for_log("API keys not reloaded", 1);
     assert!(service.log.lock().unwrap().contains("line 1"));
-    assert_eq!(service.predict(&new).status, 200, "the previous keys stay");
+    assert_eq!(
+        predict(&service, &new).status,
+        200,
+        "the previous keys stay"
+    );
 }
 
 #[test]
@@ -335,9 +267,9 @@ fn a_burst_over_a_keys_limit_gets_429_with_retry_after_and_other_keys_go_on() {
     ]);
     let batch = ["Authorization: Bearer batch-key"];
     for _ in 0..3 {
-        assert_eq!(service.predict(&batch).status, 200);
+        assert_eq!(predict(&service, &batch).status, 200);
     }
-    let refused = service.predict(&batch);
+    let refused = predict(&service, &batch);
     assert_eq!(refused.status, 429, "{}", refused.body);
     assert!(
         refused.headers.contains("retry-after: 2"),
@@ -352,7 +284,7 @@ fn a_burst_over_a_keys_limit_gets_429_with_retry_after_and_other_keys_go_on() {
     // The MES is unaffected by the batch script's burst; the probes are never limited.
     for _ in 0..3 {
         assert_eq!(
-            service.predict(&["Authorization: Bearer mes-key"]).status,
+            predict(&service, &["Authorization: Bearer mes-key"]).status,
             200
         );
     }
@@ -373,12 +305,12 @@ fn a_burst_over_a_keys_limit_gets_429_with_retry_after_and_other_keys_go_on() {
 fn without_keys_the_limit_is_per_address_and_off_by_default() {
     let open = Service::start(&[]);
     for _ in 0..8 {
-        assert_eq!(open.predict(&[]).status, 200);
+        assert_eq!(predict(&open, &[]).status, 200);
     }
     let limited = Service::start(&["--rate-limit-per-second", "0.2", "--rate-limit-burst", "2"]);
-    assert_eq!(limited.predict(&[]).status, 200);
-    assert_eq!(limited.predict(&[]).status, 200);
-    let refused = limited.predict(&[]);
+    assert_eq!(predict(&limited, &[]).status, 200);
+    assert_eq!(predict(&limited, &[]).status, 200);
+    let refused = predict(&limited, &[]);
     assert_eq!(refused.status, 429);
     assert!(
         refused.headers.contains("retry-after: 5"),

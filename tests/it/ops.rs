@@ -3,11 +3,10 @@
 
 use crate::common;
 
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::http::{app, app_with, get, post_json, post_with};
+use common::service::Service;
 use http_body_util::{BodyExt, Full};
 use hyper::body::Bytes;
 use hyper_util::client::legacy::Client;
@@ -291,32 +290,17 @@ async fn a_request_over_its_time_budget_is_503() {
 
 #[test]
 fn sigterm_turns_readiness_503_first_and_lets_a_long_computation_finish() {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_preston"))
-        .args([
+    let mut service = Service::start_with(
+        &[
             "serve",
             "--listen",
             "127.0.0.1:0",
             "--drain-delay-ms",
             "300",
-        ])
-        .stderr(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()
-        .unwrap();
-    // The log line "… address=127.0.0.1:PORT" tells where it listens.
-    let mut stderr = BufReader::new(child.stderr.take().unwrap());
-    let mut line = String::new();
-    let address = loop {
-        line.clear();
-        assert!(
-            stderr.read_line(&mut line).unwrap() > 0,
-            "server exited early"
-        );
-        if let Some(rest) = line.split("address=").nth(1) {
-            break rest.split_whitespace().next().unwrap().to_string();
-        }
-    };
-    std::thread::spawn(move || for _ in stderr.lines() {});
+        ],
+        &[],
+    );
+    let address = service.address.clone();
 
     let runtime = tokio::runtime::Runtime::new().unwrap();
     runtime.block_on(async {
@@ -343,11 +327,7 @@ fn sigterm_turns_readiness_503_first_and_lets_a_long_computation_finish() {
         assert_eq!(ready.status(), 200);
 
         let signalled = Instant::now();
-        let kill = Command::new("kill")
-            .args(["-TERM", &child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(kill.success());
+        service.signal("TERM");
         tokio::time::sleep(Duration::from_millis(100)).await;
         let ready = client
             .get(format!("http://{address}/readyz").parse().unwrap())
@@ -366,6 +346,6 @@ fn sigterm_turns_readiness_503_first_and_lets_a_long_computation_finish() {
         // It outlived the 300 ms drain: the listener had closed while it ran.
         assert!(after > Duration::from_millis(300), "{after:?}");
     });
-    let exit = child.wait().unwrap();
+    let exit = service.wait();
     assert!(exit.success(), "exits cleanly after draining: {exit:?}");
 }

@@ -2,6 +2,7 @@
 #![allow(dead_code)] // each test binary uses a different subset
 
 pub mod http;
+pub mod service;
 
 use preston::physics::{Part, PressureModel, Process, ProcessSpec};
 
