@@ -37,6 +37,15 @@ fn dockerfile() -> String {
     .unwrap()
 }
 
+/// The value of the container's environment variable `name`.
+fn env_value<'a>(container: &'a Yaml, name: &str) -> Option<&'a str> {
+    container["env"]
+        .as_vec()?
+        .iter()
+        .find(|e| e["name"].as_str() == Some(name))
+        .and_then(|e| e["value"].as_str())
+}
+
 /// The Dockerfile's instructions, continuation lines joined.
 fn instructions() -> Vec<String> {
     dockerfile()
@@ -49,11 +58,10 @@ fn instructions() -> Vec<String> {
 
 /// The JSON array after `INSTRUCTION ` in the Dockerfile (exec form).
 fn exec_form(instruction: &str) -> Vec<String> {
-    let line = dockerfile()
-        .lines()
+    let line = instructions()
+        .into_iter()
         .find(|l| l.starts_with(&format!("{instruction} ")))
-        .unwrap_or_else(|| panic!("no {instruction}"))
-        .to_string();
+        .unwrap_or_else(|| panic!("no {instruction}"));
     serde_json::from_str(line.split_once(' ').unwrap().1).unwrap()
 }
 
@@ -74,11 +82,7 @@ async fn manifests_match_the_service_and_the_image() {
 
     // Port: the listen address in the environment, the container port, the Dockerfile's EXPOSE.
     let env = container["env"].as_vec().unwrap();
-    let listen = env
-        .iter()
-        .find(|e| e["name"].as_str() == Some("PRESTON_LISTEN"))
-        .and_then(|e| e["value"].as_str())
-        .unwrap();
+    let listen = env_value(container, "PRESTON_LISTEN").unwrap();
     let port: i64 = listen.rsplit(':').next().unwrap().parse().unwrap();
     let container_port = &container["ports"][0];
     assert_eq!(container_port["containerPort"].as_i64(), Some(port));
@@ -181,13 +185,8 @@ fn keys_come_from_a_read_only_secret_and_only_named_peers_get_in() {
     }
 
     // PRESTON_API_KEYS_FILE is <mountPath>/<item path> of a read-only Secret volume.
-    let keys_file = container["env"]
-        .as_vec()
-        .unwrap()
-        .iter()
-        .find(|e| e["name"].as_str() == Some("PRESTON_API_KEYS_FILE"))
-        .and_then(|e| e["value"].as_str())
-        .expect("the container is given a keys file");
+    let keys_file =
+        env_value(container, "PRESTON_API_KEYS_FILE").expect("the container is given a keys file");
     let (dir, file) = keys_file.rsplit_once('/').unwrap();
     let mount = container["volumeMounts"]
         .as_vec()
