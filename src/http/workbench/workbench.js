@@ -334,28 +334,30 @@
     a.remove();
   }
 
-  /** Download links under a chart: the JSON answer, and CSV/SVG asked of the API on click
-   * (`again(accept)` repeats the request with another Accept). */
-  function downloads(view, name, response, again, formats = ['csv', 'svg']) {
-    const box = $(`figure[data-chart="${name}"] .downloads`, section(view));
-    const types = { csv: 'text/csv', svg: 'image/svg+xml' };
-    const links = [h('a', {
+  /** A link that asks the API for `type` when clicked (`again(type)`) and saves the answer. */
+  function fetchedLink(view, text, filename, type, again, attrs = {}) {
+    const a = h('a', { href: '#', ...attrs }, text);
+    a.addEventListener('click', async (event) => {
+      event.preventDefault();
+      try {
+        saveText(filename, type, await again(type));
+      } catch (e) {
+        showProblem(view, e);
+      }
+    });
+    return a;
+  }
+
+  /** Download links under a chart: the JSON answer in hand, and CSV/SVG asked of the API on
+   * click (`again(accept)` repeats the request with another Accept). */
+  function downloads(view, name, response, again) {
+    const json = h('a', {
       href: URL.createObjectURL(new Blob([JSON.stringify(response, null, 1)], { type: 'application/json' })),
       download: `preston-${name}.json`,
-    }, 'JSON')];
-    for (const format of formats) {
-      const a = h('a', { href: '#', 'data-format': format }, format.toUpperCase());
-      a.addEventListener('click', async (event) => {
-        event.preventDefault();
-        try {
-          saveText(`preston-${name}.${format}`, types[format], await again(types[format]));
-        } catch (e) {
-          showProblem(view, e);
-        }
-      });
-      links.push(a);
-    }
-    box.replaceChildren('Download: ', ...links);
+    }, 'JSON');
+    const asked = Object.entries({ csv: 'text/csv', svg: 'image/svg+xml' }).map(([format, type]) => (
+      fetchedLink(view, format.toUpperCase(), `preston-${name}.${format}`, type, again, { 'data-format': format })));
+    $(`figure[data-chart="${name}"] .downloads`, section(view)).replaceChildren('Download: ', json, ...asked);
   }
 
   /** `again` for a JSON request. */
@@ -368,24 +370,14 @@
     box.replaceChildren(h('p', { class: 'status' }, 'Writing the machine program…'));
     const request = { process: processInput(), surface: surfaceInput(), dwell };
     try {
-      const [p, gcode] = await Promise.all([
-        post(view, '/v1/program', request),
-        post(view, '/v1/program', request, { accept: 'text/x-gcode' }),
-      ]);
+      const again = repeat(view, '/v1/program', request);
+      const [p, gcode] = await Promise.all([again('application/json'), again('text/x-gcode')]);
       const link = h('a', {
         href: URL.createObjectURL(new Blob([gcode], { type: 'text/x-gcode' })),
         download: 'preston-program.ngc',
         'data-download': 'program',
       }, 'Download the machine program (G-code, .ngc)');
-      const csv = h('a', { href: '#' }, 'blocks as CSV');
-      csv.addEventListener('click', async (event) => {
-        event.preventDefault();
-        try {
-          saveText('preston-program.csv', 'text/csv', await repeat(view, '/v1/program', request)('text/csv'));
-        } catch (e) {
-          showProblem(view, e);
-        }
-      });
+      const csv = fetchedLink(view, 'blocks as CSV', 'preston-program.csv', 'text/csv', again);
       const skipped = p.skipped_positions.leading + p.skipped_positions.trailing;
       box.replaceChildren(
         h('h3', {}, 'Machine program'),
@@ -481,17 +473,11 @@
     ]);
   }
 
-  /** Optimizes a plan for `target`, draws it and writes its machine program. */
-  async function plan(view, chart, target, stepId) {
+  /** Optimizes a plan for `target` within `constraints` (none when empty) and draws it. */
+  async function plan(view, chart, target, stepId, constraints = {}) {
     const process = processInput();
     const surface = surfaceInput();
     const clear_aperture = apertureInput();
-    const constraints = view === 'optimize' ? defined({
-      min_dwell_s: value('min_dwell_s'),
-      max_dwell_s: value('max_dwell_s'),
-      max_total_time_s: value('max_total_time_s'),
-      max_feed_mm_per_min: value('max_feed_mm_per_min'),
-    }) : {};
     const request = defined({ process, surface, clear_aperture, target, positions_mm: positions(stepId) });
     if (Object.keys(constraints).length) request.constraints = constraints;
     const o = await post(view, '/v1/optimize', request);
@@ -525,13 +511,19 @@
 
   async function runOptimize() {
     const view = 'optimize';
-    const o = await plan(view, 'optimize-removal', defined({ uniform_depth_nm: value('target_depth_nm') }), 'position_step_mm');
+    const constraints = defined({
+      min_dwell_s: value('min_dwell_s'),
+      max_dwell_s: value('max_dwell_s'),
+      max_total_time_s: value('max_total_time_s'),
+      max_feed_mm_per_min: value('max_feed_mm_per_min'),
+    });
+    const target = defined({ uniform_depth_nm: value('target_depth_nm') });
+    const o = await plan(view, 'optimize-removal', target, 'position_step_mm', constraints);
     draw(view, 'optimize-dwell', {
       title: 'Dwell plan',
       xLabel: 'tool position (mm)', yLabel: 'dwell (s)',
       series: [{ name: 'dwell per position', points: zip(o.dwell.positions_mm, o.dwell.dwell_s) }],
     });
-    $('figure[data-chart="optimize-dwell"] .downloads', section(view)).replaceChildren();
     summary(view, 'optimize', planSummary(o, true));
     await program(view, o.dwell);
   }
