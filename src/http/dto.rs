@@ -9,7 +9,7 @@ use super::error::ApiError;
 use super::extract::{count, optional_count};
 use super::program::ToolDto;
 use crate::machine::Tool;
-use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
+use crate::physics::{ClearAperture, ConstantFeed, PressureModel, ProcessSpec, UniformityMetrics};
 use crate::physics::{Orientation, Part};
 use crate::study::{EqualDwell, Recommendation, SpeedRule};
 use crate::surface::{PolynomialTerm, Surface, SurfaceSpec};
@@ -283,7 +283,9 @@ pub struct RecommendationDto {
     pub metrics: MetricsDto,
     /// Predicted uniformity of equal dwell at the current speeds, nm.
     pub current_metrics: MetricsDto,
-    /// Current nonuniformity / recommended nonuniformity; null when undefined.
+    /// Current nonuniformity / recommended nonuniformity; null when undefined or when equal
+    /// dwell at the recommended speeds is uniform to rounding (below 1e-9), as it is on a
+    /// plane.
     #[schema(required = true)]
     pub improvement_factor: Option<f64>,
     /// The equal-dwell plan at the recommended speeds.
@@ -315,18 +317,37 @@ pub struct EtaWindowDto {
     pub nonuniformity_threshold: f64,
 }
 
-/// An equal-dwell plan: one constant feed, the same dwell at every cell centre.
+/// The tool travelling at one constant feed along the surface (along the arc on a curved
+/// part) from `start_mm` to `stop_mm`: equal dwell per unit length, with no cells.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FeedDto {
+    /// Where the pass starts: the pad centre's radial position, mm (0 to the tool's reach).
+    pub start_mm: f64,
+    /// Where it ends, mm (above `start_mm`, at most the tool's reach).
+    pub stop_mm: f64,
+    /// The feed along the surface, mm/min (> 0).
+    pub feed_mm_per_min: f64,
+}
+
+impl From<&ConstantFeed> for FeedDto {
+    fn from(feed: &ConstantFeed) -> Self {
+        FeedDto {
+            start_mm: feed.start_mm(),
+            stop_mm: feed.stop_mm(),
+            feed_mm_per_min: feed.feed_mm_per_min(),
+        }
+    }
+}
+
+/// An equal-dwell plan: one constant feed over the path (ready for `/v1/predict`'s `feed`).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct EqualDwellDto {
     /// Mean depth it removes over the clear aperture, nm.
     pub depth_nm: f64,
-    /// The radial feed, mm/min.
-    pub feed_mm_per_min: f64,
-    /// Cell-centre positions, mm.
-    pub positions_mm: Vec<f64>,
-    /// Dwell at each position, s (all equal).
-    pub dwell_s: Vec<f64>,
-    /// Total time, s.
+    /// The pass: from 0 to min(outer + r_t, reach) mm at one feed.
+    pub feed: FeedDto,
+    /// Travel time, s.
     pub total_time_s: f64,
 }
 
@@ -334,10 +355,8 @@ impl From<&EqualDwell> for EqualDwellDto {
     fn from(pass: &EqualDwell) -> Self {
         EqualDwellDto {
             depth_nm: pass.metrics.mean_nm,
-            feed_mm_per_min: pass.feed_mm_per_min,
-            positions_mm: pass.schedule.positions_mm().to_vec(),
-            dwell_s: pass.schedule.dwell_s().to_vec(),
-            total_time_s: pass.schedule.total_time_s(),
+            feed: FeedDto::from(&pass.pass),
+            total_time_s: pass.total_time_s,
         }
     }
 }
@@ -361,7 +380,7 @@ impl From<&Recommendation> for RecommendationDto {
             current_metrics: MetricsDto::from(&r.current.metrics),
             improvement_factor: r.improvement_factor,
             equal_dwell: EqualDwellDto::from(&r.recommended),
-            current_feed_mm_per_min: r.current.feed_mm_per_min,
+            current_feed_mm_per_min: r.current.feed_mm_per_min(),
         }
     }
 }

@@ -396,8 +396,8 @@ fn input_path(input: Input) -> &'static str {
     match input {
         Input::ToolPositions => "tool_positions_mm",
         Input::Dwell => "dwell.positions_mm",
+        Input::Feed => "feed",
         Input::Positions => "positions_mm",
-        Input::EqualDwellPositions => "equal_dwell_positions",
         Input::Etas => "etas",
         Input::Depth => "depth_nm",
         Input::NonuniformityThreshold => "nonuniformity_threshold",
@@ -458,7 +458,11 @@ impl From<InputError> for ApiError {
             InputError::Setting(e) => e.into(),
             InputError::Limit { input, error } => ApiError::from_limit(input_path(input), error),
             InputError::Schedule { input, error } => {
-                let prefix = if input == Input::Dwell { "dwell" } else { "" };
+                let prefix = match input {
+                    Input::Dwell => "dwell",
+                    Input::Feed => "feed",
+                    _ => "",
+                };
                 ApiError::from_schedule(prefix, error)
             }
             InputError::OutOfRange { input, max } => {
@@ -469,7 +473,6 @@ impl From<InputError> for ApiError {
                     Input::NonuniformityThreshold => {
                         format!("{field} must be a finite fraction > 0")
                     }
-                    Input::EqualDwellPositions => format!("{field} must be at least 2"),
                     Input::Etas => format!("{field} must hold 1 to {max} values; it is empty"),
                     Input::SolverTimeLimit => {
                         format!("{field} must be > 0 and at most this server's limit of {max} s")

@@ -12,7 +12,7 @@ use super::dto::{
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
-use super::extract::{object, optional_count, optional_object, ApiJson};
+use super::extract::{object, optional_object, ApiJson};
 use super::plot::{Chart, Series};
 use super::program::ToolDto;
 use super::state::{AppState, Services};
@@ -48,10 +48,6 @@ pub struct EtaSweepRequest {
     pub dwell: Option<DwellDto>,
     /// Mean depth equal dwell removes at each point, nm (> 0). Default 100. Ignored with `dwell`.
     pub depth_nm: Option<f64>,
-    /// Positions (cells) of the equal-dwell pass (≥ 2). Default 200. Ignored with `dwell`.
-    #[schema(minimum = 2, maximum = 1_000_000_000, format = Int32)]
-    #[serde(default, deserialize_with = "optional_count")]
-    pub equal_dwell_positions: Option<usize>,
     /// Where removal is computed; default 201 samples from 0 to the workpiece radius.
     #[serde(default, deserialize_with = "optional_object")]
     pub radial_grid: Option<RadialGridDto>,
@@ -107,7 +103,6 @@ impl Endpoint for EtaSweepEndpoint {
             req.etas,
             req.dwell.map(|d| (d.positions_mm, d.dwell_s)),
             req.depth_nm,
-            req.equal_dwell_positions,
             limits,
         )?)
     }

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, Place, ProcessDto,
+    setting, ApertureEcho, ClearApertureDto, DwellDto, FeedDto, MetricsDto, Place, ProcessDto,
     RadialGridDto, RecommendationDto, SurfaceDto, WarningDto,
 };
 use super::endpoint::{handle, Endpoint};
@@ -36,9 +36,17 @@ pub struct PredictRequest {
     /// matters here.
     #[serde(default, deserialize_with = "optional_object")]
     pub tool: Option<ToolDto>,
-    /// Tool positions (mm) and the dwell time at each (s).
-    #[serde(deserialize_with = "object")]
-    pub dwell: DwellDto,
+    /// Tool positions (mm) and the dwell time in each one's cell (s): the tool stops for half
+    /// the first and last dwell at the ends and moves at constant speed between the midpoints
+    /// of neighbouring positions (the motion `/v1/program` executes). Give exactly one of
+    /// `dwell` and `feed`.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub dwell: Option<DwellDto>,
+    /// One constant feed along the surface (along the arc on a curved part) instead of a dwell
+    /// plan: equal dwell per unit length, computed exactly (no cells). Give exactly one of
+    /// `dwell` and `feed`.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub feed: Option<FeedDto>,
     /// Where to report removal; default 201 samples from 0 to the workpiece radius.
     #[serde(default, deserialize_with = "optional_object")]
     pub radial_grid: Option<RadialGridDto>,
@@ -64,7 +72,7 @@ pub struct PredictResponse {
     pub metrics: MetricsDto,
     /// The clear aperture the metrics were taken over (defaults filled in), mm.
     pub clear_aperture: ApertureEcho,
-    /// Sum of the dwell times, s.
+    /// Polishing time: the sum of the dwell times, or the feed's travel time, s.
     pub total_time_s: f64,
     /// η = −1 settings and what they would buy (equal dwell removing this prediction's mean
     /// depth); null at η = −1.
@@ -96,12 +104,21 @@ impl Endpoint for PredictEndpoint {
             req.clear_aperture.as_ref(),
             limits,
         )?;
-        Ok(PredictCommand::new(
-            setting,
-            req.dwell.positions_mm,
-            req.dwell.dwell_s,
-            limits,
-        )?)
+        Ok(match (req.dwell, req.feed) {
+            (Some(dwell), None) => {
+                PredictCommand::new(setting, dwell.positions_mm, dwell.dwell_s, limits)?
+            }
+            (None, Some(feed)) => PredictCommand::with_feed(
+                setting,
+                feed.start_mm,
+                feed.stop_mm,
+                feed.feed_mm_per_min,
+            )?,
+            _ => return Err(ApiError::invalid(
+                "dwell",
+                "give exactly one of dwell (positions and dwell times) and feed (a constant feed)",
+            )),
+        })
     }
 
     fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError> {

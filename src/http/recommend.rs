@@ -13,7 +13,7 @@ use super::dto::{
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
-use super::extract::{object, optional_count, optional_object, ApiJson};
+use super::extract::{object, optional_object, ApiJson};
 use super::program::ToolDto;
 use super::state::{AppState, Services};
 use crate::study::SpeedLimits;
@@ -44,12 +44,6 @@ pub struct RecommendRequest {
     /// Largest equal-dwell nonuniformity (pv/mean, a fraction) inside the η window, > 0.
     /// Default 0.02.
     pub nonuniformity_threshold: Option<f64>,
-    /// Positions of the equal-dwell pass: a constant feed from 0 to min(outer + r_t, reach) mm
-    /// as this many evenly spaced cell centres (≥ 2, at most the server's max_positions).
-    /// Default 200.
-    #[schema(minimum = 2, maximum = 1_000_000_000, format = Int32)]
-    #[serde(default, deserialize_with = "optional_count")]
-    pub equal_dwell_positions: Option<usize>,
     /// Where removal is computed; default 201 samples from 0 to the workpiece radius.
     #[serde(default, deserialize_with = "optional_object")]
     pub radial_grid: Option<RadialGridDto>,
@@ -100,8 +94,6 @@ impl Endpoint for RecommendEndpoint {
             speed,
             req.depth_nm,
             req.nonuniformity_threshold,
-            req.equal_dwell_positions,
-            limits,
         )?)
     }
 

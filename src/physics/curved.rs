@@ -227,6 +227,111 @@ impl CurvedKernel {
     }
 }
 
+impl CurvedKernel {
+    /// The tool positions (radii, ascending) that bound the support of R(`ring`; ·), clipped
+    /// to `reach_mm`, with the kinks inside it: where the pad's contact ball becomes tangent
+    /// to the ring on the pad centre's side (|X − P₀| = c_t at φ = 0) or starts to cover it
+    /// whole (at φ = π), where the sliding speed vanishes (B = A·r at φ = 0), and where the pad
+    /// reaches the edge under constant force. On a sphere the tangencies are the arc lengths
+    /// s(r) ± r_t and r_t − s(r); they are found as roots, so an asphere's chord is honoured.
+    pub fn breakpoints(&self, ring: &Ring, reach_mm: f64) -> Vec<f64> {
+        let surface = &self.part.surface;
+        let rt = self.tool_radius;
+        let r = ring.r;
+        // (ring point at φ = 0, or at φ = π for `far`) to the pad centre, less the chord².
+        let gap = |x: f64, far: bool| {
+            let across = if far { r + x } else { r - x };
+            let dz = ring.z - surface.sag_mm(x);
+            let chord = self.site(x).chord;
+            across * across + dz * dz - chord * chord
+        };
+        let top = (r + rt).min(reach_mm);
+        let mut points = Vec::new();
+        // The pad's near rim: between r − r_t (out of reach) and r (on the ring).
+        let low = (r - rt).max(0.0);
+        let g_low = gap(low, false);
+        let lo = if g_low > 0.0 {
+            root(&|x| gap(x, false), (low, g_low), (r, gap(r, false)))
+        } else {
+            0.0
+        };
+        // The far rim, beyond r, unless the reach ends first.
+        let g_top = gap(top, false);
+        let hi = if g_top > 0.0 && top > r {
+            root(&|x| gap(x, false), (r, gap(r, false)), (top, g_top))
+        } else {
+            top
+        };
+        // The whole ring under the pad while the ring's far side is within the chord.
+        let g_axis = gap(0.0, true);
+        if g_axis < 0.0 {
+            let end = rt.min(top);
+            let g_end = gap(end, true);
+            if g_end > 0.0 {
+                points.push(root(&|x| gap(x, true), (0.0, g_axis), (end, g_end)));
+            }
+        }
+        if self.pressure_model == PressureModel::ConstantForce && self.edge_arc_mm > rt {
+            points.push(surface.radius_at_arc_length(self.edge_arc_mm - rt));
+        }
+        let mut points = super::removal::inside(points, lo, hi);
+        // The sliding speed's zero at φ = 0: a sign change of B − A·r within a piece.
+        let slip = |x: f64| {
+            let site = self.site(x);
+            let (w, t) = (self.omega_workpiece, self.omega_tool);
+            let b = t * (site.axis_z * site.r1 + site.axis_x * (ring.z - site.z1));
+            b - (t * site.axis_z - w) * r
+        };
+        let zeros: Vec<f64> = points
+            .windows(2)
+            .filter_map(|w| {
+                let (fa, fb) = (slip(w[0]), slip(w[1]));
+                (fa * fb < 0.0).then(|| root(&slip, (w[0], fa), (w[1], fb)))
+            })
+            .collect();
+        points.extend(zeros);
+        super::removal::inside(points, lo, hi)
+    }
+}
+
+/// A root of `f` between `a` and `b`, whose values there (given) have opposite signs or are
+/// zero: Illinois regula falsi to within a few ulps of the bracket.
+fn root(f: &dyn Fn(f64) -> f64, (mut a, mut fa): (f64, f64), (mut b, mut fb): (f64, f64)) -> f64 {
+    if fa == 0.0 {
+        return a;
+    }
+    if fb == 0.0 {
+        return b;
+    }
+    let mut kept = 0;
+    for _ in 0..200 {
+        if (b - a).abs() <= 4.0 * f64::EPSILON * a.abs().max(b.abs()).max(1e-300) {
+            break;
+        }
+        let c = (b - fb * (b - a) / (fb - fa)).clamp(a.min(b), a.max(b));
+        let fc = f(c);
+        if fc == 0.0 {
+            return c;
+        }
+        if (fc > 0.0) == (fb > 0.0) {
+            b = c;
+            fb = fc;
+            if kept == -1 {
+                fa *= 0.5;
+            }
+            kept = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if kept == 1 {
+                fb *= 0.5;
+            }
+            kept = 1;
+        }
+    }
+    0.5 * (a + b)
+}
+
 /// Gauss–Kronrod (7, 15) nodes on [−1, 1] (non-negative half) and weights.
 const XGK: [f64; 8] = [
     0.991_455_371_120_812_6,

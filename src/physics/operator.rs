@@ -1,18 +1,30 @@
-//! The removal operator: the matrix M with M[i][j] = R(r_i; r1_j) in nm/s, mapping dwell times
-//! t_j (s) at tool positions r1_j to removal depths Σ_j M[i][j]·t_j (nm) at radii r_i.
+//! The removal operator: the matrix M mapping dwell times t_j (s) at tool positions r1_j to
+//! removal depths Σ_j M[i][j]·t_j (nm) at radii r_i, for the motion a plan stands for
+//! ([`super::motion`]): column j is the removal per second of dwell at position j,
+//!
+//! ```text
+//! M[i][j] = σ_j·R(r_i; r1_j) + w_j/L_j · (F_i(b_{j+1}) − F_i(b_j))
+//! ```
+//!
+//! with the stop share σ_j, the move share w_j, the cell [b_j, b_{j+1}] of arc length L_j, and
+//! F_i the running integral of R(r_i; ·) along the surface ([`super::path`]). Each row's F_i
+//! is built once and read at every cell boundary within the pad's reach, so the cost per row
+//! is that of resolving R(r_i; ·), not the number of cells.
 //!
 //! It is not shift invariant (R depends on r and r1, not only on r − r1) but it is banded:
-//! R(r; r1) = 0 when |r − r1| ≥ r_t. With the radii sorted, each column's non-zeros are one
-//! contiguous run of rows, so we store the matrix column by column as (first row, values):
-//! compressed sparse column without per-entry row indices. Columns are independent, so
-//! assembly of large operators is split across threads (rayon) column by column.
+//! R(r; ρ) = 0 when |r − ρ| ≥ r_t, so column j is zero outside the rows within r_t of its cell.
+//! With the radii sorted, each column's non-zeros are one contiguous run of rows, so we store
+//! the matrix column by column as (first row, values): compressed sparse column without
+//! per-entry row indices. Rows are independent, so large operators are computed across
+//! threads (rayon) row by row and then laid out by column.
 
 use rayon::prelude::*;
 
+use super::motion::{cell_boundaries_mm, move_share, stop_share};
 use super::removal::RemovalKernel;
 
-/// Entries at and above this count are assembled in parallel; below it threads cost more
-/// than they save (a column of a few hundred entries takes microseconds).
+/// Entries at and above this count are computed in parallel; below it threads cost more
+/// than they save.
 const PARALLEL_MIN_ENTRIES: usize = 20_000;
 
 /// Banded removal operator, column-major (see the module docs). Rates in nm/s.
@@ -25,35 +37,75 @@ pub struct RemovalOperator {
 }
 
 impl RemovalOperator {
-    /// Assembles M for `radii_mm` (ascending) and `positions_mm` (any order, ≥ 0).
+    /// M for `radii_mm` (ascending) and the plan's `positions_mm` (strictly increasing, within
+    /// the process's reach).
     pub fn assemble(kernel: &RemovalKernel, radii_mm: &[f64], positions_mm: &[f64]) -> Self {
         debug_assert!(radii_mm.windows(2).all(|w| w[0] <= w[1]));
+        debug_assert!(positions_mm.windows(2).all(|w| w[0] < w[1]));
+        let n = positions_mm.len();
         let rt = kernel.tool_radius_mm();
-        let mut first_row = Vec::with_capacity(positions_mm.len());
-        let mut col_ptr = Vec::with_capacity(positions_mm.len() + 1);
+        let bounds = cell_boundaries_mm(positions_mm);
+        // Column j covers the rows within r_t of its cell (of its position for a single one),
+        // widened by a hair so rounding never drops a (tiny) non-zero entry.
+        let mut first_row = Vec::with_capacity(n);
+        let mut col_ptr = Vec::with_capacity(n + 1);
         col_ptr.push(0);
-        for &r1 in positions_mm {
-            // Widen by a hair so rounding in r1 ± r_t never drops a (tiny) non-zero entry.
-            let slack = 1e-9 * (r1 + rt);
-            let lo = radii_mm.partition_point(|&r| r <= r1 - rt - slack);
-            let hi = radii_mm.partition_point(|&r| r < r1 + rt + slack);
+        for j in 0..n {
+            let (a, b) = if n == 1 {
+                (positions_mm[0], positions_mm[0])
+            } else {
+                (bounds[j], bounds[j + 1])
+            };
+            let slack = 1e-9 * (b + rt);
+            let lo = radii_mm.partition_point(|&r| r <= a - rt - slack);
+            let hi = radii_mm.partition_point(|&r| r < b + rt + slack);
             first_row.push(lo);
             col_ptr.push(col_ptr.last().unwrap() + hi.max(lo) - lo);
         }
         let entries = *col_ptr.last().unwrap();
-        let mut values = vec![0.0; entries];
-
-        let rings = kernel.rings(radii_mm);
-        let fill = |(j, column): (usize, &mut [f64])| {
-            let rows = first_row[j]..first_row[j] + column.len();
-            let column_rings = rings.as_deref().map(|r| &r[rows.clone()]);
-            kernel.fill_column(positions_mm[j], &radii_mm[rows], column_rings, column);
+        // Arc lengths of the cells, and each row's columns: those whose rows contain it (a
+        // contiguous run, since both ends of the columns' row runs grow with j).
+        let arcs: Vec<f64> = bounds.iter().map(|&b| kernel.arc_length_mm(b)).collect();
+        let row_end: Vec<usize> = (0..n)
+            .map(|j| first_row[j] + col_ptr[j + 1] - col_ptr[j])
+            .collect();
+        let row = |i: usize| -> (usize, Vec<f64>) {
+            let j_lo = row_end.partition_point(|&end| end <= i);
+            let j_hi = first_row.partition_point(|&first| first <= i);
+            if j_lo >= j_hi {
+                return (j_lo, Vec::new());
+            }
+            let r = radii_mm[i];
+            let mut values = Vec::with_capacity(j_hi - j_lo);
+            if n == 1 {
+                values.push(kernel.rate_nm_per_s(r, positions_mm[0]));
+                return (j_lo, values);
+            }
+            let path = kernel.path_integral(r);
+            let mut before = path.at(bounds[j_lo]);
+            for j in j_lo..j_hi {
+                let after = path.at(bounds[j + 1]);
+                let mut value = move_share(j, n) * (after - before) / (arcs[j + 1] - arcs[j]);
+                let stop = stop_share(j, n);
+                if stop > 0.0 {
+                    value += stop * kernel.rate_nm_per_s(r, positions_mm[j]);
+                }
+                values.push(value);
+                before = after;
+            }
+            (j_lo, values)
         };
-        let columns = split_columns(&mut values, &col_ptr);
-        if entries >= PARALLEL_MIN_ENTRIES {
-            columns.into_par_iter().enumerate().for_each(fill);
+        let by_row: Vec<(usize, Vec<f64>)> = if entries >= PARALLEL_MIN_ENTRIES {
+            (0..radii_mm.len()).into_par_iter().map(row).collect()
         } else {
-            columns.into_iter().enumerate().for_each(fill);
+            (0..radii_mm.len()).map(row).collect()
+        };
+        let mut values = vec![0.0; entries];
+        for (i, (j_lo, row_values)) in by_row.iter().enumerate() {
+            for (k, &value) in row_values.iter().enumerate() {
+                let j = j_lo + k;
+                values[col_ptr[j] + i - first_row[j]] = value;
+            }
         }
 
         RemovalOperator {
@@ -126,17 +178,6 @@ impl RemovalOperator {
     }
 }
 
-/// Splits `values` into the disjoint mutable column slices described by `col_ptr`.
-fn split_columns<'a>(mut values: &'a mut [f64], col_ptr: &[usize]) -> Vec<&'a mut [f64]> {
-    let mut columns = Vec::with_capacity(col_ptr.len().saturating_sub(1));
-    for w in col_ptr.windows(2) {
-        let (head, tail) = values.split_at_mut(w[1] - w[0]);
-        columns.push(head);
-        values = tail;
-    }
-    columns
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -152,20 +193,37 @@ mod tests {
             .collect()
     }
 
+    /// Column j is σ_j·R(r; r_j) + w_j·(F(b_{j+1}) − F(b_j))/L_j, and zero outside its band.
     #[test]
-    fn band_holds_every_non_zero_and_matches_pointwise_rates() {
+    fn columns_are_the_motion_of_their_cells() {
         let k = kernel(-10.0, 200.0);
         let radii = linspace(0.0, 50.0, 101);
-        // Positions in no particular order, including exact tangency with grid points.
-        let positions = [30.0, 0.0, 10.0, 47.3, 60.0, 55.0, 12.5];
+        // Uneven spacing, a position on the axis and one at tangency with a grid radius.
+        let positions = [0.0, 10.0, 12.5, 30.0, 47.3, 55.0, 60.0];
         let op = RemovalOperator::assemble(&k, &radii, &positions);
         let dense = op.to_dense();
+        let bounds = [0.0, 5.0, 11.25, 21.25, 38.65, 51.15, 57.5, 60.0];
         for (i, &r) in radii.iter().enumerate() {
-            for (j, &r1) in positions.iter().enumerate() {
-                assert_eq!(dense[i][j], k.rate_nm_per_s(r, r1), "r {r} r1 {r1}");
+            let path = k.path_integral(r);
+            for j in 0..positions.len() {
+                let share = if j == 0 || j == 6 { 0.5 } else { 1.0 };
+                let mut want = share * (path.at(bounds[j + 1]) - path.at(bounds[j]))
+                    / (bounds[j + 1] - bounds[j]);
+                if share == 0.5 {
+                    want += 0.5 * k.rate_nm_per_s(r, positions[j]);
+                }
+                assert!(
+                    (dense[i][j] - want).abs() <= 1e-15 * want.abs(),
+                    "r {r} j {j}"
+                );
             }
         }
         assert!(op.stored_entries() < radii.len() * positions.len());
+        // A single position is a stop: the removal function itself.
+        let single = RemovalOperator::assemble(&k, &radii, &[12.5]).to_dense();
+        for (i, &r) in radii.iter().enumerate() {
+            assert_eq!(single[i][0], k.rate_nm_per_s(r, 12.5));
+        }
     }
 
     #[test]
@@ -189,18 +247,16 @@ mod tests {
         }
     }
 
+    /// Rows are independent: the rows of a large (parallel) operator equal those of the same
+    /// plan on fewer radii (serial), bit for bit.
     #[test]
     fn parallel_and_serial_assembly_are_identical() {
         let k = kernel(-10.0, 200.0);
         let radii = linspace(0.0, 50.0, 401);
-        let positions = linspace(0.0, 50.0, 401); // > PARALLEL_MIN_ENTRIES entries
-        let op = RemovalOperator::assemble(&k, &radii, &positions);
-        assert!(op.stored_entries() >= PARALLEL_MIN_ENTRIES);
-        for (j, &r1) in positions.iter().enumerate() {
-            let (first, column) = op.column(j);
-            for (&m, &r) in column.iter().zip(&radii[first..]) {
-                assert_eq!(m, k.rate_nm_per_s(r, r1));
-            }
-        }
+        let positions = linspace(0.0, 50.0, 401);
+        let op = RemovalOperator::assemble(&k, &radii, &positions).to_dense();
+        let few = RemovalOperator::assemble(&k, &radii[..40], &positions);
+        assert!(few.stored_entries() < PARALLEL_MIN_ENTRIES);
+        assert_eq!(few.to_dense()[..], op[..40]);
     }
 }

@@ -34,8 +34,14 @@ use std::f64::consts::PI;
 use super::carlson::rf_rd;
 use super::contact::{half_angle, HalfAngle};
 use super::curved::{CurvedKernel, Ring};
+use super::path::PathIntegral;
 use super::pressure::{pressure_factor, PressureModel};
 use super::process::Process;
+
+/// How finely a [`PathIntegral`] resolves the rate along the path, relative to the rate's
+/// size: the closed form is exact to rounding; the curved kernel's own quadrature to ~1e-10.
+const FLAT_PATH_TOLERANCE: f64 = 1e-12;
+const CURVED_PATH_TOLERANCE: f64 = 1e-10;
 
 /// Everything about a process that the removal function needs, precomputed once. On a curved
 /// part the rate comes from [`super::curved`]; on a plane from the closed form here.
@@ -49,6 +55,8 @@ pub struct RemovalKernel {
     /// K·P/π in (nm/s) per (mm/s · rad).
     scale: f64,
     translation: bool,
+    /// The farthest tool position the process allows, mm (the path's end at the latest).
+    reach_mm: f64,
     curved: Option<CurvedKernel>,
 }
 
@@ -62,6 +70,7 @@ impl RemovalKernel {
             pressure_model: process.pressure_model(),
             scale: process.preston_rate_scale() / PI,
             translation: process.is_eta_minus_one(),
+            reach_mm: process.max_tool_position_mm(),
             curved: (!process.part().is_flat()).then(|| {
                 CurvedKernel::new(
                     process.part().clone(),
@@ -119,6 +128,57 @@ impl RemovalKernel {
 }
 
 impl RemovalKernel {
+    /// Arc length from the vertex to radius `r_mm` along the surface (r on a plane).
+    pub fn arc_length_mm(&self, r_mm: f64) -> f64 {
+        match &self.curved {
+            Some(curved) => curved.surface().arc_length_mm(r_mm),
+            None => r_mm,
+        }
+    }
+
+    /// The removal at radius `r_mm` of the tool moving along the surface: F(ρ) = ∫ R(r; x)·ds
+    /// over tool positions x up to ρ ([`super::path`]), with its breakpoints where R has
+    /// kinks: the pad's rim crossing r (x = |r − r_t|, r + r_t), the zero of the sliding
+    /// speed (x = (ω1 + ω2)·r/ω2 on a plane) and the pad reaching the edge under constant
+    /// force; on a curved part the same events on the surface ([`CurvedKernel::breakpoints`]).
+    pub fn path_integral(&self, r_mm: f64) -> PathIntegral {
+        match &self.curved {
+            Some(curved) => {
+                let ring = Ring::at(curved.surface(), r_mm);
+                let breakpoints = curved.breakpoints(&ring, self.reach_mm);
+                let rate = |x: f64| {
+                    let factor = curved.pressure_factor(x);
+                    if factor == 0.0 {
+                        return 0.0;
+                    }
+                    let weight = curved.surface().slope(x).hypot(1.0);
+                    factor * weight * curved.nominal_rate_nm_per_s(&ring, &curved.site(x))
+                };
+                PathIntegral::new(rate, &breakpoints, CURVED_PATH_TOLERANCE)
+            }
+            None => PathIntegral::new(
+                |x| self.rate_nm_per_s(r_mm, x),
+                &self.flat_breakpoints(r_mm),
+                FLAT_PATH_TOLERANCE,
+            ),
+        }
+    }
+
+    /// The support of R(r; ·) on a plane, clipped to the reach, and the kinks inside it.
+    fn flat_breakpoints(&self, r: f64) -> Vec<f64> {
+        let rt = self.tool_radius;
+        let lo = (r - rt).max(0.0);
+        let hi = (r + rt).min(self.reach_mm);
+        let mut points = vec![lo, hi, rt - r];
+        if !self.translation && self.omega2 != 0.0 {
+            points.push(self.omega_sum * r / self.omega2);
+        }
+        if self.pressure_model == PressureModel::ConstantForce {
+            points.push(self.workpiece_radius - rt);
+        }
+        inside(points, lo, hi)
+    }
+
     /// What a column fill needs of the sample radii, computed once per operator: the ring
     /// geometry on a curved part (sag and slope), nothing on a plane.
     pub fn rings(&self, radii_mm: &[f64]) -> Option<Vec<Ring>> {
@@ -155,6 +215,15 @@ impl RemovalKernel {
             }
         }
     }
+}
+
+/// `points` within [lo, hi] (both kept), ascending, without repeats.
+pub(super) fn inside(mut points: Vec<f64>, lo: f64, hi: f64) -> Vec<f64> {
+    points.retain(|x| x.is_finite() && *x >= lo && *x <= hi);
+    points.extend([lo, hi]);
+    points.sort_by(f64::total_cmp);
+    points.dedup();
+    points
 }
 
 /// ∫_0^{θ0} V dθ for V² = (a−b)² + 4ab·sin²(θ/2), θ0 = 2ψ0.

@@ -1,18 +1,14 @@
-//! Dwell schedules and what they remove.
+//! Dwell schedules and constant feeds, and what they remove.
 //!
 //! A [`DwellSchedule`] is a list of tool positions r1_j (mm, strictly increasing) with the time
-//! t_j (s) the tool spends at each; the cumulative removal is ΔZ(r) = Σ_j R(r; r1_j)·t_j (nm).
+//! t_j (s) the tool spends in each one's cell; what it removes is the removal of the motion
+//! it stands for ([`super::motion`], through [`RemovalOperator`]).
 //!
-//! A [`ConstantFeed`] is the tool travelling along the radius from a to b at feed v (mm/min),
-//! i.e. with dwell density τ = 60/v s/mm, whose removal is the integral ΔZ(r) = τ·∫_a^b R(r; x) dx.
-//! We discretise it with the composite midpoint rule: n cells of width h = (b − a)/n, one
-//! position at each cell centre x_k = a + (k + ½)·h with dwell t_k = τ·h (so the total time is
-//! exactly the path's travel time). R(r; ·) is continuous with square-root kinks (tangency at
-//! x = r ± r_t, full coverage at x = r_t − r), where the rule converges like h^1.5. At r = 0
-//! the kinks merge into a jump at x = r_t (the centre leaves the pad): there any point rule is
-//! first order, with error at most h/r_t of the removal, unless r_t falls on a cell centre
-//! (where the removal function takes its mid-jump value, see [`super::contact`]) or on a cell
-//! boundary, which makes it second order again.
+//! A [`ConstantFeed`] is the tool travelling along the surface from a to b at feed v (mm/min
+//! of arc), i.e. with dwell density τ = 60/v s per mm of arc. It needs no cells: it removes
+//! ΔZ(r) = τ·∫_a^b R(r; ρ(s)) ds, the running integral of [`super::path`] read at both ends.
+
+use rayon::prelude::*;
 
 use super::grid::RadialGrid;
 use super::operator::RemovalOperator;
@@ -41,6 +37,14 @@ pub enum ScheduleError {
     NegativeDwell { index: usize },
     #[error("dwell_s[{index}] exceeds {max} s (about 31 years), the longest dwell accepted")]
     DwellTooLong { index: usize, max: f64 },
+    #[error("{field} must be a finite number")]
+    NotFinite { field: &'static str },
+    #[error("{field} = {value} mm is outside the allowed tool positions [0, {max} mm]")]
+    OffReach {
+        field: &'static str,
+        value: f64,
+        max: f64,
+    },
     #[error("{field} must be greater than {lower}")]
     NotAbove {
         field: &'static str,
@@ -54,7 +58,9 @@ impl ScheduleError {
             ScheduleError::Empty { field }
             | ScheduleError::NonFinite { field, .. }
             | ScheduleError::OutOfRange { field, .. }
-            | ScheduleError::NotAbove { field, .. } => field,
+            | ScheduleError::NotAbove { field, .. }
+            | ScheduleError::NotFinite { field }
+            | ScheduleError::OffReach { field, .. } => field,
             ScheduleError::LengthMismatch { .. } => "dwell_s",
             ScheduleError::NotIncreasing { .. } => "positions_mm",
             ScheduleError::NegativeDwell { .. } | ScheduleError::DwellTooLong { .. } => "dwell_s",
@@ -151,16 +157,6 @@ impl DwellSchedule {
         })
     }
 
-    /// A schedule from parts already known valid (e.g. a valid schedule's dwell scaled by a
-    /// positive factor).
-    pub(crate) fn new_unchecked(positions_mm: Vec<f64>, dwell_s: Vec<f64>) -> Self {
-        debug_assert_eq!(positions_mm.len(), dwell_s.len());
-        DwellSchedule {
-            positions_mm,
-            dwell_s,
-        }
-    }
-
     pub fn positions_mm(&self) -> &[f64] {
         &self.positions_mm
     }
@@ -178,66 +174,113 @@ impl DwellSchedule {
     }
 }
 
-/// The tool travelling from `start_mm` to `stop_mm` at a constant radial feed.
+/// The tool travelling from `start_mm` to `stop_mm` (radii, within the reach) at a constant
+/// feed along the surface.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ConstantFeed {
-    pub start_mm: f64,
-    pub stop_mm: f64,
-    pub feed_mm_per_min: f64,
-    /// Number of cells (positions, ≥ 1) the path is discretised into.
-    pub positions: usize,
+    start_mm: f64,
+    stop_mm: f64,
+    feed_mm_per_min: f64,
 }
 
 impl ConstantFeed {
-    /// Dwell density τ = 60 / feed, s per mm of path (of arc on a curved part).
-    pub fn dwell_density_s_per_mm(&self) -> f64 {
-        60.0 / self.feed_mm_per_min
-    }
-
-    /// The midpoint-rule dwell schedule of the path (module docs).
-    pub fn schedule(&self, process: &Process) -> Result<DwellSchedule, ScheduleError> {
-        if !self.feed_mm_per_min.is_finite() {
-            return Err(ScheduleError::NonFinite {
-                field: "feed_mm_per_min",
-                index: 0,
-            });
+    pub fn new(
+        process: &Process,
+        start_mm: f64,
+        stop_mm: f64,
+        feed_mm_per_min: f64,
+    ) -> Result<Self, ScheduleError> {
+        for (field, value) in [
+            ("start_mm", start_mm),
+            ("stop_mm", stop_mm),
+            ("feed_mm_per_min", feed_mm_per_min),
+        ] {
+            if !value.is_finite() {
+                return Err(ScheduleError::NotFinite { field });
+            }
         }
-        if self.feed_mm_per_min <= 0.0 {
+        if feed_mm_per_min <= 0.0 {
             return Err(ScheduleError::NotAbove {
                 field: "feed_mm_per_min",
                 lower: "0",
             });
         }
-        if self.positions == 0 {
-            return Err(ScheduleError::NotAbove {
-                field: "positions",
-                lower: "0",
-            });
+        let max = process.max_tool_position_mm();
+        for (field, value) in [("start_mm", start_mm), ("stop_mm", stop_mm)] {
+            if !(0.0..=max).contains(&value) {
+                return Err(ScheduleError::OffReach { field, value, max });
+            }
         }
-        if self.stop_mm <= self.start_mm {
+        if stop_mm <= start_mm {
             return Err(ScheduleError::NotAbove {
                 field: "stop_mm",
                 lower: "start_mm",
             });
         }
-        let n = self.positions;
-        // Cells of equal arc length (equal radius on a plane): constant dwell per unit length
-        // along the surface.
-        let surface = &process.part().surface;
-        let start = process.arc_length_mm(self.start_mm);
-        let length = process.arc_length_mm(self.stop_mm) - start;
-        // Cell k is [a + k·h, a + (k+1)·h]; its centre computed as one division so that
-        // centres that are exact in decimal (e.g. r_t) come out exact.
-        let positions: Vec<f64> = (0..n)
-            .map(|k| {
-                let centre = start + length * (2 * k + 1) as f64 / (2 * n) as f64;
-                surface.radius_at_arc_length(centre)
-            })
-            .collect();
-        let dwell = vec![self.dwell_density_s_per_mm() * length / n as f64; n];
-        DwellSchedule::new(process, positions, dwell)
+        Ok(ConstantFeed {
+            start_mm,
+            stop_mm,
+            feed_mm_per_min,
+        })
+    }
+
+    pub fn start_mm(&self) -> f64 {
+        self.start_mm
+    }
+    pub fn stop_mm(&self) -> f64 {
+        self.stop_mm
+    }
+    pub fn feed_mm_per_min(&self) -> f64 {
+        self.feed_mm_per_min
+    }
+
+    /// Dwell density τ = 60 / feed, s per mm of path (of arc on a curved part).
+    pub fn dwell_density_s_per_mm(&self) -> f64 {
+        60.0 / self.feed_mm_per_min
+    }
+
+    /// The path's length along the surface, mm.
+    pub fn length_mm(&self, process: &Process) -> f64 {
+        process.arc_length_mm(self.stop_mm) - process.arc_length_mm(self.start_mm)
+    }
+
+    /// Travel time, s.
+    pub fn total_time_s(&self, process: &Process) -> f64 {
+        self.dwell_density_s_per_mm() * self.length_mm(process)
+    }
+
+    /// The same path at `factor` times the feed.
+    pub fn with_feed_scaled(&self, factor: f64) -> ConstantFeed {
+        ConstantFeed {
+            feed_mm_per_min: self.feed_mm_per_min * factor,
+            ..*self
+        }
+    }
+
+    /// Removal in nm at each of `radii_mm`: τ·(F(b) − F(a)) with F the running integral of
+    /// the removal rate along the surface at that radius.
+    pub fn removal_nm(&self, process: &Process, radii_mm: &[f64]) -> Vec<f64> {
+        let kernel = RemovalKernel::new(process);
+        let tau = self.dwell_density_s_per_mm();
+        let rt = process.tool_radius_mm();
+        let at = |&r: &f64| {
+            // Outside the pad's reach of the path nothing is removed.
+            if r + rt <= self.start_mm || r - rt >= self.stop_mm {
+                return 0.0;
+            }
+            let path = kernel.path_integral(r);
+            tau * (path.at(self.stop_mm) - path.at(self.start_mm))
+        };
+        if radii_mm.len() >= PARALLEL_MIN_RADII {
+            radii_mm.par_iter().map(at).collect()
+        } else {
+            radii_mm.iter().map(at).collect()
+        }
     }
 }
+
+/// Radii at and above which a constant feed's removal is computed across threads.
+const PARALLEL_MIN_RADII: usize = 64;
 
 #[cfg(test)]
 mod tests {
@@ -275,17 +318,16 @@ mod tests {
     }
 
     #[test]
-    fn constant_feed_uses_cell_centres_and_conserves_time() {
-        let feed = ConstantFeed {
-            start_mm: 0.0,
-            stop_mm: 60.0,
-            feed_mm_per_min: 30.0,
-            positions: 6,
-        };
-        let s = feed.schedule(&process()).unwrap();
-        assert_eq!(s.positions_mm(), &[5.0, 15.0, 25.0, 35.0, 45.0, 55.0]);
-        // 60 mm at 30 mm/min is 120 s, all of it accounted for, 20 s per 10 mm cell.
-        assert!((s.total_time_s() - 120.0).abs() < 1e-12);
-        assert!(s.dwell_s().iter().all(|&t| t == 20.0));
+    fn constant_feed_checks_its_path_and_keeps_time() {
+        let p = process();
+        let feed = ConstantFeed::new(&p, 0.0, 60.0, 30.0).unwrap();
+        // 60 mm at 30 mm/min is 120 s.
+        assert!((feed.total_time_s(&p) - 120.0).abs() < 1e-12);
+        let err = |a, b, v| ConstantFeed::new(&p, a, b, v).unwrap_err().field();
+        assert_eq!(err(0.0, 60.0, 0.0), "feed_mm_per_min");
+        assert_eq!(err(0.0, 60.5, 10.0), "stop_mm");
+        assert_eq!(err(-1.0, 6.0, 10.0), "start_mm");
+        assert_eq!(err(5.0, 5.0, 10.0), "stop_mm");
+        assert_eq!(err(f64::NAN, 5.0, 10.0), "start_mm");
     }
 }

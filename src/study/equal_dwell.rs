@@ -1,26 +1,24 @@
 //! Equal dwell: one constant-feed pass over [0, L] (see [`super`]), and what it removes.
 
 use crate::physics::{
-    ClearAperture, ConstantFeed, DwellSchedule, Process, ProcessSpec, RadialGrid, RemovalKernel,
-    RemovalOperator, UniformityMetrics,
+    ClearAperture, ConstantFeed, Process, ProcessSpec, RadialGrid, UniformityMetrics,
 };
 
-/// Where a study looks: the radial grid removal is computed on, the clear aperture it is
-/// judged over, and how many positions (cells) the equal-dwell pass has.
+/// Where a study looks: the radial grid removal is computed on and the clear aperture it is
+/// judged over.
 #[derive(Debug, Clone, Copy)]
 pub struct Frame<'a> {
     pub grid: &'a RadialGrid,
     pub aperture: &'a ClearAperture,
-    pub positions: usize,
 }
 
 /// The equal-dwell pass for a process and aperture, scaled to remove a mean depth.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EqualDwell {
-    /// Cell-centre positions, mm, with equal dwell each (s).
-    pub schedule: DwellSchedule,
-    /// The constant feed, mm/min.
-    pub feed_mm_per_min: f64,
+    /// The constant-feed pass over [0, L].
+    pub pass: ConstantFeed,
+    /// Its travel time, s.
+    pub total_time_s: f64,
     /// Removal at each grid radius inside the clear aperture, nm (only these are judged, so
     /// only these are computed).
     pub aperture_removal_nm: Vec<f64>,
@@ -89,26 +87,14 @@ pub fn path_end_mm(process: &Process, aperture: &ClearAperture) -> f64 {
 }
 
 impl EqualDwell {
-    /// The pass with `frame.positions` cells whose mean removal over the aperture is
-    /// `depth_nm` (> 0). `None` when the pass removes nothing inside the aperture.
+    /// The pass whose mean removal over the aperture is `depth_nm` (> 0). `None` when the
+    /// pass removes nothing inside the aperture.
     pub fn for_depth(process: &Process, frame: Frame, depth_nm: f64) -> Option<Self> {
-        let Frame {
-            grid,
-            aperture,
-            positions,
-        } = frame;
-        // One pass at 60 mm/min (1 s/mm), then scaled: removal is linear in the dwell.
-        let unit = ConstantFeed {
-            start_mm: 0.0,
-            stop_mm: path_end_mm(process, aperture),
-            feed_mm_per_min: 60.0,
-            positions,
-        };
-        let schedule = unit.schedule(process).ok()?;
+        let Frame { grid, aperture } = frame;
+        // One pass at 60 mm/min (1 s/mm), then scaled: removal is linear in the dwell density.
+        let unit = ConstantFeed::new(process, 0.0, path_end_mm(process, aperture), 60.0).ok()?;
         let radii = &grid.radii_mm()[grid.rows_in(aperture)];
-        let removal =
-            RemovalOperator::assemble(&RemovalKernel::new(process), radii, schedule.positions_mm())
-                .apply(schedule.dwell_s());
+        let removal = unit.removal_nm(process, radii);
         if removal.is_empty() {
             return None;
         }
@@ -118,26 +104,27 @@ impl EqualDwell {
         }
         let k = depth_nm / mean;
         let removal_nm: Vec<f64> = removal.iter().map(|z| z * k).collect();
-        let dwell: Vec<f64> = schedule.dwell_s().iter().map(|t| t * k).collect();
-        let schedule = DwellSchedule::new(process, schedule.positions_mm().to_vec(), dwell).ok()?;
+        let pass = unit.with_feed_scaled(1.0 / k);
         Some(EqualDwell {
             metrics: UniformityMetrics::of_samples(&removal_nm),
-            feed_mm_per_min: 60.0 / k,
-            schedule,
+            total_time_s: pass.total_time_s(process),
+            pass,
             aperture_removal_nm: removal_nm,
         })
     }
 
-    /// The same pass removing k times as deep (k > 0): dwell and removal scale by k, the feed
+    /// The constant feed, mm/min of arc.
+    pub fn feed_mm_per_min(&self) -> f64 {
+        self.pass.feed_mm_per_min()
+    }
+
+    /// The same pass removing k times as deep (k > 0): time and removal scale by k, the feed
     /// by 1/k, nonuniformity not at all.
     pub fn scaled(&self, k: f64) -> Self {
         let m = &self.metrics;
         EqualDwell {
-            schedule: DwellSchedule::new_unchecked(
-                self.schedule.positions_mm().to_vec(),
-                self.schedule.dwell_s().iter().map(|t| t * k).collect(),
-            ),
-            feed_mm_per_min: self.feed_mm_per_min / k,
+            pass: self.pass.with_feed_scaled(1.0 / k),
+            total_time_s: self.total_time_s * k,
             aperture_removal_nm: self.aperture_removal_nm.iter().map(|z| z * k).collect(),
             metrics: UniformityMetrics {
                 mean_nm: m.mean_nm * k,
@@ -151,28 +138,25 @@ impl EqualDwell {
     }
 
     /// The same pass on a process that removes `factor` (> 0) times as fast everywhere: the
-    /// same removal in 1/factor of the time (dwell ÷ factor, feed × factor).
+    /// same removal in 1/factor of the time (feed × factor).
     pub fn retimed(&self, factor: f64) -> Self {
         EqualDwell {
-            schedule: DwellSchedule::new_unchecked(
-                self.schedule.positions_mm().to_vec(),
-                self.schedule.dwell_s().iter().map(|t| t / factor).collect(),
-            ),
-            feed_mm_per_min: self.feed_mm_per_min * factor,
+            pass: self.pass.with_feed_scaled(factor),
+            total_time_s: self.total_time_s / factor,
             ..self.clone()
         }
     }
 
     /// Whether every figure is a finite number (retiming by an extreme factor can overflow).
     pub fn is_finite(&self) -> bool {
-        self.feed_mm_per_min.is_finite()
-            && self.schedule.dwell_s().iter().all(|t| t.is_finite())
+        self.feed_mm_per_min().is_finite()
+            && self.total_time_s.is_finite()
             && self.aperture_removal_nm.iter().all(|z| z.is_finite())
     }
 
     /// Mean removal rate over the aperture, nm/min.
     pub fn mean_rate_nm_per_min(&self) -> f64 {
-        60.0 * self.metrics.mean_nm / self.schedule.total_time_s()
+        60.0 * self.metrics.mean_nm / self.total_time_s
     }
 }
 
@@ -197,22 +181,19 @@ mod tests {
         let frame = Frame {
             grid: &grid,
             aperture: &aperture,
-            positions: 200,
         };
         let pass = EqualDwell::for_depth(&process, frame, 100.0).unwrap();
         assert!((pass.metrics.mean_nm - 100.0).abs() < 1e-9);
-        // The path runs to outer + r_t = 50 mm in 200 cells of 0.25 mm, one feed throughout.
-        let positions = pass.schedule.positions_mm();
-        assert_eq!(positions.len(), 200);
-        assert!((positions[199] - 49.875).abs() < 1e-12);
-        let dwell = pass.schedule.dwell_s()[0];
-        assert!((pass.feed_mm_per_min - 60.0 * 0.25 / dwell).abs() < 1e-9 * pass.feed_mm_per_min);
+        // The path runs to outer + r_t = 50 mm at one feed throughout.
+        assert_eq!((pass.pass.start_mm(), pass.pass.stop_mm()), (0.0, 50.0));
+        let time = 60.0 * 50.0 / pass.feed_mm_per_min();
+        assert!((pass.total_time_s - time).abs() < 1e-12 * time);
         let doubled = pass.scaled(2.0);
         let direct = EqualDwell::for_depth(&process, frame, 200.0).unwrap();
         assert!((doubled.metrics.pv_nm - direct.metrics.pv_nm).abs() < 1e-9 * direct.metrics.pv_nm);
         assert!(
-            (doubled.feed_mm_per_min - direct.feed_mm_per_min).abs()
-                < 1e-12 * direct.feed_mm_per_min
+            (doubled.feed_mm_per_min() - direct.feed_mm_per_min()).abs()
+                < 1e-12 * direct.feed_mm_per_min()
         );
         assert_eq!(doubled.metrics.nonuniformity, pass.metrics.nonuniformity);
     }

@@ -15,6 +15,9 @@ use super::StudyError;
 use crate::physics::process::RPM_MAX;
 use crate::physics::{Process, ProcessSpec};
 
+/// Nonuniformity below which equal dwell counts as uniform to rounding.
+pub const UNIFORM_TO_ROUNDING: f64 = 1e-9;
+
 /// Machine speed limits, r/min (magnitudes, > 0), checked by [`SpeedLimits::new`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SpeedLimits {
@@ -59,7 +62,8 @@ pub struct Recommendation {
     /// Equal dwell at the user's speeds.
     pub current: EqualDwell,
     /// current nonuniformity / recommended nonuniformity (`None` if either is undefined or
-    /// the recommended one is 0).
+    /// the recommended one is below [`UNIFORM_TO_ROUNDING`]: on a plane equal dwell at η = −1
+    /// is exactly uniform, and a ratio of 1e15 to rounding noise means nothing).
     pub improvement_factor: Option<f64>,
     /// `None` when equal dwell at η = −1 is itself above the threshold (e.g. an aperture out
     /// to the edge, where the pad cannot overhang).
@@ -187,7 +191,7 @@ pub fn recommend(
         current.metrics.nonuniformity,
         recommended.metrics.nonuniformity,
     ) {
-        (Some(c), Some(r)) if r > 0.0 => Some(c / r),
+        (Some(c), Some(r)) if r >= UNIFORM_TO_ROUNDING => Some(c / r),
         _ => None,
     };
     Ok(Recommendation {

@@ -1,6 +1,6 @@
 //! η sweeps: uniformity against η with the tool speed held.
 
-use super::recommend::{equal_dwell_depth, equal_dwell_positions};
+use super::recommend::equal_dwell_depth;
 use super::{ComputeLimits, Input, InputError, Setting};
 use crate::physics::DwellSchedule;
 use crate::study::{self, StudyError, SweepEtas, SweepPoint};
@@ -12,18 +12,16 @@ pub struct EtaSweepCommand {
     etas: SweepEtas,
     dwell: Option<DwellSchedule>,
     depth_nm: f64,
-    positions: usize,
 }
 
 impl EtaSweepCommand {
-    /// `dwell` is (positions_mm, dwell_s); without it equal dwell of `positions` cells
-    /// (default 200) removes `depth_nm` (default 100) at each point.
+    /// `dwell` is (positions_mm, dwell_s); without it equal dwell (a constant feed) removes
+    /// `depth_nm` (default 100) at each point.
     pub fn new(
         setting: Setting,
         etas: Vec<f64>,
         dwell: Option<(Vec<f64>, Vec<f64>)>,
         depth_nm: Option<f64>,
-        positions: Option<usize>,
         limits: &ComputeLimits,
     ) -> Result<Self, InputError> {
         if etas.is_empty() {
@@ -36,7 +34,6 @@ impl EtaSweepCommand {
             .check_etas(etas.len())
             .map_err(InputError::limit(Input::Etas))?;
         let depth_nm = equal_dwell_depth(depth_nm)?;
-        let positions = equal_dwell_positions(positions)?;
         let dwell = match dwell {
             Some((positions_mm, dwell_s)) => {
                 limits
@@ -47,12 +44,7 @@ impl EtaSweepCommand {
                         .map_err(InputError::schedule(Input::Dwell))?,
                 )
             }
-            None => {
-                limits
-                    .check_operator(setting.samples(), positions)
-                    .map_err(InputError::limit(Input::EqualDwellPositions))?;
-                None
-            }
+            None => None,
         };
         let etas = SweepEtas::new(setting.process().spec(), etas)?;
         Ok(EtaSweepCommand {
@@ -60,7 +52,6 @@ impl EtaSweepCommand {
             etas,
             dwell,
             depth_nm,
-            positions,
         })
     }
 }
@@ -80,9 +71,8 @@ pub fn eta_sweep(command: EtaSweepCommand) -> Result<EtaSweep, StudyError> {
         etas,
         dwell,
         depth_nm,
-        positions,
     } = command;
-    let points = study::eta_sweep(&etas, setting.frame(positions), dwell.as_ref(), depth_nm)?;
+    let points = study::eta_sweep(&etas, setting.frame(), dwell.as_ref(), depth_nm)?;
     Ok(EtaSweep {
         tool_rpm: etas.spec().tool_rpm,
         setting,

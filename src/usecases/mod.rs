@@ -46,10 +46,10 @@ pub enum Input {
     ToolPositions,
     /// A dwell schedule (positions and dwell times).
     Dwell,
+    /// A constant feed (start, stop, feed).
+    Feed,
     /// The candidate positions of an optimization.
     Positions,
-    /// The number of cells of the equal-dwell pass.
-    EqualDwellPositions,
     /// The η values of a sweep.
     Etas,
     /// The depth equal dwell removes.

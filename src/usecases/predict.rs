@@ -1,15 +1,23 @@
-//! Prediction: the cumulative removal of a dwell schedule and its uniformity.
+//! Prediction: the cumulative removal of a dwell plan (or a constant feed) and its uniformity.
+//! Both are the motion of [`crate::physics::motion`].
 
 use super::warnings::positions_unit;
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
-use crate::physics::{DwellSchedule, UniformityMetrics};
+use crate::physics::{ConstantFeed, DwellSchedule, UniformityMetrics};
 use crate::study::Recommendation;
 
-/// A dwell schedule to predict in a setting.
+/// What the tool does: a dwell plan, or one constant feed along the surface.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Travel {
+    Dwell(DwellSchedule),
+    Feed(ConstantFeed),
+}
+
+/// A dwell plan or a constant feed to predict in a setting.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PredictCommand {
     setting: Setting,
-    schedule: DwellSchedule,
+    travel: Travel,
 }
 
 impl PredictCommand {
@@ -24,7 +32,26 @@ impl PredictCommand {
             .map_err(InputError::limit(Input::Dwell))?;
         let schedule = DwellSchedule::new(setting.process(), positions_mm, dwell_s)
             .map_err(InputError::schedule(Input::Dwell))?;
-        Ok(PredictCommand { setting, schedule })
+        Ok(PredictCommand {
+            setting,
+            travel: Travel::Dwell(schedule),
+        })
+    }
+
+    /// A constant feed from `start_mm` to `stop_mm` (radii within reach) at `feed_mm_per_min`
+    /// along the surface.
+    pub fn with_feed(
+        setting: Setting,
+        start_mm: f64,
+        stop_mm: f64,
+        feed_mm_per_min: f64,
+    ) -> Result<Self, InputError> {
+        let feed = ConstantFeed::new(setting.process(), start_mm, stop_mm, feed_mm_per_min)
+            .map_err(InputError::schedule(Input::Feed))?;
+        Ok(PredictCommand {
+            setting,
+            travel: Travel::Feed(feed),
+        })
     }
 }
 
@@ -47,22 +74,32 @@ pub fn predict(
     recommender: &Recommender,
     operators: &OperatorCache,
 ) -> Prediction {
-    let PredictCommand { setting, schedule } = command;
-    let removal_nm = operators
-        .operator(
-            setting.process(),
-            setting.grid().radii_mm(),
-            schedule.positions_mm(),
-        )
-        .apply(schedule.dwell_s());
+    let PredictCommand { setting, travel } = command;
+    let process = setting.process();
+    let radii = setting.grid().radii_mm();
+    let (removal_nm, total_time_s, warnings) = match &travel {
+        Travel::Dwell(schedule) => (
+            operators
+                .operator(process, radii, schedule.positions_mm())
+                .apply(schedule.dwell_s()),
+            schedule.total_time_s(),
+            positions_unit(process, schedule.positions_mm())
+                .into_iter()
+                .collect(),
+        ),
+        Travel::Feed(feed) => (
+            feed.removal_nm(process, radii),
+            feed.total_time_s(process),
+            positions_unit(process, &[feed.start_mm(), feed.stop_mm()])
+                .into_iter()
+                .collect(),
+        ),
+    };
     let metrics = UniformityMetrics::over(setting.grid(), setting.aperture(), &removal_nm);
-    let warnings = positions_unit(setting.process(), schedule.positions_mm())
-        .into_iter()
-        .collect();
     Prediction {
         warnings,
         recommendation: recommender.for_plan(&setting, metrics.mean_nm),
-        total_time_s: schedule.total_time_s(),
+        total_time_s,
         setting,
         removal_nm,
         metrics,

@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use std::hash::Hash;
 use std::sync::{Arc, Mutex};
 
-use super::{ComputeLimits, Input, InputError, Setting};
+use super::{Input, InputError, Setting};
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::physics::Process;
 use crate::study::{
@@ -27,8 +27,6 @@ use crate::study::{
 
 /// Default η-window threshold on equal-dwell nonuniformity (2 %).
 pub const DEFAULT_THRESHOLD: f64 = 0.02;
-/// Default number of positions (cells) of the equal-dwell pass.
-pub const DEFAULT_EQUAL_DWELL_POSITIONS: usize = 200;
 /// Default depth of the equal-dwell plan, nm.
 pub const DEFAULT_DEPTH_NM: f64 = 100.0;
 /// Entries each cache holds before it is emptied.
@@ -41,19 +39,16 @@ pub struct RecommendCommand {
     limits: SpeedLimits,
     depth_nm: f64,
     threshold: f64,
-    positions: usize,
 }
 
 impl RecommendCommand {
     /// `depth_nm` (default 100) in (0, 1e9] nm; `threshold` (default 0.02) a finite fraction
-    /// > 0; `positions` (default 200) at least 2, within the operator limit.
+    /// > 0.
     pub fn new(
         setting: Setting,
         limits: SpeedLimits,
         depth_nm: Option<f64>,
         threshold: Option<f64>,
-        positions: Option<usize>,
-        compute: &ComputeLimits,
     ) -> Result<Self, InputError> {
         let depth_nm = equal_dwell_depth(depth_nm)?;
         let threshold = threshold.unwrap_or(DEFAULT_THRESHOLD);
@@ -63,16 +58,11 @@ impl RecommendCommand {
                 max: f64::MAX,
             });
         }
-        let positions = equal_dwell_positions(positions)?;
-        compute
-            .check_operator(setting.samples(), positions)
-            .map_err(InputError::limit(Input::EqualDwellPositions))?;
         Ok(RecommendCommand {
             setting,
             limits,
             depth_nm,
             threshold,
-            positions,
         })
     }
 
@@ -94,20 +84,6 @@ pub(super) fn equal_dwell_depth(depth_nm: Option<f64>) -> Result<f64, InputError
     }
 }
 
-/// The cells of an equal-dwell pass: `None` means [`DEFAULT_EQUAL_DWELL_POSITIONS`]; at least
-/// 2 (the upper bound is the operator's, checked with the grid).
-pub(super) fn equal_dwell_positions(positions: Option<usize>) -> Result<usize, InputError> {
-    let n = positions.unwrap_or(DEFAULT_EQUAL_DWELL_POSITIONS);
-    if n >= 2 {
-        Ok(n)
-    } else {
-        Err(InputError::OutOfRange {
-            input: Input::EqualDwellPositions,
-            max: f64::MAX,
-        })
-    }
-}
-
 /// Recommends η = −1 speeds (see [`crate::study::recommend`]).
 pub fn recommend(
     command: &RecommendCommand,
@@ -118,11 +94,10 @@ pub fn recommend(
         limits,
         depth_nm,
         threshold,
-        positions,
     } = command;
     recommender.recommendation(
         setting.process(),
-        setting.frame(*positions),
+        setting.frame(),
         *limits,
         *depth_nm,
         *threshold,
@@ -200,7 +175,6 @@ fn frame_key(process: &Process, frame: Frame) -> Vec<u64> {
     .collect();
     key.extend([
         frame.grid.radii_mm().len() as u64,
-        frame.positions as u64,
         s.pressure_model as u64,
         s.part.orientation as u64,
     ]);
@@ -276,7 +250,7 @@ impl Recommender {
         };
         self.recommendation(
             setting.process(),
-            setting.frame(DEFAULT_EQUAL_DWELL_POSITIONS),
+            setting.frame(),
             SpeedLimits::default(),
             depth,
             DEFAULT_THRESHOLD,
@@ -323,7 +297,6 @@ mod tests {
         let frame = Frame {
             grid: &grid,
             aperture: &aperture,
-            positions: 200,
         };
         let ask = |r: &Recommender, p: &Process| {
             r.recommendation(p, frame, SpeedLimits::default(), 100.0, 0.02)
@@ -341,8 +314,8 @@ mod tests {
         assert!(rel(answers[1].tool_rpm, 3.0 * answers[0].tool_rpm) < 1e-12);
         assert!(
             rel(
-                answers[1].current.schedule.total_time_s(),
-                answers[0].current.schedule.total_time_s() / 3.0
+                answers[1].current.total_time_s,
+                answers[0].current.total_time_s / 3.0
             ) < 1e-12
         );
         assert_eq!(
@@ -352,8 +325,8 @@ mod tests {
         assert!(rel(answers[2].tool_rpm, answers[0].tool_rpm) < 1e-12);
         assert!(
             rel(
-                answers[2].recommended.schedule.total_time_s(),
-                answers[0].recommended.schedule.total_time_s() / 2.0
+                answers[2].recommended.total_time_s,
+                answers[0].recommended.total_time_s / 2.0
             ) < 1e-12
         );
         // A different η is a different comparison.

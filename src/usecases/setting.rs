@@ -86,12 +86,11 @@ impl Setting {
         self.grid.radii_mm().len()
     }
 
-    /// The study frame with an equal-dwell pass of `positions` cells.
-    pub fn frame(&self, positions: usize) -> Frame<'_> {
+    /// The study frame: where removal is computed and judged.
+    pub fn frame(&self) -> Frame<'_> {
         Frame {
             grid: &self.grid,
             aperture: &self.aperture,
-            positions,
         }
     }
 }

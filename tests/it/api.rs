@@ -732,10 +732,11 @@ async fn counts_take_whole_numbers_written_with_a_fraction() {
         let reply = post_json(&app(), "/v1/removal-function", body(bad)).await;
         assert_problem_type(&reply, "schema-mismatch", "radial_grid.count");
     }
+    // equal_dwell_positions is retired (equal dwell is an exact constant feed): refused by name.
     let reply = post_json(
         &app(),
         "/v1/recommend",
-        json!({"process": exp1_process(), "equal_dwell_positions": 2.5}).to_string(),
+        json!({"process": exp1_process(), "equal_dwell_positions": 200}).to_string(),
     )
     .await;
     assert_problem_type(&reply, "schema-mismatch", "equal_dwell_positions");

@@ -10,8 +10,9 @@ use preston::physics::{ClearAperture, Process, RadialGrid};
 use preston::study::{EqualDwell, Frame};
 
 /// η = −1, r_t = 8 mm, constant dwell per unit arc length over 0–50 mm of arc on R = ±100 mm:
-/// the removal is uniform to ≤ 0.2 % (pv/mean over the aperture), less as positions are
-/// refined. The pass overhangs the edge by r_t of arc, as equal dwell does on a plane.
+/// the removal is uniform to ≤ 0.1 % (pv/mean over the aperture; the design notes measured
+/// 0.08 % with an independent 3-D model), the rest being the spin about the normal that a
+/// slope adds. The pass overhangs the edge by r_t of arc, as equal dwell does on a plane.
 #[test]
 fn equal_dwell_at_eta_minus_one_is_uniform_on_spheres() {
     for radius in [100.0, -100.0] {
@@ -26,30 +27,19 @@ fn equal_dwell_at_eta_minus_one_is_uniform_on_spheres() {
         let process = Process::new(case.spec()).unwrap();
         let grid = RadialGrid::new(&process, 0.0, case.workpiece_radius, 401).unwrap();
         let aperture = ClearAperture::new(&process, 0.0, case.workpiece_radius).unwrap();
-        let mut previous = f64::INFINITY;
-        for positions in [232, 464, 928, 1856] {
-            let frame = Frame {
-                grid: &grid,
-                aperture: &aperture,
-                positions,
-            };
-            let pass = EqualDwell::for_depth(&process, frame, 100.0).unwrap();
-            let nonuniformity = pass.metrics.nonuniformity.unwrap();
-            println!("R {radius}, {positions} positions: nonuniformity {nonuniformity:.3e}");
-            if positions >= 928 {
-                assert!(nonuniformity <= 2e-3, "R {radius}: {nonuniformity}");
-            }
-            assert!(
-                nonuniformity < previous,
-                "R {radius}: {nonuniformity} ≥ {previous}"
-            );
-            previous = nonuniformity;
-        }
+        let frame = Frame {
+            grid: &grid,
+            aperture: &aperture,
+        };
+        let pass = EqualDwell::for_depth(&process, frame, 100.0).unwrap();
+        let nonuniformity = pass.metrics.nonuniformity.unwrap();
+        println!("R {radius}: nonuniformity {nonuniformity:.3e}");
+        assert!(nonuniformity <= 1e-3, "R {radius}: {nonuniformity}");
     }
 }
 
 /// `/v1/optimize` on an R = 60 mm sphere at the paper's η = +0.05: 100 nm uniform over the
-/// aperture to ≤ 1 % nonuniformity, and the plan removes that when each position's removal is
+/// aperture to ≤ 1 % nonuniformity, and the plan removes that when its motion's removal is
 /// recomputed with the independent 3-D model (agreement to 1e-6 of the mean, which is the
 /// 3-D model's accuracy, not a loosened bound).
 #[tokio::test]
@@ -91,20 +81,40 @@ async fn optimized_plan_on_a_sphere_is_uniform_by_the_3d_model() {
     let dwell = numbers(&plan["dwell"]["dwell_s"]);
     let radii = numbers(&plan["radius_mm"]);
     let removal = numbers(&plan["removal_nm"]);
+    // The motion the plan stands for (docs/MODEL.md): stops of t/2 at the two ends, and each
+    // cell between neighbouring midpoints crossed at constant speed along the arc, so it
+    // removes (w_j·t_j/L_j)·∫ R_3d ds over the cell; the arc length of the R = 60 mm sphere is
+    // s = 60·asin(r/60), and the cell integrals are adaptive Gauss–Kronrod in s.
+    let n = at.len();
+    let arc = |r: f64| 60.0 * (r / 60.0).asin();
+    let radius = |s: f64| 60.0 * (s / 60.0).sin();
+    let mut bounds = vec![at[0]];
+    bounds.extend(at.windows(2).map(|w| 0.5 * (w[0] + w[1])));
+    bounds.push(at[n - 1]);
     let mut inside = Vec::new();
-    // Every fifth sample of the aperture (81 radii, ~16,000 reference integrals).
+    // Every tenth sample of the aperture (41 radii).
     for (i, &r) in radii
         .iter()
         .enumerate()
-        .filter(|(i, &r)| r <= 40.0 && i % 5 == 0)
+        .filter(|(i, &r)| r <= 40.0 && i % 10 == 0)
     {
-        // Σ_j R_3d(r; r1_j)·t_j, R in nm/min.
-        let reference: f64 = at
-            .iter()
-            .zip(&dwell)
-            .filter(|(&r1, &t)| t > 0.0 && (r - r1).abs() < 10.0)
-            .map(|(&r1, &t)| case.rate(r, r1) * t / 60.0)
-            .sum();
+        let mut reference = 0.0;
+        for j in 0..n {
+            let (lo, hi) = (bounds[j], bounds[j + 1]);
+            if dwell[j] == 0.0 || lo >= r + 10.0 || hi <= r - 10.0 {
+                continue;
+            }
+            let end = j == 0 || j == n - 1;
+            let share = if end { 0.5 } else { 1.0 };
+            let (s0, s1) = (arc(lo), arc(hi));
+            let rate = |s: f64| case.rate(r, radius(s));
+            // R in nm/min; an absolute tolerance of 1e-9 nm/min · mm per cell.
+            let cell = crate::common::adaptive_integral(&rate, s0, s1, 1e-9);
+            reference += share * dwell[j] / 60.0 * cell / (s1 - s0);
+            if end {
+                reference += 0.5 * dwell[j] / 60.0 * case.rate(r, at[j]);
+            }
+        }
         assert!(
             (reference - removal[i]).abs() <= 1e-6 * 100.0,
             "r {r}: service {} vs 3-D model {reference}",
@@ -144,10 +154,7 @@ async fn every_endpoint_computes_on_the_part() {
             value
         }
     };
-    let recommend = |surface: serde_json::Value| {
-        json!({"process": process, "surface": surface, "equal_dwell_positions": 464,
-               "radial_grid": {"count": 241}})
-    };
+    let recommend = |surface: serde_json::Value| json!({"process": process, "surface": surface, "radial_grid": {"count": 241}});
     let curved = ask("/v1/recommend", recommend(sphere.clone())).await;
     let flat = ask("/v1/recommend", recommend(json!({"kind": "plane"}))).await;
     let on = |r: &serde_json::Value| {
@@ -155,8 +162,7 @@ async fn every_endpoint_computes_on_the_part() {
             .as_f64()
             .unwrap()
     };
-    // (The 0.2 % fact needs finer positions; see the test above.)
-    assert!(on(&curved) <= 5e-3, "{}", on(&curved));
+    assert!(on(&curved) <= 1e-3, "{}", on(&curved));
     assert_ne!(on(&curved), on(&flat));
     let window = &curved["recommendation"]["eta_window"];
     assert!(window["low"].as_f64().unwrap() < -1.0 && window["high"].as_f64().unwrap() > -1.0);

@@ -1,35 +1,25 @@
-//! The exact η = −1 invariant (docs/MODEL.md): with constant dwell density τ over a path covering
-//! [0, r + r_t], removal at r is K·P·|ω|·r_t²·τ/2, whatever r. Checked for the midpoint-rule
-//! constant-feed discretisation over [0, r_m + r_t] = [0, 60] mm at 2001 positions (≤ 0.25 %
-//! everywhere on [0, r_m]) and for its convergence: doubling the positions (4002) at least
-//! halves the worst error.
+//! The exact η = −1 invariant (docs/MODEL.md): with constant dwell density τ over a path
+//! covering [r − r_t, r + r_t], removal at r is K·P·|ω|·r_t²·τ/2, whatever r.
 //!
-//! Caveat (see `physics::schedule`): at r = 0 the integrand jumps at r1 = r_t, and a point rule
-//! is only first order there unless r_t sits on a cell centre (2001 cells of 60/2001 mm: centre
-//! 333) or a cell boundary (4002 cells: boundary 667). Paths that miss both still meet the
-//! 0.25 % bound as long as h/r_t ≤ 0.25 %, checked below for 2000 cells.
+//! It holds exactly for the motion a plan stands for, not just in a limit: a constant-feed
+//! pass over [0, r_m + r_t] and an equal-dwell plan over the same path (whose end half-cells
+//! are crossed at the same feed; the stop at r = 0 removes nothing at η = −1, the pad's centre
+//! on the axis sliding at |ω|·0) both remove the invariant depth at every radius of [0, r_m]
+//! to rounding, whatever the number of cells. Tolerance 1e-10: the running integral is
+//! resolved to 1e-12 of the rate, the rest is rounding in sums of ~1e3 terms.
 
 use crate::common;
 
-use preston::physics::{ConstantFeed, RadialGrid};
+use preston::physics::{ConstantFeed, DwellSchedule, RadialGrid};
 
-/// Worst relative deviation from the invariant on 201 radii over [0, r_m].
-fn worst_relative_error(positions: usize) -> f64 {
-    let p = common::paper_process(150.0, 150.0);
-    let feed = ConstantFeed {
-        start_mm: 0.0,
-        stop_mm: 60.0, // r_m + r_t
-        feed_mm_per_min: 20.0,
-        positions,
-    };
-    let schedule = feed.schedule(&p).unwrap();
-    let grid = RadialGrid::default_for(&p);
-    let removal = schedule.removal_nm(&p, &grid);
-
+/// K·P·|ω|·r_t²·τ/2 in nm for the paper's geometry at 150 r/min and τ s/mm.
+fn invariant_nm(tau: f64) -> f64 {
     let omega = 150.0 * 2.0 * std::f64::consts::PI / 60.0; // rad/s
-    let tau = feed.dwell_density_s_per_mm(); // s/mm
-                                             // K·P is dimensionless; |ω|·r_t²·τ is in mm; 1 mm = 1e6 nm.
-    let exact_nm = 1e-13 * 10e3 * omega * 10.0 * 10.0 * tau / 2.0 * 1e6;
+                                                           // K·P is dimensionless; |ω|·r_t²·τ is in mm; 1 mm = 1e6 nm.
+    1e-13 * 10e3 * omega * 10.0 * 10.0 * tau / 2.0 * 1e6
+}
+
+fn worst_relative_error(removal: &[f64], exact_nm: f64) -> f64 {
     removal
         .iter()
         .map(|z| (z - exact_nm).abs() / exact_nm)
@@ -37,19 +27,35 @@ fn worst_relative_error(positions: usize) -> f64 {
 }
 
 #[test]
-fn equal_dwell_at_eta_minus_one_removes_a_uniform_layer() {
-    let coarse = worst_relative_error(2001);
-    let fine = worst_relative_error(4002);
-    eprintln!("worst relative error: 2001 positions {coarse:e}, 4002 positions {fine:e}");
-    assert!(coarse <= 2.5e-3, "2001 positions: {coarse}");
-    assert!(fine <= 0.5 * coarse, "doubling: {coarse} -> {fine}");
+fn a_constant_feed_at_eta_minus_one_removes_the_invariant_depth() {
+    let p = common::paper_process(150.0, 150.0);
+    let feed = ConstantFeed::new(&p, 0.0, 60.0, 20.0).unwrap(); // r_m + r_t
+                                                                // 201 default radii and 1000 more, off any round number.
+    let mut radii = RadialGrid::default_for(&p).radii_mm().to_vec();
+    radii.extend((0..1000).map(|k| 50.0 * (k as f64 + 0.37) / 1000.0));
+    radii.sort_by(f64::total_cmp);
+    let err = worst_relative_error(
+        &feed.removal_nm(&p, &radii),
+        invariant_nm(feed.dwell_density_s_per_mm()),
+    );
+    eprintln!("constant feed: worst relative error {err:e}");
+    assert!(err <= 1e-10, "{err}");
 }
 
 #[test]
-fn unaligned_paths_stay_within_the_first_order_bound() {
-    // 2000 cells of 0.03 mm: r_t = 333⅓ cells, neither centre nor boundary; the first-order
-    // bound h/r_t = 0.3 % is looser than 0.25 %, which the rule still meets here.
-    let err = worst_relative_error(2000);
-    eprintln!("worst relative error, 2000 positions: {err:e}");
-    assert!(err <= 2.5e-3, "{err}");
+fn equal_dwell_plans_at_eta_minus_one_are_uniform_whatever_the_cells() {
+    let p = common::paper_process(150.0, 150.0);
+    let grid = RadialGrid::default_for(&p);
+    for cells in [150, 200, 333, 1000, 2001] {
+        // Positions at both ends of [0, 60] mm, equal dwell t: every cell is crossed at h/t.
+        let h = 60.0 / (cells - 1) as f64;
+        let positions: Vec<f64> = (0..cells)
+            .map(|k| 60.0 * k as f64 / (cells - 1) as f64)
+            .collect();
+        let t = 3.0;
+        let schedule = DwellSchedule::new(&p, positions, vec![t; cells]).unwrap();
+        let err = worst_relative_error(&schedule.removal_nm(&p, &grid), invariant_nm(t / h));
+        eprintln!("{cells} positions: worst relative error {err:e}");
+        assert!(err <= 1e-10, "{cells} positions: {err}");
+    }
 }

@@ -429,9 +429,9 @@
       post(view, '/v1/studies/eta-sweep', sweepRequest),
     ]);
     const r = rec.recommendation;
-    const dwell = { positions_mm: r.equal_dwell.positions_mm, dwell_s: r.equal_dwell.dwell_s };
+    const feed = r.equal_dwell.feed;
     const recommended = { ...process, workpiece_rpm: r.workpiece_rpm, tool_rpm: r.tool_rpm };
-    const predictRequest = { process, surface, dwell, clear_aperture };
+    const predictRequest = { process, surface, feed, clear_aperture };
     const [now, better] = await Promise.all([
       post(view, '/v1/predict', predictRequest),
       post(view, '/v1/predict', { ...predictRequest, process: recommended }),

@@ -1,0 +1,338 @@
+//! The running integral of a removal rate along the tool's path, for one sample radius r:
+//!
+//! ```text
+//! F(ρ) = ∫_lo^ρ f(x) dx,    f(x) = R(r; x)·ds/dx
+//! ```
+//!
+//! (s the arc length along the surface, so ds/dx = 1 on a plane). A move across a cell
+//! [b, b′] at constant speed along the surface in time d removes d·(F(b′) − F(b))/(s(b′) − s(b))
+//! at r ([`super::motion`]); a constant feed over [a, b] at τ s/mm removes τ·(F(b) − F(a)).
+//!
+//! **Pieces.** f is analytic between breakpoints that the kernel names (the pad's rim crossing
+//! r, the axis entering the pad, the zero of the sliding speed, a pressure model's edge),
+//! where it has square-root kinks (the contact angle θ0 ~ √δ at tangency) or weaker
+//! singularities (the sliding speed's zero, ~δ²·ln δ). On each piece [p, q] the substitution
+//!
+//! ```text
+//! x = p + (q − p)·sin²(θ/2),   θ ∈ [0, π],   dx = (q − p)/2 · sin θ dθ
+//! ```
+//!
+//! turns √(x − p) into (q − p)^½·sin(θ/2): the integrand g(θ) = f(x(θ))·dx/dθ is analytic
+//! at both ends, and δ²·ln δ becomes θ⁵·ln θ, whose Chebyshev coefficients fall like n⁻¹¹.
+//!
+//! **Panels.** g is represented on panels of [0, π] by its Chebyshev interpolant at
+//! Chebyshev–Lobatto points, the number of points doubled (9, 17, 33, reusing every value) until
+//! the last three coefficients are below the tolerance relative to the piece's largest |g|, and
+//! the panel halved when 33 points do not suffice (a complex singularity near the piece, such as
+//! the pole of the contact angle at x = 0 when r is close to the pad radius). The interpolant's
+//! antiderivative is exact in Chebyshev coefficients (C_k = (c_{k−1} − c_{k+1})/2k), so F at any
+//! x is one Clenshaw sum: the cost per row does not depend on how many cells the plan has.
+
+/// Most Chebyshev points on one panel (a power of two plus one).
+const MAX_POINTS: usize = 33;
+/// Deepest halving of a piece; past it a panel is taken as it is.
+const MAX_DEPTH: u32 = 12;
+
+/// One polynomial panel of a piece: θ in [lo, hi], F at its start (from the piece's start),
+/// and the antiderivative's Chebyshev coefficients (scaled by the half-width) in `coeffs`.
+#[derive(Debug, Clone, Copy)]
+struct Panel {
+    lo: f64,
+    hi: f64,
+    base: f64,
+    first: u32,
+    len: u32,
+}
+
+/// A piece [p, p + width] of x: its panels and F at p.
+#[derive(Debug, Clone, Copy)]
+struct Piece {
+    p: f64,
+    width: f64,
+    base: f64,
+    first_panel: u32,
+    panels: u32,
+}
+
+/// F(x) = ∫_lo^x f on [lo, hi] (0 below, the total above); see the module docs.
+#[derive(Debug, Clone, Default)]
+pub struct PathIntegral {
+    pieces: Vec<Piece>,
+    panels: Vec<Panel>,
+    coeffs: Vec<f64>,
+    total: f64,
+}
+
+impl PathIntegral {
+    /// The integral of `f` over the pieces between consecutive `breakpoints` (ascending; empty
+    /// pieces are skipped), each resolved to `tolerance` relative to its largest |g|.
+    pub fn new<F: Fn(f64) -> f64>(f: F, breakpoints: &[f64], tolerance: f64) -> Self {
+        let mut integral = PathIntegral::default();
+        let table = Lobatto::new();
+        for w in breakpoints.windows(2) {
+            let (p, q) = (w[0], w[1]);
+            if q <= p || q.is_nan() || p.is_nan() {
+                continue;
+            }
+            let width = q - p;
+            let g = |theta: f64| {
+                let half = 0.5 * theta;
+                let s = half.sin();
+                // sin θ = 2·sin(θ/2)·cos(θ/2); x from sin² without cancellation at either end.
+                let x = if theta <= std::f64::consts::FRAC_PI_2 {
+                    p + width * s * s
+                } else {
+                    let c = half.cos();
+                    q - width * c * c
+                };
+                f(x.clamp(p, q)) * width * s * half.cos()
+            };
+            let first_panel = integral.panels.len() as u32;
+            let base = integral.total;
+            let mut piece_total = 0.0;
+            let mut scale = 0.0_f64;
+            // Depth-first over [0, π]: panels come out in ascending θ.
+            let mut stack = vec![(0.0, std::f64::consts::PI, 0_u32)];
+            while let Some((lo, hi, depth)) = stack.pop() {
+                let coeffs = match table.fit(&g, lo, hi, &mut scale, tolerance) {
+                    Some(coeffs) => coeffs,
+                    None if depth >= MAX_DEPTH => table.fit_anyway(&g, lo, hi),
+                    None => {
+                        let mid = 0.5 * (lo + hi);
+                        stack.push((mid, hi, depth + 1));
+                        stack.push((lo, mid, depth + 1));
+                        continue;
+                    }
+                };
+                let first = integral.coeffs.len() as u32;
+                let value = antiderivative_into(&coeffs, 0.5 * (hi - lo), &mut integral.coeffs);
+                integral.panels.push(Panel {
+                    lo,
+                    hi,
+                    base: piece_total,
+                    first,
+                    len: integral.coeffs.len() as u32 - first,
+                });
+                piece_total += value;
+            }
+            integral.pieces.push(Piece {
+                p,
+                width,
+                base,
+                first_panel,
+                panels: integral.panels.len() as u32 - first_panel,
+            });
+            integral.total += piece_total;
+        }
+        integral
+    }
+
+    /// ∫ f over everything.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    /// F(x) = ∫_lo^x f.
+    pub fn at(&self, x: f64) -> f64 {
+        let Some(first) = self.pieces.first() else {
+            return 0.0;
+        };
+        if x <= first.p {
+            return 0.0;
+        }
+        let k = self.pieces.partition_point(|piece| piece.p <= x) - 1;
+        let piece = &self.pieces[k];
+        let u = (x - piece.p) / piece.width;
+        if u >= 1.0 {
+            return match self.pieces.get(k + 1) {
+                Some(next) => next.base,
+                None => self.total,
+            };
+        }
+        let theta = if u <= 0.5 {
+            2.0 * u.sqrt().asin()
+        } else {
+            std::f64::consts::PI - 2.0 * (1.0 - u).sqrt().asin()
+        };
+        let panels =
+            &self.panels[piece.first_panel as usize..(piece.first_panel + piece.panels) as usize];
+        let j = panels.partition_point(|panel| panel.lo <= theta).max(1) - 1;
+        let panel = &panels[j];
+        let t = ((2.0 * theta - panel.lo - panel.hi) / (panel.hi - panel.lo)).clamp(-1.0, 1.0);
+        let coeffs = &self.coeffs[panel.first as usize..(panel.first + panel.len) as usize];
+        piece.base + panel.base + clenshaw(coeffs, t)
+    }
+}
+
+/// Chebyshev–Lobatto points x_k = cos(πk/N) for N = 32 and the cosine table of the DCT.
+struct Lobatto {
+    nodes: [f64; MAX_POINTS],
+    cosines: [f64; 2 * (MAX_POINTS - 1)],
+}
+
+impl Lobatto {
+    fn new() -> Self {
+        let n = (MAX_POINTS - 1) as f64;
+        let mut nodes = [0.0; MAX_POINTS];
+        for (k, x) in nodes.iter_mut().enumerate() {
+            *x = (std::f64::consts::PI * k as f64 / n).cos();
+        }
+        let mut cosines = [0.0; 2 * (MAX_POINTS - 1)];
+        for (k, c) in cosines.iter_mut().enumerate() {
+            *c = (std::f64::consts::PI * k as f64 / n).cos();
+        }
+        Lobatto { nodes, cosines }
+    }
+
+    /// Chebyshev coefficients of g on [lo, hi] from 9, 17 or 33 points, the first that
+    /// resolves it (last three coefficients within `tolerance`·scale, `scale` the largest |g|
+    /// seen on the piece so far); `None` when 33 do not.
+    fn fit<G: Fn(f64) -> f64>(
+        &self,
+        g: &G,
+        lo: f64,
+        hi: f64,
+        scale: &mut f64,
+        tolerance: f64,
+    ) -> Option<Vec<f64>> {
+        let mut values = [f64::NAN; MAX_POINTS];
+        let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+        let mut points = 9;
+        loop {
+            let stride = (MAX_POINTS - 1) / (points - 1);
+            for k in (0..MAX_POINTS).step_by(stride) {
+                if values[k].is_nan() {
+                    values[k] = g(centre + half * self.nodes[k]);
+                    *scale = scale.max(values[k].abs());
+                }
+            }
+            let coeffs = self.coefficients(&values, points);
+            let tail = coeffs[points - 3..]
+                .iter()
+                .fold(0.0_f64, |m, c| m.max(c.abs()));
+            if tail <= tolerance * *scale {
+                return Some(coeffs);
+            }
+            if points == MAX_POINTS {
+                return None;
+            }
+            points = 2 * points - 1;
+        }
+    }
+
+    /// The 33-point coefficients, resolved or not.
+    fn fit_anyway<G: Fn(f64) -> f64>(&self, g: &G, lo: f64, hi: f64) -> Vec<f64> {
+        let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+        let values: Vec<f64> = self.nodes.iter().map(|x| g(centre + half * x)).collect();
+        self.coefficients(&values, MAX_POINTS)
+    }
+
+    /// DCT-I of the values at every `stride`-th of the 33 nodes: g = Σ c_j·T_j exactly at
+    /// the `points` nodes.
+    fn coefficients(&self, values: &[f64], points: usize) -> Vec<f64> {
+        let n = points - 1;
+        let stride = (MAX_POINTS - 1) / n;
+        let period = 2 * (MAX_POINTS - 1);
+        (0..points)
+            .map(|j| {
+                let mut sum = 0.0;
+                for k in 0..points {
+                    let v = values[k * stride];
+                    let c = self.cosines[(j * k * stride) % period];
+                    let term = v * c;
+                    sum += if k == 0 || k == n { 0.5 * term } else { term };
+                }
+                let c = 2.0 * sum / n as f64;
+                if j == 0 || j == n {
+                    0.5 * c
+                } else {
+                    c
+                }
+            })
+            .collect()
+    }
+}
+
+/// Appends the coefficients of ∫_{−1}^t Σ c_k·T_k, times `half` (the panel's half-width, so
+/// the result is in the panel's own variable), and returns the integral over the panel.
+fn antiderivative_into(c: &[f64], half: f64, out: &mut Vec<f64>) -> f64 {
+    let n = c.len();
+    let at = |k: usize| if k < n { c[k] } else { 0.0 };
+    let mut big = vec![0.0; n + 1];
+    big[1] = at(0) - 0.5 * at(2);
+    for (k, value) in big.iter_mut().enumerate().skip(2) {
+        *value = (at(k - 1) - at(k + 1)) / (2 * k) as f64;
+    }
+    // The constant makes the value at t = −1 zero: T_k(−1) = (−1)^k.
+    big[0] = -big
+        .iter()
+        .enumerate()
+        .skip(1)
+        .map(|(k, v)| if k % 2 == 0 { *v } else { -*v })
+        .sum::<f64>();
+    let total: f64 = big.iter().sum::<f64>() * half;
+    out.extend(big.iter().map(|v| v * half));
+    total
+}
+
+/// Σ a_k·T_k(t) by Clenshaw's recurrence.
+fn clenshaw(a: &[f64], t: f64) -> f64 {
+    let (mut b1, mut b2) = (0.0, 0.0);
+    let two_t = 2.0 * t;
+    for &ak in a[1..].iter().rev() {
+        let b0 = ak + two_t * b1 - b2;
+        b2 = b1;
+        b1 = b0;
+    }
+    a[0] + t * b1 - b2
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn integrates_polynomials_and_square_root_kinks_exactly() {
+        // ∫_0^x (3t² + 1) dt = x³ + x.
+        let f = PathIntegral::new(|t| 3.0 * t * t + 1.0, &[0.0, 2.0], 1e-14);
+        for x in [0.0_f64, 0.3, 1.0, 1.7, 2.0, 5.0] {
+            let want = x.min(2.0).powi(3) + x.min(2.0);
+            assert!((f.at(x) - want).abs() < 1e-13 * 10.0, "{x}: {}", f.at(x));
+        }
+        assert_eq!(f.at(-1.0), 0.0);
+        // √(x(1 − x)) on [0, 1] (a square-root kink at each end) and √(x − 1) on [1, 3]:
+        // F(1) = π/8, F(3) = π/8 + (2/3)·2^{3/2}.
+        let g = |x: f64| {
+            if x <= 1.0 {
+                (x * (1.0 - x)).max(0.0).sqrt()
+            } else {
+                (x - 1.0).sqrt()
+            }
+        };
+        let f = PathIntegral::new(g, &[0.0, 1.0, 3.0], 1e-14);
+        let pi8 = std::f64::consts::PI / 8.0;
+        assert!((f.at(1.0) - pi8).abs() < 1e-14, "{}", f.at(1.0) - pi8);
+        let total = pi8 + 2.0 / 3.0 * 2f64.powf(1.5);
+        assert!((f.total() - total).abs() < 1e-13, "{}", f.total() - total);
+        // Inside a piece: ∫_1^2 √(x − 1) = 2/3.
+        assert!((f.at(2.0) - f.at(1.0) - 2.0 / 3.0).abs() < 1e-13);
+    }
+
+    #[test]
+    fn halves_panels_near_a_nearby_pole() {
+        // 1/(x + 1e-3) on [0, 1]: a pole 1e-3 from the end; ∫ = ln(1001/1) .
+        let f = PathIntegral::new(|x| 1.0 / (x + 1e-3), &[0.0, 1.0], 1e-13);
+        let want = (1.001f64 / 1e-3).ln();
+        assert!(
+            (f.total() - want).abs() < 1e-11 * want,
+            "{}",
+            f.total() - want
+        );
+        let want_half = (0.501f64 / 1e-3).ln();
+        assert!(
+            (f.at(0.5) - want_half).abs() < 1e-11 * want,
+            "{}",
+            f.at(0.5) - want_half
+        );
+    }
+}
