@@ -11,30 +11,34 @@
 //! **Pieces.** f is analytic between breakpoints that the kernel names (the pad's rim crossing
 //! r, the axis entering the pad, the zero of the sliding speed, a pressure model's edge),
 //! where it has square-root kinks (the contact angle θ0 ~ √δ at tangency) or weaker
-//! singularities (the sliding speed's zero, ~δ²·ln δ). On each piece [p, q] the substitution
+//! singularities (the sliding speed's zero, ~δ²·ln δ). Each piece [p, q] is halved at its
+//! midpoint m, and each half is taken in the distance from its own end e (p or q):
 //!
 //! ```text
-//! x = p + (q − p)·sin²(θ/2),   θ ∈ [0, π],   dx = (q − p)/2 · sin θ dθ
+//! x = e ± H·v²,   v ∈ [0, 1],   H = (q − p)/2,   |dx| = 2H·v dv
 //! ```
 //!
-//! turns √(x − p) into (q − p)^½·sin(θ/2): the integrand g(θ) = f(x(θ))·dx/dθ is analytic
-//! at both ends, and δ²·ln δ becomes θ⁵·ln θ, whose Chebyshev coefficients fall like n⁻¹¹.
+//! so √(x − p) becomes √H·v: the integrand g(v) = f(x(v))·2H·v is analytic at the kink, and
+//! δ²·ln δ becomes v⁵·ln v, whose Chebyshev coefficients fall like n⁻¹¹. Reading F at a
+//! point costs one square root, no trigonometry.
 //!
-//! **Panels.** g is represented on panels of [0, π] by its Chebyshev interpolant at
-//! Chebyshev–Lobatto points, the number of points doubled (9, 17, 33, reusing every value) until
-//! the last three coefficients are below the tolerance relative to the piece's largest |g|, and
-//! the panel halved when 33 points do not suffice (a complex singularity near the piece, such as
-//! the pole of the contact angle at x = 0 when r is close to the pad radius). The interpolant's
+//! **Panels.** g is represented on panels of [0, 1] by its Chebyshev interpolant at
+//! Chebyshev–Lobatto points, 9, 17 then 33 (reusing every value), until the last three
+//! coefficients are below the tolerance relative to the half's largest |g|, and the panel is
+//! halved when 33 points do not suffice (a complex singularity near the piece, such as the pole
+//! of the contact angle at x = 0 when r is close to the pad radius). The interpolant's
 //! antiderivative is exact in Chebyshev coefficients (C_k = (c_{k−1} − c_{k+1})/2k), so F at any
-//! x is one Clenshaw sum: the cost per row does not depend on how many cells the plan has.
+//! x is one short Clenshaw sum: the cost per row does not depend on how many cells the plan has.
 
 /// Most Chebyshev points on one panel (a power of two plus one).
 const MAX_POINTS: usize = 33;
-/// Deepest halving of a piece; past it a panel is taken as it is.
-const MAX_DEPTH: u32 = 12;
+/// Coefficients of a panel's antiderivative (one more than its points).
+const MAX_COEFFS: usize = MAX_POINTS + 1;
+/// Deepest halving of a half-piece; past it a panel is taken as it is.
+const MAX_DEPTH: u32 = 14;
 
-/// One polynomial panel of a piece: θ in [lo, hi], F at its start (from the piece's start),
-/// and the antiderivative's Chebyshev coefficients (scaled by the half-width) in `coeffs`.
+/// One polynomial panel of a half-piece: v in [lo, hi], the integral from v = 0 to lo, and
+/// the antiderivative's Chebyshev coefficients (scaled by the half-width) in `coeffs`.
 #[derive(Debug, Clone, Copy)]
 struct Panel {
     lo: f64,
@@ -44,12 +48,17 @@ struct Panel {
     len: u32,
 }
 
-/// A piece [p, p + width] of x: its panels and F at p.
+/// Half of a piece, measured from its end `end` over `half` mm toward the piece's middle
+/// (`from_below`: the lower half, x = end + half·v²; otherwise x = end − half·v²).
 #[derive(Debug, Clone, Copy)]
-struct Piece {
-    p: f64,
-    width: f64,
+struct Half {
+    end: f64,
+    half: f64,
+    from_below: bool,
+    /// F at the half's lower x end.
     base: f64,
+    /// ∫ over the half.
+    total: f64,
     first_panel: u32,
     panels: u32,
 }
@@ -57,7 +66,9 @@ struct Piece {
 /// F(x) = ∫_lo^x f on [lo, hi] (0 below, the total above); see the module docs.
 #[derive(Debug, Clone, Default)]
 pub struct PathIntegral {
-    pieces: Vec<Piece>,
+    /// Lower x end of each half, ascending.
+    starts: Vec<f64>,
+    halves: Vec<Half>,
     panels: Vec<Panel>,
     coeffs: Vec<f64>,
     total: f64,
@@ -74,57 +85,66 @@ impl PathIntegral {
             if q <= p || q.is_nan() || p.is_nan() {
                 continue;
             }
-            let width = q - p;
-            let g = |theta: f64| {
-                let half = 0.5 * theta;
-                let s = half.sin();
-                // sin θ = 2·sin(θ/2)·cos(θ/2); x from sin² without cancellation at either end.
-                let x = if theta <= std::f64::consts::FRAC_PI_2 {
-                    p + width * s * s
-                } else {
-                    let c = half.cos();
-                    q - width * c * c
-                };
-                f(x.clamp(p, q)) * width * s * half.cos()
-            };
-            let first_panel = integral.panels.len() as u32;
-            let base = integral.total;
-            let mut piece_total = 0.0;
-            let mut scale = 0.0_f64;
-            // Depth-first over [0, π]: panels come out in ascending θ.
-            let mut stack = vec![(0.0, std::f64::consts::PI, 0_u32)];
-            while let Some((lo, hi, depth)) = stack.pop() {
-                let coeffs = match table.fit(&g, lo, hi, &mut scale, tolerance) {
-                    Some(coeffs) => coeffs,
-                    None if depth >= MAX_DEPTH => table.fit_anyway(&g, lo, hi),
-                    None => {
-                        let mid = 0.5 * (lo + hi);
-                        stack.push((mid, hi, depth + 1));
-                        stack.push((lo, mid, depth + 1));
-                        continue;
+            let half = 0.5 * (q - p);
+            let middle = p + half;
+            for (end, from_below, start) in [(p, true, p), (q, false, middle)] {
+                let x = |v: f64| {
+                    let d = half * v * v;
+                    if from_below {
+                        (end + d).min(middle)
+                    } else {
+                        (end - d).max(middle)
                     }
                 };
-                let first = integral.coeffs.len() as u32;
-                let value = antiderivative_into(&coeffs, 0.5 * (hi - lo), &mut integral.coeffs);
-                integral.panels.push(Panel {
-                    lo,
-                    hi,
-                    base: piece_total,
-                    first,
-                    len: integral.coeffs.len() as u32 - first,
+                let g = |v: f64| f(x(v)) * 2.0 * half * v;
+                let first_panel = integral.panels.len() as u32;
+                let total = integral.fit_half(&table, &g, tolerance);
+                integral.starts.push(start);
+                integral.halves.push(Half {
+                    end,
+                    half,
+                    from_below,
+                    base: integral.total,
+                    total,
+                    first_panel,
+                    panels: integral.panels.len() as u32 - first_panel,
                 });
-                piece_total += value;
+                integral.total += total;
             }
-            integral.pieces.push(Piece {
-                p,
-                width,
-                base,
-                first_panel,
-                panels: integral.panels.len() as u32 - first_panel,
-            });
-            integral.total += piece_total;
         }
         integral
+    }
+
+    /// Panels of g over v ∈ [0, 1], depth first so they come out in ascending v; returns ∫.
+    fn fit_half<G: Fn(f64) -> f64>(&mut self, table: &Lobatto, g: &G, tolerance: f64) -> f64 {
+        let mut total = 0.0;
+        let mut scale = 0.0_f64;
+        let mut stack = vec![(0.0, 1.0, 0_u32)];
+        while let Some((lo, hi, depth)) = stack.pop() {
+            let coeffs = match table.fit(g, lo, hi, &mut scale, tolerance, depth >= MAX_DEPTH) {
+                Some(coeffs) => coeffs,
+                None => {
+                    let mid = 0.5 * (lo + hi);
+                    stack.push((mid, hi, depth + 1));
+                    stack.push((lo, mid, depth + 1));
+                    continue;
+                }
+            };
+            let first = self.coeffs.len() as u32;
+            // Trailing coefficients far below the tolerance are dropped: reading F then costs
+            // only the terms that matter (each dropped one moves F by less than its size).
+            let negligible = 1e-3 * tolerance * scale * (hi - lo);
+            let value = antiderivative_into(&coeffs, 0.5 * (hi - lo), negligible, &mut self.coeffs);
+            self.panels.push(Panel {
+                lo,
+                hi,
+                base: total,
+                first,
+                len: self.coeffs.len() as u32 - first,
+            });
+            total += value;
+        }
+        total
     }
 
     /// ∫ f over everything.
@@ -134,33 +154,38 @@ impl PathIntegral {
 
     /// F(x) = ∫_lo^x f.
     pub fn at(&self, x: f64) -> f64 {
-        let Some(first) = self.pieces.first() else {
-            return 0.0;
-        };
-        if x <= first.p {
+        let k = self.starts.partition_point(|&start| start <= x);
+        if k == 0 {
             return 0.0;
         }
-        let k = self.pieces.partition_point(|piece| piece.p <= x) - 1;
-        let piece = &self.pieces[k];
-        let u = (x - piece.p) / piece.width;
-        if u >= 1.0 {
-            return match self.pieces.get(k + 1) {
-                Some(next) => next.base,
-                None => self.total,
-            };
-        }
-        let theta = if u <= 0.5 {
-            2.0 * u.sqrt().asin()
+        let half = &self.halves[k - 1];
+        // The half's upper x end: the piece's middle for a lower half, its end for an upper.
+        let top = if half.from_below {
+            half.end + half.half
         } else {
-            std::f64::consts::PI - 2.0 * (1.0 - u).sqrt().asin()
+            half.end
         };
+        if x >= top {
+            return half.base + half.total;
+        }
+        let u = if half.from_below {
+            (x - half.end) / half.half
+        } else {
+            (half.end - x) / half.half
+        };
+        let v = u.clamp(0.0, 1.0).sqrt();
         let panels =
-            &self.panels[piece.first_panel as usize..(piece.first_panel + piece.panels) as usize];
-        let j = panels.partition_point(|panel| panel.lo <= theta).max(1) - 1;
+            &self.panels[half.first_panel as usize..(half.first_panel + half.panels) as usize];
+        let j = panels.partition_point(|panel| panel.lo <= v).max(1) - 1;
         let panel = &panels[j];
-        let t = ((2.0 * theta - panel.lo - panel.hi) / (panel.hi - panel.lo)).clamp(-1.0, 1.0);
+        let t = ((2.0 * v - panel.lo - panel.hi) / (panel.hi - panel.lo)).clamp(-1.0, 1.0);
         let coeffs = &self.coeffs[panel.first as usize..(panel.first + panel.len) as usize];
-        piece.base + panel.base + clenshaw(coeffs, t)
+        let from_end = panel.base + clenshaw(coeffs, t);
+        if half.from_below {
+            half.base + from_end
+        } else {
+            half.base + half.total - from_end
+        }
     }
 }
 
@@ -184,9 +209,9 @@ impl Lobatto {
         Lobatto { nodes, cosines }
     }
 
-    /// Chebyshev coefficients of g on [lo, hi] from 9, 17 or 33 points, the first that
-    /// resolves it (last three coefficients within `tolerance`·scale, `scale` the largest |g|
-    /// seen on the piece so far); `None` when 33 do not.
+    /// Chebyshev coefficients of g on [lo, hi] from 9, 17 or 33 points, the first that resolves
+    /// it (last three coefficients within `tolerance`·scale, `scale` the largest |g| seen on
+    /// the half so far); `None` when 33 do not, unless `anyway`.
     fn fit<G: Fn(f64) -> f64>(
         &self,
         g: &G,
@@ -194,7 +219,8 @@ impl Lobatto {
         hi: f64,
         scale: &mut f64,
         tolerance: f64,
-    ) -> Option<Vec<f64>> {
+        anyway: bool,
+    ) -> Option<([f64; MAX_POINTS], usize)> {
         let mut values = [f64::NAN; MAX_POINTS];
         let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
         let mut points = 9;
@@ -207,11 +233,11 @@ impl Lobatto {
                 }
             }
             let coeffs = self.coefficients(&values, points);
-            let tail = coeffs[points - 3..]
+            let tail = coeffs[points - 3..points]
                 .iter()
                 .fold(0.0_f64, |m, c| m.max(c.abs()));
-            if tail <= tolerance * *scale {
-                return Some(coeffs);
+            if tail <= tolerance * *scale || (anyway && points == MAX_POINTS) {
+                return Some((coeffs, points));
             }
             if points == MAX_POINTS {
                 return None;
@@ -220,58 +246,52 @@ impl Lobatto {
         }
     }
 
-    /// The 33-point coefficients, resolved or not.
-    fn fit_anyway<G: Fn(f64) -> f64>(&self, g: &G, lo: f64, hi: f64) -> Vec<f64> {
-        let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
-        let values: Vec<f64> = self.nodes.iter().map(|x| g(centre + half * x)).collect();
-        self.coefficients(&values, MAX_POINTS)
-    }
-
-    /// DCT-I of the values at every `stride`-th of the 33 nodes: g = Σ c_j·T_j exactly at
-    /// the `points` nodes.
-    fn coefficients(&self, values: &[f64], points: usize) -> Vec<f64> {
+    /// DCT-I of the values at every `stride`-th of the nodes: g = Σ c_j·T_j exactly at the
+    /// `points` nodes.
+    fn coefficients(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
         let n = points - 1;
         let stride = (MAX_POINTS - 1) / n;
         let period = 2 * (MAX_POINTS - 1);
-        (0..points)
-            .map(|j| {
-                let mut sum = 0.0;
-                for k in 0..points {
-                    let v = values[k * stride];
-                    let c = self.cosines[(j * k * stride) % period];
-                    let term = v * c;
-                    sum += if k == 0 || k == n { 0.5 * term } else { term };
-                }
-                let c = 2.0 * sum / n as f64;
-                if j == 0 || j == n {
-                    0.5 * c
-                } else {
-                    c
-                }
-            })
-            .collect()
+        let mut out = [0.0; MAX_POINTS];
+        for (j, c) in out.iter_mut().enumerate().take(points) {
+            let mut sum =
+                0.5 * (values[0] + values[n * stride] * self.cosines[(j * n * stride) % period]);
+            for k in 1..n {
+                sum += values[k * stride] * self.cosines[(j * k * stride) % period];
+            }
+            let value = 2.0 * sum / n as f64;
+            *c = if j == 0 || j == n { 0.5 * value } else { value };
+        }
+        out
     }
 }
 
-/// Appends the coefficients of ∫_{−1}^t Σ c_k·T_k, times `half` (the panel's half-width, so
-/// the result is in the panel's own variable), and returns the integral over the panel.
-fn antiderivative_into(c: &[f64], half: f64, out: &mut Vec<f64>) -> f64 {
-    let n = c.len();
+/// Appends the coefficients of ∫_{−1}^t Σ c_k·T_k (the first `len` of `c`), times `half`
+/// (the panel's half-width, so the result is in the panel's own variable), less trailing ones
+/// of size at most `negligible`, and returns the integral over the panel.
+fn antiderivative_into(
+    (c, len): &([f64; MAX_POINTS], usize),
+    half: f64,
+    negligible: f64,
+    out: &mut Vec<f64>,
+) -> f64 {
+    let n = *len;
     let at = |k: usize| if k < n { c[k] } else { 0.0 };
-    let mut big = vec![0.0; n + 1];
+    let mut big = [0.0; MAX_COEFFS];
     big[1] = at(0) - 0.5 * at(2);
-    for (k, value) in big.iter_mut().enumerate().skip(2) {
+    for (k, value) in big.iter_mut().enumerate().take(n + 1).skip(2) {
         *value = (at(k - 1) - at(k + 1)) / (2 * k) as f64;
     }
     // The constant makes the value at t = −1 zero: T_k(−1) = (−1)^k.
-    big[0] = -big
-        .iter()
-        .enumerate()
-        .skip(1)
-        .map(|(k, v)| if k % 2 == 0 { *v } else { -*v })
+    big[0] = -(1..=n)
+        .map(|k| if k % 2 == 0 { big[k] } else { -big[k] })
         .sum::<f64>();
-    let total: f64 = big.iter().sum::<f64>() * half;
-    out.extend(big.iter().map(|v| v * half));
+    let total: f64 = big[..=n].iter().sum::<f64>() * half;
+    let kept = big[..=n]
+        .iter()
+        .rposition(|v| (v * half).abs() > negligible)
+        .map_or(1, |k| k + 1);
+    out.extend(big[..kept].iter().map(|v| v * half));
     total
 }
 
