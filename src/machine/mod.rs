@@ -19,16 +19,11 @@
 //! Offsetting along Z alone would put the pad beside the point on a slope; along the normal it
 //! touches the surface at r with its axis on the normal.
 //!
-//! **Motion model** (the optimizer's): the plan is positions r_j with dwell t_j. The tool
-//! crosses the segment [r_j, r_{j+1}] in T_j = (t_j + t_{j+1})/2, its first half in t_j/2 and
-//! its second half in t_{j+1}/2, so it spends exactly t_j between the midpoints
-//! m_{j−1} = (r_{j−1} + r_j)/2 and m_j around each position. The first position's other half
-//! dwell is a stop at r_0 before the first move, the last one's a stop at r_{n−1} after the last.
-//! Blocks: dwell t_0/2 at r_0; r_0 → m_0 in t_0/2; m_{j−1} → m_j in t_j (0 < j < n−1);
-//! m_{n−2} → r_{n−1} in t_{n−1}/2; dwell t_{n−1}/2. The blocks' times sum to Σ t_j exactly.
+//! **Motion model**: that of [`crate::physics::motion`] (docs/MODEL.md): blocks dwell t_0/2 at
+//! r_0; r_0 → m_0 in t_0/2; m_{j−1} → m_j in t_j (0 < j < n−1); m_{n−2} → r_{n−1} in
+//! t_{n−1}/2; dwell t_{n−1}/2, with m_j the midpoints. The blocks' times sum to Σ t_j exactly.
 //! Each move is linear in X, Z and B over its duration (G1), so every axis moves at a constant
-//! velocity v = ΔA/d within a block. The plan's removal Σ t_j·R(r; r_j) is then the midpoint
-//! rule of the program's Σ t_j·⟨R(r; ·)⟩ over each cell (see [`program`] for the bound).
+//! velocity v = ΔA/d within a block; the removal every endpoint reports is that of this motion.
 //!
 //! **Axis velocity and acceleration** (per axis, including Z and B on curved parts): the
 //! velocity is piecewise constant, v_k = ΔA_k / d_k in block k (0 in a dwell), and changes
@@ -46,10 +41,8 @@ pub mod limits;
 pub mod pose;
 pub mod program;
 
+pub use crate::physics::motion::{cell_boundaries_mm, move_share as cell_share};
 pub use gcode::{FeedMode, GcodeFormat, GcodeFormatError, SpindleWords};
 pub use limits::{AxisLimits, Drive, Limit, LimitsError, MachineLimits, Violation};
 pub use pose::{Orientation, Pose, Tool, ToolError};
-pub use program::{
-    cell_boundaries_mm, cell_share, cell_travel, Approach, AxisMotion, Block, BlockKind, Program,
-    ProgramError,
-};
+pub use program::{cell_travel, Approach, AxisMotion, Block, BlockKind, Program, ProgramError};

@@ -1,18 +1,13 @@
 //! A dwell plan as blocks of axis motion (module docs of [`super`] for the model) and the
 //! axis kinematics of those blocks.
 //!
-//! **Removal.** The program spends t_j within the cell [m_{j−1}, m_j] of each position at a
-//! constant feed, so it removes Σ_j t_j·⟨R(r; ·)⟩ over the cells, and the plan's
-//! Σ_j t_j·R(r; r_j) is the midpoint rule of that integral: the same discretisation as a
-//! constant-feed pass (`physics::schedule`). The gap is O(w²·R″) per cell of width w where
-//! R(r; ·) is smooth, O(w^1.5) where the pad's edge crosses r, and first order in the two
-//! one-sided end cells (half a dwell at the position, half on the way to the first midpoint:
-//! at most t·w·|∂R/∂r1|/8 there). Measured on a 0–40 mm plan with a 10 mm pad (tests): at
-//! most 0.74 % of the peak depth at 0.5 mm spacing and 0.35 % at 0.25 mm, largest where the
-//! pad's edge sweeps across the first position.
+//! The blocks are the motion of [`crate::physics::motion`], the one model every removal
+//! figure is computed for: a stop of half the dwell at each end, and a constant-speed move
+//! across each position's cell.
 
 use super::limits::{Drive, Limit};
 use super::pose::{Pose, Tool};
+use crate::physics::motion::{cell_boundaries_mm, move_share};
 use crate::surface::Surface;
 
 /// What a block does.
@@ -175,7 +170,7 @@ impl Program {
         } else {
             blocks.push(block(BlockKind::Dwell, r[0], 0.5 * t[0]));
             for (j, &end) in cell_boundaries_mm(r)[1..].iter().enumerate() {
-                blocks.push(block(BlockKind::Move, end, cell_share(j, n) * t[j]));
+                blocks.push(block(BlockKind::Move, end, move_share(j, n) * t[j]));
             }
             blocks.push(block(BlockKind::Dwell, r[n - 1], 0.5 * t[n - 1]));
         }
@@ -265,30 +260,6 @@ impl Program {
             Limit::Min | Limit::Max => index.saturating_sub(1),
             _ => index.min(last),
         }
-    }
-}
-
-/// Where each position's cell begins and ends: r_0, the midpoints m_0 … m_{n−2}, r_{n−1}
-/// (n + 1 entries for n ≥ 2 positions; the single position of a one-position plan).
-pub fn cell_boundaries_mm(positions_mm: &[f64]) -> Vec<f64> {
-    let n = positions_mm.len();
-    if n < 2 {
-        return positions_mm.to_vec();
-    }
-    let mut ends = Vec::with_capacity(n + 1);
-    ends.push(positions_mm[0]);
-    ends.extend(positions_mm.windows(2).map(|w| 0.5 * (w[0] + w[1])));
-    ends.push(positions_mm[n - 1]);
-    ends
-}
-
-/// The share of position j's dwell spent moving across its cell: half at either end of a
-/// plan of n ≥ 2 positions (the other half is the stop there), all of it inside.
-pub fn cell_share(j: usize, n: usize) -> f64 {
-    if n > 1 && (j == 0 || j == n - 1) {
-        0.5
-    } else {
-        1.0
     }
 }
 

@@ -15,6 +15,7 @@ mod deploy;
 mod invariant;
 mod machine;
 mod metrology;
+mod motion;
 mod openapi_drift;
 mod ops;
 mod optimize_constraints;
