@@ -155,7 +155,11 @@ impl Program {
         if let Some(index) = (first..=last).find(|&j| dwell_s[j] == 0.0) {
             return Err(ProgramError::ZeroInteriorDwell { index });
         }
-        let (r, t) = (&positions_mm[first..=last], &dwell_s[first..=last]);
+        // The plan's own cells (physics::motion): zero-dwell cells at either end are crossed
+        // in no time, so the program starts at the first cell with dwell and ends after the
+        // last one, where their stops are only the plan's own two ends.
+        let n = positions_mm.len();
+        let t = dwell_s;
         let block = |kind, position_mm: f64, duration_s| Block {
             kind,
             position_mm,
@@ -163,19 +167,29 @@ impl Program {
             end: tool.pose(surface, position_mm),
             duration_s,
         };
-        let n = r.len();
-        let mut blocks = Vec::with_capacity(n + 4);
-        if n == 1 {
-            blocks.push(block(BlockKind::Dwell, r[0], t[0]));
+        let mut blocks = Vec::with_capacity(last - first + 5);
+        let origin = if n == 1 {
+            blocks.push(block(BlockKind::Dwell, positions_mm[0], t[0]));
+            positions_mm[0]
         } else {
-            blocks.push(block(BlockKind::Dwell, r[0], 0.5 * t[0]));
-            for (j, &end) in cell_boundaries_mm(r)[1..].iter().enumerate() {
-                blocks.push(block(BlockKind::Move, end, move_share(j, n) * t[j]));
+            let bounds = cell_boundaries_mm(positions_mm);
+            if first == 0 {
+                blocks.push(block(BlockKind::Dwell, positions_mm[0], 0.5 * t[0]));
             }
-            blocks.push(block(BlockKind::Dwell, r[n - 1], 0.5 * t[n - 1]));
-        }
-        let polishing_time_s = t.iter().sum();
-        let first_pose = blocks[0].end;
+            for j in first..=last {
+                blocks.push(block(
+                    BlockKind::Move,
+                    bounds[j + 1],
+                    move_share(j, n) * t[j],
+                ));
+            }
+            if last == n - 1 {
+                blocks.push(block(BlockKind::Dwell, positions_mm[n - 1], 0.5 * t[n - 1]));
+            }
+            bounds[first]
+        };
+        let polishing_time_s = t[first..=last].iter().sum();
+        let first_pose = tool.pose(surface, origin);
         let mut start = first_pose;
         if approach.clearance_mm > 0.0 {
             let lift = |pose: &Pose| lifted(pose, approach.clearance_mm);
@@ -187,14 +201,7 @@ impl Program {
                 duration_s,
                 ..blocks[blocks.len() - 1]
             };
-            blocks.insert(
-                0,
-                Block {
-                    kind: BlockKind::Approach,
-                    duration_s,
-                    ..blocks[0]
-                },
-            );
+            blocks.insert(0, block(BlockKind::Approach, origin, duration_s));
             blocks.push(retract);
         }
         let durations: Vec<f64> = blocks.iter().map(|b| b.duration_s).collect();
@@ -359,7 +366,12 @@ mod tests {
     fn zero_dwell_ends_are_skipped_and_interior_ones_refused() {
         let p = flat_program(&[0.0, 0.0, 2.0, 2.0, 0.0], 0.0).unwrap();
         assert_eq!(p.skipped, (2, 1));
-        assert_eq!(p.blocks()[0].position_mm, 2.0);
+        // The plan's cells: the tool starts at the midpoint 1.5 (cells 0 and 1 take no time)
+        // and crosses cells 2 and 3, [1.5, 2.5] and [2.5, 3.5], in 2 s each; no stop.
+        assert_eq!(p.start().x_mm, 1.5);
+        let ends: Vec<_> = p.blocks().iter().map(|b| (b.kind, b.position_mm)).collect();
+        assert_eq!(ends, [(BlockKind::Move, 2.5), (BlockKind::Move, 3.5)]);
+        assert_eq!(p.polishing_time_s, 4.0);
         assert_eq!(
             flat_program(&[1.0, 0.0, 1.0], 0.0),
             Err(ProgramError::ZeroInteriorDwell { index: 1 })
