@@ -181,6 +181,9 @@ impl OptimizeCommand {
     }
 }
 
+/// A machine limit the plan uses at this fraction or more is named in its warnings.
+const ACTIVE_USE: f64 = 0.999;
+
 /// The optimizer's plan is the polishing motion alone; the program adds its approach.
 const NO_APPROACH: Approach = Approach {
     clearance_mm: 0.0,
@@ -242,11 +245,11 @@ fn machine_warnings(
             ),
         });
     }
-    // Which limits the plan sits on: within 1e-5 of the limit (the optimizer keeps 1e-6 below).
+    // Which limits the plan sits on: used at 99.9 % or more (the optimizer keeps 1e-6 below).
     for drive in Drive::AXES {
         let motion = program.motion(drive);
         let limits = machine.limits.axis(drive);
-        let near = |peak: f64, limit: Option<f64>| limit.is_some_and(|l| peak >= l * (1.0 - 1e-5));
+        let near = |peak: f64, limit: Option<f64>| limit.is_some_and(|l| peak >= l * ACTIVE_USE);
         if near(motion.peak_velocity_per_min, limits.max_velocity_per_min) {
             warnings.push(Warning::MachineLimitActive {
                 drive,
