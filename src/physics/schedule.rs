@@ -39,6 +39,10 @@ pub enum ScheduleError {
     DwellTooLong { index: usize, max: f64 },
     #[error("{field} must be a finite number")]
     NotFinite { field: &'static str },
+    #[error(
+        "feed_mm_per_min is so slow that the pass would take more than {max} s (about 31 years)"
+    )]
+    TooSlow { max: f64 },
     #[error("{field} = {value} mm is outside the allowed tool positions [0, {max} mm]")]
     OffReach {
         field: &'static str,
@@ -64,6 +68,7 @@ impl ScheduleError {
             ScheduleError::LengthMismatch { .. } => "dwell_s",
             ScheduleError::NotIncreasing { .. } => "positions_mm",
             ScheduleError::NegativeDwell { .. } | ScheduleError::DwellTooLong { .. } => "dwell_s",
+            ScheduleError::TooSlow { .. } => "feed_mm_per_min",
         }
     }
 
@@ -217,11 +222,17 @@ impl ConstantFeed {
                 lower: "start_mm",
             });
         }
-        Ok(ConstantFeed {
+        let feed = ConstantFeed {
             start_mm,
             stop_mm,
             feed_mm_per_min,
-        })
+        };
+        // As long as the longest dwell a plan may hold: keeps every depth finite.
+        let time = feed.total_time_s(process);
+        if time.is_nan() || time > MAX_DWELL_S {
+            return Err(ScheduleError::TooSlow { max: MAX_DWELL_S });
+        }
+        Ok(feed)
     }
 
     pub fn start_mm(&self) -> f64 {
@@ -329,5 +340,9 @@ mod tests {
         assert_eq!(err(-1.0, 6.0, 10.0), "start_mm");
         assert_eq!(err(5.0, 5.0, 10.0), "stop_mm");
         assert_eq!(err(f64::NAN, 5.0, 10.0), "start_mm");
+        assert_eq!(err(0.0, 60.0, 1e-300), "feed_mm_per_min");
+        assert_eq!(err(0.0, 60.0, 5e-324), "feed_mm_per_min");
+        // A vanishing path at a vanishing feed takes a finite time and is fine.
+        assert!(ConstantFeed::new(&p, 1.0, 1.0 + 1e-12, 1e-10).is_ok());
     }
 }
