@@ -294,42 +294,10 @@ impl CurvedKernel {
     }
 }
 
-/// A root of `f` between `a` and `b`, whose values there (given) have opposite signs or are
-/// zero: Illinois regula falsi to within a few ulps of the bracket.
-fn root(f: &dyn Fn(f64) -> f64, (mut a, mut fa): (f64, f64), (mut b, mut fb): (f64, f64)) -> f64 {
-    if fa == 0.0 {
-        return a;
-    }
-    if fb == 0.0 {
-        return b;
-    }
-    let mut kept = 0;
-    for _ in 0..200 {
-        if (b - a).abs() <= 4.0 * f64::EPSILON * a.abs().max(b.abs()).max(1e-300) {
-            break;
-        }
-        let c = (b - fb * (b - a) / (fb - fa)).clamp(a.min(b), a.max(b));
-        let fc = f(c);
-        if fc == 0.0 {
-            return c;
-        }
-        if (fc > 0.0) == (fb > 0.0) {
-            b = c;
-            fb = fc;
-            if kept == -1 {
-                fa *= 0.5;
-            }
-            kept = -1;
-        } else {
-            a = c;
-            fa = fc;
-            if kept == 1 {
-                fb *= 0.5;
-            }
-            kept = 1;
-        }
-    }
-    0.5 * (a + b)
+/// A root of `f` on a bracket whose ends' values have opposite signs, to a few ulps.
+fn root(f: &dyn Fn(f64) -> f64, a: (f64, f64), b: (f64, f64)) -> f64 {
+    let ulps = 4.0 * f64::EPSILON * a.0.abs().max(b.0.abs());
+    super::roots::illinois(f, a, b, ulps, 0.0)
 }
 
 /// Gauss–Kronrod (7, 15) nodes on [−1, 1] (non-negative half) and weights.

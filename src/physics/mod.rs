@@ -13,6 +13,7 @@ pub mod path;
 pub mod pressure;
 pub mod process;
 pub mod removal;
+pub mod roots;
 pub mod schedule;
 
 pub use curved::{Orientation, Part};

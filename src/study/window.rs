@@ -9,6 +9,7 @@
 //! domain) has no bound.
 
 use super::equal_dwell::{canonical_translation, nonuniformity, Frame};
+use crate::physics::roots::illinois;
 use crate::physics::{Process, ProcessSpec};
 
 /// The η interval, each end `None` when equal dwell stays below the threshold all the way.
@@ -59,7 +60,7 @@ pub(super) fn window_at(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Opt
             let value = f(eta)?;
             if value > 0.0 {
                 let finite = |x| f(x).unwrap_or(f64::INFINITY);
-                return Some(crossing(&finite, inside, (eta, value)));
+                return Some(illinois(&finite, inside, (eta, value), 1e-10, 1e-9));
             }
             if (direction > 0.0 && eta >= -1e-6) || step > 50.0 {
                 return None;
@@ -73,57 +74,4 @@ pub(super) fn window_at(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Opt
         high: side(1.0),
         threshold,
     })
-}
-
-/// The root of `f` between `a` (f(a) ≤ 0) and `b` (f(b) > 0), given with those values:
-/// Illinois regula falsi.
-fn crossing(
-    f: &dyn Fn(f64) -> f64,
-    (mut a, mut fa): (f64, f64),
-    (mut b, mut fb): (f64, f64),
-) -> f64 {
-    let mut last_kept = 0; // which end was kept last time (for the Illinois halving)
-    for _ in 0..100 {
-        let c = if fb.is_finite() {
-            b - fb * (b - a) / (fb - fa)
-        } else {
-            0.5 * (a + b)
-        };
-        let fc = f(c);
-        if fc.abs() <= 1e-9 || (b - a).abs() <= 1e-10 {
-            return c;
-        }
-        if fc > 0.0 {
-            b = c;
-            fb = fc;
-            if last_kept == -1 {
-                fa *= 0.5;
-            }
-            last_kept = -1;
-        } else {
-            a = c;
-            fa = fc;
-            if last_kept == 1 {
-                fb *= 0.5;
-            }
-            last_kept = 1;
-        }
-    }
-    0.5 * (a + b)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn illinois_finds_roots_of_kinked_and_curved_functions() {
-        // |η + 1|-like kink and a cubic: roots known exactly.
-        let kink = |x: f64| 3.0 * (x + 1.0).abs() - 0.06;
-        assert!((crossing(&kink, (-1.0, kink(-1.0)), (-0.9, kink(-0.9))) - (-0.98)).abs() < 1e-9);
-        let cubic = |x: f64| x * x * x - 2.0;
-        assert!(
-            (crossing(&cubic, (0.0, cubic(0.0)), (2.0, cubic(2.0))) - 2f64.cbrt()).abs() < 1e-9
-        );
-    }
 }
