@@ -2,8 +2,8 @@
 //! η window, and η sweeps. Pure: no HTTP, JSON or OpenAPI types.
 //!
 //! The dwell policy throughout is **equal dwell**: the tool crosses the path [0, L] at one
-//! constant feed, discretised as a [`ConstantFeed`](crate::physics::ConstantFeed) (cell centres,
-//! dwell τ·h each). The path ends at L = min(outer + r_t, the tool's reach), so every radius
+//! constant feed, a [`ConstantFeed`](crate::physics::ConstantFeed), whose removal is an exact
+//! integral along the path (no cells). The path ends at L = min(outer + r_t, the tool's reach), so every radius
 //! of the clear aperture sees the whole pad pass over it: at η = −1 the removal is then uniform
 //! right down to the centre (K·P·|ω|·r_t²·τ/2, the invariant in `docs/MODEL.md`).
 //!
