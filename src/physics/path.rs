@@ -63,11 +63,29 @@ struct Half {
     panels: u32,
 }
 
+impl Half {
+    /// The half's lower x end: the piece's start for a lower half, its middle for an upper.
+    fn start(&self) -> f64 {
+        if self.from_below {
+            self.end
+        } else {
+            self.end - self.half
+        }
+    }
+
+    /// The half's upper x end.
+    fn top(&self) -> f64 {
+        if self.from_below {
+            self.end + self.half
+        } else {
+            self.end
+        }
+    }
+}
+
 /// F(x) = ∫_lo^x f on [lo, hi] (0 below, the total above); see the module docs.
 #[derive(Debug, Clone, Default)]
 pub struct PathIntegral {
-    /// Lower x end of each half, ascending.
-    starts: Vec<f64>,
     halves: Vec<Half>,
     panels: Vec<Panel>,
     coeffs: Vec<f64>,
@@ -76,10 +94,15 @@ pub struct PathIntegral {
 
 impl PathIntegral {
     /// The integral of `f` over the pieces between consecutive `breakpoints` (ascending; empty
-    /// pieces are skipped), each resolved to `tolerance` relative to its largest |g|.
-    pub fn new<F: Fn(f64) -> f64>(f: F, breakpoints: &[f64], tolerance: f64) -> Self {
+    /// pieces are skipped), each resolved to `tolerance` relative to its largest |g|, with the
+    /// Chebyshev points of `table` (made once per kernel, not per radius).
+    pub fn new<F: Fn(f64) -> f64>(
+        f: F,
+        breakpoints: &[f64],
+        tolerance: f64,
+        table: &Lobatto,
+    ) -> Self {
         let mut integral = PathIntegral::default();
-        let table = Lobatto::new();
         for w in breakpoints.windows(2) {
             let (p, q) = (w[0], w[1]);
             if q <= p || q.is_nan() || p.is_nan() {
@@ -87,7 +110,7 @@ impl PathIntegral {
             }
             let half = 0.5 * (q - p);
             let middle = p + half;
-            for (end, from_below, start) in [(p, true, p), (q, false, middle)] {
+            for (end, from_below) in [(p, true), (q, false)] {
                 let x = |v: f64| {
                     let d = half * v * v;
                     if from_below {
@@ -98,8 +121,7 @@ impl PathIntegral {
                 };
                 let g = |v: f64| f(x(v)) * 2.0 * half * v;
                 let first_panel = integral.panels.len() as u32;
-                let total = integral.fit_half(&table, &g, tolerance);
-                integral.starts.push(start);
+                let total = integral.fit_half(table, &g, tolerance);
                 integral.halves.push(Half {
                     end,
                     half,
@@ -154,18 +176,12 @@ impl PathIntegral {
 
     /// F(x) = ∫_lo^x f.
     pub fn at(&self, x: f64) -> f64 {
-        let k = self.starts.partition_point(|&start| start <= x);
+        let k = self.halves.partition_point(|half| half.start() <= x);
         if k == 0 {
             return 0.0;
         }
         let half = &self.halves[k - 1];
-        // The half's upper x end: the piece's middle for a lower half, its end for an upper.
-        let top = if half.from_below {
-            half.end + half.half
-        } else {
-            half.end
-        };
-        if x >= top {
+        if x >= half.top() {
             return half.base + half.total;
         }
         let u = if half.from_below {
@@ -189,26 +205,25 @@ impl PathIntegral {
     }
 }
 
-/// Chebyshev–Lobatto points x_k = cos(πk/N) for N = 32 and the cosine table of the DCT.
-struct Lobatto {
-    nodes: [f64; MAX_POINTS],
+/// cos(πk/N) for N = 32 and k < 2N: the first 33 are the Chebyshev–Lobatto points, all of
+/// them the DCT's cosines.
+#[derive(Debug, Clone)]
+pub struct Lobatto {
     cosines: [f64; 2 * (MAX_POINTS - 1)],
 }
 
-impl Lobatto {
-    fn new() -> Self {
+impl Default for Lobatto {
+    fn default() -> Self {
         let n = (MAX_POINTS - 1) as f64;
-        let mut nodes = [0.0; MAX_POINTS];
-        for (k, x) in nodes.iter_mut().enumerate() {
-            *x = (std::f64::consts::PI * k as f64 / n).cos();
-        }
         let mut cosines = [0.0; 2 * (MAX_POINTS - 1)];
         for (k, c) in cosines.iter_mut().enumerate() {
             *c = (std::f64::consts::PI * k as f64 / n).cos();
         }
-        Lobatto { nodes, cosines }
+        Lobatto { cosines }
     }
+}
 
+impl Lobatto {
     /// Chebyshev coefficients of g on [lo, hi] from 9, 17 or 33 points, the first that resolves
     /// it (last three coefficients within `tolerance`·scale, `scale` the largest |g| seen on
     /// the half so far); `None` when 33 do not, unless `anyway`.
@@ -228,7 +243,7 @@ impl Lobatto {
             let stride = (MAX_POINTS - 1) / (points - 1);
             for k in (0..MAX_POINTS).step_by(stride) {
                 if values[k].is_nan() {
-                    values[k] = g(centre + half * self.nodes[k]);
+                    values[k] = g(centre + half * self.cosines[k]);
                     *scale = scale.max(values[k].abs());
                 }
             }
@@ -314,7 +329,12 @@ mod tests {
     #[test]
     fn integrates_polynomials_and_square_root_kinks_exactly() {
         // ∫_0^x (3t² + 1) dt = x³ + x.
-        let f = PathIntegral::new(|t| 3.0 * t * t + 1.0, &[0.0, 2.0], 1e-14);
+        let f = PathIntegral::new(
+            |t| 3.0 * t * t + 1.0,
+            &[0.0, 2.0],
+            1e-14,
+            &Lobatto::default(),
+        );
         for x in [0.0_f64, 0.3, 1.0, 1.7, 2.0, 5.0] {
             let want = x.min(2.0).powi(3) + x.min(2.0);
             assert!((f.at(x) - want).abs() < 1e-13 * 10.0, "{x}: {}", f.at(x));
@@ -329,7 +349,7 @@ mod tests {
                 (x - 1.0).sqrt()
             }
         };
-        let f = PathIntegral::new(g, &[0.0, 1.0, 3.0], 1e-14);
+        let f = PathIntegral::new(g, &[0.0, 1.0, 3.0], 1e-14, &Lobatto::default());
         let pi8 = std::f64::consts::PI / 8.0;
         assert!((f.at(1.0) - pi8).abs() < 1e-14, "{}", f.at(1.0) - pi8);
         let total = pi8 + 2.0 / 3.0 * 2f64.powf(1.5);
@@ -341,7 +361,12 @@ mod tests {
     #[test]
     fn halves_panels_near_a_nearby_pole() {
         // 1/(x + 1e-3) on [0, 1]: a pole 1e-3 from the end; ∫ = ln(1001/1) .
-        let f = PathIntegral::new(|x| 1.0 / (x + 1e-3), &[0.0, 1.0], 1e-13);
+        let f = PathIntegral::new(
+            |x| 1.0 / (x + 1e-3),
+            &[0.0, 1.0],
+            1e-13,
+            &Lobatto::default(),
+        );
         let want = (1.001f64 / 1e-3).ln();
         assert!(
             (f.total() - want).abs() < 1e-11 * want,

@@ -34,7 +34,7 @@ use std::f64::consts::PI;
 use super::carlson::rf_rd;
 use super::contact::{half_angle, HalfAngle};
 use super::curved::{CurvedKernel, Ring};
-use super::path::PathIntegral;
+use super::path::{Lobatto, PathIntegral};
 use super::pressure::{pressure_factor, PressureModel};
 use super::process::Process;
 
@@ -57,6 +57,8 @@ pub struct RemovalKernel {
     translation: bool,
     /// The farthest tool position the process allows, mm (the path's end at the latest).
     reach_mm: f64,
+    /// The Chebyshev points every path integral is taken with.
+    lobatto: Lobatto,
     curved: Option<CurvedKernel>,
 }
 
@@ -71,6 +73,7 @@ impl RemovalKernel {
             scale: process.preston_rate_scale() / PI,
             translation: process.is_eta_minus_one(),
             reach_mm: process.max_tool_position_mm(),
+            lobatto: Lobatto::default(),
             curved: (!process.part().is_flat()).then(|| {
                 CurvedKernel::new(
                     process.part().clone(),
@@ -130,10 +133,9 @@ impl RemovalKernel {
 impl RemovalKernel {
     /// Arc length from the vertex to radius `r_mm` along the surface (r on a plane).
     pub fn arc_length_mm(&self, r_mm: f64) -> f64 {
-        match &self.curved {
-            Some(curved) => curved.surface().arc_length_mm(r_mm),
-            None => r_mm,
-        }
+        self.curved
+            .as_ref()
+            .map_or(r_mm, |curved| curved.surface().arc_length_mm(r_mm))
     }
 
     /// The removal at radius `r_mm` of the tool moving along the surface: F(ρ) = ∫ R(r; x)·ds
@@ -154,12 +156,13 @@ impl RemovalKernel {
                     let weight = curved.surface().slope(x).hypot(1.0);
                     factor * weight * curved.nominal_rate_nm_per_s(&ring, &curved.site(x))
                 };
-                PathIntegral::new(rate, &breakpoints, CURVED_PATH_TOLERANCE)
+                PathIntegral::new(rate, &breakpoints, CURVED_PATH_TOLERANCE, &self.lobatto)
             }
             None => PathIntegral::new(
                 |x| self.rate_nm_per_s(r_mm, x),
                 &self.flat_breakpoints(r_mm),
                 FLAT_PATH_TOLERANCE,
+                &self.lobatto,
             ),
         }
     }
