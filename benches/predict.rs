@@ -22,29 +22,47 @@ fn main() {
     divan::main();
 }
 
-#[divan::bench]
-fn predict_paper_201x201(bencher: divan::Bencher) {
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-        .unwrap();
-    let app = router(AppState::new(Limits::default()), None);
-    let body = std::fs::read(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/fixtures/predict_paper_exp1_201.json"
-    ))
-    .unwrap();
-    bencher.bench(|| {
-        runtime.block_on(async {
+/// The router in-process, with a runtime to drive it and the 201 × 201 fixture's text.
+struct Service {
+    runtime: tokio::runtime::Runtime,
+    app: axum::Router,
+    fixture: String,
+}
+
+impl Service {
+    fn new() -> Service {
+        Service {
+            runtime: tokio::runtime::Builder::new_multi_thread()
+                .enable_all()
+                .build()
+                .unwrap(),
+            app: router(AppState::new(Limits::default()), None),
+            fixture: std::fs::read_to_string(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/fixtures/predict_paper_exp1_201.json"
+            ))
+            .unwrap(),
+        }
+    }
+
+    /// `POST /v1/predict` with `body`; the response's bytes.
+    fn predict(&self, body: String) -> axum::body::Bytes {
+        self.runtime.block_on(async {
             let request = Request::post("/v1/predict")
                 .header("content-type", "application/json")
-                .body(Body::from(body.clone()))
+                .body(Body::from(body))
                 .unwrap();
-            let response = app.clone().oneshot(request).await.unwrap();
+            let response = self.app.clone().oneshot(request).await.unwrap();
             assert_eq!(response.status(), 200);
             response.into_body().collect().await.unwrap().to_bytes()
         })
-    });
+    }
+}
+
+#[divan::bench]
+fn predict_paper_201x201(bencher: divan::Bencher) {
+    let service = Service::new();
+    bencher.bench(|| service.predict(service.fixture.clone()));
 }
 
 /// A cold request: the fixture with a process no earlier request had, so neither the operator
@@ -53,42 +71,23 @@ fn predict_paper_201x201(bencher: divan::Bencher) {
 /// window, both passes and the operator are computed).
 #[divan::bench(args = ["new_eta", "new_setup"], sample_count = 50)]
 fn predict_paper_201x201_cold(bencher: divan::Bencher, what: &str) {
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-        .unwrap();
-    let app = router(AppState::new(Limits::default()), None);
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/fixtures/predict_paper_exp1_201.json"
-    ))
-    .unwrap();
-    let fixture: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let service = Service::new();
+    let fixture: serde_json::Value = serde_json::from_str(&service.fixture).unwrap();
+    let field = if what == "new_eta" {
+        "workpiece_rpm"
+    } else {
+        "tool_radius_mm"
+    };
     let counter = std::sync::atomic::AtomicU32::new(0);
     bencher
         .with_inputs(|| {
             let k = 1 + counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             let mut body = fixture.clone();
-            let field = if what == "new_eta" {
-                "workpiece_rpm"
-            } else {
-                "tool_radius_mm"
-            };
             let value = body["process"][field].as_f64().unwrap();
             body["process"][field] = serde_json::json!(value * (1.0 + 1e-9 * k as f64));
             body.to_string()
         })
-        .bench_values(|body| {
-            runtime.block_on(async {
-                let request = Request::post("/v1/predict")
-                    .header("content-type", "application/json")
-                    .body(Body::from(body))
-                    .unwrap();
-                let response = app.clone().oneshot(request).await.unwrap();
-                assert_eq!(response.status(), 200);
-                response.into_body().collect().await.unwrap().to_bytes()
-            })
-        });
+        .bench_values(|body| service.predict(body));
 }
 
 fn paper_1001() -> PredictCommand {
