@@ -94,6 +94,7 @@ fn run(bencher: divan::Bencher, n: usize, formulation: Formulation, basis: Dwell
             formulation,
             basis,
             axes: &[],
+            cell_path_mm: &[],
         };
         optimize(&problem).unwrap()
     });

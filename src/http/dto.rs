@@ -413,7 +413,7 @@ pub enum WarningCode {
     /// in millimetres, and these look like metres.
     PositionsLookLikeMetres,
     /// The plan has zero dwell between positions with dwell at the position in `field`: no
-    /// machine program can run it (set `constraints.min_dwell_s` > 0).
+    /// machine program can run it (set `constraints.min_dwell_s` > 0 or a feed limit).
     NotProgrammable,
 }
 
@@ -456,7 +456,7 @@ impl WarningDto {
                 code: WarningCode::NotProgrammable,
                 field: Some(format!("{positions}[{index}]")),
                 message: format!(
-                    "the plan has zero dwell at {positions}[{index}] between positions with dwell, so no program can cross its cell (no limited axis moves there): give constraints.min_dwell_s > 0 or a velocity limit on X"
+                    "the plan has zero dwell at {positions}[{index}] between positions with dwell, so the tool would cross its cell in no time and no program can run it: give constraints.min_dwell_s > 0, constraints.max_feed_mm_per_min or a velocity limit on X"
                 ),
             },
             Warning::PositionsLookLikeMetres {

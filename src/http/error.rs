@@ -17,6 +17,7 @@ use crate::physics::{GridError, ProcessError, ScheduleError};
 use crate::study::StudyError;
 use crate::surface::{SurfaceError, SurfaceInput};
 use crate::usecases::measurement_fit::{MeasurementError, MeasurementInputError};
+use crate::usecases::recommend::MIN_DEPTH_NM;
 use crate::usecases::{Input, InputError, LimitError, SettingError};
 
 /// An API error. Construct with the helpers; render with `into_response`.
@@ -468,7 +469,9 @@ impl From<InputError> for ApiError {
             InputError::OutOfRange { input, max } => {
                 let field = input_path(input);
                 let detail = match input {
-                    Input::Depth => format!("{field} must be a number in (0, {max}] nm"),
+                    Input::Depth => {
+                        format!("{field} must be a number in [{MIN_DEPTH_NM}, {max}] nm")
+                    }
                     Input::UniformDepth => format!("{field} must be a number in [0, {max}] nm"),
                     Input::NonuniformityThreshold => {
                         format!("{field} must be a finite fraction > 0")

@@ -46,7 +46,9 @@ pub struct EtaSweepRequest {
     /// min(outer + r_t, reach) mm).
     #[serde(default, deserialize_with = "optional_object")]
     pub dwell: Option<DwellDto>,
-    /// Mean depth equal dwell removes at each point, nm (> 0). Default 100. Ignored with `dwell`.
+    /// Mean depth equal dwell removes at each point, nm (1e-6 to 1e9). Default 100. Ignored
+    /// with `dwell`.
+    #[schema(minimum = 1e-6, maximum = 1e9)]
     pub depth_nm: Option<f64>,
     /// Where removal is computed; default 201 samples from 0 to the workpiece radius.
     #[serde(default, deserialize_with = "optional_object")]

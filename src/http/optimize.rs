@@ -15,9 +15,10 @@ use super::endpoint::{handle, Endpoint};
 use super::error::{ApiError, ComputeProblems};
 use super::extract::{object, optional_object, ApiJson};
 use super::plot::{Chart, Series};
-use super::program::{machine_limits_error, machine_setup, MachineDto, ToolDto};
+use super::program::{machine_limits_error, machine_setup, AxesDto, MachineDto, ToolDto};
 use super::state::{AppState, Services};
 use super::{csv, plot};
+use crate::machine::Program;
 use crate::optimize::problem::{DEFAULT_SMOOTHING, DEFAULT_TIME_WEIGHT};
 use crate::optimize::{Constraints, MeasuredProfile, Objective, OptimizeError, SolveStatus};
 use crate::usecases::optimize::{
@@ -104,8 +105,10 @@ pub struct MeasuredProfileDto {
     pub depth_nm: Vec<f64>,
 }
 
-/// Limits on the plan. The tool crosses the segment between neighbouring positions in half of
-/// each end's dwell, so its feed there is Δr / ((t_j + t_{j+1})/2).
+/// Limits on the plan. The tool moves as the machine program does (docs/MODEL.md, "The
+/// motion of a plan"): the cell around position j, from the midpoint before it to the one
+/// after (from the position itself at the two ends), is crossed at constant speed in t_j (in
+/// t_j/2 at the two ends, which stop for the other half).
 #[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ConstraintsDto {
@@ -115,14 +118,17 @@ pub struct ConstraintsDto {
     pub max_dwell_s: Option<f64>,
     /// Most total dwell time, s (> 0). Default none.
     pub max_total_time_s: Option<f64>,
-    /// Highest radial feed on any segment, mm/min (> 0): t_j + t_{j+1} ≥ 2·60·Δr_j / max feed.
+    /// Highest feed across any cell, mm/min (1e-6 to 1e9): the X–Z path of the program's move
+    /// over its duration, as `feed_mm_per_min` in the response reports it (the cell's width on
+    /// a plane with the default tool). Each cell then takes at least its path / max feed.
     /// Default none.
     pub max_feed_mm_per_min: Option<f64>,
-    /// Largest change of dwell between neighbouring positions, s (≥ 0): the linear surrogate
+    /// Largest change of dwell between neighbouring positions, s (≥ 0): a linear surrogate
     /// for the feed axis's acceleration limit. On positions spaced h mm apart with a feed limit
-    /// v (mm/s), a dwell change δ keeps the feed acceleration at or below δ·v³/h² mm/s², so
-    /// choose δ = a_max·h²/v³ for an acceleration limit a_max (or give `machine`, whose
-    /// acceleration limits the optimizer keeps exactly). Default none.
+    /// v (mm/s), a dwell change δ keeps the feed acceleration between interior cells at or
+    /// below δ·v³/h² mm/s² (4/3 of that next to the end cells; the start and stop at the two
+    /// ends are not bounded by it); give `machine` instead to have an acceleration limit kept
+    /// exactly. Default none.
     pub max_dwell_change_s: Option<f64>,
 }
 
@@ -161,13 +167,19 @@ pub struct OptimizeResponse {
     /// only on a curved surface.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub position_arc_length_mm: Option<Vec<f64>>,
-    /// Mean radial feed on each segment between neighbouring positions, mm/min (one fewer
-    /// than positions); null where both ends have zero dwell (the axis would jump).
+    /// The feed across each position's cell, mm/min, one per position: the X–Z path of the
+    /// program's move over its duration (the G94 F word; on a plane with the default tool, the
+    /// cell's width over the time the tool spends crossing it). Null where the program has
+    /// no move: a zero-dwell end cell (crossed in no time), a single position, or a plan with
+    /// no program.
     pub feed_mm_per_min: Vec<Option<f64>>,
     /// Sum of the dwell times, s.
     pub total_time_s: f64,
-    /// Feed and acceleration figures of the plan.
-    pub motion: MotionDto,
+    /// The plan's motion as `/v1/program` runs it with the same surface, tool and machine,
+    /// without the approach and retract (`approach.clearance_mm: 0` there gives the same
+    /// figures); null when no program can run the plan (see `warnings`).
+    #[schema(required = true)]
+    pub motion: Option<MotionDto>,
     /// The radial grid, mm.
     pub radius_mm: Vec<f64>,
     /// Arc length along the surface from the vertex to each radius of `radius_mm`, mm; present
@@ -203,17 +215,14 @@ pub struct OptimizeResponse {
     pub warnings: Vec<WarningDto>,
 }
 
-/// Feed figures of the plan (see `feed_mm_per_min`).
+/// The plan's motion: the machine program's blocks (see `feed_mm_per_min`).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct MotionDto {
-    /// Highest segment feed, mm/min; null if some segment is crossed in no time or there is
-    /// only one position.
-    #[schema(required = true)]
-    pub peak_feed_mm_per_min: Option<f64>,
-    /// Largest feed change per unit time between consecutive segments, mm/s² (the feed axis's
-    /// acceleration); null if some segment is crossed in no time.
-    #[schema(required = true)]
-    pub peak_feed_acceleration_mm_per_s2: Option<f64>,
+    /// Highest feed of any cell, mm/min (0 for a single position).
+    pub peak_feed_mm_per_min: f64,
+    /// Each axis's travel, peak velocity and acceleration, and use of the machine's limits,
+    /// as `/v1/program` reports them.
+    pub axes: AxesDto,
 }
 
 /// Peak-to-valley and RMS of removal − target over the clear aperture.
@@ -433,11 +442,14 @@ impl From<OptimizedPlan> for OptimizeResponse {
                 positions_mm: p.positions_mm,
                 dwell_s: s.dwell_s.clone(),
             },
-            feed_mm_per_min: p.motion.segment_feed_mm_per_min,
-            motion: MotionDto {
-                peak_feed_mm_per_min: p.motion.peak_feed_mm_per_min,
-                peak_feed_acceleration_mm_per_s2: p.motion.peak_acceleration_mm_per_s2,
-            },
+            feed_mm_per_min: p.program.as_ref().map_or_else(
+                || vec![None; s.dwell_s.len()],
+                Program::cell_feeds_mm_per_min,
+            ),
+            motion: p.program.as_ref().map(|program| MotionDto {
+                peak_feed_mm_per_min: program.peak_feed_mm_per_min(),
+                axes: AxesDto::of(program, &p.machine_limits),
+            }),
             radius_mm: p.setting.grid().radii_mm().to_vec(),
             removal_nm: p.removal_nm,
             target_nm: p.target_nm,
@@ -476,7 +488,6 @@ fn to_csv(response: &OptimizeResponse) -> String {
 
 fn to_svg(r: &OptimizeResponse) -> String {
     let positions = &r.dwell.positions_mm;
-    let midpoints = positions.windows(2).map(|w| 0.5 * (w[0] + w[1]));
     plot::render(&Chart {
         title: format!(
             "Optimized dwell, {:.0} s total ({})",
@@ -497,8 +508,10 @@ fn to_svg(r: &OptimizeResponse) -> String {
         secondary: Some((
             "feed (mm/min)".to_string(),
             Series {
-                name: "feed on each segment".to_string(),
-                points: midpoints
+                name: "feed across each cell".to_string(),
+                points: positions
+                    .iter()
+                    .copied()
                     .zip(&r.feed_mm_per_min)
                     .map(|(x, v)| (x, v.unwrap_or(f64::NAN)))
                     .collect(),

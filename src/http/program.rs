@@ -15,7 +15,7 @@ use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::{AppState, Services};
 use crate::machine::{
     AxisLimits, AxisMotion, BlockKind, Drive, FeedMode, GcodeFormat, GcodeFormatError,
-    MachineLimits, Orientation, SpindleWords, Tool, Violation,
+    MachineLimits, Orientation, Program, SpindleWords, Tool, Violation,
 };
 use crate::physics::ProcessSpec;
 use crate::surface::{Surface, SurfaceSpec};
@@ -449,6 +449,36 @@ fn axis_report(motion: &AxisMotion, limits: &AxisLimits) -> (UtilisationDto, [f6
     )
 }
 
+impl AxesDto {
+    /// Each axis's travel, peaks and use of `machine`'s limits over `program`.
+    pub fn of(program: &Program, machine: &MachineLimits) -> Self {
+        let linear = |drive| {
+            let (utilisation, v) = axis_report(program.motion(drive), machine.axis(drive));
+            LinearAxisReport {
+                min_mm: v[0],
+                max_mm: v[1],
+                travel_mm: v[2],
+                peak_velocity_mm_per_min: v[3],
+                peak_acceleration_mm_per_s2: v[4],
+                utilisation,
+            }
+        };
+        let (b_utilisation, b) = axis_report(program.motion(Drive::B), &machine.b);
+        AxesDto {
+            x: linear(Drive::X),
+            z: linear(Drive::Z),
+            b: RotaryAxisReport {
+                min_deg: b[0],
+                max_deg: b[1],
+                travel_deg: b[2],
+                peak_velocity_deg_per_min: b[3],
+                peak_acceleration_deg_per_s2: b[4],
+                utilisation: b_utilisation,
+            },
+        }
+    }
+}
+
 pub struct ProgramEndpoint;
 
 impl Endpoint for ProgramEndpoint {
@@ -520,18 +550,6 @@ impl Endpoint for ProgramEndpoint {
                 }
             })
             .collect();
-        let linear = |drive| {
-            let (utilisation, v) = axis_report(p.motion(drive), m.machine.axis(drive));
-            LinearAxisReport {
-                min_mm: v[0],
-                max_mm: v[1],
-                travel_mm: v[2],
-                peak_velocity_mm_per_min: v[3],
-                peak_acceleration_mm_per_s2: v[4],
-                utilisation,
-            }
-        };
-        let (b_utilisation, b) = axis_report(p.motion(Drive::B), &m.machine.b);
         let spec = m.process.spec();
         let start = p.start();
         Ok(ProgramResponse {
@@ -543,18 +561,7 @@ impl Endpoint for ProgramEndpoint {
             blocks,
             total_time_s: p.polishing_time_s,
             program_time_s: p.program_time_s,
-            axes: AxesDto {
-                x: linear(Drive::X),
-                z: linear(Drive::Z),
-                b: RotaryAxisReport {
-                    min_deg: b[0],
-                    max_deg: b[1],
-                    travel_deg: b[2],
-                    peak_velocity_deg_per_min: b[3],
-                    peak_acceleration_deg_per_s2: b[4],
-                    utilisation: b_utilisation,
-                },
-            },
+            axes: AxesDto::of(p, &m.machine),
             spindles: SpindlesDto {
                 workpiece_rpm: spec.workpiece_rpm,
                 tool_rpm: spec.tool_rpm,

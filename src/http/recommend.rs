@@ -39,7 +39,9 @@ pub struct RecommendRequest {
     /// The machine's speed limits; default none.
     #[serde(default, deserialize_with = "optional_object")]
     pub limits: Option<SpeedLimitsDto>,
-    /// Mean depth the equal-dwell plans remove over the clear aperture, nm (> 0). Default 100.
+    /// Mean depth the equal-dwell plans remove over the clear aperture, nm (1e-6 to 1e9).
+    /// Default 100.
+    #[schema(minimum = 1e-6, maximum = 1e9)]
     pub depth_nm: Option<f64>,
     /// Largest equal-dwell nonuniformity (pv/mean, a fraction) inside the η window, > 0.
     /// Default 0.02.

@@ -13,6 +13,16 @@ pub struct Tool {
     orientation: Orientation,
 }
 
+/// The pivot at the pad face, B following the normal.
+impl Default for Tool {
+    fn default() -> Self {
+        Tool {
+            pivot_length_mm: 0.0,
+            orientation: Orientation::Normal,
+        }
+    }
+}
+
 /// Why a tool description was refused.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum ToolError {

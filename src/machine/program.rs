@@ -236,8 +236,6 @@ impl Program {
         &self.motion[axis_index(drive)]
     }
 
-    /// The block an entry of an [`AxisMotion`]'s lists belongs to (`positions` for travel
-    /// limits).
     /// A move's feed as G94 states it: the X–Z path length over the duration, mm/min, or
     /// B's angle per minute for a move of B alone; `None` for a dwell.
     pub fn path_feed_per_min(&self, index: usize) -> Option<f64> {
@@ -245,13 +243,8 @@ impl Program {
         if block.kind == BlockKind::Dwell {
             return None;
         }
-        let before = if index == 0 {
-            self.start
-        } else {
-            self.blocks[index - 1].end
-        };
-        let after = block.end;
-        let path = (after.x_mm - before.x_mm).hypot(after.z_mm - before.z_mm);
+        let (before, after) = (self.before(index), block.end);
+        let path = xz_path_mm(before, after);
         let path = if path > 0.0 {
             path
         } else {
@@ -260,6 +253,42 @@ impl Program {
         Some(60.0 * path / block.duration_s)
     }
 
+    /// The X–Z path feed across each position's cell, mm/min, one per position of the plan
+    /// (0 where only B moves); `None` for a cell crossed in no time (a zero-dwell end, left
+    /// out) and for a single position (it has no move).
+    pub fn cell_feeds_mm_per_min(&self) -> Vec<Option<f64>> {
+        let mut feeds = vec![None; self.skipped.0];
+        for (index, block) in self.blocks.iter().enumerate() {
+            if block.kind == BlockKind::Move {
+                let path = xz_path_mm(self.before(index), block.end);
+                feeds.push(Some(60.0 * path / block.duration_s));
+            }
+        }
+        if feeds.len() == self.skipped.0 {
+            feeds.push(None);
+        }
+        feeds.extend(std::iter::repeat_n(None, self.skipped.1));
+        feeds
+    }
+
+    /// The highest X–Z path feed of any move, mm/min (0 without a move).
+    pub fn peak_feed_mm_per_min(&self) -> f64 {
+        self.cell_feeds_mm_per_min()
+            .into_iter()
+            .flatten()
+            .fold(0.0, f64::max)
+    }
+
+    /// The pose at the start of block `index`.
+    fn before(&self, index: usize) -> Pose {
+        match index {
+            0 => self.start,
+            _ => self.blocks[index - 1].end,
+        }
+    }
+
+    /// The block an entry of an [`AxisMotion`]'s lists belongs to (`positions` for travel
+    /// limits).
     pub fn block_of(&self, limit: Limit, index: usize) -> usize {
         let last = self.blocks.len() - 1;
         match limit {
@@ -268,6 +297,11 @@ impl Program {
             _ => index.min(last),
         }
     }
+}
+
+/// The length of the straight X–Z path between two poses, mm.
+fn xz_path_mm(from: Pose, to: Pose) -> f64 {
+    (to.x_mm - from.x_mm).hypot(to.z_mm - from.z_mm)
 }
 
 /// How far each axis (X, Z in mm; B in deg) moves across each position's cell: the poses at
@@ -377,6 +411,21 @@ mod tests {
             Err(ProgramError::ZeroInteriorDwell { index: 1 })
         );
         assert_eq!(flat_program(&[0.0, 0.0], 0.0), Err(ProgramError::NoDwell));
+    }
+
+    #[test]
+    fn each_cell_has_its_feed() {
+        // Positions 1 mm apart; cells 1 to 3 are 1 mm wide, crossed in 2, 4 and 2 s.
+        for clearance_mm in [0.0, 5.0] {
+            let p = flat_program(&[0.0, 2.0, 4.0, 2.0, 0.0], clearance_mm).unwrap();
+            let feeds = p.cell_feeds_mm_per_min();
+            assert_eq!(feeds, [None, Some(30.0), Some(15.0), Some(30.0), None]);
+        }
+        // The end cells are half a cell in half the dwell: 0.5 mm in 1 s.
+        let p = flat_program(&[2.0, 2.0], 0.0).unwrap();
+        assert_eq!(p.cell_feeds_mm_per_min(), [Some(30.0), Some(30.0)]);
+        let p = flat_program(&[2.0], 0.0).unwrap();
+        assert_eq!(p.cell_feeds_mm_per_min(), [None]);
     }
 
     #[test]

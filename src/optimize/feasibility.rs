@@ -1,19 +1,18 @@
 //! Conflicts between constraints, found before the QP is solved and reported by name.
 //!
-//! Given the dwell bounds lo_j ≤ t_j ≤ hi (lo_j: `min_dwell_s`, raised where the machine's
-//! velocity limits or its acceleration at the ends ask more, see [`super::kinematics`]), the
-//! feed rows t_j + t_{j+1} ≥ c_j, the change rows |t_{j+1} − t_j| ≤ δ and the total
-//! Σ t_j ≤ T, only three conflicts are possible:
+//! Given the dwell bounds lo_j ≤ t_j ≤ hi (lo_j: `min_dwell_s`, raised where the feed limit,
+//! the machine's velocity limits or its acceleration at the ends ask more, see
+//! [`super::kinematics`]), the change rows |t_{j+1} − t_j| ≤ δ and the total Σ t_j ≤ T, only two
+//! conflicts are possible:
 //!
 //! - lo_j > hi;
-//! - a feed row asks more than both ends can give: c_j > 2·hi;
-//! - the least total time the other rows allow exceeds T. Without a feed limit that least time
-//!   is Σ lo_j unless a change limit binds between unequal floors; otherwise it is the value of the LP
-//!   min Σ t subject to the other rows, solved here with Clarabel.
+//! - the least total time the other rows allow exceeds T. That least time is Σ lo_j unless a
+//!   change limit binds between unequal floors; then it is the value of the LP min Σ t subject
+//!   to the other rows, solved here with Clarabel.
 //!
-//! Otherwise the constant plan t_j = max(max_j lo_j, max_j c_j/2) keeps the bounds, feed and
-//! change rows, so the feasible set is not empty. (The machine's acceleration limits between
-//! cells are not convex; the optimizer checks its own starting plan against them.)
+//! Otherwise the constant plan t_j = max_j lo_j keeps the bounds and change rows, so the
+//! feasible set is not empty. (The machine's acceleration limits between cells are not
+//! convex; the optimizer checks its own starting plan against them.)
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::SupportedConeT;
@@ -29,7 +28,6 @@ const MARGIN: f64 = 1e-7;
 const MIN_DWELL: Bound = Bound::Constraint(Constraint::MinDwell);
 const MAX_DWELL: Bound = Bound::Constraint(Constraint::MaxDwell);
 const MAX_TOTAL_TIME: Bound = Bound::Constraint(Constraint::MaxTotalTime);
-const MAX_FEED: Bound = Bound::Constraint(Constraint::MaxFeed);
 
 fn conflict(fields: Vec<Bound>, detail: String) -> OptimizeError {
     OptimizeError::Infeasible { fields, detail }
@@ -55,14 +53,8 @@ fn names(bounds: &[Bound]) -> String {
 }
 
 /// Refuses constraints that cannot all hold, naming those in conflict. `floors`: each
-/// position's least dwell (`min_dwell_s` raised by the machine's limits).
-pub fn check(
-    positions_mm: &[f64],
-    c: &Constraints,
-    floors: &[Floor],
-    budget: &Budget,
-) -> Result<(), OptimizeError> {
-    let need = c.segment_min_dwell_sum_s(positions_mm);
+/// position's least dwell (`min_dwell_s` raised by the feed and machine limits).
+pub fn check(c: &Constraints, floors: &[Floor], budget: &Budget) -> Result<(), OptimizeError> {
     if let Some(hi) = c.max_dwell_s {
         if let Some((j, floor)) = floors
             .iter()
@@ -79,23 +71,6 @@ pub fn check(
                 )
             };
             return Err(conflict(vec![floor.bound, MAX_DWELL], detail));
-        }
-        if let Some(need) = &need {
-            if let Some((j, c_j)) = need
-                .iter()
-                .enumerate()
-                .find(|(_, &c_j)| c_j > 2.0 * hi * (1.0 + MARGIN))
-            {
-                return Err(conflict(
-                    vec![MAX_FEED, MAX_DWELL],
-                    format!(
-                        "crossing from positions_mm[{j}] to positions_mm[{}] ({} mm) at no more than max_feed_mm_per_min needs {c_j} s of dwell at its two ends together, but max_dwell_s allows only {} s",
-                        j + 1,
-                        positions_mm[j + 1] - positions_mm[j],
-                        2.0 * hi
-                    ),
-                ));
-            }
         }
     }
     let Some(total) = c.max_total_time_s else {
@@ -119,23 +94,19 @@ pub fn check(
         fields.push(MAX_TOTAL_TIME);
         return Err(conflict(fields, detail));
     }
-    // Without feed rows, Σ lo_j is the least time unless a change limit binds between
-    // unequal floors.
+    // Σ lo_j is the least time unless a change limit binds between unequal floors.
     let uneven = floors.windows(2).any(|w| w[0].dwell_s != w[1].dwell_s);
-    if need.is_none() && !(uneven && c.max_dwell_change_s.is_some()) {
+    if !(uneven && c.max_dwell_change_s.is_some()) {
         return Ok(());
     }
-    let least = least_total_time_s(positions_mm, c, floors, true, budget)?;
+    let least = least_total_time_s(c, floors, true, budget)?;
     if least <= total * (1.0 + MARGIN) {
         return Ok(());
     }
     let mut fields = vec![MAX_TOTAL_TIME];
-    if need.is_some() {
-        fields.push(MAX_FEED);
-    }
     fields.extend(floor_bounds(floors));
     if c.max_dwell_change_s.is_some()
-        && least_total_time_s(positions_mm, c, floors, false, budget)? < least * (1.0 - MARGIN)
+        && least_total_time_s(c, floors, false, budget)? < least * (1.0 - MARGIN)
     {
         fields.push(Bound::Constraint(Constraint::MaxDwellChange));
     }
@@ -146,25 +117,22 @@ pub fn check(
     Err(conflict(fields, detail))
 }
 
-/// min Σ t over the bounds, feed rows and (if `with_change`) change rows: a small sparse LP.
+/// min Σ t over the bounds and (if `with_change`) change rows: a small sparse LP.
 fn least_total_time_s(
-    positions_mm: &[f64],
     c: &Constraints,
     floors: &[Floor],
     with_change: bool,
     budget: &Budget,
 ) -> Result<f64, OptimizeError> {
-    let n = positions_mm.len();
+    let n = floors.len();
     // Scale so the LP's variables are of order one.
     let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
-    let need = c.segment_min_dwell_sum_s(positions_mm).unwrap_or_default();
-    let scale = need
+    let scale = floors_s
         .iter()
-        .map(|c_j| 0.5 * c_j)
-        .chain(floors_s.iter().copied())
+        .copied()
         .fold(0.0_f64, f64::max)
         .max(f64::MIN_POSITIVE);
-    let rows = constraint_rows(positions_mm, c, &floors_s, scale, false, with_change, 0.0);
+    let rows = constraint_rows(c, &floors_s, scale, false, with_change, 0.0);
     let count = rows.rhs.len();
     let (a, b) = rows.into_csc(n);
     let lp = ClarabelQp {

@@ -18,7 +18,8 @@
 //!
 //! # As constraints
 //!
-//! - Velocity |v_j| ≤ v_max is the floor t_j ≥ |c_j| / (w_j·v_max): linear.
+//! - Velocity |v_j| ≤ v_max is the floor t_j ≥ |c_j| / (w_j·v_max): linear. The plan's feed
+//!   limit is the same floor on the length of the X–Z path across the cell ([`PathFeed`]).
 //! - The end accelerations are floors too: t_0 ≥ 2·√(|c_0| / a_max), likewise t_{n−1}.
 //! - Between cells, σ·(v_{j+1} − v_j) ≤ a_max·(w_j·t_j + w_{j+1}·t_{j+1})/2 for σ = ±1 is not
 //!   convex: its left side is a sum γ/t of terms convex where γ > 0 and concave where γ < 0.
@@ -74,9 +75,18 @@ pub struct Floor {
     pub bound: Bound,
 }
 
-/// Per-position floors: `min_dwell_s`, the velocity limits and the end accelerations, each
-/// kept with [`MARGIN`].
-pub fn floors(axes: &[AxisPath], n: usize, min_dwell_s: f64) -> Vec<Floor> {
+/// The feed limit on the tool's path: the path's length across each position's cell (mm, one
+/// per position, empty for a single position) and the most feed along it (mm/min).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathFeed<'a> {
+    pub cell_path_mm: &'a [f64],
+    pub max_feed_mm_per_min: f64,
+}
+
+/// Per-position floors: `min_dwell_s`, the feed limit (the path across cell j at
+/// `cell_path_mm[j]`/(w_j·t_j) ≤ v), the velocity limits and the end accelerations, each kept
+/// with [`MARGIN`].
+pub fn floors(axes: &[AxisPath], feed: Option<PathFeed>, n: usize, min_dwell_s: f64) -> Vec<Floor> {
     let mut floors = vec![
         Floor {
             dwell_s: min_dwell_s,
@@ -89,6 +99,16 @@ pub fn floors(axes: &[AxisPath], n: usize, min_dwell_s: f64) -> Vec<Floor> {
             floors[j] = Floor { dwell_s, bound };
         }
     };
+    if let Some(feed) = feed {
+        let v = feed.max_feed_mm_per_min / 60.0 * (1.0 - MARGIN);
+        for (j, path) in feed.cell_path_mm.iter().enumerate() {
+            raise(
+                j,
+                path / (cell_share(j, n) * v),
+                Bound::Constraint(Constraint::MaxFeed),
+            );
+        }
+    }
     for axis in axes {
         if let Some(v) = axis.max_velocity_per_s {
             let v = v * (1.0 - MARGIN);
@@ -244,7 +264,7 @@ mod tests {
     fn floors_keep_velocity_and_end_accelerations() {
         // Cells 0.5, 1, 1, 0.5 mm (positions 1 mm apart); 2 mm/s; 1 mm/s².
         let x = axis(vec![0.5, 1.0, 1.0, 0.5], Some(2.0), Some(1.0));
-        let f = floors(std::slice::from_ref(&x), 4, 0.1);
+        let f = floors(std::slice::from_ref(&x), None, 4, 0.1);
         let m = 1.0 / (1.0 - MARGIN);
         // Ends: velocity 0.5/(½·2) = 0.5 s; acceleration 2·√0.5 = 1.414 s.
         assert!((f[0].dwell_s - 2.0 * (0.5 * m).sqrt()).abs() < 1e-12);

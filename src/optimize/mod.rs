@@ -37,16 +37,21 @@
 //! ```text
 //! min_dwell_s ≤ t_j ≤ max_dwell_s                          dwell bounds
 //! Σ t_j ≤ max_total_time_s                                  total time
-//! (t_j + t_{j+1})/2 ≥ 60·(r1_{j+1} − r1_j)/max_feed         feed on each segment
+//! t_j ≥ 60·L_j / (w_j·max_feed)                             feed across each cell
 //! |t_{j+1} − t_j| ≤ max_dwell_change_s                      acceleration surrogate
 //! machine axis velocity and acceleration limits             see [`kinematics`]
 //! ```
 //!
-//! The tool crosses segment j (between neighbouring positions) in half of each end's dwell,
-//! so its feed there is v_j = Δr_j / ((t_j + t_{j+1})/2). Bounding the dwell change δ bounds the
-//! feed acceleration (see [`motion`]): on evenly spaced positions (spacing h),
-//! |a| ≤ h·δ / T_min³ with T_min the shortest segment time; with a feed limit v_max (mm/s),
-//! T_min ≥ h/v_max, so δ = a_max·h²/v_max³ guarantees an acceleration limit a_max.
+//! The plan moves as its machine program does ([`crate::physics::motion`]): the cell around
+//! position j (between the midpoints to its neighbours; from the position itself at the two
+//! ends) is crossed at constant speed in w_j·t_j, w_j = 1 inside and ½ at the ends (which
+//! stop for the other half). L_j is the length of the program's move across it (the X–Z path
+//! of the B pivot, [`DwellProblem::cell_path_mm`]), so the feed limit is a floor on each dwell.
+//! Bounding the dwell change δ bounds the feed acceleration: on evenly spaced positions
+//! (spacing h) the feed is h/t_j and changes over (t_j + t_{j+1})/2 between interior cells, so
+//! |a| ≤ h·δ / t_min³; with a feed limit v_max (mm/s), t_min ≥ h/v_max, so
+//! δ = a_max·h²/v_max³ keeps an acceleration limit a_max there (4/3 of it next to the end
+//! cells, whose moves take half their dwell).
 //!
 //! # The dwell's representation
 //!
@@ -69,14 +74,12 @@
 pub mod basis;
 pub mod feasibility;
 pub mod kinematics;
-pub mod motion;
 pub mod problem;
 pub mod qp;
 pub mod solver;
 pub mod target;
 
 pub use basis::DwellBasis;
-pub use motion::Motion;
 pub use problem::{Bound, Constraint, Constraints, Objective, OptimizeError, Weight};
 pub use qp::{optimize, DwellProblem, Formulation, Solution, SolveStatus};
 pub use target::{resample_profile, MeasuredProfile, ProfileError};

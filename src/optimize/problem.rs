@@ -224,25 +224,12 @@ impl Constraints {
         Ok(())
     }
 
-    /// Least dwell (s) the feed limit asks of segment j's two ends together:
-    /// t_j + t_{j+1} ≥ 2·60·Δr_j / v_max. `None` without a feed limit.
-    pub fn segment_min_dwell_sum_s(&self, positions_mm: &[f64]) -> Option<Vec<f64>> {
-        let feed = self.max_feed_mm_per_min?;
-        Some(
-            positions_mm
-                .windows(2)
-                .map(|w| 2.0 * 60.0 * (w[1] - w[0]) / feed)
-                .collect(),
-        )
-    }
-
     /// The first constraint `dwell_s` breaks by more than [`CONSTRAINT_TOLERANCE`] relative to
     /// the constraint's own size (to `scale_s` for a bound of zero), as
     /// (constraint, index, violation in s). `None` when the plan keeps them all. `floors`:
-    /// each position's least dwell ([`super::kinematics::floors`]).
+    /// each position's least dwell, the feed limit's included ([`super::kinematics::floors`]).
     pub fn violation(
         &self,
-        positions_mm: &[f64],
         dwell_s: &[f64],
         floors: &[Floor],
         scale_s: f64,
@@ -267,14 +254,6 @@ impl Constraints {
                 return Some((Bound::Constraint(Constraint::MaxTotalTime), 0, sum - total));
             }
         }
-        if let Some(need) = self.segment_min_dwell_sum_s(positions_mm) {
-            for (j, c) in need.iter().enumerate() {
-                let have = dwell_s[j] + dwell_s[j + 1];
-                if exceeds(c - have, *c) {
-                    return Some((Bound::Constraint(Constraint::MaxFeed), j, c - have));
-                }
-            }
-        }
         if let Some(delta) = self.max_dwell_change_s {
             for (j, w) in dwell_s.windows(2).enumerate() {
                 let change = (w[1] - w[0]).abs();
@@ -293,6 +272,7 @@ impl Constraints {
 
 #[cfg(test)]
 mod tests {
+    use super::super::kinematics::{floors, PathFeed};
     use super::*;
 
     #[test]
@@ -360,38 +340,37 @@ mod tests {
 
     #[test]
     fn violation_finds_each_broken_constraint() {
-        let positions = [0.0, 1.0, 2.0];
         let c = Constraints {
             min_dwell_s: 1.0,
             max_dwell_s: Some(10.0),
             max_total_time_s: Some(20.0),
-            max_feed_mm_per_min: Some(30.0), // 2 s per 1 mm segment → t_j + t_{j+1} ≥ 4
+            max_feed_mm_per_min: Some(30.0),
             max_dwell_change_s: Some(5.0),
         };
-        let floors = super::super::kinematics::floors(&[], 3, c.min_dwell_s);
-        assert_eq!(
-            c.violation(&positions, &[2.0, 2.0, 2.0], &floors, 1.0),
-            None
-        );
-        let broken = |d: [f64; 3]| {
-            c.violation(&positions, &d, &floors, 1.0)
-                .map(|v| v.0.name())
+        // Cells of 0.2, 1 and 0.5 mm crossed in t/2, t and t/2: at 0.5 mm/s the first needs
+        // 0.8 s (min_dwell_s is more), the others 2 s (and the margin).
+        let feed = PathFeed {
+            cell_path_mm: &[0.2, 1.0, 0.5],
+            max_feed_mm_per_min: 30.0,
         };
+        let floors = floors(&[], Some(feed), 3, c.min_dwell_s);
+        assert_eq!(c.violation(&[2.1, 2.1, 2.1], &floors, 1.0), None);
+        let broken = |d: [f64; 3]| c.violation(&d, &floors, 1.0).map(|v| v.0.name());
         assert_eq!(broken([0.5, 4.0, 4.0]).as_deref(), Some("min_dwell_s"));
         assert_eq!(broken([2.0, 11.0, 6.0]).as_deref(), Some("max_dwell_s"));
         assert_eq!(broken([8.0, 9.0, 8.0]).as_deref(), Some("max_total_time_s"));
         assert_eq!(
-            broken([1.0, 2.5, 2.0]).as_deref(),
+            broken([2.1, 1.5, 2.1]).as_deref(),
             Some("max_feed_mm_per_min")
         );
         assert_eq!(
-            broken([2.0, 8.0, 2.0]).as_deref(),
+            broken([2.1, 8.0, 2.1]).as_deref(),
             Some("max_dwell_change_s")
         );
         // Within the relative tolerance is kept; just beyond it is not.
-        assert_eq!(broken([10.0 * (1.0 + 1e-10), 6.0, 2.0]).as_deref(), None);
+        assert_eq!(broken([10.0 * (1.0 + 1e-10), 6.0, 2.1]).as_deref(), None);
         assert_eq!(
-            broken([10.0 * (1.0 + 1e-8), 6.0, 2.0]).as_deref(),
+            broken([10.0 * (1.0 + 1e-8), 6.0, 2.1]).as_deref(),
             Some("max_dwell_s")
         );
     }

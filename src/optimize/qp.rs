@@ -12,7 +12,7 @@ use super::basis::{Basis, DwellBasis};
 use super::feasibility;
 use super::kinematics::{
     acceleration_rows, constant_dwell_for_acceleration, floors, limits_acceleration,
-    peak_acceleration_ratio, AxisPath, Floor, CCP_TOLERANCE, MARGIN, MAX_CCP_ITERATIONS,
+    peak_acceleration_ratio, AxisPath, Floor, PathFeed, CCP_TOLERANCE, MARGIN, MAX_CCP_ITERATIONS,
 };
 use super::problem::{Bound, Constraint, Constraints, Objective, OptimizeError};
 pub use super::solver::SolveStatus;
@@ -61,6 +61,28 @@ pub struct DwellProblem<'a> {
     pub basis: DwellBasis,
     /// The machine's axes as the plan drives them (empty: no machine limits).
     pub axes: &'a [AxisPath],
+    /// Length of the tool's path across each position's cell as the program moves it, mm (the
+    /// X–Z path of the B pivot; the cell's width on a plane with a vertical tool), one per
+    /// position: what `max_feed_mm_per_min` limits. Empty for one position.
+    pub cell_path_mm: &'a [f64],
+}
+
+impl DwellProblem<'_> {
+    /// Each position's least dwell: `min_dwell_s`, raised by the feed limit and the machine's
+    /// ([`super::kinematics::floors`]).
+    pub fn floors(&self) -> Vec<Floor> {
+        let c = &self.constraints;
+        let n = self.positions_mm.len();
+        assert!(
+            c.max_feed_mm_per_min.is_none() || self.cell_path_mm.len() == n || n == 1,
+            "a feed limit needs the path across each cell"
+        );
+        let feed = c.max_feed_mm_per_min.map(|max_feed_mm_per_min| PathFeed {
+            cell_path_mm: self.cell_path_mm,
+            max_feed_mm_per_min,
+        });
+        floors(self.axes, feed, n, c.min_dwell_s)
+    }
 }
 
 /// An optimized plan with the solver's account of it.
@@ -359,16 +381,7 @@ fn assemble(
     } else {
         (SPLINE_ROW_MARGIN, SPLINE_GAP_TOLERANCE)
     };
-    let position_rows = constraint_rows(
-        problem.positions_mm,
-        c,
-        floors_s,
-        s.dwell_s,
-        true,
-        true,
-        margin,
-    )
-    .through(basis);
+    let position_rows = constraint_rows(c, floors_s, s.dwell_s, true, true, margin).through(basis);
     // (P's columns, q, rows, how many of the rows are equalities at the top)
     let (mut p, mut q, mut rows, equalities) = match problem.formulation {
         Formulation::NormalEquations => {
@@ -599,11 +612,9 @@ fn within_acceleration(
     let n = problem.positions_mm.len();
     let c = &problem.constraints;
     let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
-    let feed = c.segment_min_dwell_sum_s(problem.positions_mm);
     let start_s = floors_s
         .iter()
         .copied()
-        .chain(feed.iter().flatten().map(|c_j| 0.5 * c_j))
         .fold(constant_dwell_for_acceleration(problem.axes, n), f64::max);
     let fields: Vec<Bound> = problem
         .axes
@@ -680,7 +691,7 @@ fn check_plan(
     if let Some((bound, index, excess)) =
         problem
             .constraints
-            .violation(problem.positions_mm, &plan.dwell_s, floors, scales.dwell_s)
+            .violation(&plan.dwell_s, floors, scales.dwell_s)
     {
         return Err(OptimizeError::Numerical {
             status: format!(
@@ -752,8 +763,8 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
         "one target per aperture row"
     );
     let c = &problem.constraints;
-    let floors = floors(problem.axes, n, c.min_dwell_s);
-    feasibility::check(problem.positions_mm, c, &floors, &budget)?;
+    let floors = problem.floors();
+    feasibility::check(c, &floors, &budget)?;
 
     let band = Band::new(problem.operator, &problem.rows);
     let m = problem.rows.len() as f64;
@@ -793,10 +804,7 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
             Err(OptimizeError::Infeasible { fields, .. }) if fields.is_empty() => {
                 checked(Basis::positions(n))?
             }
-            Err(OptimizeError::Numerical { status }) => {
-                eprintln!("FALLBACK {status}");
-                checked(Basis::positions(n))?
-            }
+            Err(OptimizeError::Numerical { .. }) => checked(Basis::positions(n))?,
             other => other?,
         }
     };

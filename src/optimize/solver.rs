@@ -153,11 +153,10 @@ impl Rows {
 }
 
 /// The plan's constraints as rows a·x ≤ b on x = t/τ (the first n variables): the floor of
-/// each position (`floors_s`: `min_dwell_s` raised by the machine's limits), then the
+/// each position (`floors_s`: `min_dwell_s` raised by the feed and machine limits), then the
 /// constraints'. `with_total` leaves out the total-time row (for the least-time LP); `margin`
-/// tightens the feed and change rows by that fraction of their size.
+/// tightens the change rows by that fraction of their size.
 pub(super) fn constraint_rows(
-    positions_mm: &[f64],
     c: &Constraints,
     floors_s: &[f64],
     tau: f64,
@@ -165,7 +164,7 @@ pub(super) fn constraint_rows(
     with_change: bool,
     margin: f64,
 ) -> Rows {
-    let n = positions_mm.len();
+    let n = floors_s.len();
     let mut rows = Rows::default();
     for (j, floor) in floors_s.iter().enumerate() {
         rows.push(&[(j, -1.0)], -floor / tau);
@@ -178,11 +177,6 @@ pub(super) fn constraint_rows(
     if let (Some(total), true) = (c.max_total_time_s, with_total) {
         let all: Vec<(usize, f64)> = (0..n).map(|j| (j, 1.0)).collect();
         rows.push(&all, total / tau);
-    }
-    if let Some(need) = c.segment_min_dwell_sum_s(positions_mm) {
-        for (j, need) in need.iter().enumerate() {
-            rows.push(&[(j, -1.0), (j + 1, -1.0)], -need * (1.0 + margin) / tau);
-        }
     }
     if let (Some(delta), true) = (c.max_dwell_change_s, with_change) {
         for j in 0..n.saturating_sub(1) {

@@ -36,6 +36,12 @@ const MAX_POINTS: usize = 33;
 const MAX_COEFFS: usize = MAX_POINTS + 1;
 /// Deepest halving of a half-piece; past it a panel is taken as it is.
 const MAX_DEPTH: u32 = 14;
+/// Most panels on one half-piece; past it the remaining panels are taken as they are, so
+/// no integrand costs more than about this many times 33 evaluations per half.
+const MAX_PANELS: usize = 512;
+/// How many units of x's rounding, relative to a half's width, a fit need not resolve: below
+/// that the values are rounding noise and halving would go on to the deepest level.
+const ROUNDING_FLOOR: f64 = 64.0 * f64::EPSILON;
 
 /// One polynomial panel of a half-piece: v in [lo, hi], the integral from v = 0 to lo, and
 /// the antiderivative's Chebyshev coefficients (scaled by the half-width) in `coeffs`.
@@ -110,6 +116,9 @@ impl PathIntegral {
             }
             let half = 0.5 * (q - p);
             let middle = p + half;
+            // x = end ± H·v² is only known to |x|·ε: on a short piece far from the origin
+            // (a 1 µm pad on a 9 m part) that is the best relative accuracy of any value.
+            let tolerance = tolerance.max(ROUNDING_FLOOR * p.abs().max(q.abs()) / half);
             for (end, from_below) in [(p, true), (q, false)] {
                 let x = |v: f64| {
                     let d = half * v * v;
@@ -142,8 +151,10 @@ impl PathIntegral {
         let mut total = 0.0;
         let mut scale = 0.0_f64;
         let mut stack = vec![(0.0, 1.0, 0_u32)];
+        let first_panel = self.panels.len();
         while let Some((lo, hi, depth)) = stack.pop() {
-            let coeffs = match table.fit(g, lo, hi, &mut scale, tolerance, depth >= MAX_DEPTH) {
+            let anyway = depth >= MAX_DEPTH || self.panels.len() - first_panel >= MAX_PANELS;
+            let coeffs = match table.fit(g, lo, hi, &mut scale, tolerance, anyway) {
                 Some(coeffs) => coeffs,
                 None => {
                     let mid = 0.5 * (lo + hi);
@@ -251,7 +262,10 @@ impl Lobatto {
             let tail = coeffs[points - 3..points]
                 .iter()
                 .fold(0.0_f64, |m, c| m.max(c.abs()));
-            if tail <= tolerance * *scale || (anyway && points == MAX_POINTS) {
+            // A bound below the normal range cannot be met by rounding (a process so weak its
+            // rates are subnormal): such a panel is as resolved as f64 allows.
+            let bound = (tolerance * *scale).max(f64::MIN_POSITIVE);
+            if tail <= bound || (anyway && points == MAX_POINTS) {
                 return Some((coeffs, points));
             }
             if points == MAX_POINTS {
@@ -356,6 +370,28 @@ mod tests {
         assert!((f.total() - total).abs() < 1e-13, "{}", f.total() - total);
         // Inside a piece: ∫_1^2 √(x − 1) = 2/3.
         assert!((f.at(2.0) - f.at(1.0) - 2.0 / 3.0).abs() < 1e-13);
+    }
+
+    #[test]
+    fn a_short_piece_far_from_the_origin_stops_at_rounding() {
+        // A 2 µm contact at r ≈ 9143.786 mm: x is known to 1e-12 mm, 5e-10 of the piece, so
+        // 1e-12 relative cannot be reached. Each half used to be halved to the deepest level
+        // (2^14 panels of 33 points), and one recommendation ran for minutes.
+        let (p, q) = (9_143.785_284_385_247, 9_143.787_284_385_247);
+        let f = PathIntegral::new(
+            |x: f64| ((x - p) * (q - x)).max(0.0).sqrt(),
+            &[p, q],
+            1e-12,
+            &Lobatto::default(),
+        );
+        assert!(f.panels.len() <= 8, "{} panels", f.panels.len());
+        // ∫ √((x − p)(q − x)) = π/8·(q − p)²; the rounding of x is 1e-9 of the width.
+        let want = std::f64::consts::PI / 8.0 * (q - p) * (q - p);
+        assert!(
+            (f.total() - want).abs() < 1e-8 * want,
+            "{}",
+            f.total() / want - 1.0
+        );
     }
 
     #[test]

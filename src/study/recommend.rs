@@ -184,7 +184,7 @@ pub fn recommend(
         .retimed(translation_rate_factor(spec, speed))
         .scaled(depth_nm / unit.metrics.mean_nm);
     // K·P so small that the rates underflow: the process removes nothing worth planning.
-    if !(per_rpm.is_normal() && recommended.is_finite()) {
+    if !(per_rpm.is_normal() && recommended.is_finite() && current.is_finite()) {
         return Err(StudyError::NoRemovalInAperture);
     }
     let improvement_factor = match (

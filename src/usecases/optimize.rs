@@ -1,10 +1,16 @@
 //! Optimization: the dwell plan whose removal matches a target over the clear aperture within
 //! the constraints (see [`crate::optimize`] for the QP), with everything a caller reports
-//! about it: removal, target and residual on the grid, motion, metrics, the recommendation.
+//! about it: removal, target and residual on the grid, the program's motion, metrics, the
+//! recommendation.
+//!
+//! The plan moves as its machine program does ([`crate::physics::motion`]): the feed limit and
+//! the machine's velocity and acceleration limits are constraints on the program's blocks, and
+//! the motion reported is the program's own (without approach), on the request's machine or,
+//! without one, on an unlimited machine carrying the tool as given.
 
 use std::ops::Range;
 
-use super::warnings::{active_constraints, positions_unit, TARGET_MISS_FRACTION};
+use super::warnings::{active_constraints, positions_unit, ACTIVE_USE, TARGET_MISS_FRACTION};
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::machine::{
     cell_travel, Approach, Drive, Limit, MachineLimits, Program, ProgramError, Tool, Violation,
@@ -13,7 +19,7 @@ use crate::optimize::kinematics::AxisPath;
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
-    optimize as solve, Constraints, DwellBasis, DwellProblem, Formulation, MeasuredProfile, Motion,
+    optimize as solve, Constraints, DwellBasis, DwellProblem, Formulation, MeasuredProfile,
     Objective, OptimizeError, Solution,
 };
 use crate::physics::{check_positions, UniformityMetrics};
@@ -70,7 +76,9 @@ pub enum MachineFitError {
 /// aperture's rows, constraints and weights in their domains, a time budget within the limit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OptimizeCommand {
-    machine: Option<Machine>,
+    /// The machine the plan runs on: without [`Self::with_machine`], an unlimited one carrying
+    /// the default tool over the setting's surface.
+    machine: Machine,
     setting: Setting,
     positions_mm: Vec<f64>,
     rows: Range<usize>,
@@ -134,7 +142,11 @@ impl OptimizeCommand {
             ),
         };
         Ok(OptimizeCommand {
-            machine: None,
+            machine: Machine {
+                surface: setting.process().part().surface.clone(),
+                tool: Tool::default(),
+                limits: MachineLimits::default(),
+            },
             setting,
             positions_mm,
             rows,
@@ -176,13 +188,10 @@ impl OptimizeCommand {
         if !fixed.is_empty() {
             return Err(MachineFitError::Limits(fixed));
         }
-        self.machine = Some(machine);
+        self.machine = machine;
         Ok(self)
     }
 }
-
-/// A machine limit the plan uses at this fraction or more is named in its warnings.
-const ACTIVE_USE: f64 = 0.999;
 
 /// The optimizer's plan is the polishing motion alone; the program adds its approach.
 const NO_APPROACH: Approach = Approach {
@@ -208,33 +217,56 @@ fn axis_paths(machine: &Machine, positions_mm: &[f64]) -> Vec<AxisPath> {
         .collect()
 }
 
-/// The program the plan gives on its machine, checked: a plan that breaks a limit is a
-/// defect of the optimizer, never returned.
-fn machine_warnings(
+/// The length of the tool's X–Z path across each position's cell, mm.
+fn cell_path_mm(axes: &[AxisPath]) -> Vec<f64> {
+    let travel = |drive| {
+        axes.iter()
+            .find(|a| a.drive == drive)
+            .map_or(&[][..], |a| &a.cell_travel[..])
+    };
+    travel(Drive::X)
+        .iter()
+        .zip(travel(Drive::Z))
+        .map(|(x, z)| x.hypot(*z))
+        .collect()
+}
+
+/// The plan's polishing motion as its machine program runs it (no approach): `None` when it
+/// has none (no dwell at all, or an interior zero dwell, which also gives a warning).
+fn program_of(
     machine: &Machine,
-    process: &crate::physics::Process,
     positions_mm: &[f64],
     dwell_s: &[f64],
-) -> Result<Vec<Warning>, OptimizeError> {
-    let mut warnings = Vec::new();
-    let program = match Program::new(
+    warnings: &mut Vec<Warning>,
+) -> Option<Program> {
+    match Program::new(
         &machine.surface,
         &machine.tool,
         positions_mm,
         dwell_s,
         NO_APPROACH,
     ) {
-        Ok(program) => program,
+        Ok(program) => Some(program),
         Err(ProgramError::ZeroInteriorDwell { index }) => {
             warnings.push(Warning::NotProgrammable { index });
-            return Ok(warnings);
+            None
         }
-        Err(ProgramError::NoDwell) => return Ok(warnings),
-    };
+        Err(ProgramError::NoDwell) => None,
+    }
+}
+
+/// The machine limits the program sits on, checked: a program that breaks a limit is a defect
+/// of the optimizer, never returned.
+fn machine_warnings(
+    machine: &Machine,
+    process: &crate::physics::Process,
+    program: &Program,
+) -> Result<Vec<Warning>, OptimizeError> {
+    let mut warnings = Vec::new();
     let spec = process.spec();
     let broken = machine
         .limits
-        .violations(&program, (spec.workpiece_rpm, spec.tool_rpm));
+        .violations(program, (spec.workpiece_rpm, spec.tool_rpm));
     if let Some(v) = broken.first() {
         return Err(OptimizeError::Numerical {
             status: format!(
@@ -279,7 +311,11 @@ pub struct OptimizedPlan {
     /// The weights used.
     pub objective: Objective,
     pub total_time_s: f64,
-    pub motion: Motion,
+    /// The plan's polishing motion as the program runs it (no approach); `None` when it has
+    /// none (every dwell zero, or an interior zero dwell).
+    pub program: Option<Program>,
+    /// The limits of the machine it runs on (all absent without one).
+    pub machine_limits: MachineLimits,
     /// Removal at each grid radius, nm.
     pub removal_nm: Vec<f64>,
     /// Target (with the piston) at each grid radius; `None` outside the aperture.
@@ -317,9 +353,8 @@ pub fn optimize(
         time_limit_s,
     } = command;
     let operator = operators.operator(setting.process(), setting.grid().radii_mm(), &positions_mm);
-    let axes = machine
-        .as_ref()
-        .map_or_else(Vec::new, |m| axis_paths(m, &positions_mm));
+    let axes = axis_paths(&machine, &positions_mm);
+    let cell_path_mm = cell_path_mm(&axes);
     let solution = solve(&DwellProblem {
         operator: &operator,
         positions_mm: &positions_mm,
@@ -333,14 +368,11 @@ pub fn optimize(
         formulation: Formulation::default(),
         basis: DwellBasis::default(),
         axes: &axes,
+        cell_path_mm: &cell_path_mm,
     })?;
-    if let Some(machine) = &machine {
-        warnings.extend(machine_warnings(
-            machine,
-            setting.process(),
-            &positions_mm,
-            &solution.dwell_s,
-        )?);
+    let program = program_of(&machine, &positions_mm, &solution.dwell_s, &mut warnings);
+    if let Some(program) = &program {
+        warnings.extend(machine_warnings(&machine, setting.process(), program)?);
     }
 
     let removal_nm = operator.apply(&solution.dwell_s);
@@ -359,13 +391,13 @@ pub fn optimize(
             (a.min(v), b.max(v))
         });
     let rms = (inside.iter().map(|v| v * v).sum::<f64>() / inside.len() as f64).sqrt();
-    let motion = Motion::of_plan(&positions_mm, &solution.dwell_s);
     let metrics = UniformityMetrics::over(setting.grid(), setting.aperture(), &removal_nm);
     let mean_target = target_nm.iter().sum::<f64>() / target_nm.len() as f64 + piston;
+    let peak_feed_mm_per_min = program.as_ref().map(Program::peak_feed_mm_per_min);
     warnings.extend(active_constraints(
         &constraints,
-        &positions_mm,
         &solution.dwell_s,
+        peak_feed_mm_per_min,
     ));
     let target_rms_nm = (target_nm.iter().map(|d| (d + piston).powi(2)).sum::<f64>()
         / target_nm.len() as f64)
@@ -383,7 +415,8 @@ pub fn optimize(
         setting,
         positions_mm,
         objective,
-        motion,
+        program,
+        machine_limits: machine.limits,
         removal_nm,
         target_nm: full_target,
         residual_nm: residual,

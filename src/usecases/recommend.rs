@@ -29,6 +29,9 @@ use crate::study::{
 pub const DEFAULT_THRESHOLD: f64 = 0.02;
 /// Default depth of the equal-dwell plan, nm.
 pub const DEFAULT_DEPTH_NM: f64 = 100.0;
+/// Least depth an equal-dwell plan may remove, nm (a femtometre): the feed grows as the depth
+/// shrinks, and below this it can overflow.
+pub const MIN_DEPTH_NM: f64 = 1e-6;
 /// Entries each cache holds before it is emptied.
 const CACHE_CAPACITY: usize = 256;
 
@@ -42,7 +45,7 @@ pub struct RecommendCommand {
 }
 
 impl RecommendCommand {
-    /// `depth_nm` (default 100) in (0, 1e9] nm; `threshold` (default 0.02) a finite fraction
+    /// `depth_nm` (default 100) in [1e-6, 1e9] nm; `threshold` (default 0.02) a finite fraction
     /// > 0.
     pub fn new(
         setting: Setting,
@@ -71,10 +74,11 @@ impl RecommendCommand {
     }
 }
 
-/// The depth of an equal-dwell plan: `None` means [`DEFAULT_DEPTH_NM`]; in (0, 1e9] nm.
+/// The depth of an equal-dwell plan: `None` means [`DEFAULT_DEPTH_NM`]; in
+/// [[`MIN_DEPTH_NM`], 1e9] nm.
 pub(super) fn equal_dwell_depth(depth_nm: Option<f64>) -> Result<f64, InputError> {
     let depth = depth_nm.unwrap_or(DEFAULT_DEPTH_NM);
-    if depth > 0.0 && depth <= MAX_DEPTH_NM {
+    if (MIN_DEPTH_NM..=MAX_DEPTH_NM).contains(&depth) {
         Ok(depth)
     } else {
         Err(InputError::OutOfRange {

@@ -9,6 +9,9 @@ use crate::physics::Process;
 /// Relative closeness to a limit at which a plan counts as sitting on it (interior-point
 /// answers come within ~1e-8; the optimizer then clamps to the bounds exactly).
 const ACTIVE: f64 = 1e-6;
+/// A feed or machine limit a plan uses at this fraction or more counts as one it sits on
+/// (the optimizer keeps 1e-6 below them).
+pub(super) const ACTIVE_USE: f64 = 0.999;
 /// A plan whose residual RMS exceeds this fraction of the target's RMS misses its target.
 pub const TARGET_MISS_FRACTION: f64 = 0.1;
 
@@ -24,8 +27,9 @@ pub enum Warning {
     },
     /// The plan sits on this axis limit of the machine somewhere.
     MachineLimitActive { drive: Drive, limit: Limit },
-    /// With the machine given, the plan still has zero dwell at this position between positions
-    /// with dwell (no limited axis moves across its cell), which no program can run.
+    /// The plan has zero dwell at this position between positions with dwell, so the tool
+    /// would cross its cell in no time: no program can run it (give `min_dwell_s`, a feed
+    /// limit or the machine's velocity limits).
     NotProgrammable { index: usize },
     /// Every tool position is below 1 mm on a workpiece of 10 mm radius or more: positions in
     /// metres rather than millimetres?
@@ -47,11 +51,12 @@ pub(super) fn positions_unit(process: &Process, positions_mm: &[f64]) -> Option<
     )
 }
 
-/// The limits a plan sits on, in the order of [`Constraints`]' fields.
+/// The limits a plan sits on, in the order of [`Constraints`]' fields. `peak_feed_mm_per_min`:
+/// the highest path feed of the plan's program, if it has one.
 pub(super) fn active_constraints(
     c: &Constraints,
-    positions_mm: &[f64],
     dwell_s: &[f64],
+    peak_feed_mm_per_min: Option<f64>,
 ) -> Vec<Warning> {
     let near = |value: f64, limit: f64| (value - limit).abs() <= ACTIVE * limit.abs().max(1e-300);
     let mut active = Vec::new();
@@ -68,12 +73,8 @@ pub(super) fn active_constraints(
             active.push(Constraint::MaxTotalTime);
         }
     }
-    if let Some(need) = c.segment_min_dwell_sum_s(positions_mm) {
-        if need
-            .iter()
-            .zip(dwell_s.windows(2))
-            .any(|(&n, w)| near(w[0] + w[1], n))
-        {
+    if let (Some(limit), Some(peak)) = (c.max_feed_mm_per_min, peak_feed_mm_per_min) {
+        if peak >= ACTIVE_USE * limit {
             active.push(Constraint::MaxFeed);
         }
     }

@@ -741,3 +741,48 @@ async fn counts_take_whole_numbers_written_with_a_fraction() {
     .await;
     assert_problem_type(&reply, "schema-mismatch", "equal_dwell_positions");
 }
+
+/// Cases schemathesis found. A 1 µm pad on a 9 m part: each contact is 2 µm of path 9 m from
+/// the axis, where x is known to 5e-10 of the piece, and the path integral used to halve its
+/// panels to the deepest level (minutes per request). A depth of 2e-311 nm made the
+/// equal-dwell feed overflow to a null in a 200.
+#[tokio::test]
+async fn extreme_but_valid_recommendations_answer() {
+    let tiny_pad = json!({"tool_radius_mm": 0.001, "tool_rpm": 0.001, "workpiece_rpm": -100000.0, "workpiece_radius_mm": 9143.786284385247});
+    let reply = post_json(
+        &app(),
+        "/v1/recommend",
+        json!({ "process": tiny_pad }).to_string(),
+    )
+    .await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let r = reply.json();
+    // Uniform to the rounding of radii 9 m from the axis against a 2 µm contact.
+    let n = r["recommendation"]["metrics"]["nonuniformity"]
+        .as_f64()
+        .unwrap();
+    assert!(n < 1e-8, "{n}");
+
+    let process = exp1_process();
+    let reply = post_json(
+        &app(),
+        "/v1/recommend",
+        json!({"process": process, "depth_nm": 2.225073858507e-311}).to_string(),
+    )
+    .await;
+    assert_problem_type(&reply, "invalid-input", "depth_nm");
+    assert!(
+        reply.text().contains("[0.000001, 1000000000] nm"),
+        "{}",
+        reply.text()
+    );
+    let reply = post_json(
+        &app(),
+        "/v1/recommend",
+        json!({"process": process, "depth_nm": 1e-6}).to_string(),
+    )
+    .await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let feed = &reply.json()["recommendation"]["current_feed_mm_per_min"];
+    assert!(feed.as_f64().is_some_and(f64::is_finite), "{feed}");
+}

@@ -47,7 +47,13 @@ async fn a_plan_echoes_what_it_used_and_agrees_with_predict() {
     assert_eq!(r["piston_nm"], Value::Null);
     let dwell = r["dwell"]["dwell_s"].as_array().unwrap();
     assert_eq!(dwell.len(), 51);
-    assert_eq!(r["feed_mm_per_min"].as_array().unwrap().len(), 50);
+    // The feed across each cell: 1 mm in its dwell, the two 0.5 mm end cells in half of theirs.
+    let feed: Vec<f64> = serde_json::from_value(r["feed_mm_per_min"].clone()).unwrap();
+    assert_eq!(feed.len(), 51);
+    for (j, (f, t)) in feed.iter().zip(dwell).enumerate() {
+        let want = 60.0 / t.as_f64().unwrap();
+        assert!((f - want).abs() <= 1e-12 * want, "cell {j}: {f} vs {want}");
+    }
     let total: f64 = dwell.iter().map(|v| v.as_f64().unwrap()).sum();
     assert!((r["total_time_s"].as_f64().unwrap() - total).abs() <= 1e-9 * total);
     // The target and residual are null outside the aperture (radius > 40 mm).
@@ -94,13 +100,20 @@ async fn constraints_hold_and_the_motion_figures_respect_them() {
     assert!(dwell
         .windows(2)
         .all(|w| (w[1] - w[0]).abs() <= 30.0 * (1.0 + 1e-9)));
-    assert!(r["motion"]["peak_feed_mm_per_min"].as_f64().unwrap() <= 2.0 * (1.0 + 1e-9));
-    assert!(
-        r["motion"]["peak_feed_acceleration_mm_per_s2"]
-            .as_f64()
-            .unwrap()
-            >= 0.0
-    );
+    let feed: Vec<f64> = serde_json::from_value(r["feed_mm_per_min"].clone()).unwrap();
+    let peak = r["motion"]["peak_feed_mm_per_min"].as_f64().unwrap();
+    assert_eq!(peak, feed.iter().copied().fold(0.0, f64::max));
+    assert!(peak <= 2.0 * (1.0 + 1e-9), "{peak}");
+    // On a plane with the default tool the feed is X's velocity, and nothing else moves.
+    let axes = &r["motion"]["axes"];
+    assert!((axes["x"]["peak_velocity_mm_per_min"].as_f64().unwrap() - peak).abs() <= 1e-12 * peak);
+    assert_eq!(axes["z"]["peak_velocity_mm_per_min"], 0.0);
+    assert_eq!(axes["b"]["peak_velocity_deg_per_min"], 0.0);
+    assert!(r["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|w| w["field"] == "constraints.max_feed_mm_per_min"));
 }
 
 #[tokio::test]
@@ -121,19 +134,21 @@ async fn conflicting_constraints_are_422_infeasible_listing_them() {
 
     let mut b = body();
     b["constraints"] = json!({"max_feed_mm_per_min": 60, "max_total_time_s": 45});
+    // Each 1 mm cell takes 1 s at 60 mm/min (the 0.5 mm end cells 1 s of dwell too).
     let p = problem(
         &optimize(b).await,
         422,
         "infeasible",
-        Some("constraints.max_total_time_s"),
+        Some("constraints.max_feed_mm_per_min"),
     );
     assert_eq!(
         p["conflicts"],
         json!([
-            "constraints.max_total_time_s",
-            "constraints.max_feed_mm_per_min"
+            "constraints.max_feed_mm_per_min",
+            "constraints.max_total_time_s"
         ])
     );
+    assert!(p["detail"].as_str().unwrap().contains("51.0000"), "{p}");
 }
 
 #[tokio::test]

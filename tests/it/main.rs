@@ -22,6 +22,7 @@ mod optimize_constraints;
 mod optimize_paper;
 mod optimize_reference;
 mod paper;
+mod plan_program;
 mod plots;
 mod recommend;
 mod removal_accuracy;

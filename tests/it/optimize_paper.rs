@@ -57,6 +57,7 @@ fn solve_in(c: &Case, objective: Objective, basis: DwellBasis) -> Solution {
         formulation: Formulation::NormalEquations,
         basis,
         axes: &[],
+        cell_path_mm: &[],
     })
     .unwrap()
 }

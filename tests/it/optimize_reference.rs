@@ -504,6 +504,7 @@ fn objective_matches_an_active_set_reference_on_random_problems() {
             },
             basis: DwellBasis::Auto,
             axes: &[],
+            cell_path_mm: &[],
         };
         let solution = match optimize(&problem) {
             Ok(s) => s,
@@ -605,6 +606,7 @@ fn spline_objective_matches_an_active_set_reference_on_random_problems() {
             },
             basis: DwellBasis::Auto,
             axes: &[],
+            cell_path_mm: &[],
         };
         let ours = optimize(&problem).unwrap_or_else(|e| panic!("case {cases}: {e:?}"));
         let on_positions = optimize(&DwellProblem {
