@@ -1,9 +1,12 @@
 //! The η window: the interval around −1 where equal dwell stays at or below a nonuniformity
 //! threshold, with the tool speed held and the workpiece speed −η·tool.
 //!
-//! N(η) is the equal-dwell nonuniformity. From η = −1 we step outward on each side
-//! (|η + 1| = 0.01·1.5^k) until N exceeds the threshold, then find the crossing in the last
-//! step by the Illinois variant of regula falsi to |Δη| ≤ 1e-10 or |N − threshold| ≤ 1e-9.
+//! N(η) is the equal-dwell nonuniformity. From η = −1 we step outward on each side until N
+//! exceeds the threshold, then find the crossing in the last step by the Illinois variant of
+//! regula falsi to |Δη| ≤ 1e-10 or |N − threshold| ≤ 1e-9. The first step is |η + 1| = 0.01;
+//! each next one goes to where the line through the last two values reaches the threshold,
+//! 2 % beyond it (N grows about linearly in |η + 1| near −1, so that step usually brackets the
+//! crossing closely), but at least 1.5 and at most 4 times as far from −1 as the last.
 //! On the high side η stays below 0 (η = 0 stops the workpiece); a side that never crosses
 //! within |η + 1| ≤ 50 (or before η = −1e-6, or before the workpiece speed leaves the model's
 //! domain) has no bound.
@@ -49,10 +52,11 @@ pub(super) fn window_at(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Opt
         return None;
     }
     let side = |direction: f64| -> Option<f64> {
-        let mut inside = (-1.0, at_minus_one);
-        let mut step = 0.01;
+        // (|η + 1|, N − threshold) at the last point inside the window.
+        let mut inside = (0.0, at_minus_one);
+        let mut distance: f64 = 0.01;
         loop {
-            let mut eta = -1.0 + direction * step;
+            let mut eta = -1.0 + direction * distance;
             if direction > 0.0 && eta >= -1e-6 {
                 eta = -1e-6;
             }
@@ -60,13 +64,20 @@ pub(super) fn window_at(spec: &ProcessSpec, frame: Frame, threshold: f64) -> Opt
             let value = f(eta)?;
             if value > 0.0 {
                 let finite = |x| f(x).unwrap_or(f64::INFINITY);
-                return Some(illinois(&finite, inside, (eta, value), 1e-10, 1e-9));
+                let last = (-1.0 + direction * inside.0, inside.1);
+                return Some(illinois(&finite, last, (eta, value), 1e-10, 1e-9));
             }
-            if (direction > 0.0 && eta >= -1e-6) || step > 50.0 {
+            if (direction > 0.0 && eta >= -1e-6) || distance > 50.0 {
                 return None;
             }
-            inside = (eta, value);
-            step *= 1.5;
+            let slope = (value - inside.1) / (distance - inside.0);
+            let reach = distance - 1.02 * value / slope;
+            inside = (distance, value);
+            distance = if slope > 0.0 {
+                reach.clamp(1.5 * distance, 4.0 * distance)
+            } else {
+                4.0 * distance
+            };
         }
     };
     Some(EtaWindow {
