@@ -14,9 +14,12 @@ cache off (the operator assembled on every request) and at its defaults (the ope
 after the first request). The first request of each is a warm-up (it also computes the
 eta = -1 recommendation Preston's response carries, cached afterwards) and is not counted.
 
-Each plan is then checked independently: its removal is evaluated with this script's closed
-form on a grid 4x finer than the request's, and the nonuniformity (PV / mean over the
-aperture) reported.
+Each plan is then checked independently: the removal of the motion a machine program runs for
+it (docs/MODEL.md, "The motion of a plan": half of each end dwell as a stop, the cell between
+the midpoints around each position crossed at constant speed in its dwell) is integrated with
+this script's closed form, by Gauss-Legendre quadrature over each cell, on a grid 4x finer
+than the request's, and the nonuniformity (PV / mean over the aperture) reported. The peer's
+plan is checked the same way: whatever it assumed, the machine moves.
 
 Usage: python scripts/peer_bench.py --binary target/release/preston [--sizes 501 1001 2001]
 (scripts/peer_bench.sh makes the virtualenv, builds Preston and runs this.)
@@ -86,11 +89,39 @@ def nonuniformity(removal):
     return (removal.max() - removal.min()) / removal.mean()
 
 
+# Gauss-Legendre nodes on [0, 1] per cell (a cell is a few hundredths of the pad; the rim's
+# square-root kink inside a cell costs far less than the ripple being measured).
+GAUSS_NODES, GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(24)
+GAUSS_NODES, GAUSS_WEIGHTS = 0.5 * (GAUSS_NODES + 1.0), 0.5 * GAUSS_WEIGHTS
+
+
+def motion_removal(radii, positions, dwell):
+    """Removal (nm) at `radii` of the motion the program runs for the plan, on a plane."""
+    positions = np.asarray(positions, dtype=float)
+    dwell = np.asarray(dwell, dtype=float)
+    n = len(positions)
+    bounds = np.concatenate(([positions[0]], 0.5 * (positions[1:] + positions[:-1]), [positions[-1]]))
+    move = np.ones(n)
+    move[0] = move[-1] = 0.5
+    removal = 0.5 * dwell[0] * removal_matrix(radii, positions[:1])[:, 0]
+    removal += 0.5 * dwell[-1] * removal_matrix(radii, positions[-1:])[:, 0]
+    for j in range(n):
+        lo, hi = bounds[j], bounds[j + 1]
+        rows = np.abs(radii - 0.5 * (lo + hi)) <= TOOL_MM + 0.5 * (hi - lo)
+        if not rows.any() or dwell[j] == 0.0:
+            continue
+        x = lo + (hi - lo) * GAUSS_NODES
+        # The mean rate over the cell times the time spent crossing it.
+        mean_rate = removal_matrix(radii[rows], x) @ GAUSS_WEIGHTS
+        removal[rows] += move[j] * dwell[j] * mean_rate
+    return removal
+
+
 def check(positions, dwell, n):
     """PV/mean of the plan's removal over the aperture on a grid 4x finer than the request's."""
     fine = grid(4 * (n - 1) + 1)
     fine = fine[fine <= OUTER_MM]
-    return nonuniformity(removal_matrix(fine, positions) @ np.asarray(dwell))
+    return nonuniformity(motion_removal(fine, positions, dwell))
 
 
 def peer(n):
@@ -151,12 +182,10 @@ class Preston:
                 time.sleep(0.05)
         raise RuntimeError("Preston did not start")
 
-    def optimize(self, body):
-        """(seconds, parsed response) for one request, end to end."""
+    def post(self, body, path="/v1/optimize"):
+        """(seconds, parsed response) for one request to `path`, end to end."""
         started = time.perf_counter()
-        self.connection.request(
-            "POST", "/v1/optimize", body, {"content-type": "application/json"}
-        )
+        self.connection.request("POST", path, body, {"content-type": "application/json"})
         response = self.connection.getresponse()
         data = response.read()
         took = time.perf_counter() - started
@@ -207,13 +236,27 @@ def main():
         timings = {}
         plan = None
         for name, server in (("cold", cold), ("warm", warm)):
-            server.optimize(body)  # warm-up, not counted
-            runs = [server.optimize(body) for _ in range(args.preston_runs)]
+            server.post(body)  # warm-up, not counted
+            runs = [server.post(body) for _ in range(args.preston_runs)]
             timings[name] = statistics.median(t for t, _ in runs)
             plan = runs[-1][1]
         peer_runs = [peer(n) for _ in range(args.peer_runs)]
         peer_s = statistics.median(t for t, _ in peer_runs)
         positions = plan["dwell"]["positions_mm"]
+        if not rows:
+            # This script's motion model against Preston's prediction of the same plan.
+            fine = grid(4 * (n - 1) + 1)
+            predict = json.loads(body)
+            del predict["positions_mm"], predict["target"]
+            predict["dwell"] = plan["dwell"]
+            predict["radial_grid"]["count"] = len(fine)
+            _, predicted = warm.post(json.dumps(predict).encode(), "/v1/predict")
+            ours = motion_removal(fine, positions, plan["dwell"]["dwell_s"])
+            theirs = np.asarray(predicted["removal_nm"])
+            print(
+                f"motion removal here vs Preston's predict ({n} positions, {len(fine)} radii): "
+                f"{np.max(np.abs(ours - theirs)) / theirs.max():.1e} of the peak"
+            )
         rows.append(
             (
                 n,
