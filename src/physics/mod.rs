@@ -22,5 +22,5 @@ pub use metrics::UniformityMetrics;
 pub use operator::RemovalOperator;
 pub use pressure::PressureModel;
 pub use process::{Eta, Process, ProcessError, ProcessSpec};
-pub use removal::{removal_rate_nm_per_min, RemovalKernel};
+pub use removal::{removal_rate_nm_per_min, RemovalKernel, RunningIntegral};
 pub use schedule::{check_positions, ConstantFeed, DwellSchedule, ScheduleError};

@@ -19,6 +19,9 @@
 //! A = ρ²·acos((d² + ρ² − R²)/(2dρ)) + R²·acos((d² + R² − ρ²)/(2dR))
 //!     − ½·√((−d + ρ + R)(d + ρ − R)(d − ρ + R)(d + ρ + R))
 //! ```
+//!
+//! with each angle computed as atan2(√(…), d² + ρ² − R²) (the same angle, well conditioned
+//! near tangency, where the acos of a cosine near ±1 loses half the digits).
 
 use std::f64::consts::PI;
 
@@ -41,10 +44,12 @@ pub fn contact_area_mm2(workpiece_radius: f64, tool_radius: f64, position: f64) 
         let r = big.min(small);
         return PI * r * r;
     }
-    let cos_small = ((d * d + small * small - big * big) / (2.0 * d * small)).clamp(-1.0, 1.0);
-    let cos_big = ((d * d + big * big - small * small) / (2.0 * d * big)).clamp(-1.0, 1.0);
+    // √kite is four times the area of the triangle of the centres and a crossing point.
     let kite = (-d + small + big) * (d + small - big) * (d - small + big) * (d + small + big);
-    small * small * cos_small.acos() + big * big * cos_big.acos() - 0.5 * kite.max(0.0).sqrt()
+    let root = kite.max(0.0).sqrt();
+    let angle_small = root.atan2(d * d + small * small - big * big);
+    let angle_big = root.atan2(d * d + big * big - small * small);
+    small * small * angle_small + big * big * angle_big - 0.5 * root
 }
 
 /// Pressure at tool position `position` relative to the nominal pressure (a factor ≥ 1 under

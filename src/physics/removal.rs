@@ -35,7 +35,7 @@ use super::carlson::rf_rd;
 use super::contact::{half_angle, HalfAngle};
 use super::curved::{CurvedKernel, Ring};
 use super::path::{Lobatto, PathIntegral};
-use super::pressure::{pressure_factor, PressureModel};
+use super::pressure::{contact_area_mm2, pressure_factor, PressureModel};
 use super::process::Process;
 
 /// How finely a [`PathIntegral`] resolves the rate along the path, relative to the rate's
@@ -60,6 +60,52 @@ pub struct RemovalKernel {
     /// The Chebyshev points every path integral is taken with.
     lobatto: Lobatto,
     curved: Option<CurvedKernel>,
+}
+
+/// F(ρ) = ∫ R(r; x)·ds for x up to ρ at one radius r ([`RemovalKernel::path_integral`]).
+#[derive(Debug, Clone)]
+pub enum RunningIntegral {
+    /// Adaptive Chebyshev panels between the kinks of R ([`super::path`]).
+    Panels(PathIntegral),
+    /// The closed form on a plane at η = −1 under uniform pressure (see [`Lens`]).
+    Lens(Lens),
+}
+
+impl RunningIntegral {
+    /// F(x): 0 before the path reaches r's ring, the whole integral after it has passed.
+    pub fn at(&self, x: f64) -> f64 {
+        match self {
+            RunningIntegral::Panels(panels) => panels.at(x),
+            RunningIntegral::Lens(lens) => lens.at(x),
+        }
+    }
+}
+
+/// At η = −1 every point under the pad slides at |ω|·x (a translation), so
+/// R(r; x) = K·P/(2π)·|ω|·x·φ(r, x), with φ the angle of the arc of r's ring under a pad
+/// centred at x — the same angle as that of the circle of radius x about the axis under a pad
+/// centred at r. In polar coordinates ∫_0^ρ φ(r, x)·x dx is the area of the lens where the disc
+/// of radius ρ about the axis overlaps the pad's disc centred at distance r:
+///
+/// ```text
+/// F(ρ) = K·P/(2π)·|ω|·A(ρ),   A = lens area of radii ρ and r_t at centre distance r
+/// ```
+///
+/// exact, with no quadrature (the path ends at `end_mm`, the reach or r + r_t).
+#[derive(Debug, Clone, Copy)]
+pub struct Lens {
+    /// K·P/(2π)·|ω|, nm/s per mm².
+    rate: f64,
+    r_mm: f64,
+    tool_radius_mm: f64,
+    end_mm: f64,
+}
+
+impl Lens {
+    pub fn at(&self, x: f64) -> f64 {
+        let x = x.clamp(0.0, self.end_mm.max(0.0));
+        self.rate * contact_area_mm2(x, self.tool_radius_mm, self.r_mm)
+    }
 }
 
 impl RemovalKernel {
@@ -143,8 +189,19 @@ impl RemovalKernel {
     /// kinks: the pad's rim crossing r (x = |r − r_t|, r + r_t), the zero of the sliding
     /// speed (x = (ω1 + ω2)·r/ω2 on a plane) and the pad reaching the edge under constant
     /// force; on a curved part the same events on the surface ([`CurvedKernel::breakpoints`]).
-    pub fn path_integral(&self, r_mm: f64) -> PathIntegral {
-        match &self.curved {
+    pub fn path_integral(&self, r_mm: f64) -> RunningIntegral {
+        if self.curved.is_none()
+            && self.translation
+            && self.pressure_model == PressureModel::Uniform
+        {
+            return RunningIntegral::Lens(Lens {
+                rate: 0.5 * self.scale * self.omega2.abs(),
+                r_mm,
+                tool_radius_mm: self.tool_radius,
+                end_mm: (r_mm + self.tool_radius).min(self.reach_mm),
+            });
+        }
+        RunningIntegral::Panels(match &self.curved {
             Some(curved) => {
                 let ring = Ring::at(curved.surface(), r_mm);
                 let breakpoints = curved.breakpoints(&ring, self.reach_mm);
@@ -164,7 +221,7 @@ impl RemovalKernel {
                 FLAT_PATH_TOLERANCE,
                 &self.lobatto,
             ),
-        }
+        })
     }
 
     /// The support of R(r; ·) on a plane, clipped to the reach, and the kinks inside it.
@@ -286,6 +343,46 @@ pub fn removal_rate_nm_per_min(process: &Process, r_mm: f64, r1_mm: f64) -> f64 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The lens closed form at η = −1 equals the adaptive running integral of the rate, on
+    /// rings on the axis, inside the pad's radius, at it, in the middle and at the edge, read
+    /// before, inside and after each ring's support and at the reach.
+    #[test]
+    fn at_eta_minus_one_the_running_integral_is_a_lens_area() {
+        use crate::physics::process::tests::paper_spec;
+        let kernel = RemovalKernel::new(&Process::new(paper_spec(200.0, 200.0)).unwrap());
+        let reach = kernel.reach_mm;
+        for r in [0.0, 0.3, 4.0, 10.0, 10.5, 25.0, 47.0, 50.0] {
+            let RunningIntegral::Lens(lens) = kernel.path_integral(r) else {
+                panic!("η = −1 on a plane has the closed form");
+            };
+            let panels = PathIntegral::new(
+                |x| kernel.rate_nm_per_s(r, x),
+                &kernel.flat_breakpoints(r),
+                1e-13,
+                &kernel.lobatto,
+            );
+            let whole = panels.total();
+            for x in [
+                0.0,
+                0.5 * r,
+                r - 9.9,
+                r - 3.0,
+                r,
+                r + 0.01,
+                r + 7.0,
+                r + 10.0,
+                reach,
+                99.0,
+            ] {
+                let (want, got) = (panels.at(x), lens.at(x));
+                assert!(
+                    (got - want).abs() <= 1e-12 * whole,
+                    "r {r}, x {x}: lens {got}, panels {want}"
+                );
+            }
+        }
+    }
 
     /// At r = 0 the pad slides at |ω2|·r1 everywhere on the circle, so R = K·P·|ω2|·r1 exactly,
     /// also for a tool centre so close to the axis that the squares of the speeds underflow.
