@@ -7,10 +7,7 @@ use std::time::{Duration, Instant};
 
 use common::http::{app, app_with, get, post_json, post_with};
 use common::service::Service;
-use http_body_util::{BodyExt, Full};
-use hyper::body::Bytes;
-use hyper_util::client::legacy::Client;
-use hyper_util::rt::TokioExecutor;
+use common::socket;
 use preston::config::Limits;
 use serde_json::json;
 
@@ -307,36 +304,24 @@ fn sigterm_turns_readiness_503_first_and_lets_a_long_computation_finish() {
 
     let runtime = tokio::runtime::Runtime::new().unwrap();
     runtime.block_on(async {
-        let client = Client::builder(TokioExecutor::new()).build_http::<Full<Bytes>>();
         let long = {
-            let client = client.clone();
-            let request = hyper::Request::post(format!("http://{address}{SLOW_PATH}"))
-                .header("content-type", "application/json")
-                .body(Full::new(Bytes::from(slow_computation())))
-                .unwrap();
+            let address = address.clone();
             tokio::spawn(async move {
                 let started = Instant::now();
-                let response = client.request(request).await.unwrap();
-                let status = response.status();
-                response.into_body().collect().await.unwrap();
-                (status, started.elapsed())
+                let response =
+                    socket::post_json(&address, SLOW_PATH, slow_computation().as_bytes()).await;
+                (response.status, started.elapsed())
             })
         };
         tokio::time::sleep(Duration::from_millis(150)).await;
-        let ready = client
-            .get(format!("http://{address}/readyz").parse().unwrap())
-            .await
-            .unwrap();
-        assert_eq!(ready.status(), 200);
+        let ready = socket::get(&address, "/readyz").await;
+        assert_eq!(ready.status, 200);
 
         let signalled = Instant::now();
         service.signal("TERM");
         tokio::time::sleep(Duration::from_millis(100)).await;
-        let ready = client
-            .get(format!("http://{address}/readyz").parse().unwrap())
-            .await
-            .unwrap();
-        assert_eq!(ready.status(), 503, "readiness turns 503 at once");
+        let ready = socket::get(&address, "/readyz").await;
+        assert_eq!(ready.status, 503, "readiness turns 503 at once");
         assert!(
             !long.is_finished(),
             "the computation is still running when readiness drops"

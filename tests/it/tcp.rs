@@ -1,12 +1,9 @@
-//! The service over a real TCP socket with a real HTTP client (hyper), and the offline
-//! `preston compute` command, which must print exactly what the API returns.
+//! The service over a real TCP socket, and the offline `preston compute` command, which must
+//! print exactly what the API returns.
 
 use crate::common;
 
-use http_body_util::{BodyExt, Full};
-use hyper::body::Bytes;
-use hyper_util::client::legacy::Client;
-use hyper_util::rt::TokioExecutor;
+use common::socket;
 use preston::config::Limits;
 use preston::http::AppState;
 use tokio::net::TcpListener;
@@ -25,25 +22,17 @@ async fn predict_over_a_real_socket_then_graceful_shutdown() {
         },
     ));
 
-    let client = Client::builder(TokioExecutor::new()).build_http::<Full<Bytes>>();
+    let address = address.to_string();
     let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
-    let request = hyper::Request::post(format!("http://{address}/v1/predict"))
-        .header("content-type", "application/json")
-        .body(Full::new(Bytes::from(body)))
-        .unwrap();
-    let response = client.request(request).await.unwrap();
-    assert_eq!(response.status(), 200);
-    let bytes = response.into_body().collect().await.unwrap().to_bytes();
-    let v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+    let response = socket::post_json(&address, "/v1/predict", &body).await;
+    assert_eq!(response.status, 200);
+    let v = response.json();
     assert_eq!(v["eta"], -1.0);
     assert_eq!(v["total_time_s"], 6006.0);
     assert!(v["metrics"]["nonuniformity"].as_f64().unwrap() < 0.01);
 
-    let health = client
-        .get(format!("http://{address}/healthz").parse().unwrap())
-        .await
-        .unwrap();
-    assert_eq!(health.status(), 200);
+    let health = socket::get(&address, "/healthz").await;
+    assert_eq!(health.status, 200);
 
     stop.send(()).unwrap();
     server.await.unwrap().unwrap();

@@ -3,6 +3,7 @@
 
 pub mod http;
 pub mod service;
+pub mod socket;
 
 use preston::physics::{Part, PressureModel, Process, ProcessSpec};
 
