@@ -15,20 +15,39 @@ use serde::{Deserialize, Deserializer};
 use super::error::ApiError;
 
 /// Parses a JSON body (an object) into `T`, mapping serde's errors to problems that name the
-/// field.
+/// field, in the API's words (numbers, text, lists, objects — not Rust's types).
 pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Err(ApiError::MalformedJson {
+            field: None,
+            detail: NOT_JSON.replace("{what}", "the body is empty"),
+        });
+    }
     let mut deserializer = serde_json::Deserializer::from_slice(bytes);
     let value = serde_path_to_error::deserialize(ObjectOnly(&mut deserializer)).map_err(|err| {
         let path = err.path().to_string();
-        problem_of(&path, err.into_inner())
+        let inner = err.into_inner();
+        // A body that is not JSON at all (form-encoded `a=1&b=2`, plain text) fails on its
+        // first character: say what is expected rather than where the parser stopped.
+        if path == "." && inner.is_syntax() && inner.line() == 1 && inner.column() <= 1 {
+            return ApiError::MalformedJson {
+                field: None,
+                detail: NOT_JSON.replace("{what}", "the body is not JSON"),
+            };
+        }
+        problem_of(&path, inner)
     })?;
     // Trailing characters after the JSON value.
     deserializer.end().map_err(|e| problem_of(".", e))?;
     Ok(value)
 }
 
+/// What a body must be, after `{what}` went wrong.
+const NOT_JSON: &str = "{what}: send one JSON object, such as {\"process\": {...}}, with \
+    Content-Type: application/json (curl: -H 'Content-Type: application/json' -d @file.json)";
+
 fn problem_of(path: &str, inner: serde_json::Error) -> ApiError {
-    let message = object_expected(strip_position(&inner.to_string()));
+    let message = in_users_words(strip_position(&inner.to_string()));
     let field = field_of(path, &message);
     match inner.classify() {
         serde_json::error::Category::Data => ApiError::SchemaMismatch {
@@ -46,19 +65,45 @@ fn problem_of(path: &str, inner: serde_json::Error) -> ApiError {
     }
 }
 
-/// serde says "invalid type: sequence, expected struct ProcessDto" where an object was
-/// expected; say it in the API's terms.
-fn object_expected(message: String) -> String {
-    match message
+/// serde says "invalid type: string \"50\", expected f64"; say it in JSON's terms: "expected a
+/// number here, got the text \"50\"".
+fn in_users_words(message: String) -> String {
+    let Some((got, expected)) = message
         .strip_prefix("invalid type: ")
-        .and_then(|rest| rest.split_once(", expected struct "))
-    {
-        Some((got, _)) => {
-            let got = if got == "sequence" { "an array" } else { got };
-            format!("expected a JSON object here, got {got}")
+        .and_then(|rest| rest.rsplit_once(", expected "))
+    else {
+        return message;
+    };
+    let expected = match expected {
+        "f64" | "f32" => "a number",
+        "u8" | "u16" | "u32" | "u64" | "usize" | "i8" | "i16" | "i32" | "i64" | "isize" => {
+            "a whole number"
         }
-        None => message,
-    }
+        "a string" | "a borrowed string" => "text (a JSON string)",
+        "a sequence" => "a list (a JSON array)",
+        "a boolean" => "true or false",
+        "a map" => "a JSON object",
+        other if other.starts_with("struct ") => "a JSON object",
+        other => other,
+    };
+    let got = if let Some(text) = got.strip_prefix("string ") {
+        format!("the text {text}")
+    } else if let Some(number) = ["integer `", "floating point `"]
+        .iter()
+        .find_map(|p| got.strip_prefix(p))
+    {
+        format!("the number {}", number.trim_end_matches('`'))
+    } else {
+        match got {
+            "sequence" => "a list (an array)".to_string(),
+            "map" => "an object".to_string(),
+            "boolean `true`" => "true".to_string(),
+            "boolean `false`" => "false".to_string(),
+            "unit value" => "null".to_string(),
+            other => other.to_string(),
+        }
+    };
+    format!("expected {expected} here, got {got}")
 }
 
 /// A deserializer that gives structs only a JSON object. serde's derive also fills a struct
@@ -344,5 +389,66 @@ mod tests {
             parse_json::<Outer>(b"{\"inner\": ").unwrap_err(),
             ApiError::MalformedJson { .. }
         ));
+    }
+
+    /// Errors in the API's words: JSON's types, never Rust's; an empty or non-JSON body says
+    /// what is expected.
+    #[test]
+    fn parse_errors_speak_json() {
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct Body {
+            x: f64,
+            n: usize,
+            ys: Vec<f64>,
+            name: Option<String>,
+        }
+        let detail = |body: &str| match parse_json::<Body>(body.as_bytes()).unwrap_err() {
+            ApiError::SchemaMismatch { detail, .. } | ApiError::MalformedJson { detail, .. } => {
+                detail
+            }
+            other => panic!("{other:?}"),
+        };
+        let cases = [
+            (
+                r#"{"x": "50"}"#,
+                r#"expected a number here, got the text "50""#,
+            ),
+            (
+                r#"{"x": 1, "n": 2.5}"#,
+                "expected a whole number here, got the number 2.5",
+            ),
+            (
+                r#"{"x": 1, "n": 2, "ys": {}}"#,
+                "expected a list (a JSON array) here, got an object",
+            ),
+            (
+                r#"{"x": 1, "n": 2, "ys": [true]}"#,
+                "expected a number here, got true",
+            ),
+            (
+                r#"{"x": 1, "n": 2, "ys": [], "name": 5}"#,
+                "expected text (a JSON string) here, got the number 5",
+            ),
+            (
+                r#"[1, 2]"#,
+                "expected a JSON object here, got a list (an array)",
+            ),
+        ];
+        for (body, want) in cases {
+            assert_eq!(detail(body), want, "{body}");
+        }
+        for (body, start) in [
+            ("", "the body is empty: send one JSON object"),
+            ("  \n", "the body is empty: send one JSON object"),
+            (
+                "process=1&dwell=2",
+                "the body is not JSON: send one JSON object",
+            ),
+        ] {
+            let got = detail(body);
+            assert!(got.starts_with(start), "{body:?}: {got}");
+            assert!(got.contains("Content-Type: application/json"), "{got}");
+        }
     }
 }

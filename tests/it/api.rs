@@ -177,13 +177,35 @@ async fn malformed_json_is_400() {
     let trailing = format!("{} trailing", predict_body());
     let reply = post_json(&app(), "/v1/predict", trailing).await;
     assert_problem(&reply, 400, None);
+    // An empty body, and a form-encoded one (what `curl -d a=1` sends), say what is expected.
+    let reply = post_json(&app(), "/v1/predict", "").await;
+    assert_problem(&reply, 400, None);
+    let detail = reply.json()["detail"].as_str().unwrap().to_string();
+    assert!(
+        detail.starts_with("the body is empty: send one JSON object"),
+        "{detail}"
+    );
+    let form = [("content-type", "application/x-www-form-urlencoded")];
+    let reply = post_with(&app(), "/v1/predict", "process=1&dwell=2", &form).await;
+    assert_problem(&reply, 400, None);
+    let detail = reply.json()["detail"].as_str().unwrap().to_string();
+    assert!(
+        detail.starts_with("the body is not JSON: send one JSON object"),
+        "{detail}"
+    );
 }
 
 #[tokio::test]
 async fn wrong_types_name_the_field() {
     let mut body = predict_body();
-    body["process"]["tool_rpm"] = json!("fast");
-    assert_problem(&predict(body).await, 422, Some("process.tool_rpm"));
+    body["process"]["tool_rpm"] = json!("50");
+    let reply = predict(body).await;
+    assert_problem(&reply, 422, Some("process.tool_rpm"));
+    // In JSON's words, not Rust's ("expected f64").
+    assert_eq!(
+        reply.json()["detail"],
+        r#"expected a number here, got the text "50""#
+    );
     let mut body = predict_body();
     body["dwell"]["dwell_s"][2] = json!(true);
     assert_problem(&predict(body).await, 422, Some("dwell.dwell_s[2]"));
