@@ -412,6 +412,9 @@ pub enum WarningCode {
     /// Every tool position is below 1 mm on a workpiece of 10 mm radius or more: positions are
     /// in millimetres, and these look like metres.
     PositionsLookLikeMetres,
+    /// The workpiece radius is below 1 mm: the process's radii are in millimetres, and these
+    /// look like metres (`field` names the workpiece radius).
+    ProcessLooksLikeMetres,
     /// The plan has zero dwell between positions with dwell at the position in `field`: no
     /// machine program can run it (set `constraints.min_dwell_s` > 0 or a feed limit).
     NotProgrammable,
@@ -457,6 +460,16 @@ impl WarningDto {
                 field: Some(format!("{positions}[{index}]")),
                 message: format!(
                     "the plan has zero dwell at {positions}[{index}] between positions with dwell, so the tool would cross its cell in no time and no program can run it: give constraints.min_dwell_s > 0, constraints.max_feed_mm_per_min or a velocity limit on X"
+                ),
+            },
+            Warning::ProcessLooksLikeMetres {
+                workpiece_radius_mm,
+                tool_radius_mm,
+            } => WarningDto {
+                code: WarningCode::ProcessLooksLikeMetres,
+                field: Some("process.workpiece_radius_mm".to_string()),
+                message: format!(
+                    "the workpiece radius is {workpiece_radius_mm} mm and the pad's {tool_radius_mm} mm: radii are in millimetres; are these metres?"
                 ),
             },
             Warning::PositionsLookLikeMetres {

@@ -10,7 +10,7 @@
 
 use std::ops::Range;
 
-use super::warnings::{active_constraints, positions_unit, ACTIVE_USE, TARGET_MISS_FRACTION};
+use super::warnings::{active_constraints, unit_warning, ACTIVE_USE, TARGET_MISS_FRACTION};
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::machine::{
     cell_travel, Approach, Drive, Limit, MachineLimits, Program, ProgramError, Tool, Violation,
@@ -93,7 +93,7 @@ impl OptimizeCommand {
     /// What looks wrong in the input though it is valid (a unit mistake), for hints on
     /// solver failures as well as for the plan's warnings.
     pub fn input_warning(&self) -> Option<Warning> {
-        positions_unit(self.setting.process(), &self.positions_mm)
+        unit_warning(self.setting.process(), &self.positions_mm)
     }
 
     /// `time_limit_s` defaults to, and may not exceed, the limits' solver time.

@@ -1,7 +1,7 @@
 //! Prediction: the cumulative removal of a dwell plan (or a constant feed) and its uniformity.
 //! Both are the motion of [`crate::physics::motion`].
 
-use super::warnings::positions_unit;
+use super::warnings::unit_warning;
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::physics::{ConstantFeed, DwellSchedule, UniformityMetrics};
 use crate::study::Recommendation;
@@ -83,14 +83,14 @@ pub fn predict(
                 .operator(process, radii, schedule.positions_mm())
                 .apply(schedule.dwell_s()),
             schedule.total_time_s(),
-            positions_unit(process, schedule.positions_mm())
+            unit_warning(process, schedule.positions_mm())
                 .into_iter()
                 .collect(),
         ),
         Travel::Feed(feed) => (
             feed.removal_nm(process, radii),
             feed.total_time_s(process),
-            positions_unit(process, &[feed.start_mm(), feed.stop_mm()])
+            unit_warning(process, &[feed.start_mm(), feed.stop_mm()])
                 .into_iter()
                 .collect(),
         ),

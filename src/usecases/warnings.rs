@@ -37,10 +37,23 @@ pub enum Warning {
         max_position_mm: f64,
         workpiece_radius_mm: f64,
     },
+    /// The workpiece radius is below 1 mm: the process's radii in metres rather than
+    /// millimetres? (A 0.05 m part with a 0.01 m pad plans for months.)
+    ProcessLooksLikeMetres {
+        workpiece_radius_mm: f64,
+        tool_radius_mm: f64,
+    },
 }
 
-/// The unit check on tool positions.
-pub(super) fn positions_unit(process: &Process, positions_mm: &[f64]) -> Option<Warning> {
+/// The unit check on the process's radii, then on the tool positions.
+pub(super) fn unit_warning(process: &Process, positions_mm: &[f64]) -> Option<Warning> {
+    let workpiece_radius_mm = process.workpiece_radius_mm();
+    if workpiece_radius_mm < 1.0 {
+        return Some(Warning::ProcessLooksLikeMetres {
+            workpiece_radius_mm,
+            tool_radius_mm: process.tool_radius_mm(),
+        });
+    }
     let max_position_mm = positions_mm.iter().copied().fold(0.0_f64, f64::max);
     let workpiece_radius_mm = process.workpiece_radius_mm();
     (max_position_mm < 1.0 && workpiece_radius_mm >= 10.0).then_some(

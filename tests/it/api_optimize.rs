@@ -355,3 +355,25 @@ async fn positions_in_metres_get_a_hint() {
     );
     assert_eq!(r["warnings"][0]["field"], "dwell.positions_mm");
 }
+
+/// A process typed in metres (a 0.05 m part, a 0.01 m pad) is accepted — it is a valid, if
+/// tiny, process — but every plan on it says what looks wrong, naming the workpiece radius.
+#[tokio::test]
+async fn a_process_in_metres_gets_a_hint() {
+    let process = json!({"workpiece_radius_mm": 0.05, "tool_radius_mm": 0.01, "workpiece_rpm": -10, "tool_rpm": 200});
+    let predict = json!({"process": process, "dwell": {"positions_mm": [0.0, 0.02, 0.04], "dwell_s": [1, 1, 1]}});
+    let optimize = json!({"process": process, "positions_mm": [0.0, 0.01, 0.02, 0.03, 0.04, 0.05], "target": {"uniform_depth_nm": 100}});
+    for (path, body) in [("/v1/predict", predict), ("/v1/optimize", optimize)] {
+        let reply = post_json(&app(), path, body.to_string()).await;
+        assert_eq!(reply.status, 200, "{}", reply.text());
+        let w = &reply.json()["warnings"][0];
+        assert_eq!(w["code"], "process_looks_like_metres", "{path}: {w}");
+        assert_eq!(w["field"], "process.workpiece_radius_mm");
+        assert!(w["message"].as_str().unwrap().contains("0.05 mm"), "{w}");
+    }
+    // A small but plausible part (a 2 mm lens) is not questioned.
+    let small = json!({"process": {"workpiece_radius_mm": 1.0, "tool_radius_mm": 0.3, "workpiece_rpm": -10, "tool_rpm": 200},
+                       "dwell": {"positions_mm": [0.0, 0.5, 1.0], "dwell_s": [1, 1, 1]}});
+    let reply = post_json(&app(), "/v1/predict", small.to_string()).await;
+    assert_eq!(reply.json()["warnings"], json!([]), "{}", reply.text());
+}
