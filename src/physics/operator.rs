@@ -21,10 +21,12 @@
 use rayon::prelude::*;
 
 use super::motion::{cell_boundaries_mm, move_share, stop_share};
+use super::path::PARALLEL_MIN_PATHS;
 use super::removal::RemovalKernel;
 
-/// Entries at and above this count are computed in parallel; below it threads cost more
-/// than they save.
+/// A single position's operator (a stop: one rate per row) is computed in parallel from this
+/// many entries; below it threads cost more than they save. Otherwise every row is a path
+/// integral, and [`PARALLEL_MIN_PATHS`] rows go parallel.
 const PARALLEL_MIN_ENTRIES: usize = 20_000;
 
 /// Banded removal operator, column-major (see the module docs). Rates in nm/s.
@@ -95,7 +97,12 @@ impl RemovalOperator {
             }
             (j_lo, values)
         };
-        let by_row: Vec<(usize, Vec<f64>)> = if entries >= PARALLEL_MIN_ENTRIES {
+        let parallel = if n == 1 {
+            entries >= PARALLEL_MIN_ENTRIES
+        } else {
+            radii_mm.len() >= PARALLEL_MIN_PATHS
+        };
+        let by_row: Vec<(usize, Vec<f64>)> = if parallel {
             (0..radii_mm.len()).into_par_iter().map(row).collect()
         } else {
             (0..radii_mm.len()).map(row).collect()
@@ -255,8 +262,7 @@ mod tests {
         let radii = linspace(0.0, 50.0, 401);
         let positions = linspace(0.0, 50.0, 401);
         let op = RemovalOperator::assemble(&k, &radii, &positions).to_dense();
-        let few = RemovalOperator::assemble(&k, &radii[..40], &positions);
-        assert!(few.stored_entries() < PARALLEL_MIN_ENTRIES);
-        assert_eq!(few.to_dense()[..], op[..40]);
+        let few = RemovalOperator::assemble(&k, &radii[..PARALLEL_MIN_PATHS - 1], &positions);
+        assert_eq!(few.to_dense()[..], op[..PARALLEL_MIN_PATHS - 1]);
     }
 }

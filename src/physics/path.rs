@@ -30,6 +30,10 @@
 //! antiderivative is exact in Chebyshev coefficients (C_k = (c_{k−1} − c_{k+1})/2k), so F at any
 //! x is one short Clenshaw sum: the cost per row does not depend on how many cells the plan has.
 
+/// Path integrals at and above this count are made across threads: each costs some 15 µs
+/// (about 150 evaluations of the rate), far more than handing it to another thread.
+pub const PARALLEL_MIN_PATHS: usize = 16;
+
 /// Most Chebyshev points on one panel (a power of two plus one).
 const MAX_POINTS: usize = 33;
 /// Coefficients of a panel's antiderivative (one more than its points).

@@ -12,6 +12,7 @@ use rayon::prelude::*;
 
 use super::grid::RadialGrid;
 use super::operator::RemovalOperator;
+use super::path::PARALLEL_MIN_PATHS;
 use super::process::Process;
 use super::removal::RemovalKernel;
 
@@ -282,16 +283,13 @@ impl ConstantFeed {
             let path = kernel.path_integral(r);
             tau * (path.at(self.stop_mm) - path.at(self.start_mm))
         };
-        if radii_mm.len() >= PARALLEL_MIN_RADII {
+        if radii_mm.len() >= PARALLEL_MIN_PATHS {
             radii_mm.par_iter().map(at).collect()
         } else {
             radii_mm.iter().map(at).collect()
         }
     }
 }
-
-/// Radii at and above which a constant feed's removal is computed across threads.
-const PARALLEL_MIN_RADII: usize = 64;
 
 #[cfg(test)]
 mod tests {
