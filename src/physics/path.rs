@@ -112,6 +112,29 @@ impl PathIntegral {
         tolerance: f64,
         table: &Lobatto,
     ) -> Self {
+        Self::build(f, breakpoints, tolerance, table, true)
+    }
+
+    /// ∫ f over the pieces alone, as [`Self::new`] resolves it but keeping no interpolant:
+    /// each panel's integral is its Clenshaw–Curtis sum, and only the coefficients the
+    /// convergence test needs are computed (what a constant-feed pass needs of a radius).
+    pub fn total_over<F: Fn(f64) -> f64>(
+        f: F,
+        breakpoints: &[f64],
+        tolerance: f64,
+        table: &Lobatto,
+    ) -> f64 {
+        Self::build(f, breakpoints, tolerance, table, false).total
+    }
+
+    /// `keep`: store the panels' antiderivatives for [`Self::at`].
+    fn build<F: Fn(f64) -> f64>(
+        f: F,
+        breakpoints: &[f64],
+        tolerance: f64,
+        table: &Lobatto,
+        keep: bool,
+    ) -> Self {
         let mut integral = PathIntegral::default();
         for w in breakpoints.windows(2) {
             let (p, q) = (w[0], w[1]);
@@ -134,7 +157,7 @@ impl PathIntegral {
                 };
                 let g = |v: f64| f(x(v)) * 2.0 * half * v;
                 let first_panel = integral.panels.len() as u32;
-                let total = integral.fit_half(table, &g, tolerance);
+                let total = integral.fit_half(table, &g, tolerance, keep);
                 integral.halves.push(Half {
                     end,
                     half,
@@ -150,23 +173,34 @@ impl PathIntegral {
         integral
     }
 
-    /// Panels of g over v ∈ [0, 1], depth first so they come out in ascending v; returns ∫.
-    fn fit_half<G: Fn(f64) -> f64>(&mut self, table: &Lobatto, g: &G, tolerance: f64) -> f64 {
+    /// Panels of g over v ∈ [0, 1], depth first so they come out in ascending v (kept only
+    /// with `keep`); returns ∫.
+    fn fit_half<G: Fn(f64) -> f64>(
+        &mut self,
+        table: &Lobatto,
+        g: &G,
+        tolerance: f64,
+        keep: bool,
+    ) -> f64 {
         let mut total = 0.0;
         let mut scale = 0.0_f64;
         let mut stack = vec![(0.0, 1.0, 0_u32)];
-        let first_panel = self.panels.len();
+        let mut panels = 0;
         while let Some((lo, hi, depth)) = stack.pop() {
-            let anyway = depth >= MAX_DEPTH || self.panels.len() - first_panel >= MAX_PANELS;
-            let coeffs = match table.fit(g, lo, hi, &mut scale, tolerance, anyway) {
-                Some(coeffs) => coeffs,
-                None => {
-                    let mid = 0.5 * (lo + hi);
-                    stack.push((mid, hi, depth + 1));
-                    stack.push((lo, mid, depth + 1));
-                    continue;
-                }
+            let anyway = depth >= MAX_DEPTH || panels >= MAX_PANELS;
+            let Some((values, points)) = table.sample(g, lo, hi, &mut scale, tolerance, anyway)
+            else {
+                let mid = 0.5 * (lo + hi);
+                stack.push((mid, hi, depth + 1));
+                stack.push((lo, mid, depth + 1));
+                continue;
             };
+            panels += 1;
+            if !keep {
+                total += 0.5 * (hi - lo) * table.integral(&values, points);
+                continue;
+            }
+            let coeffs = (table.coefficients(&values, points), points);
             let first = self.coeffs.len() as u32;
             // Trailing coefficients far below the tolerance are dropped: reading F then costs
             // only the terms that matter (each dropped one moves F by less than its size).
@@ -221,10 +255,13 @@ impl PathIntegral {
 }
 
 /// cos(πk/N) for N = 32 and k < 2N: the first 33 are the Chebyshev–Lobatto points, all of
-/// them the DCT's cosines.
+/// them the DCT's cosines. With them, the Clenshaw–Curtis weights of the 9-, 17- and 33-point
+/// rules (nested: each uses every other point of the next).
 #[derive(Debug, Clone)]
 pub struct Lobatto {
     cosines: [f64; 2 * (MAX_POINTS - 1)],
+    /// weights[m][k]: the weight of point k of the rule with 2^(m+3) + 1 points, on [−1, 1].
+    weights: [[f64; MAX_POINTS]; 3],
 }
 
 impl Default for Lobatto {
@@ -234,15 +271,34 @@ impl Default for Lobatto {
         for (k, c) in cosines.iter_mut().enumerate() {
             *c = (std::f64::consts::PI * k as f64 / n).cos();
         }
-        Lobatto { cosines }
+        // w_k = (c_k/N)·(1 − Σ_{j=1}^{N/2} b_j/(4j² − 1)·cos(2πjk/N)), c_k = 1 at the two
+        // ends and 2 inside, b_j = 1 for j = N/2 and 2 below (Waldvogel 2006).
+        let period = 2 * (MAX_POINTS - 1);
+        let mut weights = [[0.0; MAX_POINTS]; 3];
+        for (m, rule) in weights.iter_mut().enumerate() {
+            let intervals = 8 << m;
+            let stride = (MAX_POINTS - 1) / intervals;
+            for (k, w) in rule.iter_mut().enumerate().take(intervals + 1) {
+                let mut sum = 0.0;
+                for j in 1..=intervals / 2 {
+                    let b = if j == intervals / 2 { 1.0 } else { 2.0 };
+                    let cos = cosines[(2 * j * k * stride) % period];
+                    sum += b / (4.0 * (j * j) as f64 - 1.0) * cos;
+                }
+                let c = if k == 0 || k == intervals { 1.0 } else { 2.0 };
+                *w = c / intervals as f64 * (1.0 - sum);
+            }
+        }
+        Lobatto { cosines, weights }
     }
 }
 
 impl Lobatto {
-    /// Chebyshev coefficients of g on [lo, hi] from 9, 17 or 33 points, the first that resolves
-    /// it (last three coefficients within `tolerance`·scale, `scale` the largest |g| seen on
-    /// the half so far); `None` when 33 do not, unless `anyway`.
-    fn fit<G: Fn(f64) -> f64>(
+    /// g at the Chebyshev–Lobatto points of [lo, hi] (every `stride`-th of `values`, stride
+    /// = 32/(points − 1)), 9, 17 or 33 of them: the first count whose interpolant resolves g
+    /// (last three Chebyshev coefficients within `tolerance`·scale, `scale` the largest |g|
+    /// seen on the half so far); `None` when 33 do not, unless `anyway`.
+    fn sample<G: Fn(f64) -> f64>(
         &self,
         g: &G,
         lo: f64,
@@ -262,15 +318,14 @@ impl Lobatto {
                     *scale = scale.max(values[k].abs());
                 }
             }
-            let coeffs = self.coefficients(&values, points);
-            let tail = coeffs[points - 3..points]
-                .iter()
-                .fold(0.0_f64, |m, c| m.max(c.abs()));
+            let tail = (points - 3..points)
+                .map(|j| self.coefficient(&values, points, j).abs())
+                .fold(0.0_f64, f64::max);
             // A bound below the normal range cannot be met by rounding (a process so weak its
             // rates are subnormal): such a panel is as resolved as f64 allows.
             let bound = (tolerance * *scale).max(f64::MIN_POSITIVE);
             if tail <= bound || (anyway && points == MAX_POINTS) {
-                return Some((coeffs, points));
+                return Some((values, points));
             }
             if points == MAX_POINTS {
                 return None;
@@ -279,23 +334,38 @@ impl Lobatto {
         }
     }
 
-    /// DCT-I of the values at every `stride`-th of the nodes: g = Σ c_j·T_j exactly at the
-    /// `points` nodes.
-    fn coefficients(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
+    /// Coefficient j of the interpolant through the `points` nodes (DCT-I).
+    fn coefficient(&self, values: &[f64; MAX_POINTS], points: usize, j: usize) -> f64 {
         let n = points - 1;
         let stride = (MAX_POINTS - 1) / n;
         let period = 2 * (MAX_POINTS - 1);
+        let mut sum =
+            0.5 * (values[0] + values[n * stride] * self.cosines[(j * n * stride) % period]);
+        for k in 1..n {
+            sum += values[k * stride] * self.cosines[(j * k * stride) % period];
+        }
+        let value = 2.0 * sum / n as f64;
+        if j == 0 || j == n {
+            0.5 * value
+        } else {
+            value
+        }
+    }
+
+    /// All coefficients: g = Σ c_j·T_j exactly at the `points` nodes.
+    fn coefficients(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
         let mut out = [0.0; MAX_POINTS];
         for (j, c) in out.iter_mut().enumerate().take(points) {
-            let mut sum =
-                0.5 * (values[0] + values[n * stride] * self.cosines[(j * n * stride) % period]);
-            for k in 1..n {
-                sum += values[k * stride] * self.cosines[(j * k * stride) % period];
-            }
-            let value = 2.0 * sum / n as f64;
-            *c = if j == 0 || j == n { 0.5 * value } else { value };
+            *c = self.coefficient(values, points, j);
         }
         out
+    }
+
+    /// ∫_{−1}^{1} of the interpolant through the `points` nodes (Clenshaw–Curtis).
+    fn integral(&self, values: &[f64; MAX_POINTS], points: usize) -> f64 {
+        let stride = (MAX_POINTS - 1) / (points - 1);
+        let rule = &self.weights[(points - 1).trailing_zeros() as usize - 3];
+        (0..points).map(|k| rule[k] * values[k * stride]).sum()
     }
 }
 
@@ -374,6 +444,42 @@ mod tests {
         assert!((f.total() - total).abs() < 1e-13, "{}", f.total() - total);
         // Inside a piece: ∫_1^2 √(x − 1) = 2/3.
         assert!((f.at(2.0) - f.at(1.0) - 2.0 / 3.0).abs() < 1e-13);
+    }
+
+    /// The Clenshaw–Curtis weights integrate the rule's polynomials exactly (∫T_j over [−1, 1]
+    /// is 2/(1 − j²) for even j, 0 for odd), and a total with no interpolant kept equals the
+    /// interpolant's own to rounding.
+    #[test]
+    fn totals_without_an_interpolant_agree() {
+        let table = Lobatto::default();
+        for points in [9, 17, 33] {
+            let stride = (MAX_POINTS - 1) / (points - 1);
+            for j in 0..points {
+                let mut values = [f64::NAN; MAX_POINTS];
+                for k in 0..points {
+                    values[k * stride] =
+                        (j as f64 * (k as f64 * std::f64::consts::PI / (points - 1) as f64)).cos();
+                }
+                let want = if j % 2 == 0 {
+                    2.0 / (1.0 - (j * j) as f64)
+                } else {
+                    0.0
+                };
+                let got = table.integral(&values, points);
+                assert!(
+                    (got - want).abs() < 1e-14,
+                    "{points} points, T_{j}: {got} vs {want}"
+                );
+            }
+        }
+        let g = |x: f64| (x * (3.0 - x)).max(0.0).sqrt() * (1.0 + x).ln() + 1.0 / (x + 0.05);
+        let kept = PathIntegral::new(g, &[0.0, 1.3, 3.0], 1e-13, &table);
+        let total = PathIntegral::total_over(g, &[0.0, 1.3, 3.0], 1e-13, &table);
+        assert!(
+            (kept.total() - total).abs() <= 1e-14 * total,
+            "{} vs {total}",
+            kept.total()
+        );
     }
 
     #[test]

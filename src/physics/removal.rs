@@ -190,21 +190,53 @@ impl RemovalKernel {
     /// speed (x = (ω1 + ω2)·r/ω2 on a plane) and the pad reaching the edge under constant
     /// force; on a curved part the same events on the surface ([`CurvedKernel::breakpoints`]).
     pub fn path_integral(&self, r_mm: f64) -> RunningIntegral {
-        if self.curved.is_none()
-            && self.translation
-            && self.pressure_model == PressureModel::Uniform
-        {
-            return RunningIntegral::Lens(Lens {
+        if let Some(lens) = self.lens(r_mm) {
+            return RunningIntegral::Lens(lens);
+        }
+        RunningIntegral::Panels(self.along_path(r_mm, |rate, points, tolerance| {
+            PathIntegral::new(rate, &points, tolerance, &self.lobatto)
+        }))
+    }
+
+    /// F(stop) − F(start) for [`Self::path_integral`]'s F, without building F: the pieces cut
+    /// at `start_mm` and `stop_mm` and integrated alone (what a constant-feed pass needs).
+    pub fn path_total(&self, r_mm: f64, start_mm: f64, stop_mm: f64) -> f64 {
+        if let Some(lens) = self.lens(r_mm) {
+            return lens.at(stop_mm) - lens.at(start_mm);
+        }
+        self.along_path(r_mm, |rate, points, tolerance| {
+            let (Some(&lo), Some(&hi)) = (points.first(), points.last()) else {
+                return 0.0;
+            };
+            let (a, b) = (lo.max(start_mm), hi.min(stop_mm));
+            if b <= a {
+                return 0.0;
+            }
+            PathIntegral::total_over(rate, &inside(points, a, b), tolerance, &self.lobatto)
+        })
+    }
+
+    /// The closed form at η = −1 on a plane under uniform pressure ([`Lens`]).
+    fn lens(&self, r_mm: f64) -> Option<Lens> {
+        (self.curved.is_none() && self.translation && self.pressure_model == PressureModel::Uniform)
+            .then(|| Lens {
                 rate: 0.5 * self.scale * self.omega2.abs(),
                 r_mm,
                 tool_radius_mm: self.tool_radius,
                 end_mm: (r_mm + self.tool_radius).min(self.reach_mm),
-            });
-        }
-        RunningIntegral::Panels(match &self.curved {
+            })
+    }
+
+    /// Hands `use_it` the rate along the path at radius `r_mm` (per mm of x, with ds/dx on a
+    /// curved part), the breakpoints of its smooth pieces and the tolerance to resolve it to.
+    fn along_path<T>(
+        &self,
+        r_mm: f64,
+        use_it: impl FnOnce(&dyn Fn(f64) -> f64, Vec<f64>, f64) -> T,
+    ) -> T {
+        match &self.curved {
             Some(curved) => {
                 let ring = Ring::at(curved.surface(), r_mm);
-                let breakpoints = curved.breakpoints(&ring, self.reach_mm);
                 let rate = |x: f64| {
                     let factor = curved.pressure_factor(x);
                     if factor == 0.0 {
@@ -213,15 +245,15 @@ impl RemovalKernel {
                     let weight = curved.surface().slope(x).hypot(1.0);
                     factor * weight * curved.nominal_rate_nm_per_s(&ring, &curved.site(x))
                 };
-                PathIntegral::new(rate, &breakpoints, CURVED_PATH_TOLERANCE, &self.lobatto)
+                let points = curved.breakpoints(&ring, self.reach_mm);
+                use_it(&rate, points, CURVED_PATH_TOLERANCE)
             }
-            None => PathIntegral::new(
-                |x| self.rate_nm_per_s(r_mm, x),
-                &self.flat_breakpoints(r_mm),
+            None => use_it(
+                &|x| self.rate_nm_per_s(r_mm, x),
+                self.flat_breakpoints(r_mm),
                 FLAT_PATH_TOLERANCE,
-                &self.lobatto,
             ),
-        })
+        }
     }
 
     /// The support of R(r; ·) on a plane, clipped to the reach, and the kinks inside it.

@@ -280,8 +280,7 @@ impl ConstantFeed {
             if r + rt <= self.start_mm || r - rt >= self.stop_mm {
                 return 0.0;
             }
-            let path = kernel.path_integral(r);
-            tau * (path.at(self.stop_mm) - path.at(self.start_mm))
+            tau * kernel.path_total(r, self.start_mm, self.stop_mm)
         };
         if radii_mm.len() >= PARALLEL_MIN_PATHS {
             radii_mm.par_iter().map(at).collect()
