@@ -15,12 +15,13 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, RwLock};
 
 use axum::extract::{Request, State};
+use axum::http::{header, HeaderValue};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use sha2::{Digest, Sha256};
 
 use super::endpoint::is_api_path;
-use super::error::ApiError;
+use super::error::{ApiError, Kind};
 use super::state::AppState;
 
 /// Why a keys file was refused: the line (1-based) and what is wrong with it.
@@ -231,7 +232,31 @@ pub async fn authenticate(State(state): State<AppState>, request: Request, next:
             response.extensions_mut().insert(KeyName(name));
             response
         }
-        Err(reason) => ApiError::Unauthorized { reason }.into_response(),
+        Err(reason) => ApiError::unauthorized(reason).into_response(),
+    }
+}
+
+impl ApiError {
+    /// A guarded path without a known API key (RFC 6750: no credentials, the bare challenge).
+    pub fn unauthorized(reason: Refusal) -> Self {
+        let (detail, challenge) = match reason {
+            Refusal::Missing => (
+                "this path needs an API key: send `Authorization: Bearer <key>`",
+                "Bearer realm=\"preston\"",
+            ),
+            Refusal::Malformed => (
+                "the Authorization header must be `Bearer <key>` with a non-empty key",
+                "Bearer realm=\"preston\", error=\"invalid_request\"",
+            ),
+            Refusal::Unknown => (
+                "the API key is not valid",
+                "Bearer realm=\"preston\", error=\"invalid_token\"",
+            ),
+        };
+        ApiError::new(Kind::Unauthorized, detail).with_header(
+            header::WWW_AUTHENTICATE,
+            HeaderValue::from_static(challenge),
+        )
     }
 }
 

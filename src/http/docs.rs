@@ -39,10 +39,7 @@ pub async fn asset(State(state): State<AppState>, path: Option<Path<String>>) ->
             }
             response
         }
-        Ok(None) => ApiError::NotFound {
-            path: format!("/docs/{tail}"),
-        }
-        .into_response(),
+        Ok(None) => ApiError::not_found(&format!("/docs/{tail}")).into_response(),
         Err(e) => ApiError::internal(format!("serving docs asset {tail}: {e}")).into_response(),
     }
 }

@@ -4,9 +4,9 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::error::surface_error;
 use super::error::ApiError;
 use super::extract::{count, optional_count};
+use super::fields::surface_error;
 use super::program::ToolDto;
 use crate::machine::Tool;
 use crate::physics::{ClearAperture, ConstantFeed, PressureModel, ProcessSpec, UniformityMetrics};

@@ -11,8 +11,9 @@ use super::dto::{
     RadialGridDto, SurfaceDto,
 };
 use super::endpoint::{handle, Endpoint};
-use super::error::{ApiError, ComputeProblems};
+use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
+use super::openapi::ComputeProblems;
 use super::plot::{Chart, Series};
 use super::program::ToolDto;
 use super::state::{AppState, Services};

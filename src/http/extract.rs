@@ -12,16 +12,16 @@ use axum::http::{header, HeaderMap, StatusCode};
 use serde::de::{DeserializeOwned, Visitor};
 use serde::{Deserialize, Deserializer};
 
-use super::error::ApiError;
+use super::error::{ApiError, Kind};
 
 /// Parses a JSON body (an object) into `T`, mapping serde's errors to problems that name the
 /// field, in the API's words (numbers, text, lists, objects — not Rust's types).
 pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
     if bytes.iter().all(u8::is_ascii_whitespace) {
-        return Err(ApiError::MalformedJson {
-            field: None,
-            detail: NOT_JSON.replace("{what}", "the body is empty"),
-        });
+        return Err(ApiError::new(
+            Kind::MalformedJson,
+            NOT_JSON.replace("{what}", "the body is empty"),
+        ));
     }
     let mut deserializer = serde_json::Deserializer::from_slice(bytes);
     let value = serde_path_to_error::deserialize(ObjectOnly(&mut deserializer)).map_err(|err| {
@@ -30,10 +30,10 @@ pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
         // A body that is not JSON at all (form-encoded `a=1&b=2`, plain text) fails on its
         // first character: say what is expected rather than where the parser stopped.
         if path == "." && inner.is_syntax() && inner.line() == 1 && inner.column() <= 1 {
-            return ApiError::MalformedJson {
-                field: None,
-                detail: NOT_JSON.replace("{what}", "the body is not JSON"),
-            };
+            return ApiError::new(
+                Kind::MalformedJson,
+                NOT_JSON.replace("{what}", "the body is not JSON"),
+            );
         }
         problem_of(&path, inner)
     })?;
@@ -50,18 +50,18 @@ fn problem_of(path: &str, inner: serde_json::Error) -> ApiError {
     let message = in_users_words(strip_position(&inner.to_string()));
     let field = field_of(path, &message);
     match inner.classify() {
-        serde_json::error::Category::Data => ApiError::SchemaMismatch {
-            field: field.unwrap_or_else(|| "body".to_string()),
-            detail: message,
-        },
-        _ => ApiError::MalformedJson {
-            field,
-            detail: format!(
+        serde_json::error::Category::Data => ApiError::new(Kind::SchemaMismatch, message)
+            .at(field.unwrap_or_else(|| "body".to_string())),
+        _ => {
+            let detail = format!(
                 "{message} (line {}, column {})",
                 inner.line(),
                 inner.column()
-            ),
-        },
+            );
+            let mut error = ApiError::new(Kind::MalformedJson, detail);
+            error.field = field;
+            error
+        }
     }
 }
 
@@ -233,12 +233,12 @@ pub async fn read_body<S: Send + Sync>(req: Request, state: &S) -> Result<Bytes,
         .unwrap_or(usize::MAX);
     Bytes::from_request(req, state).await.map_err(|rejection| {
         if rejection.status() == StatusCode::PAYLOAD_TOO_LARGE {
-            ApiError::PayloadTooLarge { limit_bytes: limit }
+            ApiError::payload_too_large(limit)
         } else {
-            ApiError::MalformedJson {
-                field: None,
-                detail: format!("could not read the request body: {rejection}"),
-            }
+            ApiError::new(
+                Kind::MalformedJson,
+                format!("could not read the request body: {rejection}"),
+            )
         }
     })
 }
@@ -262,9 +262,7 @@ fn check_content_type(headers: &HeaderMap) -> Result<(), ApiError> {
     if json || essence == "application/x-www-form-urlencoded" {
         Ok(())
     } else {
-        Err(ApiError::UnsupportedMediaType {
-            content_type: text.to_string(),
-        })
+        Err(ApiError::unsupported_media_type(text))
     }
 }
 
@@ -316,13 +314,13 @@ pub fn negotiate(headers: &HeaderMap, offered: &[Format]) -> Result<Format, ApiE
             }
         }
     }
-    best.map(|(_, f)| f).ok_or_else(|| ApiError::NotAcceptable {
-        accept: accept.to_string(),
-        offered: offered
+    best.map(|(_, f)| f).ok_or_else(|| {
+        let offered = offered
             .iter()
             .map(|f| f.media_type())
             .collect::<Vec<_>>()
-            .join(", "),
+            .join(", ");
+        ApiError::not_acceptable(accept, &offered)
     })
 }
 
@@ -368,8 +366,10 @@ mod tests {
             inner: Inner,
         }
         let field = |body: &str| match parse_json::<Outer>(body.as_bytes()).unwrap_err() {
-            ApiError::SchemaMismatch { field, .. } => Some(field),
-            ApiError::MalformedJson { field, .. } => field,
+            e @ ApiError {
+                kind: Kind::SchemaMismatch | Kind::MalformedJson,
+                ..
+            } => e.field,
             other => panic!("{other:?}"),
         };
         assert_eq!(
@@ -385,10 +385,10 @@ mod tests {
             field(r#"{"inner": {"x": 1, "ys": [], "z": 2}}"#).unwrap(),
             "inner.z"
         );
-        assert!(matches!(
-            parse_json::<Outer>(b"{\"inner\": ").unwrap_err(),
-            ApiError::MalformedJson { .. }
-        ));
+        assert_eq!(
+            parse_json::<Outer>(b"{\"inner\": ").unwrap_err().kind,
+            Kind::MalformedJson
+        );
     }
 
     /// Errors in the API's words: JSON's types, never Rust's; an empty or non-JSON body says
@@ -404,9 +404,10 @@ mod tests {
             name: Option<String>,
         }
         let detail = |body: &str| match parse_json::<Body>(body.as_bytes()).unwrap_err() {
-            ApiError::SchemaMismatch { detail, .. } | ApiError::MalformedJson { detail, .. } => {
-                detail
-            }
+            e @ ApiError {
+                kind: Kind::SchemaMismatch | Kind::MalformedJson,
+                ..
+            } => e.detail,
             other => panic!("{other:?}"),
         };
         let cases = [

@@ -10,8 +10,9 @@ use utoipa::{IntoParams, ToSchema};
 
 use super::dto::{ApertureEcho, ClearApertureDto, RadialGridDto, SurfaceDto};
 use super::endpoint::{handle, Endpoint};
-use super::error::{ApiError, ComputeProblems};
+use super::error::{ApiError, Kind};
 use super::extract::{self, object, optional_object, ApiJson};
+use super::openapi::ComputeProblems;
 use super::optimize::{MeasuredProfileDto, TargetDto};
 use super::plot::{Chart, Series};
 use super::state::{AppState, Services};
@@ -479,13 +480,14 @@ impl<S: Send + Sync> FromRequest<S> for FitBody {
         let mut body = serde_json::Map::new();
         for (name, value) in query {
             if !QUERY_FIELDS.contains(&name.as_str()) {
-                return Err(ApiError::SchemaMismatch {
-                    detail: format!(
+                return Err(ApiError::new(
+                    Kind::SchemaMismatch,
+                    format!(
                         "unknown query parameter `{name}`, expected one of {}",
                         QUERY_FIELDS.join(", ")
                     ),
-                    field: name,
-                });
+                )
+                .at(name));
             }
             // A JSON value, or a bare word for an enum name.
             let value = serde_json::from_str(&value).unwrap_or(serde_json::Value::String(value));

@@ -1,5 +1,5 @@
 //! Prometheus metrics (`GET /metrics`, text format 0.0.4) and the middleware that records
-//! every request and stamps its request id into problem+json bodies.
+//! every request.
 //!
 //! Metrics (all prefixed `preston_`):
 //! - `http_requests_total{route, method, status, key}` — requests by matched route
@@ -23,9 +23,8 @@ use super::auth::KeyName;
 use super::state::AppState;
 use crate::optimize::{OptimizeError, Solution, SolveStatus};
 use crate::usecases::OperatorCache;
-use axum::body::Body;
 use axum::extract::{MatchedPath, Request, State};
-use axum::http::{header, HeaderValue, StatusCode};
+use axum::http::header;
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use prometheus::core::{Collector, Desc};
@@ -180,8 +179,7 @@ pub async fn handler(State(state): State<AppState>) -> Response {
         .into_response()
 }
 
-/// Records the request in the metrics and writes its request id into problem+json bodies
-/// (`request_id` member), so a user's error report can be matched to the logs.
+/// Records the request in the metrics.
 pub async fn record(State(state): State<AppState>, request: Request, next: Next) -> Response {
     let started = Instant::now();
     let route = request
@@ -189,7 +187,6 @@ pub async fn record(State(state): State<AppState>, request: Request, next: Next)
         .get::<MatchedPath>()
         .map_or("unmatched".to_string(), |p| p.as_str().to_string());
     let method = request.method().as_str().to_string();
-    let request_id = request.headers().get(REQUEST_ID).cloned();
     let response = next.run(request).await;
     let key = response
         .extensions()
@@ -203,35 +200,7 @@ pub async fn record(State(state): State<AppState>, request: Request, next: Next)
     m.latency
         .with_label_values(&[&route])
         .observe(started.elapsed().as_secs_f64());
-    match request_id {
-        Some(id) if is_problem(&response) => with_request_id(response, &id).await,
-        _ => response,
-    }
-}
-
-fn is_problem(response: &Response) -> bool {
     response
-        .headers()
-        .get(header::CONTENT_TYPE)
-        .is_some_and(|v| v.as_bytes().starts_with(b"application/problem+json"))
-}
-
-/// Problem bodies are small JSON objects we wrote ourselves; add `request_id` to them.
-async fn with_request_id(response: Response, id: &HeaderValue) -> Response {
-    let (mut parts, body) = response.into_parts();
-    let Ok(bytes) = axum::body::to_bytes(body, 1 << 20).await else {
-        return (StatusCode::INTERNAL_SERVER_ERROR, "").into_response();
-    };
-    let mut value: serde_json::Value = match serde_json::from_slice(&bytes) {
-        Ok(v) => v,
-        Err(_) => return Response::from_parts(parts, Body::from(bytes)),
-    };
-    if let (Some(object), Ok(id)) = (value.as_object_mut(), id.to_str()) {
-        object.insert("request_id".into(), id.into());
-    }
-    let body = serde_json::to_vec(&value).unwrap_or_else(|_| bytes.to_vec());
-    parts.headers.remove(header::CONTENT_LENGTH);
-    Response::from_parts(parts, Body::from(body))
 }
 
 /// The operator cache's own counts, read at each scrape (the cache is pure and keeps them).

@@ -16,6 +16,7 @@ pub mod endpoint;
 pub mod error;
 pub mod eta_sweep;
 pub mod extract;
+pub mod fields;
 pub mod health;
 pub mod measurement_fit;
 pub mod metrics;

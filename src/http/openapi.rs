@@ -235,3 +235,29 @@ fn query_mirrors_body(doc: &mut serde_json::Value, path: &str, body_schema: &str
         }
     }
 }
+
+/// The error responses every computing endpoint can give, described once for the OpenAPI
+/// document (the values are built as [`ApiError`]s, never as this enum).
+#[derive(utoipa::IntoResponses)]
+#[allow(dead_code)]
+pub enum ComputeProblems {
+    /// Malformed JSON
+    #[response(status = 400, content_type = "application/problem+json")]
+    Malformed(super::error::Problem),
+    /// Body too large
+    #[response(status = 413, content_type = "application/problem+json")]
+    TooLarge(super::error::Problem),
+    /// Invalid input, naming the field
+    #[response(status = 422, content_type = "application/problem+json")]
+    Invalid(super::error::Problem),
+    /// No valid API key (only when the service has keys configured); `WWW-Authenticate: Bearer`
+    #[response(status = 401, content_type = "application/problem+json")]
+    Unauthorized(super::error::Problem),
+    /// The client's rate limit is spent (only when the service limits rates); retry after
+    /// Retry-After seconds
+    #[response(status = 429, content_type = "application/problem+json")]
+    RateLimited(super::error::Problem),
+    /// Overloaded; retry after Retry-After seconds
+    #[response(status = 503, content_type = "application/problem+json")]
+    Overloaded(super::error::Problem),
+}

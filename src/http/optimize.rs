@@ -12,10 +12,12 @@ use super::dto::{
     RadialGridDto, RecommendationDto, SurfaceDto, WarningDto,
 };
 use super::endpoint::{handle, Endpoint};
-use super::error::{ApiError, ComputeProblems};
+use super::error::{ApiError, Kind};
 use super::extract::{object, optional_object, ApiJson};
+use super::fields::machine_limits_error;
+use super::openapi::ComputeProblems;
 use super::plot::{Chart, Series};
-use super::program::{machine_limits_error, machine_setup, AxesDto, MachineDto, ToolDto};
+use super::program::{machine_setup, AxesDto, MachineDto, ToolDto};
 use super::state::{AppState, Services};
 use super::{csv, plot};
 use crate::machine::Program;
@@ -393,13 +395,13 @@ impl Endpoint for OptimizeEndpoint {
             .record_solver(plan.as_ref().map(|p| &p.solution));
         let plan = plan.map_err(|e| {
             let error = match e {
-                OptimizeError::TimeLimit { .. } => ApiError::SolverFailed {
-                    kind: "solver-time-limit",
-                    field: Some("solver.time_limit_s".into()),
-                    detail: format!(
+                OptimizeError::TimeLimit { .. } => ApiError::new(
+                    Kind::SolverTimeLimit,
+                    format!(
                         "{e}; use fewer positions or radial samples, or a longer time limit (at most {max_time_limit_s} s here)"
                     ),
-                },
+                )
+                .at("solver.time_limit_s"),
                 other => other.into(),
             };
             with_suspect(error, suspect)
@@ -412,11 +414,11 @@ impl Endpoint for OptimizeEndpoint {
 /// names that input and says why.
 fn with_suspect(error: ApiError, suspect: Option<WarningDto>) -> ApiError {
     match (error, suspect) {
-        (ApiError::SolverFailed { kind, detail, .. }, Some(w)) => ApiError::SolverFailed {
-            kind,
-            field: w.field,
-            detail: format!("{detail}. Look at the input first: {}", w.message),
-        },
+        (mut error, Some(w)) if error.kind.is_solver_failure() => {
+            error.detail = format!("{}. Look at the input first: {}", error.detail, w.message);
+            error.field = w.field;
+            error
+        }
         (error, _) => error,
     }
 }

@@ -10,19 +10,18 @@ use utoipa::ToSchema;
 
 use super::dto::{DwellDto, ProcessDto, SurfaceDto};
 use super::endpoint::{handle, Endpoint};
-use super::error::{surface_error, ApiError, ComputeProblems, LimitViolation};
+use super::error::ApiError;
 use super::extract::{object, optional_count, optional_object, ApiJson};
+use super::openapi::ComputeProblems;
 use super::state::{AppState, Services};
 use crate::machine::{
-    AxisLimits, AxisMotion, BlockKind, Drive, FeedMode, GcodeFormat, GcodeFormatError,
-    MachineLimits, Orientation, Program, SpindleWords, Tool, Violation,
+    AxisLimits, AxisMotion, BlockKind, Drive, FeedMode, GcodeFormat, MachineLimits, Orientation,
+    Program, SpindleWords, Tool,
 };
 use crate::physics::ProcessSpec;
 use crate::surface::{Surface, SurfaceSpec};
 use crate::usecases::optimize::Machine;
-use crate::usecases::program::{
-    program, ProgramCommand, ProgramFailure, ProgramInputError, ProgramSpec,
-};
+use crate::usecases::program::{program, ProgramCommand, ProgramInputError, ProgramSpec};
 use crate::usecases::ComputeLimits;
 
 /// How the tool is carried: `normal` (B follows the surface normal) or `vertical` (no tilt).
@@ -579,40 +578,6 @@ impl Endpoint for ProgramEndpoint {
     }
 }
 
-/// The 422 `machine-limits` problem listing every violation; `what` reaches the values
-/// (`program`, or the optimization's `positions`).
-pub fn machine_limits_error(found: &[Violation], what: &str) -> ApiError {
-    let violations: Vec<LimitViolation> = found
-        .iter()
-        .map(|v| LimitViolation {
-            field: v.limit.field(v.drive),
-            axis: v.drive.name().to_string(),
-            limit: v.limit.name(v.drive).to_string(),
-            limit_value: v.limit_value,
-            value: v.value,
-            first_block: v.first_block,
-            blocks: v.blocks,
-        })
-        .collect();
-    let detail = violations
-        .iter()
-        .map(|v| {
-            let at = v
-                .first_block
-                .map_or(String::new(), |b| format!(" from block {b}"));
-            format!(
-                "{} = {} but the {what} reach {}{at} ({} block(s))",
-                v.field, v.limit_value, v.value, v.blocks
-            )
-        })
-        .collect::<Vec<_>>()
-        .join("; ");
-    ApiError::MachineLimits {
-        detail: format!("no program within the machine's limits: {detail}"),
-        violations,
-    }
-}
-
 /// The machine a plan must run on (for `/v1/optimize`): the part's surface, already checked
 /// with the process, and the tool and limits as given, each checked and any error naming its
 /// field.
@@ -644,23 +609,6 @@ impl From<OrientationDto> for Orientation {
         match o {
             OrientationDto::Normal => Orientation::Normal,
             OrientationDto::Vertical => Orientation::Vertical,
-        }
-    }
-}
-
-impl From<ProgramFailure> for ApiError {
-    fn from(err: ProgramFailure) -> Self {
-        match err {
-            ProgramFailure::Plan(e) => {
-                let field = match e {
-                    crate::machine::ProgramError::NoDwell => "dwell.dwell_s".to_string(),
-                    crate::machine::ProgramError::ZeroInteriorDwell { index } => {
-                        format!("dwell.dwell_s[{index}]")
-                    }
-                };
-                ApiError::invalid(field, e.to_string())
-            }
-            ProgramFailure::Limits(found) => machine_limits_error(&found, "program would"),
         }
     }
 }
@@ -724,31 +672,4 @@ pub async fn handler(
     ApiJson(req): ApiJson<ProgramRequest>,
 ) -> Result<Response, ApiError> {
     handle::<ProgramEndpoint>(state, &headers, req).await
-}
-
-impl From<ProgramInputError> for ApiError {
-    fn from(err: ProgramInputError) -> Self {
-        use ProgramInputError as E;
-        let detail = err.to_string();
-        match err {
-            E::Process(e) => ApiError::from_process(e),
-            E::Surface(e) => surface_error(e),
-            E::PositionOffSurface { index, .. } => {
-                ApiError::invalid(format!("dwell.positions_mm[{index}]"), detail)
-            }
-            E::Size(e) => ApiError::from_limit("dwell.positions_mm", e),
-            E::Schedule(e) => ApiError::from_schedule("dwell", e),
-            E::Tool(_) => ApiError::invalid("tool.pivot_length_mm", detail),
-            E::Limits(e) => ApiError::invalid(e.limit.field(e.drive), detail),
-            E::Format(e) => {
-                let field = match e {
-                    GcodeFormatError::Decimals => "format.decimals".to_string(),
-                    GcodeFormatError::Word { spindle, word } => format!("format.{spindle}.{word}"),
-                };
-                ApiError::invalid(field, detail)
-            }
-            E::Clearance => ApiError::invalid("approach.clearance_mm", detail),
-            E::ApproachFeed => ApiError::invalid("approach.feed_mm_per_min", detail),
-        }
-    }
 }

@@ -11,6 +11,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use axum::extract::{ConnectInfo, Request, State};
+use axum::http::{header, HeaderValue};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use governor::clock::{Clock, DefaultClock};
@@ -18,7 +19,7 @@ use governor::{DefaultKeyedRateLimiter, Quota};
 
 use super::auth::KeyName;
 use super::endpoint::is_api_path;
-use super::error::ApiError;
+use super::error::{ApiError, Kind};
 use super::state::AppState;
 
 /// Who a limit counts against.
@@ -99,13 +100,24 @@ pub async fn limit(State(state): State<AppState>, request: Request, next: Next) 
             .map(|c| Client::Address(c.0.ip())),
     };
     match client.map(|c| limit.check(&c)) {
-        Some(Err(retry_after_s)) => ApiError::RateLimited {
-            retry_after_s: retry_after_s.max(1),
-            per_second: limit.per_second,
-            burst: limit.burst,
+        Some(Err(retry_after_s)) => {
+            ApiError::rate_limited(retry_after_s.max(1), limit.per_second, limit.burst)
+                .into_response()
         }
-        .into_response(),
         _ => next.run(request).await,
+    }
+}
+
+impl ApiError {
+    pub fn rate_limited(retry_after_s: u64, per_second: f64, burst: u32) -> Self {
+        ApiError::new(
+            Kind::RateLimited,
+            format!(
+                "this client may make {per_second} requests per second with bursts of {burst}; \
+                 retry in {retry_after_s} s"
+            ),
+        )
+        .with_header(header::RETRY_AFTER, HeaderValue::from(retry_after_s))
     }
 }
 

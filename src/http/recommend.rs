@@ -12,8 +12,9 @@ use super::dto::{
     setting, ClearApertureDto, Place, ProcessDto, RadialGridDto, RecommendationDto, SurfaceDto,
 };
 use super::endpoint::{handle, Endpoint};
-use super::error::{ApiError, ComputeProblems};
+use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
+use super::openapi::ComputeProblems;
 use super::program::ToolDto;
 use super::state::{AppState, Services};
 use crate::study::SpeedLimits;

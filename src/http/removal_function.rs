@@ -9,8 +9,9 @@ use utoipa::ToSchema;
 
 use super::dto::{process_spec, ProcessDto, RadialGridDto, SurfaceDto};
 use super::endpoint::{handle, Endpoint};
-use super::error::{ApiError, ComputeProblems};
+use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
+use super::openapi::ComputeProblems;
 use super::plot::{Chart, Series};
 use super::program::ToolDto;
 use super::state::{AppState, Services};

@@ -13,7 +13,7 @@ use tower_http::trace::{DefaultOnResponse, TraceLayer};
 use tracing::Level;
 
 use super::endpoint::{compute_json as compute_json_of, Endpoint, API_PREFIX};
-use super::error::ApiError;
+use super::error::{self, ApiError};
 use super::extract::BodyLimit;
 use super::state::{AppState, Services};
 use super::{auth, ratelimit};
@@ -100,9 +100,7 @@ pub fn compute_json(endpoint: &str, body: &[u8], limits: &Limits) -> Result<Stri
     let entry = ENDPOINTS
         .iter()
         .find(|e| e.name == endpoint)
-        .ok_or_else(|| ApiError::NotFound {
-            path: format!("{API_PREFIX}{endpoint}"),
-        })?;
+        .ok_or_else(|| ApiError::not_found(&format!("{API_PREFIX}{endpoint}")))?;
     (entry.compute)(body, &limits.compute(), &Services::default())
 }
 
@@ -161,7 +159,6 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
         .method_not_allowed_fallback(method_not_allowed)
         .layer(DefaultBodyLimit::max(body_limit))
         .layer(Extension(BodyLimit(body_limit)))
-        .layer(CompressionLayer::new())
         .layer(axum::middleware::from_fn_with_state(
             state.clone(),
             ratelimit::limit,
@@ -174,6 +171,9 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
             state.clone(),
             metrics::record,
         ))
+        // Problems are written after every layer that may raise one, and before compression.
+        .layer(axum::middleware::from_fn(error::render))
+        .layer(CompressionLayer::new())
         .with_state(state)
         .layer(PropagateRequestIdLayer::new(request_id.clone()))
         .layer(
@@ -197,11 +197,9 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
 }
 
 async fn not_found(req: Request) -> ApiError {
-    ApiError::NotFound {
-        path: req.uri().path().to_string(),
-    }
+    ApiError::not_found(req.uri().path())
 }
 
 async fn method_not_allowed() -> ApiError {
-    ApiError::MethodNotAllowed
+    ApiError::method_not_allowed()
 }

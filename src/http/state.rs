@@ -9,7 +9,9 @@ use tokio::sync::{Semaphore, TryAcquireError};
 use utoipa_swagger_ui::Config;
 
 use super::auth::Auth;
-use super::error::ApiError;
+use axum::http::{header, HeaderValue};
+
+use super::error::{ApiError, Kind};
 use super::metrics::Metrics;
 use super::openapi;
 use super::ratelimit::RateLimit;
@@ -103,7 +105,7 @@ impl AppState {
         let retry_after_s = self.limits.queue_timeout.as_secs().max(1);
         let shed = |reason: &str| {
             metrics.shed.with_label_values(&[reason]).inc();
-            ApiError::Overloaded { retry_after_s }
+            ApiError::overloaded(retry_after_s)
         };
         let work = async {
             let permit = match self.slots.clone().try_acquire_owned() {
@@ -183,5 +185,15 @@ impl Running {
 impl Drop for Running {
     fn drop(&mut self) {
         self.0.in_flight.dec();
+    }
+}
+
+impl ApiError {
+    pub fn overloaded(retry_after_s: u64) -> Self {
+        ApiError::new(
+            Kind::Overloaded,
+            format!("all computation slots are busy; retry in {retry_after_s} s"),
+        )
+        .with_header(header::RETRY_AFTER, HeaderValue::from(retry_after_s))
     }
 }

@@ -61,10 +61,6 @@ pub async fn page() -> Response {
 
 /// `GET /workbench/{name}`: its script and style sheet.
 pub async fn asset(Path(name): Path<String>) -> Response {
-    serve(&name).unwrap_or_else(|| {
-        ApiError::NotFound {
-            path: format!("/workbench/{name}"),
-        }
-        .into_response()
-    })
+    serve(&name)
+        .unwrap_or_else(|| ApiError::not_found(&format!("/workbench/{name}")).into_response())
 }

@@ -1,0 +1,417 @@
+//! Where each input sits in the requests: the one table that turns the core's typed errors
+//! into problems naming the offending request field (`process.tool_rpm`,
+//! `dwell.positions_mm[3]`, `machine.x.max_velocity_mm_per_min`).
+
+use super::error::{ApiError, Kind, LimitViolation};
+use crate::machine::{GcodeFormatError, ProgramError, Violation};
+use crate::metrology::{Axis, FitError, Parameter, ProbeError, TraceError};
+use crate::optimize::target::ProfileArray;
+use crate::optimize::{Bound, OptimizeError, ProfileError};
+use crate::physics::{GridError, ProcessError, ScheduleError};
+use crate::study::StudyError;
+use crate::surface::{SurfaceError, SurfaceInput};
+use crate::usecases::measurement_fit::{MeasurementError, MeasurementInputError};
+use crate::usecases::program::{ProgramFailure, ProgramInputError};
+use crate::usecases::recommend::MIN_DEPTH_NM;
+use crate::usecases::{Input, InputError, LimitError, SettingError};
+
+/// Engine errors become 422s naming the field under the request object that carried it.
+impl ApiError {
+    pub fn from_process(err: ProcessError) -> Self {
+        ApiError::invalid(format!("process.{}", err.field()), err.to_string())
+    }
+
+    /// `prefix` is the request object holding the grid or aperture (`radial_grid`,
+    /// `clear_aperture`).
+    pub fn from_grid(prefix: &str, err: GridError) -> Self {
+        let field = match err {
+            GridError::ApertureOutsideGrid { .. } => "clear_aperture".to_string(),
+            _ => format!("{prefix}.{}", err.field()),
+        };
+        ApiError::invalid(field, err.to_string())
+    }
+
+    /// `prefix` is the request object holding the arrays (`dwell`), or empty for top-level.
+    pub fn from_schedule(prefix: &str, err: ScheduleError) -> Self {
+        let mut field = if prefix.is_empty() {
+            err.field().to_string()
+        } else {
+            format!("{prefix}.{}", err.field())
+        };
+        if let Some(index) = err.index() {
+            field.push_str(&format!("[{index}]"));
+        }
+        ApiError::invalid(field, err.to_string())
+    }
+}
+
+/// Where each command input sits in the requests.
+fn input_path(input: Input) -> &'static str {
+    match input {
+        Input::ToolPositions => "tool_positions_mm",
+        Input::Dwell => "dwell.positions_mm",
+        Input::Feed => "feed",
+        Input::Positions => "positions_mm",
+        Input::Etas => "etas",
+        Input::Depth => "depth_nm",
+        Input::NonuniformityThreshold => "nonuniformity_threshold",
+        Input::UniformDepth => "target.uniform_depth_nm",
+        Input::SolverTimeLimit => "solver.time_limit_s",
+    }
+}
+
+impl ApiError {
+    /// A size limit exceeded by the input at `field`.
+    pub fn from_limit(field: &str, err: LimitError) -> Self {
+        let detail = match err {
+            LimitError::RadialSamples { count, max } => {
+                format!("{field} is {count}; this server allows at most {max}")
+            }
+            LimitError::Positions { count, max } => {
+                format!("{field} has {count} entries; this server allows at most {max}")
+            }
+            LimitError::OperatorEntries {
+                samples,
+                positions,
+                max,
+            } => format!(
+                "radial_grid.count × {field} = {samples} × {positions} exceeds the server's \
+                 limit of {max} removal-operator entries"
+            ),
+            LimitError::Profiles { count, max } => {
+                format!("{field} has {count} entries; this server allows at most {max} profiles")
+            }
+            LimitError::OptimizePositions { count, max } => {
+                format!("{field} has {count} entries; this server optimizes at most {max}")
+            }
+            LimitError::Etas { count, max } => {
+                format!("{field} must hold 1 to {max} values; it has {count}")
+            }
+            LimitError::TracePoints { count, max } => {
+                format!("{field} has {count} points; this server fits at most {max}")
+            }
+        };
+        ApiError::limit(field, detail)
+    }
+}
+
+impl From<SettingError> for ApiError {
+    fn from(err: SettingError) -> Self {
+        match err {
+            SettingError::Process(e) => ApiError::from_process(e),
+            SettingError::GridSize(e) => ApiError::from_limit("radial_grid.count", e),
+            SettingError::Grid(e) => ApiError::from_grid("radial_grid", e),
+            SettingError::Aperture(e) => ApiError::from_grid("clear_aperture", e),
+        }
+    }
+}
+
+impl From<InputError> for ApiError {
+    fn from(err: InputError) -> Self {
+        match err {
+            InputError::Setting(e) => e.into(),
+            InputError::Limit { input, error } => ApiError::from_limit(input_path(input), error),
+            InputError::Schedule { input, error } => {
+                let prefix = match input {
+                    Input::Dwell => "dwell",
+                    Input::Feed => "feed",
+                    _ => "",
+                };
+                ApiError::from_schedule(prefix, error)
+            }
+            InputError::OutOfRange { input, max } => {
+                let field = input_path(input);
+                let detail = match input {
+                    Input::Depth => {
+                        format!("{field} must be a number in [{MIN_DEPTH_NM}, {max}] nm")
+                    }
+                    Input::UniformDepth => format!("{field} must be a number in [0, {max}] nm"),
+                    Input::NonuniformityThreshold => {
+                        format!("{field} must be a finite fraction > 0")
+                    }
+                    Input::Etas => format!("{field} must hold 1 to {max} values; it is empty"),
+                    Input::SolverTimeLimit => {
+                        format!("{field} must be > 0 and at most this server's limit of {max} s")
+                    }
+                    _ => format!("{field} is out of range (at most {max})"),
+                };
+                ApiError::invalid(field, detail)
+            }
+            InputError::Optimize(e) => e.into(),
+            InputError::Study(e) => e.into(),
+        }
+    }
+}
+
+impl From<ProfileError> for ApiError {
+    fn from(err: ProfileError) -> Self {
+        let (array, index) = err.location();
+        let name = match array {
+            ProfileArray::Radius => "radius_mm",
+            ProfileArray::Depth => "depth_nm",
+        };
+        let field = match index {
+            Some(i) => format!("target.profile.{name}[{i}]"),
+            None => format!("target.profile.{name}"),
+        };
+        ApiError::invalid(field, err.to_string())
+    }
+}
+
+/// Optimizer errors; a time limit is reported by the optimize endpoint, which knows the
+/// server's limit (see `http::optimize`).
+impl From<OptimizeError> for ApiError {
+    fn from(err: OptimizeError) -> Self {
+        let detail = err.to_string();
+        match err {
+            OptimizeError::InvalidConstraint { constraint, .. } => {
+                ApiError::invalid(format!("constraints.{}", constraint.name()), detail)
+            }
+            OptimizeError::InvalidWeight { weight, .. } => {
+                ApiError::invalid(format!("objective.{}", weight.name()), detail)
+            }
+            OptimizeError::Profile(e) => e.into(),
+            OptimizeError::EmptyAperture => ApiError::invalid("clear_aperture", detail),
+            OptimizeError::NoRemovalInAperture => ApiError::invalid("positions_mm", detail),
+            OptimizeError::Infeasible { fields, .. } => ApiError::infeasible(
+                if fields.is_empty() {
+                    vec!["constraints".to_string()]
+                } else {
+                    fields
+                        .iter()
+                        .map(|f| match f {
+                            Bound::Constraint(c) => format!("constraints.{}", c.name()),
+                            Bound::Machine(drive, limit) => limit.field(*drive),
+                        })
+                        .collect()
+                },
+                detail,
+            ),
+            OptimizeError::TimeLimit { .. } => {
+                ApiError::new(Kind::SolverTimeLimit, detail).at("solver.time_limit_s")
+            }
+            OptimizeError::IterationLimit { .. } => {
+                ApiError::new(Kind::SolverIterationLimit, detail)
+            }
+            OptimizeError::Numerical { .. } => ApiError::new(Kind::SolverNumericalError, detail),
+        }
+    }
+}
+
+impl From<StudyError> for ApiError {
+    fn from(err: StudyError) -> Self {
+        let detail = err.to_string();
+        let field = match &err {
+            StudyError::NoRemovalInAperture => "clear_aperture".to_string(),
+            StudyError::ToolStationary => "process.tool_rpm".to_string(),
+            StudyError::InvalidEta { index } => {
+                let field = format!("etas[{index}]");
+                return ApiError::invalid(field.clone(), format!("{field}: {detail}"));
+            }
+            StudyError::EtaOutsideDomain { index, .. } => format!("etas[{index}]"),
+            StudyError::InvalidSpeedLimit { limit } => format!("limits.{}", limit.name()),
+            StudyError::RecommendedOutsideDomain(e) => format!("process.{}", e.field()),
+        };
+        ApiError::invalid(field, detail)
+    }
+}
+
+/// A surface that was refused, at its field.
+pub fn surface_error(e: SurfaceError) -> ApiError {
+    let field = surface_field(e.input());
+    ApiError::invalid(field.clone(), format!("{field}: {e}"))
+}
+
+pub fn surface_field(input: Option<SurfaceInput>) -> String {
+    match input {
+        Some(SurfaceInput::RadiusOfCurvature) => "surface.radius_of_curvature_mm".into(),
+        Some(SurfaceInput::ConicConstant) => "surface.conic_constant".into(),
+        Some(SurfaceInput::Power(i)) => format!("surface.coefficients[{i}].power"),
+        Some(SurfaceInput::Value(i)) => format!("surface.coefficients[{i}].value"),
+        None => "surface".into(),
+    }
+}
+
+/// The request's name for a fitted parameter (a member of `fit`).
+fn parameter_name(parameter: Parameter) -> &'static str {
+    match parameter {
+        Parameter::LateralOffset => "lateral_offset",
+        Parameter::Tilt => "tilt",
+        Parameter::Piston => "piston",
+        Parameter::RadiusOfCurvature => "radius_of_curvature",
+    }
+}
+
+fn fit_field(parameters: &[Parameter]) -> String {
+    parameters
+        .first()
+        .map_or("fit".into(), |&p| format!("fit.{}", parameter_name(p)))
+}
+
+fn parameter_names(parameters: &[Parameter]) -> String {
+    parameters
+        .iter()
+        .map(|&p| parameter_name(p))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// A point the probe cannot place on the design.
+fn off_surface(index: usize, error: &ProbeError) -> ApiError {
+    ApiError::invalid(
+        format!("profile.x_mm[{index}]"),
+        format!("point {index} does not lie over the design: {error}"),
+    )
+}
+
+impl From<MeasurementInputError> for ApiError {
+    fn from(err: MeasurementInputError) -> Self {
+        use MeasurementInputError as E;
+        match err {
+            E::Surface(e) => {
+                let field = surface_field(e.input());
+                ApiError::invalid(field.clone(), format!("{field}: {e}"))
+            }
+            E::Probe(e) => ApiError::invalid("probe_tip_radius_mm", e.to_string()),
+            E::TraceSize(e) => ApiError::from_limit("profile.x_mm", e),
+            E::GridSize(e) => ApiError::from_limit("radial_grid.count", e),
+            E::GridCount => ApiError::invalid(
+                "radial_grid.count",
+                "count must be at least 2: the profile becomes an optimize target",
+            ),
+            E::Grid(e) => ApiError::from_grid("radial_grid", e),
+            E::Aperture(e) => ApiError::from_grid("clear_aperture", e),
+            E::Trace(e) => match &e {
+                TraceError::LengthMismatch { .. } => {
+                    ApiError::invalid("profile.z_mm", e.to_string())
+                }
+                TraceError::NonFinite { axis, index } => {
+                    let axis = if *axis == Axis::X { "x_mm" } else { "z_mm" };
+                    ApiError::invalid(format!("profile.{axis}[{index}]"), e.to_string())
+                }
+                TraceError::TooFewPoints { .. } => ApiError::invalid("profile.x_mm", e.to_string()),
+                TraceError::NothingToFit => ApiError::invalid("fit", e.to_string()),
+                TraceError::Undetermined { parameters, .. } => {
+                    ApiError::invalid(fit_field(parameters), e.to_string())
+                }
+                TraceError::OffSurface { index, error } => off_surface(*index, error),
+            },
+        }
+    }
+}
+
+impl From<MeasurementError> for ApiError {
+    fn from(err: MeasurementError) -> Self {
+        match err {
+            MeasurementError::Fit(FitError::Undetermined { parameters }) => ApiError::invalid(
+                fit_field(&parameters),
+                format!(
+                    "the trace does not determine {} apart: they trade off against each other \
+                     on this surface and span; fit fewer parameters",
+                    parameter_names(&parameters)
+                ),
+            ),
+            MeasurementError::Fit(FitError::LeftSurface { index, error }) => {
+                off_surface(index, &error)
+            }
+            MeasurementError::Fit(
+                e @ (FitError::NotConverged { .. } | FitError::WeightsUnsettled { .. }),
+            ) => ApiError::new(
+                Kind::SolverNotConverged,
+                format!(
+                    "{e}: the trace may not be a meridian of this surface (check surface \
+                     and the units of profile), or the misalignment is too large"
+                ),
+            )
+            .at("profile"),
+            MeasurementError::Grid(e) => ApiError::from_grid("radial_grid", e),
+            MeasurementError::Aperture(e) => ApiError::from_grid("clear_aperture", e),
+            MeasurementError::Profile(e) => {
+                let field = match e {
+                    crate::metrology::ProfileError::NotCovered { .. } => "radial_grid",
+                    crate::metrology::ProfileError::ApertureEmpty => "clear_aperture",
+                    crate::metrology::ProfileError::NoPoints => "profile",
+                };
+                ApiError::invalid(field, e.to_string())
+            }
+        }
+    }
+}
+
+/// The 422 `machine-limits` problem listing every violation; `what` reaches the values
+/// (`program`, or the optimization's `positions`).
+pub fn machine_limits_error(found: &[Violation], what: &str) -> ApiError {
+    let violations: Vec<LimitViolation> = found
+        .iter()
+        .map(|v| LimitViolation {
+            field: v.limit.field(v.drive),
+            axis: v.drive.name().to_string(),
+            limit: v.limit.name(v.drive).to_string(),
+            limit_value: v.limit_value,
+            value: v.value,
+            first_block: v.first_block,
+            blocks: v.blocks,
+        })
+        .collect();
+    let detail = violations
+        .iter()
+        .map(|v| {
+            let at = v
+                .first_block
+                .map_or(String::new(), |b| format!(" from block {b}"));
+            format!(
+                "{} = {} but the {what} reach {}{at} ({} block(s))",
+                v.field, v.limit_value, v.value, v.blocks
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    ApiError::machine_limits(
+        violations,
+        format!("no program within the machine's limits: {detail}"),
+    )
+}
+
+impl From<ProgramFailure> for ApiError {
+    fn from(err: ProgramFailure) -> Self {
+        match err {
+            ProgramFailure::Plan(e) => {
+                let field = match e {
+                    ProgramError::NoDwell => "dwell.dwell_s".to_string(),
+                    ProgramError::ZeroInteriorDwell { index } => {
+                        format!("dwell.dwell_s[{index}]")
+                    }
+                };
+                ApiError::invalid(field, e.to_string())
+            }
+            ProgramFailure::Limits(found) => machine_limits_error(&found, "program would"),
+        }
+    }
+}
+
+impl From<ProgramInputError> for ApiError {
+    fn from(err: ProgramInputError) -> Self {
+        use ProgramInputError as E;
+        let detail = err.to_string();
+        match err {
+            E::Process(e) => ApiError::from_process(e),
+            E::Surface(e) => surface_error(e),
+            E::PositionOffSurface { index, .. } => {
+                ApiError::invalid(format!("dwell.positions_mm[{index}]"), detail)
+            }
+            E::Size(e) => ApiError::from_limit("dwell.positions_mm", e),
+            E::Schedule(e) => ApiError::from_schedule("dwell", e),
+            E::Tool(_) => ApiError::invalid("tool.pivot_length_mm", detail),
+            E::Limits(e) => ApiError::invalid(e.limit.field(e.drive), detail),
+            E::Format(e) => {
+                let field = match e {
+                    GcodeFormatError::Decimals => "format.decimals".to_string(),
+                    GcodeFormatError::Word { spindle, word } => format!("format.{spindle}.{word}"),
+                };
+                ApiError::invalid(field, detail)
+            }
+            E::Clearance => ApiError::invalid("approach.clearance_mm", detail),
+            E::ApproachFeed => ApiError::invalid("approach.feed_mm_per_min", detail),
+        }
+    }
+}
