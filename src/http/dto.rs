@@ -446,7 +446,7 @@ impl WarningDto {
                 ),
             },
             Warning::MachineLimitActive { drive, limit } => {
-                let field = limit.field(*drive);
+                let field = super::fields::limit_field(*drive, *limit);
                 WarningDto {
                     code: WarningCode::ConstraintActive,
                     message: format!(

@@ -3,7 +3,7 @@
 //! `dwell.positions_mm[3]`, `machine.x.max_velocity_mm_per_min`).
 
 use super::error::{ApiError, Kind, LimitViolation};
-use crate::machine::{GcodeFormatError, ProgramError, Violation};
+use crate::machine::{Drive, GcodeFormatError, Limit, ProgramError, Violation};
 use crate::metrology::{Axis, FitError, Parameter, ProbeError, TraceError};
 use crate::optimize::target::ProfileArray;
 use crate::optimize::{Bound, OptimizeError, ProfileError};
@@ -24,9 +24,9 @@ impl ApiError {
     /// `prefix` is the request object holding the grid or aperture (`radial_grid`,
     /// `clear_aperture`).
     pub fn from_grid(prefix: &str, err: GridError) -> Self {
-        let field = match err {
-            GridError::ApertureOutsideGrid { .. } => "clear_aperture".to_string(),
-            _ => format!("{prefix}.{}", err.field()),
+        let field = match err.field() {
+            Some(member) => format!("{prefix}.{member}"),
+            None => "clear_aperture".to_string(),
         };
         ApiError::invalid(field, err.to_string())
     }
@@ -181,7 +181,7 @@ impl From<OptimizeError> for ApiError {
                         .iter()
                         .map(|f| match f {
                             Bound::Constraint(c) => format!("constraints.{}", c.name()),
-                            Bound::Machine(drive, limit) => limit.field(*drive),
+                            Bound::Machine(drive, limit) => limit_field(*drive, *limit),
                         })
                         .collect()
                 },
@@ -344,7 +344,7 @@ pub fn machine_limits_error(found: &[Violation], what: &str) -> ApiError {
     let violations: Vec<LimitViolation> = found
         .iter()
         .map(|v| LimitViolation {
-            field: v.limit.field(v.drive),
+            field: limit_field(v.drive, v.limit),
             axis: v.drive.name().to_string(),
             limit: v.limit.name(v.drive).to_string(),
             limit_value: v.limit_value,
@@ -402,7 +402,7 @@ impl From<ProgramInputError> for ApiError {
             E::Size(e) => ApiError::from_limit("dwell.positions_mm", e),
             E::Schedule(e) => ApiError::from_schedule("dwell", e),
             E::Tool(_) => ApiError::invalid("tool.pivot_length_mm", detail),
-            E::Limits(e) => ApiError::invalid(e.limit.field(e.drive), detail),
+            E::Limits(e) => ApiError::invalid(limit_field(e.drive, e.limit), detail),
             E::Format(e) => {
                 let field = match e {
                     GcodeFormatError::Decimals => "format.decimals".to_string(),
@@ -414,4 +414,9 @@ impl From<ProgramInputError> for ApiError {
             E::ApproachFeed => ApiError::invalid("approach.feed_mm_per_min", detail),
         }
     }
+}
+
+/// A machine limit's path in a request: `machine.<drive>.<limit>`.
+pub fn limit_field(drive: Drive, limit: Limit) -> String {
+    format!("machine.{}.{}", drive.name(), limit.name(drive))
 }

@@ -16,7 +16,7 @@ pub enum Drive {
 impl Drive {
     pub const AXES: [Drive; 3] = [Drive::X, Drive::Z, Drive::B];
 
-    /// The request's name for it (`machine.<name>`).
+    /// Its name (snake case, as limits and reports name it).
     pub fn name(self) -> &'static str {
         match self {
             Drive::X => "x",
@@ -48,7 +48,7 @@ pub enum Limit {
 }
 
 impl Limit {
-    /// The request's member name for this limit on `drive` (units in the name).
+    /// The limit's name on `drive` (units in the name).
     pub fn name(self, drive: Drive) -> &'static str {
         let rotary = drive == Drive::B;
         match (self, rotary) {
@@ -66,9 +66,13 @@ impl Limit {
 }
 
 impl Limit {
-    /// The limit's path in a request: `machine.<drive>.<limit>`.
-    pub fn field(self, drive: Drive) -> String {
-        format!("machine.{}.{}", drive.name(), self.name(drive))
+    /// The limit in words, for messages: `the x axis's max_velocity_mm_per_min`.
+    pub fn describe(self, drive: Drive) -> String {
+        let what = match drive {
+            Drive::X | Drive::Z | Drive::B => "axis",
+            Drive::WorkpieceSpindle | Drive::ToolSpindle => "drive",
+        };
+        format!("the {} {what}'s {}", drive.name(), self.name(drive))
     }
 }
 

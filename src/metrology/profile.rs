@@ -78,7 +78,7 @@ pub enum ProfileError {
     #[error("the fit kept no point")]
     NoPoints,
     #[error(
-        "radial_grid reaches r = {radius_mm} mm, where the trace has no point on either side \
+        "the radial grid reaches r = {radius_mm} mm, where the trace has no point on either side \
          (it covers x from {min_mm} to {max_mm} mm)"
     )]
     NotCovered {

@@ -47,7 +47,7 @@ fn floor_bounds(floors: &[Floor]) -> Vec<Bound> {
 fn names(bounds: &[Bound]) -> String {
     bounds
         .iter()
-        .map(|b| b.name())
+        .map(|b| b.describe())
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -66,8 +66,8 @@ pub fn check(c: &Constraints, floors: &[Floor], budget: &Budget) -> Result<(), O
                 format!("min_dwell_s ({lo} s) exceeds max_dwell_s ({hi} s)")
             } else {
                 format!(
-                    "positions_mm[{j}] needs at least {lo} s of dwell to keep {}, more than max_dwell_s ({hi} s)",
-                    floor.bound.name()
+                    "position {j} needs at least {lo} s of dwell to keep {}, more than max_dwell_s ({hi} s)",
+                    floor.bound.describe()
                 )
             };
             return Err(conflict(vec![floor.bound, MAX_DWELL], detail));

@@ -12,7 +12,7 @@ pub const DEFAULT_SMOOTHING: f64 = 1e-6;
 /// Default time weight μ: the mean depth comes out low by about μ of the target.
 pub const DEFAULT_TIME_WEIGHT: f64 = 2e-6;
 
-/// A constraint of the plan, by name (the names are the request's `constraints` members).
+/// A constraint of the plan, by name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Constraint {
     MinDwell,
@@ -43,11 +43,11 @@ pub enum Bound {
 }
 
 impl Bound {
-    /// Its name: the constraint's member name, or the limit's `machine.<axis>.<limit>`.
-    pub fn name(self) -> String {
+    /// It in words: the constraint's name, or the machine limit described.
+    pub fn describe(self) -> String {
         match self {
             Bound::Constraint(c) => c.name().to_string(),
-            Bound::Machine(drive, limit) => limit.field(drive),
+            Bound::Machine(drive, limit) => limit.describe(drive),
         }
     }
 }
@@ -355,7 +355,7 @@ mod tests {
         };
         let floors = floors(&[], Some(feed), 3, c.min_dwell_s);
         assert_eq!(c.violation(&[2.1, 2.1, 2.1], &floors, 1.0), None);
-        let broken = |d: [f64; 3]| c.violation(&d, &floors, 1.0).map(|v| v.0.name());
+        let broken = |d: [f64; 3]| c.violation(&d, &floors, 1.0).map(|v| v.0.describe());
         assert_eq!(broken([0.5, 4.0, 4.0]).as_deref(), Some("min_dwell_s"));
         assert_eq!(broken([2.0, 11.0, 6.0]).as_deref(), Some("max_dwell_s"));
         assert_eq!(broken([8.0, 9.0, 8.0]).as_deref(), Some("max_total_time_s"));

@@ -696,7 +696,7 @@ fn check_plan(
         return Err(OptimizeError::Numerical {
             status: format!(
                 "{status:?}, but the plan breaks {} at index {index} by {excess:e} s",
-                bound.name()
+                bound.describe()
             ),
         });
     }
@@ -709,7 +709,7 @@ fn check_plan(
         return Err(OptimizeError::Numerical {
             status: format!(
                 "{status:?}, but the plan exceeds {} by a factor {ratio}",
-                axis.acceleration_bound().name()
+                axis.acceleration_bound().describe()
             ),
         });
     }

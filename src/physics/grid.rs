@@ -23,7 +23,7 @@ pub enum GridError {
     },
     #[error("count must be at least 1 (1 only when start_mm equals stop_mm, else at least 2)")]
     BadCount,
-    #[error("radial_grid [{start} mm, {stop} mm] does not cover clear_aperture [{inner} mm, {outer} mm]")]
+    #[error("the radial grid [{start} mm, {stop} mm] does not cover the clear aperture [{inner} mm, {outer} mm]")]
     ApertureOutsideGrid {
         start: f64,
         stop: f64,
@@ -33,14 +33,15 @@ pub enum GridError {
 }
 
 impl GridError {
-    pub fn field(&self) -> &'static str {
+    /// The member of the grid or aperture at fault; `None` when the two do not fit together.
+    pub fn field(&self) -> Option<&'static str> {
         match self {
             GridError::NonFinite { field }
             | GridError::Negative { field }
             | GridError::Beyond { field, .. }
-            | GridError::NotAbove { field, .. } => field,
-            GridError::BadCount => "count",
-            GridError::ApertureOutsideGrid { .. } => "clear_aperture",
+            | GridError::NotAbove { field, .. } => Some(field),
+            GridError::BadCount => Some("count"),
+            GridError::ApertureOutsideGrid { .. } => None,
         }
     }
 }
@@ -247,7 +248,7 @@ mod tests {
     #[test]
     fn grid_rejects_bad_input_naming_the_field() {
         let p = process();
-        let err = |s, e, n| RadialGrid::new(&p, s, e, n).unwrap_err().field();
+        let err = |s, e, n| RadialGrid::new(&p, s, e, n).unwrap_err().field().unwrap();
         assert_eq!(err(f64::NAN, 50.0, 10), "start_mm");
         assert_eq!(err(0.0, f64::INFINITY, 10), "stop_mm");
         assert_eq!(err(-1.0, 50.0, 10), "start_mm");
@@ -261,20 +262,23 @@ mod tests {
     fn aperture_validation_and_coverage() {
         let p = process();
         assert_eq!(
-            ClearAperture::new(&p, 20.0, 10.0).unwrap_err().field(),
+            ClearAperture::new(&p, 20.0, 10.0)
+                .unwrap_err()
+                .field()
+                .unwrap(),
             "outer_mm"
         );
         assert_eq!(
-            ClearAperture::new(&p, 0.0, 60.0).unwrap_err().field(),
+            ClearAperture::new(&p, 0.0, 60.0)
+                .unwrap_err()
+                .field()
+                .unwrap(),
             "outer_mm"
         );
         let ca = ClearAperture::new(&p, 10.0, 40.0).unwrap();
         assert!(ca.contains(10.0) && ca.contains(40.0) && !ca.contains(40.1));
         let grid = RadialGrid::new(&p, 0.0, 30.0, 31).unwrap();
-        assert_eq!(
-            ca.check_covered_by(&grid).unwrap_err().field(),
-            "clear_aperture"
-        );
+        assert_eq!(ca.check_covered_by(&grid).unwrap_err().field(), None);
         assert!(ca.check_covered_by(&RadialGrid::default_for(&p)).is_ok());
     }
 }

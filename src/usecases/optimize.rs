@@ -64,7 +64,7 @@ pub struct Machine {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MachineFitError {
     /// A candidate position where the surface is not defined.
-    #[error("positions_mm[{index}]: {error}")]
+    #[error("position {index}: {error}")]
     PositionOffSurface { index: usize, error: SurfaceError },
     /// Poses outside an axis's travel or a spindle over its speed, whatever the dwell; the
     /// blocks are those of the program without approach.
@@ -271,7 +271,7 @@ fn machine_warnings(
         return Err(OptimizeError::Numerical {
             status: format!(
                 "the plan's program would exceed {} ({} > {})",
-                v.limit.field(v.drive),
+                v.limit.describe(v.drive),
                 v.value,
                 v.limit_value
             ),

@@ -47,7 +47,7 @@ pub enum ProgramInputError {
     #[error(transparent)]
     Surface(SurfaceError),
     /// A plan position where the surface is not defined.
-    #[error("dwell.positions_mm[{index}]: {error}")]
+    #[error("position {index}: {error}")]
     PositionOffSurface { index: usize, error: SurfaceError },
     #[error(transparent)]
     Size(LimitError),

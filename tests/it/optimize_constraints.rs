@@ -173,7 +173,9 @@ fn random_constraint_sets_give_plans_that_keep_them() {
 
 fn conflict(s: &Setup, c: Constraints) -> Vec<String> {
     match run(s, c) {
-        Err(OptimizeError::Infeasible { fields, .. }) => fields.iter().map(|f| f.name()).collect(),
+        Err(OptimizeError::Infeasible { fields, .. }) => {
+            fields.iter().map(|f| f.describe()).collect()
+        }
         other => panic!("expected a conflict, got {other:?}"),
     }
 }
