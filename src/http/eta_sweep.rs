@@ -8,14 +8,14 @@ use utoipa::ToSchema;
 
 use super::dto::{
     setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, Place, ProcessDto,
-    RadialGridDto, SurfaceDto,
+    RadialGridDto, SurfaceDto, ToolDto,
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
 use super::openapi::ComputeProblems;
 use super::plot::{Chart, Series};
-use super::program::ToolDto;
+
 use super::state::{AppState, Services};
 use super::{csv, plot};
 use crate::usecases::eta_sweep::{eta_sweep, EtaSweepCommand};

@@ -8,14 +8,14 @@ use utoipa::ToSchema;
 
 use super::dto::{
     setting, ApertureEcho, ClearApertureDto, DwellDto, FeedDto, MetricsDto, Place, ProcessDto,
-    RadialGridDto, RecommendationDto, SurfaceDto, WarningDto,
+    RadialGridDto, RecommendationDto, SurfaceDto, ToolDto, WarningDto,
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
 use super::openapi::ComputeProblems;
 use super::plot::{Chart, Series};
-use super::program::ToolDto;
+
 use super::state::{AppState, Services};
 use super::{csv, plot};
 use crate::usecases::predict::{predict, PredictCommand};

@@ -10,12 +10,13 @@ use utoipa::ToSchema;
 
 use super::dto::{
     setting, ClearApertureDto, Place, ProcessDto, RadialGridDto, RecommendationDto, SurfaceDto,
+    ToolDto,
 };
 use super::endpoint::{handle, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
 use super::openapi::ComputeProblems;
-use super::program::ToolDto;
+
 use super::state::{AppState, Services};
 use crate::study::SpeedLimits;
 use crate::usecases::recommend::{recommend, RecommendCommand};

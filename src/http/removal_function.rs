@@ -7,13 +7,13 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::dto::{process_spec, ProcessDto, RadialGridDto, SurfaceDto};
+use super::dto::{process_spec, ProcessDto, RadialGridDto, SurfaceDto, ToolDto};
 use super::endpoint::{handle, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
 use super::openapi::ComputeProblems;
 use super::plot::{Chart, Series};
-use super::program::ToolDto;
+
 use super::state::{AppState, Services};
 use super::{csv, plot};
 use crate::usecases::removal_function::{removal_function, RemovalFunctionCommand};

@@ -2,21 +2,24 @@
 //! error comes back as a `/v1/optimize` target. The body is JSON, or the probe's own
 //! `text/csv` export (`x_mm,z_mm` columns) with the other fields as query parameters.
 
-use axum::extract::{FromRequest, Query, Request, State};
-use axum::http::{header, HeaderMap};
+use axum::extract::State;
+use axum::http::HeaderMap;
 use axum::response::Response;
 use serde::{Deserialize, Serialize};
-use utoipa::{IntoParams, ToSchema};
+use utoipa::ToSchema;
+
+mod csv_body;
+mod render;
+
+pub use csv_body::{CsvQuery, FitBody};
 
 use super::dto::{ApertureEcho, ClearApertureDto, RadialGridDto, SurfaceDto};
 use super::endpoint::{handle, Endpoint};
-use super::error::{ApiError, Kind};
-use super::extract::{self, object, optional_object, ApiJson};
+use super::error::ApiError;
+use super::extract::{object, optional_object};
 use super::openapi::ComputeProblems;
 use super::optimize::{MeasuredProfileDto, TargetDto};
-use super::plot::{Chart, Series};
 use super::state::{AppState, Services};
-use super::{csv, plot};
 use crate::metrology::{Compensation, Parameter, RobustLoss};
 use crate::surface::SurfaceSpec;
 use crate::usecases::measurement_fit::{
@@ -242,8 +245,8 @@ impl Endpoint for MeasurementFitEndpoint {
     type Request = MeasurementFitRequest;
     type Command = MeasurementFitCommand;
     type Response = MeasurementFitResponse;
-    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
-    const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
+    const CSV: Option<fn(&Self::Response) -> String> = Some(render::to_csv);
+    const SVG: Option<fn(&Self::Response) -> String> = Some(render::to_svg);
 
     fn parse(req: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let fit = req.fit.unwrap_or_default();
@@ -339,235 +342,6 @@ impl Endpoint for MeasurementFitEndpoint {
             },
         })
     }
-}
-
-fn to_csv(r: &MeasurementFitResponse) -> String {
-    let s = &r.residual;
-    csv::table(
-        &[
-            "x_mm",
-            "z_mm",
-            "aligned_x_mm",
-            "contact_x_mm",
-            "axial_nm",
-            "normal_nm",
-            "weight",
-        ]
-        .map(String::from),
-        &[
-            &s.x_mm,
-            &s.z_mm,
-            &s.aligned_x_mm,
-            &s.contact_x_mm,
-            &s.axial_nm,
-            &s.normal_nm,
-            &s.weight,
-        ],
-    )
-}
-
-/// Normal residuals of each side and the averaged profile against radius, aperture shaded.
-fn to_svg(r: &MeasurementFitResponse) -> String {
-    let side = |sign: f64| Series {
-        name: if sign > 0.0 {
-            "residual, x > 0".to_string()
-        } else {
-            "residual, x < 0".to_string()
-        },
-        points: {
-            let mut p: Vec<(f64, f64)> = r
-                .residual
-                .contact_x_mm
-                .iter()
-                .zip(&r.residual.normal_nm)
-                .zip(&r.residual.weight)
-                .filter(|((x, _), &w)| w > 0.0 && x.signum() == sign)
-                .map(|((x, e), _)| (x.abs(), *e))
-                .collect();
-            p.sort_by(|a, b| a.0.total_cmp(&b.0));
-            p
-        },
-    };
-    let mut series = vec![];
-    for s in [side(1.0), side(-1.0)] {
-        if !s.points.is_empty() {
-            series.push(s);
-        }
-    }
-    series.push(Series {
-        name: "form error (both sides averaged)".to_string(),
-        points: r
-            .profile
-            .radius_mm
-            .iter()
-            .copied()
-            .zip(r.profile.depth_nm.iter().copied())
-            .collect(),
-    });
-    plot::render(&Chart {
-        title: format!(
-            "Form error: {:.1} nm RMS, {:.1} nm PV over the clear aperture",
-            r.form_error.rms_nm, r.form_error.pv_nm
-        ),
-        x_label: "radius r (mm)".to_string(),
-        y_label: "residual along the normal (nm)".to_string(),
-        series,
-        band: Some(plot::aperture_band(&r.clear_aperture)),
-        secondary: None,
-    })
-}
-
-/// Query parameters for a `text/csv` body: each is the JSON field of the same name (a JSON
-/// value; enum names may be written bare), e.g.
-/// `?surface={"kind":"sphere","radius_of_curvature_mm":100}&robust=tukey`. Not allowed with
-/// a JSON body (put the fields in the body).
-#[derive(Debug, Deserialize, IntoParams)]
-#[into_params(parameter_in = Query)]
-#[allow(dead_code)] // documents the query; the handler reads it as name/value pairs
-pub struct CsvQuery {
-    /// `surface` as JSON, e.g. `{"kind":"sphere","radius_of_curvature_mm":100}`.
-    surface: Option<String>,
-    /// `probe_tip_radius_mm`, mm.
-    probe_tip_radius_mm: Option<f64>,
-    /// `compensation`: `normal` or `axial`.
-    compensation: Option<String>,
-    /// `fit` as JSON, e.g. `{"radius_of_curvature":true}`.
-    fit: Option<String>,
-    /// `robust`: `none`, `huber` or `tukey`.
-    robust: Option<String>,
-    /// `radial_grid` as JSON.
-    radial_grid: Option<String>,
-    /// `clear_aperture` as JSON.
-    clear_aperture: Option<String>,
-}
-
-const QUERY_FIELDS: [&str; 7] = [
-    "surface",
-    "probe_tip_radius_mm",
-    "compensation",
-    "fit",
-    "robust",
-    "radial_grid",
-    "clear_aperture",
-];
-
-/// The request from a JSON body, or from a `text/csv` trace and the query.
-pub struct FitBody(MeasurementFitRequest);
-
-impl<S: Send + Sync> FromRequest<S> for FitBody {
-    type Rejection = ApiError;
-
-    async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
-        let query: Vec<(String, String)> = Query::try_from_uri(req.uri())
-            .map(|Query(q)| q)
-            .map_err(|e| ApiError::invalid("query", e.body_text()))?;
-        if !is_csv(req.headers()) {
-            if let Some((name, _)) = query.first() {
-                return Err(ApiError::invalid(
-                    name.clone(),
-                    format!(
-                        "query parameters configure text/csv bodies; with a JSON body put \
-                         `{name}` in the body"
-                    ),
-                ));
-            }
-            return ApiJson::from_request(req, state)
-                .await
-                .map(|ApiJson(r)| FitBody(r));
-        }
-        let bytes = extract::read_body(req, state).await?;
-        let (x_mm, z_mm) = parse_trace_csv(&bytes)?;
-        let mut body = serde_json::Map::new();
-        for (name, value) in query {
-            if !QUERY_FIELDS.contains(&name.as_str()) {
-                return Err(ApiError::new(
-                    Kind::SchemaMismatch,
-                    format!(
-                        "unknown query parameter `{name}`, expected one of {}",
-                        QUERY_FIELDS.join(", ")
-                    ),
-                )
-                .at(name));
-            }
-            // A JSON value, or a bare word for an enum name.
-            let value = serde_json::from_str(&value).unwrap_or(serde_json::Value::String(value));
-            if body.insert(name.clone(), value).is_some() {
-                return Err(ApiError::invalid(name, "given twice"));
-            }
-        }
-        body.insert(
-            "profile".to_string(),
-            serde_json::json!({ "x_mm": x_mm, "z_mm": z_mm }),
-        );
-        let text = serde_json::to_vec(&body).map_err(|e| ApiError::internal(e.to_string()))?;
-        extract::parse_json(&text).map(FitBody)
-    }
-}
-
-fn is_csv(headers: &HeaderMap) -> bool {
-    headers
-        .get(header::CONTENT_TYPE)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.split(';').next())
-        .is_some_and(|essence| essence.trim().eq_ignore_ascii_case("text/csv"))
-}
-
-/// A probe export: optional `#` comment lines, an optional header naming `x_mm` and `z_mm`
-/// (other columns ignored), then one point per row; without a header the first two columns
-/// are x and z.
-fn parse_trace_csv(bytes: &[u8]) -> Result<(Vec<f64>, Vec<f64>), ApiError> {
-    let mut reader = ::csv::ReaderBuilder::new()
-        .has_headers(false)
-        .comment(Some(b'#'))
-        .trim(::csv::Trim::All)
-        .flexible(true)
-        .from_reader(bytes);
-    let (mut x_mm, mut z_mm) = (Vec::new(), Vec::new());
-    let mut columns: Option<(usize, usize)> = None;
-    for (line, record) in reader.records().enumerate() {
-        let record = record.map_err(|e| ApiError::invalid("profile", format!("CSV: {e}")))?;
-        if record.iter().all(str::is_empty) {
-            continue;
-        }
-        let (xi, zi) = match columns {
-            Some(c) => c,
-            None => {
-                let find = |name: &str| {
-                    let name_of = |h: &str| h.trim_matches('"').eq_ignore_ascii_case(name);
-                    record.iter().position(name_of)
-                };
-                if let (Some(x), Some(z)) = (find("x_mm"), find("z_mm")) {
-                    columns = Some((x, z));
-                    continue;
-                }
-                if record.get(0).is_none_or(|v| v.parse::<f64>().is_err()) {
-                    return Err(ApiError::invalid(
-                        "profile",
-                        "a CSV trace starts with a header naming the columns x_mm and z_mm \
-                         (or with a row of numbers: x then z)",
-                    ));
-                }
-                columns = Some((0, 1));
-                (0, 1)
-            }
-        };
-        let index = x_mm.len();
-        for (column, axis, values) in [(xi, "x_mm", &mut x_mm), (zi, "z_mm", &mut z_mm)] {
-            let text = record.get(column).unwrap_or("");
-            let value: f64 = text
-                .parse()
-                .ok()
-                .filter(|v: &f64| v.is_finite())
-                .ok_or_else(|| {
-                    ApiError::invalid(
-                        format!("profile.{axis}[{index}]"),
-                        format!("CSV row {}: `{text}` is not a finite number", line + 1),
-                    )
-                })?;
-            values.push(value);
-        }
-    }
-    Ok((x_mm, z_mm))
 }
 
 /// Fit a probe trace to the design surface (on-machine measurement).

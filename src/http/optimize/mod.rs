@@ -7,6 +7,12 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
+mod options;
+mod render;
+
+pub use options::{ConstraintsDto, MeasuredProfileDto, ObjectiveDto, SolverOptionsDto, TargetDto};
+
+use super::dto::{machine_setup, AxesDto, MachineDto, ToolDto};
 use super::dto::{
     setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, Place, ProcessDto,
     RadialGridDto, RecommendationDto, SurfaceDto, WarningDto,
@@ -16,16 +22,10 @@ use super::error::{ApiError, Kind};
 use super::extract::{object, optional_object, ApiJson};
 use super::fields::machine_limits_error;
 use super::openapi::ComputeProblems;
-use super::plot::{Chart, Series};
-use super::program::{machine_setup, AxesDto, MachineDto, ToolDto};
 use super::state::{AppState, Services};
-use super::{csv, plot};
 use crate::machine::Program;
-use crate::optimize::problem::{DEFAULT_SMOOTHING, DEFAULT_TIME_WEIGHT};
-use crate::optimize::{Constraints, MeasuredProfile, Objective, OptimizeError, SolveStatus};
-use crate::usecases::optimize::{
-    optimize, MachineFitError, OptimizeCommand, OptimizedPlan, Target,
-};
+use crate::optimize::{OptimizeError, SolveStatus};
+use crate::usecases::optimize::{optimize, MachineFitError, OptimizeCommand, OptimizedPlan};
 use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -77,85 +77,6 @@ pub struct OptimizeRequest {
     /// normal. `orientation` is also the pad's spin axis in the removal model.
     #[serde(default, deserialize_with = "optional_object")]
     pub tool: Option<ToolDto>,
-}
-
-/// The target: exactly one of `uniform_depth_nm` and `profile`.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct TargetDto {
-    /// Remove this uniform depth over the clear aperture, nm (finite, ≥ 0).
-    #[schema(example = 100.0)]
-    pub uniform_depth_nm: Option<f64>,
-    /// Remove a measured radial error profile (figure correction).
-    #[serde(default, deserialize_with = "optional_object")]
-    pub profile: Option<MeasuredProfileDto>,
-    /// With `profile`: also remove the least uniform layer p ≥ 0 (nm) that lets the plan fit
-    /// best, since polishing can only remove material. Default false.
-    pub free_piston: Option<bool>,
-}
-
-/// A measured radial profile of the material to remove, linearly interpolated onto the radial
-/// grid. It must cover the clear aperture's samples.
-#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct MeasuredProfileDto {
-    /// Radii of the measurement, mm, strictly increasing (at least 2).
-    #[schema(min_items = 2)]
-    pub radius_mm: Vec<f64>,
-    /// Depth to remove at each radius, nm (the surface's height above the wanted figure).
-    #[schema(min_items = 2)]
-    pub depth_nm: Vec<f64>,
-}
-
-/// Limits on the plan. The tool moves as the machine program does (docs/MODEL.md, "The
-/// motion of a plan"): the cell around position j, from the midpoint before it to the one
-/// after (from the position itself at the two ends), is crossed at constant speed in t_j (in
-/// t_j/2 at the two ends, which stop for the other half).
-#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct ConstraintsDto {
-    /// Least dwell at every position, s (≥ 0). Default 0.
-    pub min_dwell_s: Option<f64>,
-    /// Most dwell at any position, s (> 0). Default none.
-    pub max_dwell_s: Option<f64>,
-    /// Most total dwell time, s (> 0). Default none.
-    pub max_total_time_s: Option<f64>,
-    /// Highest feed across any cell, mm/min (1e-6 to 1e9): the X–Z path of the program's move
-    /// over its duration, as `feed_mm_per_min` in the response reports it (the cell's width on
-    /// a plane with the default tool). Each cell then takes at least its path / max feed.
-    /// Default none.
-    pub max_feed_mm_per_min: Option<f64>,
-    /// Largest change of dwell between neighbouring positions, s (≥ 0): a linear surrogate
-    /// for the feed axis's acceleration limit. On positions spaced h mm apart with a feed limit
-    /// v (mm/s), a dwell change δ keeps the feed acceleration between interior cells at or
-    /// below δ·v³/h² mm/s² (4/3 of that next to the end cells; the start and stop at the two
-    /// ends are not bounded by it); give `machine` instead to have an acceleration limit kept
-    /// exactly. Default none.
-    pub max_dwell_change_s: Option<f64>,
-}
-
-/// Weights of the objective J = fit + smoothing + time (see the crate docs of
-/// `preston::optimize`): the fit is the mean squared (removal − target) over the aperture,
-/// relative to the target's RMS depth; smoothing is the mean squared curvature of the dwell
-/// over one pad radius; time is the total time relative to equal dwell.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct ObjectiveDto {
-    /// λ, dimensionless (≥ 0). Damps dwell that oscillates from one position to the next.
-    /// Default 1e-6.
-    pub smoothing: Option<f64>,
-    /// μ, dimensionless (≥ 0). Prefers the quicker of plans that fit about equally well; it
-    /// biases the mean depth low by about μ (relative). Default 2e-6.
-    pub time_weight: Option<f64>,
-}
-
-/// Solver settings.
-#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-pub struct SolverOptionsDto {
-    /// Wall-clock budget for the solver, s (> 0). Default and maximum: the server's solver
-    /// time limit (10 s by default).
-    pub time_limit_s: Option<f64>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
@@ -280,56 +201,6 @@ pub struct SolverDto {
     pub solve_time_ms: f64,
 }
 
-impl ConstraintsDto {
-    fn to_constraints(dto: Option<&ConstraintsDto>) -> Constraints {
-        let dto = dto.cloned().unwrap_or_default();
-        Constraints {
-            min_dwell_s: dto.min_dwell_s.unwrap_or(0.0),
-            max_dwell_s: dto.max_dwell_s,
-            max_total_time_s: dto.max_total_time_s,
-            max_feed_mm_per_min: dto.max_feed_mm_per_min,
-            max_dwell_change_s: dto.max_dwell_change_s,
-        }
-    }
-}
-
-impl ObjectiveDto {
-    fn to_objective(dto: Option<&ObjectiveDto>) -> Objective {
-        let dto = dto.cloned().unwrap_or_default();
-        Objective {
-            smoothing: dto.smoothing.unwrap_or(DEFAULT_SMOOTHING),
-            time_weight: dto.time_weight.unwrap_or(DEFAULT_TIME_WEIGHT),
-        }
-    }
-}
-
-impl TargetDto {
-    /// Exactly one of the two targets; the wire allows both fields, so the shape is checked
-    /// here.
-    fn into_target(self) -> Result<Target, ApiError> {
-        match (self.uniform_depth_nm, self.profile) {
-            (Some(depth), None) => {
-                let target = Target::uniform(depth)?;
-                if self.free_piston == Some(true) {
-                    return Err(ApiError::invalid(
-                        "target.free_piston",
-                        "free_piston applies to a profile target; a uniform depth has no free layer",
-                    ));
-                }
-                Ok(target)
-            }
-            (None, Some(profile)) => Ok(Target::Profile {
-                profile: MeasuredProfile::new(profile.radius_mm, profile.depth_nm)?,
-                free_piston: self.free_piston.unwrap_or(false),
-            }),
-            _ => Err(ApiError::invalid(
-                "target",
-                "give exactly one of target.uniform_depth_nm and target.profile",
-            )),
-        }
-    }
-}
-
 /// `POST /v1/optimize`.
 pub struct OptimizeEndpoint;
 
@@ -337,8 +208,8 @@ impl Endpoint for OptimizeEndpoint {
     type Request = OptimizeRequest;
     type Command = (OptimizeCommand, f64);
     type Response = OptimizeResponse;
-    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
-    const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
+    const CSV: Option<fn(&Self::Response) -> String> = Some(render::to_csv);
+    const SVG: Option<fn(&Self::Response) -> String> = Some(render::to_svg);
 
     /// The command, with the server's solver time limit (for the time-limit problem's hint).
     fn parse(req: OptimizeRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
@@ -479,47 +350,6 @@ impl From<OptimizedPlan> for OptimizeResponse {
             },
         }
     }
-}
-
-fn to_csv(response: &OptimizeResponse) -> String {
-    csv::table(
-        &["position_mm".to_string(), "dwell_s".to_string()],
-        &[&response.dwell.positions_mm, &response.dwell.dwell_s],
-    )
-}
-
-fn to_svg(r: &OptimizeResponse) -> String {
-    let positions = &r.dwell.positions_mm;
-    plot::render(&Chart {
-        title: format!(
-            "Optimized dwell, {:.0} s total ({})",
-            r.total_time_s,
-            r.solver.status.as_str()
-        ),
-        x_label: "tool position r1 (mm)".to_string(),
-        y_label: "dwell (s)".to_string(),
-        series: vec![Series {
-            name: "dwell at each position".to_string(),
-            points: positions
-                .iter()
-                .copied()
-                .zip(r.dwell.dwell_s.iter().copied())
-                .collect(),
-        }],
-        band: Some(plot::aperture_band(&r.clear_aperture)),
-        secondary: Some((
-            "feed (mm/min)".to_string(),
-            Series {
-                name: "feed across each cell".to_string(),
-                points: positions
-                    .iter()
-                    .copied()
-                    .zip(&r.feed_mm_per_min)
-                    .map(|(x, v)| (x, v.unwrap_or(f64::NAN)))
-                    .collect(),
-            },
-        )),
-    })
 }
 
 /// Optimize a dwell plan.

@@ -1,0 +1,298 @@
+//! The machine as requests describe it (the tool, the limits of each axis and spindle) and
+//! as responses report it (each axis's travel, peaks and use of its limits).
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::super::error::ApiError;
+use super::super::extract::optional_object;
+use crate::machine::{AxisLimits, AxisMotion, Drive, MachineLimits, Orientation, Program, Tool};
+use crate::surface::Surface;
+use crate::usecases::optimize::Machine;
+use crate::usecases::program::ProgramInputError;
+
+/// How the tool is carried: `normal` (B follows the surface normal) or `vertical` (no tilt).
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum OrientationDto {
+    Normal,
+    Vertical,
+}
+
+/// The tool as the machine carries it.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ToolDto {
+    /// From the pad face centre to the B pivot along the tool axis, mm (0 to 10000). Default 0.
+    #[schema(minimum = 0.0, maximum = 10000.0)]
+    pub pivot_length_mm: Option<f64>,
+    /// Default `normal`.
+    pub orientation: Option<OrientationDto>,
+}
+
+/// Limits of a linear axis (X or Z); each optional (absent = unlimited).
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LinearAxisDto {
+    /// Lowest position, mm (design frame: the surface vertex at 0, Z positive toward the tool).
+    pub min_mm: Option<f64>,
+    /// Highest position, mm (above min_mm).
+    pub max_mm: Option<f64>,
+    /// Largest |velocity|, mm/min (> 0).
+    #[schema(exclusive_minimum = 0.0)]
+    pub max_velocity_mm_per_min: Option<f64>,
+    /// Largest |acceleration|, mm/s² (> 0).
+    #[schema(exclusive_minimum = 0.0)]
+    pub max_acceleration_mm_per_s2: Option<f64>,
+}
+
+/// Limits of the tilt axis B; each optional (absent = unlimited).
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RotaryAxisDto {
+    /// Lowest angle, deg.
+    pub min_deg: Option<f64>,
+    /// Highest angle, deg (above min_deg).
+    pub max_deg: Option<f64>,
+    /// Largest |angular velocity|, deg/min (> 0).
+    #[schema(exclusive_minimum = 0.0)]
+    pub max_velocity_deg_per_min: Option<f64>,
+    /// Largest |angular acceleration|, deg/s² (> 0).
+    #[schema(exclusive_minimum = 0.0)]
+    pub max_acceleration_deg_per_s2: Option<f64>,
+}
+
+/// A spindle's speed limit.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SpindleLimitDto {
+    /// Largest |speed|, r/min (> 0).
+    #[schema(exclusive_minimum = 0.0)]
+    pub max_rpm: Option<f64>,
+}
+
+/// The machine's limits, per axis and spindle; everything optional (absent = unlimited).
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MachineDto {
+    /// X, the radial axis (mm).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub x: Option<LinearAxisDto>,
+    /// Z, the axial axis (mm, positive toward the tool).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub z: Option<LinearAxisDto>,
+    /// B, the tool's tilt in the meridian plane (deg, B = θ the slope angle).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub b: Option<RotaryAxisDto>,
+    /// The workpiece spindle's speed limit.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub workpiece_spindle: Option<SpindleLimitDto>,
+    /// The tool spindle's speed limit.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub tool_spindle: Option<SpindleLimitDto>,
+}
+
+/// Fraction of each limit used (1 = at the limit); null where the limit is not stated.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
+pub struct UtilisationDto {
+    /// Travel used over the range from the minimum to the maximum (both stated).
+    #[schema(required = true)]
+    pub travel: Option<f64>,
+    /// Peak |velocity| over its limit.
+    #[schema(required = true)]
+    pub velocity: Option<f64>,
+    /// Peak |acceleration| over its limit.
+    #[schema(required = true)]
+    pub acceleration: Option<f64>,
+}
+
+/// How a linear axis moves over the program.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
+pub struct LinearAxisReport {
+    /// Lowest position reached, mm (start included).
+    pub min_mm: f64,
+    /// Highest position reached, mm.
+    pub max_mm: f64,
+    /// max_mm − min_mm.
+    pub travel_mm: f64,
+    /// Largest |velocity| of any block, mm/min.
+    pub peak_velocity_mm_per_min: f64,
+    /// Largest |acceleration| between blocks (from and to rest at the ends), mm/s².
+    pub peak_acceleration_mm_per_s2: f64,
+    /// Fraction of each stated limit used.
+    pub utilisation: UtilisationDto,
+}
+
+/// How the tilt axis moves over the program.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
+pub struct RotaryAxisReport {
+    /// Lowest angle reached, deg (start included).
+    pub min_deg: f64,
+    /// Highest angle reached, deg.
+    pub max_deg: f64,
+    /// max_deg − min_deg.
+    pub travel_deg: f64,
+    /// Largest |angular velocity| of any block, deg/min.
+    pub peak_velocity_deg_per_min: f64,
+    /// Largest |angular acceleration| between blocks, deg/s².
+    pub peak_acceleration_deg_per_s2: f64,
+    /// Fraction of each stated limit used.
+    pub utilisation: UtilisationDto,
+}
+
+/// Per-axis motion: velocity piecewise constant per block (ΔA/duration), changing between
+/// blocks over the time between their midpoints.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
+pub struct AxesDto {
+    /// X, the radial axis.
+    pub x: LinearAxisReport,
+    /// Z, the axial axis.
+    pub z: LinearAxisReport,
+    /// B, the tilt axis.
+    pub b: RotaryAxisReport,
+}
+
+fn axis_limits(
+    min: Option<f64>,
+    max: Option<f64>,
+    velocity: Option<f64>,
+    acceleration: Option<f64>,
+) -> AxisLimits {
+    AxisLimits {
+        min,
+        max,
+        max_velocity_per_min: velocity,
+        max_acceleration_per_s2: acceleration,
+    }
+}
+
+impl From<&MachineDto> for MachineLimits {
+    fn from(m: &MachineDto) -> Self {
+        let linear = |a: &Option<LinearAxisDto>| {
+            a.as_ref().map_or(AxisLimits::default(), |a| {
+                axis_limits(
+                    a.min_mm,
+                    a.max_mm,
+                    a.max_velocity_mm_per_min,
+                    a.max_acceleration_mm_per_s2,
+                )
+            })
+        };
+        let b = m.b.as_ref().map_or(AxisLimits::default(), |b| {
+            axis_limits(
+                b.min_deg,
+                b.max_deg,
+                b.max_velocity_deg_per_min,
+                b.max_acceleration_deg_per_s2,
+            )
+        });
+        MachineLimits {
+            x: linear(&m.x),
+            z: linear(&m.z),
+            b,
+            workpiece_max_rpm: m.workpiece_spindle.as_ref().and_then(|s| s.max_rpm),
+            tool_max_rpm: m.tool_spindle.as_ref().and_then(|s| s.max_rpm),
+        }
+    }
+}
+
+fn utilisation(used: f64, limit: Option<f64>) -> Option<f64> {
+    limit.map(|l| used / l)
+}
+
+/// An axis's figures over a program, in its own unit.
+struct AxisFigures {
+    min: f64,
+    max: f64,
+    travel: f64,
+    peak_velocity_per_min: f64,
+    peak_acceleration_per_s2: f64,
+    utilisation: UtilisationDto,
+}
+
+fn axis_figures(motion: &AxisMotion, limits: &AxisLimits) -> AxisFigures {
+    let range = match (limits.min, limits.max) {
+        (Some(lo), Some(hi)) => Some(hi - lo),
+        _ => None,
+    };
+    AxisFigures {
+        min: motion.min,
+        max: motion.max,
+        travel: motion.travel(),
+        peak_velocity_per_min: motion.peak_velocity_per_min,
+        peak_acceleration_per_s2: motion.peak_acceleration_per_s2,
+        utilisation: UtilisationDto {
+            travel: utilisation(motion.travel(), range),
+            velocity: utilisation(motion.peak_velocity_per_min, limits.max_velocity_per_min),
+            acceleration: utilisation(
+                motion.peak_acceleration_per_s2,
+                limits.max_acceleration_per_s2,
+            ),
+        },
+    }
+}
+
+impl AxesDto {
+    /// Each axis's travel, peaks and use of `machine`'s limits over `program`.
+    pub fn of(program: &Program, machine: &MachineLimits) -> Self {
+        let linear = |drive| {
+            let f = axis_figures(program.motion(drive), machine.axis(drive));
+            LinearAxisReport {
+                min_mm: f.min,
+                max_mm: f.max,
+                travel_mm: f.travel,
+                peak_velocity_mm_per_min: f.peak_velocity_per_min,
+                peak_acceleration_mm_per_s2: f.peak_acceleration_per_s2,
+                utilisation: f.utilisation,
+            }
+        };
+        let b = axis_figures(program.motion(Drive::B), &machine.b);
+        AxesDto {
+            x: linear(Drive::X),
+            z: linear(Drive::Z),
+            b: RotaryAxisReport {
+                min_deg: b.min,
+                max_deg: b.max,
+                travel_deg: b.travel,
+                peak_velocity_deg_per_min: b.peak_velocity_per_min,
+                peak_acceleration_deg_per_s2: b.peak_acceleration_per_s2,
+                utilisation: b.utilisation,
+            },
+        }
+    }
+}
+
+/// The machine a plan must run on (for `/v1/optimize`): the part's surface, already checked
+/// with the process, and the tool and limits as given, each checked and any error naming its
+/// field.
+pub fn machine_setup(
+    surface: &Surface,
+    tool: Option<&ToolDto>,
+    machine: &MachineDto,
+) -> Result<Machine, ApiError> {
+    let surface = surface.clone();
+    let tool_dto = tool.cloned().unwrap_or_default();
+    let tool = Tool::new(
+        tool_dto.pivot_length_mm.unwrap_or(0.0),
+        tool_dto
+            .orientation
+            .map_or(Orientation::Normal, Orientation::from),
+    )
+    .map_err(ProgramInputError::Tool)?;
+    let limits = MachineLimits::from(machine);
+    limits.check().map_err(ProgramInputError::Limits)?;
+    Ok(Machine {
+        surface,
+        tool,
+        limits,
+    })
+}
+
+impl From<OrientationDto> for Orientation {
+    fn from(o: OrientationDto) -> Self {
+        match o {
+            OrientationDto::Normal => Orientation::Normal,
+            OrientationDto::Vertical => Orientation::Vertical,
+        }
+    }
+}

@@ -1,0 +1,270 @@
+//! Request and response objects shared by several endpoints (the v1 contract's stable names),
+//! and their conversion into and out of the core's types.
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::error::ApiError;
+use super::extract::optional_count;
+use super::fields::surface_error;
+use crate::machine::Tool;
+use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
+use crate::physics::{Orientation, Part};
+use crate::surface::{Surface, SurfaceSpec};
+use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, Setting};
+
+mod machine;
+mod recommendation;
+mod surface;
+mod warning;
+
+pub use machine::*;
+pub use recommendation::*;
+pub use surface::*;
+pub use warning::*;
+
+fn default_preston_coefficient() -> f64 {
+    1e-13
+}
+fn default_pressure_kpa() -> f64 {
+    10.0
+}
+
+/// The polishing process. Speeds are signed r/min in one lab frame, counter-clockwise positive
+/// as seen from the tool side. The paper's speed ratio is η = −workpiece_rpm / tool_rpm, so
+/// η = −1 means workpiece and tool turning the same way at the same speed (uniform removal with
+/// equal dwell). The paper's experiment 1 (workpiece 10 r/min clockwise, tool 200 r/min
+/// counter-clockwise) is workpiece_rpm = −10, tool_rpm = 200 (η = +0.05).
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ProcessDto {
+    /// Workpiece radius r_m in mm, in [0.001, 100000].
+    #[schema(example = 50.0, minimum = 0.001, maximum = 100000.0)]
+    pub workpiece_radius_mm: f64,
+    /// Tool (pad) radius r_t in mm, in [0.001, 100000].
+    #[schema(example = 10.0, minimum = 0.001, maximum = 100000.0)]
+    pub tool_radius_mm: f64,
+    /// Workpiece speed in r/min, signed, lab frame, counter-clockwise positive, |·| ≤ 100000.
+    /// Must not be 0: the radial model averages over workpiece revolutions.
+    #[schema(example = -10.0, minimum = -100000.0, maximum = 100000.0)]
+    pub workpiece_rpm: f64,
+    /// Tool spin in r/min, signed, lab frame, counter-clockwise positive, |·| ≤ 100000. 0 is
+    /// allowed (η is then undefined and reported as null).
+    #[schema(example = 200.0, minimum = -100000.0, maximum = 100000.0)]
+    pub tool_rpm: f64,
+    /// Preston coefficient K in m²/N (= 1/Pa), in [0, 1e-6]. Default 1e-13.
+    #[serde(default = "default_preston_coefficient")]
+    #[schema(example = 1e-13, minimum = 0.0, maximum = 1e-6)]
+    pub preston_coefficient_m2_per_n: f64,
+    /// Nominal pad pressure in kPa, in (0, 1000000], with the whole pad on the workpiece.
+    /// Default 10.
+    #[serde(default = "default_pressure_kpa")]
+    #[schema(example = 10.0, maximum = 1000000.0, exclusive_minimum = 0.0)]
+    pub pressure_kpa: f64,
+    /// How pressure depends on the tool position. Default `uniform`.
+    #[serde(default)]
+    pub pressure_model: PressureModelDto,
+}
+
+/// `uniform`: the nominal pressure everywhere under the pad, also when it overhangs the edge
+/// (the paper's assumption; tool positions up to r_m + r_t). `constant_force`: the force of the
+/// nominal pressure on the full pad rests on the part of the pad still on the workpiece, so the
+/// pressure rises as the pad overhangs (tool positions up to r_m).
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PressureModelDto {
+    #[default]
+    Uniform,
+    ConstantForce,
+}
+
+impl From<&ProcessDto> for ProcessSpec {
+    fn from(p: &ProcessDto) -> Self {
+        ProcessSpec {
+            workpiece_radius_mm: p.workpiece_radius_mm,
+            tool_radius_mm: p.tool_radius_mm,
+            workpiece_rpm: p.workpiece_rpm,
+            tool_rpm: p.tool_rpm,
+            preston_coefficient_m2_per_n: p.preston_coefficient_m2_per_n,
+            pressure_kpa: p.pressure_kpa,
+            pressure_model: match p.pressure_model {
+                PressureModelDto::Uniform => PressureModel::Uniform,
+                PressureModelDto::ConstantForce => PressureModel::ConstantForce,
+            },
+            part: Part::flat(),
+        }
+    }
+}
+
+/// Radii where removal is reported: `count` evenly spaced samples from `start_mm` to `stop_mm`
+/// inclusive, on the workpiece. Every member is optional; the default grid is 201 samples from
+/// 0 to the workpiece radius.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RadialGridDto {
+    /// First radius in mm (≥ 0). Default 0.
+    #[schema(example = 0.0)]
+    pub start_mm: Option<f64>,
+    /// Last radius in mm (≤ workpiece radius). Default: the workpiece radius.
+    #[schema(example = 50.0)]
+    pub stop_mm: Option<f64>,
+    /// Number of samples (≥ 2, or 1 when start_mm = stop_mm; at most the server's
+    /// max_radial_samples, 10001 by default). Default 201.
+    #[schema(example = 201, minimum = 1, maximum = 1_000_000_000, format = Int32)]
+    #[serde(default, deserialize_with = "optional_count")]
+    pub count: Option<usize>,
+}
+
+impl From<Option<&RadialGridDto>> for GridSpec {
+    fn from(g: Option<&RadialGridDto>) -> Self {
+        g.map_or_else(GridSpec::default, |g| GridSpec {
+            start_mm: g.start_mm,
+            stop_mm: g.stop_mm,
+            count: g.count,
+        })
+    }
+}
+
+/// Radii [inner_mm, outer_mm] where uniformity is judged (an annulus is allowed). Default: the
+/// whole workpiece. The radial grid must span it.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ClearApertureDto {
+    /// Inner radius in mm (≥ 0). Default 0.
+    #[schema(example = 0.0)]
+    pub inner_mm: Option<f64>,
+    /// Outer radius in mm (> inner_mm, ≤ workpiece radius). Default: the workpiece radius.
+    #[schema(example = 40.0)]
+    pub outer_mm: Option<f64>,
+}
+
+impl From<Option<&ClearApertureDto>> for ApertureSpec {
+    fn from(a: Option<&ClearApertureDto>) -> Self {
+        a.map_or_else(ApertureSpec::default, |a| ApertureSpec {
+            inner_mm: a.inner_mm,
+            outer_mm: a.outer_mm,
+        })
+    }
+}
+
+/// The part a request describes: its `surface` (default a plane) and the pad's spin axis from
+/// `tool.orientation` (default `normal`), the surface checked and any error naming its field.
+pub fn part(surface: Option<&SurfaceDto>, tool: Option<&ToolDto>) -> Result<Part, ApiError> {
+    let surface = Surface::new(&surface.map_or(SurfaceSpec::Plane, SurfaceSpec::from))
+        .map_err(surface_error)?;
+    let orientation = tool
+        .and_then(|t| t.orientation)
+        .map_or(Orientation::Normal, Orientation::from);
+    // The whole tool is checked, though only its orientation matters to removal: what the
+    // schema refuses is refused everywhere.
+    if let Some(pivot) = tool.and_then(|t| t.pivot_length_mm) {
+        Tool::new(pivot, orientation)
+            .map_err(|e| ApiError::invalid("tool.pivot_length_mm", e.to_string()))?;
+    }
+    Ok(Part {
+        surface,
+        orientation,
+    })
+}
+
+/// The process of a request on its part.
+pub fn process_spec(
+    process: &ProcessDto,
+    surface: Option<&SurfaceDto>,
+    tool: Option<&ToolDto>,
+) -> Result<ProcessSpec, ApiError> {
+    Ok(ProcessSpec {
+        part: part(surface, tool)?,
+        ..process.into()
+    })
+}
+
+/// Where the request's process, part and pad act: the members every computing request shares.
+pub struct Place<'a> {
+    pub process: &'a ProcessDto,
+    pub surface: Option<&'a SurfaceDto>,
+    pub tool: Option<&'a ToolDto>,
+}
+
+/// The setting of a request: its process on its part, radial grid and clear aperture.
+pub fn setting(
+    place: Place,
+    grid: Option<&RadialGridDto>,
+    aperture: Option<&ClearApertureDto>,
+    limits: &ComputeLimits,
+) -> Result<Setting, ApiError> {
+    Ok(Setting::new(
+        process_spec(place.process, place.surface, place.tool)?,
+        grid.into(),
+        aperture.into(),
+        limits,
+    )?)
+}
+
+/// The clear aperture actually used (defaults filled in), in mm.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct ApertureEcho {
+    /// Inner radius, mm.
+    pub inner_mm: f64,
+    /// Outer radius, mm.
+    pub outer_mm: f64,
+}
+
+impl From<&ClearAperture> for ApertureEcho {
+    fn from(a: &ClearAperture) -> Self {
+        ApertureEcho {
+            inner_mm: a.inner_mm(),
+            outer_mm: a.outer_mm(),
+        }
+    }
+}
+
+/// Uniformity of the removal over the clear aperture, taken over the radial samples inside it
+/// (each sample counts once: a radius average, not an area average).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct MetricsDto {
+    /// Mean removal depth, nm.
+    pub mean_nm: f64,
+    /// Smallest removal depth, nm.
+    pub min_nm: f64,
+    /// Largest removal depth, nm.
+    pub max_nm: f64,
+    /// Peak-to-valley: max_nm − min_nm, nm.
+    pub pv_nm: f64,
+    /// Root-mean-square deviation from the mean, nm.
+    pub rms_nm: f64,
+    /// pv_nm / mean_nm, a fraction (0.01 = 1 %); null when nothing is removed in the aperture.
+    #[schema(required = true)]
+    pub nonuniformity: Option<f64>,
+    /// Number of radial samples inside the clear aperture.
+    #[schema(format = Int32)]
+    pub samples: usize,
+}
+
+impl From<&UniformityMetrics> for MetricsDto {
+    fn from(m: &UniformityMetrics) -> Self {
+        MetricsDto {
+            mean_nm: m.mean_nm,
+            min_nm: m.min_nm,
+            max_nm: m.max_nm,
+            pv_nm: m.pv_nm,
+            rms_nm: m.rms_nm,
+            nonuniformity: m.nonuniformity,
+            samples: m.samples,
+        }
+    }
+}
+
+/// Tool dwell: positions of the tool centre (mm from the workpiece axis, strictly increasing,
+/// 0 to r_m + r_t under uniform pressure or 0 to r_m under constant force) and the time spent
+/// at each (s, ≥ 0). Same length.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DwellDto {
+    /// Tool-centre radii in mm, strictly increasing.
+    #[schema(min_items = 1)]
+    pub positions_mm: Vec<f64>,
+    /// Dwell time at each position in s (≥ 0), one per position.
+    #[schema(min_items = 1)]
+    pub dwell_s: Vec<f64>,
+}
