@@ -55,43 +55,17 @@ fn assert_same(got: &Value, want: &Value, path: &str, tol: f64) {
     }
 }
 
-fn endpoint_of(fixture: &str) -> &'static str {
-    if fixture.starts_with("removal_function") {
-        "/v1/removal-function"
-    } else if fixture.starts_with("predict") {
-        "/v1/predict"
-    } else if fixture.starts_with("optimize") {
-        "/v1/optimize"
-    } else if fixture.starts_with("recommend") {
-        "/v1/recommend"
-    } else if fixture.starts_with("eta_sweep") {
-        "/v1/studies/eta-sweep"
-    } else if fixture.starts_with("measurement_fit") {
-        "/v1/measurement/fit"
-    } else if fixture.starts_with("program") {
-        "/v1/program"
-    } else {
-        panic!("no endpoint for fixture {fixture}")
-    }
-}
-
 /// Every request fixture is posted; its response must match `fixtures/expected/<name>`.
 /// `PRESTON_BLESS=1 cargo test --release --test it api::` rewrites the expected files after a deliberate change.
 #[tokio::test]
 async fn every_fixture_returns_its_stored_response() {
     let app = app();
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
-    let mut names: Vec<String> = std::fs::read_dir(&dir)
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".json"))
-        .collect();
-    names.sort();
+    let names = common::request_fixtures();
     assert!(names.len() >= 3);
     for name in names {
         let body = std::fs::read(dir.join(&name)).unwrap();
-        let reply = post_json(&app, endpoint_of(&name), body).await;
+        let reply = post_json(&app, common::endpoint_of(&name), body).await;
         assert_eq!(reply.status, 200, "{name}: {}", reply.text());
         assert_eq!(reply.content_type, "application/json");
         let expected_path = dir.join("expected").join(&name);

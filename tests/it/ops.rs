@@ -118,6 +118,31 @@ async fn request_ids_are_generated_or_propagated_and_land_in_problems() {
 /// point an equal-dwell pass over a 2001-sample grid with 2000 positions (curved removal is
 /// several times the flat cost). (The optimizer is too quick for this since its dwell went
 /// into a spline basis.)
+/// Waits until `happened` holds, polling as fast as the runtime allows, for at most 5 s.
+async fn eventually<F, Fut>(what: &str, mut happened: F)
+where
+    F: FnMut() -> Fut,
+    Fut: std::future::Future<Output = bool>,
+{
+    let started = Instant::now();
+    while !happened().await {
+        assert!(
+            started.elapsed() < Duration::from_secs(5),
+            "{what}: not within 5 s"
+        );
+        tokio::task::yield_now().await;
+    }
+}
+
+/// Waits until a computation holds the one slot of `app`.
+async fn slot_taken(app: &axum::Router) {
+    eventually("the slow computation takes the slot", || async {
+        let metrics = get(app, "/metrics").await.text();
+        sample(&metrics, &["preston_computations_in_flight"]) == Some(1.0)
+    })
+    .await;
+}
+
 const SLOW_PATH: &str = "/v1/studies/eta-sweep";
 
 fn slow_computation() -> String {
@@ -143,7 +168,7 @@ async fn excess_load_is_shed_with_503_and_retry_after() {
         let app = app.clone();
         tokio::spawn(async move { post_json(&app, SLOW_PATH, slow_computation()).await })
     };
-    tokio::time::sleep(Duration::from_millis(100)).await;
+    slot_taken(&app).await;
     let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
     let shed = post_json(&app, "/v1/predict", body).await;
     assert_eq!(shed.status, 503, "{}", shed.text());
@@ -169,19 +194,7 @@ async fn invalid_requests_are_refused_at_once_while_every_slot_is_busy() {
         let app = app.clone();
         tokio::spawn(async move { post_json(&app, SLOW_PATH, slow_computation()).await })
     };
-    // Wait until the slow computation holds the slot.
-    let started = Instant::now();
-    while sample(
-        &get(&app, "/metrics").await.text(),
-        &["preston_computations_in_flight"],
-    ) != Some(1.0)
-    {
-        assert!(
-            started.elapsed() < Duration::from_secs(5),
-            "the slot never filled"
-        );
-        tokio::time::sleep(Duration::from_millis(5)).await;
-    }
+    slot_taken(&app).await;
     let process = json!({"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": -10, "tool_rpm": 200});
     let stationary = json!({"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": 0, "tool_rpm": 200});
     let cases = [
@@ -313,15 +326,21 @@ fn sigterm_turns_readiness_503_first_and_lets_a_long_computation_finish() {
                 (response.status, started.elapsed())
             })
         };
-        tokio::time::sleep(Duration::from_millis(150)).await;
+        eventually("the computation takes its slot", || async {
+            let metrics = socket::get(&address, "/metrics").await.body;
+            let metrics = String::from_utf8(metrics).unwrap();
+            sample(&metrics, &["preston_computations_in_flight"]) == Some(1.0)
+        })
+        .await;
         let ready = socket::get(&address, "/readyz").await;
         assert_eq!(ready.status, 200);
 
         let signalled = Instant::now();
         service.signal("TERM");
-        tokio::time::sleep(Duration::from_millis(100)).await;
-        let ready = socket::get(&address, "/readyz").await;
-        assert_eq!(ready.status, 503, "readiness turns 503 at once");
+        eventually("readiness turns 503", || async {
+            socket::get(&address, "/readyz").await.status == 503
+        })
+        .await;
         assert!(
             !long.is_finished(),
             "the computation is still running when readiness drops"

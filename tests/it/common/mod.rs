@@ -174,3 +174,38 @@ pub fn read_fixture(name: &str) -> serde_json::Value {
     let text = std::fs::read_to_string(fixture_path(name)).expect("fixture readable");
     serde_json::from_str(&text).expect("fixture is JSON")
 }
+
+/// The endpoint a request fixture is for, by its name's prefix.
+pub fn endpoint_of(fixture: &str) -> &'static str {
+    if fixture.starts_with("removal_function") {
+        "/v1/removal-function"
+    } else if fixture.starts_with("predict") {
+        "/v1/predict"
+    } else if fixture.starts_with("optimize") {
+        "/v1/optimize"
+    } else if fixture.starts_with("recommend") {
+        "/v1/recommend"
+    } else if fixture.starts_with("eta_sweep") {
+        "/v1/studies/eta-sweep"
+    } else if fixture.starts_with("measurement_fit") {
+        "/v1/measurement/fit"
+    } else if fixture.starts_with("program") {
+        "/v1/program"
+    } else {
+        panic!("no endpoint for fixture {fixture}")
+    }
+}
+
+/// Every request fixture: its file name, sorted.
+pub fn request_fixtures() -> Vec<String> {
+    let dir = fixture_path("");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| {
+            let name = e.unwrap().file_name().into_string().unwrap();
+            name.ends_with(".json").then_some(name)
+        })
+        .collect();
+    names.sort();
+    names
+}

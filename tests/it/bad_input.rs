@@ -1,0 +1,247 @@
+//! Bad input, endpoint by endpoint: each fixture spoiled in one place must be refused with the
+//! status, problem type and field a caller would look for (at least three per endpoint).
+
+use serde_json::{json, Value};
+
+use crate::common;
+use common::http::{app, post_json};
+
+/// `fixture` with the member at `path` (dot-separated, `[i]` for array elements) set to
+/// `value`, or removed when `value` is null.
+fn spoiled(fixture: &str, path: &str, value: Value) -> Value {
+    let text = std::fs::read_to_string(common::fixture_path(fixture)).unwrap();
+    let mut body: Value = serde_json::from_str(&text).unwrap();
+    let mut parts: Vec<&str> = path.split('.').collect();
+    let last = parts.pop().unwrap();
+    let mut at = &mut body;
+    for part in parts {
+        at = at
+            .as_object_mut()
+            .unwrap()
+            .entry(part)
+            .or_insert_with(|| json!({}));
+    }
+    match last.split_once('[') {
+        Some((name, index)) => {
+            let index: usize = index.trim_end_matches(']').parse().unwrap();
+            at[name][index] = value;
+        }
+        None if value.is_null() => {
+            at.as_object_mut().unwrap().remove(last);
+        }
+        None => {
+            at[last] = value;
+        }
+    }
+    body
+}
+
+const INVALID: &str = "invalid-input";
+const SCHEMA: &str = "schema-mismatch";
+
+#[tokio::test]
+async fn each_endpoint_names_the_field_of_bad_input() {
+    let rf = "removal_function_paper_exp1.json";
+    let pr = "predict_paper_exp2.json";
+    let op = "optimize_paper_exp1.json";
+    let re = "recommend_paper_exp1.json";
+    let sw = "eta_sweep_figure7.json";
+    let mf = "measurement_fit_asphere.json";
+    let pg = "program_sphere.json";
+    let cases: Vec<(&str, Value, u16, &str, &str)> = vec![
+        (
+            rf,
+            spoiled(rf, "tool_positions_mm", json!([-1])),
+            422,
+            INVALID,
+            "tool_positions_mm[0]",
+        ),
+        (
+            rf,
+            spoiled(rf, "process.tool_radius_mm", json!(0)),
+            422,
+            INVALID,
+            "process.tool_radius_mm",
+        ),
+        (
+            rf,
+            spoiled(rf, "radial_grid.count", json!("201")),
+            422,
+            SCHEMA,
+            "radial_grid.count",
+        ),
+        (
+            pr,
+            spoiled(pr, "dwell.dwell_s[0]", json!(-1)),
+            422,
+            INVALID,
+            "dwell.dwell_s[0]",
+        ),
+        (
+            pr,
+            spoiled(pr, "process.workpiece_rpm", json!(0)),
+            422,
+            INVALID,
+            "process.workpiece_rpm",
+        ),
+        (
+            pr,
+            spoiled(
+                pr,
+                "feed",
+                json!({"start_mm": 0, "stop_mm": 50, "feed_mm_per_min": 10}),
+            ),
+            422,
+            INVALID,
+            "dwell",
+        ),
+        (
+            pr,
+            spoiled(pr, "clear_aperture.outer_mm", json!(60)),
+            422,
+            INVALID,
+            "clear_aperture.outer_mm",
+        ),
+        (op, spoiled(op, "target", json!({})), 422, INVALID, "target"),
+        (
+            op,
+            spoiled(op, "constraints.max_dwell_s", json!(-1)),
+            422,
+            INVALID,
+            "constraints.max_dwell_s",
+        ),
+        (
+            op,
+            spoiled(op, "positions_mm", json!([1, 0])),
+            422,
+            INVALID,
+            "positions_mm[1]",
+        ),
+        (
+            op,
+            spoiled(op, "machine.x.max_velocity_mm_per_min", json!(0)),
+            422,
+            INVALID,
+            "machine.x.max_velocity_mm_per_min",
+        ),
+        (
+            re,
+            spoiled(re, "process.tool_radius_mm", json!(-1)),
+            422,
+            INVALID,
+            "process.tool_radius_mm",
+        ),
+        (
+            re,
+            spoiled(re, "limits.max_workpiece_rpm", json!(-5)),
+            422,
+            INVALID,
+            "limits.max_workpiece_rpm",
+        ),
+        (
+            re,
+            spoiled(re, "depth_nm", json!(0)),
+            422,
+            INVALID,
+            "depth_nm",
+        ),
+        (re, spoiled(re, "speed", json!(1)), 422, SCHEMA, "speed"),
+        (sw, spoiled(sw, "etas", json!([])), 422, INVALID, "etas"),
+        (
+            sw,
+            spoiled(sw, "etas[1]", json!("x")),
+            422,
+            SCHEMA,
+            "etas[1]",
+        ),
+        (
+            sw,
+            spoiled(sw, "clear_aperture.inner_mm", json!(45)),
+            422,
+            INVALID,
+            "clear_aperture.outer_mm",
+        ),
+        (
+            mf,
+            spoiled(mf, "probe_tip_radius_mm", json!(-1)),
+            422,
+            INVALID,
+            "probe_tip_radius_mm",
+        ),
+        (
+            mf,
+            spoiled(mf, "profile.z_mm", json!([0.0])),
+            422,
+            INVALID,
+            "profile.z_mm",
+        ),
+        (
+            mf,
+            spoiled(mf, "surface.radius_of_curvature_mm", json!(0)),
+            422,
+            INVALID,
+            "surface.radius_of_curvature_mm",
+        ),
+        (
+            pg,
+            spoiled(pg, "format.decimals", json!(9)),
+            422,
+            INVALID,
+            "format.decimals",
+        ),
+        (
+            pg,
+            spoiled(pg, "approach.clearance_mm", json!(-1)),
+            422,
+            INVALID,
+            "approach.clearance_mm",
+        ),
+        (
+            pg,
+            spoiled(pg, "dwell.positions_mm[1]", json!(0.0)),
+            422,
+            INVALID,
+            "dwell.positions_mm[1]",
+        ),
+        (
+            pg,
+            spoiled(pg, "tool.pivot_length_mm", json!(-1)),
+            422,
+            INVALID,
+            "tool.pivot_length_mm",
+        ),
+    ];
+    let app = app();
+    let mut per_endpoint = std::collections::BTreeMap::new();
+    for (fixture, body, status, kind, field) in cases {
+        let endpoint = common::endpoint_of(fixture);
+        let reply = post_json(&app, endpoint, body.to_string()).await;
+        let problem = reply.json();
+        let case = format!("{endpoint} expecting {field}: {problem}");
+        assert_eq!(reply.status.as_u16(), status, "{case}");
+        assert_eq!(reply.content_type, "application/problem+json", "{case}");
+        assert_eq!(
+            problem["type"],
+            format!("urn:preston:problem:{kind}"),
+            "{case}"
+        );
+        assert_eq!(problem["field"], field, "{case}");
+        assert!(!problem["detail"].as_str().unwrap().is_empty(), "{case}");
+        *per_endpoint.entry(endpoint).or_insert(0) += 1;
+    }
+    for e in &preston::http::ENDPOINTS {
+        let count = per_endpoint.get(e.path().as_str()).copied().unwrap_or(0);
+        assert!(count >= 3, "{} has {count} bad-input cases", e.path());
+    }
+}
+
+/// A body that is not JSON, on every endpoint: 400 malformed-json.
+#[tokio::test]
+async fn a_body_that_is_not_json_is_malformed_everywhere() {
+    let app = app();
+    for e in &preston::http::ENDPOINTS {
+        let reply = post_json(&app, &e.path(), "{]").await;
+        assert_eq!(reply.status.as_u16(), 400, "{}", e.path());
+        assert_eq!(reply.json()["type"], "urn:preston:problem:malformed-json");
+    }
+}
