@@ -32,8 +32,7 @@ pub enum Command {
     /// request body in FILE (`-` for standard input). Problems go to standard output as
     /// problem+json, with exit status 2.
     Compute {
-        /// The endpoint under `/v1/`: `removal-function`, `predict`, `optimize`, `recommend` or
-        /// `studies/eta-sweep`.
+        /// The endpoint: its path under `/v1/`.
         endpoint: String,
         /// The request body, a JSON file.
         file: PathBuf,

@@ -3,12 +3,28 @@
 use std::io::{ErrorKind, Read, Write};
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::builder::PossibleValuesParser;
+use clap::{CommandFactory, FromArgMatches};
 use preston::config::{Cli, Command};
 use preston::http::{compute_json, openapi, ENDPOINTS};
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // The endpoints `compute` takes are the endpoint table's: its help lists them and clap
+    // refuses any other.
+    let names = ENDPOINTS.iter().map(|e| e.name);
+    let matches = Cli::command()
+        .mut_subcommand("compute", |c| {
+            // (`mut_arg` puts the argument last: FILE is put back after it.)
+            c.mut_arg("endpoint", |a| {
+                a.value_parser(PossibleValuesParser::new(names))
+            })
+            .mut_arg("file", |a| a)
+        })
+        .get_matches();
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     match cli.command {
         Some(Command::Openapi) => output(&openapi::spec_json(), ExitCode::SUCCESS),
         Some(Command::Compute { endpoint, file }) => compute(&endpoint, &file, &cli.serve),
@@ -46,14 +62,6 @@ fn serve(args: preston::config::ServeArgs) -> ExitCode {
 }
 
 fn compute(endpoint: &str, file: &std::path::Path, args: &preston::config::ServeArgs) -> ExitCode {
-    if !ENDPOINTS.iter().any(|e| e.name == endpoint) {
-        let names: Vec<&str> = ENDPOINTS.iter().map(|e| e.name).collect();
-        eprintln!(
-            "preston: unknown endpoint `{endpoint}`; one of: {}",
-            names.join(", ")
-        );
-        return ExitCode::from(64);
-    }
     let mut body = Vec::new();
     let read = if file.as_os_str() == "-" {
         std::io::stdin().read_to_end(&mut body).map(|_| ())

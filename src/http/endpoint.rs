@@ -1,15 +1,24 @@
 //! What every computing endpoint does, written once: negotiate the response format, parse the
 //! request into the use case's command (refusing bad input before queueing for a computation
-//! slot), run the use case in a slot, and render the result as JSON, CSV or SVG. Each resource
-//! module implements [`Endpoint`] for its own types.
+//! slot), run the use case in a slot, and render the result as JSON, CSV, SVG or G-code. Each
+//! resource module implements [`Endpoint`] for its own types, and that one implementation is
+//! the endpoint's registration: its route, its OpenAPI operation, the CLI's `compute` and the
+//! examples all read it (see `router::ENDPOINTS`).
 
+use axum::extract::{FromRequest, State};
 use axum::http::{header, HeaderMap};
 use axum::response::{IntoResponse, Response};
 use serde::de::DeserializeOwned;
 use serde::Serialize;
+use utoipa::openapi::path::{Operation, OperationBuilder};
+use utoipa::openapi::request_body::RequestBodyBuilder;
+use utoipa::openapi::response::{ResponseBuilder, ResponsesBuilder};
+use utoipa::openapi::{Content, ObjectBuilder, Ref, RefOr, Required, Schema, Type};
+use utoipa::{PartialSchema, ToSchema};
 
 use super::error::ApiError;
-use super::extract::{self, Format};
+use super::extract::{self, ApiJson, Format};
+use super::openapi::ComputeProblems;
 use super::state::{AppState, Services};
 use crate::usecases::ComputeLimits;
 
@@ -22,11 +31,39 @@ pub fn is_api_path(path: &str) -> bool {
     path.starts_with(API_PREFIX)
 }
 
-/// A computing endpoint: its wire types and the steps between them.
+/// How the OpenAPI document describes an endpoint's operation.
+pub struct Doc {
+    pub operation_id: &'static str,
+    pub tag: &'static str,
+    /// One line.
+    pub summary: &'static str,
+    pub description: &'static str,
+    /// What the 200 response holds, in each format offered.
+    pub ok: &'static str,
+}
+
+/// How a request body arrives: JSON ([`ApiJson`]), or in other forms too.
+pub trait Body<R>: FromRequest<AppState, Rejection = ApiError> + Send {
+    fn into_request(self) -> R;
+}
+
+impl<R: DeserializeOwned + Send> Body<R> for ApiJson<R> {
+    fn into_request(self) -> R {
+        self.0
+    }
+}
+
+/// A computing endpoint: its name, its wire types and the steps between them.
 pub trait Endpoint: 'static {
-    type Request: DeserializeOwned + Send + 'static;
+    /// The path under [`API_PREFIX`], and the name the CLI's `compute` takes.
+    const NAME: &'static str;
+    /// A request body (a fixture): the OpenAPI example, and a case the tests run.
+    const EXAMPLE: &'static str;
+    const DOC: Doc;
+    type Request: DeserializeOwned + ToSchema + Send + 'static;
+    type Body: Body<Self::Request>;
     type Command: Send + 'static;
-    type Response: Serialize + Send + 'static;
+    type Response: Serialize + ToSchema + Send + 'static;
     /// `Accept: text/csv`, when offered.
     const CSV: Option<fn(&Self::Response) -> String> = None;
     /// `Accept: image/svg+xml`, when offered.
@@ -39,6 +76,19 @@ pub trait Endpoint: 'static {
 
     /// Runs the use case (on the blocking pool) and converts its result.
     fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError>;
+
+    /// The request body as the OpenAPI document states it; by default JSON alone.
+    fn request_body() -> RequestBodyBuilder {
+        RequestBodyBuilder::new().content(
+            "application/json",
+            Content::new(Some(Ref::from_schema_name(Self::Request::name()))),
+        )
+    }
+
+    /// The operation's parameters, if any.
+    fn document(operation: OperationBuilder) -> OperationBuilder {
+        operation
+    }
 }
 
 fn offered<E: Endpoint>() -> Vec<Format> {
@@ -49,17 +99,59 @@ fn offered<E: Endpoint>() -> Vec<Format> {
     offered
 }
 
-/// The body of every computing handler.
-pub async fn handle<E: Endpoint>(
-    state: AppState,
-    headers: &HeaderMap,
-    request: E::Request,
+/// The handler of every computing endpoint.
+pub async fn handler<E: Endpoint>(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    body: E::Body,
 ) -> Result<Response, ApiError> {
-    let format = extract::negotiate(headers, &offered::<E>())?;
-    let command = E::parse(request, &state.compute)?;
+    let format = extract::negotiate(&headers, &offered::<E>())?;
+    let command = E::parse(body.into_request(), &state.compute)?;
     let services = state.services.clone();
     let response = state.run(move || E::run(command, &services)).await?;
     Ok(render::<E>(format, &response))
+}
+
+/// The endpoint's operation in the OpenAPI document, and the schemas it refers to.
+pub fn operation<E: Endpoint>(schemas: &mut Vec<(String, RefOr<Schema>)>) -> Operation {
+    for (name, schema) in [
+        (E::Request::name(), E::Request::schema()),
+        (E::Response::name(), E::Response::schema()),
+    ] {
+        schemas.push((name.into_owned(), schema));
+    }
+    E::Request::schemas(schemas);
+    E::Response::schemas(schemas);
+    let example = serde_json::from_str(E::EXAMPLE).expect("fixtures are valid JSON");
+    let mut body = E::request_body().required(Some(Required::True)).build();
+    if let Some(json) = body.content.get_mut("application/json") {
+        json.example = Some(example);
+    }
+    let text = || Content::new(Some(ObjectBuilder::new().schema_type(Type::String)));
+    let ok = offered::<E>().into_iter().fold(
+        ResponseBuilder::new().description(E::DOC.ok),
+        |ok, format| {
+            let content = match format {
+                Format::Json => Content::new(Some(Ref::from_schema_name(E::Response::name()))),
+                _ => text(),
+            };
+            ok.content(format.media_type(), content)
+        },
+    );
+    let responses = ResponsesBuilder::new()
+        .response("200", ok)
+        .responses_from_into_responses::<ComputeProblems>()
+        .build();
+    E::document(
+        OperationBuilder::new()
+            .tag(E::DOC.tag)
+            .summary(Some(E::DOC.summary))
+            .description(Some(E::DOC.description))
+            .operation_id(Some(E::DOC.operation_id))
+            .request_body(Some(body))
+            .responses(responses),
+    )
+    .build()
 }
 
 /// The exact JSON body the endpoint would return for `body`, computed in this thread (the

@@ -1,8 +1,5 @@
 //! `POST /v1/studies/eta-sweep`: uniformity against η with the tool speed held.
 
-use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -10,13 +7,12 @@ use super::dto::{
     setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, Place, ProcessDto,
     RadialGridDto, SurfaceDto, ToolDto,
 };
-use super::endpoint::{handle, Endpoint};
+use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
-use super::openapi::ComputeProblems;
 use super::plot::{Chart, Series};
 
-use super::state::{AppState, Services};
+use super::state::Services;
 use super::{csv, plot};
 use crate::usecases::eta_sweep::{eta_sweep, EtaSweepCommand};
 use crate::usecases::ComputeLimits;
@@ -84,7 +80,19 @@ pub struct SweepPointDto {
 pub struct EtaSweepEndpoint;
 
 impl Endpoint for EtaSweepEndpoint {
+    const NAME: &'static str = "studies/eta-sweep";
+    const EXAMPLE: &'static str = include_str!("../../fixtures/eta_sweep_figure7.json");
+    const DOC: Doc = Doc {
+        operation_id: "sweepEta",
+        tag: "recommend",
+        summary: "Sweep η with the tool speed held.",
+        description: "For each η, the workpiece turns at −η·tool_rpm and the uniformity of equal dwell (or of the\n\
+given dwell schedule) over the clear aperture is reported. `Accept: text/csv` gives a table,\n\
+`Accept: image/svg+xml` a chart of nonuniformity against η.",
+        ok: "One point per η; as CSV a table, as SVG a chart",
+    };
     type Request = EtaSweepRequest;
+    type Body = ApiJson<EtaSweepRequest>;
     type Command = EtaSweepCommand;
     type Response = EtaSweepResponse;
     const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
@@ -178,32 +186,4 @@ fn to_svg(r: &EtaSweepResponse) -> String {
         band: None,
         secondary: None,
     })
-}
-
-/// Sweep η with the tool speed held.
-///
-/// For each η, the workpiece turns at −η·tool_rpm and the uniformity of equal dwell (or of the
-/// given dwell schedule) over the clear aperture is reported. `Accept: text/csv` gives a table,
-/// `Accept: image/svg+xml` a chart of nonuniformity against η.
-#[utoipa::path(
-    post,
-    path = "/v1/studies/eta-sweep",
-    operation_id = "sweepEta",
-    tag = "recommend",
-    request_body = EtaSweepRequest,
-    responses(
-        (status = 200, description = "One point per η; as CSV a table, as SVG a chart", content(
-            (EtaSweepResponse = "application/json"),
-            (String = "text/csv"),
-            (String = "image/svg+xml"),
-        )),
-        ComputeProblems,
-    )
-)]
-pub async fn handler(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    ApiJson(req): ApiJson<EtaSweepRequest>,
-) -> Result<Response, ApiError> {
-    handle::<EtaSweepEndpoint>(state, &headers, req).await
 }

@@ -2,20 +2,20 @@
 //! `fixtures/`. Committed as `openapi/openapi.json`; `tests/it/openapi_drift.rs` fails when the
 //! two differ (regenerate with `cargo run -- openapi > openapi/openapi.json`).
 
+use utoipa::openapi::path::HttpMethod;
 use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityRequirement, SecurityScheme};
-use utoipa::OpenApi;
+use utoipa::{OpenApi, ToSchema};
 
 use super::dto::{
     ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, PressureModelDto, ProcessDto,
     RadialGridDto,
 };
-use super::endpoint::is_api_path;
+use super::endpoint::Endpoint;
+use super::endpoint::{is_api_path, API_PREFIX};
 use super::error::Problem;
+use super::measurement_fit::{MeasurementFitEndpoint, MeasurementFitRequest};
 use super::router::ENDPOINTS;
-use super::{
-    eta_sweep, health, measurement_fit, metrics, optimize, predict, program, recommend,
-    removal_function,
-};
+use super::{health, metrics};
 
 #[derive(OpenApi)]
 #[openapi(
@@ -40,13 +40,6 @@ optimization positions ≤ 2001, solver time ≤ 10 s, measured trace points ≤
     ),
     servers((url = "/", description = "The service that serves this document")),
     paths(
-        removal_function::handler,
-        predict::handler,
-        optimize::handler,
-        recommend::handler,
-        eta_sweep::handler,
-        measurement_fit::handler,
-        program::handler,
         health::healthz,
         health::readyz,
         metrics::handler,
@@ -72,39 +65,33 @@ optimization positions ≤ 2001, solver time ≤ 10 s, measured trace points ≤
 )]
 struct ApiDoc;
 
-/// The document, with fixture examples attached to the request bodies.
+/// The document: the service's own paths, and an operation (with a fixture as its example)
+/// for every computing endpoint.
 pub fn spec() -> utoipa::openapi::OpenApi {
     let mut doc = ApiDoc::openapi();
+    let mut schemas = Vec::new();
     for endpoint in &ENDPOINTS {
-        let example: serde_json::Value =
-            serde_json::from_str(endpoint.example).expect("fixtures are valid JSON");
-        let body = doc
-            .paths
-            .paths
-            .get_mut(&endpoint.path())
-            .and_then(|item| item.post.as_mut())
-            .and_then(|op| op.request_body.as_mut())
-            .and_then(|body| body.content.get_mut("application/json"))
-            .expect("every example path has a JSON request body");
-        body.example = Some(example);
+        let operation = (endpoint.operation)(&mut schemas);
+        doc.paths
+            .add_path_operation(endpoint.path(), vec![HttpMethod::Post], operation);
     }
+    let components = doc.components.get_or_insert_with(Default::default);
+    components.schemas.extend(schemas);
     // API keys: every /v1 operation takes a bearer key, needed only when the service runs
     // with a keys file (hence the empty alternative).
-    doc.components
-        .get_or_insert_with(Default::default)
-        .add_security_scheme(
-            "bearer",
-            SecurityScheme::Http(
-                HttpBuilder::new()
-                    .scheme(HttpAuthScheme::Bearer)
-                    .description(Some(
-                        "An API key, when the service is run with a keys file \
+    components.add_security_scheme(
+        "bearer",
+        SecurityScheme::Http(
+            HttpBuilder::new()
+                .scheme(HttpAuthScheme::Bearer)
+                .description(Some(
+                    "An API key, when the service is run with a keys file \
 (`--api-keys-file`): `Authorization: Bearer <key>`. Without one it is not needed. A missing, \
 malformed or unknown key is a 401 problem with `WWW-Authenticate: Bearer`.",
-                    ))
-                    .build(),
-            ),
-        );
+                ))
+                .build(),
+        ),
+    );
     for (path, item) in doc.paths.paths.iter_mut() {
         if is_api_path(path) {
             for operation in [item.get.as_mut(), item.post.as_mut()]
@@ -184,7 +171,11 @@ pub fn spec_json() -> String {
             radius["not"] = serde_json::json!({"const": 0});
         }
     }
-    query_mirrors_body(&mut doc, "/v1/measurement/fit", "MeasurementFitRequest");
+    query_mirrors_body(
+        &mut doc,
+        &format!("{API_PREFIX}{}", MeasurementFitEndpoint::NAME),
+        &MeasurementFitRequest::name(),
+    );
     let mut json = serde_json::to_string_pretty(&doc).expect("the spec serialises");
     json.push('\n');
     json

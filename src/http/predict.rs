@@ -1,8 +1,5 @@
 //! `POST /v1/predict`: the cumulative removal of a dwell schedule and its uniformity.
 
-use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -10,13 +7,12 @@ use super::dto::{
     setting, ApertureEcho, ClearApertureDto, DwellDto, FeedDto, MetricsDto, Place, ProcessDto,
     RadialGridDto, RecommendationDto, SurfaceDto, ToolDto, WarningDto,
 };
-use super::endpoint::{handle, Endpoint};
+use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
-use super::openapi::ComputeProblems;
 use super::plot::{Chart, Series};
 
-use super::state::{AppState, Services};
+use super::state::Services;
 use super::{csv, plot};
 use crate::usecases::predict::{predict, PredictCommand};
 use crate::usecases::ComputeLimits;
@@ -88,7 +84,18 @@ pub struct PredictResponse {
 pub struct PredictEndpoint;
 
 impl Endpoint for PredictEndpoint {
+    const NAME: &'static str = "predict";
+    const EXAMPLE: &'static str = include_str!("../../fixtures/predict_paper_exp2.json");
+    const DOC: Doc = Doc {
+        operation_id: "predictRemoval",
+        tag: "removal",
+        summary: "Predict what a dwell schedule removes.",
+        description: "Cumulative removal ΔZ(r) = Σ_j R(r; r1_j)·t_j over the radial grid, with uniformity metrics\n\
+over the clear aperture. `Accept: text/csv` returns radius and removal columns.",
+        ok: "Predicted removal; as CSV, radius and removal columns; as SVG, a chart",
+    };
     type Request = PredictRequest;
+    type Body = ApiJson<PredictRequest>;
     type Command = PredictCommand;
     type Response = PredictResponse;
     const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
@@ -177,31 +184,4 @@ fn to_svg(r: &PredictResponse) -> String {
         band: Some(plot::aperture_band(&r.clear_aperture)),
         secondary: None,
     })
-}
-
-/// Predict what a dwell schedule removes.
-///
-/// Cumulative removal ΔZ(r) = Σ_j R(r; r1_j)·t_j over the radial grid, with uniformity metrics
-/// over the clear aperture. `Accept: text/csv` returns radius and removal columns.
-#[utoipa::path(
-    post,
-    path = "/v1/predict",
-    operation_id = "predictRemoval",
-    tag = "removal",
-    request_body = PredictRequest,
-    responses(
-        (status = 200, description = "Predicted removal; as CSV, radius and removal columns; as SVG, a chart", content(
-            (PredictResponse = "application/json"),
-            (String = "text/csv"),
-            (String = "image/svg+xml"),
-        )),
-        ComputeProblems,
-    )
-)]
-pub async fn handler(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    ApiJson(req): ApiJson<PredictRequest>,
-) -> Result<Response, ApiError> {
-    handle::<PredictEndpoint>(state, &headers, req).await
 }

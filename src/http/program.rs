@@ -1,19 +1,15 @@
 //! `POST /v1/program`: a dwell plan as a machine program (X, Z, B and both spindles), checked
 //! against the machine's limits; JSON blocks, `text/x-gcode` or `text/csv`.
 
-use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use utoipa::ToSchema;
 
 use super::dto::{AxesDto, DwellDto, MachineDto, ProcessDto, SurfaceDto, ToolDto};
-use super::endpoint::{handle, Endpoint};
+use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_count, optional_object, ApiJson};
-use super::openapi::ComputeProblems;
-use super::state::{AppState, Services};
+use super::state::Services;
 use crate::machine::{BlockKind, FeedMode, GcodeFormat, MachineLimits, Orientation, SpindleWords};
 use crate::physics::ProcessSpec;
 use crate::surface::SurfaceSpec;
@@ -234,7 +230,25 @@ impl From<&FormatDto> for GcodeFormat {
 pub struct ProgramEndpoint;
 
 impl Endpoint for ProgramEndpoint {
+    const NAME: &'static str = "program";
+    const EXAMPLE: &'static str = include_str!("../../fixtures/program_sphere.json");
+    const DOC: Doc = Doc {
+        operation_id: "generateProgram",
+        tag: "machine",
+        summary: "Turn a dwell plan into a machine program.",
+        description: "Poses put the pad's centre on each surface point with its axis along the normal\n\
+(`orientation: normal`: X = r − L·sin θ, Z = z(r) + L·cos θ, B = θ; `vertical`: X = r,\n\
+Z = z(r) + L, B = 0). The tool spends each position's dwell between the midpoints to its\n\
+neighbours (the optimizer's motion model: it crosses each segment in half of each end's\n\
+dwell), with half the first and last dwells as stops. Velocity and acceleration are checked\n\
+per axis against `machine`; a program that would break any stated limit is a 422\n\
+`machine-limits` problem listing every violation, never a program. `Accept: text/x-gcode`\n\
+returns the G-code (RS274/NGC, LinuxCNC dialect: G21 G90, G93 inverse time or G94, G4 P\n\
+seconds), `text/csv` the block table.",
+        ok: "The blocks, per-axis motion and utilisation; as G-code, the program; as CSV, the block table",
+    };
     type Request = ProgramRequest;
+    type Body = ApiJson<ProgramRequest>;
     type Command = ProgramCommand;
     type Response = ProgramResponse;
     const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
@@ -356,38 +370,4 @@ fn to_csv(r: &ProgramResponse) -> String {
         ));
     }
     out
-}
-
-/// Turn a dwell plan into a machine program.
-///
-/// Poses put the pad's centre on each surface point with its axis along the normal
-/// (`orientation: normal`: X = r − L·sin θ, Z = z(r) + L·cos θ, B = θ; `vertical`: X = r,
-/// Z = z(r) + L, B = 0). The tool spends each position's dwell between the midpoints to its
-/// neighbours (the optimizer's motion model: it crosses each segment in half of each end's
-/// dwell), with half the first and last dwells as stops. Velocity and acceleration are checked
-/// per axis against `machine`; a program that would break any stated limit is a 422
-/// `machine-limits` problem listing every violation, never a program. `Accept: text/x-gcode`
-/// returns the G-code (RS274/NGC, LinuxCNC dialect: G21 G90, G93 inverse time or G94, G4 P
-/// seconds), `text/csv` the block table.
-#[utoipa::path(
-    post,
-    path = "/v1/program",
-    operation_id = "generateProgram",
-    tag = "machine",
-    request_body = ProgramRequest,
-    responses(
-        (status = 200, description = "The blocks, per-axis motion and utilisation; as G-code, the program; as CSV, the block table", content(
-            (ProgramResponse = "application/json"),
-            (String = "text/x-gcode"),
-            (String = "text/csv"),
-        )),
-        ComputeProblems,
-    )
-)]
-pub async fn handler(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    ApiJson(req): ApiJson<ProgramRequest>,
-) -> Result<Response, ApiError> {
-    handle::<ProgramEndpoint>(state, &headers, req).await
 }

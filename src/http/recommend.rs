@@ -2,9 +2,6 @@
 //! and the η window around −1. The same `recommendation` object (`dto::RecommendationDto`)
 //! rides along in predict and optimize responses whenever η ≠ −1.
 
-use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -12,12 +9,11 @@ use super::dto::{
     setting, ClearApertureDto, Place, ProcessDto, RadialGridDto, RecommendationDto, SurfaceDto,
     ToolDto,
 };
-use super::endpoint::{handle, Endpoint};
+use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
-use super::openapi::ComputeProblems;
 
-use super::state::{AppState, Services};
+use super::state::Services;
 use crate::study::SpeedLimits;
 use crate::usecases::recommend::{recommend, RecommendCommand};
 use crate::usecases::ComputeLimits;
@@ -76,7 +72,22 @@ pub struct RecommendResponse {
 pub struct RecommendEndpoint;
 
 impl Endpoint for RecommendEndpoint {
+    const NAME: &'static str = "recommend";
+    const EXAMPLE: &'static str = include_str!("../../fixtures/recommend_paper_exp1.json");
+    const DOC: Doc = Doc {
+        operation_id: "recommendSpeeds",
+        tag: "recommend",
+        summary: "Recommend η = −1 speeds.",
+        description: "From the user's process (and the machine's speed limits), recommends workpiece and tool\n\
+turning the same way at the same speed (η = −1), chosen to keep the current mean removal\n\
+rate over the clear aperture where the limits allow, else the fastest allowed. Compares\n\
+equal dwell at both settings for the same depth and reports the η window around −1 within\n\
+which equal-dwell nonuniformity stays at or below the threshold (found by root finding on\n\
+the model).",
+        ok: "The recommendation",
+    };
     type Request = RecommendRequest;
+    type Body = ApiJson<RecommendRequest>;
     type Command = RecommendCommand;
     type Response = RecommendResponse;
 
@@ -107,31 +118,4 @@ impl Endpoint for RecommendEndpoint {
             recommendation: RecommendationDto::from(&recommendation),
         })
     }
-}
-
-/// Recommend η = −1 speeds.
-///
-/// From the user's process (and the machine's speed limits), recommends workpiece and tool
-/// turning the same way at the same speed (η = −1), chosen to keep the current mean removal
-/// rate over the clear aperture where the limits allow, else the fastest allowed. Compares
-/// equal dwell at both settings for the same depth and reports the η window around −1 within
-/// which equal-dwell nonuniformity stays at or below the threshold (found by root finding on
-/// the model).
-#[utoipa::path(
-    post,
-    path = "/v1/recommend",
-    operation_id = "recommendSpeeds",
-    tag = "recommend",
-    request_body = RecommendRequest,
-    responses(
-        (status = 200, description = "The recommendation", body = RecommendResponse),
-        ComputeProblems,
-    )
-)]
-pub async fn handler(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    ApiJson(req): ApiJson<RecommendRequest>,
-) -> Result<Response, ApiError> {
-    handle::<RecommendEndpoint>(state, &headers, req).await
 }

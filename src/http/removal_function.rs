@@ -1,20 +1,16 @@
 //! `POST /v1/removal-function`: the removal rate R(r; r1) across the radial grid for each
 //! requested tool position.
 
-use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{process_spec, ProcessDto, RadialGridDto, SurfaceDto, ToolDto};
-use super::endpoint::{handle, Endpoint};
+use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
-use super::openapi::ComputeProblems;
 use super::plot::{Chart, Series};
 
-use super::state::{AppState, Services};
+use super::state::Services;
 use super::{csv, plot};
 use crate::usecases::removal_function::{removal_function, RemovalFunctionCommand};
 use crate::usecases::ComputeLimits;
@@ -71,7 +67,18 @@ pub struct ProfileDto {
 pub struct RemovalFunctionEndpoint;
 
 impl Endpoint for RemovalFunctionEndpoint {
+    const NAME: &'static str = "removal-function";
+    const EXAMPLE: &'static str = include_str!("../../fixtures/removal_function_paper_exp1.json");
+    const DOC: Doc = Doc {
+        operation_id: "computeRemovalFunction",
+        tag: "removal",
+        summary: "Removal rate profiles R(r; r1) of one tool at the given positions.",
+        description: "Exact closed form (Carlson's elliptic integrals), ~1e-12 relative. `Accept: text/csv`\n\
+returns one column per profile with a unit header.",
+        ok: "Removal profiles; as CSV, one column per profile; as SVG, a chart",
+    };
     type Request = RemovalFunctionRequest;
+    type Body = ApiJson<RemovalFunctionRequest>;
     type Command = RemovalFunctionCommand;
     type Response = RemovalFunctionResponse;
     const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
@@ -149,31 +156,4 @@ fn to_svg(response: &RemovalFunctionResponse) -> String {
         band: None,
         secondary: None,
     })
-}
-
-/// Removal rate profiles R(r; r1) of one tool at the given positions.
-///
-/// Exact closed form (Carlson's elliptic integrals), ~1e-12 relative. `Accept: text/csv`
-/// returns one column per profile with a unit header.
-#[utoipa::path(
-    post,
-    path = "/v1/removal-function",
-    operation_id = "computeRemovalFunction",
-    tag = "removal",
-    request_body = RemovalFunctionRequest,
-    responses(
-        (status = 200, description = "Removal profiles; as CSV, one column per profile; as SVG, a chart", content(
-            (RemovalFunctionResponse = "application/json"),
-            (String = "text/csv"),
-            (String = "image/svg+xml"),
-        )),
-        ComputeProblems,
-    )
-)]
-pub async fn handler(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    ApiJson(req): ApiJson<RemovalFunctionRequest>,
-) -> Result<Response, ApiError> {
-    handle::<RemovalFunctionEndpoint>(state, &headers, req).await
 }

@@ -1,5 +1,5 @@
 //! The router: the endpoint table (one entry per computing endpoint, driving the routes, the
-//! CLI's `compute` command and the OpenAPI examples), the service routes, and the layers every
+//! CLI's `compute` command and the OpenAPI operations), the service routes, and the layers every
 //! request passes (request id, tracing, metrics, compression, body limit, CORS).
 
 use axum::extract::{DefaultBodyLimit, Request};
@@ -11,8 +11,10 @@ use tower_http::cors::{AllowOrigin, CorsLayer};
 use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
 use tower_http::trace::{DefaultOnResponse, TraceLayer};
 use tracing::Level;
+use utoipa::openapi::path::Operation;
+use utoipa::openapi::{RefOr, Schema};
 
-use super::endpoint::{compute_json as compute_json_of, Endpoint, API_PREFIX};
+use super::endpoint::{compute_json as compute_json_of, handler, operation, Endpoint, API_PREFIX};
 use super::error::{self, ApiError};
 use super::extract::BodyLimit;
 use super::state::{AppState, Services};
@@ -25,8 +27,9 @@ use crate::config::Limits;
 use crate::usecases::ComputeLimits;
 
 type ComputeFn = fn(&[u8], &ComputeLimits, &Services) -> Result<String, ApiError>;
+type OperationFn = fn(&mut Vec<(String, RefOr<Schema>)>) -> Operation;
 
-/// One computing endpoint.
+/// One computing endpoint, as its [`Endpoint`] implementation registers it.
 pub struct EndpointEntry {
     /// The path under `/v1/`, and the name the CLI's `compute` command takes.
     pub name: &'static str,
@@ -34,6 +37,8 @@ pub struct EndpointEntry {
     pub example: &'static str,
     route: fn() -> MethodRouter<AppState>,
     compute: ComputeFn,
+    /// The OpenAPI operation, adding the schemas it refers to.
+    pub operation: OperationFn,
 }
 
 impl EndpointEntry {
@@ -43,56 +48,25 @@ impl EndpointEntry {
     }
 }
 
-const fn entry<E: Endpoint>(
-    name: &'static str,
-    example: &'static str,
-    route: fn() -> MethodRouter<AppState>,
-) -> EndpointEntry {
+const fn entry<E: Endpoint>() -> EndpointEntry {
     EndpointEntry {
-        name,
-        example,
-        route,
+        name: E::NAME,
+        example: E::EXAMPLE,
+        route: || post(handler::<E>),
         compute: compute_json_of::<E>,
+        operation: operation::<E>,
     }
 }
 
-/// Every computing endpoint.
+/// Every computing endpoint, in the order the documentation lists them.
 pub static ENDPOINTS: [EndpointEntry; 7] = [
-    entry::<removal_function::RemovalFunctionEndpoint>(
-        "removal-function",
-        include_str!("../../fixtures/removal_function_paper_exp1.json"),
-        || post(removal_function::handler),
-    ),
-    entry::<predict::PredictEndpoint>(
-        "predict",
-        include_str!("../../fixtures/predict_paper_exp2.json"),
-        || post(predict::handler),
-    ),
-    entry::<optimize::OptimizeEndpoint>(
-        "optimize",
-        include_str!("../../fixtures/optimize_paper_exp1.json"),
-        || post(optimize::handler),
-    ),
-    entry::<recommend::RecommendEndpoint>(
-        "recommend",
-        include_str!("../../fixtures/recommend_paper_exp1.json"),
-        || post(recommend::handler),
-    ),
-    entry::<eta_sweep::EtaSweepEndpoint>(
-        "studies/eta-sweep",
-        include_str!("../../fixtures/eta_sweep_figure7.json"),
-        || post(eta_sweep::handler),
-    ),
-    entry::<measurement_fit::MeasurementFitEndpoint>(
-        "measurement/fit",
-        include_str!("../../fixtures/measurement_fit_asphere.json"),
-        || post(measurement_fit::handler),
-    ),
-    entry::<program::ProgramEndpoint>(
-        "program",
-        include_str!("../../fixtures/program_sphere.json"),
-        || post(program::handler),
-    ),
+    entry::<removal_function::RemovalFunctionEndpoint>(),
+    entry::<predict::PredictEndpoint>(),
+    entry::<optimize::OptimizeEndpoint>(),
+    entry::<recommend::RecommendEndpoint>(),
+    entry::<eta_sweep::EtaSweepEndpoint>(),
+    entry::<measurement_fit::MeasurementFitEndpoint>(),
+    entry::<program::ProgramEndpoint>(),
 ];
 
 /// The offline twin of the API: the exact JSON body `POST /v1/<endpoint>` would return.

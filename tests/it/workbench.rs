@@ -153,15 +153,31 @@ fn the_page_is_wired_to_the_api() {
         );
     }
 
-    // Paths the script posts to are the service's.
-    let mut posted: Vec<&str> = between(script, "post(view, '", '\'');
-    posted.extend(between(script, "repeat(view, '", '\''));
-    assert!(posted.len() >= 6);
-    for path in posted {
+    // The script's one table of paths is the service's, and it posts only to those.
+    let table = script
+        .split_once("const API = {")
+        .and_then(|(_, rest)| rest.split_once("};"))
+        .expect("the script has its table of paths")
+        .0;
+    let paths = between(table, ": '", '\'');
+    assert_eq!(paths.len(), ENDPOINTS.len(), "{paths:?}");
+    for path in &paths {
         assert!(
-            ENDPOINTS.iter().any(|e| e.path() == path),
-            "the script posts to {path}"
+            ENDPOINTS.iter().any(|e| &e.path() == path),
+            "the script's table has {path}"
         );
+    }
+    assert_eq!(
+        script.matches("/v1/").count(),
+        paths.len(),
+        "a path written outside the table"
+    );
+    let mut posted = between(script, "post(view, ", ',');
+    posted.extend(between(script, "repeat(view, ", ','));
+    assert!(posted.len() >= 6);
+    // (`path` is the helpers' own parameter.)
+    for name in posted.into_iter().filter(|n| *n != "path") {
+        assert!(name.starts_with("API."), "the script posts to {name}");
     }
 
     // Elements the script looks up by id exist.

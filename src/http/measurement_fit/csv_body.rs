@@ -6,6 +6,7 @@ use axum::http::{header, HeaderMap};
 use serde::Deserialize;
 use utoipa::IntoParams;
 
+use super::super::endpoint::Body;
 use super::super::error::{ApiError, Kind};
 use super::super::extract::{self, ApiJson};
 use super::MeasurementFitRequest;
@@ -46,6 +47,12 @@ const QUERY_FIELDS: [&str; 7] = [
 
 /// The request from a JSON body, or from a `text/csv` trace and the query.
 pub struct FitBody(pub MeasurementFitRequest);
+
+impl Body<MeasurementFitRequest> for FitBody {
+    fn into_request(self) -> MeasurementFitRequest {
+        self.0
+    }
+}
 
 impl<S: Send + Sync> FromRequest<S> for FitBody {
     type Rejection = ApiError;

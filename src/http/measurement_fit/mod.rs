@@ -2,9 +2,6 @@
 //! error comes back as a `/v1/optimize` target. The body is JSON, or the probe's own
 //! `text/csv` export (`x_mm,z_mm` columns) with the other fields as query parameters.
 
-use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -14,18 +11,21 @@ mod render;
 pub use csv_body::{CsvQuery, FitBody};
 
 use super::dto::{ApertureEcho, ClearApertureDto, RadialGridDto, SurfaceDto};
-use super::endpoint::{handle, Endpoint};
+use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object};
-use super::openapi::ComputeProblems;
 use super::optimize::{MeasuredProfileDto, TargetDto};
-use super::state::{AppState, Services};
+use super::state::Services;
 use crate::metrology::{Compensation, Parameter, RobustLoss};
 use crate::surface::SurfaceSpec;
 use crate::usecases::measurement_fit::{
     measurement_fit, FitSelection, MeasurementFitCommand, MeasurementFitSpec,
 };
 use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec};
+use utoipa::openapi::path::OperationBuilder;
+use utoipa::openapi::request_body::RequestBodyBuilder;
+use utoipa::openapi::{Content, ObjectBuilder, Ref, Type};
+use utoipa::IntoParams;
 
 /// A meridian trace in machine coordinates, mm: X across the spindle axis (both sides
 /// allowed, any order), Z along it, positive toward the tool.
@@ -242,11 +242,42 @@ const NM_PER_MM: f64 = 1e6;
 pub struct MeasurementFitEndpoint;
 
 impl Endpoint for MeasurementFitEndpoint {
+    const NAME: &'static str = "measurement/fit";
+    const EXAMPLE: &'static str = include_str!("../../../fixtures/measurement_fit_asphere.json");
+    const DOC: Doc = Doc {
+        operation_id: "fitMeasurement",
+        tag: "metrology",
+        summary: "Fit a probe trace to the design surface (on-machine measurement).",
+        description: "Finds the lateral offset ΔX, tilt Δτ and piston Δz of the trace (optionally the vertex\n\
+radius) minimising the RMS axial residual, by Levenberg–Marquardt on analytic derivatives\n\
+(optionally robust), and returns the per-point residuals, the form error's RMS and PV, the\n\
+radial form-error profile (both sides of the axis averaged) and a ready `/v1/optimize`\n\
+target. The body may be JSON, or `text/csv` with `x_mm,z_mm` columns and the other fields\n\
+as query parameters. `Accept: text/csv` returns the residual table; `image/svg+xml` a chart.",
+        ok: "The alignment, residuals, form error and correction target; as CSV, the residual table; as SVG, a chart",
+    };
     type Request = MeasurementFitRequest;
+    type Body = FitBody;
     type Command = MeasurementFitCommand;
     type Response = MeasurementFitResponse;
     const CSV: Option<fn(&Self::Response) -> String> = Some(render::to_csv);
     const SVG: Option<fn(&Self::Response) -> String> = Some(render::to_svg);
+
+    /// JSON, or the probe's `text/csv` export with the other fields in the query.
+    fn request_body() -> RequestBodyBuilder {
+        let mut csv = Content::new(Some(ObjectBuilder::new().schema_type(Type::String)));
+        csv.example = Some("x_mm,z_mm\n-10.0,0.1667\n0.0,0.0\n10.0,0.1667\n".into());
+        RequestBodyBuilder::new()
+            .content(
+                "application/json",
+                Content::new(Some(Ref::from_schema_name(Self::Request::name()))),
+            )
+            .content("text/csv", csv)
+    }
+
+    fn document(operation: OperationBuilder) -> OperationBuilder {
+        operation.parameters(Some(CsvQuery::into_params(|| None)))
+    }
 
     fn parse(req: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let fit = req.fit.unwrap_or_default();
@@ -342,39 +373,4 @@ impl Endpoint for MeasurementFitEndpoint {
             },
         })
     }
-}
-
-/// Fit a probe trace to the design surface (on-machine measurement).
-///
-/// Finds the lateral offset ΔX, tilt Δτ and piston Δz of the trace (optionally the vertex
-/// radius) minimising the RMS axial residual, by Levenberg–Marquardt on analytic derivatives
-/// (optionally robust), and returns the per-point residuals, the form error's RMS and PV, the
-/// radial form-error profile (both sides of the axis averaged) and a ready `/v1/optimize`
-/// target. The body may be JSON, or `text/csv` with `x_mm,z_mm` columns and the other fields
-/// as query parameters. `Accept: text/csv` returns the residual table; `image/svg+xml` a chart.
-#[utoipa::path(
-    post,
-    path = "/v1/measurement/fit",
-    operation_id = "fitMeasurement",
-    tag = "metrology",
-    params(CsvQuery),
-    request_body(content(
-        (MeasurementFitRequest = "application/json"),
-        (String = "text/csv", example = "x_mm,z_mm\n-10.0,0.1667\n0.0,0.0\n10.0,0.1667\n"),
-    )),
-    responses(
-        (status = 200, description = "The alignment, residuals, form error and correction target; as CSV, the residual table; as SVG, a chart", content(
-            (MeasurementFitResponse = "application/json"),
-            (String = "text/csv"),
-            (String = "image/svg+xml"),
-        )),
-        ComputeProblems,
-    )
-)]
-pub async fn handler(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    FitBody(req): FitBody,
-) -> Result<Response, ApiError> {
-    handle::<MeasurementFitEndpoint>(state, &headers, req).await
 }

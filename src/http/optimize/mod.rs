@@ -1,9 +1,6 @@
 //! `POST /v1/optimize`: dwell times at candidate positions whose removal matches a target
 //! (a uniform depth or a measured profile) over the clear aperture, within the constraints.
 
-use axum::extract::State;
-use axum::http::HeaderMap;
-use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -17,12 +14,11 @@ use super::dto::{
     setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, Place, ProcessDto,
     RadialGridDto, RecommendationDto, SurfaceDto, WarningDto,
 };
-use super::endpoint::{handle, Endpoint};
+use super::endpoint::{Doc, Endpoint};
 use super::error::{ApiError, Kind};
 use super::extract::{object, optional_object, ApiJson};
 use super::fields::machine_limits_error;
-use super::openapi::ComputeProblems;
-use super::state::{AppState, Services};
+use super::state::Services;
 use crate::machine::Program;
 use crate::optimize::{OptimizeError, SolveStatus};
 use crate::usecases::optimize::{optimize, MachineFitError, OptimizeCommand, OptimizedPlan};
@@ -205,7 +201,25 @@ pub struct SolverDto {
 pub struct OptimizeEndpoint;
 
 impl Endpoint for OptimizeEndpoint {
+    const NAME: &'static str = "optimize";
+    const EXAMPLE: &'static str = include_str!("../../../fixtures/optimize_paper_exp1.json");
+    const DOC: Doc = Doc {
+        operation_id: "optimizeDwell",
+        tag: "optimize",
+        summary: "Optimize a dwell plan.",
+        description: "Finds dwell times at the candidate positions whose predicted removal matches the target\n\
+(a uniform depth, or a measured profile with an optional free piston) over the clear\n\
+aperture in the least-squares sense, with a light smoothing and time preference, within\n\
+the constraints. Conflicting constraints give a 422 `infeasible` problem listing them in\n\
+`conflicts`; a solver that stops without a plan gives a 422 `solver-*` problem. Every\n\
+returned plan keeps its constraints to 1e-9 relative. Fine positions are solved through a\n\
+smooth spline basis (see `positions_mm`), which keeps the solve to milliseconds; the removal\n\
+operator of a process, grid and positions is cached for repeated requests. `Accept:\n\
+text/csv` returns the plan (position and dwell columns).",
+        ok: "The optimized plan; as CSV, position and dwell columns; as SVG, dwell and feed against position",
+    };
     type Request = OptimizeRequest;
+    type Body = ApiJson<OptimizeRequest>;
     type Command = (OptimizeCommand, f64);
     type Response = OptimizeResponse;
     const CSV: Option<fn(&Self::Response) -> String> = Some(render::to_csv);
@@ -350,38 +364,4 @@ impl From<OptimizedPlan> for OptimizeResponse {
             },
         }
     }
-}
-
-/// Optimize a dwell plan.
-///
-/// Finds dwell times at the candidate positions whose predicted removal matches the target
-/// (a uniform depth, or a measured profile with an optional free piston) over the clear
-/// aperture in the least-squares sense, with a light smoothing and time preference, within
-/// the constraints. Conflicting constraints give a 422 `infeasible` problem listing them in
-/// `conflicts`; a solver that stops without a plan gives a 422 `solver-*` problem. Every
-/// returned plan keeps its constraints to 1e-9 relative. Fine positions are solved through a
-/// smooth spline basis (see `positions_mm`), which keeps the solve to milliseconds; the removal
-/// operator of a process, grid and positions is cached for repeated requests. `Accept:
-/// text/csv` returns the plan (position and dwell columns).
-#[utoipa::path(
-    post,
-    path = "/v1/optimize",
-    operation_id = "optimizeDwell",
-    tag = "optimize",
-    request_body = OptimizeRequest,
-    responses(
-        (status = 200, description = "The optimized plan; as CSV, position and dwell columns; as SVG, dwell and feed against position", content(
-            (OptimizeResponse = "application/json"),
-            (String = "text/csv"),
-            (String = "image/svg+xml"),
-        )),
-        ComputeProblems,
-    )
-)]
-pub async fn handler(
-    State(state): State<AppState>,
-    headers: HeaderMap,
-    ApiJson(req): ApiJson<OptimizeRequest>,
-) -> Result<Response, ApiError> {
-    handle::<OptimizeEndpoint>(state, &headers, req).await
 }

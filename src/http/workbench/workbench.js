@@ -7,6 +7,16 @@
   const SVG_NS = 'http://www.w3.org/2000/svg'; // a namespace name, never fetched
   const KEY_STORE = 'preston-api-key';
   const VIEWS = ['predict', 'optimize', 'measure'];
+  // The API's paths, each written once.
+  const API = {
+    program: '/v1/program',
+    removalFunction: '/v1/removal-function',
+    recommend: '/v1/recommend',
+    etaSweep: '/v1/studies/eta-sweep',
+    predict: '/v1/predict',
+    optimize: '/v1/optimize',
+    measurementFit: '/v1/measurement/fit',
+  };
   const COLOURS = ['#1f77b4', '#d62728', '#2ca02c', '#9467bd', '#ff7f0e'];
 
   const $ = (selector, root = document) => root.querySelector(selector);
@@ -370,7 +380,7 @@
     box.replaceChildren(h('p', { class: 'status' }, 'Writing the machine program…'));
     const request = { process: processInput(), surface: surfaceInput(), dwell };
     try {
-      const again = repeat(view, '/v1/program', request);
+      const again = repeat(view, API.program, request);
       const [p, gcode] = await Promise.all([again('application/json'), again('text/x-gcode')]);
       const link = h('a', {
         href: URL.createObjectURL(new Blob([gcode], { type: 'text/x-gcode' })),
@@ -424,17 +434,17 @@
     const recommendRequest = defined({ process, surface, clear_aperture, depth_nm });
     const sweepRequest = defined({ process, surface, clear_aperture, depth_nm, etas: parseEtas($('#sweep_etas').value) });
     const [rf, rec, sweep] = await Promise.all([
-      post(view, '/v1/removal-function', rfRequest),
-      post(view, '/v1/recommend', recommendRequest),
-      post(view, '/v1/studies/eta-sweep', sweepRequest),
+      post(view, API.removalFunction, rfRequest),
+      post(view, API.recommend, recommendRequest),
+      post(view, API.etaSweep, sweepRequest),
     ]);
     const r = rec.recommendation;
     const feed = r.equal_dwell.feed;
     const recommended = { ...process, workpiece_rpm: r.workpiece_rpm, tool_rpm: r.tool_rpm };
     const predictRequest = { process, surface, feed, clear_aperture };
     const [now, better] = await Promise.all([
-      post(view, '/v1/predict', predictRequest),
-      post(view, '/v1/predict', { ...predictRequest, process: recommended }),
+      post(view, API.predict, predictRequest),
+      post(view, API.predict, { ...predictRequest, process: recommended }),
     ]);
 
     draw(view, 'removal-function', {
@@ -442,7 +452,7 @@
       xLabel: 'radius r (mm)', yLabel: 'removal rate (nm/min)',
       series: rf.profiles.map((p) => ({ name: `tool at ${p.tool_position_mm} mm`, points: zip(rf.radius_mm, p.removal_rate_nm_per_min) })),
     });
-    downloads(view, 'removal-function', rf, repeat(view, '/v1/removal-function', rfRequest));
+    downloads(view, 'removal-function', rf, repeat(view, API.removalFunction, rfRequest));
     const eta = now.eta ?? (process.tool_rpm ? -process.workpiece_rpm / process.tool_rpm : NaN);
     draw(view, 'predict', {
       title: 'Predicted removal, equal dwell',
@@ -453,7 +463,7 @@
       ],
       band: apertureBand(now.clear_aperture),
     });
-    downloads(view, 'predict', now, repeat(view, '/v1/predict', predictRequest));
+    downloads(view, 'predict', now, repeat(view, API.predict, predictRequest));
     const w = r.eta_window;
     draw(view, 'eta-sweep', {
       title: 'Equal-dwell nonuniformity against η',
@@ -462,7 +472,7 @@
       band: w ? { from: w.low, to: w.high, label: `η window ${label(w.low)} … ${label(w.high)}` } : undefined,
       hline: w ? { y: 100 * w.nonuniformity_threshold, label: `threshold ${pct(w.nonuniformity_threshold)}` } : undefined,
     });
-    downloads(view, 'eta-sweep', sweep, repeat(view, '/v1/studies/eta-sweep', sweepRequest));
+    downloads(view, 'eta-sweep', sweep, repeat(view, API.etaSweep, sweepRequest));
     summary(view, 'recommend', [
       ['η = −1 speeds (workpiece, tool)', `${label(r.workpiece_rpm)}, ${label(r.tool_rpm)} r/min`],
       ['η window', w ? `${label(w.low)} … ${label(w.high)}` : 'none'],
@@ -480,7 +490,7 @@
     const clear_aperture = apertureInput();
     const request = defined({ process, surface, clear_aperture, target, positions_mm: positions(stepId) });
     if (Object.keys(constraints).length) request.constraints = constraints;
-    const o = await post(view, '/v1/optimize', request);
+    const o = await post(view, API.optimize, request);
     const a = o.clear_aperture;
     const inside = (x) => x >= a.inner_mm && x <= a.outer_mm;
     draw(view, chart, {
@@ -492,7 +502,7 @@
       ],
       band: apertureBand(a),
     });
-    downloads(view, chart, o, repeat(view, '/v1/optimize', request));
+    downloads(view, chart, o, repeat(view, API.optimize, request));
     return o;
   }
 
@@ -538,7 +548,7 @@
       robust: $('#robust').value,
     });
     const trace = $('#trace_csv').value;
-    const fitAs = (accept) => post(view, '/v1/measurement/fit', trace, { csv: true, query, accept });
+    const fitAs = (accept) => post(view, API.measurementFit, trace, { csv: true, query, accept });
     const fit = await fitAs('application/json');
     draw(view, 'form-error', {
       title: 'Form error',
@@ -610,7 +620,7 @@
   /** The OpenAPI document's example request for the fit, as CSV and surface settings. */
   async function loadExampleTrace() {
     const spec = await (await fetch('/openapi.json')).json();
-    const example = spec.paths['/v1/measurement/fit'].post.requestBody.content['application/json'].example;
+    const example = spec.paths[API.measurementFit].post.requestBody.content['application/json'].example;
     const { x_mm, z_mm } = example.profile;
     $('#trace_csv').value = ['x_mm,z_mm', ...x_mm.map((x, i) => `${x},${z_mm[i]}`)].join('\n');
     const s = example.surface || { kind: 'plane' };
