@@ -14,7 +14,7 @@ use preston::http::{router, AppState};
 use preston::physics::{Part, PressureModel, ProcessSpec};
 use preston::usecases::predict::{predict, PredictCommand};
 use preston::usecases::{
-    ApertureSpec, ComputeLimits, GridSpec, OperatorCache, Recommender, Setting,
+    ApertureSpec, ComputeLimits, GridSpec, OperatorCache, PartSpec, Recommender, Setting,
 };
 use tower::ServiceExt;
 
@@ -103,6 +103,7 @@ fn paper_1001() -> PredictCommand {
             pressure_model: PressureModel::Uniform,
             part: Part::flat(),
         },
+        &PartSpec::default(),
         GridSpec {
             start_mm: Some(0.0),
             stop_mm: Some(50.0),

@@ -12,10 +12,12 @@
 pub mod config;
 pub mod healthcheck;
 pub mod http;
+pub mod keys;
 pub mod machine;
 pub mod metrology;
 pub mod optimize;
 pub mod physics;
+pub mod report;
 pub mod server;
 pub mod study;
 pub mod surface;

@@ -1,186 +1,24 @@
 //! API keys: bearer authentication of `/v1/*` (and of `/metrics` when asked).
 //!
-//! The keys file holds one key per line as `name:<SHA-256 of the key, 64 hex digits>`; `#`
-//! starts a comment, blank lines are ignored. It never holds the keys themselves. A request
-//! presents `Authorization: Bearer <key>`; the service hashes what it is given and compares the
-//! digest with every stored digest in full, folding the byte differences with OR and never
-//! stopping early, so the time taken does not depend on where (or whether) a digest differs, nor
-//! on which key matched. The key's name (never the key) goes into the request's span, the
-//! access log and the `key` label of the request metrics.
-//!
-//! The set is replaced atomically on reload (SIGHUP, see `server.rs`); a malformed file keeps
-//! the old set.
+//! A request presents `Authorization: Bearer <key>`; `keys::KeySet` identifies it. The key's
+//! name (never the key) goes into the request's span, the access log and the `key` label of
+//! the request metrics.
 
-use std::path::{Path, PathBuf};
-use std::sync::{Arc, RwLock};
+use std::sync::Arc;
 
 use axum::extract::{Request, State};
 use axum::http::{header, HeaderValue};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
-use sha2::{Digest, Sha256};
 
 use super::endpoint::is_api_path;
 use super::error::{ApiError, Kind};
 use super::state::AppState;
+use crate::keys::Auth;
 
-/// Why a keys file was refused: the line (1-based) and what is wrong with it.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum KeysFileError {
-    #[error("cannot read {path}: {reason}")]
-    Unreadable { path: String, reason: String },
-    #[error("{path}, line {line}: {reason}")]
-    Line {
-        path: String,
-        line: usize,
-        reason: String,
-    },
-}
-
-/// The configured keys: names and the SHA-256 digests of the keys.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct KeySet {
-    keys: Vec<(String, [u8; 32])>,
-}
-
-fn hex_digest(text: &str) -> Option<[u8; 32]> {
-    if text.len() != 64 || !text.is_ascii() {
-        return None;
-    }
-    let mut out = [0u8; 32];
-    for (i, byte) in out.iter_mut().enumerate() {
-        *byte = u8::from_str_radix(&text[2 * i..2 * i + 2], 16).ok()?;
-    }
-    Some(out)
-}
-
-impl KeySet {
-    /// Parses a keys file's text; `path` only names the file in errors.
-    pub fn parse(text: &str, path: &str) -> Result<Self, KeysFileError> {
-        let mut keys: Vec<(String, [u8; 32])> = Vec::new();
-        for (index, raw) in text.lines().enumerate() {
-            let line = raw.split('#').next().unwrap_or("").trim();
-            if line.is_empty() {
-                continue;
-            }
-            let refuse = |reason: String| KeysFileError::Line {
-                path: path.to_string(),
-                line: index + 1,
-                reason,
-            };
-            let Some((name, digest)) = line.split_once(':') else {
-                return Err(refuse(
-                    "expected name:<sha-256 hex of the key>, found no ':'".into(),
-                ));
-            };
-            let (name, digest) = (name.trim(), digest.trim());
-            let name_ok = !name.is_empty()
-                && name.len() <= 64
-                && name
-                    .chars()
-                    .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c));
-            if !name_ok {
-                return Err(refuse(format!(
-                    "the name {name:?} must be 1 to 64 of A–Z, a–z, 0–9, '-', '_', '.'"
-                )));
-            }
-            let Some(digest) = hex_digest(digest) else {
-                return Err(refuse(format!(
-                    "the key's SHA-256 must be 64 hex digits, found {} characters",
-                    digest.chars().count()
-                )));
-            };
-            if keys.iter().any(|(n, _)| n == name) {
-                return Err(refuse(format!("the name {name:?} appears twice")));
-            }
-            if keys.iter().any(|(_, d)| *d == digest) {
-                return Err(refuse("this key's digest appears twice".into()));
-            }
-            keys.push((name.to_string(), digest));
-        }
-        Ok(KeySet { keys })
-    }
-
-    /// Reads and parses the keys file at `path`.
-    pub fn load(path: &Path) -> Result<Self, KeysFileError> {
-        let shown = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| KeysFileError::Unreadable {
-            path: shown.clone(),
-            reason: e.to_string(),
-        })?;
-        KeySet::parse(&text, &shown)
-    }
-
-    pub fn len(&self) -> usize {
-        self.keys.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.keys.is_empty()
-    }
-
-    /// The name of the key `presented`, comparing its digest with every stored one in full.
-    pub fn identify(&self, presented: &str) -> Option<&str> {
-        let digest: [u8; 32] = Sha256::digest(presented.as_bytes()).into();
-        let mut found = None;
-        for (name, stored) in &self.keys {
-            let difference = stored
-                .iter()
-                .zip(&digest)
-                .fold(0u8, |acc, (a, b)| acc | (a ^ b));
-            // No early exit: every digest is compared whatever matched before.
-            if std::hint::black_box(difference) == 0 {
-                found = Some(name.as_str());
-            }
-        }
-        found
-    }
-}
-
-/// Authentication as configured: the keys (replaced on reload) and what they guard.
-#[derive(Debug)]
-pub struct Auth {
-    path: PathBuf,
-    keys: RwLock<Arc<KeySet>>,
-    /// Whether `/metrics` needs a key too.
-    pub metrics_need_key: bool,
-}
-
-impl Auth {
-    /// Loads the keys file; a malformed file is an error naming the line.
-    pub fn load(path: PathBuf, metrics_need_key: bool) -> Result<Self, KeysFileError> {
-        let keys = KeySet::load(&path)?;
-        Ok(Auth {
-            path,
-            keys: RwLock::new(Arc::new(keys)),
-            metrics_need_key,
-        })
-    }
-
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
-    /// Reads the file again: the new set on success (how many keys), the old one kept on error.
-    pub fn reload(&self) -> Result<usize, KeysFileError> {
-        let keys = KeySet::load(&self.path)?;
-        let count = keys.len();
-        if let Ok(mut held) = self.keys.write() {
-            *held = Arc::new(keys);
-        }
-        Ok(count)
-    }
-
-    fn keys(&self) -> Arc<KeySet> {
-        self.keys
-            .read()
-            .map(|k| k.clone())
-            .unwrap_or_else(|poisoned| poisoned.into_inner().clone())
-    }
-
-    fn guards(&self, path: &str) -> bool {
-        is_api_path(path) || (self.metrics_need_key && path == "/metrics")
-    }
+/// Whether `path` needs a key under `auth`.
+fn guards(auth: &Auth, path: &str) -> bool {
+    is_api_path(path) || (auth.metrics_need_key && path == "/metrics")
 }
 
 /// The authenticated key's name, on the request (for the rate limit) and on the response (for
@@ -201,7 +39,7 @@ pub async fn authenticate(State(state): State<AppState>, request: Request, next:
     let Some(auth) = state.auth.as_ref() else {
         return next.run(request).await;
     };
-    if !auth.guards(request.uri().path()) {
+    if !guards(auth, request.uri().path()) {
         return next.run(request).await;
     }
     let presented = match request.headers().get(axum::http::header::AUTHORIZATION) {
@@ -257,73 +95,5 @@ impl ApiError {
             header::WWW_AUTHENTICATE,
             HeaderValue::from_static(challenge),
         )
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn digest_hex(key: &str) -> String {
-        Sha256::digest(key.as_bytes())
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect()
-    }
-
-    #[test]
-    fn a_keys_file_parses_and_identifies_keys_by_their_digest() {
-        let text = format!(
-            "# shop keys\n\nmes:{}\n  engineering-desk : {}  # Anna's batch scripts\n",
-            digest_hex("s3cret-mes"),
-            digest_hex("other key").to_uppercase()
-        );
-        let keys = KeySet::parse(&text, "keys").unwrap();
-        assert_eq!(keys.len(), 2);
-        assert_eq!(keys.identify("s3cret-mes"), Some("mes"));
-        assert_eq!(keys.identify("other key"), Some("engineering-desk"));
-        assert_eq!(keys.identify("s3cret-mes "), None);
-        assert_eq!(keys.identify(""), None);
-        assert!(KeySet::parse("# nothing\n\n", "keys").unwrap().is_empty());
-    }
-
-    #[test]
-    fn a_malformed_keys_file_is_refused_naming_the_line() {
-        let good = format!("mes:{}", digest_hex("a"));
-        let cases = [
-            (format!("{good}\nno-colon-here\n"), 2, "no ':'"),
-            (
-                format!("\n\nmes:{}", &digest_hex("a")[..63]),
-                3,
-                "64 hex digits",
-            ),
-            (format!("mes:{}", "g".repeat(64)), 1, "64 hex digits"),
-            (format!(":{}", digest_hex("a")), 1, "the name"),
-            (format!("a b:{}", digest_hex("a")), 1, "the name"),
-            (
-                format!("{good}\nmes:{}", digest_hex("b")),
-                2,
-                "appears twice",
-            ),
-            (
-                format!("{good}\nerp:{}", digest_hex("a")),
-                2,
-                "appears twice",
-            ),
-        ];
-        for (text, line, says) in cases {
-            match KeySet::parse(&text, "keys.txt") {
-                Err(e @ KeysFileError::Line { line: l, .. }) => {
-                    assert_eq!(l, line, "{text:?}: {e}");
-                    let shown = e.to_string();
-                    assert!(
-                        shown.starts_with(&format!("keys.txt, line {line}: ")),
-                        "{shown}"
-                    );
-                    assert!(shown.contains(says), "{shown}");
-                }
-                other => panic!("{text:?}: {other:?}"),
-            }
-        }
     }
 }

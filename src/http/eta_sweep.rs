@@ -4,16 +4,16 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, Place, ProcessDto,
-    RadialGridDto, SurfaceDto, ToolDto,
+    ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto, SettingDtos,
+    SurfaceDto, ToolDto,
 };
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
-use super::plot::{Chart, Series};
+use crate::report::chart::{self, Chart, Series};
 
 use super::state::Services;
-use super::{csv, plot};
+use crate::report::table;
 use crate::usecases::eta_sweep::{eta_sweep, EtaSweepCommand};
 use crate::usecases::ComputeLimits;
 
@@ -99,16 +99,14 @@ given dwell schedule) over the clear aperture is reported. `Accept: text/csv` gi
     const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
 
     fn parse(req: EtaSweepRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
-        let setting = setting(
-            Place {
-                process: &req.process,
-                surface: req.surface.as_ref(),
-                tool: req.tool.as_ref(),
-            },
-            req.radial_grid.as_ref(),
-            req.clear_aperture.as_ref(),
-            limits,
-        )?;
+        let setting = SettingDtos {
+            process: &req.process,
+            surface: req.surface.as_ref(),
+            tool: req.tool.as_ref(),
+            grid: req.radial_grid.as_ref(),
+            aperture: req.clear_aperture.as_ref(),
+        }
+        .parse(limits)?;
         Ok(EtaSweepCommand::new(
             setting,
             req.etas,
@@ -142,7 +140,7 @@ fn column(r: &EtaSweepResponse, f: impl Fn(&SweepPointDto) -> f64) -> Vec<f64> {
 
 fn to_csv(r: &EtaSweepResponse) -> String {
     let nonuniformity = column(r, |p| p.metrics.nonuniformity.unwrap_or(f64::NAN));
-    csv::table(
+    table::csv(
         &[
             "eta".to_string(),
             "workpiece_rpm".to_string(),
@@ -169,7 +167,7 @@ fn to_svg(r: &EtaSweepResponse) -> String {
         .map(|p| (p.eta, 100.0 * p.metrics.nonuniformity.unwrap_or(f64::NAN)))
         .collect();
     points.sort_by(|a, b| a.0.total_cmp(&b.0));
-    plot::render(&Chart {
+    chart::render(&Chart {
         title: format!(
             "Equal-dwell nonuniformity against η (tool {} r/min)",
             r.tool_rpm

@@ -11,9 +11,10 @@ use crate::physics::{GridError, ProcessError, ScheduleError};
 use crate::study::StudyError;
 use crate::surface::{SurfaceError, SurfaceInput};
 use crate::usecases::measurement_fit::{MeasurementError, MeasurementInputError};
+use crate::usecases::optimize::MachineFitError;
 use crate::usecases::program::{ProgramFailure, ProgramInputError};
 use crate::usecases::recommend::MIN_DEPTH_NM;
-use crate::usecases::{Input, InputError, LimitError, SettingError};
+use crate::usecases::{Input, InputError, LimitError, PartError, SettingError};
 
 /// Engine errors become 422s naming the field under the request object that carried it.
 impl ApiError {
@@ -95,9 +96,33 @@ impl ApiError {
     }
 }
 
+impl From<PartError> for ApiError {
+    fn from(err: PartError) -> Self {
+        match err {
+            PartError::Surface(e) => surface_error(e),
+            PartError::Tool(e) => ApiError::invalid("tool.pivot_length_mm", e.to_string()),
+        }
+    }
+}
+
+impl From<MachineFitError> for ApiError {
+    fn from(err: MachineFitError) -> Self {
+        match err {
+            MachineFitError::PositionOffSurface { index, .. } => {
+                ApiError::invalid(format!("positions_mm[{index}]"), err.to_string())
+            }
+            MachineFitError::Limits(found) => machine_limits_error(&found, "positions"),
+            MachineFitError::InvalidLimit(e) => {
+                ApiError::invalid(limit_field(e.drive, e.limit), e.to_string())
+            }
+        }
+    }
+}
+
 impl From<SettingError> for ApiError {
     fn from(err: SettingError) -> Self {
         match err {
+            SettingError::Part(e) => e.into(),
             SettingError::Process(e) => ApiError::from_process(e),
             SettingError::GridSize(e) => ApiError::from_limit("radial_grid.count", e),
             SettingError::Grid(e) => ApiError::from_grid("radial_grid", e),
@@ -395,13 +420,12 @@ impl From<ProgramInputError> for ApiError {
         let detail = err.to_string();
         match err {
             E::Process(e) => ApiError::from_process(e),
-            E::Surface(e) => surface_error(e),
+            E::Part(e) => e.into(),
             E::PositionOffSurface { index, .. } => {
                 ApiError::invalid(format!("dwell.positions_mm[{index}]"), detail)
             }
             E::Size(e) => ApiError::from_limit("dwell.positions_mm", e),
             E::Schedule(e) => ApiError::from_schedule("dwell", e),
-            E::Tool(_) => ApiError::invalid("tool.pivot_length_mm", detail),
             E::Limits(e) => ApiError::invalid(limit_field(e.drive, e.limit), detail),
             E::Format(e) => {
                 let field = match e {

@@ -9,7 +9,6 @@
 //! the log span, echoed on the response and written into problem+json bodies.
 
 pub mod auth;
-pub mod csv;
 pub mod docs;
 pub mod dto;
 pub mod endpoint;
@@ -22,7 +21,6 @@ pub mod measurement_fit;
 pub mod metrics;
 pub mod openapi;
 pub mod optimize;
-pub mod plot;
 pub mod predict;
 pub mod program;
 pub mod ratelimit;

@@ -4,16 +4,16 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    setting, ApertureEcho, ClearApertureDto, DwellDto, FeedDto, MetricsDto, Place, ProcessDto,
-    RadialGridDto, RecommendationDto, SurfaceDto, ToolDto, WarningDto,
+    ApertureEcho, ClearApertureDto, DwellDto, FeedDto, MetricsDto, ProcessDto, RadialGridDto,
+    RecommendationDto, SettingDtos, SurfaceDto, ToolDto, WarningDto,
 };
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
-use super::plot::{Chart, Series};
+use crate::report::chart::{self, Chart, Series};
 
 use super::state::Services;
-use super::{csv, plot};
+use crate::report::table;
 use crate::usecases::predict::{predict, PredictCommand};
 use crate::usecases::ComputeLimits;
 
@@ -102,16 +102,14 @@ over the clear aperture. `Accept: text/csv` returns radius and removal columns."
     const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
 
     fn parse(req: PredictRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
-        let setting = setting(
-            Place {
-                process: &req.process,
-                surface: req.surface.as_ref(),
-                tool: req.tool.as_ref(),
-            },
-            req.radial_grid.as_ref(),
-            req.clear_aperture.as_ref(),
-            limits,
-        )?;
+        let setting = SettingDtos {
+            process: &req.process,
+            surface: req.surface.as_ref(),
+            tool: req.tool.as_ref(),
+            grid: req.radial_grid.as_ref(),
+            aperture: req.clear_aperture.as_ref(),
+        }
+        .parse(limits)?;
         Ok(match (req.dwell, req.feed) {
             (Some(dwell), None) => {
                 PredictCommand::new(setting, dwell.positions_mm, dwell.dwell_s, limits)?
@@ -153,7 +151,7 @@ over the clear aperture. `Accept: text/csv` returns radius and removal columns."
 }
 
 fn to_csv(response: &PredictResponse) -> String {
-    csv::table(
+    table::csv(
         &["radius_mm".to_string(), "removal_nm".to_string()],
         &[&response.radius_mm, &response.removal_nm],
     )
@@ -165,7 +163,7 @@ fn to_svg(r: &PredictResponse) -> String {
         .metrics
         .nonuniformity
         .map_or("n/a".to_string(), |n| format!("{:.3} %", 100.0 * n));
-    plot::render(&Chart {
+    chart::render(&Chart {
         title: format!(
             "Predicted removal, {:.0} s total, nonuniformity {nonuniformity}",
             r.total_time_s
@@ -181,7 +179,10 @@ fn to_svg(r: &PredictResponse) -> String {
                 .zip(r.removal_nm.iter().copied())
                 .collect(),
         }],
-        band: Some(plot::aperture_band(&r.clear_aperture)),
+        band: Some(chart::aperture_band(
+            r.clear_aperture.inner_mm,
+            r.clear_aperture.outer_mm,
+        )),
         secondary: None,
     })
 }

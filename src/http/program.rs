@@ -5,14 +5,13 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use utoipa::ToSchema;
 
-use super::dto::{AxesDto, DwellDto, MachineDto, ProcessDto, SurfaceDto, ToolDto};
+use super::dto::{part_spec, AxesDto, DwellDto, MachineDto, ProcessDto, SurfaceDto, ToolDto};
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::Services;
-use crate::machine::{BlockKind, FeedMode, GcodeFormat, MachineLimits, Orientation, SpindleWords};
+use crate::machine::{BlockKind, FeedMode, GcodeFormat, MachineLimits, SpindleWords};
 use crate::physics::ProcessSpec;
-use crate::surface::SurfaceSpec;
 use crate::usecases::program::{program, ProgramCommand, ProgramSpec};
 use crate::usecases::ComputeLimits;
 
@@ -260,18 +259,12 @@ seconds), `text/csv` the block table.",
             .iter()
             .map(|b| format!("{b:02x}"))
             .collect();
-        let tool = req.tool.clone().unwrap_or_default();
         let approach = req.approach.clone().unwrap_or_default();
         let spec = ProgramSpec {
             process: ProcessSpec::from(&req.process),
-            surface: req
-                .surface
-                .as_ref()
-                .map_or(SurfaceSpec::Plane, SurfaceSpec::from),
+            part: part_spec(req.surface.as_ref(), req.tool.as_ref()),
             positions_mm: req.dwell.positions_mm,
             dwell_s: req.dwell.dwell_s,
-            pivot_length_mm: tool.pivot_length_mm,
-            orientation: tool.orientation.map(Orientation::from),
             machine: req
                 .machine
                 .as_ref()

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    setting, ClearApertureDto, Place, ProcessDto, RadialGridDto, RecommendationDto, SurfaceDto,
+    ClearApertureDto, ProcessDto, RadialGridDto, RecommendationDto, SettingDtos, SurfaceDto,
     ToolDto,
 };
 use super::endpoint::{Doc, Endpoint};
@@ -92,16 +92,14 @@ the model).",
     type Response = RecommendResponse;
 
     fn parse(req: RecommendRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
-        let setting = setting(
-            Place {
-                process: &req.process,
-                surface: req.surface.as_ref(),
-                tool: req.tool.as_ref(),
-            },
-            req.radial_grid.as_ref(),
-            req.clear_aperture.as_ref(),
-            limits,
-        )?;
+        let setting = SettingDtos {
+            process: &req.process,
+            surface: req.surface.as_ref(),
+            tool: req.tool.as_ref(),
+            grid: req.radial_grid.as_ref(),
+            aperture: req.clear_aperture.as_ref(),
+        }
+        .parse(limits)?;
         let speed = req.limits.unwrap_or_default();
         let speed = SpeedLimits::new(speed.max_workpiece_rpm, speed.max_tool_rpm)?;
         Ok(RecommendCommand::new(

@@ -4,14 +4,14 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::dto::{process_spec, ProcessDto, RadialGridDto, SurfaceDto, ToolDto};
+use super::dto::{part_spec, ProcessDto, RadialGridDto, SurfaceDto, ToolDto};
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
-use super::plot::{Chart, Series};
+use crate::report::chart::{self, Chart, Series};
 
 use super::state::Services;
-use super::{csv, plot};
+use crate::report::table;
 use crate::usecases::removal_function::{removal_function, RemovalFunctionCommand};
 use crate::usecases::ComputeLimits;
 
@@ -89,7 +89,8 @@ returns one column per profile with a unit header.",
         limits: &ComputeLimits,
     ) -> Result<Self::Command, ApiError> {
         Ok(RemovalFunctionCommand::new(
-            process_spec(&req.process, req.surface.as_ref(), req.tool.as_ref())?,
+            (&req.process).into(),
+            &part_spec(req.surface.as_ref(), req.tool.as_ref()),
             req.radial_grid.as_ref().into(),
             req.tool_positions_mm,
             limits,
@@ -129,11 +130,11 @@ fn to_csv(response: &RemovalFunctionResponse) -> String {
             .iter()
             .map(|p| p.removal_rate_nm_per_min.as_slice()),
     );
-    csv::table(&header, &columns)
+    table::csv(&header, &columns)
 }
 
 fn to_svg(response: &RemovalFunctionResponse) -> String {
-    plot::render(&Chart {
+    chart::render(&Chart {
         title: match response.eta {
             Some(eta) => format!("Removal rate R(r; r1) at η = {eta}"),
             None => "Removal rate R(r; r1), tool stationary".to_string(),

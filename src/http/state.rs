@@ -8,14 +8,14 @@ use std::sync::Arc;
 use tokio::sync::{Semaphore, TryAcquireError};
 use utoipa_swagger_ui::Config;
 
-use super::auth::Auth;
+use crate::keys::Auth;
 use axum::http::{header, HeaderValue};
 
 use super::error::{ApiError, Kind};
-use super::metrics::Metrics;
 use super::openapi;
 use super::ratelimit::RateLimit;
 use crate::config::Limits;
+use crate::telemetry::metrics::Metrics;
 use crate::usecases::{ComputeLimits, OperatorCache, Recommender};
 
 /// What a computation may use besides its command.

@@ -32,7 +32,7 @@ mod warnings;
 pub use limits::{ComputeLimits, LimitError};
 pub use operators::{OperatorCache, OperatorCacheStats};
 pub use recommend::Recommender;
-pub use setting::{ApertureSpec, GridSpec, Setting, SettingError};
+pub use setting::{ApertureSpec, GridSpec, Mount, PartError, PartSpec, Setting, SettingError};
 pub use warnings::Warning;
 
 use crate::optimize::OptimizeError;

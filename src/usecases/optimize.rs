@@ -13,7 +13,8 @@ use std::ops::Range;
 use super::warnings::{active_constraints, unit_warning, ACTIVE_USE, TARGET_MISS_FRACTION};
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::machine::{
-    cell_travel, Approach, Drive, Limit, MachineLimits, Program, ProgramError, Tool, Violation,
+    cell_travel, Approach, Drive, Limit, LimitsError, MachineLimits, Program, ProgramError, Tool,
+    Violation,
 };
 use crate::optimize::kinematics::AxisPath;
 use crate::optimize::problem::MAX_DEPTH_NM;
@@ -70,13 +71,16 @@ pub enum MachineFitError {
     /// blocks are those of the program without approach.
     #[error("the positions or the process exceed {} machine limit(s) whatever the dwell", .0.len())]
     Limits(Vec<Violation>),
+    /// A limit out of its domain.
+    #[error(transparent)]
+    InvalidLimit(LimitsError),
 }
 
 /// An optimization, checked: positions within reach and limits, the target resampled onto the
 /// aperture's rows, constraints and weights in their domains, a time budget within the limit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OptimizeCommand {
-    /// The machine the plan runs on: without [`Self::with_machine`], an unlimited one carrying
+    /// The machine the plan runs on: without [`Self::on_machine`], an unlimited one carrying
     /// the default tool over the setting's surface.
     machine: Machine,
     setting: Setting,
@@ -158,11 +162,29 @@ impl OptimizeCommand {
         })
     }
 
+    /// The machine the plan must run on, when the request names one (`limits`) or describes
+    /// the part or the tool: the positions are then checked against the poses, and the limits
+    /// given (none: an unlimited machine) bind the plan. Otherwise the plan is the motion alone.
+    pub fn on_machine(self, limits: Option<MachineLimits>) -> Result<Self, MachineFitError> {
+        let mount = self.setting.mount();
+        if limits.is_none() && !mount.described {
+            return Ok(self);
+        }
+        let limits = limits.unwrap_or_default();
+        limits.check().map_err(MachineFitError::InvalidLimit)?;
+        let machine = Machine {
+            surface: mount.part.surface.clone(),
+            tool: mount.tool,
+            limits,
+        };
+        self.with_machine(machine)
+    }
+
     /// The plan must also run on `machine`: its axis velocity and acceleration limits become
     /// constraints on the dwell ([`crate::optimize::kinematics`]). Refused when the positions
     /// leave the surface, or put an axis outside its travel or a spindle over its speed (which
     /// no dwell can change).
-    pub fn with_machine(mut self, machine: Machine) -> Result<Self, MachineFitError> {
+    fn with_machine(mut self, machine: Machine) -> Result<Self, MachineFitError> {
         let positions = &self.positions_mm;
         let last = positions.len() - 1;
         machine

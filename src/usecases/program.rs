@@ -2,12 +2,13 @@
 //! checked against the machine's limits, and its G-code.
 
 use super::limits::{ComputeLimits, LimitError};
+use super::setting::{Mount, PartError, PartSpec};
 use crate::machine::{
-    gcode, Approach, Drive, GcodeFormat, GcodeFormatError, LimitsError, MachineLimits, Orientation,
-    Program, ProgramError, Tool, ToolError, Violation,
+    gcode, Approach, Drive, GcodeFormat, GcodeFormatError, LimitsError, MachineLimits, Program,
+    ProgramError, Tool, Violation,
 };
 use crate::physics::{DwellSchedule, Process, ProcessError, ProcessSpec, ScheduleError};
-use crate::surface::{Surface, SurfaceError, SurfaceSpec};
+use crate::surface::{Surface, SurfaceError};
 
 /// Clearance of the approach and retract along the tool axis by default, mm.
 pub const DEFAULT_CLEARANCE_MM: f64 = 5.0;
@@ -22,13 +23,9 @@ pub const APPROACH_FEED_RANGE_MM_PER_MIN: std::ops::RangeInclusive<f64> = 0.001.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProgramSpec {
     pub process: ProcessSpec,
-    pub surface: SurfaceSpec,
+    pub part: PartSpec,
     pub positions_mm: Vec<f64>,
     pub dwell_s: Vec<f64>,
-    /// Default 0.
-    pub pivot_length_mm: Option<f64>,
-    /// Default normal.
-    pub orientation: Option<Orientation>,
     pub machine: MachineLimits,
     /// Default [`DEFAULT_CLEARANCE_MM`].
     pub clearance_mm: Option<f64>,
@@ -45,7 +42,7 @@ pub enum ProgramInputError {
     #[error(transparent)]
     Process(ProcessError),
     #[error(transparent)]
-    Surface(SurfaceError),
+    Part(PartError),
     /// A plan position where the surface is not defined.
     #[error("position {index}: {error}")]
     PositionOffSurface { index: usize, error: SurfaceError },
@@ -53,8 +50,6 @@ pub enum ProgramInputError {
     Size(LimitError),
     #[error(transparent)]
     Schedule(ScheduleError),
-    #[error(transparent)]
-    Tool(ToolError),
     #[error(transparent)]
     Limits(LimitsError),
     #[error(transparent)]
@@ -82,8 +77,13 @@ pub struct ProgramCommand {
 impl ProgramCommand {
     pub fn new(spec: ProgramSpec, limits: &ComputeLimits) -> Result<Self, ProgramInputError> {
         use ProgramInputError as E;
-        let process = Process::new(spec.process).map_err(E::Process)?;
-        let surface = Surface::new(&spec.surface).map_err(E::Surface)?;
+        let Mount { part, tool, .. } = spec.part.parse().map_err(E::Part)?;
+        let surface = part.surface.clone();
+        let process = Process::new(ProcessSpec {
+            part,
+            ..spec.process
+        })
+        .map_err(E::Process)?;
         limits
             .check_positions(spec.positions_mm.len())
             .map_err(E::Size)?;
@@ -96,11 +96,6 @@ impl ProgramCommand {
                 .check_defined_to(r)
                 .map_err(|error| E::PositionOffSurface { index, error })?;
         }
-        let tool = Tool::new(
-            spec.pivot_length_mm.unwrap_or(0.0),
-            spec.orientation.unwrap_or(Orientation::Normal),
-        )
-        .map_err(E::Tool)?;
         spec.machine.check().map_err(E::Limits)?;
         spec.format.check().map_err(E::Format)?;
         let clearance_mm = spec.clearance_mm.unwrap_or(DEFAULT_CLEARANCE_MM);

@@ -1,6 +1,6 @@
 //! The removal function: R(r; r1) across the radial grid for each requested tool position.
 
-use super::setting::process_and_grid;
+use super::setting::{process_and_grid, PartSpec};
 use super::{ComputeLimits, GridSpec, Input, InputError};
 use crate::physics::{check_positions, Process, ProcessSpec, RadialGrid, RemovalKernel};
 
@@ -15,11 +15,12 @@ pub struct RemovalFunctionCommand {
 impl RemovalFunctionCommand {
     pub fn new(
         process: ProcessSpec,
+        part: &PartSpec,
         grid: GridSpec,
         tool_positions_mm: Vec<f64>,
         limits: &ComputeLimits,
     ) -> Result<Self, InputError> {
-        let (process, grid) = process_and_grid(process, grid, limits)?;
+        let (process, _, grid) = process_and_grid(process, part, grid, limits)?;
         let input = Input::ToolPositions;
         limits
             .check_profiles(tool_positions_mm.len())

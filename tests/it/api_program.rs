@@ -187,8 +187,9 @@ async fn bad_input_is_named() {
             "tool.pivot_length_mm",
         ),
         (
+            // A part smaller than the workpiece, refused as every endpoint refuses it.
             json!({"surface": {"kind": "sphere", "radius_of_curvature_mm": 30}}),
-            "dwell.positions_mm[40]",
+            "process.workpiece_radius_mm",
         ),
     ];
     for (patch, field) in cases {

@@ -4,12 +4,8 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::super::error::ApiError;
 use super::super::extract::optional_object;
-use crate::machine::{AxisLimits, AxisMotion, Drive, MachineLimits, Orientation, Program, Tool};
-use crate::surface::Surface;
-use crate::usecases::optimize::Machine;
-use crate::usecases::program::ProgramInputError;
+use crate::machine::{AxisLimits, AxisMotion, Drive, MachineLimits, Orientation, Program};
 
 /// How the tool is carried: `normal` (B follows the surface normal) or `vertical` (no tilt).
 #[derive(Debug, Clone, Copy, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
@@ -260,32 +256,6 @@ impl AxesDto {
             },
         }
     }
-}
-
-/// The machine a plan must run on (for `/v1/optimize`): the part's surface, already checked
-/// with the process, and the tool and limits as given, each checked and any error naming its
-/// field.
-pub fn machine_setup(
-    surface: &Surface,
-    tool: Option<&ToolDto>,
-    machine: &MachineDto,
-) -> Result<Machine, ApiError> {
-    let surface = surface.clone();
-    let tool_dto = tool.cloned().unwrap_or_default();
-    let tool = Tool::new(
-        tool_dto.pivot_length_mm.unwrap_or(0.0),
-        tool_dto
-            .orientation
-            .map_or(Orientation::Normal, Orientation::from),
-    )
-    .map_err(ProgramInputError::Tool)?;
-    let limits = MachineLimits::from(machine);
-    limits.check().map_err(ProgramInputError::Limits)?;
-    Ok(Machine {
-        surface,
-        tool,
-        limits,
-    })
 }
 
 impl From<OrientationDto> for Orientation {

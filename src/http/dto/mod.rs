@@ -6,12 +6,10 @@ use utoipa::ToSchema;
 
 use super::error::ApiError;
 use super::extract::optional_count;
-use super::fields::surface_error;
-use crate::machine::Tool;
-use crate::physics::{ClearAperture, PressureModel, ProcessSpec, UniformityMetrics};
-use crate::physics::{Orientation, Part};
-use crate::surface::{Surface, SurfaceSpec};
-use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, Setting};
+use crate::physics::UniformityMetrics;
+use crate::physics::{ClearAperture, Orientation, Part, PressureModel, ProcessSpec};
+use crate::surface::SurfaceSpec;
+use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, PartSpec, Setting};
 
 mod machine;
 mod recommendation;
@@ -147,58 +145,35 @@ impl From<Option<&ClearApertureDto>> for ApertureSpec {
     }
 }
 
-/// The part a request describes: its `surface` (default a plane) and the pad's spin axis from
-/// `tool.orientation` (default `normal`), the surface checked and any error naming its field.
-pub fn part(surface: Option<&SurfaceDto>, tool: Option<&ToolDto>) -> Result<Part, ApiError> {
-    let surface = Surface::new(&surface.map_or(SurfaceSpec::Plane, SurfaceSpec::from))
-        .map_err(surface_error)?;
-    let orientation = tool
-        .and_then(|t| t.orientation)
-        .map_or(Orientation::Normal, Orientation::from);
-    // The whole tool is checked, though only its orientation matters to removal: what the
-    // schema refuses is refused everywhere.
-    if let Some(pivot) = tool.and_then(|t| t.pivot_length_mm) {
-        Tool::new(pivot, orientation)
-            .map_err(|e| ApiError::invalid("tool.pivot_length_mm", e.to_string()))?;
+/// The part and tool a request describes, as given (the use case checks them).
+pub fn part_spec(surface: Option<&SurfaceDto>, tool: Option<&ToolDto>) -> PartSpec {
+    PartSpec {
+        surface: surface.map(SurfaceSpec::from),
+        pivot_length_mm: tool.and_then(|t| t.pivot_length_mm),
+        orientation: tool.and_then(|t| t.orientation).map(Orientation::from),
     }
-    Ok(Part {
-        surface,
-        orientation,
-    })
 }
 
-/// The process of a request on its part.
-pub fn process_spec(
-    process: &ProcessDto,
-    surface: Option<&SurfaceDto>,
-    tool: Option<&ToolDto>,
-) -> Result<ProcessSpec, ApiError> {
-    Ok(ProcessSpec {
-        part: part(surface, tool)?,
-        ..process.into()
-    })
-}
-
-/// Where the request's process, part and pad act: the members every computing request shares.
-pub struct Place<'a> {
+/// The members every computing request on a process shares.
+pub struct SettingDtos<'a> {
     pub process: &'a ProcessDto,
     pub surface: Option<&'a SurfaceDto>,
     pub tool: Option<&'a ToolDto>,
+    pub grid: Option<&'a RadialGridDto>,
+    pub aperture: Option<&'a ClearApertureDto>,
 }
 
-/// The setting of a request: its process on its part, radial grid and clear aperture.
-pub fn setting(
-    place: Place,
-    grid: Option<&RadialGridDto>,
-    aperture: Option<&ClearApertureDto>,
-    limits: &ComputeLimits,
-) -> Result<Setting, ApiError> {
-    Ok(Setting::new(
-        process_spec(place.process, place.surface, place.tool)?,
-        grid.into(),
-        aperture.into(),
-        limits,
-    )?)
+impl SettingDtos<'_> {
+    /// The use case's setting: its process on its part, radial grid and clear aperture.
+    pub fn parse(self, limits: &ComputeLimits) -> Result<Setting, ApiError> {
+        Ok(Setting::new(
+            self.process.into(),
+            &part_spec(self.surface, self.tool),
+            self.grid.into(),
+            self.aperture.into(),
+            limits,
+        )?)
+    }
 }
 
 /// The clear aperture actually used (defaults filled in), in mm.

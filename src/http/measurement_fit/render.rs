@@ -1,12 +1,12 @@
 //! `/v1/measurement/fit` as CSV (the residual table) and as SVG (residuals and form error).
 
-use super::super::csv;
-use super::super::plot::{self, Chart, Series};
 use super::MeasurementFitResponse;
+use crate::report::chart::{self, Chart, Series};
+use crate::report::table;
 
 pub fn to_csv(r: &MeasurementFitResponse) -> String {
     let s = &r.residual;
-    csv::table(
+    table::csv(
         &[
             "x_mm",
             "z_mm",
@@ -67,7 +67,7 @@ pub fn to_svg(r: &MeasurementFitResponse) -> String {
             .zip(r.profile.depth_nm.iter().copied())
             .collect(),
     });
-    plot::render(&Chart {
+    chart::render(&Chart {
         title: format!(
             "Form error: {:.1} nm RMS, {:.1} nm PV over the clear aperture",
             r.form_error.rms_nm, r.form_error.pv_nm
@@ -75,7 +75,10 @@ pub fn to_svg(r: &MeasurementFitResponse) -> String {
         x_label: "radius r (mm)".to_string(),
         y_label: "residual along the normal (nm)".to_string(),
         series,
-        band: Some(plot::aperture_band(&r.clear_aperture)),
+        band: Some(chart::aperture_band(
+            r.clear_aperture.inner_mm,
+            r.clear_aperture.outer_mm,
+        )),
         secondary: None,
     })
 }

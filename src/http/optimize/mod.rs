@@ -9,19 +9,19 @@ mod render;
 
 pub use options::{ConstraintsDto, MeasuredProfileDto, ObjectiveDto, SolverOptionsDto, TargetDto};
 
-use super::dto::{machine_setup, AxesDto, MachineDto, ToolDto};
 use super::dto::{
-    setting, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, Place, ProcessDto,
-    RadialGridDto, RecommendationDto, SurfaceDto, WarningDto,
+    ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
+    RecommendationDto, SettingDtos, SurfaceDto, WarningDto,
 };
+use super::dto::{AxesDto, MachineDto, ToolDto};
 use super::endpoint::{Doc, Endpoint};
 use super::error::{ApiError, Kind};
 use super::extract::{object, optional_object, ApiJson};
-use super::fields::machine_limits_error;
 use super::state::Services;
+use crate::machine::MachineLimits;
 use crate::machine::Program;
 use crate::optimize::{OptimizeError, SolveStatus};
-use crate::usecases::optimize::{optimize, MachineFitError, OptimizeCommand, OptimizedPlan};
+use crate::usecases::optimize::{optimize, OptimizeCommand, OptimizedPlan};
 use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -227,17 +227,14 @@ text/csv` returns the plan (position and dwell columns).",
 
     /// The command, with the server's solver time limit (for the time-limit problem's hint).
     fn parse(req: OptimizeRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
-        let setting = setting(
-            Place {
-                process: &req.process,
-                surface: req.surface.as_ref(),
-                tool: req.tool.as_ref(),
-            },
-            req.radial_grid.as_ref(),
-            req.clear_aperture.as_ref(),
-            limits,
-        )?;
-        let surface = setting.process().part().surface.clone();
+        let setting = SettingDtos {
+            process: &req.process,
+            surface: req.surface.as_ref(),
+            tool: req.tool.as_ref(),
+            grid: req.radial_grid.as_ref(),
+            aperture: req.clear_aperture.as_ref(),
+        }
+        .parse(limits)?;
         let command = OptimizeCommand::new(
             setting,
             req.positions_mm,
@@ -247,23 +244,7 @@ text/csv` returns the plan (position and dwell columns).",
             req.solver.and_then(|s| s.time_limit_s),
             limits,
         )?;
-        // With a surface or tool alone the positions are checked against the poses as well.
-        let given = req.machine.is_some() || req.surface.is_some() || req.tool.is_some();
-        let command = if given {
-            let machine = machine_setup(
-                &surface,
-                req.tool.as_ref(),
-                &req.machine.unwrap_or_default(),
-            )?;
-            command.with_machine(machine).map_err(|e| match e {
-                MachineFitError::PositionOffSurface { index, .. } => {
-                    ApiError::invalid(format!("positions_mm[{index}]"), e.to_string())
-                }
-                MachineFitError::Limits(found) => machine_limits_error(&found, "positions"),
-            })?
-        } else {
-            command
-        };
+        let command = command.on_machine(req.machine.as_ref().map(MachineLimits::from))?;
         Ok((command, limits.solver_time_limit.as_secs_f64()))
     }
 

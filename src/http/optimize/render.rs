@@ -1,11 +1,11 @@
 //! `/v1/optimize` as CSV (the plan's columns) and as SVG (dwell and feed against position).
 
-use super::super::csv;
-use super::super::plot::{self, Chart, Series};
 use super::OptimizeResponse;
+use crate::report::chart::{self, Chart, Series};
+use crate::report::table;
 
 pub fn to_csv(response: &OptimizeResponse) -> String {
-    csv::table(
+    table::csv(
         &["position_mm".to_string(), "dwell_s".to_string()],
         &[&response.dwell.positions_mm, &response.dwell.dwell_s],
     )
@@ -13,7 +13,7 @@ pub fn to_csv(response: &OptimizeResponse) -> String {
 
 pub fn to_svg(r: &OptimizeResponse) -> String {
     let positions = &r.dwell.positions_mm;
-    plot::render(&Chart {
+    chart::render(&Chart {
         title: format!(
             "Optimized dwell, {:.0} s total ({})",
             r.total_time_s,
@@ -29,7 +29,10 @@ pub fn to_svg(r: &OptimizeResponse) -> String {
                 .zip(r.dwell.dwell_s.iter().copied())
                 .collect(),
         }],
-        band: Some(plot::aperture_band(&r.clear_aperture)),
+        band: Some(chart::aperture_band(
+            r.clear_aperture.inner_mm,
+            r.clear_aperture.outer_mm,
+        )),
         secondary: Some((
             "feed (mm/min)".to_string(),
             Series {

@@ -1,11 +1,9 @@
-//! SVG charts of responses (plotters, SVG backend only: text is emitted as SVG `<text>` for
+//! SVG charts of results (plotters, SVG backend only: text is emitted as SVG `<text>` for
 //! the viewer to render, so no font is loaded or fetched). One generic line chart serves every
 //! endpoint: titled axes with units, any number of series, an optional shaded band (the clear
 //! aperture) and an optional second y axis.
 
 use plotters::prelude::*;
-
-use super::dto::ApertureEcho;
 
 /// One line of a chart; non-finite points are left out (a gap in the data, not a zero).
 pub struct Series {
@@ -26,11 +24,11 @@ pub struct Chart {
 }
 
 /// The band marking a clear aperture.
-pub fn aperture_band(a: &ApertureEcho) -> (f64, f64, String) {
+pub fn aperture_band(inner_mm: f64, outer_mm: f64) -> (f64, f64, String) {
     (
-        a.inner_mm,
-        a.outer_mm,
-        format!("clear aperture [{}, {}] mm", a.inner_mm, a.outer_mm),
+        inner_mm,
+        outer_mm,
+        format!("clear aperture [{inner_mm}, {outer_mm}] mm"),
     )
 }
 

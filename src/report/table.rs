@@ -1,7 +1,7 @@
-//! CSV rendering of profiles: one header line with units, then one row per radius.
+//! CSV tables: one header line with units, then one row per sample.
 
 /// `header` names each column (with its unit); `columns` are equally long.
-pub fn table(header: &[String], columns: &[&[f64]]) -> String {
+pub fn csv(header: &[String], columns: &[&[f64]]) -> String {
     let rows = columns.first().map_or(0, |c| c.len());
     debug_assert!(columns.iter().all(|c| c.len() == rows));
     let mut out = header.join(",");
@@ -18,7 +18,7 @@ pub fn table(header: &[String], columns: &[&[f64]]) -> String {
 mod tests {
     #[test]
     fn renders_header_and_rows() {
-        let csv = super::table(
+        let csv = super::csv(
             &["radius_mm".into(), "removal_nm".into()],
             &[&[0.0, 0.5], &[1.25, 3.0]],
         );

@@ -1,10 +1,13 @@
-//! Structured logging with tracing: human-readable text or JSON lines, level from RUST_LOG.
+//! Structured logging with tracing: human-readable text or JSON lines, level from RUST_LOG;
+//! and the service's metrics (`metrics`).
 
 use std::io::IsTerminal;
 
 use tracing_subscriber::EnvFilter;
 
 use crate::config::LogFormat;
+
+pub mod metrics;
 
 /// Installs the global subscriber (once; later calls are ignored).
 pub fn init(format: LogFormat) {
