@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto, SettingDtos,
+    setting_of, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
     SurfaceDto, ToolDto,
 };
 use super::endpoint::{Doc, Endpoint};
@@ -99,14 +99,7 @@ given dwell schedule) over the clear aperture is reported. `Accept: text/csv` gi
     const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
 
     fn parse(req: EtaSweepRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
-        let setting = SettingDtos {
-            process: &req.process,
-            surface: req.surface.as_ref(),
-            tool: req.tool.as_ref(),
-            grid: req.radial_grid.as_ref(),
-            aperture: req.clear_aperture.as_ref(),
-        }
-        .parse(limits)?;
+        let setting = setting_of!(req).parse(limits)?;
         Ok(EtaSweepCommand::new(
             setting,
             req.etas,

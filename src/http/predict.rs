@@ -4,8 +4,8 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    ApertureEcho, ClearApertureDto, DwellDto, FeedDto, MetricsDto, ProcessDto, RadialGridDto,
-    RecommendationDto, SettingDtos, SurfaceDto, ToolDto, WarningDto,
+    setting_of, ApertureEcho, ClearApertureDto, DwellDto, FeedDto, MetricsDto, ProcessDto,
+    RadialGridDto, RecommendationDto, SurfaceDto, ToolDto, WarningDto,
 };
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
@@ -102,14 +102,7 @@ over the clear aperture. `Accept: text/csv` returns radius and removal columns."
     const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
 
     fn parse(req: PredictRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
-        let setting = SettingDtos {
-            process: &req.process,
-            surface: req.surface.as_ref(),
-            tool: req.tool.as_ref(),
-            grid: req.radial_grid.as_ref(),
-            aperture: req.clear_aperture.as_ref(),
-        }
-        .parse(limits)?;
+        let setting = setting_of!(req).parse(limits)?;
         Ok(match (req.dwell, req.feed) {
             (Some(dwell), None) => {
                 PredictCommand::new(setting, dwell.positions_mm, dwell.dwell_s, limits)?

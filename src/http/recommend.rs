@@ -6,8 +6,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    ClearApertureDto, ProcessDto, RadialGridDto, RecommendationDto, SettingDtos, SurfaceDto,
-    ToolDto,
+    setting_of, ClearApertureDto, ProcessDto, RadialGridDto, RecommendationDto, SurfaceDto, ToolDto,
 };
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
@@ -92,14 +91,7 @@ the model).",
     type Response = RecommendResponse;
 
     fn parse(req: RecommendRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
-        let setting = SettingDtos {
-            process: &req.process,
-            surface: req.surface.as_ref(),
-            tool: req.tool.as_ref(),
-            grid: req.radial_grid.as_ref(),
-            aperture: req.clear_aperture.as_ref(),
-        }
-        .parse(limits)?;
+        let setting = setting_of!(req).parse(limits)?;
         let speed = req.limits.unwrap_or_default();
         let speed = SpeedLimits::new(speed.max_workpiece_rpm, speed.max_tool_rpm)?;
         Ok(RecommendCommand::new(

@@ -163,6 +163,21 @@ pub struct SettingDtos<'a> {
     pub aperture: Option<&'a ClearApertureDto>,
 }
 
+/// The [`SettingDtos`] of a request with the usual members (`process`, `surface`, `tool`,
+/// `radial_grid`, `clear_aperture`).
+macro_rules! setting_of {
+    ($req:expr) => {
+        $crate::http::dto::SettingDtos {
+            process: &$req.process,
+            surface: $req.surface.as_ref(),
+            tool: $req.tool.as_ref(),
+            grid: $req.radial_grid.as_ref(),
+            aperture: $req.clear_aperture.as_ref(),
+        }
+    };
+}
+pub(crate) use setting_of;
+
 impl SettingDtos<'_> {
     /// The use case's setting: its process on its part, radial grid and clear aperture.
     pub fn parse(self, limits: &ComputeLimits) -> Result<Setting, ApiError> {

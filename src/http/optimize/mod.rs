@@ -10,8 +10,8 @@ mod render;
 pub use options::{ConstraintsDto, MeasuredProfileDto, ObjectiveDto, SolverOptionsDto, TargetDto};
 
 use super::dto::{
-    ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
-    RecommendationDto, SettingDtos, SurfaceDto, WarningDto,
+    setting_of, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
+    RecommendationDto, SurfaceDto, WarningDto,
 };
 use super::dto::{AxesDto, MachineDto, ToolDto};
 use super::endpoint::{Doc, Endpoint};
@@ -227,14 +227,7 @@ text/csv` returns the plan (position and dwell columns).",
 
     /// The command, with the server's solver time limit (for the time-limit problem's hint).
     fn parse(req: OptimizeRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
-        let setting = SettingDtos {
-            process: &req.process,
-            surface: req.surface.as_ref(),
-            tool: req.tool.as_ref(),
-            grid: req.radial_grid.as_ref(),
-            aperture: req.clear_aperture.as_ref(),
-        }
-        .parse(limits)?;
+        let setting = setting_of!(req).parse(limits)?;
         let command = OptimizeCommand::new(
             setting,
             req.positions_mm,
