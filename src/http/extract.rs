@@ -65,9 +65,40 @@ fn problem_of(path: &str, inner: serde_json::Error) -> ApiError {
     }
 }
 
-/// serde says "invalid type: string \"50\", expected f64"; say it in JSON's terms: "expected a
-/// number here, got the text \"50\"".
+/// serde says "invalid type: string \"50\", expected f64" or "EOF while parsing a value"; say
+/// it in JSON's terms: "expected a number here, got the text \"50\"".
 fn in_users_words(message: String) -> String {
+    // The syntax errors serde_json reports in its own words.
+    for (serde, ours) in [
+        (
+            "EOF while parsing",
+            "the JSON ends too soon: a value, bracket or brace is missing",
+        ),
+        (
+            "expected value",
+            "expected a JSON value (a number, text, list or object)",
+        ),
+        (
+            "expected ident",
+            "expected a JSON value (true, false, null, or quoted text)",
+        ),
+        (
+            "key must be a string",
+            "a member name must be text in double quotes",
+        ),
+        (
+            "trailing comma",
+            "a comma before a closing bracket or brace",
+        ),
+        (
+            "trailing characters",
+            "more after the JSON object: send one object",
+        ),
+    ] {
+        if message.starts_with(serde) {
+            return ours.to_string();
+        }
+    }
     let Some((got, expected)) = message
         .strip_prefix("invalid type: ")
         .and_then(|rest| rest.rsplit_once(", expected "))
@@ -450,6 +481,31 @@ mod tests {
             let got = detail(body);
             assert!(got.starts_with(start), "{body:?}: {got}");
             assert!(got.contains("Content-Type: application/json"), "{got}");
+        }
+        // Syntax errors in the user's words, with where they are.
+        for (body, want) in [
+            (
+                r#"{"x": 1, "ys": ["#,
+                "the JSON ends too soon: a value, bracket or brace is missing (line 1, column 16)",
+            ),
+            (
+                r#"{"x": 1, }"#,
+                "a comma before a closing bracket or brace (line 1, column 10)",
+            ),
+            (
+                r#"{x: 1}"#,
+                "a member name must be text in double quotes (line 1, column 2)",
+            ),
+            (
+                r#"{"x": bad}"#,
+                "expected a JSON value (a number, text, list or object) (line 1, column 7)",
+            ),
+            (
+                r#"{"x": nope}"#,
+                "expected a JSON value (true, false, null, or quoted text) (line 1, column 8)",
+            ),
+        ] {
+            assert_eq!(detail(body), want, "{body}");
         }
     }
 }

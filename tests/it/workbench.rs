@@ -127,9 +127,11 @@ fn request_fields() -> Vec<String> {
         let Some(content) = paths["post"]["requestBody"]["content"].as_object() else {
             continue;
         };
-        for (name, schema) in properties(&content["application/json"]["schema"], &resolve) {
-            for (inner, _) in properties(&schema, &resolve) {
-                fields.push(format!("{name}.{inner}"));
+        // Every path into the body, to any depth (`machine.x.max_velocity_mm_per_min`).
+        let mut open = properties(&content["application/json"]["schema"], &resolve);
+        while let Some((name, schema)) = open.pop() {
+            for (inner, inner_schema) in properties(&schema, &resolve) {
+                open.push((format!("{name}.{inner}"), inner_schema));
             }
             fields.push(name);
         }

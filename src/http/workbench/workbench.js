@@ -146,7 +146,9 @@
   /** Tool positions 0, h, 2h, … up to the aperture's outer radius plus the tool radius. */
   function positions(stepId) {
     const step = value(stepId);
-    const end = Number(value('aperture_outer_mm') ?? value('workpiece_radius_mm')) + Number(value('tool_radius_mm'));
+    // To the aperture's edge plus a tool radius, but on the part.
+    const edge = Number(value('workpiece_radius_mm'));
+    const end = Math.min(Number(value('aperture_outer_mm') ?? edge) + Number(value('tool_radius_mm')), edge);
     if (typeof step !== 'number' || !(step > 0)) {
       throw fieldProblem(stepId, 'The position step must be a positive number of mm.');
     }
@@ -375,10 +377,29 @@
 
   // ---------------------------------------------------------------- the machine program
 
+  /** The tool and machine limits of the optimize view (each member only when given). */
+  function machineInput() {
+    const axis = (name, velocity, acceleration) => defined({
+      [velocity]: value(`${name}_max_velocity`),
+      ...(acceleration ? { [acceleration]: value(`${name}_max_acceleration`) } : {}),
+    });
+    const machine = defined({
+      x: axis('x', 'max_velocity_mm_per_min', 'max_acceleration_mm_per_s2'),
+      z: axis('z', 'max_velocity_mm_per_min', 'max_acceleration_mm_per_s2'),
+      b: axis('b', 'max_velocity_deg_per_min'),
+    });
+    for (const k of Object.keys(machine)) if (!Object.keys(machine[k]).length) delete machine[k];
+    const tool = defined({ pivot_length_mm: value('pivot_length_mm') });
+    return defined({
+      tool: Object.keys(tool).length ? tool : undefined,
+      machine: Object.keys(machine).length ? machine : undefined,
+    });
+  }
+
   async function program(view, dwell) {
     const box = $(`[data-program="${view}"]`);
     box.replaceChildren(h('p', { class: 'status' }, 'Writing the machine program…'));
-    const request = { process: processInput(), surface: surfaceInput(), dwell };
+    const request = { process: processInput(), surface: surfaceInput(), dwell, ...machineInput() };
     try {
       const again = repeat(view, API.program, request);
       const [p, gcode] = await Promise.all([again('application/json'), again('text/x-gcode')]);
@@ -488,7 +509,7 @@
     const process = processInput();
     const surface = surfaceInput();
     const clear_aperture = apertureInput();
-    const request = defined({ process, surface, clear_aperture, target, positions_mm: positions(stepId) });
+    const request = defined({ process, surface, clear_aperture, target, positions_mm: positions(stepId), ...machineInput() });
     if (Object.keys(constraints).length) request.constraints = constraints;
     const o = await post(view, API.optimize, request);
     const a = o.clear_aperture;
