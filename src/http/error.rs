@@ -250,13 +250,11 @@ impl ApiError {
         )
     }
 
-    pub fn unsupported_media_type(content_type: &str) -> Self {
+    /// `accepted`: the media types the endpoint takes, in words.
+    pub fn unsupported_media_type(content_type: &str, accepted: &str) -> Self {
         ApiError::new(
             Kind::UnsupportedMediaType,
-            format!(
-                "content-type `{content_type}` is not accepted; send application/json \
-                 (/v1/measurement/fit also takes text/csv)"
-            ),
+            format!("content-type `{content_type}` is not accepted here; send {accepted}"),
         )
     }
 

@@ -249,10 +249,17 @@ where
     type Rejection = ApiError;
 
     async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
-        check_content_type(req.headers())?;
-        let bytes = read_body(req, state).await?;
-        parse_json(&bytes).map(ApiJson)
+        check_content_type(req.headers(), &[])?;
+        json_body(req, state).await.map(ApiJson)
     }
+}
+
+/// The body parsed as JSON (its content type already checked).
+pub async fn json_body<S: Send + Sync, T: DeserializeOwned>(
+    req: Request,
+    state: &S,
+) -> Result<T, ApiError> {
+    parse_json(&read_body(req, state).await?)
 }
 
 /// The whole body, within the configured limit (413 beyond).
@@ -278,7 +285,9 @@ pub async fn read_body<S: Send + Sync>(req: Request, state: &S) -> Result<Bytes,
 #[derive(Debug, Clone, Copy)]
 pub struct BodyLimit(pub usize);
 
-fn check_content_type(headers: &HeaderMap) -> Result<(), ApiError> {
+/// Refuses a body that is neither JSON nor one of `also` (further media types the endpoint
+/// takes). A form-encoded body passes, to be told it is not JSON.
+pub fn check_content_type(headers: &HeaderMap, also: &[&str]) -> Result<(), ApiError> {
     let Some(value) = headers.get(header::CONTENT_TYPE) else {
         return Ok(());
     };
@@ -290,10 +299,16 @@ fn check_content_type(headers: &HeaderMap) -> Result<(), ApiError> {
         .trim()
         .to_ascii_lowercase();
     let json = essence == "application/json" || essence.ends_with("+json");
-    if json || essence == "application/x-www-form-urlencoded" {
+    if json || essence == "application/x-www-form-urlencoded" || also.contains(&essence.as_str()) {
         Ok(())
     } else {
-        Err(ApiError::unsupported_media_type(text))
+        let accepted: Vec<&str> = std::iter::once("application/json")
+            .chain(also.iter().copied())
+            .collect();
+        Err(ApiError::unsupported_media_type(
+            text,
+            &accepted.join(" or "),
+        ))
     }
 }
 

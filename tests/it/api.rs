@@ -353,6 +353,31 @@ async fn media_types_are_negotiated() {
     )
     .await;
     assert_problem(&reply, 415, None);
+    // Each endpoint says what it takes: JSON, and for the fit a CSV trace too.
+    assert!(
+        reply.json()["detail"]
+            .as_str()
+            .unwrap()
+            .ends_with("send application/json"),
+        "{}",
+        reply.json()
+    );
+    let reply = post_with(
+        &app(),
+        "/v1/measurement/fit",
+        "x_mm,z_mm\n0,0\n",
+        &[("content-type", "text/plain")],
+    )
+    .await;
+    assert_problem(&reply, 415, None);
+    assert!(
+        reply.json()["detail"]
+            .as_str()
+            .unwrap()
+            .ends_with("send application/json or text/csv"),
+        "{}",
+        reply.json()
+    );
     // curl -d sends form encoding by default: accepted, the body is still JSON.
     let reply = post_with(
         &app(),

@@ -8,7 +8,7 @@ use utoipa::IntoParams;
 
 use super::super::endpoint::Body;
 use super::super::error::{ApiError, Kind};
-use super::super::extract::{self, ApiJson};
+use super::super::extract;
 use super::MeasurementFitRequest;
 
 /// Query parameters for a `text/csv` body: each is the JSON field of the same name (a JSON
@@ -45,6 +45,8 @@ const QUERY_FIELDS: [&str; 7] = [
     "clear_aperture",
 ];
 
+const CSV: &str = "text/csv";
+
 /// The request from a JSON body, or from a `text/csv` trace and the query.
 pub struct FitBody(pub MeasurementFitRequest);
 
@@ -61,6 +63,7 @@ impl<S: Send + Sync> FromRequest<S> for FitBody {
         let query: Vec<(String, String)> = Query::try_from_uri(req.uri())
             .map(|Query(q)| q)
             .map_err(|e| ApiError::invalid("query", e.body_text()))?;
+        extract::check_content_type(req.headers(), &[CSV])?;
         if !is_csv(req.headers()) {
             if let Some((name, _)) = query.first() {
                 return Err(ApiError::invalid(
@@ -71,9 +74,7 @@ impl<S: Send + Sync> FromRequest<S> for FitBody {
                     ),
                 ));
             }
-            return ApiJson::from_request(req, state)
-                .await
-                .map(|ApiJson(r)| FitBody(r));
+            return extract::json_body(req, state).await.map(FitBody);
         }
         let bytes = extract::read_body(req, state).await?;
         let (x_mm, z_mm) = parse_trace_csv(&bytes)?;
@@ -109,7 +110,7 @@ fn is_csv(headers: &HeaderMap) -> bool {
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.split(';').next())
-        .is_some_and(|essence| essence.trim().eq_ignore_ascii_case("text/csv"))
+        .is_some_and(|essence| essence.trim().eq_ignore_ascii_case(CSV))
 }
 
 /// A probe export: optional `#` comment lines, an optional header naming `x_mm` and `z_mm`
