@@ -419,8 +419,7 @@ impl From<ProgramInputError> for ApiError {
         use ProgramInputError as E;
         let detail = err.to_string();
         match err {
-            E::Process(e) => ApiError::from_process(e),
-            E::Part(e) => e.into(),
+            E::Setting(e) => e.into(),
             E::PositionOffSurface { index, .. } => {
                 ApiError::invalid(format!("dwell.positions_mm[{index}]"), detail)
             }

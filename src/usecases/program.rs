@@ -2,13 +2,13 @@
 //! checked against the machine's limits, and its G-code.
 
 use super::limits::{ComputeLimits, LimitError};
-use super::setting::{Mount, PartError, PartSpec};
+use super::setting::{process_on_part, Mount, PartSpec, SettingError};
 use crate::machine::{
     gcode, Approach, Drive, GcodeFormat, GcodeFormatError, LimitsError, MachineLimits, Program,
     ProgramError, Tool, Violation,
 };
-use crate::physics::{DwellSchedule, Process, ProcessError, ProcessSpec, ScheduleError};
-use crate::surface::{Surface, SurfaceError};
+use crate::physics::{DwellSchedule, Process, ProcessSpec, ScheduleError};
+use crate::surface::SurfaceError;
 
 /// Clearance of the approach and retract along the tool axis by default, mm.
 pub const DEFAULT_CLEARANCE_MM: f64 = 5.0;
@@ -39,10 +39,9 @@ pub struct ProgramSpec {
 /// Why a program request was refused before computing.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ProgramInputError {
+    /// The process or the part.
     #[error(transparent)]
-    Process(ProcessError),
-    #[error(transparent)]
-    Part(PartError),
+    Setting(SettingError),
     /// A plan position where the surface is not defined.
     #[error("position {index}: {error}")]
     PositionOffSurface { index: usize, error: SurfaceError },
@@ -64,7 +63,6 @@ pub enum ProgramInputError {
 #[derive(Debug, Clone)]
 pub struct ProgramCommand {
     process: Process,
-    surface: Surface,
     schedule: DwellSchedule,
     tool: Tool,
     machine: MachineLimits,
@@ -77,13 +75,8 @@ pub struct ProgramCommand {
 impl ProgramCommand {
     pub fn new(spec: ProgramSpec, limits: &ComputeLimits) -> Result<Self, ProgramInputError> {
         use ProgramInputError as E;
-        let Mount { part, tool, .. } = spec.part.parse().map_err(E::Part)?;
-        let surface = part.surface.clone();
-        let process = Process::new(ProcessSpec {
-            part,
-            ..spec.process
-        })
-        .map_err(E::Process)?;
+        let (process, Mount { tool, .. }) =
+            process_on_part(spec.process, &spec.part).map_err(E::Setting)?;
         limits
             .check_positions(spec.positions_mm.len())
             .map_err(E::Size)?;
@@ -92,7 +85,9 @@ impl ProgramCommand {
         // Positions increase from ≥ 0: the last is the farthest from the axis.
         if let Some(index) = schedule.positions_mm().len().checked_sub(1) {
             let r = schedule.positions_mm()[index];
-            surface
+            process
+                .part()
+                .surface
                 .check_defined_to(r)
                 .map_err(|error| E::PositionOffSurface { index, error })?;
         }
@@ -110,7 +105,6 @@ impl ProgramCommand {
         }
         Ok(ProgramCommand {
             process,
-            surface,
             schedule,
             tool,
             machine: spec.machine,
@@ -137,7 +131,6 @@ pub enum ProgramFailure {
 pub struct MachineProgram {
     pub program: Program,
     pub process: Process,
-    pub surface: Surface,
     pub tool: Tool,
     pub machine: MachineLimits,
     pub approach: Approach,
@@ -158,7 +151,7 @@ fn approach_feed(command: &ProgramCommand) -> f64 {
     for r in ends {
         let (sin, cos) = command
             .tool
-            .pose(&command.surface, r)
+            .pose(&command.process.part().surface, r)
             .b_deg
             .to_radians()
             .sin_cos();
@@ -187,7 +180,7 @@ pub fn program(command: ProgramCommand) -> Result<MachineProgram, ProgramFailure
         feed_mm_per_min: approach_feed(&command),
     };
     let program = Program::new(
-        &command.surface,
+        &command.process.part().surface,
         &command.tool,
         command.schedule.positions_mm(),
         command.schedule.dwell_s(),
@@ -212,7 +205,6 @@ pub fn program(command: ProgramCommand) -> Result<MachineProgram, ProgramFailure
     Ok(MachineProgram {
         program,
         process: command.process,
-        surface: command.surface,
         tool: command.tool,
         machine: command.machine,
         approach,
@@ -227,9 +219,9 @@ fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
         Some(eta) => format!("{eta}"),
         None => "undefined (tool stationary)".to_string(),
     };
-    let surface = match command.surface.radius_of_curvature_mm() {
+    let surface = match command.process.part().surface.radius_of_curvature_mm() {
         None => "plane".to_string(),
-        Some(r) if command.surface.is_sphere() => format!("sphere R = {r} mm"),
+        Some(r) if command.process.part().surface.is_sphere() => format!("sphere R = {r} mm"),
         Some(r) => format!("asphere R = {r} mm"),
     };
     let axes: Vec<String> = Drive::AXES

@@ -158,6 +158,20 @@ impl Setting {
     }
 }
 
+/// `process` on the part `part` describes (the spec's own `part` is replaced).
+pub fn process_on_part(
+    process: ProcessSpec,
+    part: &PartSpec,
+) -> Result<(Process, Mount), SettingError> {
+    let mount = part.parse().map_err(SettingError::Part)?;
+    let process = ProcessSpec {
+        part: mount.part.clone(),
+        ..process
+    };
+    let process = Process::new(process).map_err(SettingError::Process)?;
+    Ok((process, mount))
+}
+
 /// A process on its part and a radial grid on it (for computations that judge no aperture).
 pub fn process_and_grid(
     process: ProcessSpec,
@@ -165,12 +179,7 @@ pub fn process_and_grid(
     grid: GridSpec,
     limits: &ComputeLimits,
 ) -> Result<(Process, Mount, RadialGrid), SettingError> {
-    let mount = part.parse().map_err(SettingError::Part)?;
-    let process = ProcessSpec {
-        part: mount.part.clone(),
-        ..process
-    };
-    let process = Process::new(process).map_err(SettingError::Process)?;
+    let (process, mount) = process_on_part(process, part)?;
     let count = grid.count.unwrap_or(DEFAULT_RADIAL_SAMPLES);
     limits
         .check_radial_samples(count)
