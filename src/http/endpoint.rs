@@ -77,18 +77,9 @@ pub trait Endpoint: 'static {
     /// Runs the use case (on the blocking pool) and converts its result.
     fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError>;
 
-    /// The request body as the OpenAPI document states it; by default JSON alone.
-    fn request_body() -> RequestBodyBuilder {
-        RequestBodyBuilder::new().content(
-            "application/json",
-            Content::new(Some(Ref::from_schema_name(Self::Request::name()))),
-        )
-    }
-
-    /// The operation's parameters, if any.
-    fn document(operation: OperationBuilder) -> OperationBuilder {
-        operation
-    }
+    /// What the OpenAPI operation says beyond a JSON body and the offered responses (query
+    /// parameters, other request media types).
+    fn document(_operation: &mut Operation) {}
 }
 
 fn offered<E: Endpoint>() -> Vec<Format> {
@@ -123,10 +114,12 @@ pub fn operation<E: Endpoint>(schemas: &mut Vec<(String, RefOr<Schema>)>) -> Ope
     E::Request::schemas(schemas);
     E::Response::schemas(schemas);
     let example = serde_json::from_str(E::EXAMPLE).expect("fixtures are valid JSON");
-    let mut body = E::request_body().required(Some(Required::True)).build();
-    if let Some(json) = body.content.get_mut("application/json") {
-        json.example = Some(example);
-    }
+    let mut json = Content::new(Some(Ref::from_schema_name(E::Request::name())));
+    json.example = Some(example);
+    let body = RequestBodyBuilder::new()
+        .content("application/json", json)
+        .required(Some(Required::True))
+        .build();
     let text = || Content::new(Some(ObjectBuilder::new().schema_type(Type::String)));
     let ok = offered::<E>().into_iter().fold(
         ResponseBuilder::new().description(E::DOC.ok),
@@ -142,16 +135,16 @@ pub fn operation<E: Endpoint>(schemas: &mut Vec<(String, RefOr<Schema>)>) -> Ope
         .response("200", ok)
         .responses_from_into_responses::<ComputeProblems>()
         .build();
-    E::document(
-        OperationBuilder::new()
-            .tag(E::DOC.tag)
-            .summary(Some(E::DOC.summary))
-            .description(Some(E::DOC.description))
-            .operation_id(Some(E::DOC.operation_id))
-            .request_body(Some(body))
-            .responses(responses),
-    )
-    .build()
+    let mut operation = OperationBuilder::new()
+        .tag(E::DOC.tag)
+        .summary(Some(E::DOC.summary))
+        .description(Some(E::DOC.description))
+        .operation_id(Some(E::DOC.operation_id))
+        .request_body(Some(body))
+        .responses(responses)
+        .build();
+    E::document(&mut operation);
+    operation
 }
 
 /// The exact JSON body the endpoint would return for `body`, computed in this thread (the

@@ -4,16 +4,14 @@
 
 use utoipa::openapi::path::HttpMethod;
 use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityRequirement, SecurityScheme};
-use utoipa::{OpenApi, ToSchema};
+use utoipa::OpenApi;
 
 use super::dto::{
     ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, PressureModelDto, ProcessDto,
     RadialGridDto,
 };
-use super::endpoint::Endpoint;
-use super::endpoint::{is_api_path, API_PREFIX};
+use super::endpoint::is_api_path;
 use super::error::Problem;
-use super::measurement_fit::{MeasurementFitEndpoint, MeasurementFitRequest};
 use super::router::ENDPOINTS;
 use super::{health, metrics};
 
@@ -171,26 +169,42 @@ pub fn spec_json() -> String {
             radius["not"] = serde_json::json!({"const": 0});
         }
     }
-    query_mirrors_body(
-        &mut doc,
-        &format!("{API_PREFIX}{}", MeasurementFitEndpoint::NAME),
-        &MeasurementFitRequest::name(),
-    );
+    query_mirrors_body(&mut doc);
     let mut json = serde_json::to_string_pretty(&doc).expect("the spec serialises");
     json.push('\n');
     json
 }
 
-/// The `text/csv` form of an operation takes the JSON body's other fields as query
-/// parameters; each parameter gets exactly that field's schema (less its `null` branch):
+/// An operation with query parameters (the fit's `text/csv` form) takes the JSON body's other
+/// fields there; each parameter gets exactly that field's schema (less its `null` branch):
 /// objects as JSON-encoded values (`content: application/json`), numbers and enum names as
 /// they are. A bare `type: string` would admit strings the service must refuse.
-fn query_mirrors_body(doc: &mut serde_json::Value, path: &str, body_schema: &str) {
-    let properties = doc["components"]["schemas"][body_schema]["properties"].clone();
+fn query_mirrors_body(doc: &mut serde_json::Value) {
     let schemas = doc["components"]["schemas"].clone();
-    let parameters = doc["paths"][path]["post"]["parameters"]
-        .as_array_mut()
-        .expect("the operation has query parameters");
+    let Some(paths) = doc["paths"].as_object_mut() else {
+        return;
+    };
+    // (Read with `pointer` and `get_mut`: indexing a Value mutably would add the keys.)
+    for post in paths.values_mut().filter_map(|item| item.get_mut("post")) {
+        let body_schema = post
+            .pointer("/requestBody/content/application~1json/schema/$ref")
+            .and_then(serde_json::Value::as_str)
+            .and_then(|r| r.rsplit('/').next())
+            .map(str::to_string);
+        let parameters = post
+            .get_mut("parameters")
+            .and_then(serde_json::Value::as_array_mut);
+        if let (Some(parameters), Some(body_schema)) = (parameters, body_schema) {
+            mirror(parameters, &schemas[&body_schema]["properties"], &schemas);
+        }
+    }
+}
+
+fn mirror(
+    parameters: &mut [serde_json::Value],
+    properties: &serde_json::Value,
+    schemas: &serde_json::Value,
+) {
     for parameter in parameters {
         let name = parameter["name"].as_str().expect("parameters are named");
         let field = &properties[name];

@@ -22,9 +22,8 @@ use crate::usecases::measurement_fit::{
     measurement_fit, FitSelection, MeasurementFitCommand, MeasurementFitSpec,
 };
 use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec};
-use utoipa::openapi::path::OperationBuilder;
-use utoipa::openapi::request_body::RequestBodyBuilder;
-use utoipa::openapi::{Content, ObjectBuilder, Ref, Type};
+use utoipa::openapi::path::Operation;
+use utoipa::openapi::{Content, ObjectBuilder, Type};
 use utoipa::IntoParams;
 
 /// A meridian trace in machine coordinates, mm: X across the spindle axis (both sides
@@ -263,20 +262,14 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
     const CSV: Option<fn(&Self::Response) -> String> = Some(render::to_csv);
     const SVG: Option<fn(&Self::Response) -> String> = Some(render::to_svg);
 
-    /// JSON, or the probe's `text/csv` export with the other fields in the query.
-    fn request_body() -> RequestBodyBuilder {
+    /// The body may also be the probe's `text/csv` export, with the other fields in the query.
+    fn document(operation: &mut Operation) {
         let mut csv = Content::new(Some(ObjectBuilder::new().schema_type(Type::String)));
         csv.example = Some("x_mm,z_mm\n-10.0,0.1667\n0.0,0.0\n10.0,0.1667\n".into());
-        RequestBodyBuilder::new()
-            .content(
-                "application/json",
-                Content::new(Some(Ref::from_schema_name(Self::Request::name()))),
-            )
-            .content("text/csv", csv)
-    }
-
-    fn document(operation: OperationBuilder) -> OperationBuilder {
-        operation.parameters(Some(CsvQuery::into_params(|| None)))
+        if let Some(body) = operation.request_body.as_mut() {
+            body.content.insert("text/csv".to_string(), csv);
+        }
+        operation.parameters = Some(CsvQuery::into_params(|| None));
     }
 
     fn parse(req: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
