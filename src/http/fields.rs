@@ -18,13 +18,13 @@ use crate::usecases::{Input, InputError, LimitError, PartError, SettingError};
 
 /// Engine errors become 422s naming the field under the request object that carried it.
 impl ApiError {
-    pub fn from_process(err: ProcessError) -> Self {
+    fn from_process(err: ProcessError) -> Self {
         ApiError::invalid(format!("process.{}", err.field()), err.to_string())
     }
 
     /// `prefix` is the request object holding the grid or aperture (`radial_grid`,
     /// `clear_aperture`).
-    pub fn from_grid(prefix: &str, err: GridError) -> Self {
+    fn from_grid(prefix: &str, err: GridError) -> Self {
         let field = match err.field() {
             Some(member) => format!("{prefix}.{member}"),
             None => "clear_aperture".to_string(),
@@ -33,7 +33,7 @@ impl ApiError {
     }
 
     /// `prefix` is the request object holding the arrays (`dwell`), or empty for top-level.
-    pub fn from_schedule(prefix: &str, err: ScheduleError) -> Self {
+    fn from_schedule(prefix: &str, err: ScheduleError) -> Self {
         let mut field = if prefix.is_empty() {
             err.field().to_string()
         } else {
@@ -63,7 +63,7 @@ fn input_path(input: Input) -> &'static str {
 
 impl ApiError {
     /// A size limit exceeded by the input at `field`.
-    pub fn from_limit(field: &str, err: LimitError) -> Self {
+    fn from_limit(field: &str, err: LimitError) -> Self {
         let detail = match err {
             LimitError::RadialSamples { count, max } => {
                 format!("{field} is {count}; this server allows at most {max}")
@@ -242,12 +242,12 @@ impl From<StudyError> for ApiError {
 }
 
 /// A surface that was refused, at its field.
-pub fn surface_error(e: SurfaceError) -> ApiError {
+fn surface_error(e: SurfaceError) -> ApiError {
     let field = surface_field(e.input());
     ApiError::invalid(field.clone(), format!("{field}: {e}"))
 }
 
-pub fn surface_field(input: Option<SurfaceInput>) -> String {
+fn surface_field(input: Option<SurfaceInput>) -> String {
     match input {
         Some(SurfaceInput::RadiusOfCurvature) => "surface.radius_of_curvature_mm".into(),
         Some(SurfaceInput::ConicConstant) => "surface.conic_constant".into(),
@@ -293,10 +293,7 @@ impl From<MeasurementInputError> for ApiError {
     fn from(err: MeasurementInputError) -> Self {
         use MeasurementInputError as E;
         match err {
-            E::Surface(e) => {
-                let field = surface_field(e.input());
-                ApiError::invalid(field.clone(), format!("{field}: {e}"))
-            }
+            E::Surface(e) => surface_error(e),
             E::Probe(e) => ApiError::invalid("probe_tip_radius_mm", e.to_string()),
             E::TraceSize(e) => ApiError::from_limit("profile.x_mm", e),
             E::GridSize(e) => ApiError::from_limit("radial_grid.count", e),
