@@ -12,7 +12,7 @@ use http_body_util::BodyExt;
 use preston::config::Limits;
 use preston::http::{router, AppState};
 use preston::physics::{Part, PressureModel, ProcessSpec};
-use preston::usecases::predict::{predict, PredictCommand};
+use preston::usecases::predict::{predict, DwellSpec, PredictCommand, TravelSpec};
 use preston::usecases::{
     ApertureSpec, ComputeLimits, GridSpec, OperatorCache, PartSpec, Recommender, Setting,
 };
@@ -117,7 +117,14 @@ fn paper_1001() -> PredictCommand {
     )
     .unwrap();
     let positions: Vec<f64> = (0..1001).map(|j| 0.05 * j as f64).collect();
-    PredictCommand::new(setting, positions, vec![10.0; 1001], &limits).unwrap()
+    let travel = TravelSpec {
+        dwell: Some(DwellSpec {
+            positions_mm: positions,
+            dwell_s: vec![10.0; 1001],
+        }),
+        feed: None,
+    };
+    PredictCommand::new(setting, travel, &limits).unwrap()
 }
 
 #[divan::bench(args = [true, false], sample_count = 50)]

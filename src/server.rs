@@ -9,9 +9,9 @@ use std::sync::Arc;
 use tokio::net::TcpListener;
 
 use crate::config::ServeArgs;
-use crate::http::ratelimit::RateLimit;
 use crate::http::{cors_layer, router, AppState};
 use crate::keys::Auth;
+use crate::ratelimit::RateLimit;
 
 /// Runs the service with `args` until a shutdown signal.
 pub async fn run(args: ServeArgs) -> std::io::Result<()> {

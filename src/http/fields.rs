@@ -58,6 +58,20 @@ fn input_path(input: Input) -> &'static str {
         Input::NonuniformityThreshold => "nonuniformity_threshold",
         Input::UniformDepth => "target.uniform_depth_nm",
         Input::SolverTimeLimit => "solver.time_limit_s",
+        Input::TargetProfile => "target.profile",
+        Input::FreePiston => "target.free_piston",
+    }
+}
+
+/// Two alternatives as a request names them, and the field a problem with them points at:
+/// siblings by their paths under their parent; otherwise by their top members, at the first.
+fn alternatives(a: &'static str, b: &'static str) -> (&'static str, &'static str, &'static str) {
+    match (a.rsplit_once('.'), b.rsplit_once('.')) {
+        (Some((parent, _)), Some((other, _))) if parent == other => (parent, a, b),
+        _ => {
+            let top = |p: &'static str| p.split('.').next().unwrap_or(p);
+            (top(a), top(a), top(b))
+        }
     }
 }
 
@@ -164,6 +178,18 @@ impl From<InputError> for ApiError {
             }
             InputError::Optimize(e) => e.into(),
             InputError::Study(e) => e.into(),
+            InputError::OneOf(a, b) => {
+                let (field, a, b) = alternatives(input_path(a), input_path(b));
+                ApiError::invalid(field, format!("give exactly one of {a} and {b}"))
+            }
+            InputError::Inapplicable { input, without } => {
+                let field = input_path(input);
+                ApiError::invalid(
+                    field,
+                    format!("{field} applies only with {}", input_path(without)),
+                )
+            }
+            InputError::MachineFit(e) => e.into(),
         }
     }
 }

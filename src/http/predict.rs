@@ -14,7 +14,7 @@ use crate::report::chart::{self, Chart, Series};
 
 use super::state::Services;
 use crate::report::table;
-use crate::usecases::predict::{predict, PredictCommand};
+use crate::usecases::predict::{predict, DwellSpec, FeedSpec, PredictCommand, TravelSpec};
 use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -103,21 +103,18 @@ over the clear aperture. `Accept: text/csv` returns radius and removal columns."
 
     fn parse(req: PredictRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let setting = setting_of!(req).parse(limits)?;
-        Ok(match (req.dwell, req.feed) {
-            (Some(dwell), None) => {
-                PredictCommand::new(setting, dwell.positions_mm, dwell.dwell_s, limits)?
-            }
-            (None, Some(feed)) => PredictCommand::with_feed(
-                setting,
-                feed.start_mm,
-                feed.stop_mm,
-                feed.feed_mm_per_min,
-            )?,
-            _ => return Err(ApiError::invalid(
-                "dwell",
-                "give exactly one of dwell (positions and dwell times) and feed (a constant feed)",
-            )),
-        })
+        let travel = TravelSpec {
+            dwell: req.dwell.map(|d| DwellSpec {
+                positions_mm: d.positions_mm,
+                dwell_s: d.dwell_s,
+            }),
+            feed: req.feed.map(|f| FeedSpec {
+                start_mm: f.start_mm,
+                stop_mm: f.stop_mm,
+                feed_mm_per_min: f.feed_mm_per_min,
+            }),
+        };
+        Ok(PredictCommand::new(setting, travel, limits)?)
     }
 
     fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError> {

@@ -45,4 +45,6 @@ pub use crate::physics::motion::{cell_boundaries_mm, move_share as cell_share};
 pub use gcode::{FeedMode, GcodeFormat, GcodeFormatError, SpindleWords};
 pub use limits::{AxisLimits, Drive, Limit, LimitsError, MachineLimits, Violation};
 pub use pose::{Orientation, Pose, Tool, ToolError};
-pub use program::{cell_travel, Approach, AxisMotion, Block, BlockKind, Program, ProgramError};
+pub use program::{
+    cell_travel, Approach, AxisMotion, Block, BlockKind, Program, ProgramError, Utilisation,
+};

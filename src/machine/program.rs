@@ -5,7 +5,7 @@
 //! figure is computed for: a stop of half the dwell at each end, and a constant-speed move
 //! across each position's cell.
 
-use super::limits::{Drive, Limit};
+use super::limits::{AxisLimits, Drive, Limit};
 use super::pose::{Pose, Tool};
 use crate::physics::motion::{cell_boundaries_mm, move_share};
 use crate::surface::Surface;
@@ -96,6 +96,31 @@ impl AxisMotion {
     pub fn travel(&self) -> f64 {
         self.max - self.min
     }
+
+    /// The fraction of each of `limits` this motion uses (1 = at the limit).
+    pub fn utilisation(&self, limits: &AxisLimits) -> Utilisation {
+        let over = |used: f64, limit: Option<f64>| limit.map(|l| used / l);
+        let range = limits.min.zip(limits.max).map(|(lo, hi)| hi - lo);
+        Utilisation {
+            travel: over(self.travel(), range),
+            velocity: over(self.peak_velocity_per_min, limits.max_velocity_per_min),
+            acceleration: over(
+                self.peak_acceleration_per_s2,
+                limits.max_acceleration_per_s2,
+            ),
+        }
+    }
+}
+
+/// Fractions of an axis's limits a program uses; `None` where the limit is not stated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Utilisation {
+    /// Travel over the range from the minimum to the maximum (both stated).
+    pub travel: Option<f64>,
+    /// Peak |velocity| over its limit.
+    pub velocity: Option<f64>,
+    /// Peak |acceleration| over its limit.
+    pub acceleration: Option<f64>,
 }
 
 /// How the program gets onto the part and off it: along the tool axis by `clearance_mm` at

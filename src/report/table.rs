@@ -1,4 +1,5 @@
-//! CSV tables: one header line with units, then one row per sample.
+//! CSV tables: one header line with units, then one row per sample; and the reverse, two
+//! named columns of numbers read from an instrument's export.
 
 /// `header` names each column (with its unit); `columns` are equally long.
 pub fn csv(header: &[String], columns: &[&[f64]]) -> String {
@@ -14,6 +15,80 @@ pub fn csv(header: &[String], columns: &[&[f64]]) -> String {
     out
 }
 
+/// Why a CSV export could not be read as two columns of numbers.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReadError {
+    #[error("CSV: {0}")]
+    Csv(String),
+    #[error(
+        "a CSV trace starts with a header naming the columns {0} and {1} (or with a row of \
+         numbers: {0} then {1})"
+    )]
+    NoHeader(&'static str, &'static str),
+    /// The `index`-th value of `column` (0-based, counting values) on `row` (1-based, counting
+    /// lines read) is not a finite number.
+    #[error("CSV row {row}: `{text}` is not a finite number")]
+    NotANumber {
+        row: usize,
+        column: &'static str,
+        index: usize,
+        text: String,
+    },
+}
+
+/// Two columns of finite numbers from CSV text: optional `#` comment lines, an optional header
+/// naming `names` (matched without regard to case or quotes; other columns ignored), then one
+/// point per row; without a header the first two columns are read. Blank rows are skipped.
+pub fn read_columns(bytes: &[u8], names: [&'static str; 2]) -> Result<[Vec<f64>; 2], ReadError> {
+    let mut reader = ::csv::ReaderBuilder::new()
+        .has_headers(false)
+        .comment(Some(b'#'))
+        .trim(::csv::Trim::All)
+        .flexible(true)
+        .from_reader(bytes);
+    let mut out = [Vec::new(), Vec::new()];
+    let mut columns: Option<[usize; 2]> = None;
+    for (line, record) in reader.records().enumerate() {
+        let record = record.map_err(|e| ReadError::Csv(e.to_string()))?;
+        if record.iter().all(str::is_empty) {
+            continue;
+        }
+        let at = match columns {
+            Some(at) => at,
+            None => {
+                let find = |name: &str| {
+                    let name_of = |h: &str| h.trim_matches('"').eq_ignore_ascii_case(name);
+                    record.iter().position(name_of)
+                };
+                if let (Some(a), Some(b)) = (find(names[0]), find(names[1])) {
+                    columns = Some([a, b]);
+                    continue;
+                }
+                if record.get(0).is_none_or(|v| v.parse::<f64>().is_err()) {
+                    return Err(ReadError::NoHeader(names[0], names[1]));
+                }
+                *columns.insert([0, 1])
+            }
+        };
+        let index = out[0].len();
+        for k in 0..2 {
+            let text = record.get(at[k]).unwrap_or("");
+            let value = text
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| ReadError::NotANumber {
+                    row: line + 1,
+                    column: names[k],
+                    index,
+                    text: text.to_string(),
+                })?;
+            out[k].push(value);
+        }
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -23,5 +98,33 @@ mod tests {
             &[&[0.0, 0.5], &[1.25, 3.0]],
         );
         assert_eq!(csv, "radius_mm,removal_nm\n0,1.25\n0.5,3\n");
+    }
+
+    #[test]
+    fn reads_named_columns_in_any_order_or_the_first_two() {
+        let names = ["x_mm", "z_mm"];
+        let text = "# probe export\nZ_MM,t,\"x_mm\"\n1.5,0,-2\n\n2.5,1,3e1\n";
+        let [x, z] = super::read_columns(text.as_bytes(), names).unwrap();
+        assert_eq!((x, z), (vec![-2.0, 30.0], vec![1.5, 2.5]));
+        let [x, z] = super::read_columns(b"1,2\n3,4\n", names).unwrap();
+        assert_eq!((x, z), (vec![1.0, 3.0], vec![2.0, 4.0]));
+    }
+
+    #[test]
+    fn names_the_value_that_is_not_a_number() {
+        let names = ["x_mm", "z_mm"];
+        assert_eq!(
+            super::read_columns(b"x_mm,z_mm\n1,2\n3,inf\n", names),
+            Err(super::ReadError::NotANumber {
+                row: 3,
+                column: "z_mm",
+                index: 1,
+                text: "inf".into()
+            })
+        );
+        assert_eq!(
+            super::read_columns(b"a,b\n1,2\n", names),
+            Err(super::ReadError::NoHeader("x_mm", "z_mm"))
+        );
     }
 }

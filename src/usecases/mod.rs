@@ -60,6 +60,10 @@ pub enum Input {
     UniformDepth,
     /// The solver's time budget.
     SolverTimeLimit,
+    /// A measured profile as the target.
+    TargetProfile,
+    /// The free uniform layer of a profile target.
+    FreePiston,
 }
 
 /// Why a command could not be built.
@@ -82,6 +86,15 @@ pub enum InputError {
     /// η values or machine speed limits.
     #[error(transparent)]
     Study(#[from] StudyError),
+    /// Both or neither of two alternatives were given.
+    #[error("give exactly one of {0:?} and {1:?}")]
+    OneOf(Input, Input),
+    /// An input that only means something together with another one.
+    #[error("{input:?} applies only with {without:?}")]
+    Inapplicable { input: Input, without: Input },
+    /// The optimization's machine does not fit its positions.
+    #[error(transparent)]
+    MachineFit(#[from] optimize::MachineFitError),
 }
 
 impl InputError {

@@ -39,17 +39,63 @@ pub enum Target {
     },
 }
 
+/// The target as given: exactly one of a uniform depth and a measured profile.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TargetSpec {
+    pub uniform_depth_nm: Option<f64>,
+    pub profile: Option<ProfileSpec>,
+    /// With a profile: also remove the least uniform layer that fits best (default false).
+    pub free_piston: Option<bool>,
+}
+
+/// A measured radial profile of the depth to remove.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProfileSpec {
+    pub radius_mm: Vec<f64>,
+    pub depth_nm: Vec<f64>,
+}
+
 impl Target {
-    pub fn uniform(depth_nm: f64) -> Result<Self, InputError> {
-        if (0.0..=MAX_DEPTH_NM).contains(&depth_nm) {
-            Ok(Target::Uniform { depth_nm })
-        } else {
-            Err(InputError::OutOfRange {
-                input: Input::UniformDepth,
-                max: MAX_DEPTH_NM,
-            })
+    /// Exactly one target; a uniform depth in [0, 1e9] nm and no free piston with it.
+    pub fn parse(spec: TargetSpec) -> Result<Self, InputError> {
+        match (spec.uniform_depth_nm, spec.profile) {
+            (Some(depth_nm), None) => {
+                if !(0.0..=MAX_DEPTH_NM).contains(&depth_nm) {
+                    return Err(InputError::OutOfRange {
+                        input: Input::UniformDepth,
+                        max: MAX_DEPTH_NM,
+                    });
+                }
+                if spec.free_piston == Some(true) {
+                    return Err(InputError::Inapplicable {
+                        input: Input::FreePiston,
+                        without: Input::TargetProfile,
+                    });
+                }
+                Ok(Target::Uniform { depth_nm })
+            }
+            (None, Some(profile)) => Ok(Target::Profile {
+                profile: MeasuredProfile::new(profile.radius_mm, profile.depth_nm)
+                    .map_err(OptimizeError::from)?,
+                free_piston: spec.free_piston.unwrap_or(false),
+            }),
+            _ => Err(InputError::OneOf(Input::UniformDepth, Input::TargetProfile)),
         }
     }
+}
+
+/// An optimization as asked, besides its setting.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct OptimizeSpec {
+    /// Candidate tool positions, mm.
+    pub positions_mm: Vec<f64>,
+    pub target: TargetSpec,
+    pub constraints: Constraints,
+    pub objective: Objective,
+    /// The solver's budget, s; default and most: the limits' solver time.
+    pub time_limit_s: Option<f64>,
+    /// The machine's limits, when the plan must run on a machine.
+    pub machine: Option<MachineLimits>,
 }
 
 /// The machine a plan must run on: the surface and tool that give the axes' poses, and the
@@ -91,6 +137,8 @@ pub struct OptimizeCommand {
     constraints: Constraints,
     objective: Objective,
     time_limit_s: f64,
+    /// The most `time_limit_s` may be here (the limits' solver time), for hints.
+    max_time_limit_s: f64,
 }
 
 impl OptimizeCommand {
@@ -100,16 +148,28 @@ impl OptimizeCommand {
         unit_warning(self.setting.process(), &self.positions_mm)
     }
 
-    /// `time_limit_s` defaults to, and may not exceed, the limits' solver time.
+    /// The most a request's solver time limit may be, s.
+    pub fn max_time_limit_s(&self) -> f64 {
+        self.max_time_limit_s
+    }
+
+    /// The command, every input checked: positions, target, constraints, weights, the time
+    /// budget and, when the spec names a machine or the setting describes the part or the
+    /// tool, the machine ([`Self::on_machine`]).
     pub fn new(
         setting: Setting,
-        positions_mm: Vec<f64>,
-        target: Target,
-        constraints: Constraints,
-        objective: Objective,
-        time_limit_s: Option<f64>,
+        spec: OptimizeSpec,
         limits: &ComputeLimits,
     ) -> Result<Self, InputError> {
+        let OptimizeSpec {
+            positions_mm,
+            target,
+            constraints,
+            objective,
+            time_limit_s,
+            machine,
+        } = spec;
+        let target = Target::parse(target)?;
         let input = Input::Positions;
         limits
             .check_optimize_positions(positions_mm.len())
@@ -145,7 +205,7 @@ impl OptimizeCommand {
                 free_piston,
             ),
         };
-        Ok(OptimizeCommand {
+        let command = OptimizeCommand {
             machine: Machine {
                 surface: setting.process().part().surface.clone(),
                 tool: Tool::default(),
@@ -159,13 +219,15 @@ impl OptimizeCommand {
             constraints,
             objective,
             time_limit_s,
-        })
+            max_time_limit_s: max_s,
+        };
+        Ok(command.on_machine(machine)?)
     }
 
     /// The machine the plan must run on, when the request names one (`limits`) or describes
     /// the part or the tool: the positions are then checked against the poses, and the limits
     /// given (none: an unlimited machine) bind the plan. Otherwise the plan is the motion alone.
-    pub fn on_machine(self, limits: Option<MachineLimits>) -> Result<Self, MachineFitError> {
+    fn on_machine(self, limits: Option<MachineLimits>) -> Result<Self, MachineFitError> {
         let mount = self.setting.mount();
         if limits.is_none() && !mount.described {
             return Ok(self);
@@ -373,6 +435,7 @@ pub fn optimize(
         constraints,
         objective,
         time_limit_s,
+        max_time_limit_s: _,
     } = command;
     let operator = operators.operator(setting.process(), setting.grid().radii_mm(), &positions_mm);
     let axes = axis_paths(&machine, &positions_mm);

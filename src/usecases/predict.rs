@@ -20,38 +20,56 @@ pub struct PredictCommand {
     travel: Travel,
 }
 
+/// What the tool does, as asked: exactly one of a dwell plan and a constant feed.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TravelSpec {
+    pub dwell: Option<DwellSpec>,
+    pub feed: Option<FeedSpec>,
+}
+
+/// Tool positions, mm, and the dwell in each one's cell, s.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DwellSpec {
+    pub positions_mm: Vec<f64>,
+    pub dwell_s: Vec<f64>,
+}
+
+/// One constant feed along the surface from `start_mm` to `stop_mm` (radii within reach).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FeedSpec {
+    pub start_mm: f64,
+    pub stop_mm: f64,
+    pub feed_mm_per_min: f64,
+}
+
 impl PredictCommand {
     pub fn new(
         setting: Setting,
-        positions_mm: Vec<f64>,
-        dwell_s: Vec<f64>,
+        travel: TravelSpec,
         limits: &ComputeLimits,
     ) -> Result<Self, InputError> {
-        limits
-            .check_operator(setting.samples(), positions_mm.len())
-            .map_err(InputError::limit(Input::Dwell))?;
-        let schedule = DwellSchedule::new(setting.process(), positions_mm, dwell_s)
-            .map_err(InputError::schedule(Input::Dwell))?;
-        Ok(PredictCommand {
-            setting,
-            travel: Travel::Dwell(schedule),
-        })
-    }
-
-    /// A constant feed from `start_mm` to `stop_mm` (radii within reach) at `feed_mm_per_min`
-    /// along the surface.
-    pub fn with_feed(
-        setting: Setting,
-        start_mm: f64,
-        stop_mm: f64,
-        feed_mm_per_min: f64,
-    ) -> Result<Self, InputError> {
-        let feed = ConstantFeed::new(setting.process(), start_mm, stop_mm, feed_mm_per_min)
-            .map_err(InputError::schedule(Input::Feed))?;
-        Ok(PredictCommand {
-            setting,
-            travel: Travel::Feed(feed),
-        })
+        let travel = match (travel.dwell, travel.feed) {
+            (Some(dwell), None) => {
+                limits
+                    .check_operator(setting.samples(), dwell.positions_mm.len())
+                    .map_err(InputError::limit(Input::Dwell))?;
+                let schedule =
+                    DwellSchedule::new(setting.process(), dwell.positions_mm, dwell.dwell_s)
+                        .map_err(InputError::schedule(Input::Dwell))?;
+                Travel::Dwell(schedule)
+            }
+            (None, Some(feed)) => Travel::Feed(
+                ConstantFeed::new(
+                    setting.process(),
+                    feed.start_mm,
+                    feed.stop_mm,
+                    feed.feed_mm_per_min,
+                )
+                .map_err(InputError::schedule(Input::Feed))?,
+            ),
+            _ => return Err(InputError::OneOf(Input::Dwell, Input::Feed)),
+        };
+        Ok(PredictCommand { setting, travel })
     }
 }
 

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::super::extract::optional_object;
-use crate::machine::{AxisLimits, AxisMotion, Drive, MachineLimits, Orientation, Program};
+use crate::machine::{AxisLimits, Drive, MachineLimits, Orientation, Program, Utilisation};
 
 /// How the tool is carried: `normal` (B follows the surface normal) or `vertical` (no tilt).
 #[derive(Debug, Clone, Copy, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
@@ -192,39 +192,13 @@ impl From<&MachineDto> for MachineLimits {
     }
 }
 
-fn utilisation(used: f64, limit: Option<f64>) -> Option<f64> {
-    limit.map(|l| used / l)
-}
-
-/// An axis's figures over a program, in its own unit.
-struct AxisFigures {
-    min: f64,
-    max: f64,
-    travel: f64,
-    peak_velocity_per_min: f64,
-    peak_acceleration_per_s2: f64,
-    utilisation: UtilisationDto,
-}
-
-fn axis_figures(motion: &AxisMotion, limits: &AxisLimits) -> AxisFigures {
-    let range = match (limits.min, limits.max) {
-        (Some(lo), Some(hi)) => Some(hi - lo),
-        _ => None,
-    };
-    AxisFigures {
-        min: motion.min,
-        max: motion.max,
-        travel: motion.travel(),
-        peak_velocity_per_min: motion.peak_velocity_per_min,
-        peak_acceleration_per_s2: motion.peak_acceleration_per_s2,
-        utilisation: UtilisationDto {
-            travel: utilisation(motion.travel(), range),
-            velocity: utilisation(motion.peak_velocity_per_min, limits.max_velocity_per_min),
-            acceleration: utilisation(
-                motion.peak_acceleration_per_s2,
-                limits.max_acceleration_per_s2,
-            ),
-        },
+impl From<Utilisation> for UtilisationDto {
+    fn from(u: Utilisation) -> Self {
+        UtilisationDto {
+            travel: u.travel,
+            velocity: u.velocity,
+            acceleration: u.acceleration,
+        }
     }
 }
 
@@ -232,27 +206,27 @@ impl AxesDto {
     /// Each axis's travel, peaks and use of `machine`'s limits over `program`.
     pub fn of(program: &Program, machine: &MachineLimits) -> Self {
         let linear = |drive| {
-            let f = axis_figures(program.motion(drive), machine.axis(drive));
+            let m = program.motion(drive);
             LinearAxisReport {
-                min_mm: f.min,
-                max_mm: f.max,
-                travel_mm: f.travel,
-                peak_velocity_mm_per_min: f.peak_velocity_per_min,
-                peak_acceleration_mm_per_s2: f.peak_acceleration_per_s2,
-                utilisation: f.utilisation,
+                min_mm: m.min,
+                max_mm: m.max,
+                travel_mm: m.travel(),
+                peak_velocity_mm_per_min: m.peak_velocity_per_min,
+                peak_acceleration_mm_per_s2: m.peak_acceleration_per_s2,
+                utilisation: m.utilisation(machine.axis(drive)).into(),
             }
         };
-        let b = axis_figures(program.motion(Drive::B), &machine.b);
+        let b = program.motion(Drive::B);
         AxesDto {
             x: linear(Drive::X),
             z: linear(Drive::Z),
             b: RotaryAxisReport {
                 min_deg: b.min,
                 max_deg: b.max,
-                travel_deg: b.travel,
+                travel_deg: b.travel(),
                 peak_velocity_deg_per_min: b.peak_velocity_per_min,
                 peak_acceleration_deg_per_s2: b.peak_acceleration_per_s2,
-                utilisation: b.utilisation,
+                utilisation: b.utilisation(&machine.b).into(),
             },
         }
     }

@@ -10,6 +10,7 @@ use super::super::endpoint::Body;
 use super::super::error::{ApiError, Kind};
 use super::super::extract;
 use super::MeasurementFitRequest;
+use crate::report::table::{read_columns, ReadError};
 
 /// Query parameters for a `text/csv` body: each is the JSON field of the same name (a JSON
 /// value; enum names may be written bare), e.g.
@@ -113,60 +114,14 @@ fn is_csv(headers: &HeaderMap) -> bool {
         .is_some_and(|essence| essence.trim().eq_ignore_ascii_case(CSV))
 }
 
-/// A probe export: optional `#` comment lines, an optional header naming `x_mm` and `z_mm`
-/// (other columns ignored), then one point per row; without a header the first two columns
-/// are x and z.
+/// A probe export (`report::table::read_columns`): the values land in `profile`.
 fn parse_trace_csv(bytes: &[u8]) -> Result<(Vec<f64>, Vec<f64>), ApiError> {
-    let mut reader = ::csv::ReaderBuilder::new()
-        .has_headers(false)
-        .comment(Some(b'#'))
-        .trim(::csv::Trim::All)
-        .flexible(true)
-        .from_reader(bytes);
-    let (mut x_mm, mut z_mm) = (Vec::new(), Vec::new());
-    let mut columns: Option<(usize, usize)> = None;
-    for (line, record) in reader.records().enumerate() {
-        let record = record.map_err(|e| ApiError::invalid("profile", format!("CSV: {e}")))?;
-        if record.iter().all(str::is_empty) {
-            continue;
-        }
-        let (xi, zi) = match columns {
-            Some(c) => c,
-            None => {
-                let find = |name: &str| {
-                    let name_of = |h: &str| h.trim_matches('"').eq_ignore_ascii_case(name);
-                    record.iter().position(name_of)
-                };
-                if let (Some(x), Some(z)) = (find("x_mm"), find("z_mm")) {
-                    columns = Some((x, z));
-                    continue;
-                }
-                if record.get(0).is_none_or(|v| v.parse::<f64>().is_err()) {
-                    return Err(ApiError::invalid(
-                        "profile",
-                        "a CSV trace starts with a header naming the columns x_mm and z_mm \
-                         (or with a row of numbers: x then z)",
-                    ));
-                }
-                columns = Some((0, 1));
-                (0, 1)
-            }
+    let [x_mm, z_mm] = read_columns(bytes, ["x_mm", "z_mm"]).map_err(|e| {
+        let field = match &e {
+            ReadError::NotANumber { column, index, .. } => format!("profile.{column}[{index}]"),
+            ReadError::Csv(_) | ReadError::NoHeader(..) => "profile".to_string(),
         };
-        let index = x_mm.len();
-        for (column, axis, values) in [(xi, "x_mm", &mut x_mm), (zi, "z_mm", &mut z_mm)] {
-            let text = record.get(column).unwrap_or("");
-            let value: f64 = text
-                .parse()
-                .ok()
-                .filter(|v: &f64| v.is_finite())
-                .ok_or_else(|| {
-                    ApiError::invalid(
-                        format!("profile.{axis}[{index}]"),
-                        format!("CSV row {}: `{text}` is not a finite number", line + 1),
-                    )
-                })?;
-            values.push(value);
-        }
-    }
+        ApiError::invalid(field, e.to_string())
+    })?;
     Ok((x_mm, z_mm))
 }

@@ -21,7 +21,7 @@ use super::state::Services;
 use crate::machine::MachineLimits;
 use crate::machine::Program;
 use crate::optimize::{OptimizeError, SolveStatus};
-use crate::usecases::optimize::{optimize, OptimizeCommand, OptimizedPlan};
+use crate::usecases::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan};
 use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -220,31 +220,26 @@ text/csv` returns the plan (position and dwell columns).",
     };
     type Request = OptimizeRequest;
     type Body = ApiJson<OptimizeRequest>;
-    type Command = (OptimizeCommand, f64);
+    type Command = OptimizeCommand;
     type Response = OptimizeResponse;
     const CSV: Option<fn(&Self::Response) -> String> = Some(render::to_csv);
     const SVG: Option<fn(&Self::Response) -> String> = Some(render::to_svg);
 
-    /// The command, with the server's solver time limit (for the time-limit problem's hint).
     fn parse(req: OptimizeRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let setting = setting_of!(req).parse(limits)?;
-        let command = OptimizeCommand::new(
-            setting,
-            req.positions_mm,
-            req.target.into_target()?,
-            ConstraintsDto::to_constraints(req.constraints.as_ref()),
-            ObjectiveDto::to_objective(req.objective.as_ref()),
-            req.solver.and_then(|s| s.time_limit_s),
-            limits,
-        )?;
-        let command = command.on_machine(req.machine.as_ref().map(MachineLimits::from))?;
-        Ok((command, limits.solver_time_limit.as_secs_f64()))
+        let spec = OptimizeSpec {
+            positions_mm: req.positions_mm,
+            target: req.target.into(),
+            constraints: ConstraintsDto::to_constraints(req.constraints.as_ref()),
+            objective: ObjectiveDto::to_objective(req.objective.as_ref()),
+            time_limit_s: req.solver.and_then(|s| s.time_limit_s),
+            machine: req.machine.as_ref().map(MachineLimits::from),
+        };
+        Ok(OptimizeCommand::new(setting, spec, limits)?)
     }
 
-    fn run(
-        (command, max_time_limit_s): Self::Command,
-        services: &Services,
-    ) -> Result<Self::Response, ApiError> {
+    fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError> {
+        let max_time_limit_s = command.max_time_limit_s();
         let suspect = command
             .input_warning()
             .map(|w| WarningDto::new(&w, "positions_mm"));

@@ -4,11 +4,9 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::super::error::ApiError;
 use super::super::extract::optional_object;
-use crate::optimize::problem::{DEFAULT_SMOOTHING, DEFAULT_TIME_WEIGHT};
-use crate::optimize::{Constraints, MeasuredProfile, Objective};
-use crate::usecases::optimize::Target;
+use crate::optimize::{Constraints, Objective};
+use crate::usecases::optimize::{ProfileSpec, TargetSpec};
 
 /// The target: exactly one of `uniform_depth_nm` and `profile`.
 #[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
@@ -105,36 +103,23 @@ impl ConstraintsDto {
 impl ObjectiveDto {
     pub(super) fn to_objective(dto: Option<&ObjectiveDto>) -> Objective {
         let dto = dto.cloned().unwrap_or_default();
+        let default = Objective::default();
         Objective {
-            smoothing: dto.smoothing.unwrap_or(DEFAULT_SMOOTHING),
-            time_weight: dto.time_weight.unwrap_or(DEFAULT_TIME_WEIGHT),
+            smoothing: dto.smoothing.unwrap_or(default.smoothing),
+            time_weight: dto.time_weight.unwrap_or(default.time_weight),
         }
     }
 }
 
-impl TargetDto {
-    /// Exactly one of the two targets; the wire allows both fields, so the shape is checked
-    /// here.
-    pub(super) fn into_target(self) -> Result<Target, ApiError> {
-        match (self.uniform_depth_nm, self.profile) {
-            (Some(depth), None) => {
-                let target = Target::uniform(depth)?;
-                if self.free_piston == Some(true) {
-                    return Err(ApiError::invalid(
-                        "target.free_piston",
-                        "free_piston applies to a profile target; a uniform depth has no free layer",
-                    ));
-                }
-                Ok(target)
-            }
-            (None, Some(profile)) => Ok(Target::Profile {
-                profile: MeasuredProfile::new(profile.radius_mm, profile.depth_nm)?,
-                free_piston: self.free_piston.unwrap_or(false),
+impl From<TargetDto> for TargetSpec {
+    fn from(t: TargetDto) -> Self {
+        TargetSpec {
+            uniform_depth_nm: t.uniform_depth_nm,
+            profile: t.profile.map(|p| ProfileSpec {
+                radius_mm: p.radius_mm,
+                depth_nm: p.depth_nm,
             }),
-            _ => Err(ApiError::invalid(
-                "target",
-                "give exactly one of target.uniform_depth_nm and target.profile",
-            )),
+            free_piston: t.free_piston,
         }
     }
 }
