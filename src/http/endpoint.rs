@@ -63,19 +63,25 @@ pub trait Endpoint: 'static {
     type Request: DeserializeOwned + ToSchema + Send + 'static;
     type Body: Body<Self::Request>;
     type Command: Send + 'static;
+    /// The use case's result, which every format renders.
+    type Output: Send + 'static;
+    /// The JSON body.
     type Response: Serialize + ToSchema + Send + 'static;
-    /// `Accept: text/csv`, when offered.
-    const CSV: Option<fn(&Self::Response) -> String> = None;
+    /// `Accept: text/csv`, when offered (`report::results`).
+    const CSV: Option<fn(&Self::Output) -> String> = None;
     /// `Accept: image/svg+xml`, when offered.
-    const SVG: Option<fn(&Self::Response) -> String> = None;
+    const SVG: Option<fn(&Self::Output) -> String> = None;
     /// `Accept: text/x-gcode`, when offered.
-    const GCODE: Option<fn(&Self::Response) -> String> = None;
+    const GCODE: Option<fn(&Self::Output) -> String> = None;
 
     /// The request as the use case's command: every check, no computation.
     fn parse(request: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError>;
 
-    /// Runs the use case (on the blocking pool) and converts its result.
-    fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError>;
+    /// Runs the use case (on the blocking pool).
+    fn run(command: Self::Command, services: &Services) -> Result<Self::Output, ApiError>;
+
+    /// The result as the JSON body.
+    fn respond(output: Self::Output) -> Self::Response;
 
     /// What the OpenAPI operation says beyond a JSON body and the offered responses (query
     /// parameters, other request media types).
@@ -99,8 +105,8 @@ pub async fn handler<E: Endpoint>(
     let format = extract::negotiate(&headers, &offered::<E>())?;
     let command = E::parse(body.into_request(), &state.compute)?;
     let services = state.services.clone();
-    let response = state.run(move || E::run(command, &services)).await?;
-    Ok(render::<E>(format, &response))
+    let output = state.run(move || E::run(command, &services)).await?;
+    Ok(render::<E>(format, output))
 }
 
 /// The endpoint's operation in the OpenAPI document, and the schemas it refers to.
@@ -155,14 +161,15 @@ pub fn compute_json<E: Endpoint>(
     services: &Services,
 ) -> Result<String, ApiError> {
     let command = E::parse(extract::parse_json(body)?, limits)?;
-    let response = E::run(command, services)?;
+    let response = E::respond(E::run(command, services)?);
     serde_json::to_string(&response).map_err(|e| ApiError::internal(e.to_string()))
 }
 
 /// The response body in the negotiated format (one the endpoint offers).
-fn render<E: Endpoint>(format: Format, body: &E::Response) -> Response {
+fn render<E: Endpoint>(format: Format, output: E::Output) -> Response {
+    let body = &output;
     let text = match format {
-        Format::Json => serde_json::to_string(body)
+        Format::Json => serde_json::to_string(&E::respond(output))
             .map_err(|e| ApiError::internal(format!("serialising a response: {e}"))),
         Format::Csv => E::CSV
             .map(|f| f(body))

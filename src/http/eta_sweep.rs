@@ -10,11 +10,10 @@ use super::dto::{
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
-use crate::report::chart::{self, Chart, Series};
 
 use super::state::Services;
-use crate::report::table;
-use crate::usecases::eta_sweep::{eta_sweep, EtaSweepCommand};
+use crate::report::results;
+use crate::usecases::eta_sweep::{eta_sweep, EtaSweep, EtaSweepCommand};
 use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -94,9 +93,10 @@ given dwell schedule) over the clear aperture is reported. `Accept: text/csv` gi
     type Request = EtaSweepRequest;
     type Body = ApiJson<EtaSweepRequest>;
     type Command = EtaSweepCommand;
+    type Output = EtaSweep;
     type Response = EtaSweepResponse;
-    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
-    const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
+    const CSV: Option<fn(&EtaSweep) -> String> = Some(results::eta_sweep_csv);
+    const SVG: Option<fn(&EtaSweep) -> String> = Some(results::eta_sweep_svg);
 
     fn parse(req: EtaSweepRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let setting = setting_of!(req).parse(limits)?;
@@ -109,9 +109,12 @@ given dwell schedule) over the clear aperture is reported. `Accept: text/csv` gi
         )?)
     }
 
-    fn run(command: Self::Command, _: &Services) -> Result<Self::Response, ApiError> {
-        let sweep = eta_sweep(command)?;
-        Ok(EtaSweepResponse {
+    fn run(command: Self::Command, _: &Services) -> Result<EtaSweep, ApiError> {
+        Ok(eta_sweep(command)?)
+    }
+
+    fn respond(sweep: EtaSweep) -> EtaSweepResponse {
+        EtaSweepResponse {
             tool_rpm: sweep.tool_rpm,
             clear_aperture: ApertureEcho::from(sweep.setting.aperture()),
             points: sweep
@@ -123,58 +126,6 @@ given dwell schedule) over the clear aperture is reported. `Accept: text/csv` gi
                     metrics: MetricsDto::from(&p.metrics),
                 })
                 .collect(),
-        })
+        }
     }
-}
-
-fn column(r: &EtaSweepResponse, f: impl Fn(&SweepPointDto) -> f64) -> Vec<f64> {
-    r.points.iter().map(f).collect()
-}
-
-fn to_csv(r: &EtaSweepResponse) -> String {
-    let nonuniformity = column(r, |p| p.metrics.nonuniformity.unwrap_or(f64::NAN));
-    table::csv(
-        &[
-            "eta".to_string(),
-            "workpiece_rpm".to_string(),
-            "nonuniformity".to_string(),
-            "mean_nm".to_string(),
-            "pv_nm".to_string(),
-            "rms_nm".to_string(),
-        ],
-        &[
-            &column(r, |p| p.eta),
-            &column(r, |p| p.workpiece_rpm),
-            &nonuniformity,
-            &column(r, |p| p.metrics.mean_nm),
-            &column(r, |p| p.metrics.pv_nm),
-            &column(r, |p| p.metrics.rms_nm),
-        ],
-    )
-}
-
-fn to_svg(r: &EtaSweepResponse) -> String {
-    let mut points: Vec<(f64, f64)> = r
-        .points
-        .iter()
-        .map(|p| (p.eta, 100.0 * p.metrics.nonuniformity.unwrap_or(f64::NAN)))
-        .collect();
-    points.sort_by(|a, b| a.0.total_cmp(&b.0));
-    chart::render(&Chart {
-        title: format!(
-            "Equal-dwell nonuniformity against η (tool {} r/min)",
-            r.tool_rpm
-        ),
-        x_label: "η = −workpiece_rpm / tool_rpm (1)".to_string(),
-        y_label: "nonuniformity pv/mean (%)".to_string(),
-        series: vec![Series {
-            name: format!(
-                "over [{}, {}] mm",
-                r.clear_aperture.inner_mm, r.clear_aperture.outer_mm
-            ),
-            points,
-        }],
-        band: None,
-        secondary: None,
-    })
 }

@@ -78,35 +78,7 @@ fn alternatives(a: &'static str, b: &'static str) -> (&'static str, &'static str
 impl ApiError {
     /// A size limit exceeded by the input at `field`.
     fn from_limit(field: &str, err: LimitError) -> Self {
-        let detail = match err {
-            LimitError::RadialSamples { count, max } => {
-                format!("{field} is {count}; this server allows at most {max}")
-            }
-            LimitError::Positions { count, max } => {
-                format!("{field} has {count} entries; this server allows at most {max}")
-            }
-            LimitError::OperatorEntries {
-                samples,
-                positions,
-                max,
-            } => format!(
-                "radial_grid.count × {field} = {samples} × {positions} exceeds the server's \
-                 limit of {max} removal-operator entries"
-            ),
-            LimitError::Profiles { count, max } => {
-                format!("{field} has {count} entries; this server allows at most {max} profiles")
-            }
-            LimitError::OptimizePositions { count, max } => {
-                format!("{field} has {count} entries; this server optimizes at most {max}")
-            }
-            LimitError::Etas { count, max } => {
-                format!("{field} must hold 1 to {max} values; it has {count}")
-            }
-            LimitError::TracePoints { count, max } => {
-                format!("{field} has {count} points; this server fits at most {max}")
-            }
-        };
-        ApiError::limit(field, detail)
+        ApiError::limit(field, format!("{field}: {err}"))
     }
 }
 

@@ -19,22 +19,7 @@ use super::{health, metrics};
 #[openapi(
     info(
         title = "Preston",
-        description = "Dwell-time planning for dual-rotor small-tool polishing of rotationally \
-symmetric optics.\n\n\
-**Units** are in every field name: lengths `_mm`, speeds `_rpm`, times `_s`, depths `_nm`, rates \
-`_nm_per_min`, pressure `_kpa`, Preston coefficient `_m2_per_n`.\n\n\
-**Speed sign convention.** Both speeds are signed r/min in one lab frame, counter-clockwise \
-positive as seen from the tool side. The paper's ratio is η = −workpiece_rpm / tool_rpm: η = −1 \
-means workpiece and tool turn the same way at the same speed, where equal dwell removes a \
-uniform layer. The paper's experiment 1 (workpiece 10 r/min clockwise, tool 200 r/min \
-counter-clockwise) is workpiece_rpm = −10, tool_rpm = 200, η = +0.05.\n\n\
-**Errors** are `application/problem+json` (RFC 9457) with the offending input in `field`.\n\n\
-**Authentication.** A service run with an API keys file needs `Authorization: Bearer <key>` on \
-every `/v1` operation (401 otherwise); the probes, `/openapi.json`, `/docs` and the workbench \
-page `/` stay open.\n\n\
-**Limits** (server defaults, configurable): body 4 MiB, radial_grid.count ≤ 10001, tool \
-positions ≤ 10001, removal-function profiles ≤ 201, radial samples × positions ≤ 25,000,000, \
-optimization positions ≤ 2001, solver time ≤ 10 s, measured trace points ≤ 100,000."
+        description = include_str!("../../openapi/description.md")
     ),
     servers((url = "/", description = "The service that serves this document")),
     paths(

@@ -10,11 +10,11 @@ use super::dto::{
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
-use crate::report::chart::{self, Chart, Series};
-
 use super::state::Services;
-use crate::report::table;
-use crate::usecases::predict::{predict, DwellSpec, FeedSpec, PredictCommand, TravelSpec};
+use crate::report::results;
+use crate::usecases::predict::{
+    predict, DwellSpec, FeedSpec, PredictCommand, Prediction, TravelSpec,
+};
 use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -97,9 +97,10 @@ over the clear aperture. `Accept: text/csv` returns radius and removal columns."
     type Request = PredictRequest;
     type Body = ApiJson<PredictRequest>;
     type Command = PredictCommand;
+    type Output = Prediction;
     type Response = PredictResponse;
-    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
-    const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
+    const CSV: Option<fn(&Prediction) -> String> = Some(results::prediction_csv);
+    const SVG: Option<fn(&Prediction) -> String> = Some(results::prediction_svg);
 
     fn parse(req: PredictRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let setting = setting_of!(req).parse(limits)?;
@@ -117,9 +118,12 @@ over the clear aperture. `Accept: text/csv` returns radius and removal columns."
         Ok(PredictCommand::new(setting, travel, limits)?)
     }
 
-    fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError> {
-        let p = predict(command, &services.recommender, &services.operators);
-        Ok(PredictResponse {
+    fn run(command: Self::Command, services: &Services) -> Result<Prediction, ApiError> {
+        Ok(predict(command, &services.recommender, &services.operators))
+    }
+
+    fn respond(p: Prediction) -> PredictResponse {
+        PredictResponse {
             eta: p.setting.process().eta().value(),
             radius_mm: p.setting.grid().radii_mm().to_vec(),
             arc_length_mm: p
@@ -136,43 +140,6 @@ over the clear aperture. `Accept: text/csv` returns radius and removal columns."
                 .iter()
                 .map(|w| WarningDto::new(w, "dwell.positions_mm"))
                 .collect(),
-        })
+        }
     }
-}
-
-fn to_csv(response: &PredictResponse) -> String {
-    table::csv(
-        &["radius_mm".to_string(), "removal_nm".to_string()],
-        &[&response.radius_mm, &response.removal_nm],
-    )
-}
-
-/// Removal against radius with the clear aperture shaded.
-fn to_svg(r: &PredictResponse) -> String {
-    let nonuniformity = r
-        .metrics
-        .nonuniformity
-        .map_or("n/a".to_string(), |n| format!("{:.3} %", 100.0 * n));
-    chart::render(&Chart {
-        title: format!(
-            "Predicted removal, {:.0} s total, nonuniformity {nonuniformity}",
-            r.total_time_s
-        ),
-        x_label: "radius r (mm)".to_string(),
-        y_label: "removal depth (nm)".to_string(),
-        series: vec![Series {
-            name: "predicted removal".to_string(),
-            points: r
-                .radius_mm
-                .iter()
-                .copied()
-                .zip(r.removal_nm.iter().copied())
-                .collect(),
-        }],
-        band: Some(chart::aperture_band(
-            r.clear_aperture.inner_mm,
-            r.clear_aperture.outer_mm,
-        )),
-        secondary: None,
-    })
 }

@@ -12,7 +12,8 @@ use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::Services;
 use crate::machine::{BlockKind, FeedMode, GcodeFormat, MachineLimits, SpindleWords};
 use crate::physics::ProcessSpec;
-use crate::usecases::program::{program, ProgramCommand, ProgramSpec};
+use crate::report::results;
+use crate::usecases::program::{program, MachineProgram, ProgramCommand, ProgramSpec};
 use crate::usecases::ComputeLimits;
 
 /// How the program gets onto the part and off it: along the tool axis.
@@ -249,9 +250,10 @@ seconds), `text/csv` the block table.",
     type Request = ProgramRequest;
     type Body = ApiJson<ProgramRequest>;
     type Command = ProgramCommand;
+    type Output = MachineProgram;
     type Response = ProgramResponse;
-    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
-    const GCODE: Option<fn(&Self::Response) -> String> = Some(|r| r.gcode.clone());
+    const CSV: Option<fn(&MachineProgram) -> String> = Some(results::program_csv);
+    const GCODE: Option<fn(&MachineProgram) -> String> = Some(|m| m.gcode.clone());
 
     fn parse(req: ProgramRequest, limits: &ComputeLimits) -> Result<ProgramCommand, ApiError> {
         let canonical = serde_json::to_vec(&req).map_err(|e| ApiError::internal(e.to_string()))?;
@@ -282,8 +284,11 @@ seconds), `text/csv` the block table.",
         Ok(ProgramCommand::new(spec, limits)?)
     }
 
-    fn run(command: ProgramCommand, _: &Services) -> Result<ProgramResponse, ApiError> {
-        let m = program(command)?;
+    fn run(command: ProgramCommand, _: &Services) -> Result<MachineProgram, ApiError> {
+        Ok(program(command)?)
+    }
+
+    fn respond(m: MachineProgram) -> ProgramResponse {
         let p = &m.program;
         let blocks = p
             .blocks()
@@ -311,7 +316,7 @@ seconds), `text/csv` the block table.",
             .collect();
         let spec = m.process.spec();
         let start = p.start();
-        Ok(ProgramResponse {
+        ProgramResponse {
             start: PoseDto {
                 x_mm: start.x_mm,
                 z_mm: start.z_mm,
@@ -334,33 +339,6 @@ seconds), `text/csv` the block table.",
             approach_feed_mm_per_min: m.approach.feed_mm_per_min,
             max_path_deviation_mm: p.max_path_deviation_mm,
             gcode: m.gcode,
-        })
+        }
     }
-}
-
-fn to_csv(r: &ProgramResponse) -> String {
-    let mut out = String::from(
-        "block,kind,position_mm,arc_length_mm,x_mm,z_mm,b_deg,duration_s,feed_mm_per_min,inverse_time_per_min\n",
-    );
-    let optional = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
-    for (i, b) in r.blocks.iter().enumerate() {
-        let kind = match b.kind {
-            BlockKindDto::Approach => "approach",
-            BlockKindDto::Dwell => "dwell",
-            BlockKindDto::Move => "move",
-            BlockKindDto::Retract => "retract",
-        };
-        out.push_str(&format!(
-            "{i},{kind},{},{},{},{},{},{},{},{}\n",
-            b.position_mm,
-            b.arc_length_mm,
-            b.x_mm,
-            b.z_mm,
-            b.b_deg,
-            b.duration_s,
-            optional(b.feed_mm_per_min),
-            optional(b.inverse_time_per_min)
-        ));
-    }
-    out
 }

@@ -13,6 +13,7 @@ use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
 
 use super::state::Services;
+use crate::study::Recommendation;
 use crate::study::SpeedLimits;
 use crate::usecases::recommend::{recommend, RecommendCommand};
 use crate::usecases::ComputeLimits;
@@ -88,6 +89,7 @@ the model).",
     type Request = RecommendRequest;
     type Body = ApiJson<RecommendRequest>;
     type Command = RecommendCommand;
+    type Output = Recommendation;
     type Response = RecommendResponse;
 
     fn parse(req: RecommendRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
@@ -102,10 +104,13 @@ the model).",
         )?)
     }
 
-    fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError> {
-        let recommendation = recommend(&command, &services.recommender)?;
-        Ok(RecommendResponse {
+    fn run(command: Self::Command, services: &Services) -> Result<Recommendation, ApiError> {
+        Ok(recommend(&command, &services.recommender)?)
+    }
+
+    fn respond(recommendation: Recommendation) -> RecommendResponse {
+        RecommendResponse {
             recommendation: RecommendationDto::from(&recommendation),
-        })
+        }
     }
 }

@@ -8,11 +8,12 @@ use super::dto::{part_spec, ProcessDto, RadialGridDto, SurfaceDto, ToolDto};
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
-use crate::report::chart::{self, Chart, Series};
 
 use super::state::Services;
-use crate::report::table;
-use crate::usecases::removal_function::{removal_function, RemovalFunctionCommand};
+use crate::report::results;
+use crate::usecases::removal_function::{
+    removal_function, RemovalFunction, RemovalFunctionCommand,
+};
 use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -80,9 +81,10 @@ returns one column per profile with a unit header.",
     type Request = RemovalFunctionRequest;
     type Body = ApiJson<RemovalFunctionRequest>;
     type Command = RemovalFunctionCommand;
+    type Output = RemovalFunction;
     type Response = RemovalFunctionResponse;
-    const CSV: Option<fn(&Self::Response) -> String> = Some(to_csv);
-    const SVG: Option<fn(&Self::Response) -> String> = Some(to_svg);
+    const CSV: Option<fn(&RemovalFunction) -> String> = Some(results::removal_function_csv);
+    const SVG: Option<fn(&RemovalFunction) -> String> = Some(results::removal_function_svg);
 
     fn parse(
         req: RemovalFunctionRequest,
@@ -97,9 +99,12 @@ returns one column per profile with a unit header.",
         )?)
     }
 
-    fn run(command: Self::Command, _: &Services) -> Result<Self::Response, ApiError> {
-        let result = removal_function(command);
-        Ok(RemovalFunctionResponse {
+    fn run(command: Self::Command, _: &Services) -> Result<RemovalFunction, ApiError> {
+        Ok(removal_function(command))
+    }
+
+    fn respond(result: RemovalFunction) -> RemovalFunctionResponse {
+        RemovalFunctionResponse {
             eta: result.eta,
             radius_mm: result.grid.radii_mm().to_vec(),
             arc_length_mm: result.arc_length_mm,
@@ -111,50 +116,6 @@ returns one column per profile with a unit header.",
                     removal_rate_nm_per_min: p.removal_rate_nm_per_min,
                 })
                 .collect(),
-        })
+        }
     }
-}
-
-fn to_csv(response: &RemovalFunctionResponse) -> String {
-    let mut header = vec!["radius_mm".to_string()];
-    header.extend(response.profiles.iter().map(|p| {
-        format!(
-            "removal_rate_nm_per_min(tool_position_mm={})",
-            p.tool_position_mm
-        )
-    }));
-    let mut columns: Vec<&[f64]> = vec![&response.radius_mm];
-    columns.extend(
-        response
-            .profiles
-            .iter()
-            .map(|p| p.removal_rate_nm_per_min.as_slice()),
-    );
-    table::csv(&header, &columns)
-}
-
-fn to_svg(response: &RemovalFunctionResponse) -> String {
-    chart::render(&Chart {
-        title: match response.eta {
-            Some(eta) => format!("Removal rate R(r; r1) at η = {eta}"),
-            None => "Removal rate R(r; r1), tool stationary".to_string(),
-        },
-        x_label: "radius r (mm)".to_string(),
-        y_label: "removal rate (nm/min)".to_string(),
-        series: response
-            .profiles
-            .iter()
-            .map(|p| Series {
-                name: format!("r1 = {} mm", p.tool_position_mm),
-                points: response
-                    .radius_mm
-                    .iter()
-                    .copied()
-                    .zip(p.removal_rate_nm_per_min.iter().copied())
-                    .collect(),
-            })
-            .collect(),
-        band: None,
-        secondary: None,
-    })
 }

@@ -1,5 +1,6 @@
-//! Results as text for people and spreadsheets: CSV tables and SVG line charts. Formats only:
-//! what goes into a table or a chart is the caller's.
+//! Results as text for people and spreadsheets: CSV tables and SVG line charts (the formats),
+//! and each use case's result in them (`results`).
 
 pub mod chart;
+pub mod results;
 pub mod table;

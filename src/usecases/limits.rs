@@ -43,23 +43,26 @@ impl Default for ComputeLimits {
 /// A size beyond the limits, with the numbers a message needs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum LimitError {
-    #[error("{count} radial samples; at most {max} are allowed")]
+    #[error("{count} radial samples; this server allows at most {max}")]
     RadialSamples { count: usize, max: usize },
-    #[error("{count} positions; at most {max} are allowed")]
+    #[error("{count} positions; this server allows at most {max}")]
     Positions { count: usize, max: usize },
-    #[error("{samples} × {positions} removal-operator entries; at most {max} are allowed")]
+    #[error(
+        "{samples} radial samples × {positions} tool positions: this server allows at most {max} \
+         removal-operator entries"
+    )]
     OperatorEntries {
         samples: usize,
         positions: usize,
         max: usize,
     },
-    #[error("{count} profiles; at most {max} are allowed")]
+    #[error("{count} profiles; this server allows at most {max}")]
     Profiles { count: usize, max: usize },
-    #[error("{count} positions to optimize; at most {max} are allowed")]
+    #[error("{count} positions to optimize; this server allows at most {max}")]
     OptimizePositions { count: usize, max: usize },
-    #[error("{count} η values; 1 to {max} are allowed")]
+    #[error("{count} η values; this server allows 1 to {max}")]
     Etas { count: usize, max: usize },
-    #[error("{count} trace points; at most {max} are allowed")]
+    #[error("{count} trace points; this server allows at most {max}")]
     TracePoints { count: usize, max: usize },
 }
 

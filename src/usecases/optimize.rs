@@ -418,6 +418,17 @@ pub struct OptimizedPlan {
     pub warnings: Vec<Warning>,
 }
 
+impl OptimizedPlan {
+    /// The path feed across each position's cell as the program runs it, mm/min; `None` for
+    /// a position without a move (a skipped end, or no program at all).
+    pub fn cell_feeds_mm_per_min(&self) -> Vec<Option<f64>> {
+        self.program.as_ref().map_or_else(
+            || vec![None; self.solution.dwell_s.len()],
+            Program::cell_feeds_mm_per_min,
+        )
+    }
+}
+
 /// Solves the plan. Fails only when the constraints conflict or the solver finds no plan.
 pub fn optimize(
     command: OptimizeCommand,

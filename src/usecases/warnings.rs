@@ -15,30 +15,57 @@ pub(super) const ACTIVE_USE: f64 = 0.999;
 /// A plan whose residual RMS exceeds this fraction of the target's RMS misses its target.
 pub const TARGET_MISS_FRACTION: f64 = 0.1;
 
-/// Something about a result the caller should know.
-#[derive(Debug, Clone, PartialEq)]
+/// Something about a result the caller should know; its `Display` says it in words (naming
+/// inputs by their role; the caller adds where they sit in its request).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Warning {
     /// The plan sits on this limit: relaxing it would let the plan fit the target better.
+    #[error(
+        "the plan sits on {}: that limit, not the target, decided it there",
+        constraint.name()
+    )]
     ConstraintActive { constraint: Constraint },
     /// The plan's residual RMS is more than [`TARGET_MISS_FRACTION`] of the target's RMS.
+    #[error(
+        "the residual RMS over the clear aperture is {residual_rms_nm:.4} nm, {:.1} % of the \
+         target's RMS ({target_rms_nm:.4} nm)",
+        100.0 * residual_rms_nm / target_rms_nm
+    )]
     TargetNotMet {
         residual_rms_nm: f64,
         target_rms_nm: f64,
     },
     /// The plan sits on this axis limit of the machine somewhere.
+    #[error(
+        "the plan sits on {}: the machine, not the target, decided it there",
+        limit.describe(*drive)
+    )]
     MachineLimitActive { drive: Drive, limit: Limit },
     /// The plan has zero dwell at this position between positions with dwell, so the tool
     /// would cross its cell in no time: no program can run it (give `min_dwell_s`, a feed
     /// limit or the machine's velocity limits).
+    #[error(
+        "the plan has zero dwell at position {index} between positions with dwell, so the tool \
+         would cross its cell in no time and no program can run it: give min_dwell_s > 0, \
+         max_feed_mm_per_min or a velocity limit on X"
+    )]
     NotProgrammable { index: usize },
     /// Every tool position is below 1 mm on a workpiece of 10 mm radius or more: positions in
     /// metres rather than millimetres?
+    #[error(
+        "every position is below 1 mm (at most {max_position_mm} mm) on a workpiece of \
+         {workpiece_radius_mm} mm radius: positions are in millimetres; are these in metres?"
+    )]
     PositionsLookLikeMetres {
         max_position_mm: f64,
         workpiece_radius_mm: f64,
     },
     /// The workpiece radius is below 1 mm: the process's radii in metres rather than
     /// millimetres? (A 0.05 m part with a 0.01 m pad plans for months.)
+    #[error(
+        "the workpiece radius is {workpiece_radius_mm} mm and the pad's {tool_radius_mm} mm: \
+         radii are in millimetres; are these metres?"
+    )]
     ProcessLooksLikeMetres {
         workpiece_radius_mm: f64,
         tool_radius_mm: f64,

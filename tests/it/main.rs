@@ -29,6 +29,7 @@ mod plots;
 mod problems;
 mod recommend;
 mod removal_accuracy;
+mod request_parsing;
 mod sanity_table;
 mod tcp;
 mod workbench;

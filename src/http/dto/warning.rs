@@ -43,65 +43,32 @@ pub enum WarningCode {
 impl WarningDto {
     /// `positions` is the request field holding the tool positions.
     pub fn new(w: &Warning, positions: &str) -> Self {
-        match w {
-            Warning::ConstraintActive { constraint } => {
-                let name = constraint.name();
-                WarningDto {
-                    code: WarningCode::ConstraintActive,
-                    field: Some(format!("constraints.{name}")),
-                    message: format!(
-                        "the plan sits on {name}: that limit, not the target, decided it there"
-                    ),
-                }
+        let (code, field) = match w {
+            Warning::ConstraintActive { constraint } => (
+                WarningCode::ConstraintActive,
+                format!("constraints.{}", constraint.name()),
+            ),
+            Warning::TargetNotMet { .. } => (WarningCode::TargetNotMet, "target".to_string()),
+            Warning::MachineLimitActive { drive, limit } => (
+                WarningCode::ConstraintActive,
+                super::super::fields::limit_field(*drive, *limit),
+            ),
+            Warning::NotProgrammable { index } => (
+                WarningCode::NotProgrammable,
+                format!("{positions}[{index}]"),
+            ),
+            Warning::ProcessLooksLikeMetres { .. } => (
+                WarningCode::ProcessLooksLikeMetres,
+                "process.workpiece_radius_mm".to_string(),
+            ),
+            Warning::PositionsLookLikeMetres { .. } => {
+                (WarningCode::PositionsLookLikeMetres, positions.to_string())
             }
-            Warning::TargetNotMet {
-                residual_rms_nm,
-                target_rms_nm,
-            } => WarningDto {
-                code: WarningCode::TargetNotMet,
-                field: Some("target".to_string()),
-                message: format!(
-                    "the residual RMS over the clear aperture is {residual_rms_nm:.4} nm, {:.1} % of the target's RMS ({target_rms_nm:.4} nm)",
-                    100.0 * residual_rms_nm / target_rms_nm
-                ),
-            },
-            Warning::MachineLimitActive { drive, limit } => {
-                let field = super::super::fields::limit_field(*drive, *limit);
-                WarningDto {
-                    code: WarningCode::ConstraintActive,
-                    message: format!(
-                        "the plan sits on {field}: the machine, not the target, decided it there"
-                    ),
-                    field: Some(field),
-                }
-            }
-            Warning::NotProgrammable { index } => WarningDto {
-                code: WarningCode::NotProgrammable,
-                field: Some(format!("{positions}[{index}]")),
-                message: format!(
-                    "the plan has zero dwell at {positions}[{index}] between positions with dwell, so the tool would cross its cell in no time and no program can run it: give constraints.min_dwell_s > 0, constraints.max_feed_mm_per_min or a velocity limit on X"
-                ),
-            },
-            Warning::ProcessLooksLikeMetres {
-                workpiece_radius_mm,
-                tool_radius_mm,
-            } => WarningDto {
-                code: WarningCode::ProcessLooksLikeMetres,
-                field: Some("process.workpiece_radius_mm".to_string()),
-                message: format!(
-                    "the workpiece radius is {workpiece_radius_mm} mm and the pad's {tool_radius_mm} mm: radii are in millimetres; are these metres?"
-                ),
-            },
-            Warning::PositionsLookLikeMetres {
-                max_position_mm,
-                workpiece_radius_mm,
-            } => WarningDto {
-                code: WarningCode::PositionsLookLikeMetres,
-                field: Some(positions.to_string()),
-                message: format!(
-                    "every position is below 1 mm (at most {max_position_mm} mm) on a workpiece of {workpiece_radius_mm} mm radius: positions are in millimetres; are these in metres?"
-                ),
-            },
+        };
+        WarningDto {
+            code,
+            field: Some(field),
+            message: w.to_string(),
         }
     }
 }

@@ -6,7 +6,6 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 mod csv_body;
-mod render;
 
 pub use csv_body::{CsvQuery, FitBody};
 
@@ -17,9 +16,10 @@ use super::extract::{object, optional_object};
 use super::optimize::{MeasuredProfileDto, TargetDto};
 use super::state::Services;
 use crate::metrology::{Compensation, Parameter, RobustLoss};
+use crate::report::results;
 use crate::surface::SurfaceSpec;
 use crate::usecases::measurement_fit::{
-    measurement_fit, FitSelection, MeasurementFitCommand, MeasurementFitSpec,
+    measurement_fit, FitSelection, MeasurementFit, MeasurementFitCommand, MeasurementFitSpec,
 };
 use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec};
 use utoipa::openapi::path::Operation;
@@ -258,9 +258,10 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
     type Request = MeasurementFitRequest;
     type Body = FitBody;
     type Command = MeasurementFitCommand;
+    type Output = MeasurementFit;
     type Response = MeasurementFitResponse;
-    const CSV: Option<fn(&Self::Response) -> String> = Some(render::to_csv);
-    const SVG: Option<fn(&Self::Response) -> String> = Some(render::to_svg);
+    const CSV: Option<fn(&MeasurementFit) -> String> = Some(results::measurement_fit_csv);
+    const SVG: Option<fn(&MeasurementFit) -> String> = Some(results::measurement_fit_svg);
 
     /// The body may also be the probe's `text/csv` export, with the other fields in the query.
     fn document(operation: &mut Operation) {
@@ -303,8 +304,11 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
         Ok(MeasurementFitCommand::new(spec, limits)?)
     }
 
-    fn run(command: Self::Command, _: &Services) -> Result<Self::Response, ApiError> {
-        let m = measurement_fit(command)?;
+    fn run(command: Self::Command, _: &Services) -> Result<MeasurementFit, ApiError> {
+        Ok(measurement_fit(command)?)
+    }
+
+    fn respond(m: MeasurementFit) -> MeasurementFitResponse {
         let points = &m.outcome.points;
         let column = |f: fn(&crate::metrology::PointResidual) -> f64| -> Vec<f64> {
             points.iter().map(f).collect()
@@ -314,7 +318,7 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
             radius_mm: m.profile.radius_mm.clone(),
             depth_nm: m.profile.depth_nm.clone(),
         };
-        Ok(MeasurementFitResponse {
+        MeasurementFitResponse {
             alignment: AlignmentDto {
                 lateral_offset_mm: m.outcome.alignment.lateral_offset_mm,
                 tilt_rad: m.outcome.alignment.tilt_rad,
@@ -364,6 +368,6 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
                 robust_scale_nm: m.outcome.robust_scale_mm.map(|s| s * NM_PER_MM),
                 ignored_points: points.iter().filter(|p| p.weight == 0.0).count(),
             },
-        })
+        }
     }
 }

@@ -5,7 +5,6 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 mod options;
-mod render;
 
 pub use options::{ConstraintsDto, MeasuredProfileDto, ObjectiveDto, SolverOptionsDto, TargetDto};
 
@@ -19,8 +18,8 @@ use super::error::{ApiError, Kind};
 use super::extract::{object, optional_object, ApiJson};
 use super::state::Services;
 use crate::machine::MachineLimits;
-use crate::machine::Program;
 use crate::optimize::{OptimizeError, SolveStatus};
+use crate::report::results;
 use crate::usecases::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan};
 use crate::usecases::ComputeLimits;
 
@@ -221,9 +220,10 @@ text/csv` returns the plan (position and dwell columns).",
     type Request = OptimizeRequest;
     type Body = ApiJson<OptimizeRequest>;
     type Command = OptimizeCommand;
+    type Output = OptimizedPlan;
     type Response = OptimizeResponse;
-    const CSV: Option<fn(&Self::Response) -> String> = Some(render::to_csv);
-    const SVG: Option<fn(&Self::Response) -> String> = Some(render::to_svg);
+    const CSV: Option<fn(&OptimizedPlan) -> String> = Some(results::plan_csv);
+    const SVG: Option<fn(&OptimizedPlan) -> String> = Some(results::plan_svg);
 
     fn parse(req: OptimizeRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let setting = setting_of!(req).parse(limits)?;
@@ -238,7 +238,7 @@ text/csv` returns the plan (position and dwell columns).",
         Ok(OptimizeCommand::new(setting, spec, limits)?)
     }
 
-    fn run(command: Self::Command, services: &Services) -> Result<Self::Response, ApiError> {
+    fn run(command: Self::Command, services: &Services) -> Result<OptimizedPlan, ApiError> {
         let max_time_limit_s = command.max_time_limit_s();
         let suspect = command
             .input_warning()
@@ -247,7 +247,7 @@ text/csv` returns the plan (position and dwell columns).",
         services
             .metrics
             .record_solver(plan.as_ref().map(|p| &p.solution));
-        let plan = plan.map_err(|e| {
+        plan.map_err(|e| {
             let error = match e {
                 OptimizeError::TimeLimit { .. } => ApiError::new(
                     Kind::SolverTimeLimit,
@@ -259,8 +259,11 @@ text/csv` returns the plan (position and dwell columns).",
                 other => other.into(),
             };
             with_suspect(error, suspect)
-        })?;
-        Ok(OptimizeResponse::from(plan))
+        })
+    }
+
+    fn respond(plan: OptimizedPlan) -> OptimizeResponse {
+        OptimizeResponse::from(plan)
     }
 }
 
@@ -280,6 +283,7 @@ fn with_suspect(error: ApiError, suspect: Option<WarningDto>) -> ApiError {
 impl From<OptimizedPlan> for OptimizeResponse {
     fn from(p: OptimizedPlan) -> Self {
         let s = &p.solution;
+        let feed_mm_per_min = p.cell_feeds_mm_per_min();
         OptimizeResponse {
             recommendation: p.recommendation.as_ref().map(RecommendationDto::from),
             warnings: p
@@ -298,10 +302,7 @@ impl From<OptimizedPlan> for OptimizeResponse {
                 positions_mm: p.positions_mm,
                 dwell_s: s.dwell_s.clone(),
             },
-            feed_mm_per_min: p.program.as_ref().map_or_else(
-                || vec![None; s.dwell_s.len()],
-                Program::cell_feeds_mm_per_min,
-            ),
+            feed_mm_per_min,
             motion: p.program.as_ref().map(|program| MotionDto {
                 peak_feed_mm_per_min: program.peak_feed_mm_per_min(),
                 axes: AxesDto::of(program, &p.machine_limits),
