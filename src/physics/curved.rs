@@ -183,11 +183,12 @@ impl CurvedKernel {
     /// Pressure relative to nominal with the pad at `r1_mm`: under constant force the flat
     /// lens formula with arc lengths in place of radii (the pad and the part's edge measured
     /// along the surface).
+    /// (A linear pad is refused on curved parts by [`super::Process::new`].)
     pub fn pressure_factor(&self, r1_mm: f64) -> f64 {
         match self.pressure_model {
             PressureModel::Uniform => 1.0,
-            PressureModel::ConstantForce => pressure_factor(
-                self.pressure_model,
+            model => pressure_factor(
+                model,
                 self.edge_arc_mm,
                 self.tool_radius,
                 self.part.surface.arc_length_mm(r1_mm),

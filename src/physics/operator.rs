@@ -83,7 +83,7 @@ impl RemovalOperator {
                 values.push(kernel.rate_nm_per_s(r, positions_mm[0]));
                 return (j_lo, values);
             }
-            let path = kernel.path_integral(r);
+            let path = kernel.path_integral(r, bounds[n]);
             let mut before = path.at(bounds[j_lo]);
             for j in j_lo..j_hi {
                 let after = path.at(bounds[j + 1]);
@@ -211,7 +211,7 @@ mod tests {
         let dense = op.to_dense();
         let bounds = [0.0, 5.0, 11.25, 21.25, 38.65, 51.15, 57.5, 60.0];
         for (i, &r) in radii.iter().enumerate() {
-            let path = k.path_integral(r);
+            let path = k.path_integral(r, f64::INFINITY);
             for j in 0..positions.len() {
                 let share = if j == 0 || j == 6 { 0.5 } else { 1.0 };
                 let mut want = share * (path.at(bounds[j + 1]) - path.at(bounds[j]))

@@ -12,6 +12,35 @@
 //!   flat pad and workpiece (no tilt, no pressure peak at the edge); the pressure grows without
 //!   bound as the overlap vanishes, which is why this model keeps the tool centre on the
 //!   workpiece (r1 ≤ r_m, see [`super::Process::max_tool_position_mm`]).
+//! * [`PressureModel::Linear`]: a rigid pad under the same constant force F, its pressure
+//!   linear across the contact C (the lens) in the radial coordinate x through the pad centre:
+//!
+//!   ```text
+//!   p(x) = F/A + b·(x − x_c),   A = ∫_C dA,  x_c = ∫_C x dA / A,  I_c = ∫_C (x − x_c)² dA
+//!   ```
+//!
+//!   The pad carries a share κ (`pad_moment_share`) of the tipping moment about its centre and
+//!   the head the rest, ∫_C p·(x − r1) dA = (1 − κ)·F·(x_c − r1), so
+//!   b = κ·F·(r1 − x_c)/I_c. κ = 1 is a free gimbal (the resultant acts at the pad centre),
+//!   κ = 0 the constant-force model exactly; with no overhang (x_c = r1) both are uniform.
+//!   Overhanging, x_c < r1 and the pressure rises toward the edge. Where p would fall below
+//!   zero on the inner side (a large overhang) the pad lifts: the pressure is
+//!   p = β·(x − x0) on the part of C with x ≥ x0 and zero inside the lift line x0, with β and
+//!   x0 from the same two balances, ∫ p dA = F and ∫ p·(x − r1) dA = (1 − κ)·F·(x_c − r1)
+//!   (the head's load is that of the whole lens C). The first says β = F/∫(x − x0)dA; the
+//!   second puts the centroid of the triangular load, x0 + ∫(x − x0)²dA / ∫(x − x0)dA, at
+//!   x* = κ·r1 + (1 − κ)·x_c, which moves monotonically outward with x0: one root, found by
+//!   regula falsi ([`super::roots`]). At the onset (p = 0 at the inner rim) both forms agree,
+//!   so the pressure is continuous in r1. When x* reaches the workpiece edge no contact can
+//!   carry the load (the pad tips off); that position is the model's reach, open
+//!   ([`linear_reach_mm`]): r_m for κ = 1, up to r_m + r_t as κ → 0.
+//!
+//! The moments of C (and of C cut at a lift line) are sums of vertical strips of the two
+//! discs, each in closed form: for a disc of radius ρ, with v the abscissa from its centre and
+//! w = √(ρ² − v²), the antiderivatives of ∫dA, ∫v dA, ∫v² dA over strips are
+//! ρ²·φ + v·w, −(2/3)·w³ and ρ⁴·φ/4 − v·w·(w² − v²)/4 with φ = atan2(v, w). The pad's strip
+//! lies where its chord is the shorter one, left of the discs' radical line
+//! x_i = (r_m² − r_t² + r1²)/(2·r1); the workpiece's right of it.
 //!
 //! Lens area of two discs with radii R, ρ and centre distance d (|R − ρ| < d < R + ρ):
 //!
@@ -25,12 +54,62 @@
 
 use std::f64::consts::PI;
 
+use super::roots::illinois;
+
 /// How pressure varies with the tool position (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum PressureModel {
     #[default]
     Uniform,
     ConstantForce,
+    /// A rigid pad with linear pressure; `pad_moment_share` is κ in [0, 1].
+    Linear {
+        pad_moment_share: f64,
+    },
+}
+
+impl PressureModel {
+    /// Every bit the model's pressures depend on, for cache keys.
+    pub fn key_bits(self) -> [u64; 2] {
+        match self {
+            PressureModel::Uniform => [0, 0],
+            PressureModel::ConstantForce => [1, 0],
+            PressureModel::Linear { pad_moment_share } => [2, pad_moment_share.to_bits()],
+        }
+    }
+}
+
+/// The pressure under the pad at one tool position r1, relative to the nominal pressure:
+/// p(x)/P = max(0, level + slope_per_mm·(x − r1)) at the points of the contact with radial
+/// coordinate x. Uniform and constant-force pressures have no slope.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PadPressure {
+    pub level: f64,
+    pub slope_per_mm: f64,
+}
+
+impl PadPressure {
+    pub const NOMINAL: PadPressure = PadPressure {
+        level: 1.0,
+        slope_per_mm: 0.0,
+    };
+    pub const NONE: PadPressure = PadPressure {
+        level: 0.0,
+        slope_per_mm: 0.0,
+    };
+
+    fn uniform(level: f64) -> PadPressure {
+        PadPressure {
+            level,
+            slope_per_mm: 0.0,
+        }
+    }
+
+    /// Where the pressure is zero, as x − r1 (mm); `None` for uniform pressure. Inside it
+    /// (smaller x) the pad does not press.
+    pub fn lift_line_mm(self) -> Option<f64> {
+        (self.slope_per_mm > 0.0).then(|| -self.level / self.slope_per_mm)
+    }
 }
 
 /// Area in mm² where a pad of radius `tool_radius` centred at `position` overlaps a workpiece
@@ -52,24 +131,227 @@ pub fn contact_area_mm2(workpiece_radius: f64, tool_radius: f64, position: f64) 
     small * small * angle_small + big * big * angle_big - 0.5 * root
 }
 
-/// Pressure at tool position `position` relative to the nominal pressure (a factor ≥ 1 under
-/// constant force, exactly 1 under uniform pressure). Positions beyond the last contact give 0.
+/// The pressure with the pad centred at `position` (see [`PadPressure`]); `None` where no
+/// contact carries the load (no overlap, or a linear pad past its reach).
+pub fn pad_pressure(
+    model: PressureModel,
+    workpiece_radius: f64,
+    tool_radius: f64,
+    position: f64,
+) -> Option<PadPressure> {
+    let lens = Lens {
+        workpiece_radius,
+        tool_radius,
+        position,
+    };
+    if position + tool_radius <= workpiece_radius {
+        return Some(PadPressure::NOMINAL);
+    }
+    match model {
+        PressureModel::Uniform => Some(PadPressure::NOMINAL),
+        PressureModel::ConstantForce => {
+            let area = contact_area_mm2(workpiece_radius, tool_radius, position);
+            (area > 0.0).then(|| PadPressure::uniform(PI * tool_radius * tool_radius / area))
+        }
+        PressureModel::Linear { pad_moment_share } => lens.linear(pad_moment_share),
+    }
+}
+
+/// Pressure at tool position `position` relative to the nominal pressure, for the models
+/// without a slope (a factor ≥ 1 under constant force, exactly 1 under uniform pressure).
+/// Positions beyond the last contact give 0.
 pub fn pressure_factor(
     model: PressureModel,
     workpiece_radius: f64,
     tool_radius: f64,
     position: f64,
 ) -> f64 {
-    match model {
-        PressureModel::Uniform => 1.0,
-        PressureModel::ConstantForce => {
-            let area = contact_area_mm2(workpiece_radius, tool_radius, position);
-            if area > 0.0 {
-                PI * tool_radius * tool_radius / area
-            } else {
-                0.0
-            }
+    pad_pressure(model, workpiece_radius, tool_radius, position).map_or(0.0, |p| p.level)
+}
+
+/// The farthest position of a linear pad, open (see the module docs): where the centroid
+/// the load must have, κ·r1 + (1 − κ)·x_c, reaches the workpiece edge.
+pub fn linear_reach_mm(workpiece_radius: f64, tool_radius: f64, pad_moment_share: f64) -> f64 {
+    let (edge, kappa) = (workpiece_radius, pad_moment_share);
+    if kappa >= 1.0 {
+        return edge;
+    }
+    let end = edge + tool_radius;
+    if kappa <= 0.0 {
+        return end;
+    }
+    let gap = |r1: f64| {
+        let lens = Lens {
+            workpiece_radius,
+            tool_radius,
+            position: r1,
+        };
+        let m = lens.moments(f64::NEG_INFINITY, f64::INFINITY);
+        kappa * r1 + (1.0 - kappa) * (r1 + m.first / m.area) - edge
+    };
+    // At r_m the gap is (1 − κ)·(x_c − r_m) < 0; at r_m + r_t it is κ·r_t > 0.
+    illinois(
+        &gap,
+        (edge, gap(edge)),
+        (end, kappa * tool_radius),
+        1e-13 * end,
+        0.0,
+    )
+}
+
+/// The first position where a linear pad starts to lift (its pressure reaches zero at the
+/// inner rim), capped at the workpiece edge.
+pub fn linear_lift_onset_mm(workpiece_radius: f64, tool_radius: f64, pad_moment_share: f64) -> f64 {
+    let least = |r1: f64| {
+        let lens = Lens {
+            workpiece_radius,
+            tool_radius,
+            position: r1,
+        };
+        let p = lens.unlifted(pad_moment_share);
+        p.level - p.slope_per_mm * tool_radius
+    };
+    let (start, edge) = ((workpiece_radius - tool_radius).max(0.0), workpiece_radius);
+    let at_edge = least(edge);
+    if at_edge >= 0.0 {
+        return edge;
+    }
+    illinois(&least, (start, 1.0), (edge, at_edge), 1e-13 * edge, 0.0)
+}
+
+/// ∫1, ∫u and ∫u² dA over a region, u = x − r1 the abscissa from the pad centre (mm², mm³,
+/// mm⁴).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct Moments {
+    area: f64,
+    first: f64,
+    second: f64,
+}
+
+impl std::ops::Add for Moments {
+    type Output = Moments;
+    fn add(self, o: Moments) -> Moments {
+        Moments {
+            area: self.area + o.area,
+            first: self.first + o.first,
+            second: self.second + o.second,
         }
+    }
+}
+
+/// The moments of the strip lo ≤ u ≤ hi of a disc of radius `rho` centred at u = `centre`.
+fn strip(rho: f64, centre: f64, lo: f64, hi: f64) -> Moments {
+    let (lo, hi) = ((lo - centre).max(-rho), (hi - centre).min(rho));
+    if hi <= lo {
+        return Moments::default();
+    }
+    // Antiderivatives in v (from the disc centre): ∫dA, ∫v dA, ∫v² dA.
+    let at = |v: f64| {
+        let w = ((rho - v) * (rho + v)).max(0.0).sqrt();
+        let phi = v.atan2(w);
+        let rho2 = rho * rho;
+        (
+            rho2 * phi + v * w,
+            -2.0 / 3.0 * w * w * w,
+            0.25 * (rho2 * rho2 * phi - v * w * (w * w - v * v)),
+        )
+    };
+    let ((a0, a1, a2), (b0, b1, b2)) = (at(lo), at(hi));
+    let (m0, m1, m2) = (b0 - a0, b1 - a1, b2 - a2);
+    // Shift from the disc centre to the pad centre: u = v + centre.
+    Moments {
+        area: m0,
+        first: m1 + centre * m0,
+        second: m2 + 2.0 * centre * m1 + centre * centre * m0,
+    }
+}
+
+/// The contact of a pad at `position` with the workpiece disc.
+struct Lens {
+    workpiece_radius: f64,
+    tool_radius: f64,
+    position: f64,
+}
+
+impl Lens {
+    /// The moments of the contact's part with lo ≤ u ≤ hi.
+    fn moments(&self, lo: f64, hi: f64) -> Moments {
+        let (big, small, r1) = (self.workpiece_radius, self.tool_radius, self.position);
+        // Left of the radical line the pad's chord is the shorter one, right of it the
+        // workpiece's (for r1 > 0; at r1 = 0 the smaller disc's everywhere).
+        let split = if r1 > 0.0 {
+            (big * big - small * small + r1 * r1) / (2.0 * r1) - r1
+        } else if small <= big {
+            f64::INFINITY
+        } else {
+            f64::NEG_INFINITY
+        };
+        strip(small, 0.0, lo, hi.min(split)) + strip(big, -r1, lo.max(split), hi)
+    }
+
+    /// The linear pressure over the whole contact, whatever its sign (the two balances).
+    fn unlifted(&self, kappa: f64) -> PadPressure {
+        let force = PI * self.tool_radius * self.tool_radius;
+        let m = self.moments(f64::NEG_INFINITY, f64::INFINITY);
+        if m.area <= 0.0 {
+            return PadPressure::NONE;
+        }
+        let centroid = m.first / m.area;
+        let spread = m.second - m.first * centroid;
+        let slope = if spread > 0.0 {
+            -kappa * force * centroid / spread
+        } else {
+            0.0
+        };
+        PadPressure {
+            level: force / m.area - slope * centroid,
+            slope_per_mm: slope,
+        }
+    }
+
+    /// The linear pressure, lifted where it would be negative (see the module docs).
+    fn linear(&self, kappa: f64) -> Option<PadPressure> {
+        let full = self.unlifted(kappa);
+        if full.level <= 0.0 && full.slope_per_mm <= 0.0 {
+            return None;
+        }
+        let inner = -self.tool_radius.min(self.workpiece_radius + self.position);
+        let outer = self.tool_radius.min(self.workpiece_radius - self.position);
+        if full.slope_per_mm <= 0.0 || full.level + full.slope_per_mm * inner >= 0.0 {
+            return Some(full);
+        }
+        let force = PI * self.tool_radius * self.tool_radius;
+        let m = self.moments(f64::NEG_INFINITY, f64::INFINITY);
+        let target = (1.0 - kappa) * m.first / m.area;
+        if target >= outer {
+            return None;
+        }
+        // The centroid of the triangular load on the part beyond the lift line u0, less
+        // where the balance puts it; → outer − target > 0 as the part shrinks to the rim.
+        let gap = |u0: f64| {
+            let cut = self.moments(u0, f64::INFINITY);
+            let lever = cut.first - u0 * cut.area;
+            if lever <= 0.0 {
+                return outer - target;
+            }
+            u0 + (cut.second - 2.0 * u0 * cut.first + u0 * u0 * cut.area) / lever - target
+        };
+        let u0 = illinois(
+            &gap,
+            (inner, gap(inner)),
+            (outer, outer - target),
+            1e-15 * self.tool_radius,
+            0.0,
+        );
+        let cut = self.moments(u0, f64::INFINITY);
+        let lever = cut.first - u0 * cut.area;
+        (lever > 0.0).then(|| {
+            let beta = force / lever;
+            PadPressure {
+                level: -beta * u0,
+                slope_per_mm: beta,
+            }
+        })
     }
 }
 

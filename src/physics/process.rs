@@ -15,7 +15,7 @@
 use std::f64::consts::PI;
 
 use super::curved::Part;
-use super::pressure::PressureModel;
+use super::pressure::{linear_lift_onset_mm, linear_reach_mm, PressureModel};
 use crate::surface::SurfaceError;
 
 /// Raw process parameters as a caller supplies them (units in the names).
@@ -77,6 +77,13 @@ pub enum ProcessError {
          revolutions, which a stationary workpiece never makes"
     )]
     StationaryWorkpiece,
+    #[error("pad_moment_share must be a number in [0, 1] (the pad's share of the tipping moment)")]
+    MomentShare,
+    #[error(
+        "the linear pressure model is not yet available on curved surfaces: use uniform or \
+         constant_force there"
+    )]
+    LinearOnCurved,
     #[error("{field} = {value} is outside the range the model computes, [{min}, {max}] {unit}")]
     OutOfRange {
         field: &'static str,
@@ -105,6 +112,8 @@ impl ProcessError {
             ProcessError::NonPositivePressure => "pressure_kpa",
             ProcessError::NegativePrestonCoefficient => "preston_coefficient_m2_per_n",
             ProcessError::StationaryWorkpiece => "workpiece_rpm",
+            ProcessError::MomentShare => "pad_moment_share",
+            ProcessError::LinearOnCurved => "pressure_model",
             ProcessError::SurfaceReach { .. } | ProcessError::SurfaceEdge(_) => {
                 "workpiece_radius_mm"
             }
@@ -133,6 +142,8 @@ impl Eta {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Process {
     spec: ProcessSpec,
+    /// [`Process::max_tool_position_mm`], computed once (a root under linear pressure).
+    reach_mm: f64,
 }
 
 pub(crate) const RPM_TO_RAD_PER_S: f64 = 2.0 * PI / 60.0;
@@ -209,8 +220,20 @@ impl Process {
                 });
             }
         }
-        let process = Process { spec };
+        if let PressureModel::Linear { pad_moment_share } = spec.pressure_model {
+            if !(0.0..=1.0).contains(&pad_moment_share) {
+                return Err(ProcessError::MomentShare);
+            }
+            if !spec.part.surface.is_plane() {
+                return Err(ProcessError::LinearOnCurved);
+            }
+        }
+        let mut process = Process {
+            spec,
+            reach_mm: f64::NAN,
+        };
         process.check_reach()?;
+        process.reach_mm = Process::reach_of(&process.spec);
         Ok(process)
     }
 
@@ -223,6 +246,7 @@ impl Process {
         let (pads, overhang) = match self.spec.pressure_model {
             PressureModel::Uniform => (2.0, "twice"),
             PressureModel::ConstantForce => (1.0, "once"),
+            PressureModel::Linear { .. } => (2.0, "twice"),
         };
         let edge = self.spec.workpiece_radius_mm;
         let fail = |reach_arc_mm, error| ProcessError::SurfaceReach {
@@ -311,13 +335,45 @@ impl Process {
     /// The farthest tool-centre radius the model accepts, mm. Under uniform pressure the pad may
     /// run off the edge until it no longer touches (r_m + r_t); under constant force the pressure
     /// grows without bound as the overlap vanishes, so the centre must stay on the workpiece.
-    /// On a curved part the overhang r_t is measured along the surface.
+    /// A linear pad tips off where its load would have to act at the edge
+    /// ([`super::pressure::linear_reach_mm`]: r_m for a free gimbal): positions must stay below
+    /// it ([`Self::reach_is_open`]). On a curved part the overhang r_t is measured along the
+    /// surface.
     pub fn max_tool_position_mm(&self) -> f64 {
-        match self.spec.pressure_model {
+        self.reach_mm
+    }
+
+    fn reach_of(spec: &ProcessSpec) -> f64 {
+        let (edge, rt) = (spec.workpiece_radius_mm, spec.tool_radius_mm);
+        match spec.pressure_model {
             PressureModel::Uniform => {
-                self.radius_past_mm(self.spec.workpiece_radius_mm, self.spec.tool_radius_mm)
+                let surface = &spec.part.surface;
+                surface.radius_at_arc_length(surface.arc_length_mm(edge) + rt)
             }
-            PressureModel::ConstantForce => self.spec.workpiece_radius_mm,
+            PressureModel::ConstantForce => edge,
+            PressureModel::Linear { pad_moment_share } => {
+                linear_reach_mm(edge, rt, pad_moment_share)
+            }
+        }
+    }
+
+    /// Whether [`Self::max_tool_position_mm`] itself is out of reach (under linear pressure the
+    /// load there would rest on the edge alone).
+    pub fn reach_is_open(&self) -> bool {
+        matches!(self.spec.pressure_model, PressureModel::Linear { .. })
+    }
+
+    /// Where constant-feed passes (equal dwell, the η window) may run to at most, mm: the reach,
+    /// except that a linear pad stops where it starts to lift, at the edge at the latest (its
+    /// removal at the rim grows without bound toward the reach).
+    pub fn pass_reach_mm(&self) -> f64 {
+        match self.spec.pressure_model {
+            PressureModel::Linear { pad_moment_share } => linear_lift_onset_mm(
+                self.spec.workpiece_radius_mm,
+                self.spec.tool_radius_mm,
+                pad_moment_share,
+            ),
+            _ => self.reach_mm,
         }
     }
 

@@ -35,7 +35,9 @@ use super::carlson::rf_rd;
 use super::contact::{half_angle, HalfAngle};
 use super::curved::{CurvedKernel, Ring};
 use super::path::{Lobatto, PathIntegral};
-use super::pressure::{contact_area_mm2, pressure_factor, PressureModel};
+use super::pressure::{
+    contact_area_mm2, linear_lift_onset_mm, pad_pressure, PadPressure, PressureModel,
+};
 use super::process::Process;
 
 /// How finely a [`PathIntegral`] resolves the rate along the path, relative to the rate's
@@ -57,6 +59,8 @@ pub struct RemovalKernel {
     translation: bool,
     /// The farthest tool position the process allows, mm (the path's end at the latest).
     reach_mm: f64,
+    /// Where a linear pad starts to lift (a kink of R in r1); `None` for the other models.
+    lift_onset_mm: Option<f64>,
     /// The Chebyshev points every path integral is taken with.
     lobatto: Lobatto,
     curved: Option<CurvedKernel>,
@@ -119,6 +123,14 @@ impl RemovalKernel {
             scale: process.preston_rate_scale() / PI,
             translation: process.is_eta_minus_one(),
             reach_mm: process.max_tool_position_mm(),
+            lift_onset_mm: match process.pressure_model() {
+                PressureModel::Linear { pad_moment_share } => Some(linear_lift_onset_mm(
+                    process.workpiece_radius_mm(),
+                    process.tool_radius_mm(),
+                    pad_moment_share,
+                )),
+                _ => None,
+            },
             lobatto: Lobatto::default(),
             curved: (!process.part().is_flat()).then(|| {
                 CurvedKernel::new(
@@ -140,23 +152,76 @@ impl RemovalKernel {
 
     /// Removal rate in nm/s at radius `r_mm` with the tool centre at `r1_mm` (both ≥ 0).
     pub fn rate_nm_per_s(&self, r_mm: f64, r1_mm: f64) -> f64 {
-        self.nominal_rate_nm_per_s(r_mm, r1_mm) * self.pressure_factor(r1_mm)
+        self.rate_under(&self.pad_pressure(r1_mm), r_mm, r1_mm)
     }
 
-    /// Pressure relative to nominal with the tool at `r1_mm` (see [`super::pressure`]).
-    pub fn pressure_factor(&self, r1_mm: f64) -> f64 {
+    /// The pressure with the tool at `r1_mm`, relative to nominal (see [`super::pressure`]);
+    /// no pressure where no contact carries the load.
+    pub fn pad_pressure(&self, r1_mm: f64) -> PadPressure {
         if let Some(curved) = &self.curved {
-            return curved.pressure_factor(r1_mm);
+            return PadPressure {
+                level: curved.pressure_factor(r1_mm),
+                slope_per_mm: 0.0,
+            };
         }
-        pressure_factor(
+        pad_pressure(
             self.pressure_model,
             self.workpiece_radius,
             self.tool_radius,
             r1_mm,
         )
+        .unwrap_or(PadPressure::NONE)
     }
 
-    /// Removal rate at nominal pressure, nm/s; multiply by [`Self::pressure_factor`].
+    /// The rate at `r_mm` with the tool at `r1_mm` under `pressure` (its [`Self::pad_pressure`]).
+    ///
+    /// With p/P = level + slope·(x − r1) and x = r·cos θ on the ring, the rate is
+    /// K·P/π·[(level − slope·r1)·∫V dθ + slope·r·∫cos θ·V dθ] over the arc under the pad and
+    /// beyond the lift line x0 (cos θ ≥ x0/r): both integrals from one pair of Carlson's
+    /// integrals ([`arc_integrals`]).
+    fn rate_under(&self, pressure: &PadPressure, r_mm: f64, r1_mm: f64) -> f64 {
+        if pressure.slope_per_mm == 0.0 {
+            if pressure.level == 0.0 {
+                return 0.0;
+            }
+            return self.nominal_rate_nm_per_s(r_mm, r1_mm) * pressure.level;
+        }
+        let mut psi = half_angle(r_mm, r1_mm, self.tool_radius);
+        if let Some(lift) = pressure.lift_line_mm() {
+            let x0 = r1_mm + lift;
+            if x0 >= r_mm {
+                return 0.0;
+            }
+            if x0 > -r_mm {
+                // Half of θL = acos(x0/r): sin² = (r − x0)/(2r), cos² = (r + x0)/(2r).
+                let cut = HalfAngle {
+                    sin: ((r_mm - x0) / (2.0 * r_mm)).sqrt(),
+                    cos: ((r_mm + x0) / (2.0 * r_mm)).sqrt(),
+                };
+                if cut.sin < psi.sin {
+                    psi = cut;
+                }
+            }
+        }
+        if !psi.is_contact() {
+            return 0.0;
+        }
+        let b = self.omega2 * r1_mm;
+        let arc = if self.translation {
+            // V = |b| everywhere: ∫V dθ = θe·|b|, ∫cos θ·V dθ = sin θe·|b|.
+            ArcIntegrals {
+                speed: 2.0 * psi.radians() * b.abs(),
+                cos_speed: 2.0 * psi.sin * psi.cos * b.abs(),
+            }
+        } else {
+            arc_integrals(self.omega_sum * r_mm, b, psi)
+        };
+        let level = pressure.level - pressure.slope_per_mm * r1_mm;
+        (self.scale * (level * arc.speed + pressure.slope_per_mm * r_mm * arc.cos_speed)).max(0.0)
+    }
+
+    /// Removal rate at nominal pressure, nm/s; [`Self::rate_nm_per_s`] scales it by the
+    /// pressure.
     pub fn nominal_rate_nm_per_s(&self, r_mm: f64, r1_mm: f64) -> f64 {
         if let Some(curved) = &self.curved {
             return curved
@@ -188,12 +253,25 @@ impl RemovalKernel {
     /// over tool positions x up to ρ ([`super::path`]), with its breakpoints where R has
     /// kinks: the pad's rim crossing r (x = |r − r_t|, r + r_t), the zero of the sliding
     /// speed (x = (ω1 + ω2)·r/ω2 on a plane) and the pad reaching the edge under constant
-    /// force; on a curved part the same events on the surface ([`CurvedKernel::breakpoints`]).
-    pub fn path_integral(&self, r_mm: f64) -> RunningIntegral {
+    /// force, or starting to lift under linear pressure; on a curved part the same events on
+    /// the surface ([`CurvedKernel::breakpoints`]). F is built up to `end_mm` (the path's
+    /// last point; it stays constant beyond).
+    pub fn path_integral(&self, r_mm: f64, end_mm: f64) -> RunningIntegral {
         if let Some(lens) = self.lens(r_mm) {
             return RunningIntegral::Lens(lens);
         }
         RunningIntegral::Panels(self.along_path(r_mm, |rate, points, tolerance| {
+            let (Some(&lo), Some(&hi)) = (points.first(), points.last()) else {
+                return PathIntegral::new(rate, &points, tolerance, &self.lobatto);
+            };
+            // Only the linear model needs the cut: its reach is open, and the rate grows
+            // without bound toward it (the others keep their panels as they were).
+            let linear = matches!(self.pressure_model, PressureModel::Linear { .. });
+            let points = if linear && end_mm < hi {
+                inside(points, lo, end_mm.max(lo))
+            } else {
+                points
+            };
             PathIntegral::new(rate, &points, tolerance, &self.lobatto)
         }))
     }
@@ -265,9 +343,10 @@ impl RemovalKernel {
         if !self.translation && self.omega2 != 0.0 {
             points.push(self.omega_sum * r / self.omega2);
         }
-        if self.pressure_model == PressureModel::ConstantForce {
+        if self.pressure_model != PressureModel::Uniform {
             points.push(self.workpiece_radius - rt);
         }
+        points.extend(self.lift_onset_mm);
         inside(points, lo, hi)
     }
 
@@ -292,17 +371,17 @@ impl RemovalKernel {
         rings: Option<&[Ring]>,
         out: &mut [f64],
     ) {
-        let factor = self.pressure_factor(r1_mm);
+        let pressure = self.pad_pressure(r1_mm);
         match (&self.curved, rings) {
             (Some(curved), Some(rings)) => {
                 let site = curved.site(r1_mm);
                 for (value, ring) in out.iter_mut().zip(rings) {
-                    *value = factor * curved.nominal_rate_nm_per_s(ring, &site);
+                    *value = pressure.level * curved.nominal_rate_nm_per_s(ring, &site);
                 }
             }
             _ => {
                 for (value, &r) in out.iter_mut().zip(radii_mm) {
-                    *value = factor * self.nominal_rate_nm_per_s(r, r1_mm);
+                    *value = self.rate_under(&pressure, r, r1_mm);
                 }
             }
         }
@@ -353,6 +432,91 @@ fn scaled_sliding_integral(a: f64, b: f64, psi: HalfAngle) -> f64 {
     }
 }
 
+/// ∫_0^{θe} V dθ and ∫_0^{θe} cos θ·V dθ over the arc under the pad (θe = 2ψ).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ArcIntegrals {
+    speed: f64,
+    cos_speed: f64,
+}
+
+/// [`ArcIntegrals`] for V² = (a−b)² + 4ab·sin²(θ/2). With ψ = θ/2, cos θ = 1 − 2·sin²ψ and
+/// the reduction d(s·c·V)/dψ = (A + 2(B − A)·s² − 3B·s⁴)/V (s = sin ψ, c = cos ψ,
+/// V² = A + B·s²) eliminate ∫s⁴/V, leaving
+///
+/// ```text
+/// ∫_0^{2φ} cos θ·V dθ = (2/3)·[A·I0 − (2A + B)·I2 + 2·s·c·V(φ)],
+/// I0 = ∫_0^φ dψ/V = s·R_F(A·c², A + B·s², A),   I2 = ∫_0^φ s²/V dψ = (A·s³/3)·R_D(…)
+/// ```
+///
+/// from the same R_F and R_D as ∫V dθ; the arrangements (and the scaling of extreme speeds)
+/// are those of [`sliding_integral`], homogeneous of degree 1 like it.
+fn arc_integrals(a: f64, b: f64, psi: HalfAngle) -> ArcIntegrals {
+    let size = a.abs().max(b.abs());
+    if size == 0.0 {
+        return ArcIntegrals {
+            speed: 0.0,
+            cos_speed: 0.0,
+        };
+    }
+    if (2f64.powi(-300)..=2f64.powi(300)).contains(&size) {
+        return scaled_arc_integrals(a, b, psi);
+    }
+    let exponent = size.log2().floor() as i32;
+    let (half, rest) = (exponent / 2, exponent - exponent / 2);
+    let down = |x: f64| x * 2f64.powi(-half) * 2f64.powi(-rest);
+    let up = |x: f64| x * 2f64.powi(half) * 2f64.powi(rest);
+    let scaled = scaled_arc_integrals(down(a), down(b), psi);
+    ArcIntegrals {
+        speed: up(scaled.speed),
+        cos_speed: up(scaled.cos_speed),
+    }
+}
+
+fn scaled_arc_integrals(a: f64, b: f64, psi: HalfAngle) -> ArcIntegrals {
+    let ab4 = 4.0 * a * b;
+    if ab4 >= 0.0 || psi.sin * psi.sin <= 0.5 {
+        let (g, cos_weighted) = g_pair(psi.sin, psi.cos, (a - b) * (a - b), ab4);
+        ArcIntegrals {
+            speed: 2.0 * g,
+            cos_speed: cos_weighted,
+        }
+    } else {
+        // χ = π/2 − ψ: cos θ = −(1 − 2·sin²χ), V² = (a + b)² − 4ab·sin²χ.
+        let sum2 = (a + b) * (a + b);
+        let (g_all, c_all) = g_pair(1.0, 0.0, sum2, -ab4);
+        let (g_rest, c_rest) = g_pair(psi.cos, psi.sin, sum2, -ab4);
+        ArcIntegrals {
+            speed: 2.0 * (g_all - g_rest),
+            cos_speed: c_rest - c_all,
+        }
+    }
+}
+
+/// G(φ; A, B) (see [`g`]) and ∫_0^{2φ} cos θ·√(A + B·sin²(θ/2)) dθ, from one R_F, R_D pair.
+fn g_pair(s: f64, c: f64, a: f64, b: f64) -> (f64, f64) {
+    if s == 0.0 {
+        return (0.0, 0.0);
+    }
+    let s2 = s * s;
+    let v = (a + b * s2).sqrt();
+    if a == 0.0 {
+        // V = √B·s: I2 = (1 − c)/√B and A·I0 → 0.
+        let one_minus_c = s2 / (1.0 + c);
+        let root = b.sqrt();
+        return (
+            root * one_minus_c,
+            2.0 / 3.0 * root * (2.0 * s2 * c - one_minus_c),
+        );
+    }
+    let (rf, rd) = rf_rd(a * c * c, a + b * s2, a);
+    let i0 = s * rf;
+    let i2 = a * s * s2 * rd / 3.0;
+    (
+        a * i0 + b * i2,
+        2.0 / 3.0 * (a * i0 - (2.0 * a + b) * i2 + 2.0 * s * c * v),
+    )
+}
+
 /// G(φ; A, B) = ∫_0^φ √(A + B·sin²ψ) dψ for s = sinφ, c = cosφ, A ≥ 0 and A + B·s² > 0.
 fn g(s: f64, c: f64, a: f64, b: f64) -> f64 {
     if s == 0.0 {
@@ -385,7 +549,7 @@ mod tests {
         let kernel = RemovalKernel::new(&Process::new(paper_spec(200.0, 200.0)).unwrap());
         let reach = kernel.reach_mm;
         for r in [0.0, 0.3, 4.0, 10.0, 10.5, 25.0, 47.0, 50.0] {
-            let RunningIntegral::Lens(lens) = kernel.path_integral(r) else {
+            let RunningIntegral::Lens(lens) = kernel.path_integral(r, reach) else {
                 panic!("η = −1 on a plane has the closed form");
             };
             let panels = PathIntegral::new(

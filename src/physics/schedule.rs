@@ -27,12 +27,17 @@ pub enum ScheduleError {
     NonFinite { field: &'static str, index: usize },
     #[error("positions_mm must be strictly increasing; entry {index} is not above the one before")]
     NotIncreasing { index: usize },
-    #[error("{field}[{index}] = {value} mm is outside the allowed tool positions [0, {max} mm]")]
+    #[error(
+        "{field}[{index}] = {value} mm is outside the allowed tool positions [0, {max} mm{}",
+        closing(*open)
+    )]
     OutOfRange {
         field: &'static str,
         index: usize,
         value: f64,
         max: f64,
+        /// `max` itself is out (a linear pad tips off there).
+        open: bool,
     },
     #[error("dwell_s[{index}] must not be negative")]
     NegativeDwell { index: usize },
@@ -44,17 +49,30 @@ pub enum ScheduleError {
         "feed_mm_per_min is so slow that the pass would take more than {max} s (about 31 years)"
     )]
     TooSlow { max: f64 },
-    #[error("{field} = {value} mm is outside the allowed tool positions [0, {max} mm]")]
+    #[error(
+        "{field} = {value} mm is outside the allowed tool positions [0, {max} mm{}",
+        closing(*open)
+    )]
     OffReach {
         field: &'static str,
         value: f64,
         max: f64,
+        open: bool,
     },
     #[error("{field} must be greater than {lower}")]
     NotAbove {
         field: &'static str,
         lower: &'static str,
     },
+}
+
+/// The interval's closing bracket: `)` when its upper end is excluded.
+fn closing(open: bool) -> &'static str {
+    if open {
+        "): a linear pad tips off the edge at the upper end"
+    } else {
+        "]"
+    }
 }
 
 impl ScheduleError {
@@ -101,16 +119,18 @@ pub fn check_positions(
         return Err(ScheduleError::Empty { field });
     }
     let max = process.max_tool_position_mm();
+    let open = process.reach_is_open();
     for (index, &value) in positions_mm.iter().enumerate() {
         if !value.is_finite() {
             return Err(ScheduleError::NonFinite { field, index });
         }
-        if !(0.0..=max).contains(&value) {
+        if value < 0.0 || value > max || (open && value == max) {
             return Err(ScheduleError::OutOfRange {
                 field,
                 index,
                 value,
                 max,
+                open,
             });
         }
         if increasing && index > 0 && value <= positions_mm[index - 1] {
@@ -211,10 +231,15 @@ impl ConstantFeed {
                 lower: "0",
             });
         }
-        let max = process.max_tool_position_mm();
+        let (max, open) = (process.max_tool_position_mm(), process.reach_is_open());
         for (field, value) in [("start_mm", start_mm), ("stop_mm", stop_mm)] {
-            if !(0.0..=max).contains(&value) {
-                return Err(ScheduleError::OffReach { field, value, max });
+            if value < 0.0 || value > max || (open && value == max) {
+                return Err(ScheduleError::OffReach {
+                    field,
+                    value,
+                    max,
+                    open,
+                });
             }
         }
         if stop_mm <= start_mm {

@@ -79,11 +79,12 @@ pub fn scale_free(spec: &ProcessSpec) -> Option<(ProcessSpec, f64)> {
     (factor.is_normal() && (1.0 / factor).is_normal()).then_some((canonical, factor))
 }
 
-/// Path end L = min(outer + r_t, reach), mm (r_t along the surface on a curved part).
+/// Path end L = min(outer + r_t, the farthest a pass may run), mm (r_t along the surface on a
+/// curved part; see [`Process::pass_reach_mm`]).
 pub fn path_end_mm(process: &Process, aperture: &ClearAperture) -> f64 {
     process
         .radius_past_mm(aperture.outer_mm(), process.tool_radius_mm())
-        .min(process.max_tool_position_mm())
+        .min(process.pass_reach_mm())
 }
 
 impl EqualDwell {

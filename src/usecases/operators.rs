@@ -86,11 +86,11 @@ fn key(process: &Process, radii_mm: &[f64], positions_mm: &[f64]) -> Vec<u64> {
         .map(f64::to_bits),
     );
     key.extend([
-        s.pressure_model as u64,
         s.part.orientation as u64,
         radii_mm.len() as u64,
         positions_mm.len() as u64,
     ]);
+    key.extend(s.pressure_model.key_bits());
     key.extend(surface);
     key.extend(radii_mm.iter().chain(positions_mm).map(|v| v.to_bits()));
     key

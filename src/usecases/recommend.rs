@@ -179,9 +179,9 @@ fn frame_key(process: &Process, frame: Frame) -> Vec<u64> {
     .collect();
     key.extend([
         frame.grid.radii_mm().len() as u64,
-        s.pressure_model as u64,
         s.part.orientation as u64,
     ]);
+    key.extend(s.pressure_model.key_bits());
     key.extend(s.part.surface.key_bits());
     key
 }

@@ -13,6 +13,7 @@ mod bad_input;
 mod curved_plans;
 mod curved_removal;
 mod deploy;
+mod edge_pressure;
 mod invariant;
 mod layers;
 mod machine;

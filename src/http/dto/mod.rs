@@ -62,18 +62,30 @@ pub struct ProcessDto {
     /// How pressure depends on the tool position. Default `uniform`.
     #[serde(default)]
     pub pressure_model: PressureModelDto,
+    /// Under `linear`: the pad's share κ of the tipping moment about its centre, in [0, 1]
+    /// (1: a free gimbal, the load acting at the pad centre; 0: the head holds the pad level
+    /// and the pressure is the constant-force model's). Default 1; the other models ignore it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(example = 1.0, minimum = 0.0, maximum = 1.0)]
+    pub pad_moment_share: Option<f64>,
 }
 
 /// `uniform`: the nominal pressure everywhere under the pad, also when it overhangs the edge
 /// (the paper's assumption; tool positions up to r_m + r_t). `constant_force`: the force of the
 /// nominal pressure on the full pad rests on the part of the pad still on the workpiece, so the
-/// pressure rises as the pad overhangs (tool positions up to r_m).
+/// pressure rises as the pad overhangs (tool positions up to r_m). `linear`: a rigid pad under
+/// that force with pressure linear across the contact, balanced in force and in moment (the pad
+/// carries `pad_moment_share` of the tipping moment, the head the rest): overhanging, the
+/// pressure rises toward the edge, and where it would turn negative the pad lifts on its inner
+/// side. Tool positions must stay below where the load would rest on the edge alone (r_m for
+/// `pad_moment_share` 1, up to r_m + r_t as it falls to 0). Planes only.
 #[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum PressureModelDto {
     #[default]
     Uniform,
     ConstantForce,
+    Linear,
 }
 
 impl From<&ProcessDto> for ProcessSpec {
@@ -88,6 +100,9 @@ impl From<&ProcessDto> for ProcessSpec {
             pressure_model: match p.pressure_model {
                 PressureModelDto::Uniform => PressureModel::Uniform,
                 PressureModelDto::ConstantForce => PressureModel::ConstantForce,
+                PressureModelDto::Linear => PressureModel::Linear {
+                    pad_moment_share: p.pad_moment_share.unwrap_or(1.0),
+                },
             },
             part: Part::flat(),
         }
