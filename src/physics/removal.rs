@@ -39,6 +39,7 @@ use super::pressure::{
     contact_area_mm2, linear_lift_onset_mm, pad_pressure, PadPressure, PressureModel,
 };
 use super::process::Process;
+use super::roots::illinois;
 
 /// How finely a [`PathIntegral`] resolves the rate along the path, relative to the rate's
 /// size: the closed form is exact to rounding; the curved kernel's own quadrature to ~1e-10.
@@ -346,8 +347,44 @@ impl RemovalKernel {
         if self.pressure_model != PressureModel::Uniform {
             points.push(self.workpiece_radius - rt);
         }
-        points.extend(self.lift_onset_mm);
+        if let Some(onset) = self.lift_onset_mm {
+            points.push(onset);
+            points.extend(self.lift_kinks(r, onset.max(lo), hi));
+        }
         inside(points, lo, hi)
+    }
+
+    /// Where a lifted pad's rate at radius `r` has kinks in the tool position x (between
+    /// `from` and `to`, beyond the lift's onset): where the lift line x0(x) passes the ends of
+    /// the ring's arc under the pad (x0 = r·cos θ0) and where it passes the ring itself
+    /// (x0 = r, beyond which the ring is lifted clear). Sign changes on a few samples, each
+    /// refined by regula falsi.
+    fn lift_kinks(&self, r: f64, from: f64, to: f64) -> Vec<f64> {
+        if to <= from || r <= 0.0 {
+            return Vec::new();
+        }
+        let rt = self.tool_radius;
+        let lift_line = |x: f64| {
+            self.pad_pressure(x)
+                .lift_line_mm()
+                .map_or(f64::NEG_INFINITY, |u| x + u)
+        };
+        let past_arc_end = |x: f64| lift_line(x) - (r * r + x * x - rt * rt) / (2.0 * x);
+        let past_ring = |x: f64| lift_line(x) - r;
+        const SAMPLES: usize = 8;
+        let mut kinks = Vec::new();
+        for g in [&past_arc_end as &dyn Fn(f64) -> f64, &past_ring] {
+            let mut a = (from, g(from));
+            for i in 1..=SAMPLES {
+                let x = from + (to - from) * i as f64 / SAMPLES as f64;
+                let b = (x, g(x));
+                if a.1.is_finite() && b.1.is_finite() && (a.1 < 0.0) != (b.1 < 0.0) {
+                    kinks.push(illinois(g, a, b, 1e-14 * to, 0.0));
+                }
+                a = b;
+            }
+        }
+        kinks
     }
 
     /// What a column fill needs of the sample radii, computed once per operator: the ring
