@@ -203,6 +203,19 @@ pub fn linear_reach_mm(workpiece_radius: f64, tool_radius: f64, pad_moment_share
 /// The first position where a linear pad starts to lift (its pressure reaches zero at the
 /// inner rim), capped at the workpiece edge.
 pub fn linear_lift_onset_mm(workpiece_radius: f64, tool_radius: f64, pad_moment_share: f64) -> f64 {
+    let reach = linear_reach_mm(workpiece_radius, tool_radius, pad_moment_share);
+    lift_onset_mm(workpiece_radius, tool_radius, pad_moment_share, reach)
+        .map_or(workpiece_radius, |onset| onset.min(workpiece_radius))
+}
+
+/// Where the unlifted linear pressure first reaches zero at the pad's inner rim, before
+/// `reach`; `None` when it never does.
+fn lift_onset_mm(
+    workpiece_radius: f64,
+    tool_radius: f64,
+    pad_moment_share: f64,
+    reach: f64,
+) -> Option<f64> {
     let least = |r1: f64| {
         let lens = Lens {
             workpiece_radius,
@@ -210,14 +223,207 @@ pub fn linear_lift_onset_mm(workpiece_radius: f64, tool_radius: f64, pad_moment_
             position: r1,
         };
         let p = lens.unlifted(pad_moment_share);
-        p.level - p.slope_per_mm * tool_radius
+        p.level - p.slope_per_mm * tool_radius.min(workpiece_radius + r1)
     };
-    let (start, edge) = ((workpiece_radius - tool_radius).max(0.0), workpiece_radius);
-    let at_edge = least(edge);
-    if at_edge >= 0.0 {
-        return edge;
+    let start = (workpiece_radius - tool_radius).max(0.0);
+    // Just inside the reach (at it the lens may vanish).
+    let last = start + (1.0 - 1e-9) * (reach - start);
+    let at_last = least(last);
+    (at_last < 0.0).then(|| illinois(&least, (start, 1.0), (last, at_last), 1e-13 * reach, 0.0))
+}
+
+/// A linear pad's pressure against its position r1, interpolated for the many evaluations a
+/// path integral makes: on each smooth piece [a, b] of r1 (the overhang's start r_m − r_t to
+/// the lift's onset, then on to 99 % of the way to the reach) the level and slope are
+/// Chebyshev series on panels of v = √((r1 − a)/(b − a)) (the square root absorbs the
+/// (r1 − a)^(3/2) growth of the overhanging cap), each panel's 33 Chebyshev–Lobatto values
+/// fitted until its last three coefficients fall below 2e-13 of the piece's largest level,
+/// else halved. Beyond the table (where the load nears the edge and the pressure grows
+/// without bound) the pressure is solved directly.
+#[derive(Debug, Clone)]
+pub struct PressureCurve {
+    workpiece_radius: f64,
+    tool_radius: f64,
+    pad_moment_share: f64,
+    /// Where the pad starts to lift, if before the reach (a kink of the pressure).
+    lift_onset_mm: Option<f64>,
+    pieces: Vec<CurvePiece>,
+}
+
+#[derive(Debug, Clone)]
+struct CurvePiece {
+    start: f64,
+    width: f64,
+    panels: Vec<CurvePanel>,
+}
+
+#[derive(Debug, Clone)]
+struct CurvePanel {
+    /// The panel's v range.
+    lo: f64,
+    hi: f64,
+    level: Vec<f64>,
+    slope: Vec<f64>,
+}
+
+/// Chebyshev–Lobatto points per panel (degree 32).
+const CURVE_POINTS: usize = 33;
+/// The fit's tolerance, relative to the piece's largest level: a few times the rounding
+/// noise of the solved pressure (~5e-14), so that the fit stops at the noise.
+const CURVE_TOLERANCE: f64 = 2e-13;
+/// Deepest halving of a panel, and most panels on one piece (past them a panel is kept as
+/// it is: the pressure is then near its singular reach, where the table stops anyway).
+const CURVE_DEPTH: u32 = 24;
+const CURVE_PANELS: usize = 64;
+
+impl PressureCurve {
+    pub fn new(workpiece_radius: f64, tool_radius: f64, pad_moment_share: f64) -> PressureCurve {
+        let mut curve = PressureCurve {
+            workpiece_radius,
+            tool_radius,
+            pad_moment_share,
+            lift_onset_mm: None,
+            pieces: Vec::new(),
+        };
+        let start = (workpiece_radius - tool_radius).max(0.0);
+        let reach = linear_reach_mm(workpiece_radius, tool_radius, pad_moment_share);
+        let end = start + 0.99 * (reach - start);
+        curve.lift_onset_mm = lift_onset_mm(workpiece_radius, tool_radius, pad_moment_share, reach);
+        let onset = curve.lift_onset_mm.filter(|&onset| onset < end);
+        let mut ends = vec![start];
+        ends.extend(onset);
+        ends.push(end);
+        for piece in ends.windows(2) {
+            curve.pieces.push(curve.fit(piece[0], piece[1]));
+        }
+        curve
     }
-    illinois(&least, (start, 1.0), (edge, at_edge), 1e-13 * edge, 0.0)
+
+    /// Where the pad starts to lift, if it does before its reach.
+    pub fn lift_onset_mm(&self) -> Option<f64> {
+        self.lift_onset_mm
+    }
+
+    /// The pressure with the pad at `position` (see [`pad_pressure`]).
+    pub fn at(&self, position: f64) -> Option<PadPressure> {
+        if position + self.tool_radius <= self.workpiece_radius {
+            return Some(PadPressure::NOMINAL);
+        }
+        let piece = self
+            .pieces
+            .iter()
+            .rev()
+            .find(|p| position >= p.start)
+            .filter(|p| position <= p.start + p.width);
+        let Some(piece) = piece else {
+            return self.exact(position);
+        };
+        let v = ((position - piece.start) / piece.width)
+            .clamp(0.0, 1.0)
+            .sqrt();
+        let index = piece
+            .panels
+            .partition_point(|p| p.hi < v)
+            .min(piece.panels.len() - 1);
+        let panel = &piece.panels[index];
+        let t = (2.0 * v - panel.lo - panel.hi) / (panel.hi - panel.lo);
+        Some(PadPressure {
+            level: clenshaw(&panel.level, t),
+            slope_per_mm: clenshaw(&panel.slope, t),
+        })
+    }
+
+    fn exact(&self, position: f64) -> Option<PadPressure> {
+        pad_pressure(
+            PressureModel::Linear {
+                pad_moment_share: self.pad_moment_share,
+            },
+            self.workpiece_radius,
+            self.tool_radius,
+            position,
+        )
+    }
+
+    /// The panels of the piece [a, b].
+    fn fit(&self, a: f64, b: f64) -> CurvePiece {
+        let width = b - a;
+        let sample = |lo: f64, hi: f64| -> (Vec<f64>, Vec<f64>) {
+            (0..CURVE_POINTS)
+                .map(|j| {
+                    let t = (PI * j as f64 / (CURVE_POINTS - 1) as f64).cos();
+                    let v = 0.5 * (lo + hi) + 0.5 * (hi - lo) * t;
+                    let p = self.exact(a + width * v * v).unwrap_or(PadPressure::NONE);
+                    (p.level, p.slope_per_mm)
+                })
+                .unzip()
+        };
+        let mut done: Vec<CurvePanel> = Vec::new();
+        // The pressure grows toward the reach: its scale is set by the piece's far end.
+        let mut scale = [a, b]
+            .iter()
+            .filter_map(|&x| self.exact(x))
+            .fold(0.0_f64, |m, p| m.max(p.level.abs()));
+        let mut stack = vec![(0.0, 1.0, 0)];
+        while let Some((lo, hi, depth)) = stack.pop() {
+            let (levels, slopes) = sample(lo, hi);
+            scale = levels.iter().fold(scale, |m, v| m.max(v.abs()));
+            let (level, slope) = (chebyshev(&levels), chebyshev(&slopes));
+            let tail = |c: &[f64], unit: f64| c[c.len() - 3..].iter().all(|x| x.abs() <= unit);
+            let unit = CURVE_TOLERANCE * scale;
+            if depth >= CURVE_DEPTH
+                || done.len() + stack.len() >= CURVE_PANELS
+                || (tail(&level, unit) && tail(&slope, unit / self.tool_radius))
+            {
+                done.push(CurvePanel {
+                    lo,
+                    hi,
+                    level,
+                    slope,
+                });
+            } else {
+                let mid = 0.5 * (lo + hi);
+                stack.push((mid, hi, depth + 1));
+                stack.push((lo, mid, depth + 1));
+            }
+        }
+        done.sort_by(|p, q| p.lo.total_cmp(&q.lo));
+        CurvePiece {
+            start: a,
+            width,
+            panels: done,
+        }
+    }
+}
+
+/// Chebyshev coefficients of the interpolant through values at the Chebyshev–Lobatto points
+/// t_j = cos(πj/N), j = 0..N (a direct DCT-I: N is small).
+fn chebyshev(values: &[f64]) -> Vec<f64> {
+    let n = values.len() - 1;
+    (0..=n)
+        .map(|k| {
+            let sum: f64 = values
+                .iter()
+                .enumerate()
+                .map(|(j, f)| {
+                    let end = if j == 0 || j == n { 0.5 } else { 1.0 };
+                    end * f * (PI * (j * k) as f64 / n as f64).cos()
+                })
+                .sum();
+            let end = if k == 0 || k == n { 0.5 } else { 1.0 };
+            2.0 / n as f64 * end * sum
+        })
+        .collect()
+}
+
+/// Σ c_k·T_k(t) by Clenshaw's recurrence.
+fn clenshaw(c: &[f64], t: f64) -> f64 {
+    let (mut b1, mut b2) = (0.0, 0.0);
+    for &ck in c.iter().skip(1).rev() {
+        let b0 = ck + 2.0 * t * b1 - b2;
+        b2 = b1;
+        b1 = b0;
+    }
+    c[0] + t * b1 - b2
 }
 
 /// ∫1, ∫u and ∫u² dA over a region, u = x − r1 the abscissa from the pad centre (mm², mm³,
@@ -383,23 +589,40 @@ impl Lens {
         if target >= outer {
             return None;
         }
-        // The centroid of the triangular load on the part beyond the lift line u0, less
-        // where the balance puts it; → outer − target > 0 as the part shrinks to the rim.
-        let gap = |u0: f64| {
+        // Newton on the centroid c(u0) = u0 + N/D of the triangular load beyond the lift line
+        // u0 (N = ∫(u − u0)² dA, D = ∫(u − u0) dA over u ≥ u0), c′ = N·A/D² − 1 ≥ 0, kept in
+        // a bracket that shrinks with every step (bisection when Newton would leave it).
+        let (mut lo, mut hi) = (inner, outer);
+        let mut u0 = (-full.level / full.slope_per_mm).clamp(inner, outer);
+        let tolerance = 1e-15 * self.tool_radius;
+        for _ in 0..100 {
             let cut = self.moments(u0, f64::INFINITY);
-            let lever = cut.first - u0 * cut.area;
-            if lever <= 0.0 {
-                return outer - target;
+            let d = cut.first - u0 * cut.area;
+            let n = cut.second - 2.0 * u0 * cut.first + u0 * u0 * cut.area;
+            if d <= 0.0 {
+                hi = u0;
+                u0 = 0.5 * (lo + hi);
+                continue;
             }
-            u0 + (cut.second - 2.0 * u0 * cut.first + u0 * u0 * cut.area) / lever - target
-        };
-        let u0 = illinois(
-            &gap,
-            (inner, gap(inner)),
-            (outer, outer - target),
-            1e-15 * self.tool_radius,
-            0.0,
-        );
+            let gap = u0 + n / d - target;
+            if gap < 0.0 {
+                lo = u0;
+            } else {
+                hi = u0;
+            }
+            let slope = n * cut.area / (d * d) - 1.0;
+            let newton = u0 - gap / slope;
+            let next = if slope > 0.0 && newton > lo && newton < hi {
+                newton
+            } else {
+                0.5 * (lo + hi)
+            };
+            let step = (next - u0).abs();
+            u0 = next;
+            if step <= tolerance || hi - lo <= tolerance {
+                break;
+            }
+        }
         let cut = self.moments(u0, f64::INFINITY);
         let lever = cut.first - u0 * cut.area;
         (lever > 0.0).then(|| {

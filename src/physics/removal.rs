@@ -30,14 +30,13 @@
 //! fast path R = K·P·|ω2|·r1·θ0/π.
 
 use std::f64::consts::PI;
+use std::sync::OnceLock;
 
 use super::carlson::rf_rd;
 use super::contact::{half_angle, HalfAngle};
 use super::curved::{CurvedKernel, Ring};
 use super::path::{Lobatto, PathIntegral};
-use super::pressure::{
-    contact_area_mm2, linear_lift_onset_mm, pad_pressure, PadPressure, PressureModel,
-};
+use super::pressure::{contact_area_mm2, pad_pressure, PadPressure, PressureCurve, PressureModel};
 use super::process::Process;
 use super::roots::illinois;
 
@@ -60,8 +59,12 @@ pub struct RemovalKernel {
     translation: bool,
     /// The farthest tool position the process allows, mm (the path's end at the latest).
     reach_mm: f64,
-    /// Where a linear pad starts to lift (a kink of R in r1); `None` for the other models.
-    lift_onset_mm: Option<f64>,
+    /// A linear pad's κ on a plane, whose pressure curve path integrals interpolate; `None`
+    /// for the other models.
+    linear_share: Option<f64>,
+    /// That curve, made the first time a path integral needs it (a few ms: single rates solve
+    /// the pressure directly).
+    curve: OnceLock<PressureCurve>,
     /// The Chebyshev points every path integral is taken with.
     lobatto: Lobatto,
     curved: Option<CurvedKernel>,
@@ -124,14 +127,13 @@ impl RemovalKernel {
             scale: process.preston_rate_scale() / PI,
             translation: process.is_eta_minus_one(),
             reach_mm: process.max_tool_position_mm(),
-            lift_onset_mm: match process.pressure_model() {
-                PressureModel::Linear { pad_moment_share } => Some(linear_lift_onset_mm(
-                    process.workpiece_radius_mm(),
-                    process.tool_radius_mm(),
-                    pad_moment_share,
-                )),
+            linear_share: match process.pressure_model() {
+                PressureModel::Linear { pad_moment_share } if process.part().is_flat() => {
+                    Some(pad_moment_share)
+                }
                 _ => None,
             },
+            curve: OnceLock::new(),
             lobatto: Lobatto::default(),
             curved: (!process.part().is_flat()).then(|| {
                 CurvedKernel::new(
@@ -172,6 +174,24 @@ impl RemovalKernel {
             r1_mm,
         )
         .unwrap_or(PadPressure::NONE)
+    }
+
+    /// The linear pad's pressure curve, made on first use.
+    fn curve(&self) -> Option<&PressureCurve> {
+        let share = self.linear_share?;
+        Some(
+            self.curve
+                .get_or_init(|| PressureCurve::new(self.workpiece_radius, self.tool_radius, share)),
+        )
+    }
+
+    /// [`Self::pad_pressure`] for the many positions of a path: from the curve under linear
+    /// pressure.
+    fn path_pressure(&self, r1_mm: f64) -> PadPressure {
+        match self.curve() {
+            Some(curve) => curve.at(r1_mm).unwrap_or(PadPressure::NONE),
+            None => self.pad_pressure(r1_mm),
+        }
     }
 
     /// The rate at `r_mm` with the tool at `r1_mm` under `pressure` (its [`Self::pad_pressure`]).
@@ -328,7 +348,7 @@ impl RemovalKernel {
                 use_it(&rate, points, CURVED_PATH_TOLERANCE)
             }
             None => use_it(
-                &|x| self.rate_nm_per_s(r_mm, x),
+                &|x| self.rate_under(&self.path_pressure(x), r_mm, x),
                 self.flat_breakpoints(r_mm),
                 FLAT_PATH_TOLERANCE,
             ),
@@ -347,7 +367,7 @@ impl RemovalKernel {
         if self.pressure_model != PressureModel::Uniform {
             points.push(self.workpiece_radius - rt);
         }
-        if let Some(onset) = self.lift_onset_mm {
+        if let Some(onset) = self.curve().and_then(PressureCurve::lift_onset_mm) {
             points.push(onset);
             points.extend(self.lift_kinks(r, onset.max(lo), hi));
         }
@@ -365,7 +385,7 @@ impl RemovalKernel {
         }
         let rt = self.tool_radius;
         let lift_line = |x: f64| {
-            self.pad_pressure(x)
+            self.path_pressure(x)
                 .lift_line_mm()
                 .map_or(f64::NEG_INFINITY, |u| x + u)
         };
