@@ -116,7 +116,16 @@
       tool_rpm: value('tool_rpm'),
       preston_coefficient_m2_per_n: value('preston_coefficient_m2_per_n'),
       pressure_kpa: value('pressure_kpa'),
+      ...pressureInput(),
     });
+  }
+
+  /** The edge-pressure model, when not the default; κ only where it applies. */
+  function pressureInput() {
+    const model = $('#pressure_model').value;
+    if (model === 'uniform') return {};
+    if (model !== 'linear') return { pressure_model: model };
+    return { pressure_model: model, pad_moment_share: value('pad_moment_share') };
   }
 
   function surfaceInput() {
@@ -157,6 +166,9 @@
     if (count > 100000) throw fieldProblem(stepId, `${count} positions: choose a larger step.`);
     const list = Array.from({ length: count }, (_, i) => Number((i * step).toPrecision(12)));
     if (end - list[list.length - 1] > 1e-9 * end) list.push(Number(end.toPrecision(12)));
+    // A free gimbal tips off at the edge itself: its positions stop short of it.
+    if ($('#pressure_model').value === 'linear' && Number(value('pad_moment_share')) >= 1
+        && list.length > 1 && list[list.length - 1] >= edge) list.pop();
     return list;
   }
 
@@ -651,7 +663,7 @@
     $('#coefficients').value = (s.coefficients || []).map((c) => `${c.power}:${c.value}`).join(', ');
     if (example.probe_tip_radius_mm !== undefined) $('#probe_tip_radius_mm').value = example.probe_tip_radius_mm;
     if (example.robust) $('#robust').value = example.robust;
-    showSurfaceFields();
+    showApplicableFields();
   }
 
   // ---------------------------------------------------------------- state in the URL
@@ -680,10 +692,12 @@
     return VIEWS.includes(view) ? view : 'predict';
   }
 
-  function showSurfaceFields() {
+  /** Shows the inputs that apply: a curved surface's, an asphere's, a linear pad's κ. */
+  function showApplicableFields() {
     const kind = $('#surface_kind').value;
     for (const el of $$('.curved')) el.hidden = kind === 'plane';
     for (const el of $$('.aspheric')) el.hidden = kind !== 'asphere';
+    for (const el of $$('.linear')) el.hidden = $('#pressure_model').value !== 'linear';
   }
 
   function select(view, focus = false) {
@@ -699,8 +713,9 @@
 
   function start() {
     const view = loadState();
-    showSurfaceFields();
-    $('#surface_kind').addEventListener('change', showSurfaceFields);
+    showApplicableFields();
+    $('#surface_kind').addEventListener('change', showApplicableFields);
+    $('#pressure_model').addEventListener('change', showApplicableFields);
     const key = $('#api-key');
     key.value = apiKey();
     key.addEventListener('change', () => {
