@@ -9,7 +9,7 @@
 use axum::body::Body;
 use axum::http::Request;
 use http_body_util::BodyExt;
-use preston::config::Limits;
+use preston::config::ServiceLimits;
 use preston::http::{router, AppState};
 use preston::physics::{Part, PressureModel, ProcessSpec};
 use preston::usecases::predict::{predict, DwellSpec, PredictCommand, TravelSpec};
@@ -36,7 +36,7 @@ impl Service {
                 .enable_all()
                 .build()
                 .unwrap(),
-            app: router(AppState::new(Limits::default()), None),
+            app: router(AppState::new(ServiceLimits::default()), None),
             fixture: std::fs::read_to_string(concat!(
                 env!("CARGO_MANIFEST_DIR"),
                 "/fixtures/predict_paper_exp1_201.json"

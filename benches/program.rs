@@ -6,7 +6,7 @@
 use axum::body::Body;
 use axum::http::Request;
 use http_body_util::BodyExt;
-use preston::config::Limits;
+use preston::config::ServiceLimits;
 use preston::http::{router, AppState};
 use serde_json::json;
 use tower::ServiceExt;
@@ -41,7 +41,7 @@ fn program_2001_positions(bencher: divan::Bencher, accept: &str) {
         .enable_all()
         .build()
         .unwrap();
-    let app = router(AppState::new(Limits::default()), None);
+    let app = router(AppState::new(ServiceLimits::default()), None);
     let body = request();
     bencher.bench(|| {
         runtime.block_on(async {

@@ -61,22 +61,22 @@ pub struct ServeArgs {
     #[arg(long, env = "PRESTON_LISTEN", default_value = "127.0.0.1:8080")]
     pub listen: SocketAddr,
     /// Largest request body in bytes (413 beyond).
-    #[arg(long, env = "PRESTON_MAX_BODY_BYTES", default_value_t = Limits::default().max_body_bytes)]
+    #[arg(long, env = "PRESTON_MAX_BODY_BYTES", default_value_t = ServiceLimits::default().max_body_bytes)]
     pub max_body_bytes: usize,
     /// Largest radial_grid.count (422 beyond).
-    #[arg(long, env = "PRESTON_MAX_RADIAL_SAMPLES", default_value_t = Limits::default().max_radial_samples)]
+    #[arg(long, env = "PRESTON_MAX_RADIAL_SAMPLES", default_value_t = ServiceLimits::default().max_radial_samples)]
     pub max_radial_samples: usize,
     /// Most tool positions in one request (422 beyond).
-    #[arg(long, env = "PRESTON_MAX_POSITIONS", default_value_t = Limits::default().max_positions)]
+    #[arg(long, env = "PRESTON_MAX_POSITIONS", default_value_t = ServiceLimits::default().max_positions)]
     pub max_positions: usize,
     /// Most removal-function profiles in one request (422 beyond).
-    #[arg(long, env = "PRESTON_MAX_PROFILES", default_value_t = Limits::default().max_profiles)]
+    #[arg(long, env = "PRESTON_MAX_PROFILES", default_value_t = ServiceLimits::default().max_profiles)]
     pub max_profiles: usize,
     /// Largest removal operator, radial samples × tool positions (422 beyond).
-    #[arg(long, env = "PRESTON_MAX_OPERATOR_ENTRIES", default_value_t = Limits::default().max_operator_entries)]
+    #[arg(long, env = "PRESTON_MAX_OPERATOR_ENTRIES", default_value_t = ServiceLimits::default().max_operator_entries)]
     pub max_operator_entries: usize,
     /// Most candidate positions in one optimization (422 beyond).
-    #[arg(long, env = "PRESTON_MAX_OPTIMIZE_POSITIONS", default_value_t = Limits::default().max_optimize_positions)]
+    #[arg(long, env = "PRESTON_MAX_OPTIMIZE_POSITIONS", default_value_t = ServiceLimits::default().max_optimize_positions)]
     pub max_optimize_positions: usize,
     /// Longest a dwell optimization may run in the solver, in milliseconds.
     #[arg(long, env = "PRESTON_SOLVER_TIME_LIMIT_MS", default_value_t = 10_000)]
@@ -88,14 +88,14 @@ pub struct ServeArgs {
     #[arg(long, env = "PRESTON_QUEUE_TIMEOUT_MS", default_value_t = 5000)]
     pub queue_timeout_ms: u64,
     /// Most requests waiting for a computation slot; more get a 503 at once.
-    #[arg(long, env = "PRESTON_MAX_QUEUED_COMPUTATIONS", default_value_t = Limits::default().max_queued_computations)]
+    #[arg(long, env = "PRESTON_MAX_QUEUED_COMPUTATIONS", default_value_t = ServiceLimits::default().max_queued_computations)]
     pub max_queued_computations: usize,
     /// Longest a computing request may take, waiting included, in milliseconds (503 beyond).
     #[arg(long, env = "PRESTON_REQUEST_TIMEOUT_MS", default_value_t = 30_000)]
     pub request_timeout_ms: u64,
     /// Memory for removal operators kept for reuse by later predictions and optimizations on
     /// the same process, grid and positions, in MiB (0: none kept).
-    #[arg(long, env = "PRESTON_OPERATOR_CACHE_MIB", default_value_t = Limits::default().operator_cache_bytes / MIB)]
+    #[arg(long, env = "PRESTON_OPERATOR_CACHE_MIB", default_value_t = ServiceLimits::default().operator_cache_bytes / MIB)]
     pub operator_cache_mib: usize,
     /// On SIGTERM, how long to keep serving with /readyz at 503 before closing the listener,
     /// in milliseconds, so load balancers stop sending traffic first. Ctrl-C skips it.
@@ -127,7 +127,7 @@ pub struct ServeArgs {
 
 /// Sizes and waits the server refuses to exceed.
 #[derive(Debug, Clone)]
-pub struct Limits {
+pub struct ServiceLimits {
     /// Largest request body, bytes (413 beyond).
     pub max_body_bytes: usize,
     /// Largest `radial_grid.count` (422 beyond).
@@ -157,10 +157,10 @@ pub struct Limits {
 
 const MIB: usize = 1024 * 1024;
 
-impl Default for Limits {
+impl Default for ServiceLimits {
     fn default() -> Self {
         let compute = ComputeLimits::default();
-        Limits {
+        ServiceLimits {
             max_body_bytes: 4 * 1024 * 1024,
             max_radial_samples: compute.max_radial_samples,
             max_positions: compute.max_positions,
@@ -179,7 +179,7 @@ impl Default for Limits {
     }
 }
 
-impl Limits {
+impl ServiceLimits {
     /// The limits the use cases enforce.
     pub fn compute(&self) -> ComputeLimits {
         ComputeLimits {
@@ -214,9 +214,9 @@ impl ServeArgs {
         Some((rate, burst))
     }
 
-    pub fn limits(&self) -> Limits {
-        let defaults = Limits::default();
-        Limits {
+    pub fn limits(&self) -> ServiceLimits {
+        let defaults = ServiceLimits::default();
+        ServiceLimits {
             max_body_bytes: self.max_body_bytes,
             max_radial_samples: self.max_radial_samples,
             max_positions: self.max_positions,

@@ -10,7 +10,7 @@ use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::Services;
-use crate::machine::{BlockKind, FeedMode, GcodeFormat, MachineLimits, SpindleWords};
+use crate::machine::{BlockKind, FeedMode, GcodeFormat, MachineLimitsSpec, SpindleWords};
 use crate::physics::ProcessSpec;
 use crate::report::results;
 use crate::usecases::program::{program, MachineProgram, ProgramCommand, ProgramSpec};
@@ -270,7 +270,7 @@ seconds), `text/csv` the block table.",
             machine: req
                 .machine
                 .as_ref()
-                .map(MachineLimits::from)
+                .map(MachineLimitsSpec::from)
                 .unwrap_or_default(),
             clearance_mm: approach.clearance_mm,
             approach_feed_mm_per_min: approach.feed_mm_per_min,
@@ -332,8 +332,8 @@ seconds), `text/csv` the block table.",
                 eta: m.process.eta().value(),
             },
             skipped_positions: SkippedDto {
-                leading: p.skipped.0,
-                trailing: p.skipped.1,
+                leading: p.skipped.leading,
+                trailing: p.skipped.trailing,
             },
             approach_clearance_mm: m.approach.clearance_mm,
             approach_feed_mm_per_min: m.approach.feed_mm_per_min,

@@ -23,7 +23,7 @@ use super::{
     docs, eta_sweep, health, measurement_fit, metrics, optimize, predict, program, recommend,
     removal_function, workbench,
 };
-use crate::config::Limits;
+use crate::config::ServiceLimits;
 use crate::usecases::ComputeLimits;
 
 type ComputeFn = fn(&[u8], &ComputeLimits, &Services) -> Result<String, ApiError>;
@@ -70,7 +70,11 @@ pub static ENDPOINTS: [EndpointEntry; 7] = [
 ];
 
 /// The offline twin of the API: the exact JSON body `POST /v1/<endpoint>` would return.
-pub fn compute_json(endpoint: &str, body: &[u8], limits: &Limits) -> Result<String, ApiError> {
+pub fn compute_json(
+    endpoint: &str,
+    body: &[u8],
+    limits: &ServiceLimits,
+) -> Result<String, ApiError> {
     let entry = ENDPOINTS
         .iter()
         .find(|e| e.name == endpoint)

@@ -12,7 +12,7 @@ use axum::http::{header, HeaderValue};
 
 use super::error::{ApiError, Kind};
 use super::openapi;
-use crate::config::Limits;
+use crate::config::ServiceLimits;
 use crate::ratelimit::RateLimit;
 use crate::slots::{ComputeSlots, Refusal, SlotLimits};
 use crate::telemetry::metrics::Metrics;
@@ -29,7 +29,7 @@ pub struct Services {
 /// Shared by every request.
 #[derive(Clone)]
 pub struct AppState {
-    pub limits: Limits,
+    pub limits: ServiceLimits,
     /// The part of `limits` the use cases enforce.
     pub compute: ComputeLimits,
     pub services: Services,
@@ -44,7 +44,7 @@ pub struct AppState {
 }
 
 impl AppState {
-    pub fn new(limits: Limits) -> Self {
+    pub fn new(limits: ServiceLimits) -> Self {
         let services = Services {
             operators: Arc::new(OperatorCache::new(limits.operator_cache_bytes)),
             ..Services::default()

@@ -39,7 +39,7 @@ impl Drive {
 
 /// A kind of limit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Limit {
+pub enum LimitKind {
     Min,
     Max,
     MaxVelocity,
@@ -47,25 +47,25 @@ pub enum Limit {
     MaxRpm,
 }
 
-impl Limit {
+impl LimitKind {
     /// The limit's name on `drive` (units in the name).
     pub fn name(self, drive: Drive) -> &'static str {
         let rotary = drive == Drive::B;
         match (self, rotary) {
-            (Limit::Min, false) => "min_mm",
-            (Limit::Min, true) => "min_deg",
-            (Limit::Max, false) => "max_mm",
-            (Limit::Max, true) => "max_deg",
-            (Limit::MaxVelocity, false) => "max_velocity_mm_per_min",
-            (Limit::MaxVelocity, true) => "max_velocity_deg_per_min",
-            (Limit::MaxAcceleration, false) => "max_acceleration_mm_per_s2",
-            (Limit::MaxAcceleration, true) => "max_acceleration_deg_per_s2",
-            (Limit::MaxRpm, _) => "max_rpm",
+            (LimitKind::Min, false) => "min_mm",
+            (LimitKind::Min, true) => "min_deg",
+            (LimitKind::Max, false) => "max_mm",
+            (LimitKind::Max, true) => "max_deg",
+            (LimitKind::MaxVelocity, false) => "max_velocity_mm_per_min",
+            (LimitKind::MaxVelocity, true) => "max_velocity_deg_per_min",
+            (LimitKind::MaxAcceleration, false) => "max_acceleration_mm_per_s2",
+            (LimitKind::MaxAcceleration, true) => "max_acceleration_deg_per_s2",
+            (LimitKind::MaxRpm, _) => "max_rpm",
         }
     }
 }
 
-impl Limit {
+impl LimitKind {
     /// The limit in words, for messages: `the x axis's max_velocity_mm_per_min`.
     pub fn describe(self, drive: Drive) -> String {
         let what = match drive {
@@ -86,9 +86,10 @@ pub struct AxisLimits {
     pub max_acceleration_per_s2: Option<f64>,
 }
 
-/// Every limit of the machine; `None` = unlimited.
+/// Every limit of the machine as a caller gives them; `None` = unlimited. Unchecked: see
+/// [`MachineLimits::new`].
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct MachineLimits {
+pub struct MachineLimitsSpec {
     pub x: AxisLimits,
     pub z: AxisLimits,
     pub b: AxisLimits,
@@ -96,16 +97,42 @@ pub struct MachineLimits {
     pub tool_max_rpm: Option<f64>,
 }
 
+/// Every limit of the machine, checked ([`MachineLimits::new`] is the only way to make one;
+/// the default has none).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MachineLimits {
+    x: AxisLimits,
+    z: AxisLimits,
+    b: AxisLimits,
+    workpiece_max_rpm: Option<f64>,
+    tool_max_rpm: Option<f64>,
+}
+
 /// A limit out of its domain.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{message}")]
-pub struct LimitsError {
+pub struct InvalidLimit {
     pub drive: Drive,
-    pub limit: Limit,
+    pub limit: LimitKind,
     pub message: String,
 }
 
 impl MachineLimits {
+    /// The limits of `spec`: every value finite, velocities, accelerations and speeds
+    /// positive, min below max.
+    pub fn new(spec: MachineLimitsSpec) -> Result<MachineLimits, InvalidLimit> {
+        let limits = MachineLimits {
+            x: spec.x,
+            z: spec.z,
+            b: spec.b,
+            workpiece_max_rpm: spec.workpiece_max_rpm,
+            tool_max_rpm: spec.tool_max_rpm,
+        };
+        limits.check()?;
+        Ok(limits)
+    }
+
+    /// The limits of axis `drive` (X, Z or B).
     pub fn axis(&self, drive: Drive) -> &AxisLimits {
         match drive {
             Drive::X => &self.x,
@@ -114,28 +141,31 @@ impl MachineLimits {
         }
     }
 
-    /// Every value finite, velocities, accelerations and speeds positive, min below max.
-    pub fn check(&self) -> Result<(), LimitsError> {
-        let error = |drive, limit, message: &str| LimitsError {
+    fn check(&self) -> Result<(), InvalidLimit> {
+        let error = |drive, limit, message: &str| InvalidLimit {
             drive,
             limit,
-            message: format!("{} {message}", Limit::name(limit, drive)),
+            message: format!("{} {message}", LimitKind::name(limit, drive)),
         };
         for drive in Drive::AXES {
             let a = self.axis(drive);
-            for (value, limit) in [(a.min, Limit::Min), (a.max, Limit::Max)] {
+            for (value, limit) in [(a.min, LimitKind::Min), (a.max, LimitKind::Max)] {
                 if value.is_some_and(|v| !v.is_finite()) {
                     return Err(error(drive, limit, "must be a finite number"));
                 }
             }
             if let (Some(lo), Some(hi)) = (a.min, a.max) {
                 if hi <= lo {
-                    return Err(error(drive, Limit::Max, "must be greater than the minimum"));
+                    return Err(error(
+                        drive,
+                        LimitKind::Max,
+                        "must be greater than the minimum",
+                    ));
                 }
             }
             for (value, limit) in [
-                (a.max_velocity_per_min, Limit::MaxVelocity),
-                (a.max_acceleration_per_s2, Limit::MaxAcceleration),
+                (a.max_velocity_per_min, LimitKind::MaxVelocity),
+                (a.max_acceleration_per_s2, LimitKind::MaxAcceleration),
             ] {
                 if value.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
                     return Err(error(drive, limit, "must be a positive finite number"));
@@ -149,7 +179,7 @@ impl MachineLimits {
             if value.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
                 return Err(error(
                     drive,
-                    Limit::MaxRpm,
+                    LimitKind::MaxRpm,
                     "must be a positive finite number",
                 ));
             }
@@ -163,7 +193,7 @@ impl MachineLimits {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Violation {
     pub drive: Drive,
-    pub limit: Limit,
+    pub limit: LimitKind,
     pub limit_value: f64,
     /// The worst value (a position, |velocity| per minute, |acceleration| per s², |speed|).
     pub value: f64,
@@ -182,18 +212,18 @@ impl MachineLimits {
             let motion = program.motion(drive);
             // (limit, values, compared as magnitudes, an upper bound)
             let checks = [
-                (limits.min, Limit::Min, &motion.positions, false, false),
-                (limits.max, Limit::Max, &motion.positions, false, true),
+                (limits.min, LimitKind::Min, &motion.positions, false, false),
+                (limits.max, LimitKind::Max, &motion.positions, false, true),
                 (
                     limits.max_velocity_per_min,
-                    Limit::MaxVelocity,
+                    LimitKind::MaxVelocity,
                     &motion.velocity_per_min,
                     true,
                     true,
                 ),
                 (
                     limits.max_acceleration_per_s2,
-                    Limit::MaxAcceleration,
+                    LimitKind::MaxAcceleration,
                     &motion.acceleration_per_s2,
                     true,
                     true,
@@ -245,7 +275,7 @@ impl MachineLimits {
             if let Some(max) = max.filter(|&m| rpm.abs() > m) {
                 found.push(Violation {
                     drive,
-                    limit: Limit::MaxRpm,
+                    limit: LimitKind::MaxRpm,
                     limit_value: max,
                     value: rpm.abs(),
                     first_block: None,

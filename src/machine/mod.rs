@@ -43,8 +43,11 @@ pub mod program;
 
 pub use crate::physics::motion::{cell_boundaries_mm, move_share as cell_share};
 pub use gcode::{FeedMode, GcodeFormat, GcodeFormatError, SpindleWords};
-pub use limits::{AxisLimits, Drive, Limit, LimitsError, MachineLimits, Violation};
+pub use limits::{
+    AxisLimits, Drive, InvalidLimit, LimitKind, MachineLimits, MachineLimitsSpec, Violation,
+};
 pub use pose::{Orientation, Pose, Tool, ToolError};
 pub use program::{
-    cell_travel, Approach, AxisMotion, Block, BlockKind, Program, ProgramError, Utilisation,
+    cell_travel, Approach, AxisMotion, Block, BlockKind, Program, ProgramError, Skipped,
+    Utilisation,
 };

@@ -5,7 +5,7 @@
 //! figure is computed for: a stop of half the dwell at each end, and a constant-speed move
 //! across each position's cell.
 
-use super::limits::{AxisLimits, Drive, Limit};
+use super::limits::{AxisLimits, Drive, LimitKind};
 use super::pose::{Pose, Tool};
 use crate::physics::motion::{cell_boundaries_mm, move_share};
 use crate::surface::Surface;
@@ -138,11 +138,19 @@ pub enum ProgramError {
     NoDwell,
     /// An interior position with zero dwell: its cell would be crossed in no time.
     #[error(
-        "dwell_s[{index}] is 0 s between positions with dwell: the tool would cross its cell \
-         in no time (infinite feed); give every position between the first and last with \
-         dwell some dwell (e.g. optimize with constraints.min_dwell_s or machine limits)"
+        "position {index} has 0 s of dwell between positions with dwell: the tool would cross \
+         its cell in no time (infinite feed); give every position between the first and last \
+         with dwell some dwell (e.g. optimize with a minimum dwell, min_dwell_s, or the \
+         machine's limits)"
     )]
     ZeroInteriorDwell { index: usize },
+}
+
+/// How many positions of a plan a program leaves out at each end (their dwell is 0).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Skipped {
+    pub leading: usize,
+    pub trailing: usize,
 }
 
 /// A program: the blocks, each axis's motion, and what it polishes.
@@ -152,7 +160,7 @@ pub struct Program {
     blocks: Vec<Block>,
     motion: [AxisMotion; 3],
     /// Positions of the plan left out at each end because their dwell is 0.
-    pub skipped: (usize, usize),
+    pub skipped: Skipped,
     /// Time of the dwell and move blocks: the plan's total, s.
     pub polishing_time_s: f64,
     /// Time of every block, approach and retract included, s.
@@ -242,7 +250,10 @@ impl Program {
             program_time_s: durations.iter().sum(),
             blocks,
             motion,
-            skipped: (first, positions_mm.len() - 1 - last),
+            skipped: Skipped {
+                leading: first,
+                trailing: positions_mm.len() - 1 - last,
+            },
             polishing_time_s,
             max_path_deviation_mm,
         })
@@ -282,17 +293,17 @@ impl Program {
     /// (0 where only B moves); `None` for a cell crossed in no time (a zero-dwell end, left
     /// out) and for a single position (it has no move).
     pub fn cell_feeds_mm_per_min(&self) -> Vec<Option<f64>> {
-        let mut feeds = vec![None; self.skipped.0];
+        let mut feeds = vec![None; self.skipped.leading];
         for (index, block) in self.blocks.iter().enumerate() {
             if block.kind == BlockKind::Move {
                 let path = xz_path_mm(self.before(index), block.end);
                 feeds.push(Some(60.0 * path / block.duration_s));
             }
         }
-        if feeds.len() == self.skipped.0 {
+        if feeds.len() == self.skipped.leading {
             feeds.push(None);
         }
-        feeds.extend(std::iter::repeat_n(None, self.skipped.1));
+        feeds.extend(std::iter::repeat_n(None, self.skipped.trailing));
         feeds
     }
 
@@ -314,11 +325,11 @@ impl Program {
 
     /// The block an entry of an [`AxisMotion`]'s lists belongs to (`positions` for travel
     /// limits).
-    pub fn block_of(&self, limit: Limit, index: usize) -> usize {
+    pub fn block_of(&self, limit: LimitKind, index: usize) -> usize {
         let last = self.blocks.len() - 1;
         match limit {
             // Entry 0 is the start, before block 0.
-            Limit::Min | Limit::Max => index.saturating_sub(1),
+            LimitKind::Min | LimitKind::Max => index.saturating_sub(1),
             _ => index.min(last),
         }
     }
@@ -424,7 +435,13 @@ mod tests {
     #[test]
     fn zero_dwell_ends_are_skipped_and_interior_ones_refused() {
         let p = flat_program(&[0.0, 0.0, 2.0, 2.0, 0.0], 0.0).unwrap();
-        assert_eq!(p.skipped, (2, 1));
+        assert_eq!(
+            p.skipped,
+            Skipped {
+                leading: 2,
+                trailing: 1
+            }
+        );
         // The plan's cells: the tool starts at the midpoint 1.5 (cells 0 and 1 take no time)
         // and crosses cells 2 and 3, [1.5, 2.5] and [2.5, 3.5], in 2 s each; no stop.
         assert_eq!(p.start().x_mm, 1.5);

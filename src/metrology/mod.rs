@@ -29,7 +29,9 @@ pub mod profile;
 pub use fit::{fit, fit_within, Alignment, FitError, FitOutcome, PointResidual};
 pub use probe::Height;
 pub use probe::{Compensation, Probe, ProbeError};
-pub use profile::{form_error, radial_profile, Coverage, FormError, ProfileError, RadialProfile};
+pub use profile::{
+    form_error, radial_profile, Coverage, FormErrorSummary, RadialProfile, RadialProfileError,
+};
 
 use crate::surface::Surface;
 
@@ -113,7 +115,7 @@ pub enum TraceError {
         parameters + 1
     )]
     TooFewPoints { points: usize, parameters: usize },
-    #[error("no parameter to fit: set at least one of fit.lateral_offset, tilt, piston, radius_of_curvature")]
+    #[error("no parameter to fit: fit at least one of the lateral offset, tilt, piston and vertex radius")]
     NothingToFit,
     #[error("{reason}")]
     Undetermined {
@@ -175,15 +177,15 @@ impl FitProblem {
             return Err(TraceError::Undetermined {
                 parameters: vec![Parameter::LateralOffset],
                 reason: "a plane looks the same wherever its axis is: the trace cannot determine \
-                         a lateral offset (set fit.lateral_offset to false)",
+                         a lateral offset (do not fit the lateral offset)",
             });
         }
         if parameters.lateral_offset && parameters.tilt && surface.is_sphere() {
             return Err(TraceError::Undetermined {
                 parameters: vec![Parameter::LateralOffset, Parameter::Tilt],
                 reason: "on a sphere a tilt is indistinguishable from a lateral offset (turning a \
-                         sphere about its centre of curvature leaves it unchanged): fit one of \
-                         fit.lateral_offset and fit.tilt",
+                         sphere about its centre of curvature leaves it unchanged): fit the \
+                         lateral offset or the tilt, not both",
             });
         }
         // Every point must land on the design as given (the fit starts from no misalignment).

@@ -74,7 +74,7 @@ pub struct RadialProfile {
 
 /// Why the profile cannot be formed on the grid asked for.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ProfileError {
+pub enum RadialProfileError {
     #[error("the fit kept no point")]
     NoPoints,
     #[error(
@@ -164,8 +164,8 @@ impl Smoother {
 pub fn radial_profile(
     points: &[PointResidual],
     grid: &RadialGrid,
-) -> Result<RadialProfile, ProfileError> {
-    let coverage = Coverage::of(points).ok_or(ProfileError::NoPoints)?;
+) -> Result<RadialProfile, RadialProfileError> {
+    let coverage = Coverage::of(points).ok_or(RadialProfileError::NoPoints)?;
     let radii = grid.radii_mm();
     let step = if radii.len() > 1 {
         radii[1] - radii[0]
@@ -173,7 +173,7 @@ pub fn radial_profile(
         0.0
     };
     let smoother = Smoother::new(points, step);
-    let not_covered = |radius_mm| ProfileError::NotCovered {
+    let not_covered = |radius_mm| RadialProfileError::NotCovered {
         radius_mm,
         min_mm: coverage.min_mm,
         max_mm: coverage.max_mm,
@@ -205,7 +205,7 @@ pub fn radial_profile(
 
 /// The paper's eq. 3 figures over the kept points inside the aperture.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FormError {
+pub struct FormErrorSummary {
     /// √(Σe²/n) of the axial residual, nm.
     pub rms_nm: f64,
     /// max e − min e, nm.
@@ -217,14 +217,14 @@ pub struct FormError {
 pub fn form_error(
     points: &[PointResidual],
     aperture: &ClearAperture,
-) -> Result<FormError, ProfileError> {
+) -> Result<FormErrorSummary, RadialProfileError> {
     let inside: Vec<f64> = points
         .iter()
         .filter(|p| p.weight > 0.0 && aperture.contains(p.contact_mm.abs()))
         .map(|p| p.axial_mm * NM_PER_MM)
         .collect();
     if inside.is_empty() {
-        return Err(ProfileError::ApertureEmpty);
+        return Err(RadialProfileError::ApertureEmpty);
     }
     let n = inside.len() as f64;
     let (lo, hi) = inside
@@ -232,7 +232,7 @@ pub fn form_error(
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &e| {
             (lo.min(e), hi.max(e))
         });
-    Ok(FormError {
+    Ok(FormErrorSummary {
         rms_nm: (inside.iter().map(|e| e * e).sum::<f64>() / n).sqrt(),
         pv_nm: hi - lo,
         points: inside.len(),

@@ -36,7 +36,7 @@
 //! program's own arithmetic never puts a plan over its limit.
 
 use super::problem::{Bound, Constraint};
-use crate::machine::{cell_share, Drive, Limit};
+use crate::machine::{cell_share, Drive, LimitKind};
 
 /// One axis of the machine as the plan drives it.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,11 +53,11 @@ pub struct AxisPath {
 
 impl AxisPath {
     pub fn velocity_bound(&self) -> Bound {
-        Bound::Machine(self.drive, Limit::MaxVelocity)
+        Bound::Machine(self.drive, LimitKind::MaxVelocity)
     }
 
     pub fn acceleration_bound(&self) -> Bound {
-        Bound::Machine(self.drive, Limit::MaxAcceleration)
+        Bound::Machine(self.drive, LimitKind::MaxAcceleration)
     }
 }
 

@@ -80,6 +80,8 @@ pub mod solver;
 pub mod target;
 
 pub use basis::DwellBasis;
-pub use problem::{Bound, Constraint, Constraints, Objective, OptimizeError, Weight};
+pub use problem::{
+    Bound, Breach, Constraint, Constraints, ConstraintsSpec, Objective, OptimizeError, Weight,
+};
 pub use qp::{optimize, DwellProblem, Formulation, Solution, SolveStatus};
-pub use target::{resample_profile, MeasuredProfile, ProfileError};
+pub use target::{resample_profile, MeasuredProfile, MeasuredProfileError};

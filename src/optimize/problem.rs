@@ -2,8 +2,8 @@
 //! validation, and the check that a plan keeps every constraint.
 
 use super::kinematics::Floor;
-use super::target::ProfileError;
-use crate::machine::{Drive, Limit};
+use super::target::MeasuredProfileError;
+use crate::machine::{Drive, LimitKind};
 
 /// Default smoothing weight λ (see the module docs of [`super`]). Chosen on the paper's cases:
 /// it removes neighbour-to-neighbour oscillation while costing the uniform 100 nm plan of
@@ -39,7 +39,7 @@ impl Constraint {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Bound {
     Constraint(Constraint),
-    Machine(Drive, Limit),
+    Machine(Drive, LimitKind),
 }
 
 impl Bound {
@@ -83,7 +83,7 @@ pub enum OptimizeError {
     InvalidWeight { weight: Weight, message: String },
     /// The measured profile target is malformed or does not cover the clear aperture.
     #[error(transparent)]
-    Profile(#[from] ProfileError),
+    Profile(#[from] MeasuredProfileError),
     /// The clear aperture holds no radial sample.
     #[error("the clear aperture holds no radial sample")]
     EmptyAperture,
@@ -140,14 +140,27 @@ impl Objective {
     }
 }
 
-/// Limits on the plan, in s and mm/min. Only `min_dwell_s` (default 0) is always present.
+/// Limits on the plan as a caller gives them, in s and mm/min: unchecked (see
+/// [`Constraints::new`]). Only `min_dwell_s` (default 0) is always present.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Constraints {
+pub struct ConstraintsSpec {
     pub min_dwell_s: f64,
     pub max_dwell_s: Option<f64>,
     pub max_total_time_s: Option<f64>,
     pub max_feed_mm_per_min: Option<f64>,
     pub max_dwell_change_s: Option<f64>,
+}
+
+/// Limits on the plan, each checked on its own ([`Constraints::new`] is the only way to make
+/// one outside the optimizer; the default has none). Conflicts between them are
+/// [`super::feasibility`]'s to name.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Constraints {
+    pub(super) min_dwell_s: f64,
+    pub(super) max_dwell_s: Option<f64>,
+    pub(super) max_total_time_s: Option<f64>,
+    pub(super) max_feed_mm_per_min: Option<f64>,
+    pub(super) max_dwell_change_s: Option<f64>,
 }
 
 /// Largest time any constraint may name, s (keeps the scaled problem finite).
@@ -163,9 +176,38 @@ pub const MAX_DEPTH_NM: f64 = 1e9;
 pub const CONSTRAINT_TOLERANCE: f64 = 1e-9;
 
 impl Constraints {
-    /// Checks each value on its own (finite, signs); conflicts between them are
-    /// [`super::feasibility`]'s job.
-    pub fn validate(&self) -> Result<(), OptimizeError> {
+    /// The limits of `spec`, each finite and within its range.
+    pub fn new(spec: ConstraintsSpec) -> Result<Constraints, OptimizeError> {
+        let constraints = Constraints {
+            min_dwell_s: spec.min_dwell_s,
+            max_dwell_s: spec.max_dwell_s,
+            max_total_time_s: spec.max_total_time_s,
+            max_feed_mm_per_min: spec.max_feed_mm_per_min,
+            max_dwell_change_s: spec.max_dwell_change_s,
+        };
+        constraints.validate()?;
+        Ok(constraints)
+    }
+
+    /// Least dwell at any position, s (0: none).
+    pub fn min_dwell_s(&self) -> f64 {
+        self.min_dwell_s
+    }
+    pub fn max_dwell_s(&self) -> Option<f64> {
+        self.max_dwell_s
+    }
+    pub fn max_total_time_s(&self) -> Option<f64> {
+        self.max_total_time_s
+    }
+    pub fn max_feed_mm_per_min(&self) -> Option<f64> {
+        self.max_feed_mm_per_min
+    }
+    pub fn max_dwell_change_s(&self) -> Option<f64> {
+        self.max_dwell_change_s
+    }
+
+    /// Checks each value on its own (finite, signs).
+    pub(super) fn validate(&self) -> Result<(), OptimizeError> {
         // (constraint, value, smallest, largest, whether the smallest is allowed, unit)
         let checks = [
             (
@@ -225,41 +267,36 @@ impl Constraints {
     }
 
     /// The first constraint `dwell_s` breaks by more than [`CONSTRAINT_TOLERANCE`] relative to
-    /// the constraint's own size (to `scale_s` for a bound of zero), as
-    /// (constraint, index, violation in s). `None` when the plan keeps them all. `floors`:
+    /// the constraint's own size (to `scale_s` for a bound of zero). `None` when the plan
+    /// keeps them all. `floors`:
     /// each position's least dwell, the feed limit's included ([`super::kinematics::floors`]).
-    pub fn violation(
-        &self,
-        dwell_s: &[f64],
-        floors: &[Floor],
-        scale_s: f64,
-    ) -> Option<(Bound, usize, f64)> {
+    pub fn violation(&self, dwell_s: &[f64], floors: &[Floor], scale_s: f64) -> Option<Breach> {
         let exceeds = |excess: f64, size: f64| {
             let size = if size > 0.0 { size } else { scale_s };
             excess > CONSTRAINT_TOLERANCE * size.max(f64::MIN_POSITIVE)
         };
         for ((j, &t), floor) in dwell_s.iter().enumerate().zip(floors) {
             if !t.is_finite() || exceeds(floor.dwell_s - t, floor.dwell_s) {
-                return Some((floor.bound, j, floor.dwell_s - t));
+                return Some(Breach::new(floor.bound, j, floor.dwell_s - t));
             }
             if let Some(hi) = self.max_dwell_s {
                 if exceeds(t - hi, hi) {
-                    return Some((Bound::Constraint(Constraint::MaxDwell), j, t - hi));
+                    return Some(Breach::new(Constraint::MaxDwell.into(), j, t - hi));
                 }
             }
         }
         if let Some(total) = self.max_total_time_s {
             let sum: f64 = dwell_s.iter().sum();
             if exceeds(sum - total, total) {
-                return Some((Bound::Constraint(Constraint::MaxTotalTime), 0, sum - total));
+                return Some(Breach::new(Constraint::MaxTotalTime.into(), 0, sum - total));
             }
         }
         if let Some(delta) = self.max_dwell_change_s {
             for (j, w) in dwell_s.windows(2).enumerate() {
                 let change = (w[1] - w[0]).abs();
                 if exceeds(change - delta, delta) {
-                    return Some((
-                        Bound::Constraint(Constraint::MaxDwellChange),
+                    return Some(Breach::new(
+                        Constraint::MaxDwellChange.into(),
                         j,
                         change - delta,
                     ));
@@ -267,6 +304,31 @@ impl Constraints {
             }
         }
         None
+    }
+}
+
+/// A constraint a plan breaks: which, at which position (the first; 0 for the total time)
+/// and by how much, s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Breach {
+    pub bound: Bound,
+    pub index: usize,
+    pub excess_s: f64,
+}
+
+impl Breach {
+    fn new(bound: Bound, index: usize, excess_s: f64) -> Breach {
+        Breach {
+            bound,
+            index,
+            excess_s,
+        }
+    }
+}
+
+impl From<Constraint> for Bound {
+    fn from(constraint: Constraint) -> Bound {
+        Bound::Constraint(constraint)
     }
 }
 
@@ -355,7 +417,7 @@ mod tests {
         };
         let floors = floors(&[], Some(feed), 3, c.min_dwell_s);
         assert_eq!(c.violation(&[2.1, 2.1, 2.1], &floors, 1.0), None);
-        let broken = |d: [f64; 3]| c.violation(&d, &floors, 1.0).map(|v| v.0.describe());
+        let broken = |d: [f64; 3]| c.violation(&d, &floors, 1.0).map(|v| v.bound.describe());
         assert_eq!(broken([0.5, 4.0, 4.0]).as_deref(), Some("min_dwell_s"));
         assert_eq!(broken([2.0, 11.0, 6.0]).as_deref(), Some("max_dwell_s"));
         assert_eq!(broken([8.0, 9.0, 8.0]).as_deref(), Some("max_total_time_s"));

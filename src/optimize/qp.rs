@@ -688,15 +688,16 @@ fn check_plan(
     plan: &Attempt,
 ) -> Result<(), OptimizeError> {
     let status = plan.status;
-    if let Some((bound, index, excess)) =
-        problem
-            .constraints
-            .violation(&plan.dwell_s, floors, scales.dwell_s)
+    if let Some(breach) = problem
+        .constraints
+        .violation(&plan.dwell_s, floors, scales.dwell_s)
     {
         return Err(OptimizeError::Numerical {
             status: format!(
-                "{status:?}, but the plan breaks {} at index {index} by {excess:e} s",
-                bound.describe()
+                "{status:?}, but the plan breaks {} at index {} by {:e} s",
+                breach.bound.describe(),
+                breach.index,
+                breach.excess_s
             ),
         });
     }

@@ -20,7 +20,7 @@ pub enum ProfileArray {
 
 /// Why a measured profile was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ProfileError {
+pub enum MeasuredProfileError {
     #[error("a profile needs at least 2 points")]
     TooFewPoints,
     #[error("depth_nm has {depth} entries but radius_mm has {radius}: they must match")]
@@ -40,18 +40,17 @@ pub enum ProfileError {
     },
 }
 
-impl ProfileError {
+impl MeasuredProfileError {
     /// The array at fault and, when one element is, its index.
     pub fn location(&self) -> (ProfileArray, Option<usize>) {
         match *self {
-            ProfileError::TooFewPoints | ProfileError::NotCovering { .. } => {
+            MeasuredProfileError::TooFewPoints | MeasuredProfileError::NotCovering { .. } => {
                 (ProfileArray::Radius, None)
             }
-            ProfileError::LengthMismatch { .. } => (ProfileArray::Depth, None),
-            ProfileError::BadRadius { index } | ProfileError::NotIncreasing { index } => {
-                (ProfileArray::Radius, Some(index))
-            }
-            ProfileError::BadDepth { index, .. } => (ProfileArray::Depth, Some(index)),
+            MeasuredProfileError::LengthMismatch { .. } => (ProfileArray::Depth, None),
+            MeasuredProfileError::BadRadius { index }
+            | MeasuredProfileError::NotIncreasing { index } => (ProfileArray::Radius, Some(index)),
+            MeasuredProfileError::BadDepth { index, .. } => (ProfileArray::Depth, Some(index)),
         }
     }
 }
@@ -65,25 +64,25 @@ pub struct MeasuredProfile {
 }
 
 impl MeasuredProfile {
-    pub fn new(radius_mm: Vec<f64>, depth_nm: Vec<f64>) -> Result<Self, ProfileError> {
+    pub fn new(radius_mm: Vec<f64>, depth_nm: Vec<f64>) -> Result<Self, MeasuredProfileError> {
         if radius_mm.len() < 2 {
-            return Err(ProfileError::TooFewPoints);
+            return Err(MeasuredProfileError::TooFewPoints);
         }
         if depth_nm.len() != radius_mm.len() {
-            return Err(ProfileError::LengthMismatch {
+            return Err(MeasuredProfileError::LengthMismatch {
                 depth: depth_nm.len(),
                 radius: radius_mm.len(),
             });
         }
         for (i, (&r, &z)) in radius_mm.iter().zip(&depth_nm).enumerate() {
             if !r.is_finite() || r < 0.0 {
-                return Err(ProfileError::BadRadius { index: i });
+                return Err(MeasuredProfileError::BadRadius { index: i });
             }
             if i > 0 && r <= radius_mm[i - 1] {
-                return Err(ProfileError::NotIncreasing { index: i });
+                return Err(MeasuredProfileError::NotIncreasing { index: i });
             }
             if !(-MAX_DEPTH_NM..=MAX_DEPTH_NM).contains(&z) {
-                return Err(ProfileError::BadDepth {
+                return Err(MeasuredProfileError::BadDepth {
                     index: i,
                     max: MAX_DEPTH_NM,
                 });
@@ -96,7 +95,7 @@ impl MeasuredProfile {
     }
 
     /// Linear interpolation at each of `radii_mm`, which must lie within the profile's span.
-    pub fn resample(&self, radii_mm: &[f64]) -> Result<Vec<f64>, ProfileError> {
+    pub fn resample(&self, radii_mm: &[f64]) -> Result<Vec<f64>, MeasuredProfileError> {
         resample_checked(&self.radius_mm, &self.depth_nm, radii_mm)
     }
 }
@@ -108,7 +107,7 @@ pub fn resample_profile(
     radius_mm: &[f64],
     depth_nm: &[f64],
     radii_mm: &[f64],
-) -> Result<Vec<f64>, ProfileError> {
+) -> Result<Vec<f64>, MeasuredProfileError> {
     MeasuredProfile::new(radius_mm.to_vec(), depth_nm.to_vec())?.resample(radii_mm)
 }
 
@@ -116,11 +115,11 @@ fn resample_checked(
     radius_mm: &[f64],
     depth_nm: &[f64],
     radii_mm: &[f64],
-) -> Result<Vec<f64>, ProfileError> {
+) -> Result<Vec<f64>, MeasuredProfileError> {
     let (lo, hi) = (radius_mm[0], radius_mm[radius_mm.len() - 1]);
     if let (Some(&first), Some(&last)) = (radii_mm.first(), radii_mm.last()) {
         if first < lo || last > hi {
-            return Err(ProfileError::NotCovering {
+            return Err(MeasuredProfileError::NotCovering {
                 lo,
                 hi,
                 first,
@@ -157,7 +156,7 @@ mod tests {
 
     #[test]
     fn refuses_profiles_that_do_not_cover_or_are_malformed() {
-        let field = |r: Result<Vec<f64>, ProfileError>| match r {
+        let field = |r: Result<Vec<f64>, MeasuredProfileError>| match r {
             Err(e) => {
                 let (array, index) = e.location();
                 let name = match array {

@@ -42,7 +42,7 @@ impl Default for ComputeLimits {
 
 /// A size beyond the limits, with the numbers a message needs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum LimitError {
+pub enum SizeLimitError {
     #[error("{count} radial samples; this server allows at most {max}")]
     RadialSamples { count: usize, max: usize },
     #[error("{count} positions; this server allows at most {max}")]
@@ -67,18 +67,18 @@ pub enum LimitError {
 }
 
 impl ComputeLimits {
-    pub fn check_radial_samples(&self, count: usize) -> Result<(), LimitError> {
+    pub fn check_radial_samples(&self, count: usize) -> Result<(), SizeLimitError> {
         let max = self.max_radial_samples;
         (count <= max)
             .then_some(())
-            .ok_or(LimitError::RadialSamples { count, max })
+            .ok_or(SizeLimitError::RadialSamples { count, max })
     }
 
     /// An operator of `samples` radial samples × `positions` tool positions.
-    pub fn check_operator(&self, samples: usize, positions: usize) -> Result<(), LimitError> {
+    pub fn check_operator(&self, samples: usize, positions: usize) -> Result<(), SizeLimitError> {
         self.check_positions(positions)?;
         if samples.saturating_mul(positions) > self.max_operator_entries {
-            return Err(LimitError::OperatorEntries {
+            return Err(SizeLimitError::OperatorEntries {
                 samples,
                 positions,
                 max: self.max_operator_entries,
@@ -88,39 +88,39 @@ impl ComputeLimits {
     }
 
     /// Tool positions in one computation (a dwell plan, removal-function profiles).
-    pub fn check_positions(&self, count: usize) -> Result<(), LimitError> {
+    pub fn check_positions(&self, count: usize) -> Result<(), SizeLimitError> {
         let max = self.max_positions;
         (count <= max)
             .then_some(())
-            .ok_or(LimitError::Positions { count, max })
+            .ok_or(SizeLimitError::Positions { count, max })
     }
 
-    pub fn check_profiles(&self, count: usize) -> Result<(), LimitError> {
+    pub fn check_profiles(&self, count: usize) -> Result<(), SizeLimitError> {
         let max = self.max_profiles;
         (count <= max)
             .then_some(())
-            .ok_or(LimitError::Profiles { count, max })
+            .ok_or(SizeLimitError::Profiles { count, max })
     }
 
-    pub fn check_optimize_positions(&self, count: usize) -> Result<(), LimitError> {
+    pub fn check_optimize_positions(&self, count: usize) -> Result<(), SizeLimitError> {
         let max = self.max_optimize_positions;
         (count <= max)
             .then_some(())
-            .ok_or(LimitError::OptimizePositions { count, max })
+            .ok_or(SizeLimitError::OptimizePositions { count, max })
     }
 
-    pub fn check_etas(&self, count: usize) -> Result<(), LimitError> {
+    pub fn check_etas(&self, count: usize) -> Result<(), SizeLimitError> {
         let max = self.max_etas;
         (1..=max)
             .contains(&count)
             .then_some(())
-            .ok_or(LimitError::Etas { count, max })
+            .ok_or(SizeLimitError::Etas { count, max })
     }
 
-    pub fn check_trace_points(&self, count: usize) -> Result<(), LimitError> {
+    pub fn check_trace_points(&self, count: usize) -> Result<(), SizeLimitError> {
         let max = self.max_trace_points;
         (count <= max)
             .then_some(())
-            .ok_or(LimitError::TracePoints { count, max })
+            .ok_or(SizeLimitError::TracePoints { count, max })
     }
 }

@@ -2,12 +2,13 @@
 //! target: the alignment fit ([`crate::metrology::fit`]), the form error's RMS and PV over the
 //! clear aperture, and the radial profile on a grid within the trace's reach.
 
-use super::limits::{ComputeLimits, LimitError};
+use super::limits::{ComputeLimits, SizeLimitError};
 use super::setting::DEFAULT_RADIAL_SAMPLES;
 use super::{ApertureSpec, GridSpec};
 use crate::metrology::{
     fit, form_error, radial_profile, Compensation, Coverage, FitError, FitOutcome, FitParameters,
-    FitProblem, FormError, Probe, ProbeError, ProfileError, RadialProfile, RobustLoss, TraceError,
+    FitProblem, FormErrorSummary, Probe, ProbeError, RadialProfile, RadialProfileError, RobustLoss,
+    TraceError,
 };
 use crate::physics::{check_radius, ClearAperture, GridError, RadialGrid, Reach};
 use crate::surface::{Surface, SurfaceError, SurfaceSpec};
@@ -51,9 +52,9 @@ pub enum MeasurementInputError {
     #[error(transparent)]
     Trace(TraceError),
     #[error(transparent)]
-    TraceSize(LimitError),
+    TraceSize(SizeLimitError),
     #[error(transparent)]
-    GridSize(LimitError),
+    GridSize(SizeLimitError),
     /// A profile needs two samples at least (it becomes an optimize target).
     #[error("count must be at least 2")]
     GridCount,
@@ -163,7 +164,7 @@ pub enum MeasurementError {
     #[error(transparent)]
     Aperture(GridError),
     #[error(transparent)]
-    Profile(ProfileError),
+    Profile(RadialProfileError),
 }
 
 /// Everything a measurement-fit response needs.
@@ -174,13 +175,13 @@ pub struct MeasurementFit {
     pub grid: RadialGrid,
     pub aperture: ClearAperture,
     pub profile: RadialProfile,
-    pub form_error: FormError,
+    pub form_error: FormErrorSummary,
 }
 
 pub fn measurement_fit(command: MeasurementFitCommand) -> Result<MeasurementFit, MeasurementError> {
     use MeasurementError as E;
     let outcome = fit(&command.problem).map_err(E::Fit)?;
-    let coverage = Coverage::of(&outcome.points).ok_or(E::Profile(ProfileError::NoPoints))?;
+    let coverage = Coverage::of(&outcome.points).ok_or(E::Profile(RadialProfileError::NoPoints))?;
     let (start, stop) = coverage.radial_span_mm();
     let reach = Reach {
         radius_mm: stop,

@@ -29,7 +29,7 @@ pub mod removal_function;
 mod setting;
 mod warnings;
 
-pub use limits::{ComputeLimits, LimitError};
+pub use limits::{ComputeLimits, SizeLimitError};
 pub use operators::{OperatorCache, OperatorCacheStats};
 pub use recommend::Recommender;
 pub use setting::{ApertureSpec, GridSpec, Mount, PartError, PartSpec, Setting, SettingError};
@@ -73,7 +73,7 @@ pub enum InputError {
     Setting(#[from] SettingError),
     /// An input is larger than the limits allow.
     #[error("{input:?}: {error}")]
-    Limit { input: Input, error: LimitError },
+    LimitKind { input: Input, error: SizeLimitError },
     /// A dwell schedule or list of positions is malformed.
     #[error("{error}")]
     Schedule { input: Input, error: ScheduleError },
@@ -98,8 +98,8 @@ pub enum InputError {
 }
 
 impl InputError {
-    fn limit(input: Input) -> impl FnOnce(LimitError) -> InputError {
-        move |error| InputError::Limit { input, error }
+    fn limit(input: Input) -> impl FnOnce(SizeLimitError) -> InputError {
+        move |error| InputError::LimitKind { input, error }
     }
 
     fn schedule(input: Input) -> impl FnOnce(ScheduleError) -> InputError {

@@ -13,15 +13,15 @@ use std::ops::Range;
 use super::warnings::{active_constraints, unit_warning, ACTIVE_USE, TARGET_MISS_FRACTION};
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::machine::{
-    cell_travel, Approach, Drive, Limit, LimitsError, MachineLimits, Program, ProgramError, Tool,
-    Violation,
+    cell_travel, Approach, Drive, InvalidLimit, LimitKind, MachineLimits, MachineLimitsSpec,
+    Program, ProgramError, Tool, Violation,
 };
 use crate::optimize::kinematics::AxisPath;
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
-    optimize as solve, Constraints, DwellBasis, DwellProblem, Formulation, MeasuredProfile,
-    Objective, OptimizeError, Solution,
+    optimize as solve, Constraints, ConstraintsSpec, DwellBasis, DwellProblem, Formulation,
+    MeasuredProfile, Objective, OptimizeError, Solution,
 };
 use crate::physics::{check_positions, UniformityMetrics};
 use crate::study::Recommendation;
@@ -90,21 +90,21 @@ pub struct OptimizeSpec {
     /// Candidate tool positions, mm.
     pub positions_mm: Vec<f64>,
     pub target: TargetSpec,
-    pub constraints: Constraints,
+    pub constraints: ConstraintsSpec,
     pub objective: Objective,
     /// The solver's budget, s; default and most: the limits' solver time.
     pub time_limit_s: Option<f64>,
     /// The machine's limits, when the plan must run on a machine.
-    pub machine: Option<MachineLimits>,
+    pub machine: Option<MachineLimitsSpec>,
 }
 
 /// The machine a plan must run on: the surface and tool that give the axes' poses, and the
-/// machine's limits (checked, [`MachineLimits::check`]).
+/// machine's limits (checked, [`MachineLimits::new`]); made only by the optimization's command.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Machine {
-    pub surface: Surface,
-    pub tool: Tool,
-    pub limits: MachineLimits,
+    surface: Surface,
+    tool: Tool,
+    limits: MachineLimits,
 }
 
 /// Why a machine does not fit the optimization's positions (no dwell could fix it).
@@ -119,7 +119,7 @@ pub enum MachineFitError {
     Limits(Vec<Violation>),
     /// A limit out of its domain.
     #[error(transparent)]
-    InvalidLimit(LimitsError),
+    InvalidLimit(InvalidLimit),
 }
 
 /// An optimization, checked: positions within reach and limits, the target resampled onto the
@@ -179,7 +179,7 @@ impl OptimizeCommand {
             .map_err(InputError::limit(input))?;
         check_positions(setting.process(), "positions_mm", &positions_mm, true)
             .map_err(InputError::schedule(input))?;
-        constraints.validate()?;
+        let constraints = Constraints::new(constraints)?;
         objective.validate()?;
         let max_s = limits.solver_time_limit.as_secs_f64();
         let time_limit_s = match time_limit_s {
@@ -227,13 +227,13 @@ impl OptimizeCommand {
     /// The machine the plan must run on, when the request names one (`limits`) or describes
     /// the part or the tool: the positions are then checked against the poses, and the limits
     /// given (none: an unlimited machine) bind the plan. Otherwise the plan is the motion alone.
-    fn on_machine(self, limits: Option<MachineLimits>) -> Result<Self, MachineFitError> {
+    fn on_machine(self, limits: Option<MachineLimitsSpec>) -> Result<Self, MachineFitError> {
         let mount = self.setting.mount();
         if limits.is_none() && !mount.described {
             return Ok(self);
         }
-        let limits = limits.unwrap_or_default();
-        limits.check().map_err(MachineFitError::InvalidLimit)?;
+        let limits = MachineLimits::new(limits.unwrap_or_default())
+            .map_err(MachineFitError::InvalidLimit)?;
         let machine = Machine {
             surface: mount.part.surface.clone(),
             tool: mount.tool,
@@ -267,7 +267,7 @@ impl OptimizeCommand {
             .limits
             .violations(&program, (spec.workpiece_rpm, spec.tool_rpm))
             .into_iter()
-            .filter(|v| matches!(v.limit, Limit::Min | Limit::Max | Limit::MaxRpm))
+            .filter(|v| matches!(v.limit, LimitKind::Min | LimitKind::Max | LimitKind::MaxRpm))
             .collect();
         if !fixed.is_empty() {
             return Err(MachineFitError::Limits(fixed));
@@ -369,7 +369,7 @@ fn machine_warnings(
         if near(motion.peak_velocity_per_min, limits.max_velocity_per_min) {
             warnings.push(Warning::MachineLimitActive {
                 drive,
-                limit: Limit::MaxVelocity,
+                limit: LimitKind::MaxVelocity,
             });
         }
         if near(
@@ -378,7 +378,7 @@ fn machine_warnings(
         ) {
             warnings.push(Warning::MachineLimitActive {
                 drive,
-                limit: Limit::MaxAcceleration,
+                limit: LimitKind::MaxAcceleration,
             });
         }
     }

@@ -1,11 +1,11 @@
 //! A machine program from a dwell plan: poses, blocks and axis motion ([`crate::machine`]),
 //! checked against the machine's limits, and its G-code.
 
-use super::limits::{ComputeLimits, LimitError};
+use super::limits::{ComputeLimits, SizeLimitError};
 use super::setting::{process_on_part, Mount, PartSpec, SettingError};
 use crate::machine::{
-    gcode, Approach, Drive, GcodeFormat, GcodeFormatError, LimitsError, MachineLimits, Program,
-    ProgramError, Tool, Violation,
+    gcode, Approach, Drive, GcodeFormat, GcodeFormatError, InvalidLimit, MachineLimits,
+    MachineLimitsSpec, Program, ProgramError, Tool, Violation,
 };
 use crate::physics::{DwellSchedule, Process, ProcessSpec, ScheduleError};
 use crate::surface::SurfaceError;
@@ -26,7 +26,7 @@ pub struct ProgramSpec {
     pub part: PartSpec,
     pub positions_mm: Vec<f64>,
     pub dwell_s: Vec<f64>,
-    pub machine: MachineLimits,
+    pub machine: MachineLimitsSpec,
     /// Default [`DEFAULT_CLEARANCE_MM`].
     pub clearance_mm: Option<f64>,
     /// Default [`DEFAULT_APPROACH_FEED_MM_PER_MIN`], lowered to what the axis limits allow.
@@ -46,11 +46,11 @@ pub enum ProgramInputError {
     #[error("position {index}: {error}")]
     PositionOffSurface { index: usize, error: SurfaceError },
     #[error(transparent)]
-    Size(LimitError),
+    Size(SizeLimitError),
     #[error(transparent)]
     Schedule(ScheduleError),
     #[error(transparent)]
-    Limits(LimitsError),
+    Limits(InvalidLimit),
     #[error(transparent)]
     Format(GcodeFormatError),
     #[error("clearance_mm must be a finite number from 0 to {MAX_CLEARANCE_MM} mm")]
@@ -91,7 +91,7 @@ impl ProgramCommand {
                 .check_defined_to(r)
                 .map_err(|error| E::PositionOffSurface { index, error })?;
         }
-        spec.machine.check().map_err(E::Limits)?;
+        let machine = MachineLimits::new(spec.machine).map_err(E::Limits)?;
         spec.format.check().map_err(E::Format)?;
         let clearance_mm = spec.clearance_mm.unwrap_or(DEFAULT_CLEARANCE_MM);
         if !(0.0..=MAX_CLEARANCE_MM).contains(&clearance_mm) {
@@ -107,7 +107,7 @@ impl ProgramCommand {
             process,
             schedule,
             tool,
-            machine: spec.machine,
+            machine,
             clearance_mm,
             approach_feed_mm_per_min: spec.approach_feed_mm_per_min,
             format: spec.format,
@@ -155,7 +155,10 @@ fn approach_feed(command: &ProgramCommand) -> f64 {
             .b_deg
             .to_radians()
             .sin_cos();
-        for (share, limit) in [(sin, &command.machine.x), (cos, &command.machine.z)] {
+        for (share, limit) in [
+            (sin, command.machine.axis(Drive::X)),
+            (cos, command.machine.axis(Drive::Z)),
+        ] {
             let share = share.abs();
             if share == 0.0 {
                 continue;

@@ -1,7 +1,7 @@
 //! The setting every computation shares: the process, the radial grid removal is computed on,
 //! and the clear aperture it is judged over, with their defaults.
 
-use super::limits::{ComputeLimits, LimitError};
+use super::limits::{ComputeLimits, SizeLimitError};
 use crate::machine::{Tool, ToolError};
 use crate::physics::{ClearAperture, GridError, Process, ProcessError, ProcessSpec, RadialGrid};
 use crate::physics::{Orientation, Part};
@@ -83,7 +83,7 @@ pub enum SettingError {
     #[error(transparent)]
     Process(ProcessError),
     #[error(transparent)]
-    GridSize(LimitError),
+    GridSize(SizeLimitError),
     #[error(transparent)]
     Grid(GridError),
     #[error(transparent)]

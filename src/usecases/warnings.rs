@@ -2,7 +2,7 @@
 //! the target, decided an optimized plan; the plan misses its target; the input looks like a
 //! unit mistake.
 
-use crate::machine::{Drive, Limit};
+use crate::machine::{Drive, LimitKind};
 use crate::optimize::{Constraint, Constraints};
 use crate::physics::Process;
 
@@ -40,7 +40,7 @@ pub enum Warning {
         "the plan sits on {}: the machine, not the target, decided it there",
         limit.describe(*drive)
     )]
-    MachineLimitActive { drive: Drive, limit: Limit },
+    MachineLimitActive { drive: Drive, limit: LimitKind },
     /// The plan has zero dwell at this position between positions with dwell, so the tool
     /// would cross its cell in no time: no program can run it (give `min_dwell_s`, a feed
     /// limit or the machine's velocity limits).
@@ -100,25 +100,25 @@ pub(super) fn active_constraints(
 ) -> Vec<Warning> {
     let near = |value: f64, limit: f64| (value - limit).abs() <= ACTIVE * limit.abs().max(1e-300);
     let mut active = Vec::new();
-    if c.min_dwell_s > 0.0 && dwell_s.iter().any(|&t| near(t, c.min_dwell_s)) {
+    if c.min_dwell_s() > 0.0 && dwell_s.iter().any(|&t| near(t, c.min_dwell_s())) {
         active.push(Constraint::MinDwell);
     }
-    if let Some(hi) = c.max_dwell_s {
+    if let Some(hi) = c.max_dwell_s() {
         if dwell_s.iter().any(|&t| near(t, hi)) {
             active.push(Constraint::MaxDwell);
         }
     }
-    if let Some(total) = c.max_total_time_s {
+    if let Some(total) = c.max_total_time_s() {
         if near(dwell_s.iter().sum(), total) {
             active.push(Constraint::MaxTotalTime);
         }
     }
-    if let (Some(limit), Some(peak)) = (c.max_feed_mm_per_min, peak_feed_mm_per_min) {
+    if let (Some(limit), Some(peak)) = (c.max_feed_mm_per_min(), peak_feed_mm_per_min) {
         if peak >= ACTIVE_USE * limit {
             active.push(Constraint::MaxFeed);
         }
     }
-    if let Some(delta) = c.max_dwell_change_s {
+    if let Some(delta) = c.max_dwell_change_s() {
         if delta > 0.0 && dwell_s.windows(2).any(|w| near((w[1] - w[0]).abs(), delta)) {
             active.push(Constraint::MaxDwellChange);
         }

@@ -4,7 +4,7 @@
 use crate::common;
 
 use common::http::{app, app_with, get, post_json, post_with, Reply};
-use preston::config::Limits;
+use preston::config::ServiceLimits;
 use serde_json::{json, Value};
 
 fn assert_problem(reply: &Reply, status: u16, field: Option<&str>) {
@@ -293,10 +293,10 @@ async fn grid_and_aperture_errors_name_the_field() {
 
 #[tokio::test]
 async fn oversize_requests_are_refused() {
-    let limits = Limits {
+    let limits = ServiceLimits {
         max_body_bytes: 1000,
         max_positions: 100,
-        ..Limits::default()
+        ..ServiceLimits::default()
     };
     let app = app_with(limits);
     let mut body = predict_body();
@@ -305,16 +305,16 @@ async fn oversize_requests_are_refused() {
     let reply = post_json(&app, "/v1/predict", body.to_string()).await;
     assert_problem(&reply, 413, None);
 
-    let app = app_with(Limits {
+    let app = app_with(ServiceLimits {
         max_positions: 100,
-        ..Limits::default()
+        ..ServiceLimits::default()
     });
     let reply = post_json(&app, "/v1/predict", body.to_string()).await;
     assert_problem(&reply, 422, Some("dwell.positions_mm"));
 
-    let app = app_with(Limits {
+    let app = app_with(ServiceLimits {
         max_operator_entries: 1000,
-        ..Limits::default()
+        ..ServiceLimits::default()
     });
     let reply = post_json(&app, "/v1/predict", predict_body().to_string()).await;
     assert_eq!(reply.status, 200); // 51 × 6 = 306 entries
@@ -513,7 +513,7 @@ async fn cors_lets_a_front_end_send_and_read_the_request_id() {
     use preston::http::{cors_layer, router, AppState};
 
     let cors = router(
-        AppState::new(Limits::default()),
+        AppState::new(ServiceLimits::default()),
         cors_layer(&["https://bench.example".to_string()]),
     );
     let preflight = Request::builder()

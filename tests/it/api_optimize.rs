@@ -4,7 +4,7 @@
 use crate::common;
 
 use common::http::{app, app_with, post_json, post_with, Reply};
-use preston::config::Limits;
+use preston::config::ServiceLimits;
 use serde_json::{json, Value};
 
 fn body() -> Value {
@@ -254,9 +254,9 @@ async fn bad_constraints_objective_and_positions_name_the_field() {
 
 #[tokio::test]
 async fn limits_are_enforced() {
-    let app = app_with(Limits {
+    let app = app_with(ServiceLimits {
         max_optimize_positions: 20,
-        ..Limits::default()
+        ..ServiceLimits::default()
     });
     let reply = post_json(&app, "/v1/optimize", body().to_string()).await;
     problem(&reply, 422, "limit-exceeded", Some("positions_mm"));

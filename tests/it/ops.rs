@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use common::http::{app, app_with, get, post_json, post_with};
 use common::service::Service;
 use common::socket;
-use preston::config::Limits;
+use preston::config::ServiceLimits;
 use serde_json::json;
 
 /// The value of a Prometheus sample line `name{labels} value` whose name and labels contain
@@ -159,10 +159,10 @@ fn slow_computation() -> String {
 
 #[tokio::test]
 async fn excess_load_is_shed_with_503_and_retry_after() {
-    let app = app_with(Limits {
+    let app = app_with(ServiceLimits {
         max_concurrent_computations: 1,
         max_queued_computations: 0,
-        ..Limits::default()
+        ..ServiceLimits::default()
     });
     let busy = {
         let app = app.clone();
@@ -186,9 +186,9 @@ async fn excess_load_is_shed_with_503_and_retry_after() {
 /// at once, naming the field.
 #[tokio::test]
 async fn invalid_requests_are_refused_at_once_while_every_slot_is_busy() {
-    let app = app_with(Limits {
+    let app = app_with(ServiceLimits {
         max_concurrent_computations: 1,
-        ..Limits::default()
+        ..ServiceLimits::default()
     });
     let busy = {
         let app = app.clone();
@@ -270,10 +270,13 @@ async fn repeated_requests_share_the_operator_and_metrics_count_hits() {
     let body = std::fs::read(common::fixture_path("predict_paper_exp2.json")).unwrap();
     let hits = ["preston_operator_cache_requests_total", "result=\"hit\""];
     let misses = ["preston_operator_cache_requests_total", "result=\"miss\""];
-    for (budget, expect_hits) in [(Limits::default().operator_cache_bytes, 2.0), (0, 0.0)] {
-        let app = app_with(Limits {
+    for (budget, expect_hits) in [
+        (ServiceLimits::default().operator_cache_bytes, 2.0),
+        (0, 0.0),
+    ] {
+        let app = app_with(ServiceLimits {
             operator_cache_bytes: budget,
-            ..Limits::default()
+            ..ServiceLimits::default()
         });
         let mut answers = Vec::new();
         for _ in 0..3 {
@@ -292,9 +295,9 @@ async fn repeated_requests_share_the_operator_and_metrics_count_hits() {
 
 #[tokio::test]
 async fn a_request_over_its_time_budget_is_503() {
-    let app = app_with(Limits {
+    let app = app_with(ServiceLimits {
         request_timeout: Duration::from_millis(20),
-        ..Limits::default()
+        ..ServiceLimits::default()
     });
     let reply = post_json(&app, SLOW_PATH, slow_computation()).await;
     assert_eq!(reply.status, 503, "{}", reply.text());

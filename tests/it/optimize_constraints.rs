@@ -7,7 +7,8 @@ use crate::common;
 use common::paper_process;
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{
-    optimize, Constraints, DwellBasis, DwellProblem, Formulation, Objective, OptimizeError,
+    optimize, Constraints, ConstraintsSpec, DwellBasis, DwellProblem, Formulation, Objective,
+    OptimizeError,
 };
 use preston::physics::{ClearAperture, RadialGrid, RemovalKernel, RemovalOperator};
 
@@ -58,7 +59,8 @@ fn cell_widths(positions: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-fn run(s: &Setup, constraints: Constraints) -> Result<Vec<f64>, OptimizeError> {
+fn run(s: &Setup, constraints: ConstraintsSpec) -> Result<Vec<f64>, OptimizeError> {
+    let constraints = Constraints::new(constraints)?;
     optimize(&DwellProblem {
         operator: &s.operator,
         positions_mm: &s.positions,
@@ -97,7 +99,7 @@ fn peak_feed_mm_per_min(positions: &[f64], t: &[f64]) -> f64 {
 
 /// The worst violation of any constraint, relative to that constraint's size (bounds of 0
 /// count against 1 s).
-fn worst_violation(c: &Constraints, positions: &[f64], t: &[f64]) -> f64 {
+fn worst_violation(c: &ConstraintsSpec, positions: &[f64], t: &[f64]) -> f64 {
     let rel = |excess: f64, size: f64| excess / size.abs().max(1.0);
     let mut worst: f64 = 0.0;
     for &tj in t {
@@ -141,7 +143,7 @@ fn random_constraint_sets_give_plans_that_keep_them() {
         let pick = |rng: &mut fastrand::Rng, lo: f64, hi: f64| {
             rng.bool().then(|| unit * (lo + (hi - lo) * rng.f64()))
         };
-        let c = Constraints {
+        let c = ConstraintsSpec {
             min_dwell_s: pick(&mut rng, 0.0, 0.8).unwrap_or(0.0),
             max_dwell_s: pick(&mut rng, 1.0, 4.0),
             max_total_time_s: pick(&mut rng, 0.5 * n as f64, 1.5 * n as f64),
@@ -171,7 +173,7 @@ fn random_constraint_sets_give_plans_that_keep_them() {
     );
 }
 
-fn conflict(s: &Setup, c: Constraints) -> Vec<String> {
+fn conflict(s: &Setup, c: ConstraintsSpec) -> Vec<String> {
     match run(s, c) {
         Err(OptimizeError::Infeasible { fields, .. }) => {
             fields.iter().map(|f| f.describe()).collect()
@@ -186,7 +188,7 @@ fn each_kind_of_conflict_names_its_constraints() {
     assert_eq!(
         conflict(
             &s,
-            Constraints {
+            ConstraintsSpec {
                 min_dwell_s: 5.0,
                 max_dwell_s: Some(4.0),
                 ..Default::default()
@@ -198,7 +200,7 @@ fn each_kind_of_conflict_names_its_constraints() {
     assert_eq!(
         conflict(
             &s,
-            Constraints {
+            ConstraintsSpec {
                 min_dwell_s: 10.0,
                 max_total_time_s: Some(500.0),
                 ..Default::default()
@@ -210,7 +212,7 @@ fn each_kind_of_conflict_names_its_constraints() {
     assert_eq!(
         conflict(
             &s,
-            Constraints {
+            ConstraintsSpec {
                 max_dwell_s: Some(4.0),
                 max_feed_mm_per_min: Some(6.0),
                 ..Default::default()
@@ -223,7 +225,7 @@ fn each_kind_of_conflict_names_its_constraints() {
     assert_eq!(
         conflict(
             &s,
-            Constraints {
+            ConstraintsSpec {
                 max_feed_mm_per_min: Some(60.0),
                 max_total_time_s: Some(45.0),
                 ..Default::default()
@@ -234,7 +236,7 @@ fn each_kind_of_conflict_names_its_constraints() {
     // Exactly feasible at the boundary is not refused: min dwell 1 s × 51 = 51 s.
     let t = run(
         &s,
-        Constraints {
+        ConstraintsSpec {
             min_dwell_s: 1.0,
             max_total_time_s: Some(51.0),
             ..Default::default()

@@ -6,7 +6,7 @@
 use crate::common;
 
 use common::{paper_process, read_fixture};
-use preston::config::Limits;
+use preston::config::ServiceLimits;
 use preston::http::compute_json;
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{
@@ -213,7 +213,7 @@ fn a_measured_error_profile_is_corrected_to_two_percent_of_its_rms() {
     let body = read_fixture("optimize_figure_correction.json");
     let bytes = serde_json::to_vec(&body).unwrap();
     let response: serde_json::Value =
-        serde_json::from_str(&compute_json("optimize", &bytes, &Limits::default()).unwrap())
+        serde_json::from_str(&compute_json("optimize", &bytes, &ServiceLimits::default()).unwrap())
             .unwrap();
     let profile = &body["target"]["profile"];
     let radius: Vec<f64> = serde_json::from_value(profile["radius_mm"].clone()).unwrap();

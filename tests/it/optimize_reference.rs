@@ -8,7 +8,9 @@
 //! objectives must agree to 1e-6 relative; the plans must keep their bounds to 1e-9.
 
 use preston::optimize::target::aperture_rows;
-use preston::optimize::{optimize, Constraints, DwellBasis, DwellProblem, Formulation, Objective};
+use preston::optimize::{
+    optimize, Constraints, ConstraintsSpec, DwellBasis, DwellProblem, Formulation, Objective,
+};
 use preston::physics::{
     ClearAperture, Part, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel,
     RemovalOperator,
@@ -364,7 +366,7 @@ fn random_problem(
 ) -> (
     ProcessSpec,
     Dense,
-    Constraints,
+    ConstraintsSpec,
     usize,
     std::ops::Range<usize>,
 ) {
@@ -453,7 +455,7 @@ fn random_problem(
         },
     };
     let (_, tau) = problem.scales();
-    let constraints = Constraints {
+    let constraints = ConstraintsSpec {
         min_dwell_s: if rng.bool() {
             0.0
         } else {
@@ -491,7 +493,7 @@ fn objective_matches_an_active_set_reference_on_random_problems() {
             rows,
             target_nm: &dense.target,
             free_piston: dense.piston,
-            constraints,
+            constraints: Constraints::new(constraints).unwrap(),
             objective: Objective {
                 smoothing: dense.smoothing,
                 time_weight: dense.time_weight,
@@ -593,7 +595,7 @@ fn spline_objective_matches_an_active_set_reference_on_random_problems() {
             rows,
             target_nm: &dense.target,
             free_piston: dense.piston,
-            constraints,
+            constraints: Constraints::new(constraints).unwrap(),
             objective: Objective {
                 smoothing: dense.smoothing,
                 time_weight: dense.time_weight,

@@ -4,7 +4,7 @@
 use crate::common;
 
 use common::socket;
-use preston::config::Limits;
+use preston::config::ServiceLimits;
 use preston::http::AppState;
 use tokio::net::TcpListener;
 
@@ -15,7 +15,7 @@ async fn predict_over_a_real_socket_then_graceful_shutdown() {
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     let server = tokio::spawn(preston::server::serve_on(
         listener,
-        AppState::new(Limits::default()),
+        AppState::new(ServiceLimits::default()),
         &[],
         async move {
             let _ = stopped.await;

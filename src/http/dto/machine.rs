@@ -5,7 +5,9 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::super::extract::optional_object;
-use crate::machine::{AxisLimits, Drive, MachineLimits, Orientation, Program, Utilisation};
+use crate::machine::{
+    AxisLimits, Drive, MachineLimits, MachineLimitsSpec, Orientation, Program, Utilisation,
+};
 
 /// How the tool is carried: `normal` (B follows the surface normal) or `vertical` (no tilt).
 #[derive(Debug, Clone, Copy, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
@@ -162,7 +164,7 @@ fn axis_limits(
     }
 }
 
-impl From<&MachineDto> for MachineLimits {
+impl From<&MachineDto> for MachineLimitsSpec {
     fn from(m: &MachineDto) -> Self {
         let linear = |a: &Option<LinearAxisDto>| {
             a.as_ref().map_or(AxisLimits::default(), |a| {
@@ -182,7 +184,7 @@ impl From<&MachineDto> for MachineLimits {
                 b.max_acceleration_deg_per_s2,
             )
         });
-        MachineLimits {
+        MachineLimitsSpec {
             x: linear(&m.x),
             z: linear(&m.z),
             b,
@@ -226,7 +228,7 @@ impl AxesDto {
                 travel_deg: b.travel(),
                 peak_velocity_deg_per_min: b.peak_velocity_per_min,
                 peak_acceleration_deg_per_s2: b.peak_acceleration_per_s2,
-                utilisation: b.utilisation(&machine.b).into(),
+                utilisation: b.utilisation(machine.axis(Drive::B)).into(),
             },
         }
     }

@@ -99,9 +99,9 @@ impl From<MeasurementError> for ApiError {
             MeasurementError::Aperture(e) => ApiError::from_grid("clear_aperture", e),
             MeasurementError::Profile(e) => {
                 let field = match e {
-                    crate::metrology::ProfileError::NotCovered { .. } => "radial_grid",
-                    crate::metrology::ProfileError::ApertureEmpty => "clear_aperture",
-                    crate::metrology::ProfileError::NoPoints => "profile",
+                    crate::metrology::RadialProfileError::NotCovered { .. } => "radial_grid",
+                    crate::metrology::RadialProfileError::ApertureEmpty => "clear_aperture",
+                    crate::metrology::RadialProfileError::NoPoints => "profile",
                 };
                 ApiError::invalid(field, e.to_string())
             }

@@ -5,16 +5,16 @@
 mod measurement;
 
 use super::error::{ApiError, Kind, LimitViolation};
-use crate::machine::{Drive, GcodeFormatError, Limit, ProgramError, Violation};
+use crate::machine::{Drive, GcodeFormatError, LimitKind, ProgramError, Violation};
 use crate::optimize::target::ProfileArray;
-use crate::optimize::{Bound, OptimizeError, ProfileError};
+use crate::optimize::{Bound, MeasuredProfileError, OptimizeError};
 use crate::physics::{GridError, ProcessError, ScheduleError};
 use crate::study::StudyError;
 use crate::surface::{SurfaceError, SurfaceInput};
 use crate::usecases::optimize::MachineFitError;
 use crate::usecases::program::{ProgramFailure, ProgramInputError};
 use crate::usecases::recommend::MIN_DEPTH_NM;
-use crate::usecases::{Input, InputError, LimitError, PartError, SettingError};
+use crate::usecases::{Input, InputError, PartError, SettingError, SizeLimitError};
 
 /// Engine errors become 422s naming the field under the request object that carried it.
 impl ApiError {
@@ -77,7 +77,7 @@ fn alternatives(a: &'static str, b: &'static str) -> (&'static str, &'static str
 
 impl ApiError {
     /// A size limit exceeded by the input at `field`.
-    fn from_limit(field: &str, err: LimitError) -> Self {
+    fn from_limit(field: &str, err: SizeLimitError) -> Self {
         ApiError::limit(field, format!("{field}: {err}"))
     }
 }
@@ -121,7 +121,9 @@ impl From<InputError> for ApiError {
     fn from(err: InputError) -> Self {
         match err {
             InputError::Setting(e) => e.into(),
-            InputError::Limit { input, error } => ApiError::from_limit(input_path(input), error),
+            InputError::LimitKind { input, error } => {
+                ApiError::from_limit(input_path(input), error)
+            }
             InputError::Schedule { input, error } => {
                 let prefix = match input {
                     Input::Dwell => "dwell",
@@ -166,8 +168,8 @@ impl From<InputError> for ApiError {
     }
 }
 
-impl From<ProfileError> for ApiError {
-    fn from(err: ProfileError) -> Self {
+impl From<MeasuredProfileError> for ApiError {
+    fn from(err: MeasuredProfileError) -> Self {
         let (array, index) = err.location();
         let name = match array {
             ProfileArray::Radius => "radius_mm",
@@ -332,6 +334,6 @@ impl From<ProgramInputError> for ApiError {
 }
 
 /// A machine limit's path in a request: `machine.<drive>.<limit>`.
-pub fn limit_field(drive: Drive, limit: Limit) -> String {
+pub fn limit_field(drive: Drive, limit: LimitKind) -> String {
     format!("machine.{}.{}", drive.name(), limit.name(drive))
 }

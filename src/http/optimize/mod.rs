@@ -17,7 +17,7 @@ use super::endpoint::{Doc, Endpoint};
 use super::error::{ApiError, Kind};
 use super::extract::{object, optional_object, ApiJson};
 use super::state::Services;
-use crate::machine::MachineLimits;
+use crate::machine::MachineLimitsSpec;
 use crate::optimize::{OptimizeError, SolveStatus};
 use crate::report::results;
 use crate::usecases::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan};
@@ -233,7 +233,7 @@ text/csv` returns the plan (position and dwell columns).",
             constraints: ConstraintsDto::to_constraints(req.constraints.as_ref()),
             objective: ObjectiveDto::to_objective(req.objective.as_ref()),
             time_limit_s: req.solver.and_then(|s| s.time_limit_s),
-            machine: req.machine.as_ref().map(MachineLimits::from),
+            machine: req.machine.as_ref().map(MachineLimitsSpec::from),
         };
         Ok(OptimizeCommand::new(setting, spec, limits)?)
     }

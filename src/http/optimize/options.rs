@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::super::extract::optional_object;
-use crate::optimize::{Constraints, Objective};
+use crate::optimize::{ConstraintsSpec, Objective};
 use crate::usecases::optimize::{ProfileSpec, TargetSpec};
 
 /// The target: exactly one of `uniform_depth_nm` and `profile`.
@@ -88,9 +88,9 @@ pub struct SolverOptionsDto {
 }
 
 impl ConstraintsDto {
-    pub(super) fn to_constraints(dto: Option<&ConstraintsDto>) -> Constraints {
+    pub(super) fn to_constraints(dto: Option<&ConstraintsDto>) -> ConstraintsSpec {
         let dto = dto.cloned().unwrap_or_default();
-        Constraints {
+        ConstraintsSpec {
             min_dwell_s: dto.min_dwell_s.unwrap_or(0.0),
             max_dwell_s: dto.max_dwell_s,
             max_total_time_s: dto.max_total_time_s,

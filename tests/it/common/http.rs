@@ -4,7 +4,7 @@ use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use axum::Router;
 use http_body_util::BodyExt;
-use preston::config::Limits;
+use preston::config::ServiceLimits;
 use preston::http::{router, AppState};
 use tower::ServiceExt;
 
@@ -26,10 +26,10 @@ impl Reply {
 }
 
 pub fn app() -> Router {
-    app_with(Limits::default())
+    app_with(ServiceLimits::default())
 }
 
-pub fn app_with(limits: Limits) -> Router {
+pub fn app_with(limits: ServiceLimits) -> Router {
     router(AppState::new(limits), None)
 }
 
