@@ -75,11 +75,21 @@ pub fn compute_json(
     body: &[u8],
     limits: &ServiceLimits,
 ) -> Result<String, ApiError> {
+    compute_with(endpoint, body, &limits.compute(), &Services::default())
+}
+
+/// [`compute_json`] with the use cases' limits and services given.
+pub fn compute_with(
+    endpoint: &str,
+    body: &[u8],
+    limits: &ComputeLimits,
+    services: &Services,
+) -> Result<String, ApiError> {
     let entry = ENDPOINTS
         .iter()
         .find(|e| e.name == endpoint)
         .ok_or_else(|| ApiError::not_found(&format!("{API_PREFIX}{endpoint}")))?;
-    (entry.compute)(body, &limits.compute(), &Services::default())
+    (entry.compute)(body, limits, services)
 }
 
 /// Cross-origin access: none unless origins are configured (`*` allows any). Browsers may send

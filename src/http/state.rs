@@ -41,6 +41,8 @@ pub struct AppState {
     ready: Arc<AtomicBool>,
     pub(super) openapi_json: Arc<str>,
     pub(super) swagger: Arc<Config<'static>>,
+    /// The workbench page with its first answers, made on the first request for it.
+    pub(super) workbench_page: Arc<tokio::sync::OnceCell<Arc<str>>>,
 }
 
 impl AppState {
@@ -71,6 +73,7 @@ impl AppState {
             ready: Arc::new(AtomicBool::new(true)),
             openapi_json: openapi::spec_json().into(),
             swagger: Arc::new(Config::new(["/openapi.json"]).try_it_out_enabled(true)),
+            workbench_page: Arc::default(),
         }
     }
 

@@ -3,7 +3,8 @@
 
     python tests/browser/workbench.py target/release/preston [--screenshots DIR]
 
-It loads the page and waits for the first charts, edits the process and reruns, provokes a
+It loads the page and finds its first charts drawn from the answers the page came with (no
+API call), switches the edge-pressure model, edits the process and reruns, provokes a
 field error and finds it next to the field, optimizes a plan and fetches its machine program,
 uploads a probe trace and plans its correction, reopens a shared link, checks that nothing was
 loaded from another origin and that the console holds no errors but the provoked ones; then,
@@ -26,7 +27,7 @@ from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
-from selenium.webdriver.support.ui import WebDriverWait
+from selenium.webdriver.support.ui import Select, WebDriverWait
 
 ROOT = Path(__file__).resolve().parents[2]
 TIMEOUT_S = 60
@@ -168,8 +169,15 @@ def main_flow(binary, screenshots):
     page = Page(driver)
     try:
         driver.get(service.url + "/")
-        # Paper experiment 1 on load: removal function, prediction, η sweep.
+        # Paper experiment 1 on load: removal function, prediction, η sweep — drawn from the
+        # answers that came with the page, so its first paint shows them (no API call yet).
         page.finished("predict")
+        asked = driver.execute_script(
+            "return performance.getEntriesByType('resource').map(e => e.name)"
+            ".filter(n => n.includes('/v1/'))")
+        check(asked == [], f"the first paint needs no API call: its answers came with the page {asked}")
+        check(page.text_of('section[data-view="predict"] .status').startswith("Done"),
+              "the first view is done, not computing")
         check(page.chart_drawn("removal-function", 3), "removal function: three profiles drawn")
         check(page.chart_drawn("predict", 2), "prediction: now and η = −1 drawn")
         check(page.chart_drawn("eta-sweep", 1, 10), "η sweep drawn")
@@ -197,6 +205,15 @@ def main_flow(binary, screenshots):
         after = page.series("predict")[0].get_attribute("d")
         check(before != after, "a new process gives a new prediction")
         check("tool_rpm=150" in driver.current_url, "the process is in the URL")
+
+        # The edge-pressure model: a rigid pad (linear), its κ shown only then.
+        check(not page.one("#pad_moment_share").is_displayed(), "κ hidden under uniform pressure")
+        Select(page.one("#pressure_model")).select_by_value("linear")
+        check(page.one("#pad_moment_share").is_displayed(), "κ shown for a linear pad")
+        page.run_and_wait("predict", lambda: page.one("#tool_rpm").send_keys(Keys.ENTER))
+        check("pressure_model=linear" in driver.current_url, "the pressure model is in the URL")
+        Select(page.one("#pressure_model")).select_by_value("uniform")
+        page.run_and_wait("predict", lambda: page.one("#tool_rpm").send_keys(Keys.ENTER))
 
         # A field error from the API, shown next to the field it names.
         page.allowed_console.append("422")

@@ -6,13 +6,64 @@
 
 use crate::common;
 
-use common::http::{app, get};
+use common::http::{app, get, post_json};
 use preston::http::workbench::{ASSETS, CONTENT_SECURITY_POLICY};
 use preston::http::{openapi, ENDPOINTS};
 use serde_json::Value;
 
 fn asset(name: &str) -> &'static str {
     ASSETS.iter().find(|(n, _, _)| *n == name).unwrap().2
+}
+
+/// The `first-answers` block of a served page, parsed, and the page with the block emptied
+/// (as it is compiled in).
+fn first_answers(page: &str) -> (Vec<Value>, String) {
+    let open = r#"<script type="application/json" id="first-answers">"#;
+    let start = page.find(open).expect("the page has a first-answers block") + open.len();
+    let end = start + page[start..].find("</script>").unwrap();
+    let answers: Vec<Value> = serde_json::from_str(&page[start..end]).unwrap();
+    (answers, format!("{}[]{}", &page[..start], &page[end..]))
+}
+
+/// The page comes with the answers to its first view's requests: each one is what the API
+/// itself answers to that request, and the requests are the default set-up's (paper experiment
+/// 1). Behind API keys the page carries none (it must ask with the user's key).
+#[tokio::test]
+async fn the_page_carries_the_api_s_own_first_answers() {
+    let app = app();
+    let body = get(&app, "/").await.body.to_vec();
+    let (answers, _) = first_answers(&String::from_utf8(body).unwrap());
+    let paths: Vec<&str> = answers
+        .iter()
+        .map(|a| a["path"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        paths,
+        [
+            "/v1/removal-function",
+            "/v1/recommend",
+            "/v1/studies/eta-sweep",
+            "/v1/predict",
+            "/v1/predict"
+        ]
+    );
+    for answer in &answers {
+        let request = &answer["request"];
+        assert_eq!(request["process"]["workpiece_radius_mm"], 50);
+        let reply = post_json(&app, answer["path"].as_str().unwrap(), request.to_string()).await;
+        assert_eq!(reply.status, 200, "{}", reply.text());
+        assert_eq!(reply.json(), answer["response"], "{}", answer["path"]);
+    }
+    // The second prediction is at the recommended η = −1 speeds.
+    let speeds = &answers[1]["response"]["recommendation"];
+    assert_eq!(
+        answers[4]["request"]["process"]["tool_rpm"],
+        speeds["tool_rpm"]
+    );
+    let keyed = common::http::app_with_keys();
+    let body = get(&keyed, "/").await.body.to_vec();
+    let (answers, _) = first_answers(&String::from_utf8(body).unwrap());
+    assert!(answers.is_empty());
 }
 
 /// Every `open…close` substring of `text`, without the delimiters.
@@ -31,7 +82,11 @@ async fn the_page_and_its_assets_are_served_with_a_same_origin_policy() {
     let page = get(&app, "/").await;
     assert_eq!(page.status, 200);
     assert!(page.content_type.starts_with("text/html"));
-    assert_eq!(page.body, asset("index.html").as_bytes());
+    // The page as compiled in, but for the first answers it carries (see below).
+    let body = String::from_utf8(page.body.to_vec()).unwrap();
+    let (answers, page_text) = first_answers(&body);
+    assert_eq!(page_text, asset("index.html"));
+    assert!(!answers.is_empty());
     let csp = page.headers["content-security-policy"].to_str().unwrap();
     assert_eq!(csp, CONTENT_SECURITY_POLICY);
     // No source but 'self' (and the page's own blob:/data: URLs) for anything.

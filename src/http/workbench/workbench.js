@@ -54,6 +54,21 @@
     return sessionStorage.getItem(KEY_STORE) || '';
   }
 
+  /** The answers the page came with (the predict view's requests for the default set-up,
+   * computed by the service when it served the page), each used once, for an equal request. */
+  const firstAnswers = (() => {
+    try {
+      return JSON.parse(document.getElementById('first-answers').textContent);
+    } catch {
+      return [];
+    }
+  })();
+
+  function firstAnswer(path, text) {
+    const i = firstAnswers.findIndex((a) => a.path === path && JSON.stringify(a.request) === text);
+    return i < 0 ? undefined : firstAnswers.splice(i, 1)[0].response;
+  }
+
   /** POSTs `body` to `path`; JSON in and out unless told otherwise. */
   async function post(view, path, body, { accept = 'application/json', csv = false, query } = {}) {
     const url = path + (query ? `?${new URLSearchParams(query)}` : '');
@@ -61,6 +76,8 @@
     if (apiKey()) headers.Authorization = `Bearer ${apiKey()}`;
     const text = csv ? body : JSON.stringify(body);
     if (accept === 'application/json') record(view, url, headers, text);
+    const known = accept === 'application/json' && !csv && !query ? firstAnswer(path, text) : undefined;
+    if (known !== undefined) return known;
     let response;
     try {
       response = await fetch(url, { method: 'POST', headers, body: text });

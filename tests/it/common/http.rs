@@ -33,6 +33,21 @@ pub fn app_with(limits: ServiceLimits) -> Router {
     router(AppState::new(limits), None)
 }
 
+/// The service behind one API key (its digest in a keys file of this test process's own).
+pub fn app_with_keys() -> Router {
+    let dir = std::env::temp_dir().join(format!("preston-http-keys-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("keys.txt");
+    // The SHA-256 digest of "key".
+    let digest = "2c70e12b7a0646f92279f427c7b38e7334d8e5389cff167a1dc30e73f826b683";
+    std::fs::write(&path, format!("tests:{digest}\n")).unwrap();
+    let auth = preston::keys::Auth::load(path, false).unwrap();
+    router(
+        AppState::new(ServiceLimits::default()).with_auth(std::sync::Arc::new(auth)),
+        None,
+    )
+}
+
 pub async fn send(app: &Router, request: Request<Body>) -> Reply {
     let response = app.clone().oneshot(request).await.expect("infallible");
     let status = response.status();
