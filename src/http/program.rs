@@ -10,7 +10,7 @@ use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::Services;
-use crate::machine::{BlockKind, FeedMode, GcodeFormat, MachineLimitsSpec, SpindleWords};
+use crate::machine::{BlockKind, FeedMode, GcodeFormatSpec, MachineLimitsSpec, SpindleWordsSpec};
 use crate::physics::ProcessSpec;
 use crate::report::results;
 use crate::usecases::program::{program, MachineProgram, ProgramCommand, ProgramSpec};
@@ -199,30 +199,28 @@ pub struct ProgramResponse {
     pub gcode: String,
 }
 
-fn spindle_words(dto: &Option<SpindleWordsDto>, default: SpindleWords) -> SpindleWords {
-    let Some(dto) = dto else { return default };
-    SpindleWords {
-        cw: dto.cw.clone().unwrap_or(default.cw),
-        ccw: dto.ccw.clone().unwrap_or(default.ccw),
-        stop: dto.stop.clone().unwrap_or(default.stop),
+impl From<&SpindleWordsDto> for SpindleWordsSpec {
+    fn from(w: &SpindleWordsDto) -> Self {
+        SpindleWordsSpec {
+            cw: w.cw.clone(),
+            ccw: w.ccw.clone(),
+            stop: w.stop.clone(),
+        }
     }
 }
 
-impl From<&FormatDto> for GcodeFormat {
+impl From<&FormatDto> for GcodeFormatSpec {
     fn from(f: &FormatDto) -> Self {
-        let default = GcodeFormat::default();
-        GcodeFormat {
-            feed_mode: match f.feed_mode {
-                Some(FeedModeDto::UnitsPerMinute) => FeedMode::UnitsPerMinute,
-                Some(FeedModeDto::InverseTime) => FeedMode::InverseTime,
-                None => default.feed_mode,
-            },
-            // Out of range values are refused by the check (u32::MAX is > 7).
-            decimals: f
-                .decimals
-                .map_or(default.decimals, |d| u32::try_from(d).unwrap_or(u32::MAX)),
-            workpiece_spindle: spindle_words(&f.workpiece_spindle, default.workpiece_spindle),
-            tool_spindle: spindle_words(&f.tool_spindle, default.tool_spindle),
+        let words = |w: &Option<SpindleWordsDto>| w.as_ref().map(Into::into).unwrap_or_default();
+        GcodeFormatSpec {
+            feed_mode: f.feed_mode.map(|m| match m {
+                FeedModeDto::UnitsPerMinute => FeedMode::UnitsPerMinute,
+                FeedModeDto::InverseTime => FeedMode::InverseTime,
+            }),
+            // Out of range values are refused by the format's check (u32::MAX is > 7).
+            decimals: f.decimals.map(|d| u32::try_from(d).unwrap_or(u32::MAX)),
+            workpiece_spindle: words(&f.workpiece_spindle),
+            tool_spindle: words(&f.tool_spindle),
         }
     }
 }
@@ -277,7 +275,7 @@ seconds), `text/csv` the block table.",
             format: req
                 .format
                 .as_ref()
-                .map(GcodeFormat::from)
+                .map(GcodeFormatSpec::from)
                 .unwrap_or_default(),
             request_digest: digest,
         };

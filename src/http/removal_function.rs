@@ -32,8 +32,8 @@ pub struct RemovalFunctionRequest {
     /// matters here.
     #[serde(default, deserialize_with = "optional_object")]
     pub tool: Option<ToolDto>,
-    /// Tool-centre radii in mm, one profile each (any order; 0 to r_m + r_t under uniform
-    /// pressure, 0 to r_m under constant force).
+    /// Tool-centre radii in mm, one profile each (any order; within the reach
+    /// `process.pressure_model` gives).
     #[schema(min_items = 1)]
     pub tool_positions_mm: Vec<f64>,
     /// Where to report the profiles; default 201 samples from 0 to the workpiece radius.

@@ -89,13 +89,9 @@ pub async fn page(State(state): State<AppState>) -> Response {
 /// The page with `answers` (a JSON list) in its `first-answers` block; `</` is written `<\/`
 /// so no text in the JSON can end the script element.
 fn with_answers(answers: &str) -> String {
-    let page = ASSETS[0].2;
-    let block = r#"<script type="application/json" id="first-answers">[]</script>"#;
-    let embedded = format!(
-        r#"<script type="application/json" id="first-answers">{}</script>"#,
-        answers.replace("</", "<\\/")
-    );
-    page.replacen(block, &embedded, 1)
+    let block = r#"id="first-answers">"#;
+    let embedded = format!("{block}{}", answers.replace("</", "<\\/"));
+    ASSETS[0].2.replacen(&format!("{block}[]"), &embedded, 1)
 }
 
 /// The predict view's requests for the page's default set-up and the API's answers, as

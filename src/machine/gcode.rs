@@ -52,14 +52,44 @@ impl SpindleWords {
     }
 }
 
-/// How the G-code is written.
+/// How the G-code is to be written, as a caller gives it: each member optional (default
+/// inverse time, 4 decimals, LinuxCNC's spindle words). Unchecked: see [`GcodeFormat::new`].
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct GcodeFormatSpec {
+    pub feed_mode: Option<FeedMode>,
+    /// Decimals of X, Z (mm) and B (deg).
+    pub decimals: Option<u32>,
+    pub workpiece_spindle: SpindleWordsSpec,
+    pub tool_spindle: SpindleWordsSpec,
+}
+
+/// One spindle's words as given; each defaults to the spindle's own.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct SpindleWordsSpec {
+    pub cw: Option<String>,
+    pub ccw: Option<String>,
+    pub stop: Option<String>,
+}
+
+impl SpindleWordsSpec {
+    fn or(self, default: SpindleWords) -> SpindleWords {
+        SpindleWords {
+            cw: self.cw.unwrap_or(default.cw),
+            ccw: self.ccw.unwrap_or(default.ccw),
+            stop: self.stop.unwrap_or(default.stop),
+        }
+    }
+}
+
+/// How the G-code is written: defaults filled, every word safe to write
+/// ([`GcodeFormat::new`]).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct GcodeFormat {
-    pub feed_mode: FeedMode,
+    feed_mode: FeedMode,
     /// Decimals of X, Z (mm) and B (deg).
-    pub decimals: u32,
-    pub workpiece_spindle: SpindleWords,
-    pub tool_spindle: SpindleWords,
+    decimals: u32,
+    workpiece_spindle: SpindleWords,
+    tool_spindle: SpindleWords,
 }
 
 /// Most decimals of a coordinate (0.1 nm).
@@ -85,19 +115,20 @@ pub enum GcodeFormatError {
     },
 }
 
-impl Default for GcodeFormat {
-    fn default() -> Self {
-        GcodeFormat {
-            feed_mode: FeedMode::InverseTime,
-            decimals: 4,
-            workpiece_spindle: SpindleWords::workpiece_default(),
-            tool_spindle: SpindleWords::tool_default(),
-        }
-    }
-}
-
 impl GcodeFormat {
-    pub fn check(&self) -> Result<(), GcodeFormatError> {
+    /// The format of `spec`, its defaults filled and checked.
+    pub fn new(spec: GcodeFormatSpec) -> Result<GcodeFormat, GcodeFormatError> {
+        let format = GcodeFormat {
+            feed_mode: spec.feed_mode.unwrap_or(FeedMode::InverseTime),
+            decimals: spec.decimals.unwrap_or(4),
+            workpiece_spindle: spec.workpiece_spindle.or(SpindleWords::workpiece_default()),
+            tool_spindle: spec.tool_spindle.or(SpindleWords::tool_default()),
+        };
+        format.check()?;
+        Ok(format)
+    }
+
+    fn check(&self) -> Result<(), GcodeFormatError> {
         if self.decimals > MAX_DECIMALS {
             return Err(GcodeFormatError::Decimals);
         }
@@ -258,11 +289,16 @@ mod tests {
 
     #[test]
     fn words_that_would_open_a_comment_are_refused() {
-        let mut f = GcodeFormat::default();
-        f.tool_spindle.cw = "M3 (x".into();
-        assert!(f.check().is_err());
-        f.tool_spindle.cw = "M3\nG0".into();
-        assert!(f.check().is_err());
-        assert!(GcodeFormat::default().check().is_ok());
+        for word in ["M3 (x", "M3\nG0", "M3;", ""] {
+            let spec = GcodeFormatSpec {
+                tool_spindle: SpindleWordsSpec {
+                    cw: Some(word.into()),
+                    ..SpindleWordsSpec::default()
+                },
+                ..GcodeFormatSpec::default()
+            };
+            assert!(GcodeFormat::new(spec).is_err(), "{word:?}");
+        }
+        assert!(GcodeFormat::new(GcodeFormatSpec::default()).is_ok());
     }
 }

@@ -42,7 +42,9 @@ pub mod pose;
 pub mod program;
 
 pub use crate::physics::motion::{cell_boundaries_mm, move_share as cell_share};
-pub use gcode::{FeedMode, GcodeFormat, GcodeFormatError, SpindleWords};
+pub use gcode::{
+    FeedMode, GcodeFormat, GcodeFormatError, GcodeFormatSpec, SpindleWords, SpindleWordsSpec,
+};
 pub use limits::{
     AxisLimits, Drive, InvalidLimit, LimitKind, MachineLimits, MachineLimitsSpec, Violation,
 };

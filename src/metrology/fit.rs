@@ -58,12 +58,35 @@ pub struct PointResidual {
     pub weight: f64,
 }
 
+/// The standard errors of the alignment, √(σ²·(JᵀWJ)⁻¹ⱼⱼ); `None` for a parameter held
+/// fixed. The vertex radius's is in mm, from the curvature's by the delta method.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StandardErrors {
+    pub lateral_offset_mm: Option<f64>,
+    pub tilt_rad: Option<f64>,
+    pub piston_mm: Option<f64>,
+    pub radius_of_curvature_mm: Option<f64>,
+}
+
+/// Nanometres in a millimetre: traces are in mm, form errors are reported in nm.
+pub const NM_PER_MM: f64 = 1e6;
+
+impl PointResidual {
+    /// The axial residual, nm.
+    pub fn axial_nm(&self) -> f64 {
+        self.axial_mm * NM_PER_MM
+    }
+
+    /// The residual along the surface normal, nm.
+    pub fn normal_nm(&self) -> f64 {
+        self.normal_mm * NM_PER_MM
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitOutcome {
     pub alignment: Alignment,
-    /// One per [`Parameter::ALL`] entry; `None` for parameters held fixed. The radius's is in
-    /// mm (from the curvature's by the delta method).
-    pub standard_errors: [Option<f64>; 4],
+    pub standard_errors: StandardErrors,
     pub points: Vec<PointResidual>,
     /// Levenberg–Marquardt steps taken, over all reweightings.
     pub iterations: usize,
@@ -411,14 +434,19 @@ pub fn fit_within(problem: &FitProblem, max_steps: usize) -> Result<FitOutcome, 
     let lin = linearise(&eval, &weights, &free)?;
     let kept = weights.iter().filter(|&&w| w > 0.0).count();
     let variance = cost(&eval.residual, &weights) / (kept.saturating_sub(free.len()).max(1)) as f64;
-    let mut standard_errors = [None; 4];
+    let mut standard_errors = StandardErrors::default();
     for (k, &j) in free.iter().enumerate() {
         let se = (variance * lin.covariance_diagonal(k)).sqrt();
-        standard_errors[j] = if Parameter::ALL[j] == Parameter::RadiusOfCurvature {
-            (p[3] != 0.0).then(|| se / (p[3] * p[3]))
-        } else {
-            Some(se)
-        };
+        let e = &mut standard_errors;
+        match Parameter::ALL[j] {
+            Parameter::LateralOffset => e.lateral_offset_mm = Some(se),
+            Parameter::Tilt => e.tilt_rad = Some(se),
+            Parameter::Piston => e.piston_mm = Some(se),
+            // The fit's parameter is the curvature c = 1/R: σ_R = σ_c / c².
+            Parameter::RadiusOfCurvature => {
+                e.radius_of_curvature_mm = (p[3] != 0.0).then(|| se / (p[3] * p[3]))
+            }
+        }
     }
     Ok(FitOutcome {
         alignment: Alignment {

@@ -26,7 +26,9 @@ pub mod fit;
 pub mod probe;
 pub mod profile;
 
-pub use fit::{fit, fit_within, Alignment, FitError, FitOutcome, PointResidual};
+pub use fit::{
+    fit, fit_within, Alignment, FitError, FitOutcome, PointResidual, StandardErrors, NM_PER_MM,
+};
 pub use probe::Height;
 pub use probe::{Compensation, Probe, ProbeError};
 pub use profile::{

@@ -15,8 +15,6 @@
 use super::fit::PointResidual;
 use crate::physics::{ClearAperture, RadialGrid};
 
-const NM_PER_MM: f64 = 1e6;
-
 /// The signed extent of the kept points' contact radii, mm.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Coverage {
@@ -103,7 +101,7 @@ impl Smoother {
         let mut kept: Vec<(f64, f64, f64)> = points
             .iter()
             .filter(|p| p.weight > 0.0)
-            .map(|p| (p.contact_mm, p.normal_mm * NM_PER_MM, p.weight))
+            .map(|p| (p.contact_mm, p.normal_nm(), p.weight))
             .collect();
         kept.sort_by(|a, b| a.0.total_cmp(&b.0));
         let span = kept.last().map_or(0.0, |l| l.0) - kept.first().map_or(0.0, |f| f.0);
@@ -221,7 +219,7 @@ pub fn form_error(
     let inside: Vec<f64> = points
         .iter()
         .filter(|p| p.weight > 0.0 && aperture.contains(p.contact_mm.abs()))
-        .map(|p| p.axial_mm * NM_PER_MM)
+        .map(PointResidual::axial_nm)
         .collect();
     if inside.is_empty() {
         return Err(RadialProfileError::ApertureEmpty);

@@ -14,8 +14,6 @@ use crate::usecases::predict::Prediction;
 use crate::usecases::program::MachineProgram;
 use crate::usecases::removal_function::RemovalFunction;
 
-const NM_PER_MM: f64 = 1e6;
-
 fn header(names: &[&str]) -> Vec<String> {
     names.iter().map(|n| n.to_string()).collect()
 }
@@ -211,8 +209,8 @@ pub fn measurement_fit_csv(m: &MeasurementFit) -> String {
             &column(&|p| p.z_mm),
             &column(&|p| p.aligned_x_mm),
             &column(&|p| p.contact_mm),
-            &column(&|p| p.axial_mm * NM_PER_MM),
-            &column(&|p| p.normal_mm * NM_PER_MM),
+            &column(&|p| p.axial_nm()),
+            &column(&|p| p.normal_nm()),
             &column(&|p| p.weight),
         ],
     )
@@ -226,7 +224,7 @@ pub fn measurement_fit_svg(m: &MeasurementFit) -> String {
             .points
             .iter()
             .filter(|p| p.weight > 0.0 && p.contact_mm.signum() == sign)
-            .map(|p| (p.contact_mm.abs(), p.normal_mm * NM_PER_MM))
+            .map(|p| (p.contact_mm.abs(), p.normal_nm()))
             .collect();
         curve.sort_by(|a, b| a.0.total_cmp(&b.0));
         Series {

@@ -73,12 +73,13 @@ pub enum InputError {
     Setting(#[from] SettingError),
     /// An input is larger than the limits allow.
     #[error("{input:?}: {error}")]
-    LimitKind { input: Input, error: SizeLimitError },
+    TooLarge { input: Input, error: SizeLimitError },
     /// A dwell schedule or list of positions is malformed.
     #[error("{error}")]
     Schedule { input: Input, error: ScheduleError },
-    /// A number outside its range; `max` is the largest accepted value.
-    #[error("{input:?} is out of range (at most {max})")]
+    /// A number outside its range; `max` is the largest accepted value. Says the range
+    /// (the caller names the input).
+    #[error("{}", out_of_range(*input, *max))]
     OutOfRange { input: Input, max: f64 },
     /// Constraints, objective weights or a measured profile.
     #[error(transparent)]
@@ -97,9 +98,26 @@ pub enum InputError {
     MachineFit(#[from] optimize::MachineFitError),
 }
 
+/// The range an input must lie in, in words.
+fn out_of_range(input: Input, max: f64) -> String {
+    match input {
+        Input::Depth => format!(
+            "must be a number in [{}, {max}] nm",
+            recommend::MIN_DEPTH_NM
+        ),
+        Input::UniformDepth => format!("must be a number in [0, {max}] nm"),
+        Input::NonuniformityThreshold => "must be a finite fraction > 0".to_string(),
+        Input::Etas => format!("must hold 1 to {max} values; it is empty"),
+        Input::SolverTimeLimit => {
+            format!("must be > 0 and at most this server's limit of {max} s")
+        }
+        _ => format!("is out of range (at most {max})"),
+    }
+}
+
 impl InputError {
     fn limit(input: Input) -> impl FnOnce(SizeLimitError) -> InputError {
-        move |error| InputError::LimitKind { input, error }
+        move |error| InputError::TooLarge { input, error }
     }
 
     fn schedule(input: Input) -> impl FnOnce(ScheduleError) -> InputError {

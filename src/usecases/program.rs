@@ -4,8 +4,8 @@
 use super::limits::{ComputeLimits, SizeLimitError};
 use super::setting::{process_on_part, Mount, PartSpec, SettingError};
 use crate::machine::{
-    gcode, Approach, Drive, GcodeFormat, GcodeFormatError, InvalidLimit, MachineLimits,
-    MachineLimitsSpec, Program, ProgramError, Tool, Violation,
+    gcode, Approach, Drive, GcodeFormat, GcodeFormatError, GcodeFormatSpec, InvalidLimit,
+    MachineLimits, MachineLimitsSpec, Program, ProgramError, Tool, Violation,
 };
 use crate::physics::{DwellSchedule, Process, ProcessSpec, ScheduleError};
 use crate::surface::SurfaceError;
@@ -31,7 +31,7 @@ pub struct ProgramSpec {
     pub clearance_mm: Option<f64>,
     /// Default [`DEFAULT_APPROACH_FEED_MM_PER_MIN`], lowered to what the axis limits allow.
     pub approach_feed_mm_per_min: Option<f64>,
-    pub format: GcodeFormat,
+    pub format: GcodeFormatSpec,
     /// Written into the G-code header (e.g. a digest of the request).
     pub request_digest: String,
 }
@@ -92,7 +92,7 @@ impl ProgramCommand {
                 .map_err(|error| E::PositionOffSurface { index, error })?;
         }
         let machine = MachineLimits::new(spec.machine).map_err(E::Limits)?;
-        spec.format.check().map_err(E::Format)?;
+        let format = GcodeFormat::new(spec.format).map_err(E::Format)?;
         let clearance_mm = spec.clearance_mm.unwrap_or(DEFAULT_CLEARANCE_MM);
         if !(0.0..=MAX_CLEARANCE_MM).contains(&clearance_mm) {
             return Err(E::Clearance);
@@ -110,7 +110,7 @@ impl ProgramCommand {
             machine,
             clearance_mm,
             approach_feed_mm_per_min: spec.approach_feed_mm_per_min,
-            format: spec.format,
+            format,
             request_digest: spec.request_digest,
         })
     }

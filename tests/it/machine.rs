@@ -3,7 +3,8 @@
 //! motion against the plan's prediction.
 
 use preston::machine::{
-    gcode, Approach, BlockKind, GcodeFormat, Orientation, Program, SpindleWords, Tool,
+    gcode, Approach, BlockKind, GcodeFormat, GcodeFormatSpec, Orientation, Program,
+    SpindleWordsSpec, Tool,
 };
 use preston::physics::{DwellSchedule, RadialGrid, RemovalKernel};
 use preston::surface::{PolynomialTerm, Surface, SurfaceSpec};
@@ -122,14 +123,15 @@ fn gcode_reads_back_through_an_independent_parser() {
     };
     let program = Program::new(&surface, &tool, &positions, &dwell, approach).unwrap();
     // The parser reads words as letter + number, so the tool spindle gets plain M words here.
-    let format = GcodeFormat {
-        tool_spindle: SpindleWords {
-            cw: "M13".into(),
-            ccw: "M14".into(),
-            stop: "M15".into(),
+    let format = GcodeFormat::new(GcodeFormatSpec {
+        tool_spindle: SpindleWordsSpec {
+            cw: Some("M13".into()),
+            ccw: Some("M14".into()),
+            stop: Some("M15".into()),
         },
-        ..GcodeFormat::default()
-    };
+        ..GcodeFormatSpec::default()
+    })
+    .unwrap();
     let text = gcode::write(&program, &["header".into()], -10.0, 200.0, &format);
     // This parser reports a word-bearing code twice, first without its arguments: keep the
     // complete one.

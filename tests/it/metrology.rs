@@ -348,9 +348,10 @@ fn tukey_ignores_spikes_that_pull_least_squares_away() {
     let robust = fit(&problem(xs, dusty, RobustLoss::Tukey)).unwrap();
     let off = |a: &preston::metrology::Alignment| {
         [
-            (a.lateral_offset_mm - clean.alignment.lateral_offset_mm) / se[0].unwrap(),
-            (a.tilt_rad - clean.alignment.tilt_rad) / se[1].unwrap(),
-            (a.piston_mm - clean.alignment.piston_mm) / se[2].unwrap(),
+            (a.lateral_offset_mm - clean.alignment.lateral_offset_mm)
+                / se.lateral_offset_mm.unwrap(),
+            (a.tilt_rad - clean.alignment.tilt_rad) / se.tilt_rad.unwrap(),
+            (a.piston_mm - clean.alignment.piston_mm) / se.piston_mm.unwrap(),
         ]
     };
     let (p, r) = (off(&plain.alignment), off(&robust.alignment));

@@ -70,8 +70,9 @@ pub struct ProcessDto {
     pub pad_moment_share: Option<f64>,
 }
 
-/// `uniform`: the nominal pressure everywhere under the pad, also when it overhangs the edge
-/// (the paper's assumption; tool positions up to r_m + r_t). `constant_force`: the force of the
+/// How the pad presses, and so how far out the tool may go (its reach). `uniform`: the nominal
+/// pressure everywhere under the pad, also when it overhangs the edge (the paper's assumption;
+/// tool positions up to r_m + r_t). `constant_force`: the force of the
 /// nominal pressure on the full pad rests on the part of the pad still on the workpiece, so the
 /// pressure rises as the pad overhangs (tool positions up to r_m). `linear`: a rigid pad under
 /// that force with pressure linear across the contact, balanced in force and in moment (the pad
@@ -261,8 +262,7 @@ impl From<&UniformityMetrics> for MetricsDto {
 }
 
 /// Tool dwell: positions of the tool centre (mm from the workpiece axis, strictly increasing,
-/// 0 to r_m + r_t under uniform pressure or 0 to r_m under constant force) and the time spent
-/// at each (s, ≥ 0). Same length.
+/// within the reach `pressure_model` gives) and the time spent at each (s, ≥ 0). Same length.
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct DwellDto {

@@ -13,7 +13,6 @@ use crate::study::StudyError;
 use crate::surface::{SurfaceError, SurfaceInput};
 use crate::usecases::optimize::MachineFitError;
 use crate::usecases::program::{ProgramFailure, ProgramInputError};
-use crate::usecases::recommend::MIN_DEPTH_NM;
 use crate::usecases::{Input, InputError, PartError, SettingError, SizeLimitError};
 
 /// Engine errors become 422s naming the field under the request object that carried it.
@@ -121,9 +120,7 @@ impl From<InputError> for ApiError {
     fn from(err: InputError) -> Self {
         match err {
             InputError::Setting(e) => e.into(),
-            InputError::LimitKind { input, error } => {
-                ApiError::from_limit(input_path(input), error)
-            }
+            InputError::TooLarge { input, error } => ApiError::from_limit(input_path(input), error),
             InputError::Schedule { input, error } => {
                 let prefix = match input {
                     Input::Dwell => "dwell",
@@ -132,23 +129,9 @@ impl From<InputError> for ApiError {
                 };
                 ApiError::from_schedule(prefix, error)
             }
-            InputError::OutOfRange { input, max } => {
+            InputError::OutOfRange { input, .. } => {
                 let field = input_path(input);
-                let detail = match input {
-                    Input::Depth => {
-                        format!("{field} must be a number in [{MIN_DEPTH_NM}, {max}] nm")
-                    }
-                    Input::UniformDepth => format!("{field} must be a number in [0, {max}] nm"),
-                    Input::NonuniformityThreshold => {
-                        format!("{field} must be a finite fraction > 0")
-                    }
-                    Input::Etas => format!("{field} must hold 1 to {max} values; it is empty"),
-                    Input::SolverTimeLimit => {
-                        format!("{field} must be > 0 and at most this server's limit of {max} s")
-                    }
-                    _ => format!("{field} is out of range (at most {max})"),
-                };
-                ApiError::invalid(field, detail)
+                ApiError::invalid(field, format!("{field} {err}"))
             }
             InputError::Optimize(e) => e.into(),
             InputError::Study(e) => e.into(),

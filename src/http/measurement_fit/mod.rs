@@ -15,7 +15,7 @@ use super::error::ApiError;
 use super::extract::{object, optional_object};
 use super::optimize::{MeasuredProfileDto, TargetDto};
 use super::state::Services;
-use crate::metrology::{Compensation, Parameter, RobustLoss};
+use crate::metrology::{Compensation, Parameter, PointResidual, RobustLoss, NM_PER_MM};
 use crate::report::results;
 use crate::surface::SurfaceSpec;
 use crate::usecases::measurement_fit::{
@@ -235,8 +235,6 @@ pub struct MeasurementFitResponse {
     pub solver: FitReportDto,
 }
 
-const NM_PER_MM: f64 = 1e6;
-
 /// `POST /v1/measurement/fit`.
 pub struct MeasurementFitEndpoint;
 
@@ -310,9 +308,7 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
 
     fn respond(m: MeasurementFit) -> MeasurementFitResponse {
         let points = &m.outcome.points;
-        let column = |f: fn(&crate::metrology::PointResidual) -> f64| -> Vec<f64> {
-            points.iter().map(f).collect()
-        };
+        let column = |f: fn(&PointResidual) -> f64| -> Vec<f64> { points.iter().map(f).collect() };
         let se = m.outcome.standard_errors;
         let profile = FormProfileDto {
             radius_mm: m.profile.radius_mm.clone(),
@@ -326,10 +322,10 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
                 radius_of_curvature_mm: m.outcome.alignment.surface.radius_of_curvature_mm(),
             },
             standard_errors: StandardErrorsDto {
-                lateral_offset_mm: se[0],
-                tilt_rad: se[1],
-                piston_mm: se[2],
-                radius_of_curvature_mm: se[3],
+                lateral_offset_mm: se.lateral_offset_mm,
+                tilt_rad: se.tilt_rad,
+                piston_mm: se.piston_mm,
+                radius_of_curvature_mm: se.radius_of_curvature_mm,
             },
             fitted: FittedDto {
                 lateral_offset: m.fitted.contains(Parameter::LateralOffset),
@@ -342,8 +338,8 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
                 z_mm: column(|p| p.z_mm),
                 aligned_x_mm: column(|p| p.aligned_x_mm),
                 contact_x_mm: column(|p| p.contact_mm),
-                axial_nm: column(|p| p.axial_mm * NM_PER_MM),
-                normal_nm: column(|p| p.normal_mm * NM_PER_MM),
+                axial_nm: column(PointResidual::axial_nm),
+                normal_nm: column(PointResidual::normal_nm),
                 weight: column(|p| p.weight),
             },
             form_error: FormErrorDto {

@@ -29,8 +29,8 @@ pub struct OptimizeRequest {
     /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
     #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
-    /// Candidate tool-centre positions, mm, strictly increasing, within the tool's reach
-    /// (0 to r_m + r_t under uniform pressure, 0 to r_m under constant force); at most the
+    /// Candidate tool-centre positions, mm, strictly increasing, within the reach
+    /// `process.pressure_model` gives; at most the
     /// server's max_optimize_positions (2001 by default). When there are at least twice as many
     /// as knots r_t/8 apart over their span allow, the dwell is solved as a cubic B-spline on
     /// those knots, sampled at the positions (smooth for the feed axis; every constraint still
