@@ -460,14 +460,28 @@ pub(super) fn inside(mut points: Vec<f64>, lo: f64, hi: f64) -> Vec<f64> {
 /// power of two to magnitude ~1 (exact): tiny speeds or radii (a tool centre 1e-159 mm from the
 /// axis) then cannot underflow the squares below. Ordinary inputs skip the scaling.
 fn sliding_integral(a: f64, b: f64, psi: HalfAngle) -> f64 {
+    homogeneous(
+        a,
+        b,
+        |a, b| scaled_sliding_integral(a, b, psi),
+        |v, up| up(v),
+    )
+}
+
+/// `integral(a, b)` of an integral homogeneous of degree 1 in (a, b), with extreme (a, b)
+/// first scaled by a power of two to magnitude ~1 and the result scaled back by `back` (both
+/// exact).
+fn homogeneous<T>(
+    a: f64,
+    b: f64,
+    integral: impl Fn(f64, f64) -> T,
+    back: impl Fn(T, &dyn Fn(f64) -> f64) -> T,
+) -> T {
     let size = a.abs().max(b.abs());
-    if size == 0.0 {
-        return 0.0;
-    }
     // Within 2^±300 neither the squares of speeds nor R_D (of degree −3/2 in them, so
-    // ~size⁻³) under- or overflow: no scaling needed.
-    if (2f64.powi(-300)..=2f64.powi(300)).contains(&size) {
-        return scaled_sliding_integral(a, b, psi);
+    // ~size⁻³) under- or overflow: no scaling needed (nor for a = b = 0).
+    if size == 0.0 || (2f64.powi(-300)..=2f64.powi(300)).contains(&size) {
+        return integral(a, b);
     }
     // Scale by 2^−e in two halves: for a subnormal size e is below −1022, and 2^−e itself
     // would overflow (0·∞ = NaN at r = 0). Each factor is a power of two, so this is exact.
@@ -475,7 +489,7 @@ fn sliding_integral(a: f64, b: f64, psi: HalfAngle) -> f64 {
     let (half, rest) = (exponent / 2, exponent - exponent / 2);
     let down = |x: f64| x * 2f64.powi(-half) * 2f64.powi(-rest);
     let up = |x: f64| x * 2f64.powi(half) * 2f64.powi(rest);
-    up(scaled_sliding_integral(down(a), down(b), psi))
+    back(integral(down(a), down(b)), &up)
 }
 
 /// [`sliding_integral`] for max(|a|, |b|) far from under- and overflow.
@@ -505,28 +519,18 @@ struct ArcIntegrals {
 /// I0 = ∫_0^φ dψ/V = s·R_F(A·c², A + B·s², A),   I2 = ∫_0^φ s²/V dψ = (A·s³/3)·R_D(…)
 /// ```
 ///
-/// from the same R_F and R_D as ∫V dθ; the arrangements (and the scaling of extreme speeds)
-/// are those of [`sliding_integral`], homogeneous of degree 1 like it.
+/// from the same R_F and R_D as ∫V dθ; the arrangements are those of [`sliding_integral`], and
+/// extreme speeds are scaled as there ([`homogeneous`]).
 fn arc_integrals(a: f64, b: f64, psi: HalfAngle) -> ArcIntegrals {
-    let size = a.abs().max(b.abs());
-    if size == 0.0 {
-        return ArcIntegrals {
-            speed: 0.0,
-            cos_speed: 0.0,
-        };
-    }
-    if (2f64.powi(-300)..=2f64.powi(300)).contains(&size) {
-        return scaled_arc_integrals(a, b, psi);
-    }
-    let exponent = size.log2().floor() as i32;
-    let (half, rest) = (exponent / 2, exponent - exponent / 2);
-    let down = |x: f64| x * 2f64.powi(-half) * 2f64.powi(-rest);
-    let up = |x: f64| x * 2f64.powi(half) * 2f64.powi(rest);
-    let scaled = scaled_arc_integrals(down(a), down(b), psi);
-    ArcIntegrals {
-        speed: up(scaled.speed),
-        cos_speed: up(scaled.cos_speed),
-    }
+    homogeneous(
+        a,
+        b,
+        |a, b| scaled_arc_integrals(a, b, psi),
+        |v, up| ArcIntegrals {
+            speed: up(v.speed),
+            cos_speed: up(v.cos_speed),
+        },
+    )
 }
 
 fn scaled_arc_integrals(a: f64, b: f64, psi: HalfAngle) -> ArcIntegrals {

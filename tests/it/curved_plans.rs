@@ -5,6 +5,7 @@
 use serde_json::json;
 
 use crate::common::http::{app, post_json};
+use crate::common::numbers;
 use crate::curved_removal::{Case, Shape};
 use preston::physics::{ClearAperture, Process, RadialGrid};
 use preston::study::{EqualDwell, Frame};
@@ -69,13 +70,6 @@ async fn optimized_plan_on_a_sphere_is_uniform_by_the_3d_model() {
         tool_radius: 10.0,
         workpiece_radius: 50.0,
         vertical: false,
-    };
-    let numbers = |v: &serde_json::Value| -> Vec<f64> {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
     };
     let at = numbers(&plan["dwell"]["positions_mm"]);
     let dwell = numbers(&plan["dwell"]["dwell_s"]);

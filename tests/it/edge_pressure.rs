@@ -17,7 +17,7 @@
 //! pressure there without computing a moment).
 
 use crate::common::http::{app, post_json};
-use crate::common::{adaptive_integral, paper_spec};
+use crate::common::{adaptive_integral, numbers, paper_spec};
 use preston::physics::pressure::{pad_pressure, PadPressure};
 use preston::physics::{removal_rate_nm_per_min, PressureModel, Process, ProcessSpec};
 use serde_json::json;
@@ -386,13 +386,6 @@ async fn a_linear_plan_removes_what_the_independent_model_says() {
     let reply = post_json(&app(), "/v1/optimize", body.to_string()).await;
     assert_eq!(reply.status, 200, "{}", reply.text());
     let plan = reply.json();
-    let numbers = |v: &serde_json::Value| -> Vec<f64> {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
-    };
     let dwell = numbers(&plan["dwell"]["dwell_s"]);
     let removal = numbers(&plan["removal_nm"]);
     let spec = linear_spec(-10.0, 200.0, 1.0);

@@ -175,6 +175,15 @@ pub fn read_fixture(name: &str) -> serde_json::Value {
     serde_json::from_str(&text).expect("fixture is JSON")
 }
 
+/// A JSON array of numbers (a response's column).
+pub fn numbers(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .expect("an array")
+        .iter()
+        .map(|x| x.as_f64().expect("a number"))
+        .collect()
+}
+
 /// The endpoint a request fixture is for, by its name's prefix.
 pub fn endpoint_of(fixture: &str) -> &'static str {
     if fixture.starts_with("removal_function") {
