@@ -11,7 +11,6 @@ use super::error::ApiError;
 use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::Services;
 use crate::machine::{BlockKind, FeedMode, GcodeFormatSpec, MachineLimitsSpec, SpindleWordsSpec};
-use crate::physics::ProcessSpec;
 use crate::report::results;
 use crate::usecases::program::{program, MachineProgram, ProgramCommand, ProgramSpec};
 use crate::usecases::ComputeLimits;
@@ -261,7 +260,7 @@ seconds), `text/csv` the block table.",
             .collect();
         let approach = req.approach.clone().unwrap_or_default();
         let spec = ProgramSpec {
-            process: ProcessSpec::from(&req.process),
+            process: req.process.spec()?,
             part: part_spec(req.surface.as_ref(), req.tool.as_ref()),
             positions_mm: req.dwell.positions_mm,
             dwell_s: req.dwell.dwell_s,

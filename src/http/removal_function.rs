@@ -91,7 +91,7 @@ returns one column per profile with a unit header.",
         limits: &ComputeLimits,
     ) -> Result<Self::Command, ApiError> {
         Ok(RemovalFunctionCommand::new(
-            (&req.process).into(),
+            req.process.spec()?,
             &part_spec(req.surface.as_ref(), req.tool.as_ref()),
             req.radial_grid.as_ref().into(),
             req.tool_positions_mm,

@@ -20,7 +20,7 @@ pub use curved::{Orientation, Part};
 pub use grid::{check_radius, ClearAperture, GridError, RadialGrid, Reach};
 pub use metrics::UniformityMetrics;
 pub use operator::RemovalOperator;
-pub use pressure::PressureModel;
+pub use pressure::{PressureModel, PressureModelKind};
 pub use process::{Eta, Process, ProcessError, ProcessSpec};
 pub use removal::{removal_rate_nm_per_min, RemovalKernel, RunningIntegral};
 pub use schedule::{check_positions, ConstantFeed, DwellSchedule, ScheduleError};

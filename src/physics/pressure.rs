@@ -69,6 +69,16 @@ pub enum PressureModel {
     },
 }
 
+/// A pressure model as a caller names it, before its moment share is checked
+/// ([`PressureModel::parse`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PressureModelKind {
+    #[default]
+    Uniform,
+    ConstantForce,
+    Linear,
+}
+
 impl PressureModel {
     /// Every bit the model's pressures depend on, for cache keys.
     pub fn key_bits(self) -> [u64; 2] {

@@ -15,7 +15,7 @@
 use std::f64::consts::PI;
 
 use super::curved::Part;
-use super::pressure::{linear_lift_onset_mm, linear_reach_mm, PressureModel};
+use super::pressure::{linear_lift_onset_mm, linear_reach_mm, PressureModel, PressureModelKind};
 use crate::surface::SurfaceError;
 
 /// Raw process parameters as a caller supplies them (units in the names).
@@ -118,6 +118,28 @@ impl ProcessError {
                 "workpiece_radius_mm"
             }
         }
+    }
+}
+
+impl PressureModel {
+    /// The model `kind` names, with the pad's share κ of the tipping moment (default 1, a free
+    /// gimbal). κ is used by `Linear` alone, but must lie in [0, 1] whatever the model: a
+    /// mistyped κ is refused, never silently dropped.
+    pub fn parse(
+        kind: PressureModelKind,
+        pad_moment_share: Option<f64>,
+    ) -> Result<PressureModel, ProcessError> {
+        let share = pad_moment_share.unwrap_or(1.0);
+        if !(0.0..=1.0).contains(&share) {
+            return Err(ProcessError::MomentShare);
+        }
+        Ok(match kind {
+            PressureModelKind::Uniform => PressureModel::Uniform,
+            PressureModelKind::ConstantForce => PressureModel::ConstantForce,
+            PressureModelKind::Linear => PressureModel::Linear {
+                pad_moment_share: share,
+            },
+        })
     }
 }
 

@@ -50,7 +50,7 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let pg = "program_sphere.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 25] = [
+    let cases: [(&str, &str, Value, &str, &str); 27] = [
         (
             rf,
             "tool_positions_mm",
@@ -64,6 +64,22 @@ async fn each_endpoint_names_the_field_of_bad_input() {
             json!(0),
             INVALID,
             "process.tool_radius_mm",
+        ),
+        // κ is the linear model's, but out of [0, 1] it is refused whatever the model.
+        (
+            rf,
+            "process.pad_moment_share",
+            json!(1.5),
+            INVALID,
+            "process.pad_moment_share",
+        ),
+        // The fixture's part is a sphere: no linear pad there yet.
+        (
+            pg,
+            "process.pressure_model",
+            json!("linear"),
+            INVALID,
+            "process.pressure_model",
         ),
         (
             rf,

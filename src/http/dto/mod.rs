@@ -7,7 +7,9 @@ use utoipa::ToSchema;
 use super::error::ApiError;
 use super::extract::optional_count;
 use crate::physics::UniformityMetrics;
-use crate::physics::{ClearAperture, Orientation, Part, PressureModel, ProcessSpec};
+use crate::physics::{
+    ClearAperture, Orientation, Part, PressureModel, PressureModelKind, ProcessSpec,
+};
 use crate::surface::SurfaceSpec;
 use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, PartSpec, Setting};
 
@@ -64,7 +66,8 @@ pub struct ProcessDto {
     pub pressure_model: PressureModelDto,
     /// Under `linear`: the pad's share κ of the tipping moment about its centre, in [0, 1]
     /// (1: a free gimbal, the load acting at the pad centre; 0: the head holds the pad level
-    /// and the pressure is the constant-force model's). Default 1; the other models ignore it.
+    /// and the pressure is the constant-force model's). Default 1. Only `linear` uses it, but
+    /// a value outside [0, 1] is refused with any model.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(example = 1.0, minimum = 0.0, maximum = 1.0)]
     pub pad_moment_share: Option<f64>,
@@ -89,24 +92,24 @@ pub enum PressureModelDto {
     Linear,
 }
 
-impl From<&ProcessDto> for ProcessSpec {
-    fn from(p: &ProcessDto) -> Self {
-        ProcessSpec {
-            workpiece_radius_mm: p.workpiece_radius_mm,
-            tool_radius_mm: p.tool_radius_mm,
-            workpiece_rpm: p.workpiece_rpm,
-            tool_rpm: p.tool_rpm,
-            preston_coefficient_m2_per_n: p.preston_coefficient_m2_per_n,
-            pressure_kpa: p.pressure_kpa,
-            pressure_model: match p.pressure_model {
-                PressureModelDto::Uniform => PressureModel::Uniform,
-                PressureModelDto::ConstantForce => PressureModel::ConstantForce,
-                PressureModelDto::Linear => PressureModel::Linear {
-                    pad_moment_share: p.pad_moment_share.unwrap_or(1.0),
-                },
-            },
+impl ProcessDto {
+    /// The process as the core takes it (its pressure model parsed with κ).
+    pub fn spec(&self) -> Result<ProcessSpec, ApiError> {
+        let kind = match self.pressure_model {
+            PressureModelDto::Uniform => PressureModelKind::Uniform,
+            PressureModelDto::ConstantForce => PressureModelKind::ConstantForce,
+            PressureModelDto::Linear => PressureModelKind::Linear,
+        };
+        Ok(ProcessSpec {
+            workpiece_radius_mm: self.workpiece_radius_mm,
+            tool_radius_mm: self.tool_radius_mm,
+            workpiece_rpm: self.workpiece_rpm,
+            tool_rpm: self.tool_rpm,
+            preston_coefficient_m2_per_n: self.preston_coefficient_m2_per_n,
+            pressure_kpa: self.pressure_kpa,
+            pressure_model: PressureModel::parse(kind, self.pad_moment_share)?,
             part: Part::flat(),
-        }
+        })
     }
 }
 
@@ -198,7 +201,7 @@ impl SettingDtos<'_> {
     /// The use case's setting: its process on its part, radial grid and clear aperture.
     pub fn parse(self, limits: &ComputeLimits) -> Result<Setting, ApiError> {
         Ok(Setting::new(
-            self.process.into(),
+            self.process.spec()?,
             &part_spec(self.surface, self.tool),
             self.grid.into(),
             self.aperture.into(),

@@ -81,6 +81,12 @@ impl ApiError {
     }
 }
 
+impl From<ProcessError> for ApiError {
+    fn from(err: ProcessError) -> Self {
+        ApiError::from_process(err)
+    }
+}
+
 impl From<PartError> for ApiError {
     fn from(err: PartError) -> Self {
         match err {
