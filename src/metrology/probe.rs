@@ -33,10 +33,14 @@ pub struct Probe {
     compensation: Compensation,
 }
 
+/// The largest tip radius accepted, mm: the model's largest radius (a probe is far smaller;
+/// beyond it the compensated heights and their residuals in nm can overflow).
+pub const MAX_TIP_RADIUS_MM: f64 = 1e5;
+
 /// Why a probe cannot report a point.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ProbeError {
-    #[error("probe_tip_radius_mm must be a finite number ≥ 0")]
+    #[error("probe_tip_radius_mm must be a number in [0, {MAX_TIP_RADIUS_MM}] mm")]
     BadTipRadius,
     #[error("{0}")]
     OffSurface(SurfaceError),
@@ -60,7 +64,7 @@ pub struct Height {
 
 impl Probe {
     pub fn new(tip_radius_mm: f64, compensation: Compensation) -> Result<Probe, ProbeError> {
-        if !(tip_radius_mm.is_finite() && tip_radius_mm >= 0.0) {
+        if !(0.0..=MAX_TIP_RADIUS_MM).contains(&tip_radius_mm) {
             return Err(ProbeError::BadTipRadius);
         }
         Ok(Probe {
@@ -187,6 +191,14 @@ mod tests {
             Probe::new(-1.0, Compensation::Normal),
             Err(ProbeError::BadTipRadius)
         );
+        // Found by schemathesis: a 5.7e307 mm tip overflowed the residuals to null.
+        for tip in [5.673911824096479e307, f64::INFINITY, f64::NAN, 1.0001e5] {
+            assert_eq!(
+                Probe::new(tip, Compensation::Normal),
+                Err(ProbeError::BadTipRadius)
+            );
+        }
+        assert!(Probe::new(1e5, Compensation::Normal).is_ok());
         assert!(matches!(
             Probe::sharp().height(&sphere(4.0), 4.5),
             Err(ProbeError::OffSurface(_))

@@ -29,11 +29,12 @@
 //!   x0 from the same two balances, ∫ p dA = F and ∫ p·(x − r1) dA = (1 − κ)·F·(x_c − r1)
 //!   (the head's load is that of the whole lens C). The first says β = F/∫(x − x0)dA; the
 //!   second puts the centroid of the triangular load, x0 + ∫(x − x0)²dA / ∫(x − x0)dA, at
-//!   x* = κ·r1 + (1 − κ)·x_c, which moves monotonically outward with x0: one root, found by
-//!   regula falsi ([`super::roots`]). At the onset (p = 0 at the inner rim) both forms agree,
-//!   so the pressure is continuous in r1. When x* reaches the workpiece edge no contact can
-//!   carry the load (the pad tips off); that position is the model's reach, open
-//!   ([`linear_reach_mm`]): r_m for κ = 1, up to r_m + r_t as κ → 0.
+//!   x* = κ·r1 + (1 − κ)·x_c, which moves monotonically outward with x0 (its derivative is
+//!   N·A/D² − 1 ≥ 0 by Cauchy–Schwarz, N and D the two integrals, A the area beyond x0): one
+//!   root, found by Newton kept inside a shrinking bracket. At the onset (p = 0 at the inner
+//!   rim) both forms agree, so the pressure is continuous in r1. When x* reaches the workpiece
+//!   edge no contact can carry the load (the pad tips off); that position is the model's
+//!   reach, open ([`linear_reach_mm`]): r_m for κ = 1, up to r_m + r_t as κ → 0.
 //!
 //! The moments of C (and of C cut at a lift line) are sums of vertical strips of the two
 //! discs, each in closed form: for a disc of radius ρ, with v the abscissa from its centre and

@@ -86,8 +86,9 @@ pub struct MeasurementFitRequest {
     /// The measured trace.
     #[serde(deserialize_with = "object")]
     pub profile: TraceDto,
-    /// Probe-tip (ball) radius, mm (≥ 0). Default 0; > 0 means the points are tip centres.
-    #[schema(minimum = 0.0)]
+    /// Probe-tip (ball) radius, mm (0 to 100000). Default 0; > 0 means the points are tip
+    /// centres.
+    #[schema(minimum = 0.0, maximum = 100000.0)]
     pub probe_tip_radius_mm: Option<f64>,
     /// How the tip radius is compensated. Default `normal`.
     pub compensation: Option<CompensationDto>,
