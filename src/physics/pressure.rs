@@ -151,11 +151,6 @@ pub fn pad_pressure(
     tool_radius: f64,
     position: f64,
 ) -> Option<PadPressure> {
-    let lens = Lens {
-        workpiece_radius,
-        tool_radius,
-        position,
-    };
     if position + tool_radius <= workpiece_radius {
         return Some(PadPressure::NOMINAL);
     }
@@ -165,7 +160,12 @@ pub fn pad_pressure(
             let area = contact_area_mm2(workpiece_radius, tool_radius, position);
             (area > 0.0).then(|| PadPressure::uniform(PI * tool_radius * tool_radius / area))
         }
-        PressureModel::Linear { pad_moment_share } => lens.linear(pad_moment_share),
+        PressureModel::Linear { pad_moment_share } => Contact {
+            workpiece_radius,
+            tool_radius,
+            position,
+        }
+        .linear(pad_moment_share),
     }
 }
 
@@ -193,7 +193,7 @@ pub fn linear_reach_mm(workpiece_radius: f64, tool_radius: f64, pad_moment_share
         return end;
     }
     let gap = |r1: f64| {
-        let lens = Lens {
+        let lens = Contact {
             workpiece_radius,
             tool_radius,
             position: r1,
@@ -228,7 +228,7 @@ fn lift_onset_mm(
     reach: f64,
 ) -> Option<f64> {
     let least = |r1: f64| {
-        let lens = Lens {
+        let lens = Contact {
             workpiece_radius,
             tool_radius,
             position: r1,
@@ -446,6 +446,17 @@ struct Moments {
     second: f64,
 }
 
+impl Moments {
+    /// These moments, taken in y, in the abscissa u = `edge` − y.
+    fn reflected_at(self, edge: f64) -> Moments {
+        Moments {
+            area: self.area,
+            first: edge * self.area - self.first,
+            second: edge * edge * self.area - 2.0 * edge * self.first + self.second,
+        }
+    }
+}
+
 impl std::ops::Add for Moments {
     type Output = Moments;
     fn add(self, o: Moments) -> Moments {
@@ -484,13 +495,13 @@ fn strip(rho: f64, centre: f64, lo: f64, hi: f64) -> Moments {
     }
 }
 
-/// ∫ y^k dA (k = 0, 1, 2) over the cap of a disc of radius ρ within `depth` of its edge, y
-/// the depth below the edge. With y = ρ·(1 − cos β) the chord is 2ρ·sin β, so the moments are
+/// The moments in y (∫ y^k dA, k = 0, 1, 2) of the cap of a disc of radius ρ within `depth`
+/// of its edge, y the depth below the edge. With y = ρ·(1 − cos β) the chord is 2ρ·sin β, so the moments are
 /// 2ρ^(2+k)·∫_0^α (2·sin²(β/2))^k·sin²β dβ, 1 − cos α = depth/ρ: positive integrands, taken by
 /// 8-point Gauss–Legendre on panels at most 0.8 rad wide (exact to rounding for these entire
 /// functions). Unlike differences of the strip antiderivatives about the disc's centre, this
 /// keeps its digits for a small cap of a large disc (a pad at the edge of a big part).
-fn edge_cap(rho: f64, depth: f64) -> Cap {
+fn edge_cap(rho: f64, depth: f64) -> Moments {
     let alpha = 2.0 * (0.5 * depth / rho).clamp(0.0, 1.0).sqrt().asin();
     let panels = (alpha / 0.8).ceil().max(1.0);
     let width = alpha / panels;
@@ -508,39 +519,21 @@ fn edge_cap(rho: f64, depth: f64) -> Cap {
             }
         }
     }
-    Cap {
+    Moments {
         area: sums[0],
         first: sums[1],
         second: sums[2],
     }
 }
 
-/// A cap's moments in its depth below the edge (see [`edge_cap`]).
-struct Cap {
-    area: f64,
-    first: f64,
-    second: f64,
-}
-
-impl Cap {
-    /// The moments in u = `edge` − y (the edge at u = `edge`).
-    fn about(&self, edge: f64) -> Moments {
-        Moments {
-            area: self.area,
-            first: edge * self.area - self.first,
-            second: edge * edge * self.area - 2.0 * edge * self.first + self.second,
-        }
-    }
-}
-
-/// The contact of a pad at `position` with the workpiece disc.
-struct Lens {
+/// The contact of a pad at `position` with the workpiece disc (the lens where they overlap).
+struct Contact {
     workpiece_radius: f64,
     tool_radius: f64,
     position: f64,
 }
 
-impl Lens {
+impl Contact {
     /// The moments of the contact's part with lo ≤ u ≤ hi.
     fn moments(&self, lo: f64, hi: f64) -> Moments {
         let (big, small, r1) = (self.workpiece_radius, self.tool_radius, self.position);
@@ -560,13 +553,17 @@ impl Lens {
         if inner >= big {
             return pad;
         }
-        pad + edge_cap(big, big - inner).about(big - r1)
+        pad + edge_cap(big, big - inner).reflected_at(big - r1)
     }
 
     /// The linear pressure over the whole contact, whatever its sign (the two balances).
     fn unlifted(&self, kappa: f64) -> PadPressure {
+        self.unlifted_with(kappa, &self.moments(f64::NEG_INFINITY, f64::INFINITY))
+    }
+
+    /// [`Self::unlifted`] given the whole contact's moments `m`.
+    fn unlifted_with(&self, kappa: f64, m: &Moments) -> PadPressure {
         let force = PI * self.tool_radius * self.tool_radius;
-        let m = self.moments(f64::NEG_INFINITY, f64::INFINITY);
         if m.area <= 0.0 {
             return PadPressure::NONE;
         }
@@ -585,7 +582,8 @@ impl Lens {
 
     /// The linear pressure, lifted where it would be negative (see the module docs).
     fn linear(&self, kappa: f64) -> Option<PadPressure> {
-        let full = self.unlifted(kappa);
+        let m = self.moments(f64::NEG_INFINITY, f64::INFINITY);
+        let full = self.unlifted_with(kappa, &m);
         if full.level <= 0.0 && full.slope_per_mm <= 0.0 {
             return None;
         }
@@ -595,7 +593,6 @@ impl Lens {
             return Some(full);
         }
         let force = PI * self.tool_radius * self.tool_radius;
-        let m = self.moments(f64::NEG_INFINITY, f64::INFINITY);
         let target = (1.0 - kappa) * m.first / m.area;
         if target >= outer {
             return None;
