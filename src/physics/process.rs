@@ -166,6 +166,8 @@ pub struct Process {
     spec: ProcessSpec,
     /// [`Process::max_tool_position_mm`], computed once (a root under linear pressure).
     reach_mm: f64,
+    /// [`Process::pass_reach_mm`], computed once (a root under linear pressure).
+    pass_reach_mm: f64,
 }
 
 pub(crate) const RPM_TO_RAD_PER_S: f64 = 2.0 * PI / 60.0;
@@ -253,9 +255,18 @@ impl Process {
         let mut process = Process {
             spec,
             reach_mm: f64::NAN,
+            pass_reach_mm: f64::NAN,
         };
         process.check_reach()?;
         process.reach_mm = Process::reach_of(&process.spec);
+        process.pass_reach_mm = match process.spec.pressure_model {
+            PressureModel::Linear { pad_moment_share } => linear_lift_onset_mm(
+                process.spec.workpiece_radius_mm,
+                process.spec.tool_radius_mm,
+                pad_moment_share,
+            ),
+            _ => process.reach_mm,
+        };
         Ok(process)
     }
 
@@ -385,18 +396,18 @@ impl Process {
         matches!(self.spec.pressure_model, PressureModel::Linear { .. })
     }
 
+    /// Whether the tool centre may sit at `position_mm`: from the axis to the reach (the reach
+    /// itself excluded when it is open).
+    pub fn holds_position(&self, position_mm: f64) -> bool {
+        let max = self.reach_mm;
+        position_mm >= 0.0 && (position_mm < max || (position_mm == max && !self.reach_is_open()))
+    }
+
     /// Where constant-feed passes (equal dwell, the η window) may run to at most, mm: the reach,
     /// except that a linear pad stops where it starts to lift, at the edge at the latest (its
     /// removal at the rim grows without bound toward the reach).
     pub fn pass_reach_mm(&self) -> f64 {
-        match self.spec.pressure_model {
-            PressureModel::Linear { pad_moment_share } => linear_lift_onset_mm(
-                self.spec.workpiece_radius_mm,
-                self.spec.tool_radius_mm,
-                pad_moment_share,
-            ),
-            _ => self.reach_mm,
-        }
+        self.pass_reach_mm
     }
 
     /// K·P in (nm/s) per (mm/s) of sliding speed at nominal pressure: K [1/Pa] · P [Pa] turns a

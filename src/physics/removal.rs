@@ -59,11 +59,8 @@ pub struct RemovalKernel {
     translation: bool,
     /// The farthest tool position the process allows, mm (the path's end at the latest).
     reach_mm: f64,
-    /// A linear pad's κ on a plane, whose pressure curve path integrals interpolate; `None`
-    /// for the other models.
-    linear_share: Option<f64>,
-    /// That curve, made the first time a path integral needs it (a few ms: single rates solve
-    /// the pressure directly).
+    /// A linear pad's pressure against its position on a plane, made the first time a path
+    /// integral needs it (a few ms: single rates solve the pressure directly).
     curve: OnceLock<PressureCurve>,
     /// The Chebyshev points every path integral is taken with.
     lobatto: Lobatto,
@@ -127,12 +124,6 @@ impl RemovalKernel {
             scale: process.preston_rate_scale() / PI,
             translation: process.is_eta_minus_one(),
             reach_mm: process.max_tool_position_mm(),
-            linear_share: match process.pressure_model() {
-                PressureModel::Linear { pad_moment_share } if process.part().is_flat() => {
-                    Some(pad_moment_share)
-                }
-                _ => None,
-            },
             curve: OnceLock::new(),
             lobatto: Lobatto::default(),
             curved: (!process.part().is_flat()).then(|| {
@@ -178,11 +169,15 @@ impl RemovalKernel {
 
     /// The linear pad's pressure curve, made on first use.
     fn curve(&self) -> Option<&PressureCurve> {
-        let share = self.linear_share?;
-        Some(
-            self.curve
-                .get_or_init(|| PressureCurve::new(self.workpiece_radius, self.tool_radius, share)),
-        )
+        let PressureModel::Linear { pad_moment_share } = self.pressure_model else {
+            return None;
+        };
+        if self.curved.is_some() {
+            return None;
+        }
+        Some(self.curve.get_or_init(|| {
+            PressureCurve::new(self.workpiece_radius, self.tool_radius, pad_moment_share)
+        }))
     }
 
     /// [`Self::pad_pressure`] for the many positions of a path: from the curve under linear

@@ -118,13 +118,12 @@ pub fn check_positions(
     if positions_mm.is_empty() {
         return Err(ScheduleError::Empty { field });
     }
-    let max = process.max_tool_position_mm();
-    let open = process.reach_is_open();
+    let (max, open) = (process.max_tool_position_mm(), process.reach_is_open());
     for (index, &value) in positions_mm.iter().enumerate() {
         if !value.is_finite() {
             return Err(ScheduleError::NonFinite { field, index });
         }
-        if value < 0.0 || value > max || (open && value == max) {
+        if !process.holds_position(value) {
             return Err(ScheduleError::OutOfRange {
                 field,
                 index,
@@ -233,7 +232,7 @@ impl ConstantFeed {
         }
         let (max, open) = (process.max_tool_position_mm(), process.reach_is_open());
         for (field, value) in [("start_mm", start_mm), ("stop_mm", stop_mm)] {
-            if value < 0.0 || value > max || (open && value == max) {
+            if !process.holds_position(value) {
                 return Err(ScheduleError::OffReach {
                     field,
                     value,
