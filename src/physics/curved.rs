@@ -46,9 +46,15 @@
 //! by adaptive Gauss–Kronrod (7, 15) with QUADPACK's error estimate, to an absolute tolerance of
 //! 1e-10 of the largest speed on the arc times the arc; the band |r − r1| < c_t ≤ r_t stays
 //! that of the flat operator.
+//!
+//! **Pressure.** The pressure models are the plane's taken in the developed plane (the point
+//! at arc length s and azimuth φ placed at (s·cos φ, s·sin φ)): the edge is the circle of
+//! radius s_m, the pad the disc of radius r_t about (s1, 0). Under a linear pad the integrand
+//! is weighted by p/P = level + slope·(s·cos φ − s1), zero beyond the lift line, which cuts
+//! the arc at cos φ = u0/s.
 
 use super::contact::half_angle;
-use super::pressure::{pressure_factor, PressureModel};
+use super::pressure::{pad_pressure, PadPressure, PressureModel};
 use crate::surface::Surface;
 
 /// How the pad's spin axis is carried.
@@ -78,25 +84,15 @@ impl Part {
     }
 }
 
-/// The geometry of one ring: a surface point at radius r on the pad centre's meridian.
+/// The geometry of one ring: a surface point at radius r on the pad centre's meridian, and
+/// its arc length from the vertex where a linear pad needs it (NaN otherwise).
 #[derive(Debug, Clone, Copy)]
 pub struct Ring {
     r: f64,
     z: f64,
     sin: f64,
     cos: f64,
-}
-
-impl Ring {
-    pub fn at(surface: &Surface, r: f64) -> Ring {
-        let (sin, cos) = surface.slope_angle_rad(r).sin_cos();
-        Ring {
-            r,
-            z: surface.sag_mm(r),
-            sin,
-            cos,
-        }
-    }
+    arc: f64,
 }
 
 /// The removal kernel of a curved part (see the module docs). Speeds in rad/s, lab frame.
@@ -106,17 +102,18 @@ pub struct CurvedKernel {
     omega_workpiece: f64,
     omega_tool: f64,
     tool_radius: f64,
-    /// Arc length of the workpiece edge, mm (for the constant-force pressure).
+    /// Arc length of the workpiece edge, mm (for the edge's pressure).
     edge_arc_mm: f64,
     pressure_model: PressureModel,
     /// K·P/π in (nm/s) per (mm/s · rad).
     scale: f64,
 }
 
-/// A pad position: its centre, spin axis and contact chord.
+/// A pad position: its centre (and its arc length, as [`Ring`]'s), spin axis and contact chord.
 #[derive(Debug, Clone, Copy)]
 pub struct Site {
     r1: f64,
+    arc1: f64,
     z1: f64,
     axis_x: f64,
     axis_z: f64,
@@ -149,6 +146,27 @@ impl CurvedKernel {
         &self.part.surface
     }
 
+    /// The arc length of radius `r_mm` if a linear pad needs it, else NaN.
+    fn arc_if_linear(&self, r_mm: f64) -> f64 {
+        match self.pressure_model {
+            PressureModel::Linear { .. } => self.part.surface.arc_length_mm(r_mm),
+            _ => f64::NAN,
+        }
+    }
+
+    /// The ring at radius `r_mm`.
+    pub fn ring(&self, r_mm: f64) -> Ring {
+        let surface = &self.part.surface;
+        let (sin, cos) = surface.slope_angle_rad(r_mm).sin_cos();
+        Ring {
+            r: r_mm,
+            z: surface.sag_mm(r_mm),
+            sin,
+            cos,
+            arc: self.arc_if_linear(r_mm),
+        }
+    }
+
     /// The pad at radial position `r1_mm`.
     pub fn site(&self, r1_mm: f64) -> Site {
         let surface = &self.part.surface;
@@ -173,6 +191,7 @@ impl CurvedKernel {
         };
         Site {
             r1: r1_mm,
+            arc1: self.arc_if_linear(r1_mm),
             z1: surface.sag_mm(r1_mm),
             axis_x,
             axis_z,
@@ -180,24 +199,60 @@ impl CurvedKernel {
         }
     }
 
-    /// Pressure relative to nominal with the pad at `r1_mm`: under constant force the flat
-    /// lens formula with arc lengths in place of radii (the pad and the part's edge measured
-    /// along the surface).
-    /// (A linear pad is refused on curved parts by [`super::Process::new`].)
-    pub fn pressure_factor(&self, r1_mm: f64) -> f64 {
-        match self.pressure_model {
-            PressureModel::Uniform => 1.0,
-            model => pressure_factor(
-                model,
-                self.edge_arc_mm,
-                self.tool_radius,
-                self.part.surface.arc_length_mm(r1_mm),
-            ),
+    /// The pressure with the pad at `r1_mm` (see [`PadPressure`]): the flat models with arc
+    /// lengths in place of radii (the pad, its centre and the part's edge measured along the
+    /// surface, the pad's lens and its moments taken in that developed plane), the linear
+    /// pressure varying with the developed radial coordinate u = s(r)·cos φ of the ring point
+    /// at arc length s(r) and azimuth φ.
+    pub fn pad_pressure(&self, r1_mm: f64) -> PadPressure {
+        pad_pressure(
+            self.pressure_model,
+            self.edge_arc_mm,
+            self.tool_radius,
+            self.part.surface.arc_length_mm(r1_mm),
+        )
+        .unwrap_or(PadPressure::NONE)
+    }
+
+    /// The rate on `ring` with the pad at `site` under `pressure` (its [`Self::pad_pressure`]):
+    /// K·P/π·∫ p(u)/P·|v_t| dφ over the arc under the pad and beyond the lift line
+    /// (s·cos φ ≥ u0), nm/s.
+    pub fn rate_nm_per_s(&self, ring: &Ring, site: &Site, pressure: &PadPressure) -> f64 {
+        if pressure.slope_per_mm == 0.0 {
+            return pressure.level * self.nominal_rate_nm_per_s(ring, site);
         }
+        let mut end = f64::INFINITY;
+        if let Some(lift) = pressure.lift_line_mm() {
+            let u0 = site.arc1 + lift;
+            if u0 >= ring.arc {
+                return 0.0;
+            }
+            if u0 > -ring.arc {
+                end = (u0 / ring.arc).acos();
+            }
+        }
+        let level = pressure.level - pressure.slope_per_mm * site.arc1;
+        let slope = pressure.slope_per_mm * ring.arc;
+        // The weight is largest at φ = 0 (slope > 0).
+        let most = level + slope;
+        self.arc_rate(ring, site, end, most, &|cos| (level + slope * cos).max(0.0))
     }
 
     /// Removal rate at nominal pressure on `ring` with the pad at `site`, nm/s.
     pub fn nominal_rate_nm_per_s(&self, ring: &Ring, site: &Site) -> f64 {
+        self.arc_rate(ring, site, f64::INFINITY, 1.0, &|_| 1.0)
+    }
+
+    /// K·P/π·∫₀^min(φ0, `end`) weight(cos φ)·|v_t| dφ, φ0 the arc under the pad; `most` bounds
+    /// the weight (for the tolerance).
+    fn arc_rate(
+        &self,
+        ring: &Ring,
+        site: &Site,
+        end: f64,
+        most: f64,
+        weight: &dyn Fn(f64) -> f64,
+    ) -> f64 {
         let dz = ring.z - site.z1;
         let reach2 = site.chord * site.chord - dz * dz;
         if reach2 <= 0.0 {
@@ -207,7 +262,7 @@ impl CurvedKernel {
         if !psi.is_contact() {
             return 0.0;
         }
-        let phi0 = 2.0 * psi.radians();
+        let phi0 = (2.0 * psi.radians()).min(end);
         let (w, t) = (self.omega_workpiece, self.omega_tool);
         let a = t * site.axis_z - w;
         let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
@@ -215,16 +270,16 @@ impl CurvedKernel {
         let d = c * ring.r * ring.cos - b * ring.sin;
         let e = (a * a + c * c) * ring.r * ring.r - d * d;
         let f = a * ring.r;
-        let speed = |cos: f64, sin: f64| {
+        let integrand = |cos: f64, sin: f64| {
             let along = b - f * cos;
-            (e * sin * sin + along * along).max(0.0).sqrt()
+            weight(cos) * (e * sin * sin + along * along).max(0.0).sqrt()
         };
         // No sliding speed on the arc exceeds |B| + |A·r| + √|E|.
-        let bound = b.abs() + f.abs() + e.abs().sqrt();
-        if bound == 0.0 {
+        let bound = most * (b.abs() + f.abs() + e.abs().sqrt());
+        if bound <= 0.0 || phi0 <= 0.0 {
             return 0.0;
         }
-        self.scale * adaptive_gauss_kronrod(&speed, phi0, 1e-10 * bound * phi0)
+        self.scale * adaptive_gauss_kronrod(&integrand, phi0, 1e-10 * bound * phi0)
     }
 }
 
@@ -233,7 +288,8 @@ impl CurvedKernel {
     /// to `reach_mm`, with the kinks inside it: where the pad's contact ball becomes tangent
     /// to the ring on the pad centre's side (|X − P₀| = c_t at φ = 0) or starts to cover it
     /// whole (at φ = π), where the sliding speed vanishes (B = A·r at φ = 0), and where the pad
-    /// reaches the edge under constant force. On a sphere the tangencies are the arc lengths
+    /// reaches the edge under constant force or linear pressure (a linear pad's lift adds its
+    /// own, [`Self::lift_kinks`]). On a sphere the tangencies are the arc lengths
     /// s(r) ± r_t and r_t − s(r); they are found as roots, so an asphere's chord is honoured.
     pub fn breakpoints(&self, ring: &Ring, reach_mm: f64) -> Vec<f64> {
         let surface = &self.part.surface;
@@ -272,7 +328,7 @@ impl CurvedKernel {
                 points.push(root(&|x| gap(x, true), (0.0, g_axis), (end, g_end)));
             }
         }
-        if self.pressure_model == PressureModel::ConstantForce && self.edge_arc_mm > rt {
+        if self.pressure_model != PressureModel::Uniform && self.edge_arc_mm > rt {
             points.push(surface.radius_at_arc_length(self.edge_arc_mm - rt));
         }
         let mut points = super::removal::inside(points, lo, hi);
@@ -292,6 +348,42 @@ impl CurvedKernel {
             .collect();
         points.extend(zeros);
         super::removal::inside(points, lo, hi)
+    }
+}
+
+impl CurvedKernel {
+    /// Where a lifted pad's rate on `ring` has kinks in the tool position x (between `from`
+    /// and `to`): where the lift line passes the ends of the ring's arc under the pad and the
+    /// ring itself, in the developed plane (u0 = s·cos φ0 and u0 = s); `pressure` is the pad's
+    /// at each position.
+    pub fn lift_kinks(
+        &self,
+        ring: &Ring,
+        from: f64,
+        to: f64,
+        pressure: &dyn Fn(f64) -> PadPressure,
+    ) -> Vec<f64> {
+        if to <= from || ring.r <= 0.0 {
+            return Vec::new();
+        }
+        let lift_line = |x: f64| {
+            let arc1 = self.part.surface.arc_length_mm(x);
+            pressure(x)
+                .lift_line_mm()
+                .map_or(f64::NEG_INFINITY, |u| arc1 + u)
+        };
+        let arc_end = |x: f64| {
+            let site = self.site(x);
+            let dz = ring.z - site.z1;
+            let reach2 = site.chord * site.chord - dz * dz;
+            let psi = half_angle(ring.r, x, reach2.max(0.0).sqrt());
+            ring.arc * (2.0 * psi.radians()).cos()
+        };
+        let past_arc_end = |x: f64| lift_line(x) - arc_end(x);
+        let past_ring = |x: f64| lift_line(x) - ring.arc;
+        let mut kinks = super::removal::crossings(&past_arc_end, from, to);
+        kinks.extend(super::removal::crossings(&past_ring, from, to));
+        kinks
     }
 }
 

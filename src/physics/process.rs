@@ -79,11 +79,6 @@ pub enum ProcessError {
     StationaryWorkpiece,
     #[error("pad_moment_share must be a number in [0, 1] (the pad's share of the tipping moment)")]
     MomentShare,
-    #[error(
-        "the linear pressure model is not yet available on curved surfaces: use uniform or \
-         constant_force there"
-    )]
-    LinearOnCurved,
     #[error("{field} = {value} is outside the range the model computes, [{min}, {max}] {unit}")]
     OutOfRange {
         field: &'static str,
@@ -113,7 +108,6 @@ impl ProcessError {
             ProcessError::NegativePrestonCoefficient => "preston_coefficient_m2_per_n",
             ProcessError::StationaryWorkpiece => "workpiece_rpm",
             ProcessError::MomentShare => "pad_moment_share",
-            ProcessError::LinearOnCurved => "pressure_model",
             ProcessError::SurfaceReach { .. } | ProcessError::SurfaceEdge(_) => {
                 "workpiece_radius_mm"
             }
@@ -248,9 +242,6 @@ impl Process {
             if !(0.0..=1.0).contains(&pad_moment_share) {
                 return Err(ProcessError::MomentShare);
             }
-            if !spec.part.surface.is_plane() {
-                return Err(ProcessError::LinearOnCurved);
-            }
         }
         let mut process = Process {
             spec,
@@ -260,11 +251,14 @@ impl Process {
         process.check_reach()?;
         process.reach_mm = Process::reach_of(&process.spec);
         process.pass_reach_mm = match process.spec.pressure_model {
-            PressureModel::Linear { pad_moment_share } => linear_lift_onset_mm(
-                process.spec.workpiece_radius_mm,
-                process.spec.tool_radius_mm,
-                pad_moment_share,
-            ),
+            PressureModel::Linear { pad_moment_share } => {
+                let surface = &process.spec.part.surface;
+                surface.radius_at_arc_length(linear_lift_onset_mm(
+                    surface.arc_length_mm(process.spec.workpiece_radius_mm),
+                    process.spec.tool_radius_mm,
+                    pad_moment_share,
+                ))
+            }
             _ => process.reach_mm,
         };
         Ok(process)
@@ -378,14 +372,19 @@ impl Process {
 
     fn reach_of(spec: &ProcessSpec) -> f64 {
         let (edge, rt) = (spec.workpiece_radius_mm, spec.tool_radius_mm);
+        let surface = &spec.part.surface;
+        let edge_arc = surface.arc_length_mm(edge);
         match spec.pressure_model {
-            PressureModel::Uniform => {
-                let surface = &spec.part.surface;
-                surface.radius_at_arc_length(surface.arc_length_mm(edge) + rt)
-            }
+            PressureModel::Uniform => surface.radius_at_arc_length(edge_arc + rt),
             PressureModel::ConstantForce => edge,
             PressureModel::Linear { pad_moment_share } => {
-                linear_reach_mm(edge, rt, pad_moment_share)
+                let reach_arc = linear_reach_mm(edge_arc, rt, pad_moment_share);
+                // A free gimbal's reach is the edge itself, kept exact.
+                if reach_arc == edge_arc {
+                    edge
+                } else {
+                    surface.radius_at_arc_length(reach_arc)
+                }
             }
         }
     }

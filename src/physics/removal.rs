@@ -59,8 +59,9 @@ pub struct RemovalKernel {
     translation: bool,
     /// The farthest tool position the process allows, mm (the path's end at the latest).
     reach_mm: f64,
-    /// A linear pad's pressure against its position on a plane, made the first time a path
-    /// integral needs it (a few ms: single rates solve the pressure directly).
+    /// A linear pad's pressure against the arc length of its position (its radius on a
+    /// plane), made the first time a path integral needs it (a few ms: single rates solve the
+    /// pressure directly).
     curve: OnceLock<PressureCurve>,
     /// The Chebyshev points every path integral is taken with.
     lobatto: Lobatto,
@@ -153,10 +154,7 @@ impl RemovalKernel {
     /// no pressure where no contact carries the load.
     pub fn pad_pressure(&self, r1_mm: f64) -> PadPressure {
         if let Some(curved) = &self.curved {
-            return PadPressure {
-                level: curved.pressure_factor(r1_mm),
-                slope_per_mm: 0.0,
-            };
+            return curved.pad_pressure(r1_mm);
         }
         pad_pressure(
             self.pressure_model,
@@ -172,11 +170,9 @@ impl RemovalKernel {
         let PressureModel::Linear { pad_moment_share } = self.pressure_model else {
             return None;
         };
-        if self.curved.is_some() {
-            return None;
-        }
         Some(self.curve.get_or_init(|| {
-            PressureCurve::new(self.workpiece_radius, self.tool_radius, pad_moment_share)
+            let edge_arc_mm = self.arc_length_mm(self.workpiece_radius);
+            PressureCurve::new(edge_arc_mm, self.tool_radius, pad_moment_share)
         }))
     }
 
@@ -184,9 +180,20 @@ impl RemovalKernel {
     /// pressure.
     fn path_pressure(&self, r1_mm: f64) -> PadPressure {
         match self.curve() {
-            Some(curve) => curve.at(r1_mm).unwrap_or(PadPressure::NONE),
+            Some(curve) => curve
+                .at(self.arc_length_mm(r1_mm))
+                .unwrap_or(PadPressure::NONE),
             None => self.pad_pressure(r1_mm),
         }
+    }
+
+    /// Where a linear pad starts to lift, if it does before its reach (a radius).
+    fn lift_onset_mm(&self) -> Option<f64> {
+        let onset = self.curve()?.lift_onset_mm()?;
+        Some(match &self.curved {
+            Some(curved) => curved.surface().radius_at_arc_length(onset),
+            None => onset,
+        })
     }
 
     /// The rate at `r_mm` with the tool at `r1_mm` under `pressure` (its [`Self::pad_pressure`]).
@@ -196,6 +203,9 @@ impl RemovalKernel {
     /// beyond the lift line x0 (cos θ ≥ x0/r): both integrals from one pair of Carlson's
     /// integrals ([`arc_integrals`]).
     fn rate_under(&self, pressure: &PadPressure, r_mm: f64, r1_mm: f64) -> f64 {
+        if let Some(curved) = &self.curved {
+            return curved.rate_nm_per_s(&curved.ring(r_mm), &curved.site(r1_mm), pressure);
+        }
         if pressure.slope_per_mm == 0.0 {
             if pressure.level == 0.0 {
                 return 0.0;
@@ -240,8 +250,7 @@ impl RemovalKernel {
     /// pressure.
     pub fn nominal_rate_nm_per_s(&self, r_mm: f64, r1_mm: f64) -> f64 {
         if let Some(curved) = &self.curved {
-            return curved
-                .nominal_rate_nm_per_s(&Ring::at(curved.surface(), r_mm), &curved.site(r1_mm));
+            return curved.nominal_rate_nm_per_s(&curved.ring(r_mm), &curved.site(r1_mm));
         }
         let psi = half_angle(r_mm, r1_mm, self.tool_radius);
         if !psi.is_contact() {
@@ -330,16 +339,24 @@ impl RemovalKernel {
     ) -> T {
         match &self.curved {
             Some(curved) => {
-                let ring = Ring::at(curved.surface(), r_mm);
+                let ring = curved.ring(r_mm);
                 let rate = |x: f64| {
-                    let factor = curved.pressure_factor(x);
-                    if factor == 0.0 {
+                    let pressure = self.path_pressure(x);
+                    if pressure == PadPressure::NONE {
                         return 0.0;
                     }
                     let weight = curved.surface().slope(x).hypot(1.0);
-                    factor * weight * curved.nominal_rate_nm_per_s(&ring, &curved.site(x))
+                    weight * curved.rate_nm_per_s(&ring, &curved.site(x), &pressure)
                 };
-                let points = curved.breakpoints(&ring, self.reach_mm);
+                let mut points = curved.breakpoints(&ring, self.reach_mm);
+                if let (Some(onset), Some(&lo), Some(&hi)) =
+                    (self.lift_onset_mm(), points.first(), points.last())
+                {
+                    points.push(onset);
+                    let pressure = |x: f64| self.path_pressure(x);
+                    points.extend(curved.lift_kinks(&ring, onset.max(lo), hi, &pressure));
+                    points = inside(points, lo, hi);
+                }
                 use_it(&rate, points, CURVED_PATH_TOLERANCE)
             }
             None => use_it(
@@ -362,7 +379,7 @@ impl RemovalKernel {
         if self.pressure_model != PressureModel::Uniform {
             points.push(self.workpiece_radius - rt);
         }
-        if let Some(onset) = self.curve().and_then(PressureCurve::lift_onset_mm) {
+        if let Some(onset) = self.lift_onset_mm() {
             points.push(onset);
             points.extend(self.lift_kinks(r, onset.max(lo), hi));
         }
@@ -386,19 +403,8 @@ impl RemovalKernel {
         };
         let past_arc_end = |x: f64| lift_line(x) - (r * r + x * x - rt * rt) / (2.0 * x);
         let past_ring = |x: f64| lift_line(x) - r;
-        const SAMPLES: usize = 8;
-        let mut kinks = Vec::new();
-        for g in [&past_arc_end as &dyn Fn(f64) -> f64, &past_ring] {
-            let mut a = (from, g(from));
-            for i in 1..=SAMPLES {
-                let x = from + (to - from) * i as f64 / SAMPLES as f64;
-                let b = (x, g(x));
-                if a.1.is_finite() && b.1.is_finite() && (a.1 < 0.0) != (b.1 < 0.0) {
-                    kinks.push(illinois(g, a, b, 1e-14 * to, 0.0));
-                }
-                a = b;
-            }
-        }
+        let mut kinks = crossings(&past_arc_end, from, to);
+        kinks.extend(crossings(&past_ring, from, to));
         kinks
     }
 
@@ -406,12 +412,7 @@ impl RemovalKernel {
     /// geometry on a curved part (sag and slope), nothing on a plane.
     pub fn rings(&self, radii_mm: &[f64]) -> Option<Vec<Ring>> {
         let curved = self.curved.as_ref()?;
-        Some(
-            radii_mm
-                .iter()
-                .map(|&r| Ring::at(curved.surface(), r))
-                .collect(),
-        )
+        Some(radii_mm.iter().map(|&r| curved.ring(r)).collect())
     }
 
     /// Rates in nm/s at `radii_mm` with the tool at `r1_mm` into `out`; `rings` are
@@ -428,7 +429,7 @@ impl RemovalKernel {
             (Some(curved), Some(rings)) => {
                 let site = curved.site(r1_mm);
                 for (value, ring) in out.iter_mut().zip(rings) {
-                    *value = pressure.level * curved.nominal_rate_nm_per_s(ring, &site);
+                    *value = curved.rate_nm_per_s(ring, &site, &pressure);
                 }
             }
             _ => {
@@ -438,6 +439,23 @@ impl RemovalKernel {
             }
         }
     }
+}
+
+/// The zeros of `g` on [`from`, `to`] where it changes sign between 8 equal samples (finite
+/// values only), each refined by regula falsi.
+pub(super) fn crossings(g: &dyn Fn(f64) -> f64, from: f64, to: f64) -> Vec<f64> {
+    const SAMPLES: usize = 8;
+    let mut zeros = Vec::new();
+    let mut a = (from, g(from));
+    for i in 1..=SAMPLES {
+        let x = from + (to - from) * i as f64 / SAMPLES as f64;
+        let b = (x, g(x));
+        if a.1.is_finite() && b.1.is_finite() && (a.1 < 0.0) != (b.1 < 0.0) {
+            zeros.push(illinois(g, a, b, 1e-14 * to, 0.0));
+        }
+        a = b;
+    }
+    zeros
 }
 
 /// `points` within [lo, hi] (both kept), ascending, without repeats.

@@ -73,12 +73,11 @@ async fn each_endpoint_names_the_field_of_bad_input() {
             INVALID,
             "process.pad_moment_share",
         ),
-        // The fixture's part is a sphere: no linear pad there yet.
         (
             pg,
             "process.pressure_model",
-            json!("linear"),
-            INVALID,
+            json!("parabolic"),
+            SCHEMA,
             "process.pressure_model",
         ),
         (

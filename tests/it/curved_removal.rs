@@ -39,13 +39,13 @@ impl Shape {
     fn is_sphere(&self) -> bool {
         self.conic == 0.0 && self.a4 == 0.0 && self.a6 == 0.0
     }
-    fn sag(&self, r: f64) -> f64 {
+    pub fn sag(&self, r: f64) -> f64 {
         let c = 1.0 / self.radius;
         c * r * r / (1.0 + (1.0 - (1.0 + self.conic) * c * c * r * r).sqrt())
             + self.a4 * r.powi(4)
             + self.a6 * r.powi(6)
     }
-    fn slope(&self, r: f64) -> f64 {
+    pub fn slope(&self, r: f64) -> f64 {
         let c = 1.0 / self.radius;
         c * r / (1.0 - (1.0 + self.conic) * c * c * r * r).sqrt()
             + 4.0 * self.a4 * r.powi(3)
@@ -78,7 +78,7 @@ impl Shape {
             ],
         }
     }
-    fn point(&self, r: f64, phi: f64) -> [f64; 3] {
+    pub fn point(&self, r: f64, phi: f64) -> [f64; 3] {
         [r * phi.cos(), r * phi.sin(), self.sag(r)]
     }
     /// Unit normal toward the tool at (r, φ): the gradient of z − sag(√(x² + y²)), normalised.
@@ -90,7 +90,7 @@ impl Shape {
     }
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -100,7 +100,7 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
         a[0] * b[1] - a[1] * b[0],
     ]
 }
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
@@ -162,8 +162,14 @@ impl Case {
         }
     }
 
-    /// The reference rate in nm/min at r with the pad at r1.
+    /// The reference rate in nm/min at r with the pad at r1, at the nominal pressure.
     pub fn rate(&self, r: f64, r1: f64) -> f64 {
+        self.rate_pressed(r, r1, &|_| 1.0)
+    }
+
+    /// The reference rate in nm/min at r with the pad at r1, the pressure at the surface point
+    /// X being `pressure(X)` times the nominal pressure.
+    pub fn rate_pressed(&self, r: f64, r1: f64, pressure: &dyn Fn([f64; 3]) -> f64) -> f64 {
         let rpm = 2.0 * PI / 60.0;
         let (ww, wt) = (self.workpiece_rpm * rpm, self.tool_rpm * rpm);
         let s = &self.shape;
@@ -188,7 +194,7 @@ impl Case {
                 v[1] - along * m[1],
                 v[2] - along * m[2],
             ];
-            dot(t, t).sqrt()
+            pressure(x) * dot(t, t).sqrt()
         };
         // The contact is one arc about φ = 0 (the distance grows with |φ|); its end is found by
         // bisection on the point test, so that no quadrature node can step over a narrow arc.

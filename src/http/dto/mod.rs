@@ -82,7 +82,9 @@ pub struct ProcessDto {
 /// carries `pad_moment_share` of the tipping moment, the head the rest): overhanging, the
 /// pressure rises toward the edge, and where it would turn negative the pad lifts on its inner
 /// side. Tool positions must stay below where the load would rest on the edge alone (r_m for
-/// `pad_moment_share` 1, up to r_m + r_t as it falls to 0). Planes only.
+/// `pad_moment_share` 1, up to r_m + r_t as it falls to 0). On curved parts every model is
+/// taken along the surface (the overhang, the contact and its balance in arc lengths from the
+/// vertex).
 #[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum PressureModelDto {
