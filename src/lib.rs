@@ -9,10 +9,12 @@
 //! - [`config`], [`telemetry`], [`server`]: start-up, settings, logging, serving;
 //!   [`healthcheck`]: the container health probe.
 
+pub mod calibration;
 pub mod config;
 pub mod healthcheck;
 pub mod http;
 pub mod keys;
+pub mod lsq;
 pub mod machine;
 pub mod metrology;
 pub mod optimize;

@@ -27,9 +27,9 @@ const RM: f64 = 50.0;
 const RT: f64 = 10.0;
 
 /// ∫ x^k dA over the contact part with x ≥ `from`, k = 0, 1, 2.
-fn moments(r1: f64, from: f64) -> [f64; 3] {
+fn moments(rt: f64, r1: f64, from: f64) -> [f64; 3] {
     // Where the two chords are equal (the radical line): pad's chord left of it.
-    let split = (RM * RM - RT * RT + r1 * r1) / (2.0 * r1);
+    let split = (RM * RM - rt * rt + r1 * r1) / (2.0 * r1);
     let mut total = [0.0; 3];
     // A disc strip lo ≤ x ≤ hi of radius ρ about c, by x = c + ρ·sin φ (smooth in φ).
     let mut add = |c: f64, rho: f64, lo: f64, hi: f64| {
@@ -50,23 +50,23 @@ fn moments(r1: f64, from: f64) -> [f64; 3] {
             *slot += adaptive_integral(&f, a, b, 1e-16 * rho.powi(k as i32 + 2));
         }
     };
-    add(r1, RT, f64::NEG_INFINITY, split);
+    add(r1, rt, f64::NEG_INFINITY, split);
     add(0.0, RM, split, f64::INFINITY);
     total
 }
 
 /// The pressure p(x)/P = max(0, a + b·x) for x ≥ `lift_mm` on the contact.
 #[derive(Debug, Clone, Copy)]
-struct Pressure {
+pub struct Pressure {
     lift_mm: f64,
     a: f64,
     b: f64,
 }
 
-/// The pressure of a pad at r1 (κ = `kappa`).
-fn reference_pressure(r1: f64, kappa: f64) -> Pressure {
-    let force = PI * RT * RT;
-    if r1 + RT <= RM {
+/// The pressure of a pad of radius `rt` at r1 (κ = `kappa`).
+pub fn reference_pressure(rt: f64, r1: f64, kappa: f64) -> Pressure {
+    let force = PI * rt * rt;
+    if r1 + rt <= RM {
         // The whole pad on the part: the nominal pressure.
         return Pressure {
             lift_mm: f64::NEG_INFINITY,
@@ -74,12 +74,12 @@ fn reference_pressure(r1: f64, kappa: f64) -> Pressure {
             b: 0.0,
         };
     }
-    let [area, first, second] = moments(r1, f64::NEG_INFINITY);
+    let [area, first, second] = moments(rt, r1, f64::NEG_INFINITY);
     let xc = first / area;
     let ic = second - first * xc;
     let b = kappa * force * (r1 - xc) / ic;
     let a = force / area - b * xc;
-    let inner = r1 - RT;
+    let inner = r1 - rt;
     if a + b * inner >= 0.0 {
         return Pressure {
             lift_mm: f64::NEG_INFINITY,
@@ -90,7 +90,7 @@ fn reference_pressure(r1: f64, kappa: f64) -> Pressure {
     let target = kappa * r1 + (1.0 - kappa) * xc;
     // Centroid of β·(x − x0) beyond x0, by bisection on x0.
     let centroid = |x0: f64| {
-        let [m0, m1, m2] = moments(r1, x0);
+        let [m0, m1, m2] = moments(rt, r1, x0);
         let lever = m1 - x0 * m0;
         (m2 - x0 * m1) / lever
     };
@@ -107,7 +107,7 @@ fn reference_pressure(r1: f64, kappa: f64) -> Pressure {
         }
     }
     let x0 = 0.5 * (lo + hi);
-    let [m0, m1, _] = moments(r1, x0);
+    let [m0, m1, _] = moments(rt, r1, x0);
     let beta = force / (m1 - x0 * m0);
     Pressure {
         lift_mm: x0,
@@ -117,25 +117,26 @@ fn reference_pressure(r1: f64, kappa: f64) -> Pressure {
 }
 
 /// K/(2π)·∫ p·V dθ over the arc of ring r under the pad, nm/min.
-fn reference_rate(spec: &ProcessSpec, kappa: f64, r: f64, r1: f64) -> f64 {
-    rate_under(spec, reference_pressure(r1, kappa), r, r1)
+pub fn reference_rate(spec: &ProcessSpec, kappa: f64, r: f64, r1: f64) -> f64 {
+    rate_under(spec, reference_pressure(spec.tool_radius_mm, r1, kappa), r, r1)
 }
 
 /// The rate at r of a pad at r1 pressing with `pressure`, nm/min.
 fn rate_under(spec: &ProcessSpec, pressure: Pressure, r: f64, r1: f64) -> f64 {
+    let rt = spec.tool_radius_mm;
     let Pressure { lift_mm: x0, a, b } = pressure;
     let rpm = 2.0 * PI / 60.0;
     let (w1, w2) = (-spec.workpiece_rpm * rpm, spec.tool_rpm * rpm);
     let (sa, sb) = ((w1 + w2) * r, w2 * r1);
     // Half-angle forms: acos of a cosine near ±1 would lose half the digits at tangency.
-    let sin2 = (RT - r + r1) * (RT + r - r1) / (4.0 * r * r1);
-    let cos2 = (r + r1 - RT) * (r + r1 + RT) / (4.0 * r * r1);
+    let sin2 = (rt - r + r1) * (rt + r - r1) / (4.0 * r * r1);
+    let cos2 = (r + r1 - rt) * (r + r1 + rt) / (4.0 * r * r1);
     let mut theta0 = if r == 0.0 || r1 == 0.0 {
         // The whole circle under the pad, or none of it; on the rim, the jump's midpoint
         // (the library's documented convention there, as in `common`'s quadrature).
-        if r + r1 < RT {
+        if r + r1 < rt {
             PI
-        } else if r + r1 > RT {
+        } else if r + r1 > rt {
             0.0
         } else {
             0.5 * PI
@@ -253,7 +254,7 @@ fn the_solved_pressure_balances_force_and_moment() {
             }) = pad_pressure(model, RM, RT, r1)
             else {
                 // Past the reach: only where the load would act beyond the edge.
-                let [area, first, _] = moments(r1, f64::NEG_INFINITY);
+                let [area, first, _] = moments(RT, r1, f64::NEG_INFINITY);
                 assert!(
                     kappa * r1 + (1.0 - kappa) * first / area >= RM,
                     "κ {kappa}, r1 {r1}"
@@ -266,8 +267,8 @@ fn the_solved_pressure_balances_force_and_moment() {
             } else {
                 f64::NEG_INFINITY
             };
-            let [m0, m1, m2] = moments(r1, x0);
-            let [area, first, _] = moments(r1, f64::NEG_INFINITY);
+            let [m0, m1, m2] = moments(RT, r1, x0);
+            let [area, first, _] = moments(RT, r1, f64::NEG_INFINITY);
             let a = level - slope_per_mm * r1;
             let carried = a * m0 + slope_per_mm * m1;
             let moment = a * (m1 - r1 * m0) + slope_per_mm * (m2 - r1 * m1);
@@ -412,13 +413,13 @@ async fn a_linear_plan_removes_what_the_independent_model_says() {
                     gl.iter()
                         .map(move |&(t, w)| (mid + 0.5 * width * t, 0.5 * w / 8.0))
                 })
-                .map(|(x, w)| (x, w, reference_pressure(x, 1.0)))
+                .map(|(x, w)| (x, w, reference_pressure(RT, x, 1.0)))
                 .collect()
         })
         .collect();
     let ends = [
-        reference_pressure(positions[0], 1.0),
-        reference_pressure(positions[n - 1], 1.0),
+        reference_pressure(RT, positions[0], 1.0),
+        reference_pressure(RT, positions[n - 1], 1.0),
     ];
     let peak = removal.iter().fold(0.0_f64, |m, &z| m.max(z));
     let mut worst = 0.0_f64;

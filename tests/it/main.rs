@@ -10,6 +10,7 @@ mod api_optimize;
 mod api_program;
 mod auth;
 mod bad_input;
+mod calibration;
 mod curved_edge;
 mod curved_plans;
 mod curved_removal;

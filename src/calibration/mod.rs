@@ -1,0 +1,882 @@
+//! Calibration: the removal rate K, the pad radius r_t and the pad's moment share κ fitted to
+//! what runs actually removed.
+//!
+//! A run is a ring test (the tool parked at r1 on the turning part for a time T) or a dwell
+//! run (positions and dwell times, executed with the one motion model,
+//! [`crate::physics::RemovalOperator`]); what it removed is measured at radii rᵢ. With g(r; θ)
+//! the run's removal predicted at the nominal K (θ = (r_t, κ)), run j's model is
+//!
+//! ```text
+//! m(rᵢ) = ρ·g(rᵢ; θ) + c_j + d_j·rᵢ²,     ρ = K / K_nominal
+//! ```
+//!
+//! with its own piston c_j (the measurement's zero) and, optionally, its own power term d_j
+//! (metrology power). The fit minimises Σ wᵢ·(mᵢ − model)² by Levenberg–Marquardt
+//! ([`crate::lsq`]) over (ρ, r_t, κ) (those asked for) and every c_j, d_j. ρ, c_j and d_j
+//! enter linearly, so their Jacobian columns are exact (g, 1, r²); ∂g/∂r_t and ∂g/∂κ are
+//! central differences (steps 1e-4·r_t and 1e-4; three-point one-sided within 1e-4 of κ's
+//! bounds), whose truncation error, ~1e-8 of g, is far below any measurement's noise. The
+//! start is the nominal process with ρ = 1: its first Gauss–Newton step solves the linear
+//! part exactly.
+//!
+//! A parameter no run is sensitive to (κ when no pad overhangs the edge: g does not depend on
+//! it at all) is held at its nominal value and reported without a standard error; the caller
+//! says why. Standard errors are √ of the diagonal of σ²·(JᵀWJ)⁻¹, σ² = S/(n − p).
+
+use faer::Mat;
+
+use crate::lsq::{self, Fit, LsqError, Model, RobustLoss};
+use crate::physics::{
+    ClearAperture, DwellSchedule, GridError, PressureModel, Process, ProcessError, ProcessSpec,
+    RemovalKernel, RemovalOperator, ScheduleError,
+};
+
+/// Levenberg–Marquardt steps per weighting.
+const MAX_STEPS: usize = 100;
+/// Relative step of the r_t difference quotient, and κ's absolute step.
+const RADIUS_STEP: f64 = 1e-4;
+const SHARE_STEP: f64 = 1e-4;
+
+/// A process parameter calibration can fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProcessParameter {
+    PrestonCoefficient,
+    ToolRadius,
+    PadMomentShare,
+}
+
+impl ProcessParameter {
+    pub const ALL: [ProcessParameter; 3] = [
+        ProcessParameter::PrestonCoefficient,
+        ProcessParameter::ToolRadius,
+        ProcessParameter::PadMomentShare,
+    ];
+}
+
+/// What the fit is free to move.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Freedom {
+    pub preston_coefficient: bool,
+    pub tool_radius: bool,
+    pub pad_moment_share: bool,
+    /// Each run's own r² term.
+    pub metrology_power: bool,
+}
+
+impl Freedom {
+    fn frees(&self, parameter: ProcessParameter) -> bool {
+        match parameter {
+            ProcessParameter::PrestonCoefficient => self.preston_coefficient,
+            ProcessParameter::ToolRadius => self.tool_radius,
+            ProcessParameter::PadMomentShare => self.pad_moment_share,
+        }
+    }
+}
+
+/// What ran.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Motion {
+    /// The tool parked at `position_mm` for `duration_s`.
+    Ring { position_mm: f64, duration_s: f64 },
+    /// A dwell schedule.
+    Dwell {
+        positions_mm: Vec<f64>,
+        dwell_s: Vec<f64>,
+    },
+}
+
+/// A measured radial profile: radii (mm, strictly increasing, ≥ 0) and depths (nm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Profile {
+    pub radius_mm: Vec<f64>,
+    pub depth_nm: Vec<f64>,
+}
+
+/// What a run removed, as measured.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Measured {
+    /// Material removed (nm, positive).
+    Removal(Profile),
+    /// The form error before and after (material to remove, as the measurement fit reports
+    /// it): removal = before − after, on the before's radii within the after's span (the
+    /// after linearly interpolated).
+    BeforeAfter { before: Profile, after: Profile },
+}
+
+/// One run as asked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSpec {
+    pub motion: Motion,
+    pub measured: Measured,
+    /// Only the points within it count (default: all).
+    pub aperture: Option<(f64, f64)>,
+}
+
+/// Which of a run's measured profiles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProfileRole {
+    Removal,
+    Before,
+    After,
+}
+
+/// Why a measured profile was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProfileError {
+    #[error("radius_mm has {radii} entries but depth_nm has {depths}: they must match")]
+    LengthMismatch { radii: usize, depths: usize },
+    #[error("must hold at least one point")]
+    Empty,
+    #[error("{field}[{index}] must be a finite number")]
+    NonFinite { field: &'static str, index: usize },
+    #[error("radius_mm must be strictly increasing; entry {index} is not above the one before")]
+    NotIncreasing { index: usize },
+    #[error("radius_mm[{index}] = {value} mm lies outside the part, [0, {edge_mm}] mm")]
+    OffPart {
+        index: usize,
+        value: f64,
+        edge_mm: f64,
+    },
+}
+
+impl ProfileError {
+    /// The member of the profile at fault, and its index.
+    pub fn field(&self) -> (&'static str, Option<usize>) {
+        match self {
+            ProfileError::LengthMismatch { .. } => ("depth_nm", None),
+            ProfileError::Empty => ("radius_mm", None),
+            ProfileError::NonFinite { field, index } => (field, Some(*index)),
+            ProfileError::NotIncreasing { index } | ProfileError::OffPart { index, .. } => {
+                ("radius_mm", Some(*index))
+            }
+        }
+    }
+}
+
+/// Why a run was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RunError {
+    #[error("{0}")]
+    Position(ScheduleError),
+    #[error("duration_s must be a finite number > 0 and at most {max_s} s")]
+    Duration { max_s: f64 },
+    #[error("{error}")]
+    Profile {
+        role: ProfileRole,
+        error: ProfileError,
+    },
+    #[error("the before and after profiles share no radii")]
+    NoOverlap,
+    #[error(transparent)]
+    Aperture(GridError),
+    #[error("no measured point lies within the run's clear aperture")]
+    NothingInAperture,
+}
+
+/// Why a calibration was refused before fitting.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CalibrationError {
+    #[error("give at least one run")]
+    NoRuns,
+    #[error("run {index}: {error}")]
+    Run { index: usize, error: RunError },
+    #[error(
+        "nothing to fit: ask for at least one of preston_coefficient, tool_radius and \
+         pad_moment_share"
+    )]
+    NothingToFit,
+    #[error("pad_moment_share can be fitted only under the linear pressure model")]
+    MomentShareNeedsLinear,
+    #[error(
+        "{points} measured points cannot determine {parameters} parameters (the process's and \
+         each run's piston{}): give more points",
+        if *power { " and power" } else { "" }
+    )]
+    TooFewPoints {
+        points: usize,
+        parameters: usize,
+        power: bool,
+    },
+}
+
+/// Why a fit failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FitFailure {
+    #[error("the fit did not converge within {steps} steps")]
+    NotConverged { steps: usize },
+    #[error("the robust reweighting did not settle within {reweightings} rounds")]
+    WeightsUnsettled { reweightings: usize },
+    #[error("the runs cannot tell apart {}", names(parameters))]
+    Undetermined { parameters: Vec<String> },
+    #[error("the fit left the model's domain: {0}")]
+    Domain(String),
+}
+
+fn names(parameters: &[String]) -> String {
+    parameters.join(", ")
+}
+
+/// Why the model cannot be evaluated at a trial point (the fit then steps back).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Domain {
+    #[error(transparent)]
+    Process(#[from] ProcessError),
+    #[error("a run's tool position {position_mm} mm is beyond the process's reach")]
+    OutOfReach { position_mm: f64 },
+}
+
+/// One run, checked: its motion, and the measured removal at its radii.
+#[derive(Debug, Clone)]
+struct Run {
+    motion: Motion,
+    radius_mm: Vec<f64>,
+    removal_nm: Vec<f64>,
+}
+
+/// A checked calibration.
+#[derive(Debug, Clone)]
+pub struct Calibration {
+    nominal: Process,
+    runs: Vec<Run>,
+    freedom: Freedom,
+    robust: RobustLoss,
+}
+
+/// A fitted process parameter; without a standard error when the runs carry no information
+/// on it (it is then held at its nominal value).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    pub parameter: ProcessParameter,
+    pub value: f64,
+    pub standard_error: Option<f64>,
+    pub interval_95: Option<(f64, f64)>,
+}
+
+/// One run after the fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunFit {
+    pub piston_nm: f64,
+    /// The r² term, nm/mm² (when fitted).
+    pub power_nm_per_mm2: Option<f64>,
+    pub residual_rms_nm: f64,
+    /// Point-to-point noise: RMS of successive differences of the residual over √2 (`None`
+    /// below 3 points).
+    pub difference_noise_nm: Option<f64>,
+    pub radius_mm: Vec<f64>,
+    pub measured_nm: Vec<f64>,
+    pub predicted_nm: Vec<f64>,
+    /// The final weights (robust losses; 1 otherwise).
+    pub weight: Vec<f64>,
+}
+
+/// A calibrated process.
+#[derive(Debug, Clone)]
+pub struct Calibrated {
+    pub process: Process,
+    pub estimates: Vec<Estimate>,
+    /// The parameters with a standard error, in `estimates`' order, and their correlations.
+    pub correlated: Vec<ProcessParameter>,
+    pub correlation: Vec<Vec<f64>>,
+    pub removal_rate_ratio: f64,
+    pub runs: Vec<RunFit>,
+    pub degrees_of_freedom: usize,
+    pub steps: usize,
+    pub reweightings: usize,
+    pub robust_scale_nm: Option<f64>,
+}
+
+/// The longest a ring may run, s.
+pub const MAX_RING_DURATION_S: f64 = 1e9;
+
+impl Calibration {
+    /// Checks the runs against the nominal process.
+    pub fn new(
+        nominal: Process,
+        runs: Vec<RunSpec>,
+        freedom: Freedom,
+        robust: RobustLoss,
+    ) -> Result<Calibration, CalibrationError> {
+        if runs.is_empty() {
+            return Err(CalibrationError::NoRuns);
+        }
+        if !(freedom.preston_coefficient || freedom.tool_radius || freedom.pad_moment_share) {
+            return Err(CalibrationError::NothingToFit);
+        }
+        if freedom.pad_moment_share
+            && !matches!(nominal.pressure_model(), PressureModel::Linear { .. })
+        {
+            return Err(CalibrationError::MomentShareNeedsLinear);
+        }
+        let runs = runs
+            .into_iter()
+            .enumerate()
+            .map(|(index, spec)| {
+                check_run(&nominal, spec).map_err(|error| CalibrationError::Run { index, error })
+            })
+            .collect::<Result<Vec<Run>, _>>()?;
+        let calibration = Calibration {
+            nominal,
+            runs,
+            freedom,
+            robust,
+        };
+        let points = calibration.points();
+        let parameters = calibration.layout(&[true; 3]).len();
+        if points <= parameters {
+            return Err(CalibrationError::TooFewPoints {
+                points,
+                parameters,
+                power: freedom.metrology_power,
+            });
+        }
+        Ok(calibration)
+    }
+
+    fn points(&self) -> usize {
+        self.runs.iter().map(|run| run.radius_mm.len()).sum()
+    }
+
+    /// The parameter vector's layout: the free process parameters (those `informative`), then
+    /// each run's piston, then each run's power term.
+    fn layout(&self, informative: &[bool; 3]) -> Vec<Slot> {
+        let mut slots: Vec<Slot> = ProcessParameter::ALL
+            .iter()
+            .zip(informative)
+            .filter(|(p, &i)| self.freedom.frees(**p) && i)
+            .map(|(p, _)| Slot::Process(*p))
+            .collect();
+        slots.extend((0..self.runs.len()).map(Slot::Piston));
+        if self.freedom.metrology_power {
+            slots.extend((0..self.runs.len()).map(Slot::Power));
+        }
+        slots
+    }
+
+    /// Fits the process to the runs.
+    pub fn fit(&self) -> Result<Calibrated, FitFailure> {
+        // A parameter no run responds to is held: the fit would call it undetermined.
+        let informative = ProcessParameter::ALL.map(|p| !self.freedom.frees(p) || self.responds_to(p));
+        let model = CalibrationModel {
+            calibration: self,
+            slots: self.layout(&informative),
+        };
+        let start: Vec<f64> = model
+            .slots
+            .iter()
+            .map(|slot| match slot {
+                Slot::Process(p) => self.nominal_value(*p),
+                Slot::Piston(_) | Slot::Power(_) => 0.0,
+            })
+            .collect();
+        let fit = lsq::fit(&model, start, self.points(), self.robust, MAX_STEPS)
+            .map_err(|e| model.failure(e))?;
+        Ok(model.report(&fit))
+    }
+
+    fn nominal_value(&self, parameter: ProcessParameter) -> f64 {
+        match parameter {
+            ProcessParameter::PrestonCoefficient => 1.0,
+            ProcessParameter::ToolRadius => self.nominal.tool_radius_mm(),
+            ProcessParameter::PadMomentShare => match self.nominal.pressure_model() {
+                PressureModel::Linear { pad_moment_share } => pad_moment_share,
+                _ => 0.0,
+            },
+        }
+    }
+
+    /// Whether any run's prediction moves with `parameter` (a small step either way).
+    fn responds_to(&self, parameter: ProcessParameter) -> bool {
+        let base = ProcessParameter::ALL.map(|p| self.nominal_value(p));
+        let Ok(at) = self.predictions(&base) else {
+            return true; // let the fit say what is wrong
+        };
+        let step = match parameter {
+            ProcessParameter::PrestonCoefficient => return true,
+            ProcessParameter::ToolRadius => RADIUS_STEP * base[1],
+            ProcessParameter::PadMomentShare => SHARE_STEP,
+        };
+        let j = parameter as usize;
+        let mut moved = base;
+        moved[j] += if base[j] + step <= self.upper(parameter) {
+            step
+        } else {
+            -step
+        };
+        match self.predictions(&moved) {
+            Ok(next) => next.iter().flatten().zip(at.iter().flatten()).any(|(a, b)| a != b),
+            Err(_) => true,
+        }
+    }
+
+    fn upper(&self, parameter: ProcessParameter) -> f64 {
+        match parameter {
+            ProcessParameter::PadMomentShare => 1.0,
+            _ => f64::INFINITY,
+        }
+    }
+
+    /// Each run's removal predicted at the nominal K with r_t and κ from `values`
+    /// ([ρ, r_t, κ]; ρ unused), nm.
+    fn predictions(&self, values: &[f64; 3]) -> Result<Vec<Vec<f64>>, Domain> {
+        let mut spec: ProcessSpec = self.nominal.spec().clone();
+        spec.tool_radius_mm = values[1];
+        if let PressureModel::Linear { .. } = spec.pressure_model {
+            spec.pressure_model = PressureModel::Linear {
+                pad_moment_share: values[2],
+            };
+        }
+        let process = Process::new(spec)?;
+        let kernel = RemovalKernel::new(&process);
+        self.runs
+            .iter()
+            .map(|run| run.predict(&process, &kernel))
+            .collect()
+    }
+}
+
+impl Run {
+    fn predict(&self, process: &Process, kernel: &RemovalKernel) -> Result<Vec<f64>, Domain> {
+        match &self.motion {
+            Motion::Ring {
+                position_mm,
+                duration_s,
+            } => {
+                if !process.holds_position(*position_mm) {
+                    return Err(Domain::OutOfReach {
+                        position_mm: *position_mm,
+                    });
+                }
+                let rings = kernel.rings(&self.radius_mm);
+                let mut rate = vec![0.0; self.radius_mm.len()];
+                kernel.fill_column(*position_mm, &self.radius_mm, rings.as_deref(), &mut rate);
+                Ok(rate.into_iter().map(|r| r * duration_s).collect())
+            }
+            Motion::Dwell {
+                positions_mm,
+                dwell_s,
+            } => {
+                if let Some(&far) = positions_mm.iter().find(|&&x| !process.holds_position(x)) {
+                    return Err(Domain::OutOfReach { position_mm: far });
+                }
+                Ok(RemovalOperator::assemble(kernel, &self.radius_mm, positions_mm).apply(dwell_s))
+            }
+        }
+    }
+}
+
+/// What each entry of the parameter vector is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Slot {
+    Process(ProcessParameter),
+    Piston(usize),
+    Power(usize),
+}
+
+struct CalibrationModel<'a> {
+    calibration: &'a Calibration,
+    slots: Vec<Slot>,
+}
+
+impl CalibrationModel<'_> {
+    /// [ρ, r_t, κ] from the parameter vector (the nominal values where held).
+    fn process_values(&self, p: &[f64]) -> [f64; 3] {
+        let mut values = ProcessParameter::ALL.map(|q| self.calibration.nominal_value(q));
+        for (slot, &x) in self.slots.iter().zip(p) {
+            if let Slot::Process(q) = slot {
+                values[*q as usize] = x;
+            }
+        }
+        values
+    }
+
+    fn offsets(&self, p: &[f64], run: usize) -> (f64, f64) {
+        let mut piston = 0.0;
+        let mut power = 0.0;
+        for (slot, &x) in self.slots.iter().zip(p) {
+            match slot {
+                Slot::Piston(j) if *j == run => piston = x,
+                Slot::Power(j) if *j == run => power = x,
+                _ => {}
+            }
+        }
+        (piston, power)
+    }
+
+    /// The model's prediction of each run (with piston and power), from g at [ρ, r_t, κ].
+    fn model_values(&self, p: &[f64], g: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        let rho = self.process_values(p)[0];
+        self.calibration
+            .runs
+            .iter()
+            .zip(g)
+            .enumerate()
+            .map(|(j, (run, g))| {
+                let (piston, power) = self.offsets(p, j);
+                run.radius_mm
+                    .iter()
+                    .zip(g)
+                    .map(|(r, g)| rho * g + piston + power * r * r)
+                    .collect()
+            })
+            .collect()
+    }
+
+    fn residuals_from(&self, p: &[f64], g: &[Vec<f64>]) -> Vec<f64> {
+        let model = self.model_values(p, g);
+        self.calibration
+            .runs
+            .iter()
+            .zip(&model)
+            .flat_map(|(run, m)| run.removal_nm.iter().zip(m).map(|(y, m)| y - m))
+            .collect()
+    }
+
+    /// ∂g/∂(parameter) by difference quotients at `values`.
+    fn derivative(
+        &self,
+        values: &[f64; 3],
+        parameter: ProcessParameter,
+    ) -> Result<Vec<f64>, Domain> {
+        let j = parameter as usize;
+        let h = match parameter {
+            ProcessParameter::ToolRadius => RADIUS_STEP * values[1],
+            _ => SHARE_STEP,
+        };
+        let at = |offset: f64| {
+            let mut v = *values;
+            v[j] += offset;
+            self.calibration
+                .predictions(&v)
+                .map(|g| g.into_iter().flatten().collect::<Vec<f64>>())
+        };
+        let (lower, upper) = match parameter {
+            ProcessParameter::PadMomentShare => (0.0, 1.0),
+            _ => (0.0, f64::INFINITY),
+        };
+        if values[j] - h < lower || values[j] + h > upper {
+            // Three points on the inner side: (−3f(x) + 4f(x ± h) − f(x ± 2h))/(±2h).
+            let s = if values[j] - h < lower { h } else { -h };
+            let (f0, f1, f2) = (at(0.0)?, at(s)?, at(2.0 * s)?);
+            return Ok((0..f0.len())
+                .map(|i| (-3.0 * f0[i] + 4.0 * f1[i] - f2[i]) / (2.0 * s))
+                .collect());
+        }
+        let (plus, minus) = (at(h)?, at(-h)?);
+        Ok(plus
+            .iter()
+            .zip(&minus)
+            .map(|(a, b)| (a - b) / (2.0 * h))
+            .collect())
+    }
+
+    fn failure(&self, error: LsqError<Domain>) -> FitFailure {
+        match error {
+            LsqError::Model(e) => FitFailure::Domain(e.to_string()),
+            LsqError::NotConverged { steps } => FitFailure::NotConverged { steps },
+            LsqError::WeightsUnsettled { reweightings } => {
+                FitFailure::WeightsUnsettled { reweightings }
+            }
+            LsqError::Undetermined { parameters } => FitFailure::Undetermined {
+                parameters: parameters
+                    .into_iter()
+                    .map(|k| self.slot_name(self.slots[k]))
+                    .collect(),
+            },
+        }
+    }
+
+    fn slot_name(&self, slot: Slot) -> String {
+        match slot {
+            Slot::Process(ProcessParameter::PrestonCoefficient) => "preston_coefficient".into(),
+            Slot::Process(ProcessParameter::ToolRadius) => "tool_radius".into(),
+            Slot::Process(ProcessParameter::PadMomentShare) => "pad_moment_share".into(),
+            Slot::Piston(j) => format!("the piston of run {j}"),
+            Slot::Power(j) => format!("the power term of run {j}"),
+        }
+    }
+
+    fn report(&self, fit: &Fit) -> Calibrated {
+        let calibration = self.calibration;
+        let values = self.process_values(&fit.parameters);
+        let g = calibration
+            .predictions(&values)
+            .expect("the fit's own parameters evaluate");
+        let model = self.model_values(&fit.parameters, &g);
+        let t = lsq::t_quantile_95(fit.degrees_of_freedom);
+        let k_nominal = calibration.nominal.spec().preston_coefficient_m2_per_n;
+        let scale = |q: ProcessParameter| match q {
+            ProcessParameter::PrestonCoefficient => k_nominal,
+            _ => 1.0,
+        };
+        let mut estimates = Vec::new();
+        let mut correlated = Vec::new();
+        let mut indices = Vec::new();
+        for q in ProcessParameter::ALL {
+            if !calibration.freedom.frees(q) {
+                continue;
+            }
+            let slot = self.slots.iter().position(|s| *s == Slot::Process(q));
+            let value = values[q as usize] * scale(q);
+            let (standard_error, interval_95) = match slot {
+                Some(k) => {
+                    let se = fit.standard_error(k) * scale(q);
+                    correlated.push(q);
+                    indices.push(k);
+                    (Some(se), Some((value - t * se, value + t * se)))
+                }
+                None => (None, None),
+            };
+            estimates.push(Estimate {
+                parameter: q,
+                value,
+                standard_error,
+                interval_95,
+            });
+        }
+        let correlation = indices
+            .iter()
+            .map(|&a| indices.iter().map(|&b| fit.correlation(a, b)).collect())
+            .collect();
+        let mut offset = 0;
+        let runs = calibration
+            .runs
+            .iter()
+            .enumerate()
+            .map(|(j, run)| {
+                let n = run.radius_mm.len();
+                let residual = &fit.residuals[offset..offset + n];
+                let weight = fit.weights[offset..offset + n].to_vec();
+                offset += n;
+                let (piston_nm, power) = self.offsets(&fit.parameters, j);
+                RunFit {
+                    piston_nm,
+                    power_nm_per_mm2: calibration.freedom.metrology_power.then_some(power),
+                    residual_rms_nm: rms(residual),
+                    difference_noise_nm: (n >= 3).then(|| {
+                        let d: Vec<f64> = residual.windows(2).map(|w| w[1] - w[0]).collect();
+                        rms(&d) / std::f64::consts::SQRT_2
+                    }),
+                    radius_mm: run.radius_mm.clone(),
+                    measured_nm: run.removal_nm.clone(),
+                    predicted_nm: model[j].clone(),
+                    weight,
+                }
+            })
+            .collect();
+        let mut spec = calibration.nominal.spec().clone();
+        spec.preston_coefficient_m2_per_n = values[0] * k_nominal;
+        spec.tool_radius_mm = values[1];
+        if let PressureModel::Linear { .. } = spec.pressure_model {
+            spec.pressure_model = PressureModel::Linear {
+                pad_moment_share: values[2],
+            };
+        }
+        Calibrated {
+            process: Process::new(spec).expect("the fit's own parameters evaluate"),
+            estimates,
+            correlated,
+            correlation,
+            removal_rate_ratio: values[0],
+            runs,
+            degrees_of_freedom: fit.degrees_of_freedom,
+            steps: fit.steps,
+            reweightings: fit.reweightings,
+            robust_scale_nm: fit.robust_scale,
+        }
+    }
+}
+
+fn rms(values: &[f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+}
+
+impl Model for CalibrationModel<'_> {
+    type Error = Domain;
+
+    fn parameters(&self) -> usize {
+        self.slots.len()
+    }
+
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, Domain> {
+        let g = self.calibration.predictions(&self.process_values(p))?;
+        Ok(self.residuals_from(p, &g))
+    }
+
+    fn jacobian(&self, p: &[f64], _residuals: &[f64]) -> Result<Mat<f64>, Domain> {
+        let values = self.process_values(p);
+        let g: Vec<f64> = self
+            .calibration
+            .predictions(&values)?
+            .into_iter()
+            .flatten()
+            .collect();
+        let run_of: Vec<(usize, f64)> = self
+            .calibration
+            .runs
+            .iter()
+            .enumerate()
+            .flat_map(|(j, run)| run.radius_mm.iter().map(move |&r| (j, r)))
+            .collect();
+        let mut columns = Vec::with_capacity(self.slots.len());
+        for slot in &self.slots {
+            let column: Vec<f64> = match *slot {
+                Slot::Process(ProcessParameter::PrestonCoefficient) => {
+                    g.iter().map(|g| -g).collect()
+                }
+                Slot::Process(q) => self
+                    .derivative(&values, q)?
+                    .into_iter()
+                    .map(|d| -values[0] * d)
+                    .collect(),
+                Slot::Piston(j) => run_of
+                    .iter()
+                    .map(|&(k, _)| if k == j { -1.0 } else { 0.0 })
+                    .collect(),
+                Slot::Power(j) => run_of
+                    .iter()
+                    .map(|&(k, r)| if k == j { -r * r } else { 0.0 })
+                    .collect(),
+            };
+            columns.push(column);
+        }
+        Ok(Mat::from_fn(g.len(), columns.len(), |i, k| columns[k][i]))
+    }
+}
+
+fn check_profile(role: ProfileRole, profile: &Profile, edge_mm: f64) -> Result<(), RunError> {
+    let fail = |error| RunError::Profile { role, error };
+    let Profile {
+        radius_mm,
+        depth_nm,
+    } = profile;
+    if radius_mm.len() != depth_nm.len() {
+        return Err(fail(ProfileError::LengthMismatch {
+            radii: radius_mm.len(),
+            depths: depth_nm.len(),
+        }));
+    }
+    if radius_mm.is_empty() {
+        return Err(fail(ProfileError::Empty));
+    }
+    for (index, (&r, &d)) in radius_mm.iter().zip(depth_nm).enumerate() {
+        if !r.is_finite() {
+            return Err(fail(ProfileError::NonFinite {
+                field: "radius_mm",
+                index,
+            }));
+        }
+        if !d.is_finite() {
+            return Err(fail(ProfileError::NonFinite {
+                field: "depth_nm",
+                index,
+            }));
+        }
+        if !(0.0..=edge_mm).contains(&r) {
+            return Err(fail(ProfileError::OffPart {
+                index,
+                value: r,
+                edge_mm,
+            }));
+        }
+        if index > 0 && r <= radius_mm[index - 1] {
+            return Err(fail(ProfileError::NotIncreasing { index }));
+        }
+    }
+    Ok(())
+}
+
+/// The measured removal at the before's radii within the after's span.
+fn removal_between(before: &Profile, after: &Profile) -> Profile {
+    let (radius_mm, depth_nm) = before
+        .radius_mm
+        .iter()
+        .zip(&before.depth_nm)
+        .filter_map(|(&r, &b)| interpolate(after, r).map(|a| (r, b - a)))
+        .unzip();
+    Profile {
+        radius_mm,
+        depth_nm,
+    }
+}
+
+/// `profile` at `r` by linear interpolation; `None` outside its span.
+fn interpolate(profile: &Profile, r: f64) -> Option<f64> {
+    let radii = &profile.radius_mm;
+    let (&first, &last) = (radii.first()?, radii.last()?);
+    if r < first || r > last {
+        return None;
+    }
+    let i = radii.partition_point(|&x| x < r);
+    if radii[i.min(radii.len() - 1)] == r {
+        return Some(profile.depth_nm[i]);
+    }
+    let (r0, r1) = (radii[i - 1], radii[i]);
+    let (d0, d1) = (profile.depth_nm[i - 1], profile.depth_nm[i]);
+    Some(d0 + (d1 - d0) * (r - r0) / (r1 - r0))
+}
+
+fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
+    match &spec.motion {
+        Motion::Ring {
+            position_mm,
+            duration_s,
+        } => {
+            crate::physics::check_positions(process, "position_mm", &[*position_mm], false)
+                .map_err(RunError::Position)?;
+            if !(duration_s.is_finite() && *duration_s > 0.0 && *duration_s <= MAX_RING_DURATION_S)
+            {
+                return Err(RunError::Duration {
+                    max_s: MAX_RING_DURATION_S,
+                });
+            }
+        }
+        Motion::Dwell {
+            positions_mm,
+            dwell_s,
+        } => {
+            DwellSchedule::new(process, positions_mm.clone(), dwell_s.clone())
+                .map_err(RunError::Position)?;
+        }
+    }
+    let edge = process.workpiece_radius_mm();
+    let measured = match spec.measured {
+        Measured::Removal(profile) => {
+            check_profile(ProfileRole::Removal, &profile, edge)?;
+            profile
+        }
+        Measured::BeforeAfter { before, after } => {
+            check_profile(ProfileRole::Before, &before, edge)?;
+            check_profile(ProfileRole::After, &after, edge)?;
+            let removal = removal_between(&before, &after);
+            if removal.radius_mm.is_empty() {
+                return Err(RunError::NoOverlap);
+            }
+            removal
+        }
+    };
+    let (radius_mm, removal_nm) = match spec.aperture {
+        Some((inner, outer)) => {
+            let aperture =
+                ClearAperture::new(process, inner, outer).map_err(RunError::Aperture)?;
+            measured
+                .radius_mm
+                .iter()
+                .zip(&measured.depth_nm)
+                .filter(|(r, _)| aperture.contains(**r))
+                .map(|(r, d)| (*r, *d))
+                .unzip()
+        }
+        None => (measured.radius_mm, measured.depth_nm),
+    };
+    if radius_mm.is_empty() {
+        return Err(RunError::NothingInAperture);
+    }
+    Ok(Run {
+        motion: spec.motion,
+        radius_mm,
+        removal_nm,
+    })
+}
