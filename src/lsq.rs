@@ -23,14 +23,16 @@ use faer::Mat;
 const MAX_DAMPINGS: usize = 60;
 const MAX_REWEIGHTS: usize = 100;
 
-/// How residuals are weighted against outliers.
+/// How residuals are weighted against outliers, with σ̂ = 1.4826·median|e| of the current
+/// residuals (the usual 95 %-efficiency constants for Gaussian noise).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum RobustLoss {
+    /// Plain least squares.
     #[default]
     None,
-    /// Huber, c = 1.345 σ̂ (95 % efficiency on normal noise).
+    /// Weight 1 within 1.345·σ̂, then 1.345·σ̂/|e|: spikes count, but only linearly.
     Huber,
-    /// Tukey's biweight, c = 4.685 σ̂ (points beyond it are ignored).
+    /// Weight (1 − (e/4.685σ̂)²)² within 4.685·σ̂, 0 beyond: spikes and dust are ignored.
     Tukey,
 }
 
@@ -117,7 +119,9 @@ fn linearise<E>(jacobian: &Mat<f64>, weights: &[f64]) -> Result<Linearisation, L
             parameters: vec![j],
         });
     }
-    let a = Mat::from_fn(n, m, |i, j| weights[i].sqrt() * jacobian[(i, j)] / scales[j]);
+    let a = Mat::from_fn(n, m, |i, j| {
+        weights[i].sqrt() * jacobian[(i, j)] / scales[j]
+    });
     let svd = a
         .thin_svd()
         .map_err(|_| LsqError::NotConverged { steps: 0 })?;
@@ -174,13 +178,16 @@ impl Linearisation {
     }
 }
 
-/// Weighted least squares from `start`: the parameters, residuals there and steps taken.
+/// A minimum: the parameters, the residuals there and the steps taken.
+type Minimum = (Vec<f64>, Vec<f64>, usize);
+
+/// Weighted least squares from `start`.
 fn least_squares<M: Model>(
     model: &M,
     weights: &[f64],
     start: Vec<f64>,
     max_steps: usize,
-) -> Result<(Vec<f64>, Vec<f64>, usize), LsqError<M::Error>> {
+) -> Result<Minimum, LsqError<M::Error>> {
     let mut p = start;
     let mut residuals = model.residuals(&p).map_err(LsqError::Model)?;
     let mut current = cost(&residuals, weights);
@@ -348,18 +355,19 @@ pub fn fit<M: Model>(
 }
 
 /// The two-sided 95 % quantile of Student's t with `dof` degrees of freedom, by the
-/// Cornish–Fisher expansion about the normal's 1.959964 (within 2e-4 for dof ≥ 5, 4e-3 at 3;
-/// the normal's for dof = 0, where no interval is meaningful anyway).
+/// Cornish–Fisher expansion about the normal's 1.959964 to 1/dof⁴ (within 3e-4 for dof ≥ 5,
+/// 1e-5 for dof ≥ 10, 4e-3 at 3; the normal's for dof = 0, where no interval means anything).
 pub fn t_quantile_95(dof: usize) -> f64 {
     let z: f64 = 1.959_963_984_540_054;
     if dof == 0 {
         return z;
     }
     let n = dof as f64;
-    let (z3, z5, z7) = (z.powi(3), z.powi(5), z.powi(7));
+    let (z3, z5, z7, z9) = (z.powi(3), z.powi(5), z.powi(7), z.powi(9));
     z + (z3 + z) / (4.0 * n)
         + (5.0 * z5 + 16.0 * z3 + 3.0 * z) / (96.0 * n * n)
-        + (3.0 * z7 + 19.0 * z5 + 17.0 * z3 - 15.0 * z) / (384.0 * n * n * n)
+        + (3.0 * z7 + 19.0 * z5 + 17.0 * z3 - 15.0 * z) / (384.0 * n.powi(3))
+        + (79.0 * z9 + 776.0 * z7 + 1482.0 * z5 - 1920.0 * z3 - 945.0 * z) / (92160.0 * n.powi(4))
 }
 
 #[cfg(test)]
@@ -411,14 +419,27 @@ mod tests {
             ignore_b: false,
         };
         let fit = fit(&model, vec![1.0, 0.2], 20, RobustLoss::None, 100).unwrap();
-        assert!((fit.parameters[0] - 3.0).abs() < 1e-12, "{:?}", fit.parameters);
-        assert!((fit.parameters[1] - 0.7).abs() < 1e-12, "{:?}", fit.parameters);
+        assert!(
+            (fit.parameters[0] - 3.0).abs() < 1e-12,
+            "{:?}",
+            fit.parameters
+        );
+        assert!(
+            (fit.parameters[1] - 0.7).abs() < 1e-12,
+            "{:?}",
+            fit.parameters
+        );
         let blind = Decay {
             ignore_b: true,
             ..model
         };
         let err = super::fit(&blind, vec![1.0, 0.2], 20, RobustLoss::None, 100).unwrap_err();
-        assert_eq!(err, LsqError::Undetermined { parameters: vec![1] });
+        assert_eq!(
+            err,
+            LsqError::Undetermined {
+                parameters: vec![1]
+            }
+        );
     }
 
     /// Against tabulated t quantiles (0.975): 12.706 (1), 2.571 (5), 2.228 (10), 2.042 (30),
@@ -426,10 +447,10 @@ mod tests {
     #[test]
     fn t_quantiles_match_the_tables() {
         for (dof, want, tol) in [
-            (5, 2.570_582, 2e-4),
-            (10, 2.228_139, 2e-5),
+            (5, 2.570_582, 3e-4),
+            (10, 2.228_139, 1e-5),
             (30, 2.042_272, 1e-6),
-            (100, 1.983_972, 1e-7),
+            (100, 1.983_972, 1e-6),
         ] {
             let got = t_quantile_95(dof);
             assert!((got - want).abs() < tol, "{dof}: {got} vs {want}");

@@ -15,7 +15,11 @@
 //! ([`crate::lsq`]) over (ρ, r_t, κ) (those asked for) and every c_j, d_j. ρ, c_j and d_j
 //! enter linearly, so their Jacobian columns are exact (g, 1, r²); ∂g/∂r_t and ∂g/∂κ are
 //! central differences (steps 1e-4·r_t and 1e-4; three-point one-sided within 1e-4 of κ's
-//! bounds), whose truncation error, ~1e-8 of g, is far below any measurement's noise. The
+//! bounds), whose truncation error, ~1e-8 of g, is far below any measurement's noise. Where
+//! the two one-sided slopes differ by more than 2× a kink lies within the step (a pad rim
+//! exactly on a measured radius, where g grows like √(r_t − |r − r1|) and its slope is
+//! infinite on one side): the gentler slope is used, else Gauss–Newton would take that
+//! infinite slope for the parameter's sensitivity and stall there. The
 //! start is the nominal process with ρ = 1: its first Gauss–Newton step solves the linear
 //! part exactly.
 //!
@@ -36,6 +40,8 @@ const MAX_STEPS: usize = 100;
 /// Relative step of the r_t difference quotient, and κ's absolute step.
 const RADIUS_STEP: f64 = 1e-4;
 const SHARE_STEP: f64 = 1e-4;
+/// One-sided slopes further apart than this factor mark a kink inside the difference step.
+const KINK: f64 = 2.0;
 
 /// A process parameter calibration can fit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -46,6 +52,15 @@ pub enum ProcessParameter {
 }
 
 impl ProcessParameter {
+    /// Its name, as a calibration asks for it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ProcessParameter::PrestonCoefficient => "preston_coefficient",
+            ProcessParameter::ToolRadius => "tool_radius",
+            ProcessParameter::PadMomentShare => "pad_moment_share",
+        }
+    }
+
     pub const ALL: [ProcessParameter; 3] = [
         ProcessParameter::PrestonCoefficient,
         ProcessParameter::ToolRadius,
@@ -259,8 +274,9 @@ pub struct RunFit {
     /// The r² term, nm/mm² (when fitted).
     pub power_nm_per_mm2: Option<f64>,
     pub residual_rms_nm: f64,
-    /// Point-to-point noise: RMS of successive differences of the residual over √2 (`None`
-    /// below 3 points).
+    /// Point-to-point noise of the residual: 1.4826·median|Δ²e|/√6 over its second
+    /// differences (σ for white noise; blind to a smooth misfit and to a few sharp ones, such
+    /// as a pad rim in the wrong place); `None` below 5 points.
     pub difference_noise_nm: Option<f64>,
     pub radius_mm: Vec<f64>,
     pub measured_nm: Vec<f64>,
@@ -355,7 +371,8 @@ impl Calibration {
     /// Fits the process to the runs.
     pub fn fit(&self) -> Result<Calibrated, FitFailure> {
         // A parameter no run responds to is held: the fit would call it undetermined.
-        let informative = ProcessParameter::ALL.map(|p| !self.freedom.frees(p) || self.responds_to(p));
+        let informative =
+            ProcessParameter::ALL.map(|p| !self.freedom.frees(p) || self.responds_to(p));
         let model = CalibrationModel {
             calibration: self,
             slots: self.layout(&informative),
@@ -403,7 +420,11 @@ impl Calibration {
             -step
         };
         match self.predictions(&moved) {
-            Ok(next) => next.iter().flatten().zip(at.iter().flatten()).any(|(a, b)| a != b),
+            Ok(next) => next
+                .iter()
+                .flatten()
+                .zip(at.iter().flatten())
+                .any(|(a, b)| a != b),
             Err(_) => true,
         }
     }
@@ -561,11 +582,26 @@ impl CalibrationModel<'_> {
                 .map(|i| (-3.0 * f0[i] + 4.0 * f1[i] - f2[i]) / (2.0 * s))
                 .collect());
         }
-        let (plus, minus) = (at(h)?, at(-h)?);
-        Ok(plus
-            .iter()
-            .zip(&minus)
-            .map(|(a, b)| (a - b) / (2.0 * h))
+        let (plus, here, minus) = (at(h)?, at(0.0)?, at(-h)?);
+        Ok((0..here.len())
+            .map(|i| {
+                let (ahead, behind) = ((plus[i] - here[i]) / h, (here[i] - minus[i]) / h);
+                if ahead * behind > 0.0
+                    && ahead.abs().max(behind.abs()) <= KINK * ahead.abs().min(behind.abs())
+                {
+                    0.5 * (ahead + behind)
+                } else if ahead * behind > 0.0 {
+                    // A kink between (a pad rim crossing a measured radius: the removal grows
+                    // like a square root): the gentler side, as a generalised slope.
+                    if ahead.abs() < behind.abs() {
+                        ahead
+                    } else {
+                        behind
+                    }
+                } else {
+                    0.5 * (ahead + behind)
+                }
+            })
             .collect())
     }
 
@@ -587,9 +623,7 @@ impl CalibrationModel<'_> {
 
     fn slot_name(&self, slot: Slot) -> String {
         match slot {
-            Slot::Process(ProcessParameter::PrestonCoefficient) => "preston_coefficient".into(),
-            Slot::Process(ProcessParameter::ToolRadius) => "tool_radius".into(),
-            Slot::Process(ProcessParameter::PadMomentShare) => "pad_moment_share".into(),
+            Slot::Process(q) => q.name().into(),
             Slot::Piston(j) => format!("the piston of run {j}"),
             Slot::Power(j) => format!("the power term of run {j}"),
         }
@@ -652,9 +686,12 @@ impl CalibrationModel<'_> {
                     piston_nm,
                     power_nm_per_mm2: calibration.freedom.metrology_power.then_some(power),
                     residual_rms_nm: rms(residual),
-                    difference_noise_nm: (n >= 3).then(|| {
-                        let d: Vec<f64> = residual.windows(2).map(|w| w[1] - w[0]).collect();
-                        rms(&d) / std::f64::consts::SQRT_2
+                    difference_noise_nm: (n >= 5).then(|| {
+                        let d: Vec<f64> = residual
+                            .windows(3)
+                            .map(|w| w[2] - 2.0 * w[1] + w[0])
+                            .collect();
+                        lsq::robust_scale(&d) / 6f64.sqrt()
                     }),
                     radius_mm: run.radius_mm.clone(),
                     measured_nm: run.removal_nm.clone(),
@@ -859,8 +896,7 @@ fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
     };
     let (radius_mm, removal_nm) = match spec.aperture {
         Some((inner, outer)) => {
-            let aperture =
-                ClearAperture::new(process, inner, outer).map_err(RunError::Aperture)?;
+            let aperture = ClearAperture::new(process, inner, outer).map_err(RunError::Aperture)?;
             measured
                 .radius_mm
                 .iter()

@@ -9,6 +9,7 @@
 //! the log span, echoed on the response and written into problem+json bodies.
 
 pub mod auth;
+pub mod calibration;
 pub mod docs;
 pub mod dto;
 pub mod endpoint;

@@ -43,6 +43,7 @@ use super::{health, metrics};
         (name = "recommend", description = "η = −1 recommendation and η studies"),
         (name = "metrology", description = "On-machine measurement: fit a probe trace to the design"),
         (name = "machine", description = "Machine programs: axis motion within limits, G-code"),
+        (name = "calibration", description = "Calibration: the removal rate, pad radius and moment share fitted to measured removal"),
         (name = "service", description = "Probes"),
     )
 )]

@@ -20,8 +20,8 @@ use super::extract::BodyLimit;
 use super::state::{AppState, Services};
 use super::{auth, ratelimit};
 use super::{
-    docs, eta_sweep, health, measurement_fit, metrics, optimize, predict, program, recommend,
-    removal_function, workbench,
+    calibration, docs, eta_sweep, health, measurement_fit, metrics, optimize, predict, program,
+    recommend, removal_function, workbench,
 };
 use crate::config::ServiceLimits;
 use crate::usecases::ComputeLimits;
@@ -59,7 +59,7 @@ const fn entry<E: Endpoint>() -> EndpointEntry {
 }
 
 /// Every computing endpoint, in the order the documentation lists them.
-pub static ENDPOINTS: [EndpointEntry; 7] = [
+pub static ENDPOINTS: [EndpointEntry; 8] = [
     entry::<removal_function::RemovalFunctionEndpoint>(),
     entry::<predict::PredictEndpoint>(),
     entry::<optimize::OptimizeEndpoint>(),
@@ -67,6 +67,7 @@ pub static ENDPOINTS: [EndpointEntry; 7] = [
     entry::<eta_sweep::EtaSweepEndpoint>(),
     entry::<measurement_fit::MeasurementFitEndpoint>(),
     entry::<program::ProgramEndpoint>(),
+    entry::<calibration::CalibrationEndpoint>(),
 ];
 
 /// The offline twin of the API: the exact JSON body `POST /v1/<endpoint>` would return.

@@ -25,6 +25,7 @@ use faer::Mat;
 
 use super::probe::{Probe, ProbeError};
 use super::{FitProblem, Parameter, RobustLoss};
+use crate::lsq::{robust_scale, robust_weight};
 use crate::surface::Surface;
 
 const MAX_STEPS: usize = 200;
@@ -346,45 +347,6 @@ fn least_squares(
         };
     }
     Err(FitError::NotConverged { steps: max_steps })
-}
-
-fn median(values: &mut [f64]) -> f64 {
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    if n % 2 == 1 {
-        values[n / 2]
-    } else {
-        0.5 * (values[n / 2 - 1] + values[n / 2])
-    }
-}
-
-/// σ̂ = 1.4826·median|e| (about 0, not the median: the model's residuals should centre on 0,
-/// and a fit pulled off by spikes must see its good points as off, so that it moves back).
-fn robust_scale(residual: &[f64]) -> f64 {
-    let mut deviations: Vec<f64> = residual.iter().map(|x| x.abs()).collect();
-    1.4826 * median(&mut deviations)
-}
-
-fn robust_weight(loss: RobustLoss, u: f64) -> f64 {
-    let u = u.abs();
-    match loss {
-        RobustLoss::None => 1.0,
-        RobustLoss::Huber => {
-            if u <= 1.345 {
-                1.0
-            } else {
-                1.345 / u
-            }
-        }
-        RobustLoss::Tukey => {
-            if u < 4.685 {
-                let t = 1.0 - (u / 4.685).powi(2);
-                t * t
-            } else {
-                0.0
-            }
-        }
-    }
 }
 
 /// Fits the alignment (and optionally the radius) of a checked problem.

@@ -94,15 +94,7 @@ impl FitParameters {
 /// The loss that weights the residuals. Thresholds are in units of the robust scale
 /// σ̂ = 1.4826·median|e| of the current residuals (the usual 95 %-efficiency
 /// constants for Gaussian noise).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RobustLoss {
-    /// Plain least squares (the paper's eq. 3).
-    None,
-    /// Weight 1 within 1.345·σ̂, then 1.345·σ̂/|e|: spikes count, but only linearly.
-    Huber,
-    /// Weight (1 − (e/4.685σ̂)²)² within 4.685·σ̂, 0 beyond: spikes and dust are ignored.
-    Tukey,
-}
+pub use crate::lsq::RobustLoss;
 
 /// Why a trace cannot be fitted as given.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

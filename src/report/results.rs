@@ -7,6 +7,7 @@ use super::table;
 use crate::machine::BlockKind;
 use crate::optimize::SolveStatus;
 use crate::physics::ClearAperture;
+use crate::usecases::calibration::CalibrationResult;
 use crate::usecases::eta_sweep::EtaSweep;
 use crate::usecases::measurement_fit::MeasurementFit;
 use crate::usecases::optimize::OptimizedPlan;
@@ -282,4 +283,55 @@ pub fn program_csv(m: &MachineProgram) -> String {
         ));
     }
     out
+}
+
+/// One row per measured point: its run, radius, measured and predicted removal.
+pub fn calibration_csv(c: &CalibrationResult) -> String {
+    let runs = &c.calibrated.runs;
+    let run: Vec<f64> = runs
+        .iter()
+        .enumerate()
+        .flat_map(|(j, r)| std::iter::repeat_n(j as f64, r.radius_mm.len()))
+        .collect();
+    let join = |part: fn(&crate::calibration::RunFit) -> &Vec<f64>| -> Vec<f64> {
+        runs.iter().flat_map(|r| part(r).iter().copied()).collect()
+    };
+    let (radius, measured, predicted) = (
+        join(|r| &r.radius_mm),
+        join(|r| &r.measured_nm),
+        join(|r| &r.predicted_nm),
+    );
+    table::csv(
+        &header(&["run", "radius_mm", "measured_nm", "predicted_nm"]),
+        &[&run, &radius, &measured, &predicted],
+    )
+}
+
+/// Measured against predicted removal, per run.
+pub fn calibration_svg(c: &CalibrationResult) -> String {
+    let fit = &c.calibrated;
+    let mut series = Vec::new();
+    for (j, run) in fit.runs.iter().enumerate() {
+        series.push(Series {
+            name: format!("run {j} measured"),
+            points: points(&run.radius_mm, &run.measured_nm),
+        });
+        series.push(Series {
+            name: format!("run {j} predicted"),
+            points: points(&run.radius_mm, &run.predicted_nm),
+        });
+    }
+    let k = fit.process.spec().preston_coefficient_m2_per_n;
+    chart::render(&Chart {
+        title: format!(
+            "Calibration: K = {k:.4e} m²/N ({:.3} × nominal), r_t = {:.3} mm",
+            fit.removal_rate_ratio,
+            fit.process.tool_radius_mm()
+        ),
+        x_label: "radius r (mm)".to_string(),
+        y_label: "removal (nm)".to_string(),
+        series,
+        band: None,
+        secondary: None,
+    })
 }

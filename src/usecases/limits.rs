@@ -64,6 +64,8 @@ pub enum SizeLimitError {
     Etas { count: usize, max: usize },
     #[error("{count} trace points; this server allows at most {max}")]
     TracePoints { count: usize, max: usize },
+    #[error("{count} runs; a calibration takes 1 to {max}")]
+    Runs { count: usize, max: usize },
 }
 
 impl ComputeLimits {

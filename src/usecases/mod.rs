@@ -17,6 +17,7 @@
 //! Errors say which input is wrong in typed terms ([`Input`], and the physics, optimizer and
 //! study error enums); callers map them onto their own field names.
 
+pub mod calibration;
 pub mod eta_sweep;
 mod limits;
 pub mod measurement_fit;

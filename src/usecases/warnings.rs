@@ -2,6 +2,7 @@
 //! the target, decided an optimized plan; the plan misses its target; the input looks like a
 //! unit mistake.
 
+use crate::calibration::ProcessParameter;
 use crate::machine::{Drive, LimitKind};
 use crate::optimize::{Constraint, Constraints};
 use crate::physics::Process;
@@ -69,6 +70,44 @@ pub enum Warning {
     ProcessLooksLikeMetres {
         workpiece_radius_mm: f64,
         tool_radius_mm: f64,
+    },
+    /// Calibration: no run responds to this parameter (κ with no pad over the edge, say), so
+    /// it was held at its nominal value.
+    #[error(
+        "{}: no run's removal depends on it (for pad_moment_share: no pad overhangs the edge), \
+         so the runs carry no information on it; held at its nominal {held_at} (standard \
+         error unbounded)",
+        parameter.name()
+    )]
+    ParameterUndetermined {
+        parameter: ProcessParameter,
+        held_at: f64,
+    },
+    /// Calibration: the fitted value's 95 % interval is wider than the parameter could
+    /// plausibly be known without calibrating.
+    #[error(
+        "{} = {value:.6e} ± {standard_error:.3e} (standard error): the runs barely determine \
+         it; treat it as unknown (add runs that depend on it)",
+        parameter.name()
+    )]
+    ParameterPoorlyDetermined {
+        parameter: ProcessParameter,
+        value: f64,
+        standard_error: f64,
+    },
+    /// Calibration: a run's residual is far above its measurement noise: the model does not
+    /// explain it.
+    #[error(
+        "run {run}: the residual RMS {residual_rms_nm:.3} nm is more than 3× the {} noise of \
+         {noise_nm:.3} nm: the model does not explain this run (another process, motion or \
+         part, or a measurement artefact)",
+        if *expected { "expected" } else { "point-to-point" }
+    )]
+    ResidualAboveNoise {
+        run: usize,
+        residual_rms_nm: f64,
+        noise_nm: f64,
+        expected: bool,
     },
 }
 

@@ -48,9 +48,33 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let sw = "eta_sweep_figure7.json";
     let mf = "measurement_fit_asphere.json";
     let pg = "program_sphere.json";
+    let ca = "calibration_rings.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 27] = [
+    let cases: [(&str, &str, Value, &str, &str); 31] = [
+        // κ can be fitted only under the linear model (the fixture's is uniform).
+        (
+            ca,
+            "fit.pad_moment_share",
+            json!(true),
+            INVALID,
+            "fit.pad_moment_share",
+        ),
+        (
+            ca,
+            "expected_noise_nm",
+            json!(-1),
+            INVALID,
+            "expected_noise_nm",
+        ),
+        (ca, "runs", json!([]), INVALID, "runs"),
+        (
+            ca,
+            "fit.tool_radius",
+            json!("yes"),
+            SCHEMA,
+            "fit.tool_radius",
+        ),
         (
             rf,
             "tool_positions_mm",

@@ -128,7 +128,11 @@ fn three_rings_recover_the_planted_process() {
             assert!((m - p).abs() <= 0.01 * peak, "{m} vs {p} (peak {peak})");
         }
         // The residual is the noise planted.
-        assert!((run.residual_rms_nm / NOISE_NM - 1.0).abs() < 0.25, "{}", run.residual_rms_nm);
+        assert!(
+            (run.residual_rms_nm / NOISE_NM - 1.0).abs() < 0.25,
+            "{}",
+            run.residual_rms_nm
+        );
     }
 }
 
@@ -157,6 +161,9 @@ fn standard_errors_are_honest() {
     for (count, (parameter, _)) in covered.iter().zip(truth) {
         let fraction = *count as f64 / seeds as f64;
         println!("{parameter:?}: {fraction}");
-        assert!((0.90..=0.99).contains(&fraction), "{parameter:?}: {fraction}");
+        assert!(
+            (0.90..=0.99).contains(&fraction),
+            "{parameter:?}: {fraction}"
+        );
     }
 }

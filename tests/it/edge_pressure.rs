@@ -118,7 +118,12 @@ pub fn reference_pressure(rt: f64, r1: f64, kappa: f64) -> Pressure {
 
 /// K/(2π)·∫ p·V dθ over the arc of ring r under the pad, nm/min.
 pub fn reference_rate(spec: &ProcessSpec, kappa: f64, r: f64, r1: f64) -> f64 {
-    rate_under(spec, reference_pressure(spec.tool_radius_mm, r1, kappa), r, r1)
+    rate_under(
+        spec,
+        reference_pressure(spec.tool_radius_mm, r1, kappa),
+        r,
+        r1,
+    )
 }
 
 /// The rate at r of a pad at r1 pressing with `pressure`, nm/min.

@@ -35,7 +35,7 @@ fn default_pressure_kpa() -> f64 {
 /// η = −1 means workpiece and tool turning the same way at the same speed (uniform removal with
 /// equal dwell). The paper's experiment 1 (workpiece 10 r/min clockwise, tool 200 r/min
 /// counter-clockwise) is workpiece_rpm = −10, tool_rpm = 200 (η = +0.05).
-#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ProcessDto {
     /// Workpiece radius r_m in mm, in [0.001, 100000].
@@ -95,6 +95,27 @@ pub enum PressureModelDto {
 }
 
 impl ProcessDto {
+    /// A process as a request would give it (the part is the request's `surface` and `tool`).
+    pub fn from_spec(spec: &ProcessSpec) -> ProcessDto {
+        let (pressure_model, pad_moment_share) = match spec.pressure_model {
+            PressureModel::Uniform => (PressureModelDto::Uniform, None),
+            PressureModel::ConstantForce => (PressureModelDto::ConstantForce, None),
+            PressureModel::Linear { pad_moment_share } => {
+                (PressureModelDto::Linear, Some(pad_moment_share))
+            }
+        };
+        ProcessDto {
+            workpiece_radius_mm: spec.workpiece_radius_mm,
+            tool_radius_mm: spec.tool_radius_mm,
+            workpiece_rpm: spec.workpiece_rpm,
+            tool_rpm: spec.tool_rpm,
+            preston_coefficient_m2_per_n: spec.preston_coefficient_m2_per_n,
+            pressure_kpa: spec.pressure_kpa,
+            pressure_model,
+            pad_moment_share,
+        }
+    }
+
     /// The process as the core takes it (its pressure model parsed with κ).
     pub fn spec(&self) -> Result<ProcessSpec, ApiError> {
         let kind = match self.pressure_model {

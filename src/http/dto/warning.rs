@@ -38,6 +38,15 @@ pub enum WarningCode {
     /// The plan has zero dwell between positions with dwell at the position in `field`: no
     /// machine program can run it (set `constraints.min_dwell_s` > 0 or a feed limit).
     NotProgrammable,
+    /// Calibration: no run depends on the parameter in `field` (e.g. `fit.pad_moment_share`
+    /// with no pad over the edge): it was held at its nominal value, with no standard error.
+    ParameterUndetermined,
+    /// Calibration: the parameter in `field` was fitted, but its 95 % interval is wider than
+    /// 20 % of its value (0.25 for `pad_moment_share`): the runs barely determine it.
+    ParameterPoorlyDetermined,
+    /// Calibration: the run in `field` leaves a residual more than 3× its measurement noise
+    /// (`expected_noise_nm`, else the noise of its point-to-point differences).
+    ResidualAboveNoise,
 }
 
 impl WarningDto {
@@ -63,6 +72,17 @@ impl WarningDto {
             ),
             Warning::PositionsLookLikeMetres { .. } => {
                 (WarningCode::PositionsLookLikeMetres, positions.to_string())
+            }
+            Warning::ParameterUndetermined { parameter, .. } => (
+                WarningCode::ParameterUndetermined,
+                format!("fit.{}", parameter.name()),
+            ),
+            Warning::ParameterPoorlyDetermined { parameter, .. } => (
+                WarningCode::ParameterPoorlyDetermined,
+                format!("fit.{}", parameter.name()),
+            ),
+            Warning::ResidualAboveNoise { run, .. } => {
+                (WarningCode::ResidualAboveNoise, format!("runs[{run}]"))
             }
         };
         WarningDto {

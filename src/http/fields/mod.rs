@@ -2,6 +2,7 @@
 //! into problems naming the offending request field (`process.tool_rpm`,
 //! `dwell.positions_mm[3]`, `machine.x.max_velocity_mm_per_min`).
 
+mod calibration;
 mod measurement;
 
 use super::error::{ApiError, Kind, LimitViolation};

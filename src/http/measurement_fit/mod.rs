@@ -61,6 +61,16 @@ pub enum RobustDto {
     Tukey,
 }
 
+impl RobustDto {
+    pub fn loss(self) -> RobustLoss {
+        match self {
+            RobustDto::None => RobustLoss::None,
+            RobustDto::Huber => RobustLoss::Huber,
+            RobustDto::Tukey => RobustLoss::Tukey,
+        }
+    }
+}
+
 /// Which parameters to fit. Defaults: lateral offset, tilt and piston, less what the surface
 /// cannot determine (a plane has no lateral position; on a sphere a tilt is a lateral offset,
 /// so tilt is left out); not the radius.
@@ -292,11 +302,7 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
                 piston: fit.piston,
                 radius_of_curvature: fit.radius_of_curvature,
             },
-            robust: req.robust.map(|r| match r {
-                RobustDto::None => RobustLoss::None,
-                RobustDto::Huber => RobustLoss::Huber,
-                RobustDto::Tukey => RobustLoss::Tukey,
-            }),
+            robust: req.robust.map(RobustDto::loss),
             grid: GridSpec::from(req.radial_grid.as_ref()),
             aperture: ApertureSpec::from(req.clear_aperture.as_ref()),
         };

@@ -6,7 +6,7 @@
 (() => {
   const SVG_NS = 'http://www.w3.org/2000/svg'; // a namespace name, never fetched
   const KEY_STORE = 'preston-api-key';
-  const VIEWS = ['predict', 'optimize', 'measure'];
+  const VIEWS = ['predict', 'optimize', 'measure', 'calibrate'];
   // The API's paths, each written once.
   const API = {
     program: '/v1/program',
@@ -16,6 +16,7 @@
     predict: '/v1/predict',
     optimize: '/v1/optimize',
     measurementFit: '/v1/measurement/fit',
+    calibration: '/v1/calibration',
   };
   const COLOURS = ['#1f77b4', '#d62728', '#2ca02c', '#9467bd', '#ff7f0e'];
 
@@ -48,7 +49,7 @@
     }
   }
 
-  const calls = { predict: [], optimize: [], measure: [] };
+  const calls = { predict: [], optimize: [], measure: [], calibrate: [] };
 
   function apiKey() {
     return sessionStorage.getItem(KEY_STORE) || '';
@@ -622,7 +623,85 @@
     await program(view, o.dwell);
   }
 
-  const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure };
+  /** Ring tests as CSV rows `position_mm,duration_s,radius_mm,depth_nm`, one run per
+   * (position, duration) in order of appearance; a header row is skipped. Text that does not
+   * read as numbers is passed on for the API to name. */
+  function ringRuns(text) {
+    const runs = new Map();
+    for (const line of text.split(/\r?\n/)) {
+      const cells = line.split(',').map((c) => c.trim());
+      if (cells.length < 4 || cells.some((c) => c === '') || Number.isNaN(Number(cells[0]))) continue;
+      const [position, duration, radius, depth] = cells.map(Number);
+      const key = `${position}|${duration}`;
+      if (!runs.has(key)) {
+        runs.set(key, { ring: { position_mm: position, duration_s: duration }, removal: { radius_mm: [], depth_nm: [] } });
+      }
+      const run = runs.get(key);
+      run.removal.radius_mm.push(radius);
+      run.removal.depth_nm.push(depth);
+    }
+    return [...runs.values()];
+  }
+
+  async function runCalibrate() {
+    const view = 'calibrate';
+    const request = defined({
+      process: processInput(),
+      surface: surfaceInput(),
+      runs: ringRuns($('#rings_csv').value),
+      fit: {
+        preston_coefficient: true,
+        tool_radius: $('#fit_tool_radius').checked,
+        pad_moment_share: $('#fit_pad_moment_share').checked,
+      },
+      robust: $('#calibration_robust').value,
+    });
+    const c = await post(view, API.calibration, request);
+    draw(view, 'calibration', {
+      title: 'Measured and predicted removal',
+      xLabel: 'radius r (mm)', yLabel: 'removal (nm)',
+      series: c.runs.flatMap((r, i) => [
+        { name: `ring ${i + 1} measured`, points: zip(r.radius_mm, r.measured_nm) },
+        { name: `ring ${i + 1} calibrated`, points: zip(r.radius_mm, r.predicted_nm) },
+      ]),
+      fromZero: false,
+    });
+    downloads(view, 'calibration', c, repeat(view, API.calibration, request));
+    const shown = (e, scale = 1) => (e.standard_error === null
+      ? `${label(e.value * scale)} (not determined)`
+      : `${label(e.value * scale)} ± ${label(e.standard_error * scale)}`);
+    const p = c.parameters;
+    const items = [['Removal rate', `${label(c.removal_rate_ratio)} × nominal`]];
+    if (p.preston_coefficient_m2_per_n) items.push(['K (1e-13 m²/N)', shown(p.preston_coefficient_m2_per_n, 1e13)]);
+    if (p.tool_radius_mm) items.push(['Pad radius (mm)', shown(p.tool_radius_mm)]);
+    if (p.pad_moment_share) items.push(['Moment share κ', shown(p.pad_moment_share)]);
+    items.push(['Residual RMS per ring', c.runs.map((r) => `${label(r.residual_rms_nm)} nm`).join(', ')]);
+    for (const w of c.warnings) items.push(['Warning', w.message]);
+    summary(view, 'calibrate', items);
+    const use = h('button', { type: 'button' }, 'Use the calibrated process in every view');
+    use.addEventListener('click', () => {
+      $('#preston_coefficient_m2_per_n').value = c.process.preston_coefficient_m2_per_n;
+      $('#tool_radius_mm').value = c.process.tool_radius_mm;
+      if (c.process.pad_moment_share !== undefined) $('#pad_moment_share').value = c.process.pad_moment_share;
+      saveState(view);
+    });
+    $('[data-use="calibrate"]').replaceChildren(use);
+  }
+
+  /** The OpenAPI document's example calibration, as ring CSV rows. */
+  async function loadExampleRings() {
+    const spec = await (await fetch('/openapi.json')).json();
+    const example = spec.paths[API.calibration].post.requestBody.content['application/json'].example;
+    const rows = ['position_mm,duration_s,radius_mm,depth_nm'];
+    for (const run of example.runs) {
+      run.removal.radius_mm.forEach((r, i) => rows.push(
+        `${run.ring.position_mm},${run.ring.duration_s},${r},${run.removal.depth_nm[i]}`));
+    }
+    $('#rings_csv').value = rows.join('\n');
+    $('#fit_tool_radius').checked = Boolean(example.fit && example.fit.tool_radius);
+  }
+
+  const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure, calibrate: runCalibrate };
 
   /** One pass of a view: 'ok' or 'problem' (shown). */
   async function pass(view) {
@@ -743,10 +822,12 @@
       tab.addEventListener('click', () => {
         const view = tab.dataset.view;
         select(view);
-        // Rerun a view whose results are from another set-up; measure waits for its trace.
+        // Rerun a view whose results are from another set-up; measure and calibrate wait for
+        // their data.
         const shown = section(view);
         const ranBefore = shown.dataset.setup !== undefined;
-        if ((view !== 'measure' || ranBefore) && shown.dataset.setup !== setupStamp()) run(view);
+        const waits = view === 'measure' || view === 'calibrate';
+        if ((!waits || ranBefore) && shown.dataset.setup !== setupStamp()) run(view);
       });
       tab.addEventListener('keydown', (event) => {
         const step = { ArrowRight: 1, ArrowLeft: -1 }[event.key];
@@ -772,8 +853,13 @@
       const file = event.target.files[0];
       if (file) $('#trace_csv').value = await file.text();
     });
+    $('#example-rings').addEventListener('click', () => loadExampleRings().catch((e) => showProblem('calibrate', e)));
+    $('#rings_file').addEventListener('change', async (event) => {
+      const file = event.target.files[0];
+      if (file) $('#rings_csv').value = await file.text();
+    });
     select(view);
-    if (view !== 'measure') run(view);
+    if (view !== 'measure' && view !== 'calibrate') run(view);
   }
 
   start();

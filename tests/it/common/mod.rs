@@ -200,6 +200,8 @@ pub fn endpoint_of(fixture: &str) -> &'static str {
         "/v1/measurement/fit"
     } else if fixture.starts_with("program") {
         "/v1/program"
+    } else if fixture.starts_with("calibration") {
+        "/v1/calibration"
     } else {
         panic!("no endpoint for fixture {fixture}")
     }

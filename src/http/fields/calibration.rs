@@ -1,0 +1,85 @@
+//! Where the calibration's inputs sit in its request: each run's motion (`runs[i].ring`,
+//! `runs[i].dwell`), its profiles (`runs[i].removal.radius_mm[k]`), its aperture, `fit`.
+
+use super::super::error::{ApiError, Kind};
+use crate::calibration::{CalibrationError, FitFailure, ProfileRole, RunError};
+use crate::usecases::calibration::CalibrationInputError;
+
+fn role_name(role: ProfileRole) -> &'static str {
+    match role {
+        ProfileRole::Removal => "removal",
+        ProfileRole::Before => "before",
+        ProfileRole::After => "after",
+    }
+}
+
+fn run_error(index: usize, error: RunError) -> ApiError {
+    let run = format!("runs[{index}]");
+    let detail = format!("run {index}: {error}");
+    let field = match &error {
+        // Which motion the run had is not in the error: a ring's position has no index.
+        RunError::Position(e) if e.field() == "position_mm" => format!("{run}.ring.position_mm"),
+        RunError::Position(e) => {
+            let mut field = format!("{run}.dwell.{}", e.field());
+            if let Some(i) = e.index() {
+                field.push_str(&format!("[{i}]"));
+            }
+            field
+        }
+        RunError::Duration { .. } => format!("{run}.ring.duration_s"),
+        RunError::Profile { role, error } => {
+            let (member, index) = error.field();
+            let mut field = format!("{run}.{}.{member}", role_name(*role));
+            if let Some(i) = index {
+                field.push_str(&format!("[{i}]"));
+            }
+            field
+        }
+        RunError::NoOverlap => format!("{run}.after"),
+        RunError::Aperture(e) => match e.field() {
+            Some(member) => format!("{run}.clear_aperture.{member}"),
+            None => format!("{run}.clear_aperture"),
+        },
+        RunError::NothingInAperture => format!("{run}.clear_aperture"),
+    };
+    ApiError::invalid(field, detail)
+}
+
+impl From<CalibrationInputError> for ApiError {
+    fn from(err: CalibrationInputError) -> Self {
+        use CalibrationInputError as E;
+        match err {
+            E::Setting(e) => e.into(),
+            E::Runs(e) => ApiError::from_limit("runs", e),
+            E::Points(e) => ApiError::from_limit("runs", e),
+            E::Positions { run, error } => {
+                ApiError::from_limit(&format!("runs[{run}].dwell.positions_mm"), error)
+            }
+            E::Noise => ApiError::invalid("expected_noise_nm", err.to_string()),
+            E::Calibration(e) => match e {
+                CalibrationError::NoRuns => ApiError::invalid("runs", e.to_string()),
+                CalibrationError::Run { index, error } => run_error(index, error),
+                CalibrationError::NothingToFit => ApiError::invalid("fit", e.to_string()),
+                CalibrationError::MomentShareNeedsLinear => {
+                    ApiError::invalid("fit.pad_moment_share", e.to_string())
+                }
+                CalibrationError::TooFewPoints { .. } => ApiError::invalid("runs", e.to_string()),
+            },
+        }
+    }
+}
+
+impl From<FitFailure> for ApiError {
+    fn from(err: FitFailure) -> Self {
+        match &err {
+            FitFailure::Undetermined { parameters } => {
+                let field = parameters
+                    .first()
+                    .filter(|p| !p.contains(' '))
+                    .map_or("fit".to_string(), |p| format!("fit.{p}"));
+                ApiError::invalid(field, err.to_string())
+            }
+            _ => ApiError::new(Kind::SolverNotConverged, err.to_string()),
+        }
+    }
+}
