@@ -113,6 +113,18 @@ async function program(name: string): Promise<void> {
   check(name, velocity === null || velocity <= 1, "B velocity within its limit");
 }
 
+async function calibration(name: string): Promise<void> {
+  const body = read<Schemas["CalibrationRequest"]>(name);
+  const { data, error } = await client.POST("/v1/calibration", { body });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const k: Schemas["EstimateDto"] | undefined = data.parameters.preston_coefficient_m2_per_n;
+  const se: number | null | undefined = k?.standard_error;
+  check(name, k !== undefined && se !== null && se !== undefined && se > 0, "K with its standard error");
+  check(name, data.process.preston_coefficient_m2_per_n === k?.value, "the calibrated process carries K");
+  check(name, data.runs.length === body.runs.length, "one fit per run");
+}
+
 // An error comes back typed as the problem it is.
 async function problem(): Promise<void> {
   const body = read<Schemas["PredictRequest"]>("predict_paper_exp2.json");
@@ -131,6 +143,7 @@ const runners: [string, (name: string) => Promise<void>][] = [
   ["eta_sweep_", etaSweep],
   ["measurement_fit_", measurementFit],
   ["program_", program],
+  ["calibration_", calibration],
 ];
 let calls = 0;
 for (const name of readdirSync(fixtures).filter((f) => f.endsWith(".json")).sort()) {

@@ -15,6 +15,7 @@ client_dir, base_url = sys.argv[1], sys.argv[2]
 sys.path.insert(0, client_dir)
 
 from preston_client import Client  # noqa: E402
+from preston_client.api.calibration import calibrate  # noqa: E402
 from preston_client.api.machine import generate_program  # noqa: E402
 from preston_client.api.metrology import fit_measurement  # noqa: E402
 from preston_client.api.optimize import optimize_dwell  # noqa: E402
@@ -39,6 +40,7 @@ OPERATIONS = {
         models.MeasurementFitResponse,
     ),
     "program_": (generate_program, models.ProgramRequest, models.ProgramResponse),
+    "calibration_": (calibrate, models.CalibrationRequest, models.CalibrationResponse),
 }
 
 root = pathlib.Path(__file__).resolve().parent.parent
