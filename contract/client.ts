@@ -118,7 +118,7 @@ async function calibration(name: string): Promise<void> {
   const { data, error } = await client.POST("/v1/calibration", { body });
   check(name, error === undefined && data !== undefined, JSON.stringify(error));
   if (!data) return;
-  const k: Schemas["EstimateDto"] | undefined = data.parameters.preston_coefficient_m2_per_n;
+  const k: Schemas["EstimateDto"] | null | undefined = data.parameters.preston_coefficient_m2_per_n;
   const se: number | null | undefined = k?.standard_error;
   check(name, k !== undefined && se !== null && se !== undefined && se > 0, "K with its standard error");
   check(name, data.process.preston_coefficient_m2_per_n === k?.value, "the calibrated process carries K");

@@ -10,6 +10,7 @@
 
 pub mod auth;
 pub mod calibration;
+pub mod csv_body;
 pub mod docs;
 pub mod dto;
 pub mod endpoint;

@@ -21,10 +21,11 @@ pub enum ReadError {
     #[error("CSV: {0}")]
     Csv(String),
     #[error(
-        "a CSV trace starts with a header naming the columns {0} and {1} (or with a row of \
-         numbers: {0} then {1})"
+        "the CSV starts with a header naming the columns {} (or with a row of numbers in that \
+         order)",
+        .0.join(", ")
     )]
-    NoHeader(&'static str, &'static str),
+    NoHeader(Vec<&'static str>),
     /// The `index`-th value of `column` (0-based, counting values) on `row` (1-based, counting
     /// lines read) is not a finite number.
     #[error("CSV row {row}: `{text}` is not a finite number")]
@@ -36,18 +37,21 @@ pub enum ReadError {
     },
 }
 
-/// Two columns of finite numbers from CSV text: optional `#` comment lines, an optional header
+/// N columns of finite numbers from CSV text: optional `#` comment lines, an optional header
 /// naming `names` (matched without regard to case or quotes; other columns ignored), then one
-/// point per row; without a header the first two columns are read. Blank rows are skipped.
-pub fn read_columns(bytes: &[u8], names: [&'static str; 2]) -> Result<[Vec<f64>; 2], ReadError> {
+/// point per row; without a header the first N columns are read. Blank rows are skipped.
+pub fn read_columns<const N: usize>(
+    bytes: &[u8],
+    names: [&'static str; N],
+) -> Result<[Vec<f64>; N], ReadError> {
     let mut reader = ::csv::ReaderBuilder::new()
         .has_headers(false)
         .comment(Some(b'#'))
         .trim(::csv::Trim::All)
         .flexible(true)
         .from_reader(bytes);
-    let mut out = [Vec::new(), Vec::new()];
-    let mut columns: Option<[usize; 2]> = None;
+    let mut out: [Vec<f64>; N] = std::array::from_fn(|_| Vec::new());
+    let mut columns: Option<[usize; N]> = None;
     for (line, record) in reader.records().enumerate() {
         let record = record.map_err(|e| ReadError::Csv(e.to_string()))?;
         if record.iter().all(str::is_empty) {
@@ -60,18 +64,19 @@ pub fn read_columns(bytes: &[u8], names: [&'static str; 2]) -> Result<[Vec<f64>;
                     let name_of = |h: &str| h.trim_matches('"').eq_ignore_ascii_case(name);
                     record.iter().position(name_of)
                 };
-                if let (Some(a), Some(b)) = (find(names[0]), find(names[1])) {
-                    columns = Some([a, b]);
+                let found: Vec<usize> = names.iter().filter_map(|n| find(n)).collect();
+                if let Ok(found) = <[usize; N]>::try_from(found) {
+                    columns = Some(found);
                     continue;
                 }
                 if record.get(0).is_none_or(|v| v.parse::<f64>().is_err()) {
-                    return Err(ReadError::NoHeader(names[0], names[1]));
+                    return Err(ReadError::NoHeader(names.to_vec()));
                 }
-                *columns.insert([0, 1])
+                *columns.insert(std::array::from_fn(|k| k))
             }
         };
         let index = out[0].len();
-        for k in 0..2 {
+        for k in 0..N {
             let text = record.get(at[k]).unwrap_or("");
             let value = text
                 .parse::<f64>()
@@ -124,7 +129,7 @@ mod tests {
         );
         assert_eq!(
             super::read_columns(b"a,b\n1,2\n", names),
-            Err(super::ReadError::NoHeader("x_mm", "z_mm"))
+            Err(super::ReadError::NoHeader(vec!["x_mm", "z_mm"]))
         );
     }
 }

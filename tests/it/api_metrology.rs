@@ -93,7 +93,7 @@ async fn a_csv_trace_gives_the_json_answer() {
     assert_eq!(both.json()["field"], "robust");
 }
 
-fn urlencode(text: &str) -> String {
+pub fn urlencode(text: &str) -> String {
     text.bytes()
         .map(|b| match b {
             b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'.' | b'_' => (b as char).to_string(),

@@ -5,10 +5,11 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-mod csv_body;
+mod csv_query;
 
-pub use csv_body::{CsvQuery, FitBody};
+pub use csv_query::CsvQuery;
 
+use super::csv_body::{self, CsvOrJson};
 use super::dto::{ApertureEcho, ClearApertureDto, RadialGridDto, SurfaceDto};
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
@@ -23,7 +24,6 @@ use crate::usecases::measurement_fit::{
 };
 use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec};
 use utoipa::openapi::path::Operation;
-use utoipa::openapi::{Content, ObjectBuilder, Type};
 use utoipa::IntoParams;
 
 /// A meridian trace in machine coordinates, mm: X across the spindle axis (both sides
@@ -265,7 +265,7 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
         ok: "The alignment, residuals, form error and correction target; as CSV, the residual table; as SVG, a chart",
     };
     type Request = MeasurementFitRequest;
-    type Body = FitBody;
+    type Body = CsvOrJson<MeasurementFitRequest>;
     type Command = MeasurementFitCommand;
     type Output = MeasurementFit;
     type Response = MeasurementFitResponse;
@@ -274,12 +274,8 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
 
     /// The body may also be the probe's `text/csv` export, with the other fields in the query.
     fn document(operation: &mut Operation) {
-        let mut csv = Content::new(Some(ObjectBuilder::new().schema_type(Type::String)));
-        csv.example = Some("x_mm,z_mm\n-10.0,0.1667\n0.0,0.0\n10.0,0.1667\n".into());
-        if let Some(body) = operation.request_body.as_mut() {
-            body.content.insert("text/csv".to_string(), csv);
-        }
-        operation.parameters = Some(CsvQuery::into_params(|| None));
+        let example = "x_mm,z_mm\n-10.0,0.1667\n0.0,0.0\n10.0,0.1667\n";
+        csv_body::document(operation, example, CsvQuery::into_params(|| None));
     }
 
     fn parse(req: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {

@@ -1,13 +1,19 @@
 //! `POST /v1/calibration`: the process's removal rate (and pad radius, moment share) fitted to
 //! what ring tests or production runs removed.
 
-use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
+mod csv_query;
 
+use csv_query::CalibrationCsvQuery;
+
+use serde::{Deserialize, Serialize};
+use utoipa::openapi::path::Operation;
+use utoipa::{IntoParams, ToSchema};
+
+use super::csv_body::{self, CsvOrJson};
 use super::dto::{ClearApertureDto, DwellDto, ProcessDto, SurfaceDto, ToolDto, WarningDto};
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
-use super::extract::{object, optional_object, ApiJson};
+use super::extract::{object, optional_object};
 use super::measurement_fit::RobustDto;
 use super::state::Services;
 use crate::calibration::{Measured, Motion, ProcessParameter, Profile, RunSpec};
@@ -244,7 +250,7 @@ fn run_spec(index: usize, run: RunDto) -> Result<RunSpec, ApiError> {
 
 impl Endpoint for CalibrationEndpoint {
     const NAME: &'static str = "calibration";
-    const EXAMPLE: &'static str = include_str!("../../fixtures/calibration_rings.json");
+    const EXAMPLE: &'static str = include_str!("../../../fixtures/calibration_rings.json");
     const DOC: Doc = Doc {
         operation_id: "calibrate",
         tag: "calibration",
@@ -253,17 +259,29 @@ impl Endpoint for CalibrationEndpoint {
 profile, or the form error before and after). K, and if asked r_t and κ, are fitted by\n\
 nonlinear least squares with a free piston per run; standard errors come from the Jacobian\n\
 and the residual variance with n − p degrees of freedom. The answer's `process` is the\n\
-calibrated process, for every other endpoint. `Accept: text/csv` gives one row per measured\n\
-point (run, radius, measured, predicted), `Accept: image/svg+xml` a chart of them.",
+calibrated process, for every other endpoint. The body may be JSON, or `text/csv` with\n\
+`run,radius_mm,depth_nm` columns (each run's removal profile; runs counted from 0) and the\n\
+other fields, `runs` without their removal, as query parameters. `Accept: text/csv` gives one\n\
+row per measured point (run, radius, measured, predicted), `Accept: image/svg+xml` a chart.",
         ok: "The fitted parameters, per-run fits and the calibrated process; as CSV the points, as SVG a chart",
     };
     type Request = CalibrationRequest;
-    type Body = ApiJson<CalibrationRequest>;
+    type Body = CsvOrJson<CalibrationRequest>;
     type Command = CalibrationCommand;
     type Output = CalibrationResult;
     type Response = CalibrationResponse;
     const CSV: Option<fn(&CalibrationResult) -> String> = Some(results::calibration_csv);
     const SVG: Option<fn(&CalibrationResult) -> String> = Some(results::calibration_svg);
+
+    /// The body may also be the profilometer's `text/csv`, with the other fields in the query.
+    fn document(operation: &mut Operation) {
+        let example = "run,radius_mm,depth_nm\n0,14.0,61.2\n0,15.0,63.0\n1,30.0,48.7\n";
+        csv_body::document(
+            operation,
+            example,
+            CalibrationCsvQuery::into_params(|| None),
+        );
+    }
 
     fn parse(req: CalibrationRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let process = req.process.spec()?;
