@@ -1,13 +1,13 @@
 //! Weighted nonlinear least squares: minimise S(p) = Σ wᵢ·eᵢ(p)² by Levenberg–Marquardt, with
-//! standard errors and robust reweighting. Used by the calibration fit.
+//! standard errors and robust reweighting. Used by the measurement fit and calibration.
 //!
 //! Each step solves the damped problem on the column-scaled weighted Jacobian
 //! A = W^½·J·D⁻¹ (D the columns' norms) through its SVD A = U·S·Vᵀ:
 //! δ̃ = −V·diag(s/(s² + λ))·Uᵀ·W^½·e, δ = D⁻¹·δ̃ (λ = 0, Gauss–Newton, tried first; λ grows
 //! tenfold until the cost falls and shrinks tenfold after a success). A trial point the model
 //! cannot evaluate (outside its domain) counts as a rise. It stops when the Gauss–Newton step
-//! is below 1e-8 of the residual norm, or when no step lowers the cost by more than its
-//! rounding (1e-14 relative). A singular value below 1e-10 of the largest means the data
+//! is below 1e-8 of the residual norm (plus the caller's floor per unit weight), or when no
+//! step lowers the cost by more than its rounding (1e-14 relative). A singular value below 1e-10 of the largest means the data
 //! cannot tell some parameters apart: the error names them (the columns of the weakest
 //! singular direction), never an arbitrary answer.
 //!
@@ -187,7 +187,9 @@ fn least_squares<M: Model>(
     weights: &[f64],
     start: Vec<f64>,
     max_steps: usize,
+    floor: f64,
 ) -> Result<Minimum, LsqError<M::Error>> {
+    let total_weight: f64 = weights.iter().sum();
     let mut p = start;
     let mut residuals = model.residuals(&p).map_err(LsqError::Model)?;
     let mut current = cost(&residuals, weights);
@@ -205,7 +207,7 @@ fn least_squares<M: Model>(
             .collect();
         let gauss_newton = lin.step(&projected, 0.0);
         let size = gauss_newton.iter().map(|d| d * d).sum::<f64>().sqrt();
-        if size <= 1e-8 * current.sqrt() {
+        if size <= 1e-8 * current.sqrt() + floor * total_weight.sqrt() {
             return Ok((p, residuals, steps - 1));
         }
         let s_max2 = lin.s.iter().fold(0f64, |a, &s| a.max(s * s));
@@ -293,16 +295,19 @@ pub fn robust_weight(loss: RobustLoss, u: f64) -> f64 {
     }
 }
 
-/// Fits `model` from `start` under `loss`, at most `max_steps` steps per weighting.
+/// Fits `model` from `start` under `loss`, at most `max_steps` steps per weighting; a
+/// Gauss–Newton step below `floor` (residual units per unit weight) also ends it.
 pub fn fit<M: Model>(
     model: &M,
     start: Vec<f64>,
     points: usize,
     loss: RobustLoss,
     max_steps: usize,
+    floor: f64,
 ) -> Result<Fit, LsqError<M::Error>> {
     let mut weights = vec![1.0; points];
-    let (mut p, mut residuals, mut steps) = least_squares(model, &weights, start, max_steps)?;
+    let (mut p, mut residuals, mut steps) =
+        least_squares(model, &weights, start, max_steps, floor)?;
     let mut reweightings = 0;
     let mut robust_scale_found = None;
     if loss != RobustLoss::None {
@@ -328,7 +333,7 @@ pub fn fit<M: Model>(
             }
             weights = next;
             reweightings += 1;
-            let (q, e, more) = least_squares(model, &weights, p, max_steps)?;
+            let (q, e, more) = least_squares(model, &weights, p, max_steps, floor)?;
             (p, residuals, steps) = (q, e, steps + more);
         }
     }
@@ -418,7 +423,7 @@ mod tests {
             y,
             ignore_b: false,
         };
-        let fit = fit(&model, vec![1.0, 0.2], 20, RobustLoss::None, 100).unwrap();
+        let fit = fit(&model, vec![1.0, 0.2], 20, RobustLoss::None, 100, 0.0).unwrap();
         assert!(
             (fit.parameters[0] - 3.0).abs() < 1e-12,
             "{:?}",
@@ -433,7 +438,7 @@ mod tests {
             ignore_b: true,
             ..model
         };
-        let err = super::fit(&blind, vec![1.0, 0.2], 20, RobustLoss::None, 100).unwrap_err();
+        let err = super::fit(&blind, vec![1.0, 0.2], 20, RobustLoss::None, 100, 0.0).unwrap_err();
         assert_eq!(
             err,
             LsqError::Undetermined {

@@ -385,7 +385,7 @@ impl Calibration {
                 Slot::Piston(_) | Slot::Power(_) => 0.0,
             })
             .collect();
-        let fit = lsq::fit(&model, start, self.points(), self.robust, MAX_STEPS)
+        let fit = lsq::fit(&model, start, self.points(), self.robust, MAX_STEPS, 0.0)
             .map_err(|e| model.failure(e))?;
         Ok(model.report(&fit))
     }

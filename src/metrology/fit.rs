@@ -7,30 +7,25 @@
 //! ∂e/∂ΔX = g′(X′),   ∂e/∂Δτ = (X′ + ΔX) + g′(X′)·(Z′ + Δz),   ∂e/∂Δz = −1,   ∂e/∂c = −∂z/∂c(r)
 //! ```
 //!
-//! (r the contact radius). Each Levenberg–Marquardt step solves the damped least-squares problem
-//! on the column-scaled weighted Jacobian A = W^½·J·D⁻¹ through its SVD A = U·S·Vᵀ:
-//! δ̃ = −V·diag(s/(s² + λ))·Uᵀ·W^½·e, δ = D⁻¹·δ̃ (λ = 0 is the Gauss–Newton step, tried first).
-//! A step is kept only if it lowers the cost and keeps every point on the design; it stops when
-//! the Gauss–Newton step is below 1e-8 of the residual norm (plus 1e-13 mm per unit weight), or
-//! when no step lowers the cost by more than its rounding (1e-14 relative).
-//! A singular value below 1e-10 of the largest means the trace cannot tell some parameters
-//! apart: that is an error naming them, never an arbitrary answer.
-//!
-//! Standard errors are √(σ²·(JᵀWJ)⁻¹ⱼⱼ) with σ² = Σwᵢeᵢ²/(n − m), n the points with weight > 0
-//! and m the free parameters (for robust losses, the usual approximation at the final weights).
-//! A robust loss reweights from the plain fit with the scale σ̂ = 1.4826·median|e|,
-//! refitting from the last parameters until no weight moves by more than 1e-9.
+//! (r the contact radius). The fit is weighted least squares on these ([`crate::lsq`]:
+//! Levenberg–Marquardt through the SVD of the column-scaled Jacobian, robust reweighting,
+//! standard errors √(σ²·(JᵀWJ)⁻¹ⱼⱼ) with σ² over n − m). A step is kept only if it lowers the
+//! cost and keeps every point on the design. A trace that cannot tell some parameters apart
+//! is an error naming them, never an arbitrary answer. The vertex radius's standard error
+//! comes from the curvature's by the delta method, σ_R = σ_c/c².
 
 use faer::Mat;
 
+use crate::lsq::{self, LsqError, Model};
+
 use super::probe::{Probe, ProbeError};
-use super::{FitProblem, Parameter, RobustLoss};
-use crate::lsq::{robust_scale, robust_weight};
+use super::{FitProblem, Parameter};
 use crate::surface::Surface;
 
 const MAX_STEPS: usize = 200;
-const MAX_REWEIGHTS: usize = 100;
-const MAX_DAMPINGS: usize = 60;
+/// A Gauss–Newton step below this residual norm per unit weight (mm) counts as converged:
+/// an exact trace's cost sits at rounding.
+const RESIDUAL_FLOOR_MM: f64 = 1e-13;
 
 /// The part's placement in the machine, and the design with the fitted radius.
 #[derive(Debug, Clone, PartialEq)]
@@ -186,167 +181,42 @@ fn evaluate(problem: &FitProblem, p: &Params) -> Result<Evaluation, FitError> {
     })
 }
 
-fn cost(residual: &[f64], weights: &[f64]) -> f64 {
-    residual.iter().zip(weights).map(|(e, w)| w * e * e).sum()
-}
-
-/// The scaled weighted Jacobian's SVD, and the scales D.
-struct Linearisation {
-    scales: Vec<f64>,
-    u: Mat<f64>,
-    s: Vec<f64>,
-    v: Mat<f64>,
-}
-
-fn linearise(
-    eval: &Evaluation,
-    weights: &[f64],
-    free: &[usize],
-) -> Result<Linearisation, FitError> {
-    let n = eval.residual.len();
-    let scales: Vec<f64> = free
-        .iter()
-        .map(|&j| {
-            eval.jacobian
-                .iter()
-                .zip(weights)
-                .map(|(row, w)| w * row[j] * row[j])
-                .sum::<f64>()
-                .sqrt()
-        })
-        .collect();
-    if let Some(k) = scales.iter().position(|&d| !(d > 0.0 && d.is_finite())) {
-        return Err(FitError::Undetermined {
-            parameters: vec![Parameter::ALL[free[k]]],
-        });
-    }
-    let a = Mat::from_fn(n, free.len(), |i, k| {
-        weights[i].sqrt() * eval.jacobian[i][free[k]] / scales[k]
-    });
-    let svd = a
-        .thin_svd()
-        .map_err(|_| FitError::NotConverged { steps: 0 })?;
-    let s: Vec<f64> = (0..free.len())
-        .map(|k| svd.S().column_vector()[k])
-        .collect();
-    let (largest, smallest) = s
-        .iter()
-        .fold((0f64, f64::INFINITY), |(hi, lo), &x| (hi.max(x), lo.min(x)));
-    let v = svd.V().to_owned();
-    if smallest.is_nan() || smallest <= 1e-10 * largest {
-        let k = (0..free.len())
-            .min_by(|&a, &b| s[a].total_cmp(&s[b]))
-            .expect("at least one parameter");
-        let parameters = (0..free.len())
-            .filter(|&j| v[(j, k)].abs() > 0.2)
-            .map(|j| Parameter::ALL[free[j]])
-            .collect();
-        return Err(FitError::Undetermined { parameters });
-    }
-    Ok(Linearisation {
-        scales,
-        u: svd.U().to_owned(),
-        s,
-        v,
-    })
-}
-
-impl Linearisation {
-    /// The damped step in scaled coordinates, δ̃ = −V·diag(s/(s² + λ))·Uᵀ·r.
-    fn step(&self, projected: &[f64], lambda: f64) -> Vec<f64> {
-        let m = self.s.len();
-        (0..m)
-            .map(|j| {
-                -(0..m)
-                    .map(|l| {
-                        self.v[(j, l)] * self.s[l] / (self.s[l] * self.s[l] + lambda) * projected[l]
-                    })
-                    .sum::<f64>()
-            })
-            .collect()
-    }
-
-    /// (JᵀWJ)⁻¹ⱼⱼ for the free parameter j.
-    fn covariance_diagonal(&self, j: usize) -> f64 {
-        let m = self.s.len();
-        (0..m)
-            .map(|l| (self.v[(j, l)] / self.s[l]).powi(2))
-            .sum::<f64>()
-            / (self.scales[j] * self.scales[j])
-    }
-}
-
-/// Weighted least squares from `start`: the parameters, the evaluation there, the steps taken.
-fn least_squares(
-    problem: &FitProblem,
-    weights: &[f64],
+/// The fit as [`lsq`] sees it: the free parameters only, the others held at `start`.
+struct AlignmentModel<'a> {
+    problem: &'a FitProblem,
+    free: &'a [usize],
     start: Params,
-    free: &[usize],
-    max_steps: usize,
-) -> Result<(Params, Evaluation, usize), FitError> {
-    let mut p = start;
-    let mut eval = evaluate(problem, &p)?;
-    let mut current = cost(&eval.residual, weights);
-    let total_weight: f64 = weights.iter().sum();
-    let mut lambda = 0.0;
-    for steps in 1..=max_steps {
-        let lin = linearise(&eval, weights, free)?;
-        let r: Vec<f64> = eval
-            .residual
-            .iter()
-            .zip(weights)
-            .map(|(e, w)| w.sqrt() * e)
-            .collect();
-        let projected: Vec<f64> = (0..free.len())
-            .map(|l| (0..r.len()).map(|i| lin.u[(i, l)] * r[i]).sum())
-            .collect();
-        let gauss_newton = lin.step(&projected, 0.0);
-        let size = gauss_newton.iter().map(|d| d * d).sum::<f64>().sqrt();
-        if size <= 1e-8 * current.sqrt() + 1e-13 * total_weight.sqrt() {
-            return Ok((p, eval, steps - 1));
+}
+
+impl AlignmentModel<'_> {
+    fn params(&self, p: &[f64]) -> Params {
+        let mut all = self.start;
+        for (&j, &x) in self.free.iter().zip(p) {
+            all[j] = x;
         }
-        let s_max2 = lin.s.iter().fold(0f64, |a, &s| a.max(s * s));
-        let mut accepted = false;
-        for _ in 0..MAX_DAMPINGS {
-            let step = if lambda == 0.0 {
-                gauss_newton.clone()
-            } else {
-                lin.step(&projected, lambda)
-            };
-            let mut trial = p;
-            for (k, &j) in free.iter().enumerate() {
-                trial[j] += step[k] / lin.scales[k];
-            }
-            if let Ok(next) = evaluate(problem, &trial) {
-                let next_cost = cost(&next.residual, weights);
-                if next_cost < current {
-                    let stalled = current - next_cost <= 1e-14 * current;
-                    (p, eval, current) = (trial, next, next_cost);
-                    if stalled {
-                        // Less than rounding's worth of progress: this is the minimum.
-                        return Ok((p, eval, steps));
-                    }
-                    accepted = true;
-                    break;
-                }
-            }
-            lambda = if lambda == 0.0 {
-                1e-6 * s_max2
-            } else {
-                lambda * 10.0
-            };
-        }
-        if !accepted {
-            // No damping lowers the cost: we are at the minimum to rounding.
-            return Ok((p, eval, steps));
-        }
-        lambda = if lambda <= 1e-9 * s_max2 {
-            0.0
-        } else {
-            lambda / 10.0
-        };
+        all
     }
-    Err(FitError::NotConverged { steps: max_steps })
+}
+
+impl Model for AlignmentModel<'_> {
+    type Error = FitError;
+
+    fn parameters(&self) -> usize {
+        self.free.len()
+    }
+
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, FitError> {
+        Ok(evaluate(self.problem, &self.params(p))?.residual)
+    }
+
+    fn jacobian(&self, p: &[f64], _: &[f64]) -> Result<Mat<f64>, FitError> {
+        let eval = evaluate(self.problem, &self.params(p))?;
+        Ok(Mat::from_fn(
+            eval.jacobian.len(),
+            self.free.len(),
+            |i, k| eval.jacobian[i][self.free[k]],
+        ))
+    }
 }
 
 /// Fits the alignment (and optionally the radius) of a checked problem.
@@ -360,45 +230,37 @@ pub fn fit_within(problem: &FitProblem, max_steps: usize) -> Result<FitOutcome, 
         .filter(|&j| problem.parameters.contains(Parameter::ALL[j]))
         .collect();
     let start = [0.0, 0.0, 0.0, problem.surface.vertex_curvature_per_mm()];
-    let mut weights = vec![1.0; problem.x_mm.len()];
-    let (mut p, mut eval, mut iterations) =
-        least_squares(problem, &weights, start, &free, max_steps)?;
-    let mut reweightings = 0;
-    let mut scale = None;
-    if problem.robust != RobustLoss::None {
-        loop {
-            let sigma = robust_scale(&eval.residual);
-            if sigma.is_nan() || sigma <= 0.0 {
-                break; // an exact fit: nothing to reweight
-            }
-            scale = Some(sigma);
-            let next: Vec<f64> = eval
-                .residual
+    let model = AlignmentModel {
+        problem,
+        free: &free,
+        start,
+    };
+    let first: Vec<f64> = free.iter().map(|&j| start[j]).collect();
+    let n = problem.x_mm.len();
+    let found = lsq::fit(
+        &model,
+        first,
+        n,
+        problem.robust,
+        max_steps,
+        RESIDUAL_FLOOR_MM,
+    )
+    .map_err(|e| match e {
+        LsqError::Model(e) => e,
+        LsqError::NotConverged { steps } => FitError::NotConverged { steps },
+        LsqError::WeightsUnsettled { reweightings } => FitError::WeightsUnsettled { reweightings },
+        LsqError::Undetermined { parameters } => FitError::Undetermined {
+            parameters: parameters
                 .iter()
-                .map(|e| robust_weight(problem.robust, e / sigma))
-                .collect();
-            let moved = next
-                .iter()
-                .zip(&weights)
-                .fold(0f64, |m, (a, b)| m.max((a - b).abs()));
-            if moved <= 1e-9 {
-                break;
-            }
-            if reweightings == MAX_REWEIGHTS {
-                return Err(FitError::WeightsUnsettled { reweightings });
-            }
-            weights = next;
-            reweightings += 1;
-            let (q, e, steps) = least_squares(problem, &weights, p, &free, max_steps)?;
-            (p, eval, iterations) = (q, e, iterations + steps);
-        }
-    }
-    let lin = linearise(&eval, &weights, &free)?;
-    let kept = weights.iter().filter(|&&w| w > 0.0).count();
-    let variance = cost(&eval.residual, &weights) / (kept.saturating_sub(free.len()).max(1)) as f64;
+                .map(|&k| Parameter::ALL[free[k]])
+                .collect(),
+        },
+    })?;
+    let p = model.params(&found.parameters);
+    let eval = evaluate(problem, &p)?;
     let mut standard_errors = StandardErrors::default();
     for (k, &j) in free.iter().enumerate() {
-        let se = (variance * lin.covariance_diagonal(k)).sqrt();
+        let se = found.standard_error(k);
         let e = &mut standard_errors;
         match Parameter::ALL[j] {
             Parameter::LateralOffset => e.lateral_offset_mm = Some(se),
@@ -410,6 +272,12 @@ pub fn fit_within(problem: &FitProblem, max_steps: usize) -> Result<FitOutcome, 
             }
         }
     }
+    let (iterations, reweightings, scale, weights) = (
+        found.steps,
+        found.reweightings,
+        found.robust_scale,
+        found.weights,
+    );
     Ok(FitOutcome {
         alignment: Alignment {
             lateral_offset_mm: p[0],

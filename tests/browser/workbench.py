@@ -267,6 +267,25 @@ def main_flow(binary, screenshots):
         page.wait("the correction program", lambda: page.css('[data-program="measure"] a[data-download="program"]'))
         page.screenshot(screenshots, "measure")
 
+        # Calibrate: the example ring test (the calibration's OpenAPI example) on the plane it
+        # was made on; the calibrated process goes into the set-up.
+        driver.execute_script(
+            "const s = document.getElementById('surface_kind'); s.value = 'plane';"
+            " s.dispatchEvent(new Event('change'));")
+        page.one("#tab-calibrate").click()
+        page.one("#example-rings").click()
+        page.wait("the example rings",
+                  lambda: page.one("#rings_csv").get_attribute("value").count("\n") >= 150)
+        page.run_and_wait("calibrate", lambda: page.one('section[data-view="calibrate"] button[type="submit"]').click())
+        check(page.chart_drawn("calibration", 4), "measured and calibrated grooves drawn")
+        calibrated = page.text_of('[data-summary="calibrate"]')
+        check("Pad radius" in calibrated and "× nominal" in calibrated,
+              f"K and the pad radius reported ({calibrated[:80]!r}…)")
+        page.one('[data-use="calibrate"] button').click()
+        k = float(page.one("#preston_coefficient_m2_per_n").get_attribute("value"))
+        check(abs(k / 1.3e-13 - 1) < 0.01, f"the calibrated K is in the set-up ({k})")
+        page.screenshot(screenshots, "calibrate")
+
         # A shared link reopens the study.
         page.one("#tab-optimize").click()
         page.set("target_depth_nm", 250)

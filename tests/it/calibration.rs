@@ -292,44 +292,36 @@ async fn a_production_run_recovers_k() {
     );
 }
 
-/// The fixture's rings as a profilometer's CSV (`run,radius_mm,depth_nm`) with the other
-/// fields in the query give the JSON answer exactly; a row naming a run the query does not
-/// have is refused at `runs`.
+/// The fixture's rings as CSV (`position_mm,duration_s,radius_mm,depth_nm`) with the other
+/// fields in the query give the JSON answer exactly; a cell that is not a number is refused
+/// at `runs`.
 #[tokio::test]
 async fn rings_as_csv_give_the_json_answer() {
     let app = app();
     let text =
         std::fs::read_to_string(crate::common::fixture_path("calibration_rings.json")).unwrap();
     let body: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let mut csv = String::from("run,radius_mm,depth_nm\n");
-    let mut motions = Vec::new();
-    for (j, run) in body["runs"].as_array().unwrap().iter().enumerate() {
-        motions.push(json!({"ring": run["ring"]}));
+    let mut csv = String::from("position_mm,duration_s,radius_mm,depth_nm\n");
+    for run in body["runs"].as_array().unwrap() {
+        let (p, t) = (&run["ring"]["position_mm"], &run["ring"]["duration_s"]);
         let radii = numbers(&run["removal"]["radius_mm"]);
         let depths = numbers(&run["removal"]["depth_nm"]);
         for (r, d) in radii.iter().zip(&depths) {
-            csv.push_str(&format!("{j},{r},{d}\n"));
+            csv.push_str(&format!("{p},{t},{r},{d}\n"));
         }
     }
-    let query = |runs: &serde_json::Value| {
-        [
-            ("process", body["process"].to_string()),
-            ("runs", runs.to_string()),
-            ("fit", body["fit"].to_string()),
-        ]
+    let query = [("process", &body["process"]), ("fit", &body["fit"])]
         .iter()
-        .map(|(k, v)| format!("{k}={}", crate::api_metrology::urlencode(v)))
+        .map(|(k, v)| format!("{k}={}", crate::api_metrology::urlencode(&v.to_string())))
         .collect::<Vec<_>>()
-        .join("&")
-    };
+        .join("&");
     let csv_type = [("content-type", "text/csv")];
-    let path = format!("/v1/calibration?{}", query(&json!(motions)));
+    let path = format!("/v1/calibration?{query}");
     let from_csv = post_with(&app, &path, csv.clone(), &csv_type).await;
     assert_eq!(from_csv.status, 200, "{}", from_csv.text());
     let from_json = post_json(&app, "/v1/calibration", text).await;
     assert_eq!(from_csv.json(), from_json.json());
-    let path = format!("/v1/calibration?{}", query(&json!(motions[..1])));
-    let refused = post_with(&app, &path, csv, &csv_type).await;
+    let refused = post_with(&app, &path, csv.replacen("1200", "long", 1), &csv_type).await;
     assert_eq!(refused.status, 422, "{}", refused.text());
     assert_eq!(refused.json()["field"], "runs");
 }

@@ -1,19 +1,22 @@
-//! The calibration's request from a profilometer's `text/csv` (`run,radius_mm,depth_nm`
-//! columns) with the other fields as query parameters ([`super::super::csv_body`]).
+//! The calibration's request from ring tests as `text/csv`
+//! (`position_mm,duration_s,radius_mm,depth_nm` columns) with the other fields as query
+//! parameters ([`super::super::csv_body`]).
 
 use serde::Deserialize;
 use serde_json::{json, Map, Value};
 use utoipa::IntoParams;
 
 use super::super::csv_body::CsvForm;
-use super::super::error::{ApiError, Kind};
+use super::super::error::ApiError;
 use super::CalibrationRequest;
 use crate::report::table::read_columns;
 
-/// Query parameters for a `text/csv` body (columns `run,radius_mm,depth_nm`: each row one
-/// measured point of the removal of run `run`, counted from 0 in `runs`): each is the JSON
-/// field of the same name, e.g. `?process={…}&runs=[{"ring":{"position_mm":15,"duration_s":1200}}]`.
-/// Not allowed with a JSON body.
+/// Query parameters for a `text/csv` body of ring tests (columns
+/// `position_mm,duration_s,radius_mm,depth_nm`: each row one measured point of the groove the
+/// tool cut parked at `position_mm` for `duration_s`; one run per distinct position and
+/// duration, in order of first appearance): each is the JSON field of the same name, e.g.
+/// `?process={…}&fit={"tool_radius":true}`. Dwell runs and before/after profiles take a JSON
+/// body. Not allowed with a JSON body.
 #[derive(Debug, Deserialize, IntoParams)]
 #[into_params(parameter_in = Query)]
 #[allow(dead_code)] // documents the query; the extractor reads it as name/value pairs
@@ -24,9 +27,6 @@ pub struct CalibrationCsvQuery {
     surface: Option<String>,
     /// `tool` as JSON.
     tool: Option<String>,
-    /// `runs` as JSON: what each run ran (`ring` or `dwell`, and `clear_aperture`), without
-    /// what it removed (the CSV's rows).
-    runs: Option<String>,
     /// `fit` as JSON.
     fit: Option<String>,
     /// `robust`: `none`, `huber` or `tukey`.
@@ -40,53 +40,33 @@ impl CsvForm for CalibrationRequest {
         "process",
         "surface",
         "tool",
-        "runs",
         "fit",
         "robust",
         "expected_noise_nm",
     ];
 
-    /// Each row's radius and depth join the `removal` of the run its `run` column names.
+    /// The rows become ring runs: one per distinct (position, duration), its points in order.
     fn merge_csv(bytes: &[u8], body: &mut Map<String, Value>) -> Result<(), ApiError> {
-        let [run, radius, depth] = read_columns(bytes, ["run", "radius_mm", "depth_nm"])
+        let names = ["position_mm", "duration_s", "radius_mm", "depth_nm"];
+        let [position, duration, radius, depth] = read_columns(bytes, names)
             .map_err(|e| ApiError::invalid("runs", format!("the CSV body: {e}")))?;
-        let Some(Value::Array(runs)) = body.get_mut("runs") else {
-            return Err(ApiError::invalid(
-                "runs",
-                "a text/csv body needs the query parameter `runs`: a JSON array of what each \
-                 run ran (ring or dwell)",
-            ));
-        };
-        let count = runs.len();
-        for (row, ((&j, &r), &d)) in run.iter().zip(&radius).zip(&depth).enumerate() {
-            let index = Some(j)
-                .filter(|j| j.fract() == 0.0 && *j >= 0.0 && (*j as usize) < count)
-                .map(|j| j as usize)
-                .ok_or_else(|| {
-                    ApiError::invalid(
-                        "runs",
-                        format!(
-                            "CSV point {row}: run {j} is not one of the query's {count} runs \
-                             (counted from 0)"
-                        ),
-                    )
-                })?;
-            let Value::Object(target) = &mut runs[index] else {
-                return Err(ApiError::new(
-                    Kind::SchemaMismatch,
-                    format!("runs[{index}] must be an object"),
-                )
-                .at(format!("runs[{index}]")));
-            };
-            let removal = target
-                .entry("removal")
-                .or_insert_with(|| json!({"radius_mm": [], "depth_nm": []}));
-            for (member, value) in [("radius_mm", r), ("depth_nm", d)] {
-                if let Some(Value::Array(values)) = removal.get_mut(member) {
+        let mut keys: Vec<(f64, f64)> = Vec::new();
+        let mut runs: Vec<Value> = Vec::new();
+        for i in 0..position.len() {
+            let key = (position[i], duration[i]);
+            let j = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
+                keys.push(key);
+                runs.push(json!({"ring": {"position_mm": key.0, "duration_s": key.1},
+                                 "removal": {"radius_mm": [], "depth_nm": []}}));
+                runs.len() - 1
+            });
+            for (member, value) in [("radius_mm", radius[i]), ("depth_nm", depth[i])] {
+                if let Some(Value::Array(values)) = runs[j]["removal"].get_mut(member) {
                     values.push(json!(value));
                 }
             }
         }
+        body.insert("runs".to_string(), Value::Array(runs));
         Ok(())
     }
 }

@@ -259,10 +259,10 @@ impl Endpoint for CalibrationEndpoint {
 profile, or the form error before and after). K, and if asked r_t and κ, are fitted by\n\
 nonlinear least squares with a free piston per run; standard errors come from the Jacobian\n\
 and the residual variance with n − p degrees of freedom. The answer's `process` is the\n\
-calibrated process, for every other endpoint. The body may be JSON, or `text/csv` with\n\
-`run,radius_mm,depth_nm` columns (each run's removal profile; runs counted from 0) and the\n\
-other fields, `runs` without their removal, as query parameters. `Accept: text/csv` gives one\n\
-row per measured point (run, radius, measured, predicted), `Accept: image/svg+xml` a chart.",
+calibrated process, for every other endpoint. The body may be JSON, or ring tests as `text/csv`\n\
+(`position_mm,duration_s,radius_mm,depth_nm` columns: one run per distinct position and\n\
+duration) with the other fields as query parameters. `Accept: text/csv` gives one row per\n\
+measured point (run, radius, measured, predicted), `Accept: image/svg+xml` a chart.",
         ok: "The fitted parameters, per-run fits and the calibrated process; as CSV the points, as SVG a chart",
     };
     type Request = CalibrationRequest;
@@ -275,7 +275,8 @@ row per measured point (run, radius, measured, predicted), `Accept: image/svg+xm
 
     /// The body may also be the profilometer's `text/csv`, with the other fields in the query.
     fn document(operation: &mut Operation) {
-        let example = "run,radius_mm,depth_nm\n0,14.0,61.2\n0,15.0,63.0\n1,30.0,48.7\n";
+        let example = "position_mm,duration_s,radius_mm,depth_nm\n15,1200,14.0,61.2\n\
+                       15,1200,15.0,63.0\n30,900,30.0,48.7\n";
         csv_body::document(
             operation,
             example,
