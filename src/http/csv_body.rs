@@ -20,6 +20,8 @@ const CSV: &str = "text/csv";
 pub trait CsvForm: DeserializeOwned + Send {
     /// The JSON body's fields a `text/csv` request takes as query parameters.
     const QUERY_FIELDS: &'static [&'static str];
+    /// Those it must have (the query's schema cannot say so: with a JSON body it takes none).
+    const REQUIRED_QUERY_FIELDS: &'static [&'static str] = &[];
     /// Puts what the CSV holds into the body the query built.
     fn merge_csv(bytes: &[u8], body: &mut Map<String, Value>) -> Result<(), ApiError>;
 }
@@ -71,6 +73,15 @@ impl<S: Send + Sync, R: CsvForm> FromRequest<S> for CsvOrJson<R> {
             if body.insert(name.clone(), value).is_some() {
                 return Err(ApiError::invalid(name, "given twice"));
             }
+        }
+        if let Some(name) = R::REQUIRED_QUERY_FIELDS
+            .iter()
+            .find(|name| !body.contains_key(**name))
+        {
+            return Err(ApiError::invalid(
+                *name,
+                format!("a text/csv body needs the query parameter `{name}` (its JSON value)"),
+            ));
         }
         R::merge_csv(&bytes, &mut body)?;
         let text = serde_json::to_vec(&body).map_err(|e| ApiError::internal(e.to_string()))?;

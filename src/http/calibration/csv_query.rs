@@ -44,6 +44,7 @@ impl CsvForm for CalibrationRequest {
         "robust",
         "expected_noise_nm",
     ];
+    const REQUIRED_QUERY_FIELDS: &'static [&'static str] = &["process"];
 
     /// The rows become ring runs: one per distinct (position, duration), its points in order.
     fn merge_csv(bytes: &[u8], body: &mut Map<String, Value>) -> Result<(), ApiError> {
