@@ -6,7 +6,7 @@ import hypothesis.internal.lambda_sources as lambda_sources
 import schemathesis
 from schemathesis.generation.modes import GenerationMode
 
-# CPython 3.11's `ast` can raise "AST constructor recursion depth mismatch" when Hypothesis
+# CPython 3.11's `ast` can raise SystemError "AST constructor recursion depth mismatch" when Hypothesis
 # parses a lambda's source to describe it, deep inside schemathesis's recursive schema walk
 # (the stack depth changes between the parse and its check). The description only names a
 # filter in reprs; without this, the run stops on that error (a tool failure, not a finding).
@@ -16,7 +16,7 @@ _describe = lambda_sources._lambda_description
 def _described_or_unknown(f, *args, **kwargs):
     try:
         return _describe(f, *args, **kwargs)
-    except (RuntimeError, RecursionError):
+    except (SystemError, RuntimeError, RecursionError):
         return "lambda: <unknown>"
 
 
