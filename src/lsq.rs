@@ -70,8 +70,10 @@ pub struct Fit {
     pub residuals: Vec<f64>,
     /// The final weights (1 without a robust loss; 0 = ignored).
     pub weights: Vec<f64>,
-    /// σ²·(JᵀWJ)⁻¹, σ² = S/(n − m).
-    pub covariance: Vec<Vec<f64>>,
+    /// (JᵀWJ)⁻¹: the covariance is σ² times it.
+    pub inverse_normal: Vec<Vec<f64>>,
+    /// σ² = S/(n − m), the residual variance.
+    pub variance: f64,
     /// n − m: the points with weight > 0 less the parameters.
     pub degrees_of_freedom: usize,
     /// Levenberg–Marquardt steps over all weightings.
@@ -82,13 +84,16 @@ pub struct Fit {
 }
 
 impl Fit {
+    /// √(σ²·(JᵀWJ)⁻¹ⱼⱼ).
     pub fn standard_error(&self, j: usize) -> f64 {
-        self.covariance[j][j].sqrt()
+        (self.variance * self.inverse_normal[j][j]).sqrt()
     }
 
-    /// The correlation of parameters j and k.
+    /// The correlation of parameters j and k (defined by the design alone, so also for an
+    /// exact fit, σ² = 0).
     pub fn correlation(&self, j: usize, k: usize) -> f64 {
-        self.covariance[j][k] / (self.standard_error(j) * self.standard_error(k))
+        let n = &self.inverse_normal;
+        n[j][k] / (n[j][j] * n[k][k]).sqrt()
     }
 }
 
@@ -342,16 +347,12 @@ pub fn fit<M: Model>(
     let kept = weights.iter().filter(|&&w| w > 0.0).count();
     let degrees_of_freedom = kept.saturating_sub(model.parameters());
     let variance = cost(&residuals, &weights) / degrees_of_freedom.max(1) as f64;
-    let covariance = lin
-        .inverse_normal_matrix()
-        .into_iter()
-        .map(|row| row.into_iter().map(|c| variance * c).collect())
-        .collect();
     Ok(Fit {
         parameters: p,
         residuals,
         weights,
-        covariance,
+        inverse_normal: lin.inverse_normal_matrix(),
+        variance,
         degrees_of_freedom,
         steps,
         reweightings,

@@ -225,6 +225,11 @@ pub enum FitFailure {
     Undetermined { parameters: Vec<String> },
     #[error("the fit left the model's domain: {0}")]
     Domain(String),
+    #[error(
+        "the best fit removes no material (K = {ratio:.3} × nominal): the measured removal runs \
+         opposite to the model's — are before and after swapped, or heights given as removal?"
+    )]
+    NoRemoval { ratio: f64 },
 }
 
 fn names(parameters: &[String]) -> String {
@@ -387,7 +392,7 @@ impl Calibration {
             .collect();
         let fit = lsq::fit(&model, start, self.points(), self.robust, MAX_STEPS, 0.0)
             .map_err(|e| model.failure(e))?;
-        Ok(model.report(&fit))
+        model.report(&fit)
     }
 
     fn nominal_value(&self, parameter: ProcessParameter) -> f64 {
@@ -629,12 +634,12 @@ impl CalibrationModel<'_> {
         }
     }
 
-    fn report(&self, fit: &Fit) -> Calibrated {
+    fn report(&self, fit: &Fit) -> Result<Calibrated, FitFailure> {
         let calibration = self.calibration;
         let values = self.process_values(&fit.parameters);
         let g = calibration
             .predictions(&values)
-            .expect("the fit's own parameters evaluate");
+            .map_err(|e| FitFailure::Domain(e.to_string()))?;
         let model = self.model_values(&fit.parameters, &g);
         let t = lsq::t_quantile_95(fit.degrees_of_freedom);
         let k_nominal = calibration.nominal.spec().preston_coefficient_m2_per_n;
@@ -708,8 +713,13 @@ impl CalibrationModel<'_> {
                 pad_moment_share: values[2],
             };
         }
-        Calibrated {
-            process: Process::new(spec).expect("the fit's own parameters evaluate"),
+        // K alone is not checked by the predictions (they run at the nominal K).
+        if values[0] <= 0.0 {
+            return Err(FitFailure::NoRemoval { ratio: values[0] });
+        }
+        let process = Process::new(spec).map_err(|e| FitFailure::Domain(e.to_string()))?;
+        Ok(Calibrated {
+            process,
             estimates,
             correlated,
             correlation,
@@ -719,7 +729,7 @@ impl CalibrationModel<'_> {
             steps: fit.steps,
             reweightings: fit.reweightings,
             robust_scale_nm: fit.robust_scale,
-        }
+        })
     }
 }
 

@@ -325,3 +325,30 @@ async fn rings_as_csv_give_the_json_answer() {
     assert_eq!(refused.status, 422, "{}", refused.text());
     assert_eq!(refused.json()["field"], "runs");
 }
+
+/// Heights given as removal (the fixture's depths negated) fit a negative rate: a 422 at
+/// `runs` that says so, never a calibrated process with K < 0.
+#[tokio::test]
+async fn removal_of_the_wrong_sign_is_refused() {
+    let text =
+        std::fs::read_to_string(crate::common::fixture_path("calibration_rings.json")).unwrap();
+    let mut body: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for run in body["runs"].as_array_mut().unwrap() {
+        let depths: Vec<f64> = numbers(&run["removal"]["depth_nm"])
+            .iter()
+            .map(|d| -d)
+            .collect();
+        run["removal"]["depth_nm"] = json!(depths);
+    }
+    let reply = post_json(&app(), "/v1/calibration", body.to_string()).await;
+    assert_eq!(reply.status, 422, "{}", reply.text());
+    let problem = reply.json();
+    assert_eq!(problem["field"], "runs");
+    assert!(
+        problem["detail"]
+            .as_str()
+            .unwrap()
+            .contains("removes no material"),
+        "{problem}"
+    );
+}

@@ -79,6 +79,7 @@ impl From<FitFailure> for ApiError {
                     .map_or("fit".to_string(), |p| format!("fit.{p}"));
                 ApiError::invalid(field, err.to_string())
             }
+            FitFailure::NoRemoval { .. } => ApiError::invalid("runs", err.to_string()),
             _ => ApiError::new(Kind::SolverNotConverged, err.to_string()),
         }
     }
