@@ -23,6 +23,7 @@ pub mod ratelimit;
 pub mod report;
 pub mod server;
 pub mod slots;
+pub mod store;
 pub mod study;
 pub mod surface;
 pub mod telemetry;

@@ -1,0 +1,264 @@
+//! The records store: one sqlx pool over SQLite (the default, a file created on first start)
+//! or PostgreSQL (for several replicas), with the schema's migrations embedded in the binary
+//! and applied at start, forward only. The same SQL runs on both (text keys and timestamps,
+//! `$n` placeholders, which SQLite also reads).
+//!
+//! SQLite connections run in WAL mode (readers never wait on the writer) with foreign keys
+//! enforced and a busy timeout equal to the pool's acquire timeout, so that concurrent writers
+//! queue instead of failing.
+
+use std::borrow::Cow;
+use std::future::Future;
+use std::pin::Pin;
+use std::time::Duration;
+
+use sqlx::any::AnyPoolOptions;
+use sqlx::error::BoxDynError;
+use sqlx::migrate::{Migration, MigrationSource, MigrationType, Migrator};
+use sqlx::AnyPool;
+
+/// The schema, in order: (version, description, SQL). Append only: a released migration never
+/// changes (its checksum is recorded where it ran).
+const MIGRATIONS: &[(i64, &str, &str)] = &[(
+    1,
+    "process profiles",
+    include_str!("../../migrations/0001_process_profiles.sql"),
+)];
+
+/// The default store: a SQLite file in the working directory.
+pub const DEFAULT_DATABASE_URL: &str = "sqlite://preston.db";
+
+/// How to reach the store.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoreOptions {
+    /// `sqlite://FILE` or `postgres://…`.
+    pub url: String,
+    pub max_connections: u32,
+    /// How long a request waits for a connection (and SQLite for a lock).
+    pub timeout: Duration,
+}
+
+/// Why the store could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    #[error("the database URL must start with sqlite:// or postgres:// (got `{0}`)")]
+    Scheme(String),
+    #[error("cannot open the database: {0}")]
+    Connect(sqlx::Error),
+    #[error("cannot migrate the database: {0}")]
+    Migrate(sqlx::migrate::MigrateError),
+}
+
+/// Which database the store runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Backend {
+    Sqlite,
+    Postgres,
+}
+
+/// An open, migrated store.
+#[derive(Debug, Clone)]
+pub struct Store {
+    pool: AnyPool,
+    backend: Backend,
+}
+
+#[derive(Debug)]
+struct Embedded;
+
+impl<'s> MigrationSource<'s> for Embedded {
+    fn resolve(
+        self,
+    ) -> Pin<Box<dyn Future<Output = Result<Vec<Migration>, BoxDynError>> + Send + 's>> {
+        Box::pin(async {
+            Ok(MIGRATIONS
+                .iter()
+                .map(|&(version, description, sql)| {
+                    Migration::new(
+                        version,
+                        Cow::Borrowed(description),
+                        MigrationType::Simple,
+                        Cow::Borrowed(sql),
+                        false,
+                    )
+                })
+                .collect())
+        })
+    }
+}
+
+/// The embedded migrations.
+pub async fn migrator() -> Migrator {
+    Migrator::new(Embedded)
+        .await
+        .expect("embedded migrations resolve")
+}
+
+impl Store {
+    /// Connects and applies the migrations not yet applied.
+    pub async fn open(options: &StoreOptions) -> Result<Store, StoreError> {
+        sqlx::any::install_default_drivers();
+        let (backend, url) = if let Some(rest) = options.url.strip_prefix("sqlite:") {
+            // Create the file on first start unless the URL says otherwise.
+            let url = if rest.contains("mode=") {
+                options.url.clone()
+            } else if rest.contains('?') {
+                format!("{}&mode=rwc", options.url)
+            } else {
+                format!("{}?mode=rwc", options.url)
+            };
+            (Backend::Sqlite, url)
+        } else if options.url.starts_with("postgres://") || options.url.starts_with("postgresql://")
+        {
+            (Backend::Postgres, options.url.clone())
+        } else {
+            return Err(StoreError::Scheme(options.url.clone()));
+        };
+        let busy = format!("PRAGMA busy_timeout = {}", options.timeout.as_millis());
+        let pool = AnyPoolOptions::new()
+            .max_connections(options.max_connections)
+            .acquire_timeout(options.timeout)
+            .after_connect(move |conn, _| {
+                let busy = busy.clone();
+                Box::pin(async move {
+                    if backend == Backend::Sqlite {
+                        for pragma in [
+                            "PRAGMA journal_mode = WAL",
+                            "PRAGMA foreign_keys = ON",
+                            &busy,
+                        ] {
+                            sqlx::query(pragma).execute(&mut *conn).await?;
+                        }
+                    }
+                    Ok(())
+                })
+            })
+            .connect(&url)
+            .await
+            .map_err(StoreError::Connect)?;
+        migrator()
+            .await
+            .run(&pool)
+            .await
+            .map_err(StoreError::Migrate)?;
+        Ok(Store { pool, backend })
+    }
+
+    pub fn backend(&self) -> Backend {
+        self.backend
+    }
+
+    /// Whether the database answers now.
+    pub async fn is_reachable(&self) -> bool {
+        sqlx::query("SELECT 1").execute(&self.pool).await.is_ok()
+    }
+
+    /// The applied migrations' versions, in order.
+    pub async fn applied_versions(&self) -> Result<Vec<i64>, sqlx::Error> {
+        let rows: Vec<(i64,)> =
+            sqlx::query_as("SELECT version FROM _sqlx_migrations ORDER BY version")
+                .fetch_all(&self.pool)
+                .await?;
+        Ok(rows.into_iter().map(|(v,)| v).collect())
+    }
+
+    /// Closes the pool (waits for connections in use).
+    pub async fn close(&self) {
+        self.pool.close().await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temporary(name: &str) -> (std::path::PathBuf, StoreOptions) {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_nanos();
+        let path =
+            std::env::temp_dir().join(format!("preston-{name}-{}-{nanos}.db", std::process::id()));
+        let options = StoreOptions {
+            url: format!("sqlite://{}", path.display()),
+            max_connections: 2,
+            timeout: Duration::from_secs(5),
+        };
+        (path, options)
+    }
+
+    fn remove(path: &std::path::Path) {
+        for suffix in ["", "-wal", "-shm"] {
+            let _ = std::fs::remove_file(format!("{}{suffix}", path.display()));
+        }
+    }
+
+    /// A new file is created and migrated once; opening it again applies nothing twice; it
+    /// is in WAL mode, and every connection enforces foreign keys (a calibration of a profile
+    /// that does not exist is refused).
+    #[tokio::test]
+    async fn a_new_sqlite_file_is_created_migrated_once_and_enforces_foreign_keys() {
+        let (path, options) = temporary("store");
+        let store = Store::open(&options).await.unwrap();
+        assert!(path.exists());
+        assert_eq!(store.backend(), Backend::Sqlite);
+        assert_eq!(store.applied_versions().await.unwrap(), vec![1]);
+        assert!(store.is_reachable().await);
+        let (mode,): (String,) = sqlx::query_as("PRAGMA journal_mode")
+            .fetch_one(&store.pool)
+            .await
+            .unwrap();
+        assert_eq!(mode, "wal");
+        let orphan = sqlx::query(
+            "INSERT INTO calibrations (id, profile, request, result, learned, created_at, created_by) \
+             VALUES ($1, $2, '{}', '{}', FALSE, '2026-11-25T00:00:00Z', '')",
+        )
+        .bind("c1")
+        .bind("no such profile")
+        .execute(&store.pool)
+        .await;
+        assert!(orphan.is_err(), "{orphan:?}");
+        store.close().await;
+        let again = Store::open(&options).await.unwrap();
+        assert_eq!(again.applied_versions().await.unwrap(), vec![1]);
+        again.close().await;
+        remove(&path);
+    }
+
+    #[tokio::test]
+    async fn a_url_of_another_kind_is_refused() {
+        let options = StoreOptions {
+            url: "mysql://localhost/preston".into(),
+            max_connections: 1,
+            timeout: Duration::from_secs(1),
+        };
+        assert!(matches!(
+            Store::open(&options).await,
+            Err(StoreError::Scheme(_))
+        ));
+    }
+
+    /// Every file in migrations/ is embedded, in version order, and nothing else is.
+    #[test]
+    fn every_migration_file_is_embedded_in_order() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations");
+        let mut files: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .filter(|n| n.ends_with(".sql"))
+            .collect();
+        files.sort();
+        assert_eq!(files.len(), MIGRATIONS.len());
+        for (file, &(version, _, sql)) in files.iter().zip(MIGRATIONS) {
+            let number: i64 = file.split('_').next().unwrap().parse().unwrap();
+            assert_eq!(number, version, "{file}");
+            let text = std::fs::read_to_string(
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("migrations")
+                    .join(file),
+            )
+            .unwrap();
+            assert_eq!(text, sql, "{file}");
+        }
+    }
+}
