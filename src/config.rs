@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+use crate::store::{StoreOptions, DEFAULT_DATABASE_URL};
 use crate::usecases::operators::DEFAULT_OPERATOR_CACHE_BYTES;
 use crate::usecases::ComputeLimits;
 
@@ -25,7 +26,7 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Run the HTTP service (the default).
-    Serve(ServeArgs),
+    Serve(Box<ServeArgs>),
     /// Print the OpenAPI document (the content of openapi/openapi.json).
     Openapi,
     /// Compute offline: print exactly the JSON `POST /v1/<endpoint>` would return for the
@@ -120,6 +121,18 @@ pub struct ServeArgs {
     /// Requests a client may make at once beyond its rate (default twice the rate, at least 1).
     #[arg(long, env = "PRESTON_RATE_LIMIT_BURST")]
     pub rate_limit_burst: Option<u32>,
+    /// Where records are kept: `sqlite://FILE` (created on first start; the default is
+    /// `preston.db` in the working directory) or `postgres://USER:PASSWORD@HOST/DATABASE`
+    /// (for several replicas). Migrations are applied at start.
+    #[arg(long, env = "PRESTON_DATABASE_URL", default_value = DEFAULT_DATABASE_URL)]
+    pub database_url: String,
+    /// Most connections to the database.
+    #[arg(long, env = "PRESTON_DATABASE_POOL_SIZE", default_value_t = 8)]
+    pub database_pool_size: u32,
+    /// How long a request waits for a database connection (and SQLite for a lock), in
+    /// milliseconds.
+    #[arg(long, env = "PRESTON_DATABASE_TIMEOUT_MS", default_value_t = 5000)]
+    pub database_timeout_ms: u64,
     /// Log format. The level comes from RUST_LOG (default `info`).
     #[arg(long, env = "PRESTON_LOG_FORMAT", value_enum, default_value_t = LogFormat::Text)]
     pub log_format: LogFormat,
@@ -214,6 +227,15 @@ impl ServeArgs {
         Some((rate, burst))
     }
 
+    /// How to reach the records store.
+    pub fn store_options(&self) -> StoreOptions {
+        StoreOptions {
+            url: self.database_url.clone(),
+            max_connections: self.database_pool_size.max(1),
+            timeout: Duration::from_millis(self.database_timeout_ms.max(1)),
+        }
+    }
+
     pub fn limits(&self) -> ServiceLimits {
         let defaults = ServiceLimits::default();
         ServiceLimits {
@@ -249,6 +271,9 @@ mod tests {
         let limits = cli.serve.limits();
         assert_eq!(limits.max_radial_samples, 10_001);
         assert_eq!(limits.queue_timeout, Duration::from_secs(5));
+        let store = cli.serve.store_options();
+        assert_eq!(store.url, "sqlite://preston.db");
+        assert_eq!(store.max_connections, 8);
     }
 
     #[test]

@@ -28,7 +28,7 @@ fn main() -> ExitCode {
     match cli.command {
         Some(Command::Openapi) => output(&openapi::spec_json(), ExitCode::SUCCESS),
         Some(Command::Compute { endpoint, file }) => compute(&endpoint, &file, &cli.serve),
-        Some(Command::Serve(args)) => serve(args),
+        Some(Command::Serve(args)) => serve(*args),
         Some(Command::Healthcheck { listen, timeout_ms }) => {
             let addr = preston::healthcheck::target(listen);
             match preston::healthcheck::probe(addr, std::time::Duration::from_millis(timeout_ms)) {

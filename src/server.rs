@@ -12,6 +12,7 @@ use crate::config::ServeArgs;
 use crate::http::{cors_layer, router, AppState};
 use crate::keys::Auth;
 use crate::ratelimit::RateLimit;
+use crate::store::Store;
 
 /// Runs the service with `args` until a shutdown signal.
 pub async fn run(args: ServeArgs) -> std::io::Result<()> {
@@ -44,6 +45,12 @@ pub async fn run(args: ServeArgs) -> std::io::Result<()> {
         tracing::info!(per_second = rate, burst, per, "rate limit on /v1");
         state = state.with_rate_limit(Arc::new(limit));
     }
+    let options = args.store_options();
+    let store = Store::open(&options)
+        .await
+        .map_err(|e| std::io::Error::other(format!("--database-url: {e}")))?;
+    tracing::info!(backend = ?store.backend(), "records store open, migrations applied");
+    state = state.with_store(store.clone());
     let listener = TcpListener::bind(args.listen).await?;
     tracing::info!(address = %listener.local_addr()?, "preston listening; docs at /docs");
     let shutdown_state = state.clone();
@@ -60,7 +67,9 @@ pub async fn run(args: ServeArgs) -> std::io::Result<()> {
         }
         tracing::info!("shutting down; finishing in-flight requests");
     })
-    .await
+    .await?;
+    store.close().await;
+    Ok(())
 }
 
 /// Serves on `listener` until `shutdown` completes, then drains in-flight requests.

@@ -15,6 +15,7 @@ use super::openapi;
 use crate::config::ServiceLimits;
 use crate::ratelimit::RateLimit;
 use crate::slots::{ComputeSlots, Refusal, SlotLimits};
+use crate::store::Store;
 use crate::telemetry::metrics::Metrics;
 use crate::usecases::{ComputeLimits, OperatorCache, Recommender};
 
@@ -37,6 +38,8 @@ pub struct AppState {
     pub auth: Option<Arc<Auth>>,
     /// Per-client rate limit, when configured.
     pub rate_limit: Option<Arc<RateLimit>>,
+    /// The records store, when the service runs with one (compute endpoints never use it).
+    pub store: Option<Store>,
     slots: ComputeSlots,
     ready: Arc<AtomicBool>,
     pub(super) openapi_json: Arc<str>,
@@ -70,6 +73,7 @@ impl AppState {
             services,
             auth: None,
             rate_limit: None,
+            store: None,
             ready: Arc::new(AtomicBool::new(true)),
             openapi_json: openapi::spec_json().into(),
             swagger: Arc::new(Config::new(["/openapi.json"]).try_it_out_enabled(true)),
@@ -86,6 +90,11 @@ impl AppState {
     /// The same state with `limit` on each client of `/v1/*`.
     pub fn with_rate_limit(mut self, limit: Arc<RateLimit>) -> Self {
         self.rate_limit = Some(limit);
+        self
+    }
+
+    pub fn with_store(mut self, store: Store) -> Self {
+        self.store = Some(store);
         self
     }
 

@@ -41,7 +41,8 @@ pub struct StoreOptions {
 /// Why the store could not be opened.
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
-    #[error("the database URL must start with sqlite:// or postgres:// (got `{0}`)")]
+    /// (Only the scheme is kept: the rest of a URL may hold a password.)
+    #[error("the database URL must start with sqlite:// or postgres:// (it starts with `{0}`)")]
     Scheme(String),
     #[error("cannot open the database: {0}")]
     Connect(sqlx::Error),
@@ -112,7 +113,8 @@ impl Store {
         {
             (Backend::Postgres, options.url.clone())
         } else {
-            return Err(StoreError::Scheme(options.url.clone()));
+            let scheme = options.url.split("://").next().unwrap_or_default();
+            return Err(StoreError::Scheme(scheme.chars().take(20).collect()));
         };
         let busy = format!("PRAGMA busy_timeout = {}", options.timeout.as_millis());
         let pool = AnyPoolOptions::new()

@@ -46,8 +46,11 @@ class Preston:
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.log = tempfile.NamedTemporaryFile("w+", suffix=".log", delete=False)
+        # A records store of its own (SQLite), never the working directory's.
+        self.database = tempfile.mkdtemp(prefix="preston-records-")
         self.proc = subprocess.Popen(
-            [binary, "serve", "--listen", f"127.0.0.1:{self.port}", "--drain-delay-ms", "0", *args],
+            [binary, "serve", "--listen", f"127.0.0.1:{self.port}", "--drain-delay-ms", "0",
+             "--database-url", f"sqlite://{self.database}/records.db", *args],
             stdout=self.log,
             stderr=subprocess.STDOUT,
         )

@@ -8,6 +8,8 @@ use std::time::{Duration, Instant};
 
 pub struct Service {
     child: Child,
+    /// Its records store, a SQLite file of its own (removed when dropped).
+    database: std::path::PathBuf,
     /// `127.0.0.1:PORT`.
     pub address: String,
     /// Standard error so far (the log).
@@ -25,9 +27,21 @@ impl Service {
 
     /// `preston` with `base` then `args` (`base` must make it listen and log its address).
     pub fn start_with(base: &[&str], args: &[&str]) -> Service {
+        let database = std::env::temp_dir().join(format!(
+            "preston-service-{}-{}.db",
+            std::process::id(),
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .unwrap()
+                .as_nanos()
+        ));
         let mut child = Command::new(env!("CARGO_BIN_EXE_preston"))
             .args(base)
             .args(args)
+            .env(
+                "PRESTON_DATABASE_URL",
+                format!("sqlite://{}", database.display()),
+            )
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
             .spawn()
@@ -56,6 +70,7 @@ impl Service {
         });
         Service {
             child,
+            database,
             address,
             log,
         }
@@ -93,5 +108,8 @@ impl Drop for Service {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+        for suffix in ["", "-wal", "-shm"] {
+            let _ = std::fs::remove_file(format!("{}{suffix}", self.database.display()));
+        }
     }
 }
