@@ -120,6 +120,13 @@ pub struct Site {
     chord: f64,
 }
 
+impl Site {
+    /// The centre's arc length from the vertex, mm (NaN unless the pad is linear).
+    pub fn arc_mm(&self) -> f64 {
+        self.arc1
+    }
+}
+
 impl CurvedKernel {
     pub fn new(
         part: Part,
@@ -361,14 +368,14 @@ impl CurvedKernel {
         ring: &Ring,
         from: f64,
         to: f64,
-        pressure: &dyn Fn(f64) -> PadPressure,
+        pressure: &dyn Fn(f64, f64) -> PadPressure,
     ) -> Vec<f64> {
         if to <= from || ring.r <= 0.0 {
             return Vec::new();
         }
         let lift_line = |x: f64| {
             let arc1 = self.part.surface.arc_length_mm(x);
-            pressure(x)
+            pressure(x, arc1)
                 .lift_line_mm()
                 .map_or(f64::NEG_INFINITY, |u| arc1 + u)
         };

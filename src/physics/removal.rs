@@ -176,13 +176,12 @@ impl RemovalKernel {
         }))
     }
 
-    /// [`Self::pad_pressure`] for the many positions of a path: from the curve under linear
+    /// [`Self::pad_pressure`] for the many positions of a path, the pad at `r1_mm` whose arc
+    /// length is `arc_mm` (r1 on a plane; the caller has it): from the curve under linear
     /// pressure.
-    fn path_pressure(&self, r1_mm: f64) -> PadPressure {
+    fn path_pressure(&self, r1_mm: f64, arc_mm: f64) -> PadPressure {
         match self.curve() {
-            Some(curve) => curve
-                .at(self.arc_length_mm(r1_mm))
-                .unwrap_or(PadPressure::NONE),
+            Some(curve) => curve.at(arc_mm).unwrap_or(PadPressure::NONE),
             None => self.pad_pressure(r1_mm),
         }
     }
@@ -341,26 +340,27 @@ impl RemovalKernel {
             Some(curved) => {
                 let ring = curved.ring(r_mm);
                 let rate = |x: f64| {
-                    let pressure = self.path_pressure(x);
+                    let site = curved.site(x);
+                    let pressure = self.path_pressure(x, site.arc_mm());
                     if pressure == PadPressure::NONE {
                         return 0.0;
                     }
                     let weight = curved.surface().slope(x).hypot(1.0);
-                    weight * curved.rate_nm_per_s(&ring, &curved.site(x), &pressure)
+                    weight * curved.rate_nm_per_s(&ring, &site, &pressure)
                 };
                 let mut points = curved.breakpoints(&ring, self.reach_mm);
                 if let (Some(onset), Some(&lo), Some(&hi)) =
                     (self.lift_onset_mm(), points.first(), points.last())
                 {
                     points.push(onset);
-                    let pressure = |x: f64| self.path_pressure(x);
+                    let pressure = |x: f64, arc: f64| self.path_pressure(x, arc);
                     points.extend(curved.lift_kinks(&ring, onset.max(lo), hi, &pressure));
                     points = inside(points, lo, hi);
                 }
                 use_it(&rate, points, CURVED_PATH_TOLERANCE)
             }
             None => use_it(
-                &|x| self.rate_under(&self.path_pressure(x), r_mm, x),
+                &|x| self.rate_under(&self.path_pressure(x, x), r_mm, x),
                 self.flat_breakpoints(r_mm),
                 FLAT_PATH_TOLERANCE,
             ),
@@ -397,7 +397,7 @@ impl RemovalKernel {
         }
         let rt = self.tool_radius;
         let lift_line = |x: f64| {
-            self.path_pressure(x)
+            self.path_pressure(x, x)
                 .lift_line_mm()
                 .map_or(f64::NEG_INFINITY, |u| x + u)
         };
