@@ -52,6 +52,22 @@ pub enum ProcessParameter {
 }
 
 impl ProcessParameter {
+    /// The difference-quotient step at `values` ([ρ, r_t, κ]); ρ needs none (it is linear).
+    fn step(self, values: &[f64; 3]) -> f64 {
+        match self {
+            ProcessParameter::ToolRadius => RADIUS_STEP * values[1],
+            _ => SHARE_STEP,
+        }
+    }
+
+    /// The values the model takes.
+    fn bounds(self) -> (f64, f64) {
+        match self {
+            ProcessParameter::PadMomentShare => (0.0, 1.0),
+            _ => (0.0, f64::INFINITY),
+        }
+    }
+
     /// Its name, as a calibration asks for it.
     pub fn name(self) -> &'static str {
         match self {
@@ -408,22 +424,17 @@ impl Calibration {
 
     /// Whether any run's prediction moves with `parameter` (a small step either way).
     fn responds_to(&self, parameter: ProcessParameter) -> bool {
+        if parameter == ProcessParameter::PrestonCoefficient {
+            return true;
+        }
         let base = ProcessParameter::ALL.map(|p| self.nominal_value(p));
         let Ok(at) = self.predictions(&base) else {
             return true; // let the fit say what is wrong
         };
-        let step = match parameter {
-            ProcessParameter::PrestonCoefficient => return true,
-            ProcessParameter::ToolRadius => RADIUS_STEP * base[1],
-            ProcessParameter::PadMomentShare => SHARE_STEP,
-        };
+        let (step, (_, upper)) = (parameter.step(&base), parameter.bounds());
         let j = parameter as usize;
         let mut moved = base;
-        moved[j] += if base[j] + step <= self.upper(parameter) {
-            step
-        } else {
-            -step
-        };
+        moved[j] += if base[j] + step <= upper { step } else { -step };
         match self.predictions(&moved) {
             Ok(next) => next
                 .iter()
@@ -431,13 +442,6 @@ impl Calibration {
                 .zip(at.iter().flatten())
                 .any(|(a, b)| a != b),
             Err(_) => true,
-        }
-    }
-
-    fn upper(&self, parameter: ProcessParameter) -> f64 {
-        match parameter {
-            ProcessParameter::PadMomentShare => 1.0,
-            _ => f64::INFINITY,
         }
     }
 
@@ -557,17 +561,15 @@ impl CalibrationModel<'_> {
             .collect()
     }
 
-    /// ∂g/∂(parameter) by difference quotients at `values`.
+    /// ∂g/∂(parameter) at `values` by difference quotients; `here` is g there.
     fn derivative(
         &self,
         values: &[f64; 3],
+        here: &[f64],
         parameter: ProcessParameter,
     ) -> Result<Vec<f64>, Domain> {
         let j = parameter as usize;
-        let h = match parameter {
-            ProcessParameter::ToolRadius => RADIUS_STEP * values[1],
-            _ => SHARE_STEP,
-        };
+        let (h, (lower, upper)) = (parameter.step(values), parameter.bounds());
         let at = |offset: f64| {
             let mut v = *values;
             v[j] += offset;
@@ -575,34 +577,27 @@ impl CalibrationModel<'_> {
                 .predictions(&v)
                 .map(|g| g.into_iter().flatten().collect::<Vec<f64>>())
         };
-        let (lower, upper) = match parameter {
-            ProcessParameter::PadMomentShare => (0.0, 1.0),
-            _ => (0.0, f64::INFINITY),
-        };
         if values[j] - h < lower || values[j] + h > upper {
             // Three points on the inner side: (−3f(x) + 4f(x ± h) − f(x ± 2h))/(±2h).
             let s = if values[j] - h < lower { h } else { -h };
-            let (f0, f1, f2) = (at(0.0)?, at(s)?, at(2.0 * s)?);
-            return Ok((0..f0.len())
-                .map(|i| (-3.0 * f0[i] + 4.0 * f1[i] - f2[i]) / (2.0 * s))
+            let (f1, f2) = (at(s)?, at(2.0 * s)?);
+            return Ok((0..here.len())
+                .map(|i| (-3.0 * here[i] + 4.0 * f1[i] - f2[i]) / (2.0 * s))
                 .collect());
         }
-        let (plus, here, minus) = (at(h)?, at(0.0)?, at(-h)?);
+        let (plus, minus) = (at(h)?, at(-h)?);
         Ok((0..here.len())
             .map(|i| {
                 let (ahead, behind) = ((plus[i] - here[i]) / h, (here[i] - minus[i]) / h);
-                if ahead * behind > 0.0
-                    && ahead.abs().max(behind.abs()) <= KINK * ahead.abs().min(behind.abs())
-                {
-                    0.5 * (ahead + behind)
-                } else if ahead * behind > 0.0 {
-                    // A kink between (a pad rim crossing a measured radius: the removal grows
-                    // like a square root): the gentler side, as a generalised slope.
-                    if ahead.abs() < behind.abs() {
-                        ahead
-                    } else {
-                        behind
-                    }
+                let (gentle, steep) = if ahead.abs() < behind.abs() {
+                    (ahead, behind)
+                } else {
+                    (behind, ahead)
+                };
+                // Same sign and far apart: a kink between (a pad rim crossing a measured
+                // radius, where the removal grows like a square root): the gentler side.
+                if ahead * behind > 0.0 && steep.abs() > KINK * gentle.abs() {
+                    gentle
                 } else {
                     0.5 * (ahead + behind)
                 }
@@ -774,7 +769,7 @@ impl Model for CalibrationModel<'_> {
                     g.iter().map(|g| -g).collect()
                 }
                 Slot::Process(q) => self
-                    .derivative(&values, q)?
+                    .derivative(&values, &g, q)?
                     .into_iter()
                     .map(|d| -values[0] * d)
                     .collect(),
