@@ -20,11 +20,7 @@ fn run_error(index: usize, error: RunError) -> ApiError {
         // Which motion the run had is not in the error: a ring's position has no index.
         RunError::Position(e) if e.field() == "position_mm" => format!("{run}.ring.position_mm"),
         RunError::Position(e) => {
-            let mut field = format!("{run}.dwell.{}", e.field());
-            if let Some(i) = e.index() {
-                field.push_str(&format!("[{i}]"));
-            }
-            field
+            return ApiError::from_schedule(&format!("{run}.dwell"), e.clone());
         }
         RunError::Duration { .. } => format!("{run}.ring.duration_s"),
         RunError::Profile { role, error } => {

@@ -623,40 +623,22 @@
     await program(view, o.dwell);
   }
 
-  /** Ring tests as CSV rows `position_mm,duration_s,radius_mm,depth_nm`, one run per
-   * (position, duration) in order of appearance; a header row is skipped. Text that does not
-   * read as numbers is passed on for the API to name. */
-  function ringRuns(text) {
-    const runs = new Map();
-    for (const line of text.split(/\r?\n/)) {
-      const cells = line.split(',').map((c) => c.trim());
-      if (cells.length < 4 || cells.some((c) => c === '') || Number.isNaN(Number(cells[0]))) continue;
-      const [position, duration, radius, depth] = cells.map(Number);
-      const key = `${position}|${duration}`;
-      if (!runs.has(key)) {
-        runs.set(key, { ring: { position_mm: position, duration_s: duration }, removal: { radius_mm: [], depth_nm: [] } });
-      }
-      const run = runs.get(key);
-      run.removal.radius_mm.push(radius);
-      run.removal.depth_nm.push(depth);
-    }
-    return [...runs.values()];
-  }
-
   async function runCalibrate() {
     const view = 'calibrate';
-    const request = defined({
-      process: processInput(),
-      surface: surfaceInput(),
-      runs: ringRuns($('#rings_csv').value),
-      fit: {
+    // The ring tests go as the API's own CSV form, the rest as query parameters.
+    const query = defined({
+      process: JSON.stringify(processInput()),
+      surface: JSON.stringify(surfaceInput()),
+      fit: JSON.stringify({
         preston_coefficient: true,
         tool_radius: $('#fit_tool_radius').checked,
         pad_moment_share: $('#fit_pad_moment_share').checked,
-      },
+      }),
       robust: $('#calibration_robust').value,
     });
-    const c = await post(view, API.calibration, request);
+    const rings = $('#rings_csv').value;
+    const calibrateAs = (accept) => post(view, API.calibration, rings, { csv: true, query, accept });
+    const c = await calibrateAs('application/json');
     draw(view, 'calibration', {
       title: 'Measured and predicted removal',
       xLabel: 'radius r (mm)', yLabel: 'removal (nm)',
@@ -666,7 +648,7 @@
       ]),
       fromZero: false,
     });
-    downloads(view, 'calibration', c, repeat(view, API.calibration, request));
+    downloads(view, 'calibration', c, calibrateAs);
     const shown = (e, scale = 1) => (e.standard_error === null
       ? `${label(e.value * scale)} (not determined)`
       : `${label(e.value * scale)} ± ${label(e.standard_error * scale)}`);
