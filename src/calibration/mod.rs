@@ -278,14 +278,27 @@ pub struct Calibration {
     robust: RobustLoss,
 }
 
-/// A fitted process parameter; without a standard error when the runs carry no information
-/// on it (it is then held at its nominal value).
+/// A fitted process parameter; without an uncertainty when the runs carry no information on
+/// it (it is then held at its nominal value).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Estimate {
     pub parameter: ProcessParameter,
     pub value: f64,
-    pub standard_error: Option<f64>,
-    pub interval_95: Option<(f64, f64)>,
+    pub uncertainty: Option<Uncertainty>,
+}
+
+/// How well a fitted parameter is known.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Uncertainty {
+    pub standard_error: f64,
+    /// value ± t(0.975, n − p)·standard_error.
+    pub interval_95: (f64, f64),
+}
+
+impl Estimate {
+    pub fn standard_error(&self) -> Option<f64> {
+        self.uncertainty.map(|u| u.standard_error)
+    }
 }
 
 /// One run after the fit.
@@ -651,20 +664,19 @@ impl CalibrationModel<'_> {
             }
             let slot = self.slots.iter().position(|s| *s == Slot::Process(q));
             let value = values[q as usize] * scale(q);
-            let (standard_error, interval_95) = match slot {
-                Some(k) => {
-                    let se = fit.standard_error(k) * scale(q);
-                    correlated.push(q);
-                    indices.push(k);
-                    (Some(se), Some((value - t * se, value + t * se)))
+            let uncertainty = slot.map(|k| {
+                let se = fit.standard_error(k) * scale(q);
+                correlated.push(q);
+                indices.push(k);
+                Uncertainty {
+                    standard_error: se,
+                    interval_95: (value - t * se, value + t * se),
                 }
-                None => (None, None),
-            };
+            });
             estimates.push(Estimate {
                 parameter: q,
                 value,
-                standard_error,
-                interval_95,
+                uncertainty,
             });
         }
         let correlation = indices

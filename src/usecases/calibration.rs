@@ -134,26 +134,24 @@ pub fn calibrate(command: CalibrationCommand) -> Result<CalibrationResult, FitFa
     let calibrated = command.calibration.fit()?;
     let mut warnings = Vec::new();
     for e in &calibrated.estimates {
-        match (e.standard_error, e.interval_95) {
-            (None, _) => warnings.push(Warning::ParameterUndetermined {
+        let Some(u) = e.uncertainty else {
+            warnings.push(Warning::ParameterUndetermined {
                 parameter: e.parameter,
                 held_at: e.value,
-            }),
-            (Some(se), Some((low, high))) => {
-                let half = 0.5 * (high - low);
-                let poor = match e.parameter {
-                    ProcessParameter::PadMomentShare => half > POOR_SHARE,
-                    _ => half > POOR_RELATIVE * e.value.abs(),
-                };
-                if poor {
-                    warnings.push(Warning::ParameterPoorlyDetermined {
-                        parameter: e.parameter,
-                        value: e.value,
-                        standard_error: se,
-                    });
-                }
-            }
-            (Some(_), None) => {}
+            });
+            continue;
+        };
+        let half = 0.5 * (u.interval_95.1 - u.interval_95.0);
+        let poor = match e.parameter {
+            ProcessParameter::PadMomentShare => half > POOR_SHARE,
+            _ => half > POOR_RELATIVE * e.value.abs(),
+        };
+        if poor {
+            warnings.push(Warning::ParameterPoorlyDetermined {
+                parameter: e.parameter,
+                value: e.value,
+                standard_error: u.standard_error,
+            });
         }
     }
     for (run, fit) in calibrated.runs.iter().enumerate() {

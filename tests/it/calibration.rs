@@ -109,7 +109,7 @@ fn estimate(fit: &Calibrated, parameter: ProcessParameter) -> (f64, f64) {
         .iter()
         .find(|e| e.parameter == parameter)
         .unwrap();
-    (e.value, e.standard_error.unwrap())
+    (e.value, e.standard_error().unwrap())
 }
 
 /// K within 0.5 %, r_t within 0.02 mm, κ within 0.03; the calibrated process predicts each
@@ -204,7 +204,7 @@ async fn kappa_from_rings_far_from_the_edge_is_named_not_guessed() {
         .iter()
         .find(|e| e.parameter == ProcessParameter::PadMomentShare)
         .unwrap();
-    assert_eq!((kappa.value, kappa.standard_error), (1.0, None));
+    assert_eq!((kappa.value, kappa.standard_error()), (1.0, None));
     let named: Vec<String> = result
         .warnings
         .iter()

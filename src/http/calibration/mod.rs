@@ -322,8 +322,8 @@ measured point (run, radius, measured, predicted), `Accept: image/svg+xml` a cha
                 .find(|e| e.parameter == q)
                 .map(|e| EstimateDto {
                     value: e.value,
-                    standard_error: e.standard_error,
-                    interval_95: e.interval_95.map(|(lo, hi)| [lo, hi]),
+                    standard_error: e.standard_error(),
+                    interval_95: e.uncertainty.map(|u| [u.interval_95.0, u.interval_95.1]),
                 })
         };
         CalibrationResponse {
