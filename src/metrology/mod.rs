@@ -96,12 +96,16 @@ impl FitParameters {
 /// constants for Gaussian noise).
 pub use crate::lsq::RobustLoss;
 
+/// The largest trace coordinate accepted, mm.
+pub const MAX_COORDINATE_MM: f64 = 1e6;
+
 /// Why a trace cannot be fitted as given.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TraceError {
     #[error("x_mm has {x} points but z_mm has {z}")]
     LengthMismatch { x: usize, z: usize },
-    #[error("must be a finite number")]
+    /// (Larger coordinates are no probe's, and their squares overflow the fit's residual.)
+    #[error("must be a finite number within ±{MAX_COORDINATE_MM} mm")]
     NonFinite { axis: Axis, index: usize },
     #[error(
         "{points} points cannot determine {parameters} parameters: a fit needs at least {} \
@@ -154,7 +158,10 @@ impl FitProblem {
             });
         }
         for (axis, values) in [(Axis::X, &x_mm), (Axis::Z, &z_mm)] {
-            if let Some(index) = values.iter().position(|v| !v.is_finite()) {
+            if let Some(index) = values
+                .iter()
+                .position(|v| !(v.is_finite() && v.abs() <= MAX_COORDINATE_MM))
+            {
                 return Err(TraceError::NonFinite { axis, index });
             }
         }

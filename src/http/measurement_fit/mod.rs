@@ -31,10 +31,10 @@ use utoipa::IntoParams;
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TraceDto {
-    /// X of each point, mm.
+    /// X of each point, mm (|x| ≤ 1,000,000).
     #[schema(min_items = 2)]
     pub x_mm: Vec<f64>,
-    /// Z of each point, mm (as many as x_mm).
+    /// Z of each point, mm (as many as x_mm; |z| ≤ 1,000,000).
     #[schema(min_items = 2)]
     pub z_mm: Vec<f64>,
 }
