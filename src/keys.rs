@@ -1,7 +1,8 @@
 //! API keys: the keys file and the set of keys it gives.
 //!
-//! The keys file holds one key per line as `name:<SHA-256 of the key, 64 hex digits>`; `#`
-//! starts a comment, blank lines are ignored. It never holds the keys themselves. A presented
+//! The keys file holds one key per line as `name:<SHA-256 of the key, 64 hex digits>`, optionally
+//! followed by `:read` (the key may compute and read records but not write them; without a role
+//! a key reads and writes); `#` starts a comment, blank lines are ignored. It never holds the keys themselves. A presented
 //! key is hashed and its digest compared with every stored digest in full, folding the byte
 //! differences with OR and never stopping early, so the time taken does not depend on where (or
 //! whether) a digest differs, nor on which key matched.
@@ -27,10 +28,20 @@ pub enum KeysFileError {
     },
 }
 
-/// The configured keys: names and the SHA-256 digests of the keys.
+/// What a key may do.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Role {
+    /// Compute, read and write records (a line without a role).
+    #[default]
+    ReadWrite,
+    /// Compute and read records (`:read`).
+    Read,
+}
+
+/// The configured keys: names, the SHA-256 digests of the keys and their roles.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct KeySet {
-    keys: Vec<(String, [u8; 32])>,
+    keys: Vec<(String, [u8; 32], Role)>,
 }
 
 fn hex_digest(text: &str) -> Option<[u8; 32]> {
@@ -47,7 +58,7 @@ fn hex_digest(text: &str) -> Option<[u8; 32]> {
 impl KeySet {
     /// Parses a keys file's text; `path` only names the file in errors.
     pub fn parse(text: &str, path: &str) -> Result<Self, KeysFileError> {
-        let mut keys: Vec<(String, [u8; 32])> = Vec::new();
+        let mut keys: Vec<(String, [u8; 32], Role)> = Vec::new();
         for (index, raw) in text.lines().enumerate() {
             let line = raw.split('#').next().unwrap_or("").trim();
             if line.is_empty() {
@@ -62,6 +73,17 @@ impl KeySet {
                 return Err(refuse(
                     "expected name:<sha-256 hex of the key>, found no ':'".into(),
                 ));
+            };
+            let (digest, role) = match digest.split_once(':') {
+                None => (digest, Role::ReadWrite),
+                Some((digest, role)) if role.trim() == "read" => (digest, Role::Read),
+                Some((_, role)) => {
+                    return Err(refuse(format!(
+                        "the role {:?} is not known: the only role is `read` (a line without one \
+                         reads and writes)",
+                        role.trim()
+                    )))
+                }
             };
             let (name, digest) = (name.trim(), digest.trim());
             let name_ok = !name.is_empty()
@@ -80,13 +102,13 @@ impl KeySet {
                     digest.chars().count()
                 )));
             };
-            if keys.iter().any(|(n, _)| n == name) {
+            if keys.iter().any(|(n, _, _)| n == name) {
                 return Err(refuse(format!("the name {name:?} appears twice")));
             }
-            if keys.iter().any(|(_, d)| *d == digest) {
+            if keys.iter().any(|(_, d, _)| *d == digest) {
                 return Err(refuse("this key's digest appears twice".into()));
             }
-            keys.push((name.to_string(), digest));
+            keys.push((name.to_string(), digest, role));
         }
         Ok(KeySet { keys })
     }
@@ -109,18 +131,19 @@ impl KeySet {
         self.keys.is_empty()
     }
 
-    /// The name of the key `presented`, comparing its digest with every stored one in full.
-    pub fn identify(&self, presented: &str) -> Option<&str> {
+    /// The name and role of the key `presented`, comparing its digest with every stored one
+    /// in full.
+    pub fn identify(&self, presented: &str) -> Option<(&str, Role)> {
         let digest: [u8; 32] = Sha256::digest(presented.as_bytes()).into();
         let mut found = None;
-        for (name, stored) in &self.keys {
+        for (name, stored, role) in &self.keys {
             let difference = stored
                 .iter()
                 .zip(&digest)
                 .fold(0u8, |acc, (a, b)| acc | (a ^ b));
             // No early exit: every digest is compared whatever matched before.
             if std::hint::black_box(difference) == 0 {
-                found = Some(name.as_str());
+                found = Some((name.as_str(), *role));
             }
         }
         found
@@ -184,14 +207,19 @@ mod tests {
     #[test]
     fn a_keys_file_parses_and_identifies_keys_by_their_digest() {
         let text = format!(
-            "# shop keys\n\nmes:{}\n  engineering-desk : {}  # Anna's batch scripts\n",
+            "# shop keys\n\nmes:{}\n  engineering-desk : {}  # Anna's batch scripts\nviewer:{}:read\n",
             digest_hex("s3cret-mes"),
-            digest_hex("other key").to_uppercase()
+            digest_hex("other key").to_uppercase(),
+            digest_hex("look only"),
         );
         let keys = KeySet::parse(&text, "keys").unwrap();
-        assert_eq!(keys.len(), 2);
-        assert_eq!(keys.identify("s3cret-mes"), Some("mes"));
-        assert_eq!(keys.identify("other key"), Some("engineering-desk"));
+        assert_eq!(keys.len(), 3);
+        assert_eq!(keys.identify("s3cret-mes"), Some(("mes", Role::ReadWrite)));
+        assert_eq!(
+            keys.identify("other key"),
+            Some(("engineering-desk", Role::ReadWrite))
+        );
+        assert_eq!(keys.identify("look only"), Some(("viewer", Role::Read)));
         assert_eq!(keys.identify("s3cret-mes "), None);
         assert_eq!(keys.identify(""), None);
         assert!(KeySet::parse("# nothing\n\n", "keys").unwrap().is_empty());
@@ -209,6 +237,11 @@ mod tests {
             ),
             (format!("mes:{}", "g".repeat(64)), 1, "64 hex digits"),
             (format!(":{}", digest_hex("a")), 1, "the name"),
+            (
+                format!("mes:{}:write", digest_hex("a")),
+                1,
+                "the only role is `read`",
+            ),
             (format!("a b:{}", digest_hex("a")), 1, "the name"),
             (
                 format!("{good}\nmes:{}", digest_hex("b")),

@@ -11,7 +11,12 @@
 //! ```
 //!
 //! with its own piston c_j (the measurement's zero) and, optionally, its own power term d_j
-//! (metrology power). The fit minimises Σ wᵢ·(mᵢ − model)² by Levenberg–Marquardt
+//! (metrology power). A run measured as before and after form errors (`/v1/measurement/fit`'s
+//! profiles, along the normal) has an axial zero: the two measurements' axial pistons differ by
+//! c_j, which is c_j·cos θ(rᵢ) along the normal (θ the surface's slope angle), so its piston
+//! term is c_j·cos θ(rᵢ) (on a plane, and for a removal given directly, cos θ = 1). Taking it
+//! as a constant on a sphere of R = 300 mm would bias ρ by 2 % for a removal that falls off
+//! toward a 40 mm aperture's edge. The fit minimises Σ wᵢ·(mᵢ − model)² by Levenberg–Marquardt
 //! ([`crate::lsq`]) over (ρ, r_t, κ) (those asked for) and every c_j, d_j. ρ, c_j and d_j
 //! enter linearly, so their Jacobian columns are exact (g, 1, r²); ∂g/∂r_t and ∂g/∂κ are
 //! central differences (steps 1e-4·r_t and 1e-4; three-point one-sided within 1e-4 of κ's
@@ -267,6 +272,8 @@ struct Run {
     motion: Motion,
     radius_mm: Vec<f64>,
     removal_nm: Vec<f64>,
+    /// The piston's shape at each radius: cos θ(r) for before/after profiles, else 1.
+    piston_shape: Vec<f64>,
 }
 
 /// A checked calibration.
@@ -557,8 +564,9 @@ impl CalibrationModel<'_> {
                 let (piston, power) = self.offsets(p, j);
                 run.radius_mm
                     .iter()
+                    .zip(&run.piston_shape)
                     .zip(g)
-                    .map(|(r, g)| rho * g + piston + power * r * r)
+                    .map(|((r, shape), g)| rho * g + piston * shape + power * r * r)
                     .collect()
             })
             .collect()
@@ -767,12 +775,17 @@ impl Model for CalibrationModel<'_> {
             .into_iter()
             .flatten()
             .collect();
-        let run_of: Vec<(usize, f64)> = self
+        let run_of: Vec<(usize, f64, f64)> = self
             .calibration
             .runs
             .iter()
             .enumerate()
-            .flat_map(|(j, run)| run.radius_mm.iter().map(move |&r| (j, r)))
+            .flat_map(|(j, run)| {
+                run.radius_mm
+                    .iter()
+                    .zip(&run.piston_shape)
+                    .map(move |(&r, &shape)| (j, r, shape))
+            })
             .collect();
         let mut columns = Vec::with_capacity(self.slots.len());
         for slot in &self.slots {
@@ -787,11 +800,11 @@ impl Model for CalibrationModel<'_> {
                     .collect(),
                 Slot::Piston(j) => run_of
                     .iter()
-                    .map(|&(k, _)| if k == j { -1.0 } else { 0.0 })
+                    .map(|&(k, _, shape)| if k == j { -shape } else { 0.0 })
                     .collect(),
                 Slot::Power(j) => run_of
                     .iter()
-                    .map(|&(k, r)| if k == j { -r * r } else { 0.0 })
+                    .map(|&(k, r, _)| if k == j { -r * r } else { 0.0 })
                     .collect(),
             };
             columns.push(column);
@@ -896,6 +909,7 @@ fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
         }
     }
     let edge = process.workpiece_radius_mm();
+    let axial_zero = matches!(spec.measured, Measured::BeforeAfter { .. });
     let measured = match spec.measured {
         Measured::Removal(profile) => {
             check_profile(ProfileRole::Removal, &profile, edge)?;
@@ -927,9 +941,15 @@ fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
     if radius_mm.is_empty() {
         return Err(RunError::NothingInAperture);
     }
+    let surface = &process.part().surface;
+    let piston_shape = radius_mm
+        .iter()
+        .map(|&r| if axial_zero { surface.normal(r).1 } else { 1.0 })
+        .collect();
     Ok(Run {
         motion: spec.motion,
         radius_mm,
         removal_nm,
+        piston_shape,
     })
 }

@@ -14,7 +14,7 @@ use axum::response::{IntoResponse, Response};
 use super::endpoint::is_api_path;
 use super::error::{ApiError, Kind};
 use super::state::AppState;
-use crate::keys::Auth;
+use crate::keys::{Auth, Role};
 
 /// Whether `path` needs a key under `auth`.
 fn guards(auth: &Auth, path: &str) -> bool {
@@ -25,6 +25,10 @@ fn guards(auth: &Auth, path: &str) -> bool {
 /// the request metrics).
 #[derive(Debug, Clone)]
 pub struct KeyName(pub Arc<str>);
+
+/// The authenticated key's role, on the request (record writes need `ReadWrite`).
+#[derive(Debug, Clone, Copy)]
+pub struct KeyRole(pub Role);
 
 /// Why a request was not authenticated (the problem's detail; never says which keys exist).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,14 +62,15 @@ pub async fn authenticate(State(state): State<AppState>, request: Request, next:
     let name = presented.and_then(|key| {
         auth.keys()
             .identify(&key)
-            .map(Arc::<str>::from)
+            .map(|(name, role)| (Arc::<str>::from(name), role))
             .ok_or(Refusal::Unknown)
     });
     match name {
-        Ok(name) => {
+        Ok((name, role)) => {
             tracing::Span::current().record("key", &*name);
             let mut request = request;
             request.extensions_mut().insert(KeyName(name.clone()));
+            request.extensions_mut().insert(KeyRole(role));
             let mut response = next.run(request).await;
             response.extensions_mut().insert(KeyName(name));
             response

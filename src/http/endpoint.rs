@@ -88,7 +88,7 @@ pub trait Endpoint: 'static {
     fn document(_operation: &mut Operation) {}
 }
 
-fn offered<E: Endpoint>() -> Vec<Format> {
+pub(super) fn offered<E: Endpoint>() -> Vec<Format> {
     let mut offered = vec![Format::Json];
     offered.extend(E::CSV.map(|_| Format::Csv));
     offered.extend(E::SVG.map(|_| Format::Svg));
@@ -166,7 +166,7 @@ pub fn compute_json<E: Endpoint>(
 }
 
 /// The response body in the negotiated format (one the endpoint offers).
-fn render<E: Endpoint>(format: Format, output: E::Output) -> Response {
+pub(super) fn render<E: Endpoint>(format: Format, output: E::Output) -> Response {
     let body = &output;
     let text = match format {
         Format::Json => serde_json::to_string(&E::respond(output))

@@ -43,6 +43,12 @@ pub enum Kind {
     MethodNotAllowed,
     /// A guarded path without a known API key.
     Unauthorized,
+    /// A read-only API key asked to write a record.
+    Forbidden,
+    /// A record's unique name is taken, or an Idempotency-Key was sent with another request.
+    Conflict,
+    /// The records store does not answer (compute endpoints still do).
+    StoreUnavailable,
     /// The client's rate limit is spent.
     RateLimited,
     /// No computation slot came free in time.
@@ -99,6 +105,13 @@ impl Kind {
                 S::METHOD_NOT_ALLOWED,
             ),
             Kind::Unauthorized => ("unauthorized", "API key required", S::UNAUTHORIZED),
+            Kind::Forbidden => ("forbidden", "This API key may not write", S::FORBIDDEN),
+            Kind::Conflict => ("conflict", "Conflict with a record", S::CONFLICT),
+            Kind::StoreUnavailable => (
+                "store-unavailable",
+                "The records store is unavailable",
+                S::SERVICE_UNAVAILABLE,
+            ),
             Kind::RateLimited => ("rate-limited", "Too many requests", S::TOO_MANY_REQUESTS),
             Kind::Overloaded => ("overloaded", "Service overloaded", S::SERVICE_UNAVAILABLE),
             Kind::Internal => (

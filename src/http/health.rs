@@ -12,6 +12,20 @@ use super::state::AppState;
 pub struct Status {
     /// `ok` (alive), `ready` or `shutting_down`.
     pub status: HealthStatus,
+    /// Readiness only: whether the records store answers. Compute endpoints do not need it,
+    /// so an unavailable store leaves the service ready (record endpoints answer 503).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub store: Option<StoreStatus>,
+}
+
+/// The records store, as `/readyz` sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StoreStatus {
+    Ok,
+    Unavailable,
+    /// The service runs without one.
+    None,
 }
 
 /// What a probe reports.
@@ -32,21 +46,29 @@ pub enum HealthStatus {
 pub async fn healthz() -> Json<Status> {
     Json(Status {
         status: HealthStatus::Ok,
+        store: None,
     })
 }
 
-/// Readiness: 200 while accepting work, 503 once shutdown has begun.
+/// Readiness: 200 while accepting work, 503 once shutdown has begun; `store` says whether the
+/// records store answers.
 #[utoipa::path(get, path = "/readyz", tag = "service", operation_id = "getReadiness",
     responses(
         (status = 200, description = "Ready", body = Status),
         (status = 503, description = "Shutting down", body = Status),
     ))]
 pub async fn readyz(State(state): State<AppState>) -> (StatusCode, Json<Status>) {
+    let store = Some(match &state.store {
+        None => StoreStatus::None,
+        Some(store) if store.is_reachable().await => StoreStatus::Ok,
+        Some(_) => StoreStatus::Unavailable,
+    });
     if state.is_ready() {
         (
             StatusCode::OK,
             Json(Status {
                 status: HealthStatus::Ready,
+                store,
             }),
         )
     } else {
@@ -54,6 +76,7 @@ pub async fn readyz(State(state): State<AppState>) -> (StatusCode, Json<Status>)
             StatusCode::SERVICE_UNAVAILABLE,
             Json(Status {
                 status: HealthStatus::ShuttingDown,
+                store,
             }),
         )
     }

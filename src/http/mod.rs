@@ -27,6 +27,7 @@ pub mod predict;
 pub mod program;
 pub mod ratelimit;
 pub mod recommend;
+pub mod records;
 pub mod removal_function;
 pub mod router;
 pub mod state;

@@ -13,7 +13,7 @@ use super::dto::{
 use super::endpoint::is_api_path;
 use super::error::Problem;
 use super::router::ENDPOINTS;
-use super::{health, metrics};
+use super::{health, metrics, records};
 
 #[derive(OpenApi)]
 #[openapi(
@@ -26,6 +26,22 @@ use super::{health, metrics};
         health::healthz,
         health::readyz,
         metrics::handler,
+        records::profiles::create,
+        records::profiles::list,
+        records::profiles::show,
+        records::profiles::calibrate,
+        records::profiles::calibration,
+        records::parts::create,
+        records::parts::list,
+        records::parts::show,
+        records::parts::measure,
+        records::parts::measurement,
+        records::cycles::plan,
+        records::cycles::show_plan,
+        records::cycles::program,
+        records::cycles::run,
+        records::cycles::show_run,
+        records::cycles::history,
     ),
     components(schemas(
         Problem,
@@ -44,6 +60,7 @@ use super::{health, metrics};
         (name = "metrology", description = "On-machine measurement: fit a probe trace to the design"),
         (name = "machine", description = "Machine programs: axis motion within limits, G-code"),
         (name = "calibration", description = "Calibration: the removal rate, pad radius and moment share fitted to measured removal"),
+        (name = "records", description = "Records: process profiles and their calibrations, parts, measurements, plans, runs and each part's correction cycles"),
         (name = "service", description = "Probes"),
     )
 )]
@@ -59,6 +76,7 @@ pub fn spec() -> utoipa::openapi::OpenApi {
         doc.paths
             .add_path_operation(endpoint.path(), vec![HttpMethod::Post], operation);
     }
+    records::schemas(&mut schemas);
     let components = doc.components.get_or_insert_with(Default::default);
     components.schemas.extend(schemas);
     // API keys: every /v1 operation takes a bearer key, needed only when the service runs
@@ -156,9 +174,147 @@ pub fn spec_json() -> String {
         }
     }
     query_mirrors_body(&mut doc);
+    link_records(&mut doc);
     let mut json = serde_json::to_string_pretty(&doc).expect("the spec serialises");
     json.push('\n');
     json
+}
+
+/// The links between record operations: (operation, its success status, link name, target
+/// operation, target parameter, where its value comes from). Clients (and schemathesis's
+/// stateful tests) follow them from a new record to what can be done with it.
+const LINKS: [(&str, &str, &str, &str, &str, &str); 14] = [
+    (
+        "createProcessProfile",
+        "201",
+        "GetProfile",
+        "getProcessProfile",
+        "name",
+        "$response.body#/name",
+    ),
+    (
+        "createProcessProfile",
+        "201",
+        "Calibrate",
+        "calibrateProcessProfile",
+        "name",
+        "$response.body#/name",
+    ),
+    (
+        "calibrateProcessProfile",
+        "201",
+        "GetCalibration",
+        "getCalibration",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPart",
+        "201",
+        "GetPart",
+        "getPart",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPart",
+        "201",
+        "Measure",
+        "createMeasurement",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPart",
+        "201",
+        "Plan",
+        "createPlan",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPart",
+        "201",
+        "Run",
+        "createRun",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPart",
+        "201",
+        "History",
+        "getPartHistory",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createMeasurement",
+        "201",
+        "GetMeasurement",
+        "getMeasurement",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createMeasurement",
+        "201",
+        "PlanFromIt",
+        "createPlan",
+        "id",
+        "$response.body#/part_id",
+    ),
+    (
+        "createPlan",
+        "201",
+        "GetPlan",
+        "getPlan",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPlan",
+        "201",
+        "Program",
+        "createPlanProgram",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPlan",
+        "201",
+        "RunIt",
+        "createRun",
+        "id",
+        "$response.body#/part_id",
+    ),
+    (
+        "createRun",
+        "201",
+        "GetRun",
+        "getRun",
+        "id",
+        "$response.body#/id",
+    ),
+];
+
+fn link_records(doc: &mut serde_json::Value) {
+    let Some(paths) = doc["paths"].as_object_mut() else {
+        return;
+    };
+    for (operation, status, name, target, parameter, value) in LINKS {
+        let response = paths
+            .values_mut()
+            .filter_map(|item| item.as_object_mut())
+            .flat_map(|item| item.values_mut())
+            .find(|op| op["operationId"] == operation)
+            .and_then(|op| op.pointer_mut(&format!("/responses/{status}")))
+            .expect("links join documented operations");
+        response["links"][name] = serde_json::json!({
+            "operationId": target,
+            "parameters": {parameter: value},
+        });
+    }
 }
 
 /// An operation with query parameters (the fit's `text/csv` form) takes the JSON body's other

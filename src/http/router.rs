@@ -21,7 +21,7 @@ use super::state::{AppState, Services};
 use super::{auth, ratelimit};
 use super::{
     calibration, docs, eta_sweep, health, measurement_fit, metrics, optimize, predict, program,
-    recommend, removal_function, workbench,
+    recommend, records, removal_function, workbench,
 };
 use crate::config::ServiceLimits;
 use crate::usecases::ComputeLimits;
@@ -135,6 +135,7 @@ pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
         router.route(&e.path(), (e.route)())
     });
     let router = computing
+        .merge(records::routes())
         .route("/", get(workbench::page))
         .route("/workbench/{name}", get(workbench::asset))
         .route("/healthz", get(health::healthz))

@@ -10,20 +10,33 @@
 use std::borrow::Cow;
 use std::future::Future;
 use std::pin::Pin;
+use std::sync::Arc;
 use std::time::Duration;
 
 use sqlx::any::AnyPoolOptions;
 use sqlx::error::BoxDynError;
 use sqlx::migrate::{Migration, MigrationSource, MigrationType, Migrator};
 use sqlx::AnyPool;
+use tokio::sync::OnceCell;
+
+use crate::usecases::records::{RecordsError, Stamp};
+
+mod records;
 
 /// The schema, in order: (version, description, SQL). Append only: a released migration never
 /// changes (its checksum is recorded where it ran).
-const MIGRATIONS: &[(i64, &str, &str)] = &[(
-    1,
-    "process profiles",
-    include_str!("../../migrations/0001_process_profiles.sql"),
-)];
+const MIGRATIONS: &[(i64, &str, &str)] = &[
+    (
+        1,
+        "process profiles",
+        include_str!("../../migrations/0001_process_profiles.sql"),
+    ),
+    (
+        2,
+        "parts and cycles",
+        include_str!("../../migrations/0002_parts_and_cycles.sql"),
+    ),
+];
 
 /// The default store: a SQLite file in the working directory.
 pub const DEFAULT_DATABASE_URL: &str = "sqlite://preston.db";
@@ -57,11 +70,27 @@ pub enum Backend {
     Postgres,
 }
 
-/// An open, migrated store.
+/// An open store. SQLite is migrated at open; PostgreSQL connects lazily and is migrated on
+/// first use, so the service starts (and computes) while its database is down.
 #[derive(Debug, Clone)]
 pub struct Store {
     pool: AnyPool,
     backend: Backend,
+    migrated: Arc<OnceCell<()>>,
+}
+
+/// Now, as the records keep it: RFC 3339 UTC with milliseconds.
+pub fn now() -> String {
+    humantime::format_rfc3339_millis(std::time::SystemTime::now()).to_string()
+}
+
+/// A new record's stamp: a UUIDv7 (time-ordered) id, now, and the API key's name.
+pub fn new_stamp(created_by: &str) -> Stamp {
+    Stamp {
+        id: uuid::Uuid::now_v7().to_string(),
+        created_at: now(),
+        created_by: created_by.to_string(),
+    }
 }
 
 #[derive(Debug)]
@@ -117,7 +146,7 @@ impl Store {
             return Err(StoreError::Scheme(scheme.chars().take(20).collect()));
         };
         let busy = format!("PRAGMA busy_timeout = {}", options.timeout.as_millis());
-        let pool = AnyPoolOptions::new()
+        let pool_options = AnyPoolOptions::new()
             .max_connections(options.max_connections)
             .acquire_timeout(options.timeout)
             .after_connect(move |conn, _| {
@@ -134,25 +163,61 @@ impl Store {
                     }
                     Ok(())
                 })
-            })
-            .connect(&url)
+            });
+        let store = match backend {
+            Backend::Sqlite => {
+                let pool = pool_options
+                    .connect(&url)
+                    .await
+                    .map_err(StoreError::Connect)?;
+                let store = Store::new(pool, backend);
+                store.migrate().await.map_err(StoreError::Migrate)?;
+                store
+            }
+            Backend::Postgres => {
+                let pool = pool_options
+                    .connect_lazy(&url)
+                    .map_err(StoreError::Connect)?;
+                let store = Store::new(pool, backend);
+                if let Err(e) = store.migrate().await {
+                    tracing::warn!(error = %e, "the database is not reachable yet: record endpoints answer 503 until it is");
+                }
+                store
+            }
+        };
+        Ok(store)
+    }
+
+    fn new(pool: AnyPool, backend: Backend) -> Store {
+        Store {
+            pool,
+            backend,
+            migrated: Arc::default(),
+        }
+    }
+
+    /// Applies the migrations not yet applied, once per process (again after a failure).
+    async fn migrate(&self) -> Result<(), sqlx::migrate::MigrateError> {
+        self.migrated
+            .get_or_try_init(|| async { migrator().await.run(&self.pool).await })
             .await
-            .map_err(StoreError::Connect)?;
-        migrator()
+            .map(|_| ())
+    }
+
+    /// Ready for records: migrated (PostgreSQL may have been down at start).
+    async fn ready(&self) -> Result<(), RecordsError> {
+        self.migrate()
             .await
-            .run(&pool)
-            .await
-            .map_err(StoreError::Migrate)?;
-        Ok(Store { pool, backend })
+            .map_err(|e| RecordsError::Unavailable(e.to_string()))
     }
 
     pub fn backend(&self) -> Backend {
         self.backend
     }
 
-    /// Whether the database answers now.
+    /// Whether the database answers now, migrated.
     pub async fn is_reachable(&self) -> bool {
-        sqlx::query("SELECT 1").execute(&self.pool).await.is_ok()
+        self.ready().await.is_ok() && sqlx::query("SELECT 1").execute(&self.pool).await.is_ok()
     }
 
     /// The applied migrations' versions, in order.
@@ -204,7 +269,7 @@ mod tests {
         let store = Store::open(&options).await.unwrap();
         assert!(path.exists());
         assert_eq!(store.backend(), Backend::Sqlite);
-        assert_eq!(store.applied_versions().await.unwrap(), vec![1]);
+        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2]);
         assert!(store.is_reachable().await);
         let (mode,): (String,) = sqlx::query_as("PRAGMA journal_mode")
             .fetch_one(&store.pool)
@@ -222,7 +287,7 @@ mod tests {
         assert!(orphan.is_err(), "{orphan:?}");
         store.close().await;
         let again = Store::open(&options).await.unwrap();
-        assert_eq!(again.applied_versions().await.unwrap(), vec![1]);
+        assert_eq!(again.applied_versions().await.unwrap(), vec![1, 2]);
         again.close().await;
         remove(&path);
     }

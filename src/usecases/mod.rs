@@ -26,6 +26,7 @@ pub mod optimize;
 pub mod predict;
 pub mod program;
 pub mod recommend;
+pub mod records;
 pub mod removal_function;
 mod setting;
 mod warnings;

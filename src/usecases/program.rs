@@ -70,9 +70,17 @@ pub struct ProgramCommand {
     approach_feed_mm_per_min: Option<f64>,
     format: GcodeFormat,
     request_digest: String,
+    /// More header lines: where the plan came from.
+    provenance: Vec<String>,
 }
 
 impl ProgramCommand {
+    /// The command with a header line saying where its plan came from (a stored plan's id).
+    pub fn with_provenance(mut self, line: impl Into<String>) -> Self {
+        self.provenance.push(line.into());
+        self
+    }
+
     pub fn new(spec: ProgramSpec, limits: &ComputeLimits) -> Result<Self, ProgramInputError> {
         use ProgramInputError as E;
         let (process, Mount { tool, .. }) =
@@ -112,6 +120,7 @@ impl ProgramCommand {
             approach_feed_mm_per_min: spec.approach_feed_mm_per_min,
             format,
             request_digest: spec.request_digest,
+            provenance: Vec::new(),
         })
     }
 }
@@ -240,8 +249,9 @@ fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
             )
         })
         .collect();
-    vec![
-        "Preston machine program".to_string(),
+    let mut lines = vec!["Preston machine program".to_string()];
+    lines.extend(command.provenance.iter().cloned());
+    lines.extend([
         format!(
             "process: workpiece {} rpm, tool {} rpm (lab frame, CCW positive from the tool side), eta = {eta}",
             spec.workpiece_rpm, spec.tool_rpm
@@ -258,5 +268,6 @@ fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
         ),
         format!("axes: {}", axes.join(", ")),
         format!("request sha256 {}", command.request_digest),
-    ]
+    ]);
+    lines
 }

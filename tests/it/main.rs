@@ -31,6 +31,7 @@ mod plan_program;
 mod plots;
 mod problems;
 mod recommend;
+mod records;
 mod removal_accuracy;
 mod request_parsing;
 mod sanity_table;

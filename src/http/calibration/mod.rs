@@ -161,7 +161,8 @@ pub struct CorrelationDto {
 /// One run after the fit.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct RunFitDto {
-    /// The run's fitted piston (its measurement's zero), nm.
+    /// The run's fitted piston (its measurement's zero), nm: along the axis for before/after
+    /// profiles (along the normal it is this × cos θ), else as the removal is given.
     pub piston_nm: f64,
     /// The run's r² term, nm/mm² (with `fit.metrology_power`).
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -8,8 +8,8 @@ use std::time::{Duration, Instant};
 
 pub struct Service {
     child: Child,
-    /// Its records store, a SQLite file of its own (removed when dropped).
-    database: std::path::PathBuf,
+    /// Its records store, when a SQLite file of its own (removed when dropped).
+    database: Option<std::path::PathBuf>,
     /// `127.0.0.1:PORT`.
     pub address: String,
     /// Standard error so far (the log).
@@ -35,13 +35,26 @@ impl Service {
                 .unwrap()
                 .as_nanos()
         ));
+        let url = format!("sqlite://{}", database.display());
+        let mut service = Service::spawn(base, args, &url);
+        service.database = Some(database);
+        service
+    }
+
+    /// `preston serve` on the records store at `url`, which outlives it.
+    pub fn start_on(url: &str) -> Service {
+        Service::spawn(
+            &["serve", "--listen", "127.0.0.1:0", "--drain-delay-ms", "0"],
+            &[],
+            url,
+        )
+    }
+
+    fn spawn(base: &[&str], args: &[&str], url: &str) -> Service {
         let mut child = Command::new(env!("CARGO_BIN_EXE_preston"))
             .args(base)
             .args(args)
-            .env(
-                "PRESTON_DATABASE_URL",
-                format!("sqlite://{}", database.display()),
-            )
+            .env("PRESTON_DATABASE_URL", url)
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
             .spawn()
@@ -70,7 +83,7 @@ impl Service {
         });
         Service {
             child,
-            database,
+            database: None,
             address,
             log,
         }
@@ -108,8 +121,10 @@ impl Drop for Service {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
-        for suffix in ["", "-wal", "-shm"] {
-            let _ = std::fs::remove_file(format!("{}{suffix}", self.database.display()));
+        if let Some(database) = &self.database {
+            for suffix in ["", "-wal", "-shm"] {
+                let _ = std::fs::remove_file(format!("{}{suffix}", database.display()));
+            }
         }
     }
 }

@@ -1,0 +1,435 @@
+//! The records' wire types. Stored documents travel as JSON values, each documented with the
+//! schema of what it is (`value_type`); the request bodies that are another endpoint's request
+//! less the fields a record supplies are that request's schema less those properties.
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use utoipa::openapi::{RefOr, Schema};
+use utoipa::{PartialSchema, ToSchema};
+
+use crate::http::calibration::{CalibrationRequest, CalibrationResponse};
+use crate::http::dto::{ClearApertureDto, ProcessDto, SurfaceDto, ToolDto};
+use crate::http::measurement_fit::{MeasurementFitRequest, MeasurementFitResponse};
+use crate::http::optimize::{OptimizeRequest, OptimizeResponse};
+use crate::http::program::ProgramRequest;
+
+/// `POST /v1/process-profiles`: a shop's named process.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ProcessProfileRequest {
+    /// 1–64 of A–Z, a–z, 0–9, `-`, `_`, `.` (it is a path segment); unique.
+    pub name: String,
+    /// The nominal process (a part's `workpiece_radius_mm` replaces its workpiece radius).
+    pub process: ProcessDto,
+    /// Default for calibrations on this profile; a part's surface is its own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surface: Option<SurfaceDto>,
+    /// The tool (pivot, orientation) used with this process.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool: Option<ToolDto>,
+}
+
+/// Where a profile's current Preston coefficient comes from.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RateSourceDto {
+    /// The profile's own process: nothing calibrated yet.
+    Profile,
+    /// The latest calibration asked for (ring tests).
+    Calibration,
+    /// Learned from production cycles since that calibration (their inverse-variance mean).
+    Learned,
+}
+
+/// A process profile and the process plans on it use now.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct ProcessProfileDto {
+    /// Its name.
+    pub name: String,
+    /// The process as created.
+    #[schema(value_type = ProcessDto)]
+    pub process: Value,
+    /// The surface (null: a plane).
+    #[schema(value_type = Option<SurfaceDto>)]
+    pub surface: Option<Value>,
+    /// The tool (null: the default).
+    #[schema(value_type = Option<ToolDto>)]
+    pub tool: Option<Value>,
+    /// The process a plan uses now: the latest calibration asked for (or the profile's own),
+    /// with the Preston coefficient learned from production since.
+    #[schema(value_type = ProcessDto)]
+    pub current_process: Value,
+    /// Where the current Preston coefficient comes from.
+    pub preston_coefficient_source: RateSourceDto,
+    /// The current coefficient's standard error (null when never calibrated).
+    pub preston_coefficient_standard_error_m2_per_n: Option<f64>,
+    /// RFC 3339 UTC.
+    pub created_at: String,
+    /// The API key that wrote it (empty when the service runs without keys).
+    pub created_by: String,
+    /// Its calibrations, newest first (in `GET /v1/process-profiles/{name}` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub calibrations: Option<Vec<CalibrationRecordDto>>,
+}
+
+/// `GET /v1/process-profiles`.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct ProcessProfileListDto {
+    /// By name.
+    pub items: Vec<ProcessProfileDto>,
+}
+
+/// A stored calibration.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct CalibrationRecordDto {
+    /// The record's id (a UUIDv7: ids sort in the order records were written).
+    pub id: String,
+    /// The process profile's name.
+    pub process_profile: String,
+    /// Learned from a production cycle (`run_id`) rather than asked for.
+    pub learned: bool,
+    /// The run's id.
+    pub run_id: Option<String>,
+    /// The Preston coefficient K, m²/N.
+    pub preston_coefficient_m2_per_n: f64,
+    /// K's standard error, m²/N (null when the data did not determine it).
+    pub standard_error_m2_per_n: Option<f64>,
+    /// The calibration as `/v1/calibration` answered it.
+    #[schema(value_type = CalibrationResponse)]
+    pub result: Value,
+    /// When it was written, RFC 3339 UTC.
+    pub created_at: String,
+    /// The name of the API key that wrote it (empty when the service runs without keys).
+    pub created_by: String,
+}
+
+/// `POST /v1/parts`.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PartRequest {
+    /// The shop's serial: 1–200 characters, unique.
+    pub name: String,
+    /// The profile its plans use.
+    pub process_profile: String,
+    /// Default a plane.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surface: Option<SurfaceDto>,
+    /// The part's radius, mm (it replaces the profile process's workpiece radius).
+    pub workpiece_radius_mm: f64,
+    /// Default for its measurements and plans: the whole part.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clear_aperture: Option<ClearApertureDto>,
+}
+
+/// A part.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct PartDto {
+    /// The record's id (a UUIDv7: ids sort in the order records were written).
+    pub id: String,
+    /// Its name.
+    pub name: String,
+    /// The process profile's name.
+    pub process_profile: String,
+    /// The surface (null: a plane).
+    #[schema(value_type = Option<SurfaceDto>)]
+    pub surface: Option<Value>,
+    /// The part's radius, mm (it replaces the profile process's workpiece radius).
+    pub workpiece_radius_mm: f64,
+    /// The clear aperture (null: the whole part).
+    #[schema(value_type = Option<ClearApertureDto>)]
+    pub clear_aperture: Option<Value>,
+    /// When it was written, RFC 3339 UTC.
+    pub created_at: String,
+    /// The name of the API key that wrote it (empty when the service runs without keys).
+    pub created_by: String,
+}
+
+/// `GET /v1/parts`: a page in creation order.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct PartListDto {
+    /// The items.
+    pub items: Vec<PartDto>,
+    /// Pass as `cursor` for the next page; null on the last.
+    pub next_cursor: Option<String>,
+}
+
+/// A stored measurement: the fit as run and its answer.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct MeasurementDto {
+    /// The record's id (a UUIDv7: ids sort in the order records were written).
+    pub id: String,
+    /// The part's id.
+    pub part_id: String,
+    /// The form error's RMS over the clear aperture.
+    pub rms_nm: f64,
+    /// The request as run (with what the records supplied).
+    #[schema(value_type = MeasurementFitRequest)]
+    pub request: Value,
+    /// Its answer, as the endpoint returned it.
+    #[schema(value_type = MeasurementFitResponse)]
+    pub result: Value,
+    /// The run this measurement completed (its cycle's after-measurement), if any.
+    pub completes_run_id: Option<String>,
+    /// The calibration learned from that cycle, if the removal determined one.
+    pub learned_calibration_id: Option<String>,
+    /// When it was written, RFC 3339 UTC.
+    pub created_at: String,
+    /// The name of the API key that wrote it (empty when the service runs without keys).
+    pub created_by: String,
+}
+
+/// A stored plan: the optimization as run (with the process and surface it used) and its answer.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct PlanDto {
+    /// The record's id (a UUIDv7: ids sort in the order records were written).
+    pub id: String,
+    /// The part's id.
+    pub part_id: String,
+    /// The part's latest measurement when planned (the cycle's before).
+    pub measurement_id: Option<String>,
+    /// The residual's RMS over the clear aperture the plan predicts.
+    pub predicted_rms_after_nm: f64,
+    /// The request as run (with what the records supplied).
+    #[schema(value_type = OptimizeRequest)]
+    pub request: Value,
+    /// Its answer, as the endpoint returned it.
+    #[schema(value_type = OptimizeResponse)]
+    pub result: Value,
+    /// When it was written, RFC 3339 UTC.
+    pub created_at: String,
+    /// The name of the API key that wrote it (empty when the service runs without keys).
+    pub created_by: String,
+}
+
+/// `POST /v1/parts/{id}/runs`: a plan run on the machine.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RunRequest {
+    /// A plan of this part.
+    pub plan_id: String,
+    /// RFC 3339 UTC, e.g. `2026-11-25T08:00:00Z`.
+    pub started_at: String,
+    /// RFC 3339 UTC, not before `started_at`.
+    pub finished_at: String,
+    /// The machine's name (up to 200 characters).
+    #[serde(default)]
+    pub machine: Option<String>,
+    /// Up to 4000 characters.
+    #[serde(default)]
+    pub notes: Option<String>,
+}
+
+/// A run.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct RunRecordDto {
+    /// The record's id (a UUIDv7: ids sort in the order records were written).
+    pub id: String,
+    /// The part's id.
+    pub part_id: String,
+    /// The plan's id.
+    pub plan_id: String,
+    /// RFC 3339 UTC.
+    pub started_at: String,
+    /// RFC 3339 UTC.
+    pub finished_at: String,
+    /// The machine's name.
+    pub machine: Option<String>,
+    /// Free text.
+    pub notes: Option<String>,
+    /// When it was written, RFC 3339 UTC.
+    pub created_at: String,
+    /// The name of the API key that wrote it (empty when the service runs without keys).
+    pub created_by: String,
+}
+
+/// A value with its standard error.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct RatioDto {
+    /// The value.
+    pub value: f64,
+    /// Its standard error (null when not determined).
+    pub standard_error: Option<f64>,
+}
+
+/// One cycle: measurement before → plan → run → measurement after.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct CycleDto {
+    /// The run's id.
+    pub run_id: String,
+    /// The plan's id.
+    pub plan_id: String,
+    /// The measurement before (the plan's).
+    pub measurement_before_id: Option<String>,
+    /// The first measurement after the run (null until measured, or when another run came first).
+    pub measurement_after_id: Option<String>,
+    /// The form error's RMS before, over the clear aperture, nm.
+    pub rms_before_nm: Option<f64>,
+    /// The residual's RMS the plan predicted, over the clear aperture, nm.
+    pub predicted_rms_after_nm: f64,
+    /// The form error's RMS after, over the clear aperture, nm.
+    pub rms_after_nm: Option<f64>,
+    /// RMS before / RMS after over the clear aperture.
+    pub convergence_ratio: Option<f64>,
+    /// Actual / predicted removal: the run's dwell fitted to before − after as a calibration
+    /// of the Preston coefficient, relative to the coefficient the plan used.
+    pub removal_ratio: Option<RatioDto>,
+    /// The calibration learned from this cycle.
+    pub learned_calibration_id: Option<String>,
+}
+
+/// `GET /v1/parts/{id}/history`.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct HistoryDto {
+    /// The part.
+    pub part: PartDto,
+    /// Oldest first.
+    pub cycles: Vec<CycleDto>,
+    /// The process the next plan will use (the profile's current one, on this part).
+    #[schema(value_type = ProcessDto)]
+    pub next_process: Value,
+}
+
+/// A request that is `Base`'s less the properties a record supplies.
+macro_rules! less {
+    ($name:ident, $base:ty, [$($field:literal),*], [$($optional:literal),*], $doc:literal) => {
+        #[doc = $doc]
+        pub struct $name;
+
+        impl PartialSchema for $name {
+            fn schema() -> RefOr<Schema> {
+                without(<$base as PartialSchema>::schema(), &[$($field),*], &[$($optional),*], $doc)
+            }
+        }
+
+        impl ToSchema for $name {
+            fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
+                <$base as ToSchema>::schemas(schemas);
+            }
+        }
+    };
+}
+
+less!(
+    ProfileCalibrationRequest,
+    CalibrationRequest,
+    ["process"],
+    [],
+    "A `/v1/calibration` request without `process` (the profile's current process is the \
+     nominal); `surface` and `tool` default to the profile's."
+);
+less!(
+    PartMeasurementRequest,
+    MeasurementFitRequest,
+    ["surface"],
+    [],
+    "A `/v1/measurement/fit` request without `surface` (the part's); `clear_aperture` \
+     defaults to the part's. Also as text/csv with the other fields as query parameters."
+);
+less!(
+    PartPlanRequest,
+    OptimizeRequest,
+    ["process", "surface"],
+    ["target"],
+    "An `/v1/optimize` request without `process` (the profile's current one, at the part's \
+     workpiece radius) and `surface` (the part's); `target` defaults to the correction of the \
+     part's latest measurement, `clear_aperture` to the part's."
+);
+less!(
+    PlanProgramRequest,
+    ProgramRequest,
+    ["process", "surface", "dwell"],
+    [],
+    "A `/v1/program` request without `process`, `surface` and `dwell` (the plan's)."
+);
+
+/// `schema` less the properties `fields`, with `optional` no longer required.
+fn without(schema: RefOr<Schema>, fields: &[&str], optional: &[&str], doc: &str) -> RefOr<Schema> {
+    match schema {
+        RefOr::T(Schema::Object(mut object)) => {
+            for field in fields {
+                object.properties.shift_remove(*field);
+            }
+            object
+                .required
+                .retain(|r| !fields.contains(&r.as_str()) && !optional.contains(&r.as_str()));
+            object.description = Some(doc.to_string());
+            RefOr::T(Schema::Object(object))
+        }
+        other => other,
+    }
+}
+
+/// The schemas the record operations refer to (for the OpenAPI document).
+pub fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
+    fn add<T: ToSchema>(schemas: &mut Vec<(String, RefOr<Schema>)>) {
+        schemas.push((T::name().into_owned(), T::schema()));
+        T::schemas(schemas);
+    }
+    add::<ProcessProfileRequest>(schemas);
+    add::<ProcessProfileDto>(schemas);
+    add::<ProcessProfileListDto>(schemas);
+    add::<CalibrationRecordDto>(schemas);
+    add::<PartRequest>(schemas);
+    add::<PartDto>(schemas);
+    add::<PartListDto>(schemas);
+    add::<MeasurementDto>(schemas);
+    add::<PlanDto>(schemas);
+    add::<RunRequest>(schemas);
+    add::<RunRecordDto>(schemas);
+    add::<HistoryDto>(schemas);
+    add::<ProfileCalibrationRequest>(schemas);
+    add::<PartMeasurementRequest>(schemas);
+    add::<PartPlanRequest>(schemas);
+    add::<PlanProgramRequest>(schemas);
+}
+
+/// What a record write may answer besides 201.
+#[derive(utoipa::IntoResponses)]
+#[allow(dead_code)]
+pub enum RecordWriteProblems {
+    /// Malformed JSON
+    #[response(status = 400, content_type = "application/problem+json")]
+    Malformed(crate::http::error::Problem),
+    /// No valid API key (only when the service has keys configured)
+    #[response(status = 401, content_type = "application/problem+json")]
+    Unauthorized(crate::http::error::Problem),
+    /// The API key is read-only
+    #[response(status = 403, content_type = "application/problem+json")]
+    Forbidden(crate::http::error::Problem),
+    /// The record the path names does not exist
+    #[response(status = 404, content_type = "application/problem+json")]
+    NotFound(crate::http::error::Problem),
+    /// A unique name is taken
+    #[response(status = 409, content_type = "application/problem+json")]
+    Conflict(crate::http::error::Problem),
+    /// Invalid input, naming the field (an Idempotency-Key reused with another request too)
+    #[response(status = 422, content_type = "application/problem+json")]
+    Invalid(crate::http::error::Problem),
+    /// The client's rate limit is spent
+    #[response(status = 429, content_type = "application/problem+json")]
+    RateLimited(crate::http::error::Problem),
+    /// The records store is unavailable, or the service is overloaded; retry after Retry-After
+    #[response(status = 503, content_type = "application/problem+json")]
+    Unavailable(crate::http::error::Problem),
+}
+
+/// What a record read may answer besides 200.
+#[derive(utoipa::IntoResponses)]
+#[allow(dead_code)]
+pub enum RecordReadProblems {
+    /// No valid API key (only when the service has keys configured)
+    #[response(status = 401, content_type = "application/problem+json")]
+    Unauthorized(crate::http::error::Problem),
+    /// No such record
+    #[response(status = 404, content_type = "application/problem+json")]
+    NotFound(crate::http::error::Problem),
+    /// Invalid query or body, naming the field
+    #[response(status = 422, content_type = "application/problem+json")]
+    Invalid(crate::http::error::Problem),
+    /// The client's rate limit is spent
+    #[response(status = 429, content_type = "application/problem+json")]
+    RateLimited(crate::http::error::Problem),
+    /// The records store is unavailable, or the service is overloaded; retry after Retry-After
+    #[response(status = 503, content_type = "application/problem+json")]
+    Unavailable(crate::http::error::Problem),
+}

@@ -1,0 +1,384 @@
+//! What Preston remembers: process profiles and their calibrations, parts, and each part's
+//! correction cycles (measurement → plan → run → measurement). This module holds the records,
+//! the [`Records`] trait a store implements (the use cases never see SQL), and the two rules
+//! over them:
+//!
+//! **A cycle** is a run: its plan's measurement is the measurement *before* (the part's latest
+//! when the plan was made), and the first measurement written after the run is the one *after*,
+//! unless another run came between them (then the earlier run has no after-measurement of its
+//! own). Its figures: RMS before, the plan's predicted RMS after, the RMS after, the convergence
+//! ratio RMS before / RMS after, and the removal ratio, actual / predicted removal: the run's
+//! dwell fitted to the measured removal (before − after, a free piston) as a calibration of the
+//! Preston coefficient, K_fit / K_plan with its standard error.
+//!
+//! **The profile's current removal rate.** A profile starts at its own process. A calibration
+//! asked for (ring tests, `learned = false`) replaces the process. Each completed cycle adds a
+//! calibration learned from production; the current Preston coefficient is the inverse-variance
+//! weighted mean of the learned coefficients written since the latest calibration asked for,
+//!
+//!   K = Σ wᵢ Kᵢ / Σ wᵢ,  wᵢ = 1/σᵢ²,  σ_K = (Σ wᵢ)^(−1/2),
+//!
+//! (equal weights when a standard error is missing), and that calibration's (or the profile's)
+//! K when there is none. Production runs are what a plan must predict, so they override a ring
+//! test's K rather than being averaged with it; a new ring test (a new pad, a dressed tool)
+//! starts the learning again.
+
+/// Who wrote a record and when: its id (a UUIDv7, or the name of a process profile), an RFC 3339
+/// UTC timestamp and the API key's name (empty without keys).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stamp {
+    pub id: String,
+    pub created_at: String,
+    pub created_by: String,
+}
+
+/// Bodies are documents in the API's own vocabulary (JSON text written and read by the HTTP
+/// layer); the store keeps them as they are.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProfileRecord {
+    pub stamp: Stamp,
+    pub body: String,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationRecord {
+    pub stamp: Stamp,
+    pub profile: String,
+    pub request: String,
+    pub result: String,
+    /// The calibrated process.
+    pub process: String,
+    pub preston_coefficient_m2_per_n: f64,
+    pub standard_error_m2_per_n: Option<f64>,
+    /// The production run it was learned from; `None` for a calibration asked for.
+    pub run: Option<String>,
+}
+
+impl CalibrationRecord {
+    pub fn learned(&self) -> bool {
+        self.run.is_some()
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct PartRecord {
+    pub stamp: Stamp,
+    pub name: String,
+    pub process_profile: String,
+    pub body: String,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasurementRecord {
+    pub stamp: Stamp,
+    pub part: String,
+    pub request: String,
+    pub result: String,
+    pub rms_nm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanRecord {
+    pub stamp: Stamp,
+    pub part: String,
+    pub measurement: Option<String>,
+    pub request: String,
+    pub result: String,
+    pub predicted_rms_after_nm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunRecord {
+    pub stamp: Stamp,
+    pub part: String,
+    pub plan: String,
+    pub started_at: String,
+    pub finished_at: String,
+    pub machine: Option<String>,
+    pub notes: Option<String>,
+}
+
+/// A record to write.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Record {
+    Profile(ProfileRecord),
+    Calibration(CalibrationRecord),
+    Part(PartRecord),
+    Measurement(MeasurementRecord),
+    Plan(PlanRecord),
+    Run(RunRecord),
+}
+
+/// The answer a POST gave, kept under its Idempotency-Key.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Replay {
+    pub status: u16,
+    pub location: String,
+    pub body: String,
+}
+
+/// An Idempotency-Key claimed by a write: its owner (the API key's name), the key, the
+/// request's fingerprint and the answer to give again.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Claim {
+    pub owner: String,
+    pub key: String,
+    pub fingerprint: String,
+    pub answer: Replay,
+}
+
+/// What became of a write.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Written {
+    /// Committed, records and claim together.
+    Committed,
+    /// The key was claimed meanwhile by the same request: its first answer.
+    Replayed(Replay),
+    /// The key was claimed by another request.
+    KeyReused,
+    /// A unique name is taken (a profile's name, a part's serial): nothing was written.
+    Taken,
+}
+
+/// Why the store could not answer.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RecordsError {
+    #[error("the records store is unavailable: {0}")]
+    Unavailable(String),
+}
+
+/// A page of parts, in the order they were created.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PartsPage {
+    pub items: Vec<PartRecord>,
+    /// The last id of a full page: the next page starts after it.
+    pub next_cursor: Option<String>,
+}
+
+/// What the use cases need of a store. Every write is one transaction, answered only once
+/// committed; reads see every committed write.
+#[allow(async_fn_in_trait)]
+pub trait Records {
+    /// Writes the records and the claim (when given) in one transaction.
+    async fn write(
+        &self,
+        records: &[Record],
+        claim: Option<&Claim>,
+    ) -> Result<Written, RecordsError>;
+    /// The fingerprint and answer under an Idempotency-Key.
+    async fn claimed(
+        &self,
+        owner: &str,
+        key: &str,
+    ) -> Result<Option<(String, Replay)>, RecordsError>;
+    async fn profile(&self, name: &str) -> Result<Option<ProfileRecord>, RecordsError>;
+    async fn profiles(&self) -> Result<Vec<ProfileRecord>, RecordsError>;
+    /// A profile's calibrations, oldest first.
+    async fn calibrations(&self, profile: &str) -> Result<Vec<CalibrationRecord>, RecordsError>;
+    async fn calibration(&self, id: &str) -> Result<Option<CalibrationRecord>, RecordsError>;
+    async fn part(&self, id: &str) -> Result<Option<PartRecord>, RecordsError>;
+    /// Parts after `cursor` (an id), at most `limit`, only the one named `name` when given.
+    async fn parts(
+        &self,
+        cursor: Option<&str>,
+        limit: usize,
+        name: Option<&str>,
+    ) -> Result<PartsPage, RecordsError>;
+    /// A part's measurements, plans and runs, each oldest first.
+    async fn measurements(&self, part: &str) -> Result<Vec<MeasurementRecord>, RecordsError>;
+    async fn measurement(&self, id: &str) -> Result<Option<MeasurementRecord>, RecordsError>;
+    async fn plans(&self, part: &str) -> Result<Vec<PlanRecord>, RecordsError>;
+    async fn plan(&self, id: &str) -> Result<Option<PlanRecord>, RecordsError>;
+    async fn runs(&self, part: &str) -> Result<Vec<RunRecord>, RecordsError>;
+    async fn run(&self, id: &str) -> Result<Option<RunRecord>, RecordsError>;
+}
+
+/// A profile's current Preston coefficient, and where it comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CurrentRate<'a> {
+    /// The latest calibration asked for, whose process the profile now runs (else its own).
+    pub base: Option<&'a CalibrationRecord>,
+    /// The learned calibrations combined into `preston_coefficient_m2_per_n`.
+    pub learned: Vec<&'a CalibrationRecord>,
+    /// `None`: the base's (or the profile's) coefficient stands.
+    pub preston_coefficient_m2_per_n: Option<f64>,
+    pub standard_error_m2_per_n: Option<f64>,
+}
+
+/// The rule in the module docs, over a profile's calibrations (oldest first).
+pub fn current_rate(calibrations: &[CalibrationRecord]) -> CurrentRate<'_> {
+    let base_index = calibrations.iter().rposition(|c| !c.learned());
+    let base = base_index.map(|i| &calibrations[i]);
+    let learned: Vec<&CalibrationRecord> = calibrations[base_index.map_or(0, |i| i + 1)..]
+        .iter()
+        .filter(|c| c.learned())
+        .collect();
+    if learned.is_empty() {
+        return CurrentRate {
+            base,
+            learned,
+            preston_coefficient_m2_per_n: base.map(|b| b.preston_coefficient_m2_per_n),
+            standard_error_m2_per_n: base.and_then(|b| b.standard_error_m2_per_n),
+        };
+    }
+    let weighted = learned
+        .iter()
+        .all(|c| c.standard_error_m2_per_n.is_some_and(|s| s > 0.0));
+    let weight = |c: &CalibrationRecord| match c.standard_error_m2_per_n {
+        Some(s) if weighted => 1.0 / (s * s),
+        _ => 1.0,
+    };
+    let total: f64 = learned.iter().map(|c| weight(c)).sum();
+    let mean = learned
+        .iter()
+        .map(|c| weight(c) * c.preston_coefficient_m2_per_n)
+        .sum::<f64>()
+        / total;
+    CurrentRate {
+        base,
+        preston_coefficient_m2_per_n: Some(mean),
+        standard_error_m2_per_n: weighted.then(|| total.powf(-0.5)),
+        learned,
+    }
+}
+
+/// One correction cycle (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cycle<'a> {
+    pub before: Option<&'a MeasurementRecord>,
+    pub plan: &'a PlanRecord,
+    pub run: &'a RunRecord,
+    pub after: Option<&'a MeasurementRecord>,
+    /// The calibration learned from this run, once the cycle is complete.
+    pub learned: Option<&'a CalibrationRecord>,
+}
+
+impl Cycle<'_> {
+    pub fn rms_before_nm(&self) -> Option<f64> {
+        self.before.map(|m| m.rms_nm)
+    }
+
+    pub fn rms_after_nm(&self) -> Option<f64> {
+        self.after.map(|m| m.rms_nm)
+    }
+
+    /// RMS before / RMS after (`None` until measured after, or when the after RMS is 0).
+    pub fn convergence_ratio(&self) -> Option<f64> {
+        match (self.rms_before_nm(), self.rms_after_nm()) {
+            (Some(b), Some(a)) if a > 0.0 => Some(b / a),
+            _ => None,
+        }
+    }
+}
+
+/// A part's cycles, oldest first, from its records (each oldest first) and its profile's
+/// calibrations.
+pub fn cycles<'a>(
+    measurements: &'a [MeasurementRecord],
+    plans: &'a [PlanRecord],
+    runs: &'a [RunRecord],
+    calibrations: &'a [CalibrationRecord],
+) -> Vec<Cycle<'a>> {
+    runs.iter()
+        .enumerate()
+        .filter_map(|(i, run)| {
+            let plan = plans.iter().find(|p| p.stamp.id == run.plan)?;
+            let before = plan
+                .measurement
+                .as_ref()
+                .and_then(|id| measurements.iter().find(|m| &m.stamp.id == id));
+            Some(Cycle {
+                before,
+                plan,
+                run,
+                after: after_measurement(measurements, runs, i),
+                learned: calibrations
+                    .iter()
+                    .find(|c| c.run.as_deref() == Some(&run.stamp.id)),
+            })
+        })
+        .collect()
+}
+
+/// The first measurement after `runs[index]`, unless another run came first.
+fn after_measurement<'a>(
+    measurements: &'a [MeasurementRecord],
+    runs: &[RunRecord],
+    index: usize,
+) -> Option<&'a MeasurementRecord> {
+    let run = &runs[index].stamp.id;
+    let after = measurements.iter().find(|m| &m.stamp.id > run)?;
+    let next_run = runs.get(index + 1).map(|r| &r.stamp.id);
+    match next_run {
+        Some(next) if next < &after.stamp.id => None,
+        _ => Some(after),
+    }
+}
+
+/// The run a new measurement completes: the part's latest run, when no measurement was written
+/// after it yet and its plan has a measurement before.
+pub fn run_completed_by_new_measurement<'a>(
+    measurements: &[MeasurementRecord],
+    plans: &'a [PlanRecord],
+    runs: &'a [RunRecord],
+) -> Option<(&'a RunRecord, &'a PlanRecord)> {
+    let run = runs.last()?;
+    if measurements.iter().any(|m| m.stamp.id > run.stamp.id) {
+        return None;
+    }
+    let plan = plans.iter().find(|p| p.stamp.id == run.plan)?;
+    plan.measurement.as_ref()?;
+    Some((run, plan))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stamp(id: &str) -> Stamp {
+        Stamp {
+            id: id.into(),
+            created_at: "2026-11-25T00:00:00Z".into(),
+            created_by: String::new(),
+        }
+    }
+
+    fn calibration(id: &str, k: f64, se: Option<f64>, run: Option<&str>) -> CalibrationRecord {
+        CalibrationRecord {
+            stamp: stamp(id),
+            profile: "p".into(),
+            request: "{}".into(),
+            result: "{}".into(),
+            process: "{}".into(),
+            preston_coefficient_m2_per_n: k,
+            standard_error_m2_per_n: se,
+            run: run.map(str::to_string),
+        }
+    }
+
+    #[test]
+    fn the_current_rate_is_the_weighted_mean_of_what_was_learned_since_the_last_ring_test() {
+        assert_eq!(current_rate(&[]).preston_coefficient_m2_per_n, None);
+        let ring = calibration("1", 1.3e-13, Some(1e-16), None);
+        let first = calibration("2", 1.0e-13, Some(2e-15), Some("r1"));
+        let second = calibration("3", 1.2e-13, Some(1e-15), Some("r2"));
+        let only_ring = [ring.clone()];
+        assert_eq!(
+            current_rate(&only_ring).preston_coefficient_m2_per_n,
+            Some(1.3e-13)
+        );
+        let all = [first.clone(), ring.clone(), second.clone()];
+        // The learned value before the ring test is forgotten; one learned after it rules.
+        let rate = current_rate(&all);
+        assert_eq!(rate.base, Some(&ring));
+        assert_eq!(rate.preston_coefficient_m2_per_n, Some(1.2e-13));
+        assert_eq!(rate.standard_error_m2_per_n, Some(1e-15));
+        let learned = [ring, first, second];
+        let rate = current_rate(&learned);
+        // Weights 1/4 and 1 (in units of 1e30): (0.25·1.0 + 1·1.2)/1.25 = 1.16.
+        let k = rate.preston_coefficient_m2_per_n.unwrap();
+        assert!((k - 1.16e-13).abs() < 1e-26, "{k}");
+        let se = rate.standard_error_m2_per_n.unwrap();
+        assert!((se - 1e-15 / 1.25f64.sqrt()).abs() < 1e-28, "{se}");
+    }
+}

@@ -1,0 +1,760 @@
+//! The records: the full correction cycle through the API on SQLite (always) and PostgreSQL
+//! (when `PRESTON_TEST_POSTGRES_URL` names a database, as `.ci/run` does), idempotent retries,
+//! the read-only role, the conventions (Location, ETag, problems) and a store that is down.
+//!
+//! Measurements come from an independent generator: probe traces of a sphere written from the
+//! sag formula here, with a form error of our choosing and Gaussian noise, and an after-trace
+//! in which the part lost exactly 90 % of the removal the plan predicted.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::Router;
+use preston::config::ServiceLimits;
+use preston::http::{router, AppState};
+use preston::store::{Store, StoreOptions};
+use serde_json::{json, Value};
+
+use crate::common::http::{get, post_with, send, Reply};
+
+/// Every backend under test: a fresh SQLite file, and PostgreSQL when configured.
+pub fn backends() -> Vec<String> {
+    let sqlite = std::env::temp_dir().join(format!(
+        "preston-records-{}-{}.db",
+        std::process::id(),
+        unique()
+    ));
+    let mut urls = vec![format!("sqlite://{}", sqlite.display())];
+    if let Ok(url) = std::env::var("PRESTON_TEST_POSTGRES_URL") {
+        urls.push(url);
+    }
+    urls
+}
+
+/// A token that makes names unique across tests sharing one database.
+pub fn unique() -> String {
+    format!(
+        "{:x}{:04x}",
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_nanos(),
+        fastrand::u16(..)
+    )
+}
+
+pub async fn open(url: &str) -> Store {
+    Store::open(&StoreOptions {
+        url: url.to_string(),
+        max_connections: 4,
+        timeout: Duration::from_secs(10),
+    })
+    .await
+    .unwrap_or_else(|e| panic!("{url}: {e}"))
+}
+
+fn app(store: Store, state: AppState) -> Router {
+    router(state.with_store(store), None)
+}
+
+async fn post(app: &Router, path: &str, body: &Value, headers: &[(&str, &str)]) -> Reply {
+    let mut all = vec![("content-type", "application/json")];
+    all.extend_from_slice(headers);
+    post_with(app, path, body.to_string(), &all).await
+}
+
+async fn created(app: &Router, path: &str, body: &Value) -> Value {
+    let reply = post(app, path, body, &[]).await;
+    assert_eq!(reply.status, 201, "{path}: {}", reply.text());
+    let location = reply.headers["location"].to_str().unwrap().to_string();
+    let id = reply.json()["id"]
+        .as_str()
+        .or(reply.json()["name"].as_str())
+        .unwrap()
+        .to_string();
+    assert!(location.ends_with(&id), "{location}");
+    // The record reads back as written.
+    let back = get(app, &location).await;
+    assert_eq!(back.status, 200, "{location}");
+    reply.json()
+}
+
+const SPHERE_RADIUS_MM: f64 = 300.0;
+
+fn sag(r: f64) -> f64 {
+    let c = 1.0 / SPHERE_RADIUS_MM;
+    c * r * r / (1.0 + (1.0 - c * c * r * r).sqrt())
+}
+
+/// cos of the surface normal's angle to the axis at radius r.
+fn cos_normal(r: f64) -> f64 {
+    let c = 1.0 / SPHERE_RADIUS_MM;
+    let slope = c * r / (1.0 - c * c * r * r).sqrt();
+    1.0 / (1.0 + slope * slope).sqrt()
+}
+
+/// A standard normal deviate (Box–Muller).
+fn gaussian(rng: &mut fastrand::Rng) -> f64 {
+    let (u, v) = (1.0 - rng.f64(), rng.f64());
+    (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+}
+
+/// A probe trace (tip radius 0) across the sphere whose normal form error is `error_nm(r)`,
+/// with `noise_nm` of Gaussian noise.
+fn trace(error_nm: &dyn Fn(f64) -> f64, noise_nm: f64, seed: u64) -> Value {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let x: Vec<f64> = (0..=480).map(|i| -48.0 + 0.2 * i as f64).collect();
+    let z: Vec<f64> = x
+        .iter()
+        .map(|&x| {
+            let r = x.abs();
+            let axial_nm = error_nm(r) / cos_normal(r) + noise_nm * gaussian(&mut rng);
+            sag(r) + axial_nm * 1e-6
+        })
+        .collect();
+    json!({"profile": {"x_mm": x, "z_mm": z}, "radial_grid": {"start_mm": 0, "stop_mm": 46, "count": 93}})
+}
+
+/// Linear interpolation of (xs, ys) at x.
+fn interpolate(xs: &[f64], ys: &[f64], x: f64) -> f64 {
+    let i = xs.partition_point(|&v| v <= x).clamp(1, xs.len() - 1);
+    let t = (x - xs[i - 1]) / (xs[i] - xs[i - 1]);
+    ys[i - 1] + t * (ys[i] - ys[i - 1])
+}
+
+fn numbers(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+const K_NOMINAL: f64 = 1.0e-13;
+
+fn profile_body(name: &str) -> Value {
+    json!({
+        "name": name,
+        "process": {"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": -10,
+                    "tool_rpm": 200, "preston_coefficient_m2_per_n": K_NOMINAL, "pressure_kpa": 10},
+        "tool": {"pivot_length_mm": 60, "orientation": "normal"}
+    })
+}
+
+fn part_body(name: &str, profile: &str) -> Value {
+    json!({
+        "name": name,
+        "process_profile": profile,
+        "surface": {"kind": "sphere", "radius_of_curvature_mm": SPHERE_RADIUS_MM},
+        "workpiece_radius_mm": 50,
+        "clear_aperture": {"inner_mm": 0, "outer_mm": 40}
+    })
+}
+
+fn plan_body() -> Value {
+    let positions: Vec<f64> = (0..=100).map(|i| 0.45 * i as f64).collect();
+    json!({"positions_mm": positions, "radial_grid": {"start_mm": 0, "stop_mm": 48, "count": 193}})
+}
+
+/// The initial form error: a turned-edge-and-centre pattern, nm.
+fn initial_error(r: f64) -> f64 {
+    let u = r / 40.0;
+    180.0 * u * u - 135.0 * u.powi(4) + 36.0 * (3.0 * u).cos()
+}
+
+/// The Must-show cycle on one backend: profile → part → measurement → plan → program → run →
+/// an after-measurement in which the part lost 90 % of the predicted removal → history with
+/// removal_ratio 0.90 ± 0.02 and the convergence ratio → the next plan at the learned rate.
+async fn full_cycle(url: &str) {
+    let store = open(url).await;
+    let app = app(store.clone(), AppState::new(ServiceLimits::default()));
+    let token = unique();
+    let profile = format!("shop-{token}");
+    created(&app, "/v1/process-profiles", &profile_body(&profile)).await;
+    let part = created(
+        &app,
+        "/v1/parts",
+        &part_body(&format!("SN-{token}"), &profile),
+    )
+    .await;
+    let part_id = part["id"].as_str().unwrap();
+
+    let before = created(
+        &app,
+        &format!("/v1/parts/{part_id}/measurements"),
+        &trace(&initial_error, 0.3, 7),
+    )
+    .await;
+    let plan = created(&app, &format!("/v1/parts/{part_id}/plans"), &plan_body()).await;
+    assert_eq!(plan["measurement_id"], before["id"]);
+    assert_eq!(
+        plan["request"]["process"]["preston_coefficient_m2_per_n"],
+        json!(K_NOMINAL)
+    );
+    assert_eq!(
+        plan["request"]["target"],
+        before["result"]["correction_target"]
+    );
+    let plan_id = plan["id"].as_str().unwrap();
+
+    let program = post(
+        &app,
+        &format!("/v1/plans/{plan_id}/program"),
+        &json!({}),
+        &[("accept", "text/x-gcode")],
+    )
+    .await;
+    assert_eq!(program.status, 200, "{}", program.text());
+    assert!(
+        program.text().lines().take(3).any(|l| l.contains(plan_id)),
+        "the G-code header names the plan"
+    );
+
+    created(
+        &app,
+        &format!("/v1/parts/{part_id}/runs"),
+        &json!({"plan_id": plan_id, "started_at": "2026-11-25T08:00:00Z",
+                "finished_at": "2026-11-25T13:12:00Z", "machine": "cell 3"}),
+    )
+    .await;
+
+    // The part lost 90 % of the predicted removal.
+    let radius = numbers(&plan["result"]["radius_mm"]);
+    let removal = numbers(&plan["result"]["removal_nm"]);
+    let after_error = |r: f64| initial_error(r) - 0.90 * interpolate(&radius, &removal, r);
+    let after = created(
+        &app,
+        &format!("/v1/parts/{part_id}/measurements"),
+        &trace(&after_error, 0.3, 8),
+    )
+    .await;
+    assert!(
+        after["completes_run_id"].is_string(),
+        "{}",
+        after["completes_run_id"]
+    );
+    assert!(after["learned_calibration_id"].is_string());
+
+    let history = get(&app, &format!("/v1/parts/{part_id}/history")).await;
+    assert_eq!(history.status, 200);
+    let history = history.json();
+    let cycle = &history["cycles"][0];
+    assert_eq!(history["cycles"].as_array().unwrap().len(), 1);
+    let ratio = cycle["removal_ratio"]["value"].as_f64().unwrap();
+    let standard_error = cycle["removal_ratio"]["standard_error"].as_f64().unwrap();
+    println!(
+        "{url}: removal_ratio {ratio:.4} ± {standard_error:.4}, convergence {}",
+        cycle["convergence_ratio"]
+    );
+    assert!((ratio - 0.90).abs() <= 0.02, "removal ratio {ratio}");
+    assert!(
+        standard_error > 0.0 && standard_error < 0.02,
+        "{standard_error}"
+    );
+    let (rms_before, rms_after) = (
+        before["rms_nm"].as_f64().unwrap(),
+        after["rms_nm"].as_f64().unwrap(),
+    );
+    assert_eq!(cycle["rms_before_nm"].as_f64(), Some(rms_before));
+    assert_eq!(cycle["rms_after_nm"].as_f64(), Some(rms_after));
+    assert_eq!(
+        cycle["convergence_ratio"].as_f64(),
+        Some(rms_before / rms_after)
+    );
+    assert!(rms_before / rms_after > 3.0, "{rms_before} → {rms_after}");
+    assert_eq!(
+        cycle["predicted_rms_after_nm"],
+        plan["predicted_rms_after_nm"]
+    );
+
+    // The profile learned the rate; the next plan uses it and corrects the latest measurement.
+    let shown = get(&app, &format!("/v1/process-profiles/{profile}"))
+        .await
+        .json();
+    assert_eq!(shown["preston_coefficient_source"], "learned");
+    assert_eq!(shown["calibrations"][0]["learned"], true);
+    let learned = shown["current_process"]["preston_coefficient_m2_per_n"]
+        .as_f64()
+        .unwrap();
+    assert!((learned / K_NOMINAL - ratio).abs() < 1e-12, "{learned}");
+    let next = created(&app, &format!("/v1/parts/{part_id}/plans"), &plan_body()).await;
+    assert_eq!(
+        next["request"]["process"]["preston_coefficient_m2_per_n"].as_f64(),
+        Some(learned)
+    );
+    assert_eq!(next["measurement_id"], after["id"]);
+    assert_eq!(
+        history["next_process"]["preston_coefficient_m2_per_n"].as_f64(),
+        Some(learned)
+    );
+    store.close().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_full_cycle_learns_the_removal_rate_on_every_backend() {
+    for url in backends() {
+        full_cycle(&url).await;
+    }
+}
+
+/// Retries under one Idempotency-Key: the first answer every time, one record; the same key
+/// with another body: 422 naming the header; concurrent retries: still one record.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn idempotent_retries_never_duplicate_a_record() {
+    for url in backends() {
+        let store = open(&url).await;
+        let app = app(store.clone(), AppState::new(ServiceLimits::default()));
+        let token = unique();
+        let profile = format!("idem-{token}");
+        created(&app, "/v1/process-profiles", &profile_body(&profile)).await;
+        let body = part_body(&format!("SN-{token}"), &profile);
+        let key = format!("key-{token}");
+        let retries = (0..8).map(|_| {
+            let (app, body, key) = (app.clone(), body.clone(), key.clone());
+            tokio::spawn(async move {
+                post(&app, "/v1/parts", &body, &[("idempotency-key", &key)]).await
+            })
+        });
+        let mut answers = Vec::new();
+        for retry in retries {
+            let reply = retry.await.unwrap();
+            assert_eq!(reply.status, 201, "{}", reply.text());
+            answers.push((reply.headers["location"].clone(), reply.body.clone()));
+        }
+        assert!(
+            answers.windows(2).all(|w| w[0] == w[1]),
+            "every retry gets the first answer"
+        );
+        let listed = get(&app, &format!("/v1/parts?name=SN-{token}"))
+            .await
+            .json();
+        assert_eq!(listed["items"].as_array().unwrap().len(), 1, "{url}");
+
+        let mut other = body.clone();
+        other["workpiece_radius_mm"] = json!(49);
+        let reused = post(&app, "/v1/parts", &other, &[("idempotency-key", &key)]).await;
+        assert_eq!(reused.status, 422, "{}", reused.text());
+        assert_eq!(reused.json()["field"], "Idempotency-Key");
+
+        // Without a key, the same serial again is a conflict, not a second part.
+        let again = post(&app, "/v1/parts", &body, &[]).await;
+        assert_eq!(again.status, 409, "{}", again.text());
+        assert_eq!(again.content_type, "application/problem+json");
+        store.close().await;
+    }
+}
+
+/// A read-only key computes and reads, and gets 403 on every record POST.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_read_only_key_reads_and_computes_but_never_writes() {
+    let url = &backends()[0];
+    let dir = std::env::temp_dir().join(format!("preston-roles-{}", unique()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let keys = dir.join("keys.txt");
+    let digest = |key: &str| -> String {
+        use sha2::Digest;
+        sha2::Sha256::digest(key.as_bytes())
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    };
+    std::fs::write(
+        &keys,
+        format!(
+            "mes:{}\nviewer:{}:read\n",
+            digest("writer-key"),
+            digest("reader-key")
+        ),
+    )
+    .unwrap();
+    let auth = preston::keys::Auth::load(keys, false).unwrap();
+    let store = open(url).await;
+    let state = AppState::new(ServiceLimits::default()).with_auth(Arc::new(auth));
+    let app = app(store.clone(), state);
+    let writer = [("authorization", "Bearer writer-key")];
+    let reader = [("authorization", "Bearer reader-key")];
+    let token = unique();
+    let profile = format!("roles-{token}");
+
+    let made = post(
+        &app,
+        "/v1/process-profiles",
+        &profile_body(&profile),
+        &writer,
+    )
+    .await;
+    assert_eq!(made.status, 201);
+    assert_eq!(made.json()["created_by"], "mes");
+    let part = post(
+        &app,
+        "/v1/parts",
+        &part_body(&format!("SN-{token}"), &profile),
+        &writer,
+    )
+    .await;
+    let part_id = part.json()["id"].as_str().unwrap().to_string();
+    let measured = post(
+        &app,
+        &format!("/v1/parts/{part_id}/measurements"),
+        &trace(&initial_error, 0.3, 7),
+        &writer,
+    )
+    .await;
+    assert_eq!(measured.status, 201);
+    let plan = post(
+        &app,
+        &format!("/v1/parts/{part_id}/plans"),
+        &plan_body(),
+        &writer,
+    )
+    .await;
+    let plan_id = plan.json()["id"].as_str().unwrap().to_string();
+
+    let writes = [
+        (
+            "/v1/process-profiles".to_string(),
+            profile_body(&format!("{profile}-2")),
+        ),
+        (
+            format!("/v1/process-profiles/{profile}/calibrations"),
+            json!({"runs": []}),
+        ),
+        (
+            "/v1/parts".to_string(),
+            part_body(&format!("SN2-{token}"), &profile),
+        ),
+        (
+            format!("/v1/parts/{part_id}/measurements"),
+            trace(&initial_error, 0.3, 7),
+        ),
+        (format!("/v1/parts/{part_id}/plans"), plan_body()),
+        (
+            format!("/v1/parts/{part_id}/runs"),
+            json!({"plan_id": plan_id, "started_at": "2026-11-25T08:00:00Z", "finished_at": "2026-11-25T09:00:00Z"}),
+        ),
+    ];
+    for (path, body) in &writes {
+        let refused = post(&app, path, body, &reader).await;
+        assert_eq!(refused.status, 403, "{path}: {}", refused.text());
+        assert_eq!(refused.content_type, "application/problem+json");
+    }
+    for path in [
+        "/v1/process-profiles".to_string(),
+        format!("/v1/process-profiles/{profile}"),
+        "/v1/parts".to_string(),
+        format!("/v1/parts/{part_id}"),
+        format!("/v1/parts/{part_id}/history"),
+        format!("/v1/plans/{plan_id}"),
+    ] {
+        let request = axum::http::Request::get(&path)
+            .header("authorization", "Bearer reader-key")
+            .body(axum::body::Body::empty())
+            .unwrap();
+        assert_eq!(send(&app, request).await.status, 200, "{path}");
+    }
+    let program = post(
+        &app,
+        &format!("/v1/plans/{plan_id}/program"),
+        &json!({}),
+        &reader,
+    )
+    .await;
+    assert_eq!(program.status, 200, "{}", program.text());
+    let fixture = crate::common::read_fixture("predict_paper_exp1.json");
+    let computed = post(&app, "/v1/predict", &fixture, &reader).await;
+    assert_eq!(computed.status, 200);
+    // Nothing the reader sent was written.
+    let parts = post(&app, "/v1/parts", &json!({}), &reader).await;
+    assert_eq!(parts.status, 403);
+    let listed = get_with(&app, &format!("/v1/parts?name=SN2-{token}"), &reader).await;
+    assert_eq!(listed.json()["items"], json!([]));
+    store.close().await;
+}
+
+async fn get_with(app: &Router, path: &str, headers: &[(&str, &str)]) -> Reply {
+    let mut request = axum::http::Request::get(path);
+    for (name, value) in headers {
+        request = request.header(*name, *value);
+    }
+    send(app, request.body(axum::body::Body::empty()).unwrap()).await
+}
+
+/// GETs carry an ETag and answer 304 to it; unknown records are 404 problems; a plan of
+/// another part, a run that ends before it starts and a part of an unknown profile are 422s
+/// naming the field.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn records_follow_the_conventions() {
+    let url = &backends()[0];
+    let store = open(url).await;
+    let app = app(store.clone(), AppState::new(ServiceLimits::default()));
+    let token = unique();
+    let profile = format!("conv-{token}");
+    created(&app, "/v1/process-profiles", &profile_body(&profile)).await;
+    let part = created(
+        &app,
+        "/v1/parts",
+        &part_body(&format!("SN-{token}"), &profile),
+    )
+    .await;
+    let part_id = part["id"].as_str().unwrap();
+    let path = format!("/v1/parts/{part_id}");
+    let first = get(&app, &path).await;
+    let etag = first.headers["etag"].to_str().unwrap().to_string();
+    assert!(etag.starts_with('"') && etag.len() == 34, "{etag}");
+    assert_eq!(
+        get_with(&app, &path, &[("if-none-match", &etag)])
+            .await
+            .status,
+        304
+    );
+    assert!(first.json()["created_at"].as_str().unwrap().ends_with('Z'));
+
+    for missing in [
+        "/v1/parts/nope",
+        "/v1/plans/nope",
+        "/v1/runs/nope",
+        "/v1/measurements/nope",
+        "/v1/calibrations/nope",
+        "/v1/process-profiles/nope",
+        "/v1/parts/nope/history",
+    ] {
+        let reply = get(&app, missing).await;
+        assert_eq!(reply.status, 404, "{missing}");
+        assert_eq!(reply.content_type, "application/problem+json");
+    }
+    let cases = [
+        (
+            "/v1/parts".to_string(),
+            part_body(&format!("X-{token}"), "no-such-profile"),
+            "process_profile",
+        ),
+        (
+            "/v1/parts".to_string(),
+            json!({"name": format!("Y-{token}"), "process_profile": profile, "workpiece_radius_mm": -5}),
+            "workpiece_radius_mm",
+        ),
+        (
+            format!("/v1/parts/{part_id}/runs"),
+            json!({"plan_id": "nope", "started_at": "2026-11-25T08:00:00Z", "finished_at": "2026-11-25T09:00:00Z"}),
+            "plan_id",
+        ),
+        (
+            format!("/v1/parts/{part_id}/runs"),
+            json!({"plan_id": "nope", "started_at": "2026-11-25T10:00:00Z", "finished_at": "2026-11-25T09:00:00Z"}),
+            "finished_at",
+        ),
+        (
+            format!("/v1/parts/{part_id}/runs"),
+            json!({"plan_id": "nope", "started_at": "yesterday", "finished_at": "2026-11-25T09:00:00Z"}),
+            "started_at",
+        ),
+        (format!("/v1/parts/{part_id}/plans"), plan_body(), "target"),
+        (
+            format!("/v1/parts/{part_id}/plans"),
+            json!({"surface": {"kind": "plane"}, "positions_mm": [0, 1]}),
+            "surface",
+        ),
+        (
+            "/v1/process-profiles".to_string(),
+            json!({"name": "has space", "process": profile_body("x")["process"]}),
+            "name",
+        ),
+    ];
+    for (path, body, field) in cases {
+        let reply = post(&app, &path, &body, &[]).await;
+        assert_eq!(reply.status, 422, "{path} {body}: {}", reply.text());
+        assert_eq!(reply.json()["field"], field, "{path}: {}", reply.text());
+    }
+    store.close().await;
+}
+
+/// With PostgreSQL unreachable the service starts, record endpoints answer 503 problems and
+/// compute endpoints 200, and `/readyz` says the store is unavailable.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_store_that_is_down_fails_records_not_computations() {
+    let store = Store::open(&StoreOptions {
+        url: "postgres://preston:secret@127.0.0.1:9/preston".into(),
+        max_connections: 2,
+        timeout: Duration::from_millis(300),
+    })
+    .await
+    .expect("PostgreSQL connects lazily");
+    let app = app(store, AppState::new(ServiceLimits::default()));
+    let records = get(&app, "/v1/parts").await;
+    assert_eq!(records.status, 503, "{}", records.text());
+    assert_eq!(
+        records.json()["type"],
+        "urn:preston:problem:store-unavailable"
+    );
+    assert!(!records.text().contains("secret"));
+    let write = post(&app, "/v1/process-profiles", &profile_body("down"), &[]).await;
+    assert_eq!(write.status, 503);
+    let fixture = crate::common::read_fixture("predict_paper_exp1.json");
+    assert_eq!(post(&app, "/v1/predict", &fixture, &[]).await.status, 200);
+    let ready = get(&app, "/readyz").await;
+    assert_eq!(ready.status, 200);
+    assert_eq!(ready.json()["store"], "unavailable");
+}
+
+/// One blocking HTTP/1.1 exchange that tolerates a server that dies: `None` unless a whole
+/// response arrived.
+fn exchange(address: &str, method: &str, path: &str, body: &str) -> Option<(u16, String)> {
+    use std::io::{Read, Write};
+    let mut stream = std::net::TcpStream::connect(address).ok()?;
+    stream
+        .set_read_timeout(Some(Duration::from_secs(20)))
+        .ok()?;
+    let head = format!(
+        "{method} {path} HTTP/1.1\r\nhost: {address}\r\ncontent-type: application/json\r\n\
+         content-length: {}\r\nconnection: close\r\n\r\n{body}",
+        body.len()
+    );
+    stream.write_all(head.as_bytes()).ok()?;
+    let mut raw = String::new();
+    stream.read_to_string(&mut raw).ok()?;
+    let (head, rest) = raw.split_once("\r\n\r\n")?;
+    let status = head.split_whitespace().nth(1)?.parse().ok()?;
+    let length: usize = head.lines().find_map(|l| {
+        l.to_ascii_lowercase()
+            .strip_prefix("content-length:")
+            .map(|v| v.trim().parse().ok())
+    })??;
+    (rest.len() == length).then(|| (status, rest.to_string()))
+}
+
+/// SIGKILL of the real binary while 50 record writes are under way, then a restart on the same
+/// store: every write answered 201 is there (5 rounds on each backend).
+#[test]
+fn no_acknowledged_record_is_lost_to_sigkill() {
+    for url in backends() {
+        let mut acknowledged_total = 0;
+        for round in 0..5 {
+            let mut service = crate::common::service::Service::start_on(&url);
+            let token = unique();
+            let profile = format!("kill-{token}");
+            let (status, _) = exchange(
+                &service.address,
+                "POST",
+                "/v1/process-profiles",
+                &profile_body(&profile).to_string(),
+            )
+            .unwrap();
+            assert_eq!(status, 201);
+            let acknowledged = Arc::new(std::sync::Mutex::new(Vec::<String>::new()));
+            let writers: Vec<_> = (0..50)
+                .map(|i| {
+                    let (address, body, acknowledged) = (
+                        service.address.clone(),
+                        part_body(&format!("SN-{token}-{i}"), &profile).to_string(),
+                        acknowledged.clone(),
+                    );
+                    std::thread::spawn(move || {
+                        std::thread::sleep(Duration::from_millis(2 * i));
+                        if let Some((201, body)) = exchange(&address, "POST", "/v1/parts", &body) {
+                            let id = serde_json::from_str::<Value>(&body).unwrap()["id"]
+                                .as_str()
+                                .unwrap()
+                                .to_string();
+                            acknowledged.lock().unwrap().push(id);
+                        }
+                    })
+                })
+                .collect();
+            // Kill once some, not all, writes are answered.
+            let started = std::time::Instant::now();
+            while acknowledged.lock().unwrap().len() < 10 + 5 * round
+                && started.elapsed() < Duration::from_secs(20)
+            {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            service.signal("KILL");
+            service.wait();
+            for writer in writers {
+                writer.join().unwrap();
+            }
+            let acknowledged = acknowledged.lock().unwrap().clone();
+            assert!(
+                acknowledged.len() < 50,
+                "the kill came after every write: {}",
+                acknowledged.len()
+            );
+            let restarted = crate::common::service::Service::start_on(&url);
+            let missing: Vec<&String> = acknowledged
+                .iter()
+                .filter(|id| {
+                    exchange(&restarted.address, "GET", &format!("/v1/parts/{id}"), "").map(|r| r.0)
+                        != Some(200)
+                })
+                .collect();
+            println!(
+                "{url} round {round}: {} acknowledged before SIGKILL, {} missing after restart",
+                acknowledged.len(),
+                missing.len()
+            );
+            assert!(missing.is_empty(), "lost: {missing:?}");
+            acknowledged_total += acknowledged.len();
+        }
+        assert!(acknowledged_total > 0);
+    }
+}
+
+/// Two service processes on one PostgreSQL see each other's writes at once.
+#[test]
+fn two_processes_share_one_postgresql() {
+    let Ok(url) = std::env::var("PRESTON_TEST_POSTGRES_URL") else {
+        println!("PRESTON_TEST_POSTGRES_URL is not set: skipped (CI sets it)");
+        return;
+    };
+    let (a, b) = (
+        crate::common::service::Service::start_on(&url),
+        crate::common::service::Service::start_on(&url),
+    );
+    let token = unique();
+    let profile = format!("two-{token}");
+    let (status, _) = exchange(
+        &a.address,
+        "POST",
+        "/v1/process-profiles",
+        &profile_body(&profile).to_string(),
+    )
+    .unwrap();
+    assert_eq!(status, 201);
+    assert_eq!(
+        exchange(
+            &b.address,
+            "GET",
+            &format!("/v1/process-profiles/{profile}"),
+            ""
+        )
+        .unwrap()
+        .0,
+        200
+    );
+    let (status, part) = exchange(
+        &b.address,
+        "POST",
+        "/v1/parts",
+        &part_body(&format!("SN-{token}"), &profile).to_string(),
+    )
+    .unwrap();
+    assert_eq!(status, 201);
+    let id = serde_json::from_str::<Value>(&part).unwrap()["id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let (status, shown) = exchange(&a.address, "GET", &format!("/v1/parts/{id}"), "").unwrap();
+    assert_eq!(status, 200);
+    assert_eq!(
+        serde_json::from_str::<Value>(&shown).unwrap()["name"],
+        format!("SN-{token}")
+    );
+    // The same serial through the other process is a conflict, not a second part.
+    let (status, _) = exchange(
+        &a.address,
+        "POST",
+        "/v1/parts",
+        &part_body(&format!("SN-{token}"), &profile).to_string(),
+    )
+    .unwrap();
+    assert_eq!(status, 409);
+}
