@@ -38,6 +38,14 @@ pub enum Command {
         /// The request body, a JSON file.
         file: PathBuf,
     },
+    /// Copy the SQLite records store (`--database-url`) to FILE, consistently, while the
+    /// service runs (SQLite's `VACUUM INTO`). FILE must not exist. To restore: stop the
+    /// service, put the copy in place of the database file (removing its -wal and -shm
+    /// files), start it. For PostgreSQL use pg_dump.
+    Backup {
+        /// Where the copy goes.
+        file: PathBuf,
+    },
     /// Exit 0 when the service on this host answers `GET /healthz` with 200, 1 otherwise (for
     /// container health checks: the image has no shell or curl).
     Healthcheck {

@@ -1,4 +1,5 @@
-//! The `preston` binary: `serve` (default), `openapi`, `compute`, `healthcheck`. Thin by design.
+//! The `preston` binary: `serve` (default), `openapi`, `compute`, `backup`, `healthcheck`. Thin
+//! by design.
 
 use std::io::{ErrorKind, Read, Write};
 use std::process::ExitCode;
@@ -29,6 +30,7 @@ fn main() -> ExitCode {
         Some(Command::Openapi) => output(&openapi::spec_json(), ExitCode::SUCCESS),
         Some(Command::Compute { endpoint, file }) => compute(&endpoint, &file, &cli.serve),
         Some(Command::Serve(args)) => serve(*args),
+        Some(Command::Backup { file }) => backup(&file, &cli.serve),
         Some(Command::Healthcheck { listen, timeout_ms }) => {
             let addr = preston::healthcheck::target(listen);
             match preston::healthcheck::probe(addr, std::time::Duration::from_millis(timeout_ms)) {
@@ -56,6 +58,31 @@ fn serve(args: preston::config::ServeArgs) -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("preston: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn backup(file: &std::path::Path, args: &preston::config::ServeArgs) -> ExitCode {
+    let copied = tokio::runtime::Runtime::new()
+        .map_err(|e| e.to_string())
+        .and_then(|runtime| {
+            runtime.block_on(async {
+                let store = preston::store::Store::open(&args.store_options())
+                    .await
+                    .map_err(|e| e.to_string())?;
+                let copied = store.backup(file).await.map_err(|e| e.to_string());
+                store.close().await;
+                copied
+            })
+        });
+    match copied {
+        Ok(()) => {
+            eprintln!("preston: the records are copied to {}", file.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("preston: backup failed: {e}");
             ExitCode::FAILURE
         }
     }

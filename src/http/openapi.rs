@@ -298,10 +298,35 @@ const LINKS: [(&str, &str, &str, &str, &str, &str); 14] = [
     ),
 ];
 
+/// The links, and the Idempotency-Key header's exact schema (utoipa leaves an optional
+/// header's schema empty).
 fn link_records(doc: &mut serde_json::Value) {
     let Some(paths) = doc["paths"].as_object_mut() else {
         return;
     };
+    for parameter in paths
+        .values_mut()
+        .filter_map(|item| item.get_mut("post"))
+        .filter_map(|post| post.get_mut("parameters"))
+        .filter_map(serde_json::Value::as_array_mut)
+        .flatten()
+        .filter(|p| p["name"] == "Idempotency-Key")
+    {
+        parameter["schema"] = serde_json::json!({
+            "type": "string", "minLength": 1, "maxLength": 255, "pattern": "^[!-~]+$"
+        });
+    }
+    // Likewise a path parameter beside it.
+    for parameter in paths
+        .values_mut()
+        .filter_map(|item| item.get_mut("post"))
+        .filter_map(|post| post.get_mut("parameters"))
+        .filter_map(serde_json::Value::as_array_mut)
+        .flatten()
+        .filter(|p| p["in"] == "path" && p["schema"].is_null())
+    {
+        parameter["schema"] = serde_json::json!({"type": "string"});
+    }
     for (operation, status, name, target, parameter, value) in LINKS {
         let response = paths
             .values_mut()

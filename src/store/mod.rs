@@ -61,6 +61,10 @@ pub enum StoreError {
     Connect(sqlx::Error),
     #[error("cannot migrate the database: {0}")]
     Migrate(sqlx::migrate::MigrateError),
+    #[error("a backup copies a SQLite store; back PostgreSQL up with pg_dump")]
+    NotSqlite,
+    #[error("cannot copy the database: {0}")]
+    Backup(sqlx::Error),
 }
 
 /// Which database the store runs on.
@@ -229,6 +233,20 @@ impl Store {
         Ok(rows.into_iter().map(|(v,)| v).collect())
     }
 
+    /// A consistent copy of a SQLite store at `file` (which must not exist), taken while it
+    /// serves: `VACUUM INTO` reads one snapshot, the WAL's committed transactions included.
+    pub async fn backup(&self, file: &std::path::Path) -> Result<(), StoreError> {
+        if self.backend != Backend::Sqlite {
+            return Err(StoreError::NotSqlite);
+        }
+        sqlx::query("VACUUM INTO $1")
+            .bind(file.to_string_lossy().into_owned())
+            .execute(&self.pool)
+            .await
+            .map(|_| ())
+            .map_err(StoreError::Backup)
+    }
+
     /// Closes the pool (waits for connections in use).
     pub async fn close(&self) {
         self.pool.close().await;
@@ -290,6 +308,51 @@ mod tests {
         assert_eq!(again.applied_versions().await.unwrap(), vec![1, 2]);
         again.close().await;
         remove(&path);
+    }
+
+    /// A store at the previous schema (version 1, with a profile in it) is migrated forward at
+    /// open, and the profile reads back through the records; a backup copy opens as a store
+    /// with the same records.
+    #[tokio::test]
+    async fn a_store_at_the_previous_schema_is_migrated_and_a_backup_restores_it() {
+        use crate::usecases::records::Records;
+        let (path, options) = temporary("previous");
+        {
+            sqlx::any::install_default_drivers();
+            let pool = sqlx::any::AnyPoolOptions::new()
+                .connect(&format!("{}?mode=rwc", options.url))
+                .await
+                .unwrap();
+            let first = Migrator::new(Embedded).await.unwrap();
+            let mut only_first = first;
+            only_first.migrations = Cow::Owned(only_first.migrations[..1].to_vec());
+            only_first.run(&pool).await.unwrap();
+            sqlx::query(
+                "INSERT INTO process_profiles (name, body, created_at, created_by) \
+                 VALUES ('old', '{\"process\": {}}', '2026-11-01T00:00:00.000Z', 'mes')",
+            )
+            .execute(&pool)
+            .await
+            .unwrap();
+            pool.close().await;
+        }
+        let store = Store::open(&options).await.unwrap();
+        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2]);
+        let old = store.profile("old").await.unwrap().unwrap();
+        assert_eq!(old.stamp.created_by, "mes");
+        assert!(store.calibrations("old").await.unwrap().is_empty());
+        let (copy, copy_options) = temporary("copy");
+        store.backup(&copy).await.unwrap();
+        assert!(
+            store.backup(&copy).await.is_err(),
+            "an existing file is never overwritten"
+        );
+        store.close().await;
+        let restored = Store::open(&copy_options).await.unwrap();
+        assert_eq!(restored.profile("old").await.unwrap(), Some(old));
+        restored.close().await;
+        remove(&path);
+        remove(&copy);
     }
 
     #[tokio::test]

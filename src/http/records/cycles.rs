@@ -127,7 +127,7 @@ pub async fn show_plan(
 #[utoipa::path(post, path = "/v1/plans/{id}/program", tag = "records", operation_id = "createPlanProgram", summary = "The plan's machine program (computed from the record, not stored)",
     params(("id" = String, Path, description = "The plan's id")), request_body = PlanProgramRequest,
     responses((status = 200, description = "The program: JSON (as /v1/program) or G-code (Accept: text/x-gcode), its header naming the plan",
-        content((crate::http::program::ProgramResponse = "application/json"), (String = "text/x-gcode"))), RecordReadProblems))]
+        content((crate::http::program::ProgramResponse = "application/json"), (String = "text/x-gcode"))), RecordWriteProblems))]
 /// `POST /v1/plans/{id}/program`: the plan's machine program (JSON or G-code, as
 /// `/v1/program`), its header naming the plan and the part. Computed, not stored: a read.
 pub async fn program(

@@ -18,6 +18,7 @@ use crate::http::program::ProgramRequest;
 #[serde(deny_unknown_fields)]
 pub struct ProcessProfileRequest {
     /// 1–64 of A–Z, a–z, 0–9, `-`, `_`, `.` (it is a path segment); unique.
+    #[schema(pattern = "^[A-Za-z0-9._-]{1,64}$")]
     pub name: String,
     /// The nominal process (a part's `workpiece_radius_mm` replaces its workpiece radius).
     pub process: ProcessDto,
@@ -107,7 +108,13 @@ pub struct CalibrationRecordDto {
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PartRequest {
-    /// The shop's serial: 1–200 characters, unique.
+    /// The shop's serial: 1–200 characters, no control characters, no leading or trailing
+    /// white space; unique.
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = "^[^\\s\\x00-\\x1f\\x7f]([^\\x00-\\x1f\\x7f]*[^\\s\\x00-\\x1f\\x7f])?$"
+    )]
     pub name: String,
     /// The profile its plans use.
     pub process_profile: String,
@@ -115,6 +122,7 @@ pub struct PartRequest {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub surface: Option<SurfaceDto>,
     /// The part's radius, mm (it replaces the profile process's workpiece radius).
+    #[schema(exclusive_minimum = 0.0)]
     pub workpiece_radius_mm: f64,
     /// Default for its measurements and plans: the whole part.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -399,6 +407,9 @@ pub enum RecordWriteProblems {
     /// The record the path names does not exist
     #[response(status = 404, content_type = "application/problem+json")]
     NotFound(crate::http::error::Problem),
+    /// Body too large
+    #[response(status = 413, content_type = "application/problem+json")]
+    TooLarge(crate::http::error::Problem),
     /// A unique name is taken
     #[response(status = 409, content_type = "application/problem+json")]
     Conflict(crate::http::error::Problem),

@@ -124,8 +124,10 @@ pub(super) fn on_part(mut process: Value, part: &Value) -> Map<String, Value> {
 /// `GET /v1/parts` query.
 #[derive(Debug, Deserialize, Serialize, utoipa::IntoParams)]
 #[serde(deny_unknown_fields)]
+#[into_params(parameter_in = Query)]
 pub struct PartQuery {
     /// 1 to 100; default 20.
+    #[param(minimum = 1, maximum = 100)]
     pub limit: Option<usize>,
     /// The `next_cursor` of the page before.
     pub cursor: Option<String>,
