@@ -98,7 +98,10 @@ async fn manifests_match_the_service_and_the_image() {
                 .to_lowercase()
                 .replace('_', "-")
         );
-        let value = e["value"].as_str().unwrap();
+        // A value from a Secret is checked with a value of its kind.
+        let value = e["value"]
+            .as_str()
+            .unwrap_or("postgres://preston:secret@database:5432/preston");
         Cli::try_parse_from(["preston", "serve", &flag, value])
             .unwrap_or_else(|err| panic!("{name}: {err}"));
     }
@@ -221,7 +224,7 @@ fn keys_come_from_a_read_only_secret_and_only_named_peers_get_in() {
     );
 
     // The NetworkPolicy selects these pods, admits only named sources on the http port and
-    // denies all egress.
+    // lets them reach only the database (5432) and the cluster DNS (53).
     let policy = load("networkpolicy.yaml");
     assert_eq!(
         &policy["spec"]["podSelector"]["matchLabels"],
@@ -237,7 +240,31 @@ fn keys_come_from_a_read_only_secret_and_only_named_peers_get_in() {
             .all(|peer| !peer["namespaceSelector"]["matchLabels"].is_badvalue()));
         assert_eq!(rule["ports"][0]["port"].as_str(), Some(port_name));
     }
-    assert_eq!(policy["spec"]["egress"].as_vec().map(Vec::len), Some(0));
+    let egress = policy["spec"]["egress"].as_vec().unwrap();
+    assert_eq!(egress.len(), 2);
+    let ports: Vec<i64> = egress
+        .iter()
+        .flat_map(|rule| rule["ports"].as_vec().unwrap().iter())
+        .map(|p| p["port"].as_i64().unwrap())
+        .collect();
+    assert_eq!(ports, [5432, 53, 53]);
+    for rule in egress {
+        // Every destination is named by namespace and pod labels, never "anywhere".
+        for peer in rule["to"].as_vec().unwrap() {
+            assert!(!peer["namespaceSelector"]["matchLabels"].is_badvalue());
+            assert!(!peer["podSelector"]["matchLabels"].is_badvalue());
+        }
+    }
+    // Several replicas share PostgreSQL, its URL from a Secret (never SQLite on a pod's disk).
+    assert!(deployment["spec"]["replicas"].as_i64().unwrap() >= 2);
+    let url = container["env"]
+        .as_vec()
+        .unwrap()
+        .iter()
+        .find(|e| e["name"].as_str() == Some("PRESTON_DATABASE_URL"))
+        .expect("the database URL is set");
+    assert!(url["value"].is_badvalue(), "not written into the manifest");
+    assert!(!url["valueFrom"]["secretKeyRef"]["name"].is_badvalue());
     assert!(strings(&policy["spec"]["policyTypes"]).contains(&"Egress".to_string()));
 }
 
