@@ -6,7 +6,9 @@
 It loads the page and finds its first charts drawn from the answers the page came with (no
 API call), switches the edge-pressure model, edits the process and reruns, provokes a
 field error and finds it next to the field, optimizes a plan and fetches its machine program,
-uploads a probe trace and plans its correction, reopens a shared link, checks that nothing was
+uploads a probe trace and plans its correction, calibrates from the example rings, shows a
+part's cycles and its profile's calibrations in the Parts view (records made through the API)
+and plans its next cycle, reopens a shared link, checks that nothing was
 loaded from another origin and that the console holds no errors but the provoked ones; then,
 against a service with API keys, that a missing key is shown at the key field and that the page
 works once the key is entered. Exits non-zero on the first failure.
@@ -21,6 +23,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.request
 from pathlib import Path
 
 from selenium import webdriver
@@ -288,6 +291,44 @@ def main_flow(binary, screenshots):
         k = float(page.one("#preston_coefficient_m2_per_n").get_attribute("value"))
         check(abs(k / 1.3e-13 - 1) < 0.01, f"the calibrated K is in the set-up ({k})")
         page.screenshot(screenshots, "calibrate")
+
+        # Parts: records made through the API (a profile with a ring calibration, a part, its
+        # measurement, a plan and its run, then the next measurement), shown by the Parts view.
+        base = service.url
+
+        def call(method, path, body=None):
+            request = urllib.request.Request(
+                base + path, method=method, headers={"Content-Type": "application/json"},
+                data=None if body is None else json.dumps(body).encode())
+            with urllib.request.urlopen(request, timeout=120) as response:
+                return json.loads(response.read())
+
+        rings = json.loads((ROOT / "fixtures/calibration_rings.json").read_text())
+        call("POST", "/v1/process-profiles", {"name": "browser-cell", "process": rings["process"]})
+        call("POST", "/v1/process-profiles/browser-cell/calibrations",
+             {k: v for k, v in rings.items() if k != "process"})
+        part = call("POST", "/v1/parts", {
+            "name": "SN-BROWSER-1", "process_profile": "browser-cell", "surface": example["surface"],
+            "workpiece_radius_mm": 50, "clear_aperture": example["clear_aperture"]})
+        measurement = {k: v for k, v in example.items() if k not in ("surface", "clear_aperture")}
+        call("POST", f"/v1/parts/{part['id']}/measurements", measurement)
+        plan = call("POST", f"/v1/parts/{part['id']}/plans",
+                    {"positions_mm": [i / 2 for i in range(91)]})
+        call("POST", f"/v1/parts/{part['id']}/runs", {
+            "plan_id": plan["id"], "started_at": "2026-11-25T08:00:00Z",
+            "finished_at": "2026-11-25T12:00:00Z"})
+        call("POST", f"/v1/parts/{part['id']}/measurements", measurement)
+        page.one("#tab-parts").click()
+        page.finished("parts")
+        check(page.css('[data-list="parts"] button[data-part]'), "the parts are listed")
+        check(len(page.series("convergence")) >= 3, "RMS before, predicted and measured after drawn")
+        check(len(page.series("rate")) >= 1, "the profile's calibration history drawn")
+        shown = page.text_of('[data-summary="parts"]')
+        check("SN-BROWSER-1" in shown and "Cycles 1" in shown.replace("\n", " "),
+              f"the part and its cycle summarised ({shown[:100]!r}…)")
+        page.one('[data-use="parts"] button').click()
+        page.wait("the next plan", lambda: "Next plan" in page.text_of('[data-summary="parts"]'))
+        page.screenshot(screenshots, "parts")
 
         # A shared link reopens the study.
         page.one("#tab-optimize").click()

@@ -6,7 +6,7 @@
 (() => {
   const SVG_NS = 'http://www.w3.org/2000/svg'; // a namespace name, never fetched
   const KEY_STORE = 'preston-api-key';
-  const VIEWS = ['predict', 'optimize', 'measure', 'calibrate'];
+  const VIEWS = ['predict', 'optimize', 'measure', 'calibrate', 'parts'];
   // The API's paths, each written once.
   const API = {
     program: '/v1/program',
@@ -17,6 +17,8 @@
     optimize: '/v1/optimize',
     measurementFit: '/v1/measurement/fit',
     calibration: '/v1/calibration',
+    parts: '/v1/parts',
+    processProfiles: '/v1/process-profiles',
   };
   const COLOURS = ['#1f77b4', '#d62728', '#2ca02c', '#9467bd', '#ff7f0e'];
 
@@ -49,7 +51,7 @@
     }
   }
 
-  const calls = { predict: [], optimize: [], measure: [], calibrate: [] };
+  const calls = { predict: [], optimize: [], measure: [], calibrate: [], parts: [] };
 
   function apiKey() {
     return sessionStorage.getItem(KEY_STORE) || '';
@@ -79,9 +81,15 @@
     if (accept === 'application/json') record(view, url, headers, text);
     const known = accept === 'application/json' && !csv && !query ? firstAnswer(path, text) : undefined;
     if (known !== undefined) return known;
+    const response = await fetched(url, { method: 'POST', headers, body: text });
+    return accept === 'application/json' ? response.json() : response.text();
+  }
+
+  /** The response to a request, or its problem+json (or a network failure in that shape). */
+  async function fetched(url, init) {
     let response;
     try {
-      response = await fetch(url, { method: 'POST', headers, body: text });
+      response = await fetch(url, init);
     } catch (e) {
       throw new Problem({ title: 'The service cannot be reached', detail: String(e.message || e) });
     }
@@ -96,17 +104,28 @@
       problem.retry_after = response.headers.get('Retry-After');
       throw new Problem(problem);
     }
-    return accept === 'application/json' ? response.json() : response.text();
+    return response;
+  }
+
+  /** GETs a record (JSON). */
+  async function get(view, path) {
+    const headers = { Accept: 'application/json' };
+    if (apiKey()) headers.Authorization = `Bearer ${apiKey()}`;
+    record(view, path, headers, undefined);
+    return (await fetched(path, { headers })).json();
   }
 
   /** Shows each call as the curl command that repeats it (the key stays a variable). */
   function record(view, url, headers, text) {
-    const lines = [`curl -s -X POST '${location.origin}${url}'`];
+    const method = text === undefined ? 'GET' : 'POST';
+    const lines = [`curl -s${method === 'POST' ? ' -X POST' : ''} '${location.origin}${url}'`];
     for (const [k, v] of Object.entries(headers)) {
       lines.push(k === 'Authorization' ? `-H 'Authorization: Bearer $PRESTON_API_KEY'` : `-H '${k}: ${v}'`);
     }
-    const shown = text.length > 4000 ? `${text.slice(0, 4000)}… (${text.length} bytes)` : text;
-    lines.push(`--data-binary '${shown.replace(/'/g, "'\\''")}'`);
+    if (text !== undefined) {
+      const shown = text.length > 4000 ? `${text.slice(0, 4000)}… (${text.length} bytes)` : text;
+      lines.push(`--data-binary '${shown.replace(/'/g, "'\\''")}'`);
+    }
     calls[view].push(lines.join(' \\\n  '));
     $('details.api pre', section(view)).textContent = calls[view].join('\n\n');
   }
@@ -683,7 +702,79 @@
     $('#fit_tool_radius').checked = Boolean(example.fit && example.fit.tool_radius);
   }
 
-  const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure, calibrate: runCalibrate };
+  /** The Parts view: the parts, one part's cycles (convergence) and its next plan, and its
+   * process profile's calibration history. */
+  async function runParts() {
+    const view = 'parts';
+    const name = $('#part_name').value.trim();
+    const page = await get(view, `${API.parts}?${new URLSearchParams(defined({ limit: 20, name: name || undefined }))}`);
+    const list = $('[data-list="parts"]', section(view));
+    if (page.items.length === 0) {
+      list.replaceChildren(h('p', {}, name ? `There is no part named ${name}.` : 'No parts yet: create them through the API (README, "Parts and cycles").'));
+      summary(view, 'parts', []);
+      return;
+    }
+    const part = page.items.find((p) => p.name === name) || page.items[page.items.length - 1];
+    list.replaceChildren(h('ul', {}, ...page.items.map((p) => {
+      const pick = h('button', { type: 'button', 'data-part': p.id }, p.name);
+      pick.addEventListener('click', () => {
+        $('#part_name').value = p.name;
+        run(view);
+      });
+      return h('li', p.id === part.id ? { 'aria-current': 'true' } : {}, pick, ` ${p.process_profile}, created ${p.created_at}`);
+    })));
+    const history = await get(view, `${API.parts}/${encodeURIComponent(part.id)}/history`);
+    const profile = await get(view, `${API.processProfiles}/${encodeURIComponent(part.process_profile)}`);
+    const cycles = history.cycles.map((c, i) => ({ ...c, n: i + 1 }));
+    const points = (key) => cycles.filter((c) => c[key] !== null).map((c) => [c.n, c[key]]);
+    draw(view, 'convergence', {
+      title: `${part.name}: form error RMS over the clear aperture`,
+      xLabel: 'cycle', yLabel: 'RMS (nm)',
+      series: [
+        { name: 'before', points: points('rms_before_nm'), markers: true },
+        { name: 'predicted after', points: points('predicted_rms_after_nm'), markers: true },
+        { name: 'measured after', points: points('rms_after_nm'), markers: true },
+      ].filter((line) => line.points.length > 0),
+    });
+    const calibrations = [...profile.calibrations].reverse();
+    draw(view, 'rate', {
+      title: `${profile.name}: Preston coefficient per calibration`,
+      xLabel: 'calibration (oldest first)', yLabel: 'K (1e-13 m²/N)',
+      series: [
+        { name: 'ring tests', markers: true, points: calibrations.map((c, i) => [i + 1, c.preston_coefficient_m2_per_n * 1e13]).filter((_, i) => !calibrations[i].learned) },
+        { name: 'learned from production', markers: true, points: calibrations.map((c, i) => [i + 1, c.preston_coefficient_m2_per_n * 1e13]).filter((_, i) => calibrations[i].learned) },
+      ].filter((line) => line.points.length > 0),
+      hline: { y: history.next_process.preston_coefficient_m2_per_n * 1e13, label: 'K the next plan uses' },
+      fromZero: false,
+    });
+    const last = cycles[cycles.length - 1];
+    const items = [
+      ['Part', `${part.name} (${part.process_profile})`],
+      ['Cycles', String(cycles.length)],
+      ['K for the next plan (1e-13 m²/N)', `${label(history.next_process.preston_coefficient_m2_per_n * 1e13)} (${profile.preston_coefficient_source})`],
+    ];
+    if (last && last.convergence_ratio !== null) items.push(['Last convergence (RMS before / after)', label(last.convergence_ratio)]);
+    if (last && last.removal_ratio) items.push(['Last removal ratio (actual / predicted)', `${label(last.removal_ratio.value)} ± ${label(last.removal_ratio.standard_error ?? NaN)}`]);
+    summary(view, 'parts', items);
+    const next = h('button', { type: 'button' }, 'Plan the next cycle');
+    next.addEventListener('click', async () => {
+      clearProblems(view);
+      try {
+        const edge = part.workpiece_radius_mm - Number(history.next_process.tool_radius_mm) / 2;
+        const count = Math.max(2, Math.floor(edge / 0.5) + 1);
+        const plan = await post(view, `${API.parts}/${encodeURIComponent(part.id)}/plans`, {
+          positions_mm: Array.from({ length: count }, (_, i) => i * 0.5),
+        });
+        summary(view, 'parts', [...items,
+          ['Next plan', `${plan.id}: predicted RMS ${label(plan.predicted_rms_after_nm)} nm, ${label(plan.result.total_time_s)} s`]]);
+      } catch (e) {
+        showProblem(view, e);
+      }
+    });
+    $('[data-use="parts"]').replaceChildren(next);
+  }
+
+  const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure, calibrate: runCalibrate, parts: runParts };
 
   /** One pass of a view: 'ok' or 'problem' (shown). */
   async function pass(view) {
