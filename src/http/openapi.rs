@@ -298,8 +298,8 @@ const LINKS: [(&str, &str, &str, &str, &str, &str); 14] = [
     ),
 ];
 
-/// The links, and the Idempotency-Key header's exact schema (utoipa leaves an optional
-/// header's schema empty).
+/// The links, and the schemas utoipa leaves empty on the record operations' parameters (the
+/// Idempotency-Key header's exact one, and a path parameter's beside it).
 fn link_records(doc: &mut serde_json::Value) {
     let Some(paths) = doc["paths"].as_object_mut() else {
         return;
@@ -310,22 +310,14 @@ fn link_records(doc: &mut serde_json::Value) {
         .filter_map(|post| post.get_mut("parameters"))
         .filter_map(serde_json::Value::as_array_mut)
         .flatten()
-        .filter(|p| p["name"] == "Idempotency-Key")
     {
-        parameter["schema"] = serde_json::json!({
-            "type": "string", "minLength": 1, "maxLength": 255, "pattern": "^[!-~]+$"
-        });
-    }
-    // Likewise a path parameter beside it.
-    for parameter in paths
-        .values_mut()
-        .filter_map(|item| item.get_mut("post"))
-        .filter_map(|post| post.get_mut("parameters"))
-        .filter_map(serde_json::Value::as_array_mut)
-        .flatten()
-        .filter(|p| p["in"] == "path" && p["schema"].is_null())
-    {
-        parameter["schema"] = serde_json::json!({"type": "string"});
+        if parameter["name"] == "Idempotency-Key" {
+            parameter["schema"] = serde_json::json!({
+                "type": "string", "minLength": 1, "maxLength": 255, "pattern": "^[!-~]+$"
+            });
+        } else if parameter["in"] == "path" && parameter["schema"].is_null() {
+            parameter["schema"] = serde_json::json!({"type": "string"});
+        }
     }
     for (operation, status, name, target, parameter, value) in LINKS {
         let response = paths

@@ -36,6 +36,11 @@ const MIGRATIONS: &[(i64, &str, &str)] = &[
         "parts and cycles",
         include_str!("../../migrations/0002_parts_and_cycles.sql"),
     ),
+    (
+        3,
+        "cycle indexes",
+        include_str!("../../migrations/0003_cycle_indexes.sql"),
+    ),
 ];
 
 /// The default store: a SQLite file in the working directory.
@@ -287,7 +292,7 @@ mod tests {
         let store = Store::open(&options).await.unwrap();
         assert!(path.exists());
         assert_eq!(store.backend(), Backend::Sqlite);
-        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2]);
+        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3]);
         assert!(store.is_reachable().await);
         let (mode,): (String,) = sqlx::query_as("PRAGMA journal_mode")
             .fetch_one(&store.pool)
@@ -305,7 +310,7 @@ mod tests {
         assert!(orphan.is_err(), "{orphan:?}");
         store.close().await;
         let again = Store::open(&options).await.unwrap();
-        assert_eq!(again.applied_versions().await.unwrap(), vec![1, 2]);
+        assert_eq!(again.applied_versions().await.unwrap(), vec![1, 2, 3]);
         again.close().await;
         remove(&path);
     }
@@ -337,7 +342,7 @@ mod tests {
             pool.close().await;
         }
         let store = Store::open(&options).await.unwrap();
-        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2]);
+        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3]);
         let old = store.profile("old").await.unwrap().unwrap();
         assert_eq!(old.stamp.created_by, "mes");
         assert!(store.calibrations("old").await.unwrap().is_empty());

@@ -7,8 +7,8 @@ use sqlx::{Any, Row, Transaction};
 
 use super::{now, Store};
 use crate::usecases::records::{
-    CalibrationRecord, Claim, MeasurementRecord, PartRecord, PartsPage, PlanRecord, ProfileRecord,
-    Record, Records, RecordsError, Replay, RunRecord, Stamp, Written,
+    CalibrationRecord, Claim, MeasurementHead, MeasurementRecord, PartRecord, PartsPage, PlanHead,
+    PlanRecord, ProfileRecord, Record, Records, RecordsError, Replay, RunRecord, Stamp, Written,
 };
 
 fn unavailable(error: sqlx::Error) -> RecordsError {
@@ -63,6 +63,21 @@ fn measurement(row: AnyRow) -> Result<MeasurementRecord, sqlx::Error> {
         request: row.try_get("request")?,
         result: row.try_get("result")?,
         rms_nm: row.try_get("rms_nm")?,
+    })
+}
+
+fn measurement_head(row: AnyRow) -> Result<MeasurementHead, sqlx::Error> {
+    Ok(MeasurementHead {
+        stamp: stamp(&row, "id")?,
+        rms_nm: row.try_get("rms_nm")?,
+    })
+}
+
+fn plan_head(row: AnyRow) -> Result<PlanHead, sqlx::Error> {
+    Ok(PlanHead {
+        stamp: stamp(&row, "id")?,
+        measurement: row.try_get("measurement")?,
+        predicted_rms_after_nm: row.try_get("predicted_rms_after_nm")?,
     })
 }
 
@@ -368,11 +383,12 @@ impl Records for Store {
         Ok(PartsPage { items, next_cursor })
     }
 
-    async fn measurements(&self, part: &str) -> Result<Vec<MeasurementRecord>, RecordsError> {
+    async fn measurements(&self, part: &str) -> Result<Vec<MeasurementHead>, RecordsError> {
         self.all(
-            "SELECT * FROM measurements WHERE part = $1 ORDER BY id",
+            "SELECT id, rms_nm, created_at, created_by FROM measurements WHERE part = $1 \
+             ORDER BY id",
             part,
-            measurement,
+            measurement_head,
         )
         .await
     }
@@ -382,11 +398,12 @@ impl Records for Store {
             .await
     }
 
-    async fn plans(&self, part: &str) -> Result<Vec<PlanRecord>, RecordsError> {
+    async fn plans(&self, part: &str) -> Result<Vec<PlanHead>, RecordsError> {
         self.all(
-            "SELECT * FROM plans WHERE part = $1 ORDER BY id",
+            "SELECT id, measurement, predicted_rms_after_nm, created_at, created_by FROM plans \
+             WHERE part = $1 ORDER BY id",
             part,
-            plan,
+            plan_head,
         )
         .await
     }

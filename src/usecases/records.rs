@@ -19,7 +19,10 @@
 //!   K = Σ wᵢ Kᵢ / Σ wᵢ,  wᵢ = 1/σᵢ²,  σ_K = (Σ wᵢ)^(−1/2),
 //!
 //! (equal weights when a standard error is missing), and that calibration's (or the profile's)
-//! K when there is none. Production runs are what a plan must predict, so they override a ring
+//! K when there is none. A learned K more than [`PLAUSIBLE_FACTOR`] times above or below that
+//! base K is kept (the cycle's history shows it) but not learned from: such a cycle did not run
+//! as planned (a run that never touched the part, swapped measurements, another part's trace),
+//! and one such cycle would otherwise make every later plan wrong by the same factor. Production runs are what a plan must predict, so they override a ring
 //! test's K rather than being averaged with it; a new ring test (a new pad, a dressed tool)
 //! starts the learning again.
 
@@ -96,6 +99,22 @@ pub struct RunRecord {
     pub finished_at: String,
     pub machine: Option<String>,
     pub notes: Option<String>,
+}
+
+/// A measurement without its bodies: what a part's cycles need (a trace's fit is ~100 kB; a
+/// part with 100 cycles would read megabytes for a few numbers).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasurementHead {
+    pub stamp: Stamp,
+    pub rms_nm: f64,
+}
+
+/// A plan without its bodies.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanHead {
+    pub stamp: Stamp,
+    pub measurement: Option<String>,
+    pub predicted_rms_after_nm: f64,
 }
 
 /// A record to write.
@@ -184,10 +203,11 @@ pub trait Records {
         limit: usize,
         name: Option<&str>,
     ) -> Result<PartsPage, RecordsError>;
-    /// A part's measurements, plans and runs, each oldest first.
-    async fn measurements(&self, part: &str) -> Result<Vec<MeasurementRecord>, RecordsError>;
+    /// A part's measurements, plans (without their bodies: fetch one with `measurement` or
+    /// `plan`) and runs, each oldest first.
+    async fn measurements(&self, part: &str) -> Result<Vec<MeasurementHead>, RecordsError>;
     async fn measurement(&self, id: &str) -> Result<Option<MeasurementRecord>, RecordsError>;
-    async fn plans(&self, part: &str) -> Result<Vec<PlanRecord>, RecordsError>;
+    async fn plans(&self, part: &str) -> Result<Vec<PlanHead>, RecordsError>;
     async fn plan(&self, id: &str) -> Result<Option<PlanRecord>, RecordsError>;
     async fn runs(&self, part: &str) -> Result<Vec<RunRecord>, RecordsError>;
     async fn run(&self, id: &str) -> Result<Option<RunRecord>, RecordsError>;
@@ -205,13 +225,19 @@ pub struct CurrentRate<'a> {
     pub standard_error_m2_per_n: Option<f64>,
 }
 
-/// The rule in the module docs, over a profile's calibrations (oldest first).
-pub fn current_rate(calibrations: &[CalibrationRecord]) -> CurrentRate<'_> {
+/// How far a learned K may be from the base K and still be learned from (either way).
+pub const PLAUSIBLE_FACTOR: f64 = 5.0;
+
+/// The rule in the module docs, over a profile's calibrations (oldest first) and the profile's
+/// own Preston coefficient.
+pub fn current_rate(calibrations: &[CalibrationRecord], profile_k: f64) -> CurrentRate<'_> {
     let base_index = calibrations.iter().rposition(|c| !c.learned());
     let base = base_index.map(|i| &calibrations[i]);
+    let base_k = base.map_or(profile_k, |b| b.preston_coefficient_m2_per_n);
+    let plausible = |k: f64| k / base_k <= PLAUSIBLE_FACTOR && base_k / k <= PLAUSIBLE_FACTOR;
     let learned: Vec<&CalibrationRecord> = calibrations[base_index.map_or(0, |i| i + 1)..]
         .iter()
-        .filter(|c| c.learned())
+        .filter(|c| c.learned() && plausible(c.preston_coefficient_m2_per_n))
         .collect();
     if learned.is_empty() {
         return CurrentRate {
@@ -245,10 +271,10 @@ pub fn current_rate(calibrations: &[CalibrationRecord]) -> CurrentRate<'_> {
 /// One correction cycle (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cycle<'a> {
-    pub before: Option<&'a MeasurementRecord>,
-    pub plan: &'a PlanRecord,
+    pub before: Option<&'a MeasurementHead>,
+    pub plan: &'a PlanHead,
     pub run: &'a RunRecord,
-    pub after: Option<&'a MeasurementRecord>,
+    pub after: Option<&'a MeasurementHead>,
     /// The calibration learned from this run, once the cycle is complete.
     pub learned: Option<&'a CalibrationRecord>,
 }
@@ -274,8 +300,8 @@ impl Cycle<'_> {
 /// A part's cycles, oldest first, from its records (each oldest first) and its profile's
 /// calibrations.
 pub fn cycles<'a>(
-    measurements: &'a [MeasurementRecord],
-    plans: &'a [PlanRecord],
+    measurements: &'a [MeasurementHead],
+    plans: &'a [PlanHead],
     runs: &'a [RunRecord],
     calibrations: &'a [CalibrationRecord],
 ) -> Vec<Cycle<'a>> {
@@ -302,10 +328,10 @@ pub fn cycles<'a>(
 
 /// The first measurement after `runs[index]`, unless another run came first.
 fn after_measurement<'a>(
-    measurements: &'a [MeasurementRecord],
+    measurements: &'a [MeasurementHead],
     runs: &[RunRecord],
     index: usize,
-) -> Option<&'a MeasurementRecord> {
+) -> Option<&'a MeasurementHead> {
     let run = &runs[index].stamp.id;
     let after = measurements.iter().find(|m| &m.stamp.id > run)?;
     let next_run = runs.get(index + 1).map(|r| &r.stamp.id);
@@ -318,10 +344,10 @@ fn after_measurement<'a>(
 /// The run a new measurement completes: the part's latest run, when no measurement was written
 /// after it yet and its plan has a measurement before.
 pub fn run_completed_by_new_measurement<'a>(
-    measurements: &[MeasurementRecord],
-    plans: &'a [PlanRecord],
+    measurements: &[MeasurementHead],
+    plans: &'a [PlanHead],
     runs: &'a [RunRecord],
-) -> Option<(&'a RunRecord, &'a PlanRecord)> {
+) -> Option<(&'a RunRecord, &'a PlanHead)> {
     let run = runs.last()?;
     if measurements.iter().any(|m| m.stamp.id > run.stamp.id) {
         return None;
@@ -358,23 +384,26 @@ mod tests {
 
     #[test]
     fn the_current_rate_is_the_weighted_mean_of_what_was_learned_since_the_last_ring_test() {
-        assert_eq!(current_rate(&[]).preston_coefficient_m2_per_n, None);
+        assert_eq!(current_rate(&[], 1e-13).preston_coefficient_m2_per_n, None);
         let ring = calibration("1", 1.3e-13, Some(1e-16), None);
         let first = calibration("2", 1.0e-13, Some(2e-15), Some("r1"));
         let second = calibration("3", 1.2e-13, Some(1e-15), Some("r2"));
         let only_ring = [ring.clone()];
         assert_eq!(
-            current_rate(&only_ring).preston_coefficient_m2_per_n,
+            current_rate(&only_ring, 1e-13).preston_coefficient_m2_per_n,
             Some(1.3e-13)
         );
         let all = [first.clone(), ring.clone(), second.clone()];
         // The learned value before the ring test is forgotten; one learned after it rules.
-        let rate = current_rate(&all);
+        let rate = current_rate(&all, 1e-13);
         assert_eq!(rate.base, Some(&ring));
         assert_eq!(rate.preston_coefficient_m2_per_n, Some(1.2e-13));
         assert_eq!(rate.standard_error_m2_per_n, Some(1e-15));
-        let learned = [ring, first, second];
-        let rate = current_rate(&learned);
+        // A cycle that removed nothing (K 1/100 of the base) is not learned from.
+        let nothing = calibration("4", 1.3e-15, Some(1e-17), Some("r3"));
+        let learned = [ring, first, second, nothing];
+        let rate = current_rate(&learned, 1e-13);
+        assert_eq!(rate.learned.len(), 2);
         // Weights 1/4 and 1 (in units of 1e30): (0.25·1.0 + 1·1.2)/1.25 = 1.16.
         let k = rate.preston_coefficient_m2_per_n.unwrap();
         assert!((k - 1.16e-13).abs() < 1e-26, "{k}");

@@ -85,12 +85,16 @@ pub async fn plan(
     }
     let latest = store.measurements(&id).await?.pop();
     if !request.contains_key("target") {
-        let measurement = latest.as_ref().ok_or_else(|| {
+        let head = latest.as_ref().ok_or_else(|| {
             ApiError::invalid(
                 "target",
                 "this part has no measurement yet: send a `target`, or measure it first",
             )
         })?;
+        let measurement = store
+            .measurement(&head.stamp.id)
+            .await?
+            .ok_or_else(|| not_found("measurement", &head.stamp.id))?;
         let target = document(&measurement.result)?["correction_target"].clone();
         request.insert("target".into(), target);
     }
@@ -267,10 +271,16 @@ pub async fn show_run(
 }
 
 fn cycle_dto(cycle: &Cycle<'_>) -> CycleDto {
-    // The learned calibration's ratio is K_fit / K_plan (the plan's process was its nominal).
+    // The learned calibration's ratio is K_fit / K_plan (the plan's process was its nominal);
+    // read alone, the rest of the answer skipped unparsed (a history reads a hundred of them).
+    #[derive(serde::Deserialize)]
+    struct Ratio {
+        removal_rate_ratio: f64,
+    }
     let removal_ratio = cycle.learned.and_then(|c| {
-        let result: Value = serde_json::from_str(&c.result).ok()?;
-        let value = result["removal_rate_ratio"].as_f64()?;
+        let value = serde_json::from_str::<Ratio>(&c.result)
+            .ok()?
+            .removal_rate_ratio;
         Some(RatioDto {
             value,
             standard_error: c

@@ -273,10 +273,10 @@ async fn learn_from_cycle(
     let Some((run, plan)) = run_completed_by_new_measurement(&measurements, &plans, &runs) else {
         return Ok(None);
     };
-    let before = measurements
-        .iter()
-        .find(|m| Some(&m.stamp.id) == plan.measurement.as_ref())
-        .ok_or_else(|| ApiError::internal("a plan's measurement is missing"))?;
+    let missing = || ApiError::internal("a cycle's plan or measurement is missing");
+    let plan = store.plan(&plan.stamp.id).await?.ok_or_else(missing)?;
+    let before_id = plan.measurement.as_deref().ok_or_else(missing)?;
+    let before = store.measurement(before_id).await?.ok_or_else(missing)?;
     let plan_request = document(&plan.request)?;
     let plan_result = document(&plan.result)?;
     let profile = load_profile(store, &part.process_profile).await?;

@@ -56,10 +56,14 @@ pub(super) fn current_process(
     profile: &ProfileRecord,
     calibrations: &[CalibrationRecord],
 ) -> Result<(Value, RateSourceDto, Option<f64>), ApiError> {
-    let rate = current_rate(calibrations);
+    let own = document(&profile.body)?["process"].clone();
+    let own_k = own["preston_coefficient_m2_per_n"]
+        .as_f64()
+        .unwrap_or(f64::NAN);
+    let rate = current_rate(calibrations, own_k);
     let mut process = match rate.base {
         Some(base) => document(&base.process)?,
-        None => document(&profile.body)?["process"].clone(),
+        None => own,
     };
     let source = match (rate.base, rate.learned.is_empty()) {
         (_, false) => RateSourceDto::Learned,
