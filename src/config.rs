@@ -134,6 +134,11 @@ pub struct ServeArgs {
     /// (for several replicas). Migrations are applied at start.
     #[arg(long, env = "PRESTON_DATABASE_URL", default_value = DEFAULT_DATABASE_URL)]
     pub database_url: String,
+    /// A file holding the database URL (its first line), read at start instead of
+    /// `--database-url`: a URL with a password belongs in a mounted secret, not in the
+    /// environment.
+    #[arg(long, env = "PRESTON_DATABASE_URL_FILE")]
+    pub database_url_file: Option<PathBuf>,
     /// Most connections to the database.
     #[arg(long, env = "PRESTON_DATABASE_POOL_SIZE", default_value_t = 8)]
     pub database_pool_size: u32,
@@ -235,13 +240,23 @@ impl ServeArgs {
         Some((rate, burst))
     }
 
-    /// How to reach the records store.
-    pub fn store_options(&self) -> StoreOptions {
-        StoreOptions {
-            url: self.database_url.clone(),
+    /// How to reach the records store (the URL file read, when given).
+    pub fn store_options(&self) -> Result<StoreOptions, String> {
+        let url = match &self.database_url_file {
+            None => self.database_url.clone(),
+            Some(path) => std::fs::read_to_string(path)
+                .map_err(|e| format!("--database-url-file {}: {e}", path.display()))?
+                .lines()
+                .next()
+                .unwrap_or_default()
+                .trim()
+                .to_string(),
+        };
+        Ok(StoreOptions {
+            url,
             max_connections: self.database_pool_size.max(1),
             timeout: Duration::from_millis(self.database_timeout_ms.max(1)),
-        }
+        })
     }
 
     pub fn limits(&self) -> ServiceLimits {
@@ -279,9 +294,19 @@ mod tests {
         let limits = cli.serve.limits();
         assert_eq!(limits.max_radial_samples, 10_001);
         assert_eq!(limits.queue_timeout, Duration::from_secs(5));
-        let store = cli.serve.store_options();
+        let store = cli.serve.store_options().unwrap();
         assert_eq!(store.url, "sqlite://preston.db");
         assert_eq!(store.max_connections, 8);
+        // A URL file's first line wins over --database-url.
+        let file = std::env::temp_dir().join(format!("preston-url-{}", std::process::id()));
+        std::fs::write(&file, "postgres://u:p@db/preston\n").unwrap();
+        let cli = Cli::try_parse_from(["preston", "--database-url-file", file.to_str().unwrap()])
+            .unwrap();
+        assert_eq!(
+            cli.serve.store_options().unwrap().url,
+            "postgres://u:p@db/preston"
+        );
+        std::fs::remove_file(&file).unwrap();
     }
 
     #[test]

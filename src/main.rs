@@ -68,7 +68,7 @@ fn backup(file: &std::path::Path, args: &preston::config::ServeArgs) -> ExitCode
         .map_err(|e| e.to_string())
         .and_then(|runtime| {
             runtime.block_on(async {
-                let store = preston::store::Store::open(&args.store_options())
+                let store = preston::store::Store::open(&args.store_options()?)
                     .await
                     .map_err(|e| e.to_string())?;
                 let copied = store.backup(file).await.map_err(|e| e.to_string());

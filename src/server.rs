@@ -45,7 +45,7 @@ pub async fn run(args: ServeArgs) -> std::io::Result<()> {
         tracing::info!(per_second = rate, burst, per, "rate limit on /v1");
         state = state.with_rate_limit(Arc::new(limit));
     }
-    let options = args.store_options();
+    let options = args.store_options().map_err(std::io::Error::other)?;
     let store = Store::open(&options)
         .await
         .map_err(|e| std::io::Error::other(format!("--database-url: {e}")))?;

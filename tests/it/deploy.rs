@@ -98,10 +98,7 @@ async fn manifests_match_the_service_and_the_image() {
                 .to_lowercase()
                 .replace('_', "-")
         );
-        // A value from a Secret is checked with a value of its kind.
-        let value = e["value"]
-            .as_str()
-            .unwrap_or("postgres://preston:secret@database:5432/preston");
+        let value = e["value"].as_str().unwrap();
         Cli::try_parse_from(["preston", "serve", &flag, value])
             .unwrap_or_else(|err| panic!("{name}: {err}"));
     }
@@ -257,14 +254,28 @@ fn keys_come_from_a_read_only_secret_and_only_named_peers_get_in() {
     }
     // Several replicas share PostgreSQL, its URL from a Secret (never SQLite on a pod's disk).
     assert!(deployment["spec"]["replicas"].as_i64().unwrap() >= 2);
-    let url = container["env"]
+    assert!(env_value(container, "PRESTON_DATABASE_URL").is_none());
+    let url_file = env_value(container, "PRESTON_DATABASE_URL_FILE").expect("a database URL file");
+    let (dir, file) = url_file.rsplit_once('/').unwrap();
+    let mount = container["volumeMounts"]
         .as_vec()
         .unwrap()
         .iter()
-        .find(|e| e["name"].as_str() == Some("PRESTON_DATABASE_URL"))
-        .expect("the database URL is set");
-    assert!(url["value"].is_badvalue(), "not written into the manifest");
-    assert!(!url["valueFrom"]["secretKeyRef"]["name"].is_badvalue());
+        .find(|m| m["mountPath"].as_str() == Some(dir))
+        .expect("the URL file's directory is a mount");
+    assert_eq!(mount["readOnly"].as_bool(), Some(true));
+    let volume = pod["volumes"]
+        .as_vec()
+        .unwrap()
+        .iter()
+        .find(|v| v["name"] == mount["name"])
+        .unwrap();
+    assert!(!volume["secret"]["secretName"].is_badvalue());
+    assert!(volume["secret"]["items"]
+        .as_vec()
+        .unwrap()
+        .iter()
+        .any(|i| i["path"].as_str() == Some(file)));
     assert!(strings(&policy["spec"]["policyTypes"]).contains(&"Egress".to_string()));
 }
 

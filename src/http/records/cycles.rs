@@ -5,10 +5,8 @@ use axum::http::HeaderMap;
 use axum::response::Response;
 use serde_json::{Map, Value};
 
-use super::dto::{
-    CycleDto, HistoryDto, PartPlanRequest, PlanDto, PlanProgramRequest, RatioDto,
-    RecordReadProblems, RecordWriteProblems, RunRecordDto, RunRequest,
-};
+use super::docs::{PartPlanRequest, PlanProgramRequest, RecordReadProblems, RecordWriteProblems};
+use super::dto::{CycleDto, HistoryDto, PlanDto, RatioDto, RunRecordDto, RunRequest};
 use super::parts::{load_part, on_part, part_dto};
 use super::profiles::{current_process, load_profile};
 use super::{compute, document, fetched, not_found, store, without, Write, Writer};

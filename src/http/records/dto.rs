@@ -1,17 +1,14 @@
 //! The records' wire types. Stored documents travel as JSON values, each documented with the
-//! schema of what it is (`value_type`); the request bodies that are another endpoint's request
-//! less the fields a record supplies are that request's schema less those properties.
+//! schema of what it is (`value_type`).
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
-use utoipa::openapi::{RefOr, Schema};
-use utoipa::{PartialSchema, ToSchema};
+use utoipa::ToSchema;
 
-use crate::http::calibration::{CalibrationRequest, CalibrationResponse};
+use crate::http::calibration::CalibrationResponse;
 use crate::http::dto::{ClearApertureDto, ProcessDto, SurfaceDto, ToolDto};
 use crate::http::measurement_fit::{MeasurementFitRequest, MeasurementFitResponse};
 use crate::http::optimize::{OptimizeRequest, OptimizeResponse};
-use crate::http::program::ProgramRequest;
 
 /// `POST /v1/process-profiles`: a shop's named process.
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -295,152 +292,4 @@ pub struct HistoryDto {
     /// The process the next plan will use (the profile's current one, on this part).
     #[schema(value_type = ProcessDto)]
     pub next_process: Value,
-}
-
-/// A request that is `Base`'s less the properties a record supplies.
-macro_rules! less {
-    ($name:ident, $base:ty, [$($field:literal),*], [$($optional:literal),*], $doc:literal) => {
-        #[doc = $doc]
-        pub struct $name;
-
-        impl PartialSchema for $name {
-            fn schema() -> RefOr<Schema> {
-                without(<$base as PartialSchema>::schema(), &[$($field),*], &[$($optional),*], $doc)
-            }
-        }
-
-        impl ToSchema for $name {
-            fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
-                <$base as ToSchema>::schemas(schemas);
-            }
-        }
-    };
-}
-
-less!(
-    ProfileCalibrationRequest,
-    CalibrationRequest,
-    ["process"],
-    [],
-    "A `/v1/calibration` request without `process` (the profile's current process is the \
-     nominal); `surface` and `tool` default to the profile's."
-);
-less!(
-    PartMeasurementRequest,
-    MeasurementFitRequest,
-    ["surface"],
-    [],
-    "A `/v1/measurement/fit` request without `surface` (the part's); `clear_aperture` \
-     defaults to the part's. Also as text/csv with the other fields as query parameters."
-);
-less!(
-    PartPlanRequest,
-    OptimizeRequest,
-    ["process", "surface"],
-    ["target"],
-    "An `/v1/optimize` request without `process` (the profile's current one, at the part's \
-     workpiece radius) and `surface` (the part's); `target` defaults to the correction of the \
-     part's latest measurement, `clear_aperture` to the part's."
-);
-less!(
-    PlanProgramRequest,
-    ProgramRequest,
-    ["process", "surface", "dwell"],
-    [],
-    "A `/v1/program` request without `process`, `surface` and `dwell` (the plan's)."
-);
-
-/// `schema` less the properties `fields`, with `optional` no longer required.
-fn without(schema: RefOr<Schema>, fields: &[&str], optional: &[&str], doc: &str) -> RefOr<Schema> {
-    match schema {
-        RefOr::T(Schema::Object(mut object)) => {
-            for field in fields {
-                object.properties.shift_remove(*field);
-            }
-            object
-                .required
-                .retain(|r| !fields.contains(&r.as_str()) && !optional.contains(&r.as_str()));
-            object.description = Some(doc.to_string());
-            RefOr::T(Schema::Object(object))
-        }
-        other => other,
-    }
-}
-
-/// The schemas the record operations refer to (for the OpenAPI document).
-pub fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
-    fn add<T: ToSchema>(schemas: &mut Vec<(String, RefOr<Schema>)>) {
-        schemas.push((T::name().into_owned(), T::schema()));
-        T::schemas(schemas);
-    }
-    add::<ProcessProfileRequest>(schemas);
-    add::<ProcessProfileDto>(schemas);
-    add::<ProcessProfileListDto>(schemas);
-    add::<CalibrationRecordDto>(schemas);
-    add::<PartRequest>(schemas);
-    add::<PartDto>(schemas);
-    add::<PartListDto>(schemas);
-    add::<MeasurementDto>(schemas);
-    add::<PlanDto>(schemas);
-    add::<RunRequest>(schemas);
-    add::<RunRecordDto>(schemas);
-    add::<HistoryDto>(schemas);
-    add::<ProfileCalibrationRequest>(schemas);
-    add::<PartMeasurementRequest>(schemas);
-    add::<PartPlanRequest>(schemas);
-    add::<PlanProgramRequest>(schemas);
-}
-
-/// What a record write may answer besides 201.
-#[derive(utoipa::IntoResponses)]
-#[allow(dead_code)]
-pub enum RecordWriteProblems {
-    /// Malformed JSON
-    #[response(status = 400, content_type = "application/problem+json")]
-    Malformed(crate::http::error::Problem),
-    /// No valid API key (only when the service has keys configured)
-    #[response(status = 401, content_type = "application/problem+json")]
-    Unauthorized(crate::http::error::Problem),
-    /// The API key is read-only
-    #[response(status = 403, content_type = "application/problem+json")]
-    Forbidden(crate::http::error::Problem),
-    /// The record the path names does not exist
-    #[response(status = 404, content_type = "application/problem+json")]
-    NotFound(crate::http::error::Problem),
-    /// Body too large
-    #[response(status = 413, content_type = "application/problem+json")]
-    TooLarge(crate::http::error::Problem),
-    /// A unique name is taken
-    #[response(status = 409, content_type = "application/problem+json")]
-    Conflict(crate::http::error::Problem),
-    /// Invalid input, naming the field (an Idempotency-Key reused with another request too)
-    #[response(status = 422, content_type = "application/problem+json")]
-    Invalid(crate::http::error::Problem),
-    /// The client's rate limit is spent
-    #[response(status = 429, content_type = "application/problem+json")]
-    RateLimited(crate::http::error::Problem),
-    /// The records store is unavailable, or the service is overloaded; retry after Retry-After
-    #[response(status = 503, content_type = "application/problem+json")]
-    Unavailable(crate::http::error::Problem),
-}
-
-/// What a record read may answer besides 200.
-#[derive(utoipa::IntoResponses)]
-#[allow(dead_code)]
-pub enum RecordReadProblems {
-    /// No valid API key (only when the service has keys configured)
-    #[response(status = 401, content_type = "application/problem+json")]
-    Unauthorized(crate::http::error::Problem),
-    /// No such record
-    #[response(status = 404, content_type = "application/problem+json")]
-    NotFound(crate::http::error::Problem),
-    /// Invalid query or body, naming the field
-    #[response(status = 422, content_type = "application/problem+json")]
-    Invalid(crate::http::error::Problem),
-    /// The client's rate limit is spent
-    #[response(status = 429, content_type = "application/problem+json")]
-    RateLimited(crate::http::error::Problem),
-    /// The records store is unavailable, or the service is overloaded; retry after Retry-After
-    #[response(status = 503, content_type = "application/problem+json")]
-    Unavailable(crate::http::error::Problem),
 }

@@ -11,6 +11,7 @@
 //! Without a reachable store the record endpoints answer 503; compute endpoints never wait on it.
 
 pub mod cycles;
+mod docs;
 mod dto;
 pub mod parts;
 pub mod profiles;
@@ -36,7 +37,7 @@ use crate::keys::Role;
 use crate::store::{new_stamp, Store};
 use crate::usecases::records::{Claim, Record, Records, RecordsError, Replay, Stamp, Written};
 
-pub use dto::schemas;
+pub use docs::{document_operations, schemas};
 
 /// The record routes.
 pub fn routes() -> Router<AppState> {

@@ -8,10 +8,8 @@ use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
 
-use super::dto::{
-    MeasurementDto, PartDto, PartListDto, PartMeasurementRequest, PartRequest, RecordReadProblems,
-    RecordWriteProblems,
-};
+use super::docs::{PartMeasurementRequest, RecordReadProblems, RecordWriteProblems};
+use super::dto::{MeasurementDto, PartDto, PartListDto, PartRequest};
 use super::profiles::{check_setting, current_process, fitted_coefficient, load_profile};
 use super::{compute, document, fetched, not_found, store, without, Write, Writer};
 use crate::http::calibration::CalibrationEndpoint;

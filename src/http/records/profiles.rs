@@ -5,9 +5,10 @@ use axum::http::HeaderMap;
 use axum::response::Response;
 use serde_json::{Map, Value};
 
+use super::docs::{ProfileCalibrationRequest, RecordReadProblems, RecordWriteProblems};
 use super::dto::{
     CalibrationRecordDto, ProcessProfileDto, ProcessProfileListDto, ProcessProfileRequest,
-    ProfileCalibrationRequest, RateSourceDto, RecordReadProblems, RecordWriteProblems,
+    RateSourceDto,
 };
 use super::{compute, document, fetched, not_found, store, without, Write, Writer};
 use crate::http::calibration::CalibrationEndpoint;

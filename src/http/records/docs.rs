@@ -1,0 +1,317 @@
+//! What the OpenAPI document says of the record operations beyond their wire types: the
+//! request bodies that are another endpoint's request less the fields a record supplies (that
+//! request's schema less those properties), the problems they answer, the links between them.
+
+use utoipa::openapi::{RefOr, Schema};
+use utoipa::{PartialSchema, ToSchema};
+
+use super::dto::{
+    CalibrationRecordDto, HistoryDto, MeasurementDto, PartDto, PartListDto, PartRequest, PlanDto,
+    ProcessProfileDto, ProcessProfileListDto, ProcessProfileRequest, RunRecordDto, RunRequest,
+};
+use crate::http::calibration::CalibrationRequest;
+use crate::http::measurement_fit::MeasurementFitRequest;
+use crate::http::optimize::OptimizeRequest;
+use crate::http::program::ProgramRequest;
+
+/// A request that is `Base`'s less the properties a record supplies.
+macro_rules! less {
+    ($name:ident, $base:ty, [$($field:literal),*], [$($optional:literal),*], $doc:literal) => {
+        #[doc = $doc]
+        pub struct $name;
+
+        impl PartialSchema for $name {
+            fn schema() -> RefOr<Schema> {
+                without(<$base as PartialSchema>::schema(), &[$($field),*], &[$($optional),*], $doc)
+            }
+        }
+
+        impl ToSchema for $name {
+            fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
+                <$base as ToSchema>::schemas(schemas);
+            }
+        }
+    };
+}
+
+less!(
+    ProfileCalibrationRequest,
+    CalibrationRequest,
+    ["process"],
+    [],
+    "A `/v1/calibration` request without `process` (the profile's current process is the \
+     nominal); `surface` and `tool` default to the profile's."
+);
+less!(
+    PartMeasurementRequest,
+    MeasurementFitRequest,
+    ["surface"],
+    [],
+    "A `/v1/measurement/fit` request without `surface` (the part's); `clear_aperture` \
+     defaults to the part's. Also as text/csv with the other fields as query parameters."
+);
+less!(
+    PartPlanRequest,
+    OptimizeRequest,
+    ["process", "surface"],
+    ["target"],
+    "An `/v1/optimize` request without `process` (the profile's current one, at the part's \
+     workpiece radius) and `surface` (the part's); `target` defaults to the correction of the \
+     part's latest measurement, `clear_aperture` to the part's."
+);
+less!(
+    PlanProgramRequest,
+    ProgramRequest,
+    ["process", "surface", "dwell"],
+    [],
+    "A `/v1/program` request without `process`, `surface` and `dwell` (the plan's)."
+);
+
+/// `schema` less the properties `fields`, with `optional` no longer required.
+fn without(schema: RefOr<Schema>, fields: &[&str], optional: &[&str], doc: &str) -> RefOr<Schema> {
+    match schema {
+        RefOr::T(Schema::Object(mut object)) => {
+            for field in fields {
+                object.properties.shift_remove(*field);
+            }
+            object
+                .required
+                .retain(|r| !fields.contains(&r.as_str()) && !optional.contains(&r.as_str()));
+            object.description = Some(doc.to_string());
+            RefOr::T(Schema::Object(object))
+        }
+        other => other,
+    }
+}
+
+/// The schemas the record operations refer to (for the OpenAPI document).
+pub fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
+    fn add<T: ToSchema>(schemas: &mut Vec<(String, RefOr<Schema>)>) {
+        schemas.push((T::name().into_owned(), T::schema()));
+        T::schemas(schemas);
+    }
+    add::<ProcessProfileRequest>(schemas);
+    add::<ProcessProfileDto>(schemas);
+    add::<ProcessProfileListDto>(schemas);
+    add::<CalibrationRecordDto>(schemas);
+    add::<PartRequest>(schemas);
+    add::<PartDto>(schemas);
+    add::<PartListDto>(schemas);
+    add::<MeasurementDto>(schemas);
+    add::<PlanDto>(schemas);
+    add::<RunRequest>(schemas);
+    add::<RunRecordDto>(schemas);
+    add::<HistoryDto>(schemas);
+    add::<ProfileCalibrationRequest>(schemas);
+    add::<PartMeasurementRequest>(schemas);
+    add::<PartPlanRequest>(schemas);
+    add::<PlanProgramRequest>(schemas);
+}
+
+/// What a record write may answer besides 201.
+#[derive(utoipa::IntoResponses)]
+#[allow(dead_code)]
+pub enum RecordWriteProblems {
+    /// Malformed JSON
+    #[response(status = 400, content_type = "application/problem+json")]
+    Malformed(crate::http::error::Problem),
+    /// No valid API key (only when the service has keys configured)
+    #[response(status = 401, content_type = "application/problem+json")]
+    Unauthorized(crate::http::error::Problem),
+    /// The API key is read-only
+    #[response(status = 403, content_type = "application/problem+json")]
+    Forbidden(crate::http::error::Problem),
+    /// The record the path names does not exist
+    #[response(status = 404, content_type = "application/problem+json")]
+    NotFound(crate::http::error::Problem),
+    /// Body too large
+    #[response(status = 413, content_type = "application/problem+json")]
+    TooLarge(crate::http::error::Problem),
+    /// A unique name is taken
+    #[response(status = 409, content_type = "application/problem+json")]
+    Conflict(crate::http::error::Problem),
+    /// Invalid input, naming the field (an Idempotency-Key reused with another request too)
+    #[response(status = 422, content_type = "application/problem+json")]
+    Invalid(crate::http::error::Problem),
+    /// The client's rate limit is spent
+    #[response(status = 429, content_type = "application/problem+json")]
+    RateLimited(crate::http::error::Problem),
+    /// The records store is unavailable, or the service is overloaded; retry after Retry-After
+    #[response(status = 503, content_type = "application/problem+json")]
+    Unavailable(crate::http::error::Problem),
+}
+
+/// What a record read may answer besides 200.
+#[derive(utoipa::IntoResponses)]
+#[allow(dead_code)]
+pub enum RecordReadProblems {
+    /// No valid API key (only when the service has keys configured)
+    #[response(status = 401, content_type = "application/problem+json")]
+    Unauthorized(crate::http::error::Problem),
+    /// No such record
+    #[response(status = 404, content_type = "application/problem+json")]
+    NotFound(crate::http::error::Problem),
+    /// Invalid query or body, naming the field
+    #[response(status = 422, content_type = "application/problem+json")]
+    Invalid(crate::http::error::Problem),
+    /// The client's rate limit is spent
+    #[response(status = 429, content_type = "application/problem+json")]
+    RateLimited(crate::http::error::Problem),
+    /// The records store is unavailable, or the service is overloaded; retry after Retry-After
+    #[response(status = 503, content_type = "application/problem+json")]
+    Unavailable(crate::http::error::Problem),
+}
+
+/// The links between record operations: (operation, its success status, link name, target
+/// operation, target parameter, where its value comes from). Clients (and schemathesis's
+/// stateful tests) follow them from a new record to what can be done with it.
+const LINKS: [(&str, &str, &str, &str, &str, &str); 14] = [
+    (
+        "createProcessProfile",
+        "201",
+        "GetProfile",
+        "getProcessProfile",
+        "name",
+        "$response.body#/name",
+    ),
+    (
+        "createProcessProfile",
+        "201",
+        "Calibrate",
+        "calibrateProcessProfile",
+        "name",
+        "$response.body#/name",
+    ),
+    (
+        "calibrateProcessProfile",
+        "201",
+        "GetCalibration",
+        "getCalibration",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPart",
+        "201",
+        "GetPart",
+        "getPart",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPart",
+        "201",
+        "Measure",
+        "createMeasurement",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPart",
+        "201",
+        "Plan",
+        "createPlan",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPart",
+        "201",
+        "Run",
+        "createRun",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPart",
+        "201",
+        "History",
+        "getPartHistory",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createMeasurement",
+        "201",
+        "GetMeasurement",
+        "getMeasurement",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createMeasurement",
+        "201",
+        "PlanFromIt",
+        "createPlan",
+        "id",
+        "$response.body#/part_id",
+    ),
+    (
+        "createPlan",
+        "201",
+        "GetPlan",
+        "getPlan",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPlan",
+        "201",
+        "Program",
+        "createPlanProgram",
+        "id",
+        "$response.body#/id",
+    ),
+    (
+        "createPlan",
+        "201",
+        "RunIt",
+        "createRun",
+        "id",
+        "$response.body#/part_id",
+    ),
+    (
+        "createRun",
+        "201",
+        "GetRun",
+        "getRun",
+        "id",
+        "$response.body#/id",
+    ),
+];
+
+/// The links, and the schemas utoipa leaves empty on the record operations' parameters (the
+/// Idempotency-Key header's exact one, and a path parameter's beside it).
+pub fn document_operations(doc: &mut serde_json::Value) {
+    let Some(paths) = doc["paths"].as_object_mut() else {
+        return;
+    };
+    for parameter in paths
+        .values_mut()
+        .filter_map(|item| item.get_mut("post"))
+        .filter_map(|post| post.get_mut("parameters"))
+        .filter_map(serde_json::Value::as_array_mut)
+        .flatten()
+    {
+        if parameter["name"] == "Idempotency-Key" {
+            parameter["schema"] = serde_json::json!({
+                "type": "string", "minLength": 1, "maxLength": 255, "pattern": "^[!-~]+$"
+            });
+        } else if parameter["in"] == "path" && parameter["schema"].is_null() {
+            parameter["schema"] = serde_json::json!({"type": "string"});
+        }
+    }
+    for (operation, status, name, target, parameter, value) in LINKS {
+        let response = paths
+            .values_mut()
+            .filter_map(|item| item.as_object_mut())
+            .flat_map(|item| item.values_mut())
+            .find(|op| op["operationId"] == operation)
+            .and_then(|op| op.pointer_mut(&format!("/responses/{status}")))
+            .expect("links join documented operations");
+        response["links"][name] = serde_json::json!({
+            "operationId": target,
+            "parameters": {parameter: value},
+        });
+    }
+}
