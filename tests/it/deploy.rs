@@ -46,6 +46,35 @@ fn env_value<'a>(container: &'a Yaml, name: &str) -> Option<&'a str> {
         .and_then(|e| e["value"].as_str())
 }
 
+/// The Secret volume that `path` (`<mountPath>/<item path>`) is a file of, mounted read-only.
+fn secret_file<'a>(container: &Yaml, pod: &'a Yaml, path: &str) -> &'a Yaml {
+    let (dir, file) = path.rsplit_once('/').unwrap();
+    let mount = container["volumeMounts"]
+        .as_vec()
+        .unwrap()
+        .iter()
+        .find(|m| m["mountPath"].as_str() == Some(dir))
+        .unwrap_or_else(|| panic!("{path}: its directory is no mount"));
+    assert_eq!(mount["readOnly"].as_bool(), Some(true), "{path}");
+    let volume = pod["volumes"]
+        .as_vec()
+        .unwrap()
+        .iter()
+        .find(|v| v["name"] == mount["name"])
+        .unwrap();
+    let secret = &volume["secret"];
+    assert!(!secret["secretName"].is_badvalue(), "{path}");
+    assert!(
+        secret["items"]
+            .as_vec()
+            .unwrap()
+            .iter()
+            .any(|i| i["path"].as_str() == Some(file)),
+        "{path}"
+    );
+    secret
+}
+
 /// The Dockerfile's instructions, continuation lines joined.
 fn instructions() -> Vec<String> {
     dockerfile()
@@ -187,27 +216,7 @@ fn keys_come_from_a_read_only_secret_and_only_named_peers_get_in() {
     // PRESTON_API_KEYS_FILE is <mountPath>/<item path> of a read-only Secret volume.
     let keys_file =
         env_value(container, "PRESTON_API_KEYS_FILE").expect("the container is given a keys file");
-    let (dir, file) = keys_file.rsplit_once('/').unwrap();
-    let mount = container["volumeMounts"]
-        .as_vec()
-        .unwrap()
-        .iter()
-        .find(|m| m["mountPath"].as_str() == Some(dir))
-        .expect("the keys file's directory is a mount");
-    assert_eq!(mount["readOnly"].as_bool(), Some(true));
-    let volume = pod["volumes"]
-        .as_vec()
-        .unwrap()
-        .iter()
-        .find(|v| v["name"] == mount["name"])
-        .unwrap();
-    let secret = &volume["secret"];
-    assert!(!secret["secretName"].is_badvalue());
-    assert!(secret["items"]
-        .as_vec()
-        .unwrap()
-        .iter()
-        .any(|i| i["path"].as_str() == Some(file)));
+    let secret = secret_file(container, pod, keys_file);
     // Readable by the pod's group (fsGroup) only: 0440.
     assert_eq!(secret["defaultMode"].as_i64(), Some(0o440));
     assert_eq!(
@@ -256,26 +265,10 @@ fn keys_come_from_a_read_only_secret_and_only_named_peers_get_in() {
     assert!(deployment["spec"]["replicas"].as_i64().unwrap() >= 2);
     assert!(env_value(container, "PRESTON_DATABASE_URL").is_none());
     let url_file = env_value(container, "PRESTON_DATABASE_URL_FILE").expect("a database URL file");
-    let (dir, file) = url_file.rsplit_once('/').unwrap();
-    let mount = container["volumeMounts"]
-        .as_vec()
-        .unwrap()
-        .iter()
-        .find(|m| m["mountPath"].as_str() == Some(dir))
-        .expect("the URL file's directory is a mount");
-    assert_eq!(mount["readOnly"].as_bool(), Some(true));
-    let volume = pod["volumes"]
-        .as_vec()
-        .unwrap()
-        .iter()
-        .find(|v| v["name"] == mount["name"])
-        .unwrap();
-    assert!(!volume["secret"]["secretName"].is_badvalue());
-    assert!(volume["secret"]["items"]
-        .as_vec()
-        .unwrap()
-        .iter()
-        .any(|i| i["path"].as_str() == Some(file)));
+    assert_eq!(
+        secret_file(container, pod, url_file)["defaultMode"].as_i64(),
+        Some(0o440)
+    );
     assert!(strings(&policy["spec"]["policyTypes"]).contains(&"Egress".to_string()));
 }
 

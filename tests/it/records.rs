@@ -758,3 +758,42 @@ fn two_processes_share_one_postgresql() {
     .unwrap();
     assert_eq!(status, 409);
 }
+
+/// A part's measurement as the fit's text/csv form (the trace as CSV, the rest as query
+/// parameters) is the same measurement as its JSON body.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_measurement_comes_as_csv_too() {
+    let store = open(&backends()[0]).await;
+    let app = app(store.clone(), AppState::new(ServiceLimits::default()));
+    let token = unique();
+    let profile = format!("csv-{token}");
+    created(&app, "/v1/process-profiles", &profile_body(&profile)).await;
+    let part = created(
+        &app,
+        "/v1/parts",
+        &part_body(&format!("SN-{token}"), &profile),
+    )
+    .await;
+    let path = format!("/v1/parts/{}/measurements", part["id"].as_str().unwrap());
+    let body = trace(&initial_error, 0.3, 11);
+    let json = created(&app, &path, &body).await;
+    let (x, z) = (
+        numbers(&body["profile"]["x_mm"]),
+        numbers(&body["profile"]["z_mm"]),
+    );
+    let csv: String = std::iter::once("x_mm,z_mm\n".to_string())
+        .chain(x.iter().zip(&z).map(|(x, z)| format!("{x},{z}\n")))
+        .collect();
+    let query = "radial_grid=%7B%22start_mm%22%3A0%2C%22stop_mm%22%3A46%2C%22count%22%3A93%7D";
+    let reply = post_with(
+        &app,
+        &format!("{path}?{query}"),
+        csv,
+        &[("content-type", "text/csv")],
+    )
+    .await;
+    assert_eq!(reply.status, 201, "{}", reply.text());
+    assert_eq!(reply.json()["rms_nm"], json["rms_nm"]);
+    assert_eq!(reply.json()["result"]["profile"], json["result"]["profile"]);
+    store.close().await;
+}

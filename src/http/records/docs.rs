@@ -283,6 +283,7 @@ const LINKS: [(&str, &str, &str, &str, &str, &str); 14] = [
 /// The links, and the schemas utoipa leaves empty on the record operations' parameters (the
 /// Idempotency-Key header's exact one, and a path parameter's beside it).
 pub fn document_operations(doc: &mut serde_json::Value) {
+    measurements_take_csv(doc);
     let Some(paths) = doc["paths"].as_object_mut() else {
         return;
     };
@@ -313,5 +314,29 @@ pub fn document_operations(doc: &mut serde_json::Value) {
             "operationId": target,
             "parameters": {parameter: value},
         });
+    }
+}
+
+/// A part's measurement also comes as the fit's `text/csv` form: that operation's CSV body and
+/// query parameters, less `surface` (the part's).
+fn measurements_take_csv(doc: &mut serde_json::Value) {
+    let fit = &doc["paths"]["/v1/measurement/fit"]["post"];
+    let csv = fit["requestBody"]["content"]["text/csv"].clone();
+    let query: Vec<serde_json::Value> = fit["parameters"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter(|p| p["in"] == "query" && p["name"] != "surface")
+        .cloned()
+        .collect();
+    let Some(measure) = doc
+        .pointer_mut("/paths/~1v1~1parts~1{id}~1measurements/post")
+        .filter(|_| !csv.is_null())
+    else {
+        return;
+    };
+    measure["requestBody"]["content"]["text/csv"] = csv;
+    if let Some(parameters) = measure["parameters"].as_array_mut() {
+        parameters.extend(query);
     }
 }
