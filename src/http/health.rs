@@ -50,6 +50,9 @@ pub async fn healthz() -> Json<Status> {
     })
 }
 
+/// How long readiness waits for the records store.
+const STORE_CHECK: std::time::Duration = std::time::Duration::from_millis(300);
+
 /// Readiness: 200 while accepting work, 503 once shutdown has begun; `store` says whether the
 /// records store answers.
 #[utoipa::path(get, path = "/readyz", tag = "service", operation_id = "getReadiness",
@@ -58,9 +61,19 @@ pub async fn healthz() -> Json<Status> {
         (status = 503, description = "Shutting down", body = Status),
     ))]
 pub async fn readyz(State(state): State<AppState>) -> (StatusCode, Json<Status>) {
+    // Bounded well inside a probe's timeout (Kubernetes: 1 s): a database that does not
+    // answer must not make the probe itself fail, or compute would stop being served too.
+    let reachable = |store: &crate::store::Store| {
+        let store = store.clone();
+        async move {
+            tokio::time::timeout(STORE_CHECK, store.is_reachable())
+                .await
+                .unwrap_or(false)
+        }
+    };
     let store = Some(match &state.store {
         None => StoreStatus::None,
-        Some(store) if store.is_reachable().await => StoreStatus::Ok,
+        Some(store) if reachable(store).await => StoreStatus::Ok,
         Some(_) => StoreStatus::Unavailable,
     });
     if state.is_ready() {

@@ -108,7 +108,7 @@ pub async fn plan(
     let dto = plan_dto(&plan)?;
     let location = format!("/v1/plans/{}", plan.stamp.id);
     write
-        .commit(store, &[Record::Plan(plan)], location, &dto, "")
+        .commit(store, &[Record::Plan(plan)], location, &dto, None)
         .await
 }
 
@@ -247,7 +247,7 @@ pub async fn run(
     let dto = run_dto(&run);
     let location = format!("/v1/runs/{}", run.stamp.id);
     write
-        .commit(store, &[Record::Run(run)], location, &dto, "")
+        .commit(store, &[Record::Run(run)], location, &dto, None)
         .await
 }
 

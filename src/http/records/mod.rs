@@ -164,13 +164,14 @@ impl Write {
     }
 
     /// Writes `records` (and the claim) in one transaction; 201 with `Location` once committed.
+    /// `taken` is the 409's words when a record has a unique name.
     async fn commit(
         self,
         store: &Store,
         records: &[Record],
         location: String,
         body: &impl Serialize,
-        taken: &str,
+        taken: Option<&str>,
     ) -> Result<Response, ApiError> {
         let body = serde_json::to_string(body).map_err(|e| ApiError::internal(e.to_string()))?;
         let claim = self.claim.map(|(key, fingerprint)| Claim {
@@ -191,7 +192,11 @@ impl Write {
             })),
             Written::Replayed(replay) => Ok(replayed(replay)),
             Written::KeyReused => Err(key_reused()),
-            Written::Taken => Err(ApiError::new(Kind::Conflict, taken.to_string())),
+            // Only a unique name can be taken; ids are fresh UUIDv7s.
+            Written::Taken => Err(match taken {
+                Some(taken) => ApiError::new(Kind::Conflict, taken),
+                None => ApiError::internal("a fresh record id collided"),
+            }),
         }
     }
 }

@@ -101,7 +101,7 @@ pub async fn create(
     let location = format!("/v1/parts/{}", record.stamp.id);
     let taken = format!("a part named `{}` exists", request.name);
     write
-        .commit(store, &[Record::Part(record)], location, &dto, &taken)
+        .commit(store, &[Record::Part(record)], location, &dto, Some(&taken))
         .await
 }
 
@@ -226,19 +226,20 @@ pub async fn measure(
         }
     }
     let result = compute::<MeasurementFitEndpoint>(&state, &request).await?;
+    let request = Value::Object(request);
     let measurement = MeasurementRecord {
         stamp: write.stamp(),
         part: id.clone(),
         rms_nm: result["form_error"]["rms_nm"].as_f64().unwrap_or(f64::NAN),
-        request: Value::Object(request).to_string(),
+        request: request.to_string(),
         result: result.to_string(),
     };
-    let learned = learn_from_cycle(&state, store, &part, &measurement, &write).await?;
+    let learned = learn_from_cycle(&state, store, &part, &result["profile"], &write).await?;
     let dto = MeasurementDto {
         id: measurement.stamp.id.clone(),
         part_id: id,
         rms_nm: measurement.rms_nm,
-        request: document(&measurement.request)?,
+        request,
         result,
         completes_run_id: learned.as_ref().map(|(run, _)| run.clone()),
         learned_calibration_id: learned
@@ -250,16 +251,17 @@ pub async fn measure(
     let location = format!("/v1/measurements/{}", measurement.stamp.id);
     let mut records = vec![Record::Measurement(measurement)];
     records.extend(learned.and_then(|(_, c)| c).map(Record::Calibration));
-    write.commit(store, &records, location, &dto, "").await
+    write.commit(store, &records, location, &dto, None).await
 }
 
-/// The cycle `measurement` completes, if any: its run, and the calibration learned from it
+/// The cycle a new measurement (its form-error `profile`) completes, if any: its run, and the
+/// calibration learned from it
 /// (`None` when the removal does not determine the coefficient; the measurement still counts).
 async fn learn_from_cycle(
     state: &AppState,
     store: &Store,
     part: &PartRecord,
-    measurement: &MeasurementRecord,
+    after: &Value,
     write: &Write,
 ) -> Result<Option<(String, Option<CalibrationRecord>)>, ApiError> {
     let id = &part.stamp.id;
@@ -282,7 +284,7 @@ async fn learn_from_cycle(
     let mut run_fit = json!({
         "dwell": plan_result["dwell"],
         "before": document(&before.result)?["profile"],
-        "after": document(&measurement.result)?["profile"],
+        "after": after,
     });
     if let Some(aperture) = plan_request.get("clear_aperture") {
         run_fit["clear_aperture"] = aperture.clone();

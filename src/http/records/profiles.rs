@@ -170,7 +170,13 @@ pub async fn create(
         request.name
     );
     write
-        .commit(store, &[Record::Profile(record)], location, &dto, &taken)
+        .commit(
+            store,
+            &[Record::Profile(record)],
+            location,
+            &dto,
+            Some(&taken),
+        )
         .await
 }
 
@@ -261,7 +267,7 @@ pub async fn calibrate(
     let dto = calibration_dto(&record)?;
     let location = format!("/v1/calibrations/{}", record.stamp.id);
     write
-        .commit(store, &[Record::Calibration(record)], location, &dto, "")
+        .commit(store, &[Record::Calibration(record)], location, &dto, None)
         .await
 }
 
