@@ -12,6 +12,7 @@ use http_body_util::BodyExt;
 use preston::config::ServiceLimits;
 use preston::http::{router, AppState};
 use preston::physics::{Part, PressureModel, ProcessSpec};
+use preston::surface::SurfaceSpec;
 use preston::usecases::predict::{predict, DwellSpec, PredictCommand, TravelSpec};
 use preston::usecases::{
     ApertureSpec, ComputeLimits, GridSpec, OperatorCache, PartSpec, Recommender, Setting,
@@ -90,24 +91,30 @@ fn predict_paper_201x201_cold(bencher: divan::Bencher, what: &str) {
         .bench_values(|body| service.predict(body));
 }
 
-fn paper_1001() -> PredictCommand {
+/// The paper's experiment 1 on `count` radial samples × `count` positions (10 s each), at
+/// workpiece speed `workpiece_rpm`, on `surface`.
+fn paper(count: usize, workpiece_rpm: f64, surface: SurfaceSpec) -> PredictCommand {
     let limits = ComputeLimits::default();
+    let part = PartSpec {
+        surface: Some(surface),
+        ..PartSpec::default()
+    };
     let setting = Setting::new(
         ProcessSpec {
             workpiece_radius_mm: 50.0,
             tool_radius_mm: 10.0,
-            workpiece_rpm: -10.0,
+            workpiece_rpm,
             tool_rpm: 200.0,
             preston_coefficient_m2_per_n: 1e-13,
             pressure_kpa: 10.0,
             pressure_model: PressureModel::Uniform,
-            part: Part::flat(),
+            part: part.parse().unwrap().part,
         },
-        &PartSpec::default(),
+        &part,
         GridSpec {
             start_mm: Some(0.0),
             stop_mm: Some(50.0),
-            count: Some(1001),
+            count: Some(count),
         },
         ApertureSpec {
             inner_mm: Some(0.0),
@@ -116,15 +123,87 @@ fn paper_1001() -> PredictCommand {
         &limits,
     )
     .unwrap();
-    let positions: Vec<f64> = (0..1001).map(|j| 0.05 * j as f64).collect();
+    let positions: Vec<f64> = (0..count)
+        .map(|j| 50.0 * j as f64 / (count - 1) as f64)
+        .collect();
     let travel = TravelSpec {
         dwell: Some(DwellSpec {
+            dwell_s: vec![10.0; count],
             positions_mm: positions,
-            dwell_s: vec![10.0; 1001],
         }),
         feed: None,
     };
     PredictCommand::new(setting, travel, &limits).unwrap()
+}
+
+fn paper_1001() -> PredictCommand {
+    paper(1001, -10.0, SurfaceSpec::Plane)
+}
+
+/// The prediction use case for a process no earlier request had (a new workpiece speed, so a
+/// new η, each time: the operator and the equal-dwell pass at the user's speeds are computed;
+/// the set-up's η = −1 pass and η window, shared by every speed, come from the first request).
+/// On a plane at 1001 × 1001 and on a convex sphere (R = −150 mm) at 201 × 201.
+#[divan::bench(args = ["plane_1001", "sphere_201"], sample_count = 50)]
+fn predict_cold(bencher: divan::Bencher, what: &str) {
+    let (count, surface) = match what {
+        "plane_1001" => (1001, SurfaceSpec::Plane),
+        _ => (
+            201,
+            SurfaceSpec::Sphere {
+                radius_of_curvature_mm: -150.0,
+            },
+        ),
+    };
+    let recommender = Recommender::new();
+    let operators = OperatorCache::new(64 << 20);
+    predict(
+        paper(count, -10.0, surface.clone()),
+        &recommender,
+        &operators,
+    );
+    let counter = std::sync::atomic::AtomicU32::new(0);
+    bencher
+        .with_inputs(|| {
+            let k = 1 + counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            paper(count, -10.0 * (1.0 + 1e-9 * k as f64), surface.clone())
+        })
+        .bench_values(|c| predict(c, &recommender, &operators));
+}
+
+/// The recommendation alone for a new machine set-up (a new tool radius each time, so the
+/// η = −1 pass, the η window and the pass at the user's speeds are all computed), 201 radial
+/// samples on the paper's part.
+#[divan::bench(sample_count = 30)]
+fn recommendation_new_setup(bencher: divan::Bencher) {
+    let recommender = Recommender::new();
+    let counter = std::sync::atomic::AtomicU32::new(0);
+    bencher
+        .with_inputs(|| {
+            let k = 1 + counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let limits = ComputeLimits::default();
+            Setting::new(
+                ProcessSpec {
+                    workpiece_radius_mm: 50.0,
+                    tool_radius_mm: 10.0 * (1.0 + 1e-9 * k as f64),
+                    workpiece_rpm: -10.0,
+                    tool_rpm: 200.0,
+                    preston_coefficient_m2_per_n: 1e-13,
+                    pressure_kpa: 10.0,
+                    pressure_model: PressureModel::Uniform,
+                    part: Part::flat(),
+                },
+                &PartSpec::default(),
+                GridSpec::default(),
+                ApertureSpec {
+                    inner_mm: Some(0.0),
+                    outer_mm: Some(40.0),
+                },
+                &limits,
+            )
+            .unwrap()
+        })
+        .bench_values(|setting| recommender.for_plan(&setting, 100.0).unwrap());
 }
 
 #[divan::bench(args = [true, false], sample_count = 50)]

@@ -20,48 +20,118 @@
 /// Relative tolerance handed to Carlson's stopping rule; gives results within a few ulps.
 const TOLERANCE: f64 = 1.0e-16;
 
+/// How many argument triples [`rf_rd_many`] takes through the duplication side by side.
+pub const LANES: usize = 8;
+
 /// `(R_F(x, y, z), R_D(x, y, z))`.
 pub fn rf_rd(x: f64, y: f64, z: f64) -> (f64, f64) {
-    debug_assert!(x >= 0.0 && y >= 0.0 && z > 0.0, "rf_rd({x}, {y}, {z})");
-    debug_assert!(x + y > 0.0, "rf_rd: at most one of x, y may be zero");
+    let (rf, rd) = rf_rd_lanes([x], [y], [z]);
+    (rf[0], rd[0])
+}
 
-    let a0_f = (x + y + z) / 3.0;
-    let a0_d = (x + y + 3.0 * z) / 5.0;
+/// [`rf_rd`] of every triple `(x[k], y[k], z[k])` into `rf[k]`, `rd[k]`, bit for bit, [`LANES`]
+/// triples at a time: their duplication steps run side by side (in vector registers where the
+/// CPU has them), each lane frozen once its own stopping rule holds, so a lane's result does
+/// not depend on its neighbours.
+pub fn rf_rd_many(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64]) {
+    let n = x.len();
+    assert!(y.len() == n && z.len() == n && rf.len() == n && rd.len() == n);
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
+        return unsafe { rf_rd_many_avx2(x, y, z, rf, rd) };
+    }
+    rf_rd_chunks(x, y, z, rf, rd);
+}
+
+/// [`rf_rd_chunks`] compiled for AVX2 (four lanes per register instead of SSE2's two).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn rf_rd_many_avx2(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64]) {
+    rf_rd_chunks(x, y, z, rf, rd);
+}
+
+#[inline(always)]
+fn rf_rd_chunks(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64]) {
+    let mut k = 0;
+    while k < x.len() {
+        let m = LANES.min(x.len() - k);
+        // A short last chunk is padded with R(1, 1, 1), which converges at once.
+        let lane = |v: &[f64], l: usize| if l < m { v[k + l] } else { 1.0 };
+        let (f, d) = rf_rd_lanes::<LANES>(
+            std::array::from_fn(|l| lane(x, l)),
+            std::array::from_fn(|l| lane(y, l)),
+            std::array::from_fn(|l| lane(z, l)),
+        );
+        rf[k..k + m].copy_from_slice(&f[..m]);
+        rd[k..k + m].copy_from_slice(&d[..m]);
+        k += m;
+    }
+}
+
+/// The duplication and the series for `L` triples; every lane runs exactly the operations
+/// of a lone evaluation.
+#[inline(always)]
+fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; L], [f64; L]) {
+    for l in 0..L {
+        debug_assert!(
+            x[l] >= 0.0 && y[l] >= 0.0 && z[l] > 0.0,
+            "rf_rd({}, {}, {})",
+            x[l],
+            y[l],
+            z[l]
+        );
+        debug_assert!(x[l] + y[l] > 0.0, "rf_rd: at most one of x, y may be zero");
+    }
+    let spread = |a: f64, l: usize| (a - x[l]).abs().max((a - y[l]).abs()).max((a - z[l]).abs());
+    let a0_f: [f64; L] = std::array::from_fn(|l| (x[l] + y[l] + z[l]) / 3.0);
+    let a0_d: [f64; L] = std::array::from_fn(|l| (x[l] + y[l] + 3.0 * z[l]) / 5.0);
     // Carlson's Q for each function: once 4^-n Q < |A_n| the series is exact to TOLERANCE.
-    let spread_f = (a0_f - x).abs().max((a0_f - y).abs()).max((a0_f - z).abs());
-    let spread_d = (a0_d - x).abs().max((a0_d - y).abs()).max((a0_d - z).abs());
-    let mut q_f = spread_f * (3.0 * TOLERANCE).powf(-1.0 / 6.0);
-    let mut q_d = spread_d * (0.25 * TOLERANCE).powf(-1.0 / 6.0);
+    let mut q_f: [f64; L] =
+        std::array::from_fn(|l| spread(a0_f[l], l) * (3.0 * TOLERANCE).powf(-1.0 / 6.0));
+    let mut q_d: [f64; L] =
+        std::array::from_fn(|l| spread(a0_d[l], l) * (0.25 * TOLERANCE).powf(-1.0 / 6.0));
 
     let (mut xn, mut yn, mut zn) = (x, y, z);
     let (mut a_f, mut a_d) = (a0_f, a0_d);
-    let mut pow4 = 1.0; // 4^-n
-    let mut rd_sum = 0.0;
-    while q_f >= a_f.abs() || q_d >= a_d.abs() {
-        let (sx, sy, sz) = (xn.sqrt(), yn.sqrt(), zn.sqrt());
-        let lambda = sx * sy + sx * sz + sy * sz;
-        rd_sum += pow4 / (sz * (zn + lambda));
-        pow4 *= 0.25;
-        q_f *= 0.25;
-        q_d *= 0.25;
-        xn = 0.25 * (xn + lambda);
-        yn = 0.25 * (yn + lambda);
-        zn = 0.25 * (zn + lambda);
-        a_f = 0.25 * (a_f + lambda);
-        a_d = 0.25 * (a_d + lambda);
+    let mut pow4 = [1.0; L]; // 4^-n
+    let mut rd_sum = [0.0; L];
+    let going = |q_f: &[f64; L], q_d: &[f64; L], a_f: &[f64; L], a_d: &[f64; L], l: usize| {
+        q_f[l] >= a_f[l].abs() || q_d[l] >= a_d[l].abs()
+    };
+    let mut active: [bool; L] = std::array::from_fn(|l| going(&q_f, &q_d, &a_f, &a_d, l));
+    while active.iter().any(|&a| a) {
+        for l in 0..L {
+            let (sx, sy, sz) = (xn[l].sqrt(), yn[l].sqrt(), zn[l].sqrt());
+            let lambda = sx * sy + sx * sz + sy * sz;
+            let on = active[l];
+            let pick = |new: f64, old: f64| if on { new } else { old };
+            rd_sum[l] = pick(rd_sum[l] + pow4[l] / (sz * (zn[l] + lambda)), rd_sum[l]);
+            pow4[l] = pick(pow4[l] * 0.25, pow4[l]);
+            q_f[l] = pick(q_f[l] * 0.25, q_f[l]);
+            q_d[l] = pick(q_d[l] * 0.25, q_d[l]);
+            xn[l] = pick(0.25 * (xn[l] + lambda), xn[l]);
+            yn[l] = pick(0.25 * (yn[l] + lambda), yn[l]);
+            zn[l] = pick(0.25 * (zn[l] + lambda), zn[l]);
+            a_f[l] = pick(0.25 * (a_f[l] + lambda), a_f[l]);
+            a_d[l] = pick(0.25 * (a_d[l] + lambda), a_d[l]);
+        }
+        for (l, a) in active.iter_mut().enumerate() {
+            *a = *a && going(&q_f, &q_d, &a_f, &a_d, l);
+        }
     }
 
-    let rf = {
-        let xs = (a0_f - x) * pow4 / a_f;
-        let ys = (a0_f - y) * pow4 / a_f;
+    let rf = std::array::from_fn(|l| {
+        let xs = (a0_f[l] - x[l]) * pow4[l] / a_f[l];
+        let ys = (a0_f[l] - y[l]) * pow4[l] / a_f[l];
         let zs = -(xs + ys);
         let e2 = xs * ys - zs * zs;
         let e3 = xs * ys * zs;
-        (1.0 - e2 / 10.0 + e3 / 14.0 + e2 * e2 / 24.0 - 3.0 * e2 * e3 / 44.0) / a_f.sqrt()
-    };
-    let rd = {
-        let xs = (a0_d - x) * pow4 / a_d;
-        let ys = (a0_d - y) * pow4 / a_d;
+        (1.0 - e2 / 10.0 + e3 / 14.0 + e2 * e2 / 24.0 - 3.0 * e2 * e3 / 44.0) / a_f[l].sqrt()
+    });
+    let rd = std::array::from_fn(|l| {
+        let xs = (a0_d[l] - x[l]) * pow4[l] / a_d[l];
+        let ys = (a0_d[l] - y[l]) * pow4[l] / a_d[l];
         let zs = -(xs + ys) / 3.0;
         let xy = xs * ys;
         let z2 = zs * zs;
@@ -73,8 +143,8 @@ pub fn rf_rd(x: f64, y: f64, z: f64) -> (f64, f64) {
             - 3.0 * e4 / 22.0
             - 9.0 * e2 * e3 / 52.0
             + 3.0 * e5 / 26.0;
-        pow4 * series / (a_d * a_d.sqrt()) + 3.0 * rd_sum
-    };
+        pow4[l] * series / (a_d[l] * a_d[l].sqrt()) + 3.0 * rd_sum[l]
+    });
     (rf, rd)
 }
 
@@ -117,6 +187,40 @@ mod tests {
         close(rf_rd(0.0, 1.0, 1.0).0, std::f64::consts::FRAC_PI_2);
         // R_D(0, 1, 1) = 3π/4 (DLMF 19.20.4 with K(0) = E(0) = π/2).
         close(rf_rd(0.0, 1.0, 1.0).1, 0.75 * std::f64::consts::PI);
+    }
+
+    /// Many triples at once give what each gives alone, bit for bit, whatever their
+    /// neighbours (triples needing from none to many duplication steps share chunks, and a
+    /// short last chunk is padded).
+    #[test]
+    fn many_at_once_is_each_alone() {
+        use super::rf_rd_many;
+        let mut args = Vec::new();
+        for k in 0..45 {
+            let t = k as f64;
+            args.push((
+                (t * 0.37).sin().abs() * 10f64.powi(k % 9 - 4),
+                1.0 + t,
+                0.5 + (t * 0.11).cos().abs() * 10f64.powi(-(k % 5)),
+            ));
+        }
+        args.push((0.0, 2.0, 1.0));
+        args.push((3.0, 3.0, 3.0));
+        let (x, y, z): (Vec<f64>, Vec<f64>, Vec<f64>) = (
+            args.iter().map(|a| a.0).collect(),
+            args.iter().map(|a| a.1).collect(),
+            args.iter().map(|a| a.2).collect(),
+        );
+        let (mut rf, mut rd) = (vec![0.0; x.len()], vec![0.0; x.len()]);
+        rf_rd_many(&x, &y, &z, &mut rf, &mut rd);
+        for k in 0..x.len() {
+            let (f, d) = rf_rd(x[k], y[k], z[k]);
+            assert_eq!(
+                (rf[k].to_bits(), rd[k].to_bits()),
+                (f.to_bits(), d.to_bits()),
+                "{k}"
+            );
+        }
     }
 
     /// Homogeneity: R_F(λ·) = λ^-1/2 R_F(·), R_D(λ·) = λ^-3/2 R_D(·).

@@ -84,16 +84,16 @@ impl RemovalOperator {
                 return (j_lo, values);
             }
             let path = kernel.path_integral(r, bounds[n]);
-            let mut before = path.at(bounds[j_lo]);
-            for j in j_lo..j_hi {
-                let after = path.at(bounds[j + 1]);
+            let mut running = vec![0.0; j_hi + 1 - j_lo];
+            path.at_ascending(&bounds[j_lo..=j_hi], &mut running);
+            for (j, ends) in (j_lo..j_hi).zip(running.windows(2)) {
+                let (before, after) = (ends[0], ends[1]);
                 let mut value = move_share(j, n) * (after - before) / (arcs[j + 1] - arcs[j]);
                 let stop = stop_share(j, n);
                 if stop > 0.0 {
                     value += stop * kernel.rate_nm_per_s(r, positions_mm[j]);
                 }
                 values.push(value);
-                before = after;
             }
             (j_lo, values)
         };

@@ -47,6 +47,30 @@ const MAX_PANELS: usize = 512;
 /// that the values are rounding noise and halving would go on to the deepest level.
 const ROUNDING_FLOOR: f64 = 64.0 * f64::EPSILON;
 
+/// What a path integral integrates: f at many points at once (a panel's new Chebyshev
+/// points are asked for together, so an integrand can evaluate them side by side).
+pub trait Integrand {
+    /// f(x) for every x of `xs` into `out` (of the same length).
+    fn values(&self, xs: &[f64], out: &mut [f64]);
+}
+
+/// A function of one point as an [`Integrand`], evaluated point by point.
+pub struct Pointwise<F>(pub F);
+
+impl<F: Fn(f64) -> f64> Integrand for Pointwise<F> {
+    fn values(&self, xs: &[f64], out: &mut [f64]) {
+        for (o, &x) in out.iter_mut().zip(xs) {
+            *o = (self.0)(x);
+        }
+    }
+}
+
+impl<T: Integrand + ?Sized> Integrand for &T {
+    fn values(&self, xs: &[f64], out: &mut [f64]) {
+        (**self).values(xs, out)
+    }
+}
+
 /// One polynomial panel of a half-piece: v in [lo, hi], the integral from v = 0 to lo, and
 /// the antiderivative's Chebyshev coefficients (scaled by the half-width) in `coeffs`.
 #[derive(Debug, Clone, Copy)]
@@ -91,6 +115,16 @@ impl Half {
             self.end
         }
     }
+
+    /// The half's variable v at x (x = end ± half·v²), clamped to [0, 1].
+    fn v(&self, x: f64) -> f64 {
+        let u = if self.from_below {
+            (x - self.end) / self.half
+        } else {
+            (self.end - x) / self.half
+        };
+        u.clamp(0.0, 1.0).sqrt()
+    }
 }
 
 /// F(x) = ∫_lo^x f on [lo, hi] (0 below, the total above); see the module docs.
@@ -106,19 +140,14 @@ impl PathIntegral {
     /// The integral of `f` over the pieces between consecutive `breakpoints` (ascending; empty
     /// pieces are skipped), each resolved to `tolerance` relative to its largest |g|, with the
     /// Chebyshev points of `table` (made once per kernel, not per radius).
-    pub fn new<F: Fn(f64) -> f64>(
-        f: F,
-        breakpoints: &[f64],
-        tolerance: f64,
-        table: &Lobatto,
-    ) -> Self {
+    pub fn new<F: Integrand>(f: F, breakpoints: &[f64], tolerance: f64, table: &Lobatto) -> Self {
         Self::build(f, breakpoints, tolerance, table, true)
     }
 
     /// ∫ f over the pieces alone, as [`Self::new`] resolves it but keeping no interpolant:
     /// each panel's integral is its Clenshaw–Curtis sum, and only the coefficients the
     /// convergence test needs are computed (what a constant-feed pass needs of a radius).
-    pub fn total_over<F: Fn(f64) -> f64>(
+    pub fn total_over<F: Integrand>(
         f: F,
         breakpoints: &[f64],
         tolerance: f64,
@@ -128,7 +157,7 @@ impl PathIntegral {
     }
 
     /// `keep`: store the panels' antiderivatives for [`Self::at`].
-    fn build<F: Fn(f64) -> f64>(
+    fn build<F: Integrand>(
         f: F,
         breakpoints: &[f64],
         tolerance: f64,
@@ -155,7 +184,17 @@ impl PathIntegral {
                         (end - d).max(middle)
                     }
                 };
-                let g = |v: f64| f(x(v)) * 2.0 * half * v;
+                let g = |vs: &[f64], out: &mut [f64]| {
+                    let mut xs = [0.0; MAX_POINTS];
+                    let xs = &mut xs[..vs.len()];
+                    for (x_k, &v) in xs.iter_mut().zip(vs) {
+                        *x_k = x(v);
+                    }
+                    f.values(xs, out);
+                    for (o, &v) in out.iter_mut().zip(vs) {
+                        *o = *o * 2.0 * half * v;
+                    }
+                };
                 let first_panel = integral.panels.len() as u32;
                 let total = integral.fit_half(table, &g, tolerance, keep);
                 integral.halves.push(Half {
@@ -175,7 +214,7 @@ impl PathIntegral {
 
     /// Panels of g over v ∈ [0, 1], depth first so they come out in ascending v (kept only
     /// with `keep`); returns ∫.
-    fn fit_half<G: Fn(f64) -> f64>(
+    fn fit_half<G: Fn(&[f64], &mut [f64])>(
         &mut self,
         table: &Lobatto,
         g: &G,
@@ -223,6 +262,85 @@ impl PathIntegral {
         self.total
     }
 
+    /// F at every x of `xs` (ascending) into `out`, bit for bit as [`Self::at`] reads it, but
+    /// reading the points of one panel together: their Clenshaw recurrences run side by side
+    /// ([`clenshaw_lanes`]) instead of one latency-bound chain after another (an operator row
+    /// reads F at every cell boundary in the pad's reach, hundreds of points on a few panels).
+    pub fn at_ascending(&self, xs: &[f64], out: &mut [f64]) {
+        debug_assert!(xs.windows(2).all(|w| w[0] <= w[1]));
+        assert_eq!(xs.len(), out.len(), "one output per point");
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
+            return unsafe { self.at_ascending_avx2(xs, out) };
+        }
+        self.read_ascending(xs, out);
+    }
+
+    /// [`Self::read_ascending`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn at_ascending_avx2(&self, xs: &[f64], out: &mut [f64]) {
+        self.read_ascending(xs, out);
+    }
+
+    #[inline(always)]
+    fn read_ascending(&self, xs: &[f64], out: &mut [f64]) {
+        let mut i = 0;
+        while i < xs.len() {
+            let x = xs[i];
+            let k = self.halves.partition_point(|half| half.start() <= x);
+            if k == 0 {
+                out[i] = 0.0;
+                i += 1;
+                continue;
+            }
+            let half = &self.halves[k - 1];
+            if x >= half.top() {
+                out[i] = half.base + half.total;
+                i += 1;
+                continue;
+            }
+            let panels =
+                &self.panels[half.first_panel as usize..(half.first_panel + half.panels) as usize];
+            let j = panels.partition_point(|panel| panel.lo <= half.v(x)).max(1) - 1;
+            let panel = &panels[j];
+            // Up to LANES points from i on that [`Self::at`] would read on this same panel.
+            let upper = panels.get(j + 1).map_or(f64::INFINITY, |next| next.lo);
+            let lower = if j == 0 { f64::NEG_INFINITY } else { panel.lo };
+            let mut ts = [0.0; LANES];
+            let mut m = 0;
+            while m < LANES && i + m < xs.len() && xs[i + m] < half.top() {
+                let v = half.v(xs[i + m]);
+                if v < lower || v >= upper {
+                    break;
+                }
+                ts[m] = ((2.0 * v - panel.lo - panel.hi) / (panel.hi - panel.lo)).clamp(-1.0, 1.0);
+                m += 1;
+            }
+            let coeffs = &self.coeffs[panel.first as usize..(panel.first + panel.len) as usize];
+            let finish = |from_end: f64| {
+                let from_end = panel.base + from_end;
+                if half.from_below {
+                    half.base + from_end
+                } else {
+                    half.base + half.total - from_end
+                }
+            };
+            if m == LANES {
+                let values = clenshaw_lanes::<LANES>(coeffs, ts);
+                for (o, value) in out[i..i + m].iter_mut().zip(values) {
+                    *o = finish(value);
+                }
+            } else {
+                for (o, &t) in out[i..i + m].iter_mut().zip(&ts[..m]) {
+                    *o = finish(clenshaw(coeffs, t));
+                }
+            }
+            i += m;
+        }
+    }
+
     /// F(x) = ∫_lo^x f.
     pub fn at(&self, x: f64) -> f64 {
         let k = self.halves.partition_point(|half| half.start() <= x);
@@ -233,12 +351,7 @@ impl PathIntegral {
         if x >= half.top() {
             return half.base + half.total;
         }
-        let u = if half.from_below {
-            (x - half.end) / half.half
-        } else {
-            (half.end - x) / half.half
-        };
-        let v = u.clamp(0.0, 1.0).sqrt();
+        let v = half.v(x);
         let panels =
             &self.panels[half.first_panel as usize..(half.first_panel + half.panels) as usize];
         let j = panels.partition_point(|panel| panel.lo <= v).max(1) - 1;
@@ -262,6 +375,9 @@ pub struct Lobatto {
     cosines: [f64; 2 * (MAX_POINTS - 1)],
     /// weights[m][k]: the weight of point k of the rule with 2^(m+3) + 1 points, on [−1, 1].
     weights: [[f64; MAX_POINTS]; 3],
+    /// cosines[m]: cos(πjk/n) for the rule with n + 1 = 2^(m+3) + 1 points, as an (n + 1)²
+    /// matrix (symmetric in j and k), so a DCT reads consecutive memory.
+    dct: [Vec<f64>; 3],
 }
 
 impl Default for Lobatto {
@@ -289,7 +405,22 @@ impl Default for Lobatto {
                 *w = c / intervals as f64 * (1.0 - sum);
             }
         }
-        Lobatto { cosines, weights }
+        let dct = std::array::from_fn(|m| {
+            let n = 8 << m;
+            let stride = (MAX_POINTS - 1) / n;
+            let mut matrix = vec![0.0; (n + 1) * (n + 1)];
+            for j in 0..=n {
+                for k in 0..=n {
+                    matrix[j * (n + 1) + k] = cosines[(j * k * stride) % period];
+                }
+            }
+            matrix
+        });
+        Lobatto {
+            cosines,
+            weights,
+            dct,
+        }
     }
 }
 
@@ -298,7 +429,7 @@ impl Lobatto {
     /// = 32/(points − 1)), 9, 17 or 33 of them: the first count whose interpolant resolves g
     /// (last three Chebyshev coefficients within `tolerance`·scale, `scale` the largest |g|
     /// seen on the half so far); `None` when 33 do not, unless `anyway`.
-    fn sample<G: Fn(f64) -> f64>(
+    fn sample<G: Fn(&[f64], &mut [f64])>(
         &self,
         g: &G,
         lo: f64,
@@ -312,14 +443,24 @@ impl Lobatto {
         let mut points = 9;
         loop {
             let stride = (MAX_POINTS - 1) / (points - 1);
+            // The level's new points, all at once.
+            let (mut new, mut vs, mut count) = ([0; MAX_POINTS], [0.0; MAX_POINTS], 0);
             for k in (0..MAX_POINTS).step_by(stride) {
                 if values[k].is_nan() {
-                    values[k] = g(centre + half * self.cosines[k]);
-                    *scale = scale.max(values[k].abs());
+                    new[count] = k;
+                    vs[count] = centre + half * self.cosines[k];
+                    count += 1;
                 }
             }
+            let mut got = [0.0; MAX_POINTS];
+            g(&vs[..count], &mut got[..count]);
+            for (&k, &value) in new[..count].iter().zip(&got[..count]) {
+                values[k] = value;
+                *scale = scale.max(value.abs());
+            }
+            let nodes = gathered(&values, points);
             let tail = (points - 3..points)
-                .map(|j| self.coefficient(&values, points, j).abs())
+                .map(|j| self.coefficient(&nodes, points, j).abs())
                 .fold(0.0_f64, f64::max);
             // A bound below the normal range cannot be met by rounding (a process so weak its
             // rates are subnormal): such a panel is as resolved as f64 allows.
@@ -334,31 +475,43 @@ impl Lobatto {
         }
     }
 
-    /// Coefficient j of the interpolant through the `points` nodes (DCT-I).
-    fn coefficient(&self, values: &[f64; MAX_POINTS], points: usize, j: usize) -> f64 {
+    /// Coefficient j of the interpolant through the `points` node values `nodes` (DCT-I):
+    /// c_j = (2/n)·Σ'' g_k·cos(πjk/n), the sum's two end terms halved, and c_j halved again
+    /// for j = 0 and n.
+    fn coefficient(&self, nodes: &[f64; MAX_POINTS], points: usize, j: usize) -> f64 {
         let n = points - 1;
-        let stride = (MAX_POINTS - 1) / n;
-        let period = 2 * (MAX_POINTS - 1);
-        let mut sum =
-            0.5 * (values[0] + values[n * stride] * self.cosines[(j * n * stride) % period]);
+        let cos = &self.dct[n.trailing_zeros() as usize - 3][j * points..(j + 1) * points];
+        let mut sum = 0.5 * (nodes[0] + nodes[n] * cos[n]);
         for k in 1..n {
-            sum += values[k * stride] * self.cosines[(j * k * stride) % period];
+            sum += nodes[k] * cos[k];
         }
-        let value = 2.0 * sum / n as f64;
-        if j == 0 || j == n {
-            0.5 * value
-        } else {
-            value
-        }
+        finish_coefficient(sum, n, j)
     }
 
-    /// All coefficients: g = Σ c_j·T_j exactly at the `points` nodes.
+    /// All coefficients: g = Σ c_j·T_j exactly at the `points` nodes. Each c_j is summed in
+    /// the order [`Self::coefficient`] sums it (so the same bits), all j side by side.
     fn coefficients(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
-        let mut out = [0.0; MAX_POINTS];
-        for (j, c) in out.iter_mut().enumerate().take(points) {
-            *c = self.coefficient(values, points, j);
+        let nodes = gathered(values, points);
+        let n = points - 1;
+        let matrix = &self.dct[n.trailing_zeros() as usize - 3];
+        // Row k of the symmetric matrix is cos(πjk/n) for every j.
+        let row = |k: usize| &matrix[k * points..(k + 1) * points];
+        let mut sums = [0.0; MAX_POINTS];
+        for ((s, &first), &last) in sums.iter_mut().zip(row(0)).zip(row(n)) {
+            *s = 0.5 * (nodes[0] * first + nodes[n] * last);
         }
-        out
+        for (k, &g) in nodes.iter().enumerate().take(n).skip(1) {
+            for (s, &cos) in sums.iter_mut().zip(row(k)) {
+                *s += g * cos;
+            }
+        }
+        std::array::from_fn(|j| {
+            if j < points {
+                finish_coefficient(sums[j], n, j)
+            } else {
+                0.0
+            }
+        })
     }
 
     /// ∫_{−1}^{1} of the interpolant through the `points` nodes (Clenshaw–Curtis).
@@ -367,6 +520,22 @@ impl Lobatto {
         let rule = &self.weights[(points - 1).trailing_zeros() as usize - 3];
         (0..points).map(|k| rule[k] * values[k * stride]).sum()
     }
+}
+
+/// c_j from its DCT sum over n intervals.
+fn finish_coefficient(sum: f64, n: usize, j: usize) -> f64 {
+    let value = 2.0 * sum / n as f64;
+    if j == 0 || j == n {
+        0.5 * value
+    } else {
+        value
+    }
+}
+
+/// The values of the `points` nodes, consecutive (`values` holds them every 32/(points − 1)).
+fn gathered(values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
+    let stride = (MAX_POINTS - 1) / (points - 1);
+    std::array::from_fn(|k| if k < points { values[k * stride] } else { 0.0 })
 }
 
 /// Appends the coefficients of ∫_{−1}^t Σ c_k·T_k (the first `len` of `c`), times `half`
@@ -398,7 +567,26 @@ fn antiderivative_into(
     total
 }
 
+/// Points whose Clenshaw recurrences [`PathIntegral::at_ascending`] runs side by side.
+const LANES: usize = 8;
+
+/// [`clenshaw`] at `L` points at once, each lane with exactly the operations of one call.
+#[inline(always)]
+fn clenshaw_lanes<const L: usize>(a: &[f64], t: [f64; L]) -> [f64; L] {
+    let (mut b1, mut b2) = ([0.0; L], [0.0; L]);
+    let two_t = t.map(|t| 2.0 * t);
+    for &ak in a[1..].iter().rev() {
+        for l in 0..L {
+            let b0 = ak + two_t[l] * b1[l] - b2[l];
+            b2[l] = b1[l];
+            b1[l] = b0;
+        }
+    }
+    std::array::from_fn(|l| a[0] + t[l] * b1[l] - b2[l])
+}
+
 /// Σ a_k·T_k(t) by Clenshaw's recurrence.
+#[inline(always)]
 fn clenshaw(a: &[f64], t: f64) -> f64 {
     let (mut b1, mut b2) = (0.0, 0.0);
     let two_t = 2.0 * t;
@@ -418,7 +606,7 @@ mod tests {
     fn integrates_polynomials_and_square_root_kinks_exactly() {
         // ∫_0^x (3t² + 1) dt = x³ + x.
         let f = PathIntegral::new(
-            |t| 3.0 * t * t + 1.0,
+            Pointwise(|t| 3.0 * t * t + 1.0),
             &[0.0, 2.0],
             1e-14,
             &Lobatto::default(),
@@ -437,7 +625,7 @@ mod tests {
                 (x - 1.0).sqrt()
             }
         };
-        let f = PathIntegral::new(g, &[0.0, 1.0, 3.0], 1e-14, &Lobatto::default());
+        let f = PathIntegral::new(Pointwise(g), &[0.0, 1.0, 3.0], 1e-14, &Lobatto::default());
         let pi8 = std::f64::consts::PI / 8.0;
         assert!((f.at(1.0) - pi8).abs() < 1e-14, "{}", f.at(1.0) - pi8);
         let total = pi8 + 2.0 / 3.0 * 2f64.powf(1.5);
@@ -473,8 +661,8 @@ mod tests {
             }
         }
         let g = |x: f64| (x * (3.0 - x)).max(0.0).sqrt() * (1.0 + x).ln() + 1.0 / (x + 0.05);
-        let kept = PathIntegral::new(g, &[0.0, 1.3, 3.0], 1e-13, &table);
-        let total = PathIntegral::total_over(g, &[0.0, 1.3, 3.0], 1e-13, &table);
+        let kept = PathIntegral::new(Pointwise(g), &[0.0, 1.3, 3.0], 1e-13, &table);
+        let total = PathIntegral::total_over(Pointwise(g), &[0.0, 1.3, 3.0], 1e-13, &table);
         assert!(
             (kept.total() - total).abs() <= 1e-14 * total,
             "{} vs {total}",
@@ -489,7 +677,7 @@ mod tests {
         // (2^14 panels of 33 points), and one recommendation ran for minutes.
         let (p, q) = (9_143.785_284_385_247, 9_143.787_284_385_247);
         let f = PathIntegral::new(
-            |x: f64| ((x - p) * (q - x)).max(0.0).sqrt(),
+            Pointwise(|x: f64| ((x - p) * (q - x)).max(0.0).sqrt()),
             &[p, q],
             1e-12,
             &Lobatto::default(),
@@ -504,11 +692,28 @@ mod tests {
         );
     }
 
+    /// Reading many points at once gives exactly what reading each does: before, on and
+    /// after every piece, at the halves' ends and middles, and on panels of every kind.
+    #[test]
+    fn reading_in_ascending_runs_is_reading_each_point() {
+        let g = |x: f64| (x * (3.0 - x)).max(0.0).sqrt() * (1.0 + x).ln() + 1.0 / (x + 0.05);
+        let f = PathIntegral::new(Pointwise(g), &[0.0, 1.3, 3.0], 1e-13, &Lobatto::default());
+        let mut xs: Vec<f64> = (0..=997).map(|k| -0.2 + 3.5 * k as f64 / 997.0).collect();
+        xs.extend([0.0, 0.65, 1.3, 2.15, 3.0, 3.0, 1.3]);
+        xs.sort_by(f64::total_cmp);
+        let mut out = vec![f64::NAN; xs.len()];
+        f.at_ascending(&xs, &mut out);
+        for (&x, &got) in xs.iter().zip(&out) {
+            assert_eq!(got.to_bits(), f.at(x).to_bits(), "x = {x}");
+        }
+        assert!(f.panels.len() > 4, "{} panels", f.panels.len());
+    }
+
     #[test]
     fn halves_panels_near_a_nearby_pole() {
         // 1/(x + 1e-3) on [0, 1]: a pole 1e-3 from the end; ∫ = ln(1001/1) .
         let f = PathIntegral::new(
-            |x| 1.0 / (x + 1e-3),
+            Pointwise(|x| 1.0 / (x + 1e-3)),
             &[0.0, 1.0],
             1e-13,
             &Lobatto::default(),

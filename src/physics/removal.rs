@@ -32,10 +32,10 @@
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
-use super::carlson::rf_rd;
+use super::carlson::{rf_rd, rf_rd_many};
 use super::contact::{half_angle, HalfAngle};
 use super::curved::{CurvedKernel, Ring};
-use super::path::{Lobatto, PathIntegral};
+use super::path::{Integrand, Lobatto, PathIntegral, Pointwise};
 use super::pressure::{contact_area_mm2, pad_pressure, PadPressure, PressureCurve, PressureModel};
 use super::process::Process;
 use super::roots::illinois;
@@ -83,6 +83,18 @@ impl RunningIntegral {
         match self {
             RunningIntegral::Panels(panels) => panels.at(x),
             RunningIntegral::Lens(lens) => lens.at(x),
+        }
+    }
+
+    /// F at every x of `xs` (ascending) into `out`, as [`Self::at`] would read each.
+    pub fn at_ascending(&self, xs: &[f64], out: &mut [f64]) {
+        match self {
+            RunningIntegral::Panels(panels) => panels.at_ascending(xs, out),
+            RunningIntegral::Lens(lens) => {
+                for (o, &x) in out.iter_mut().zip(xs) {
+                    *o = lens.at(x);
+                }
+            }
         }
     }
 }
@@ -334,7 +346,7 @@ impl RemovalKernel {
     fn along_path<T>(
         &self,
         r_mm: f64,
-        use_it: impl FnOnce(&dyn Fn(f64) -> f64, Vec<f64>, f64) -> T,
+        use_it: impl FnOnce(&dyn Integrand, Vec<f64>, f64) -> T,
     ) -> T {
         match &self.curved {
             Some(curved) => {
@@ -357,10 +369,10 @@ impl RemovalKernel {
                     points.extend(curved.lift_kinks(&ring, onset.max(lo), hi, &pressure));
                     points = inside(points, lo, hi);
                 }
-                use_it(&rate, points, CURVED_PATH_TOLERANCE)
+                use_it(&Pointwise(rate), points, CURVED_PATH_TOLERANCE)
             }
             None => use_it(
-                &|x| self.rate_under(&self.path_pressure(x, x), r_mm, x),
+                &FlatRow { kernel: self, r_mm },
                 self.flat_breakpoints(r_mm),
                 FLAT_PATH_TOLERANCE,
             ),
@@ -437,6 +449,171 @@ impl RemovalKernel {
                     *value = self.rate_under(&pressure, r, r1_mm);
                 }
             }
+        }
+    }
+}
+
+/// The rate along the path at one radius of a plane, x ↦ R(r; x) under the pad's pressure at
+/// x: what [`RemovalKernel::rate_under`] gives point by point, bit for bit, but with the
+/// Carlson integrals of a batch of points taken together ([`rf_rd_many`]). Points under a
+/// sloped (linear) pressure, at extreme speeds (rescaled) or at η = −1 are taken alone.
+struct FlatRow<'a> {
+    kernel: &'a RemovalKernel,
+    r_mm: f64,
+}
+
+/// Points a [`FlatRow`] batch holds: each needs at most two Carlson evaluations.
+const FLAT_BATCH: usize = 32;
+
+/// G(φ; A, B) of one point ([`g`]), known or waiting for the Carlson pair in `slot`.
+#[derive(Clone, Copy)]
+enum PendingG {
+    Known(f64),
+    Slot {
+        slot: usize,
+        s: f64,
+        a: f64,
+        b: f64,
+        s2: f64,
+    },
+}
+
+impl PendingG {
+    /// [`g`]'s value, queuing its Carlson arguments when it needs them.
+    fn queue(s: f64, c: f64, a: f64, b: f64, queue: &mut CarlsonQueue) -> PendingG {
+        if s == 0.0 {
+            return PendingG::Known(0.0);
+        }
+        if a == 0.0 {
+            return PendingG::Known(b.sqrt() * s * s / (1.0 + c));
+        }
+        let s2 = s * s;
+        let slot = queue.push(a * c * c, a + b * s2, a);
+        PendingG::Slot { slot, s, a, b, s2 }
+    }
+
+    fn value(self, queue: &CarlsonQueue) -> f64 {
+        match self {
+            PendingG::Known(value) => value,
+            PendingG::Slot { slot, s, a, b, s2 } => {
+                let (rf, rd) = (queue.rf[slot], queue.rd[slot]);
+                s * a * (rf + b * s2 * rd / 3.0)
+            }
+        }
+    }
+}
+
+/// Carlson argument triples gathered from a batch of points, evaluated together.
+struct CarlsonQueue {
+    x: [f64; 2 * FLAT_BATCH],
+    y: [f64; 2 * FLAT_BATCH],
+    z: [f64; 2 * FLAT_BATCH],
+    rf: [f64; 2 * FLAT_BATCH],
+    rd: [f64; 2 * FLAT_BATCH],
+    len: usize,
+}
+
+impl CarlsonQueue {
+    fn new() -> Self {
+        CarlsonQueue {
+            x: [0.0; 2 * FLAT_BATCH],
+            y: [0.0; 2 * FLAT_BATCH],
+            z: [0.0; 2 * FLAT_BATCH],
+            rf: [0.0; 2 * FLAT_BATCH],
+            rd: [0.0; 2 * FLAT_BATCH],
+            len: 0,
+        }
+    }
+
+    fn push(&mut self, x: f64, y: f64, z: f64) -> usize {
+        let slot = self.len;
+        (self.x[slot], self.y[slot], self.z[slot]) = (x, y, z);
+        self.len += 1;
+        slot
+    }
+
+    fn evaluate(&mut self) {
+        let n = self.len;
+        rf_rd_many(
+            &self.x[..n],
+            &self.y[..n],
+            &self.z[..n],
+            &mut self.rf[..n],
+            &mut self.rd[..n],
+        );
+    }
+}
+
+/// One point of a [`FlatRow`] batch: its rate known, or [`scaled_sliding_integral`]'s terms
+/// pending, to be scaled by `level` (the pressure relative to nominal).
+#[derive(Clone, Copy)]
+enum PendingRate {
+    Known(f64),
+    Single {
+        g: PendingG,
+        level: f64,
+    },
+    Difference {
+        all: PendingG,
+        rest: PendingG,
+        level: f64,
+    },
+}
+
+impl Integrand for FlatRow<'_> {
+    fn values(&self, xs: &[f64], out: &mut [f64]) {
+        let k = self.kernel;
+        let r = self.r_mm;
+        for (xs, out) in xs.chunks(FLAT_BATCH).zip(out.chunks_mut(FLAT_BATCH)) {
+            let mut queue = CarlsonQueue::new();
+            let mut pending = [PendingRate::Known(0.0); FLAT_BATCH];
+            for (p, &x) in pending.iter_mut().zip(xs) {
+                let pressure = k.path_pressure(x, x);
+                *p = if pressure.slope_per_mm != 0.0 || k.translation {
+                    PendingRate::Known(k.rate_under(&pressure, r, x))
+                } else if pressure.level == 0.0 {
+                    PendingRate::Known(0.0)
+                } else {
+                    k.queue_nominal(r, x, pressure.level, &mut queue)
+                };
+            }
+            queue.evaluate();
+            for (o, p) in out.iter_mut().zip(&pending) {
+                *o = match *p {
+                    PendingRate::Known(rate) => rate,
+                    PendingRate::Single { g, level } => k.scale * (2.0 * g.value(&queue)) * level,
+                    PendingRate::Difference { all, rest, level } => {
+                        k.scale * (2.0 * (all.value(&queue) - rest.value(&queue))) * level
+                    }
+                };
+            }
+        }
+    }
+}
+
+impl RemovalKernel {
+    /// [`Self::nominal_rate_nm_per_s`] on a plane away from η = −1, times `level`, as
+    /// [`Self::rate_under`] computes it under a pressure without slope, with its Carlson
+    /// integrals queued (or known at once where none are needed).
+    fn queue_nominal(&self, r: f64, x: f64, level: f64, queue: &mut CarlsonQueue) -> PendingRate {
+        let psi = half_angle(r, x, self.tool_radius);
+        if !psi.is_contact() {
+            return PendingRate::Known(0.0);
+        }
+        let (a, b) = (self.omega_sum * r, self.omega2 * x);
+        let size = a.abs().max(b.abs());
+        if size == 0.0 || !(2f64.powi(-300)..=2f64.powi(300)).contains(&size) {
+            return PendingRate::Known(self.nominal_rate_nm_per_s(r, x) * level);
+        }
+        let ab4 = 4.0 * a * b;
+        if ab4 >= 0.0 || psi.sin * psi.sin <= 0.5 {
+            let g = PendingG::queue(psi.sin, psi.cos, (a - b) * (a - b), ab4, queue);
+            PendingRate::Single { g, level }
+        } else {
+            let sum2 = (a + b) * (a + b);
+            let all = PendingG::queue(1.0, 0.0, sum2, -ab4, queue);
+            let rest = PendingG::queue(psi.cos, psi.sin, sum2, -ab4, queue);
+            PendingRate::Difference { all, rest, level }
         }
     }
 }
@@ -627,7 +804,7 @@ mod tests {
                 panic!("η = −1 on a plane has the closed form");
             };
             let panels = PathIntegral::new(
-                |x| kernel.rate_nm_per_s(r, x),
+                Pointwise(|x| kernel.rate_nm_per_s(r, x)),
                 &kernel.flat_breakpoints(r),
                 1e-13,
                 &kernel.lobatto,
@@ -650,6 +827,50 @@ mod tests {
                     (got - want).abs() <= 1e-12 * whole,
                     "r {r}, x {x}: lens {got}, panels {want}"
                 );
+            }
+        }
+    }
+
+    /// The batched rate along a path is the pointwise rate, bit for bit: both rotation
+    /// senses (both of the arrangements for ab < 0), η = −1, constant force past the edge
+    /// and a linear pad (taken point by point), on the axis, at tangency and off the reach.
+    #[test]
+    fn a_row_in_batches_is_the_rate_point_by_point() {
+        use crate::physics::process::tests::paper_spec;
+        use crate::physics::ProcessSpec;
+        let specs = [
+            paper_spec(-10.0, 200.0),
+            paper_spec(30.0, -200.0),
+            paper_spec(-190.0, 200.0),
+            paper_spec(150.0, 150.0),
+            ProcessSpec {
+                pressure_model: PressureModel::ConstantForce,
+                ..paper_spec(-10.0, 200.0)
+            },
+            ProcessSpec {
+                pressure_model: PressureModel::Linear {
+                    pad_moment_share: 0.5,
+                },
+                ..paper_spec(-10.0, 200.0)
+            },
+        ];
+        for spec in specs {
+            let kernel = RemovalKernel::new(&Process::new(spec.clone()).unwrap());
+            for r in [0.0_f64, 0.3, 9.99, 10.0, 17.0, 44.5, 50.0] {
+                let xs: Vec<f64> = (0..=77)
+                    .map(|k| k as f64 * 49.9 / 77.0)
+                    .chain([r, (r - 10.0).abs(), r + 10.0])
+                    .collect();
+                let mut batch = vec![f64::NAN; xs.len()];
+                FlatRow {
+                    kernel: &kernel,
+                    r_mm: r,
+                }
+                .values(&xs, &mut batch);
+                for (&x, &got) in xs.iter().zip(&batch) {
+                    let want = kernel.rate_under(&kernel.path_pressure(x, x), r, x);
+                    assert_eq!(got.to_bits(), want.to_bits(), "{spec:?}: r {r}, x {x}");
+                }
             }
         }
     }
