@@ -429,19 +429,82 @@ const WG: [f64; 4] = [
     0.417_959_183_673_469_4,
 ];
 
-/// One panel of ∫ g(cos φ, sin φ) dφ over [a, b]: the Kronrod value and QUADPACK's error
-/// estimate. The nodes' cosines and sines come by angle addition from the centre's and the
-/// offsets', 8 trigonometric calls instead of 15.
-fn gk15<G: Fn(f64, f64) -> f64>(g: &G, a: f64, b: f64) -> (f64, f64) {
-    let centre = 0.5 * (a + b);
-    let half = 0.5 * (b - a);
-    let (sin_c, cos_c) = centre.sin_cos();
+/// sin and cos of an angle.
+#[derive(Debug, Clone, Copy)]
+struct Turn {
+    sin: f64,
+    cos: f64,
+}
+
+impl Turn {
+    fn of(angle: f64) -> Turn {
+        let (sin, cos) = angle.sin_cos();
+        Turn { sin, cos }
+    }
+
+    /// Half the angle (in [0, π]): cos(x/2) = √((1 + cos x)/2), sin(x/2) = sin x/(2·cos(x/2)),
+    /// with no cancellation for the angles here (at most π/2).
+    fn halved(self) -> Turn {
+        let cos = (0.5 * (1.0 + self.cos)).sqrt();
+        Turn {
+            sin: self.sin / (2.0 * cos),
+            cos,
+        }
+    }
+
+    /// This angle plus `other` (`sign` +1) or minus it (−1).
+    fn shifted(self, other: Turn, sign: f64) -> Turn {
+        Turn {
+            sin: self.sin * other.cos + sign * self.cos * other.sin,
+            cos: self.cos * other.cos - sign * self.sin * other.sin,
+        }
+    }
+}
+
+/// What every panel of one depth shares: its half-width h, sin and cos of h, and of the
+/// Kronrod nodes' offsets h·x_k from the panel's centre.
+#[derive(Debug, Clone, Copy)]
+struct Level {
+    half: f64,
+    turn: Turn,
+    offsets: [Turn; 7],
+}
+
+impl Level {
+    fn top(half: f64) -> Level {
+        Level {
+            half,
+            turn: Turn::of(half),
+            offsets: std::array::from_fn(|k| Turn::of(half * XGK[k])),
+        }
+    }
+
+    /// The level below: half the width, every angle halved.
+    fn below(&self) -> Level {
+        Level {
+            half: 0.5 * self.half,
+            turn: self.turn.halved(),
+            offsets: self.offsets.map(Turn::halved),
+        }
+    }
+}
+
+/// One panel of ∫ g(cos φ, sin φ) dφ about the centre `centre` (its sine and cosine) at
+/// `level`: the Kronrod value and QUADPACK's error estimate. The nodes' cosines and sines come
+/// by angle addition from the centre's and the level's offsets, so no panel calls a
+/// trigonometric function.
+fn gk15<G: Fn(f64, f64) -> f64>(g: &G, centre: Turn, level: &Level) -> (f64, f64) {
+    let half = level.half;
+    let (sin_c, cos_c) = (centre.sin, centre.cos);
     let fc = g(cos_c, sin_c);
     let mut kronrod = WGK[7] * fc;
     let mut gauss = WG[3] * fc;
     let mut values = [(0.0, 0.0); 7];
     for (k, value) in values.iter_mut().enumerate() {
-        let (sin_d, cos_d) = (half * XGK[k]).sin_cos();
+        let Turn {
+            sin: sin_d,
+            cos: cos_d,
+        } = level.offsets[k];
         let lo = g(cos_c * cos_d + sin_c * sin_d, sin_c * cos_d - cos_c * sin_d);
         let hi = g(cos_c * cos_d - sin_c * sin_d, sin_c * cos_d + cos_c * sin_d);
         *value = (lo, hi);
@@ -460,7 +523,9 @@ fn gk15<G: Fn(f64, f64) -> f64>(g: &G, a: f64, b: f64) -> (f64, f64) {
     let spread = spread * half.abs();
     let mut error = ((kronrod - gauss) * half).abs();
     if spread > 0.0 && error > 0.0 {
-        error = spread * (200.0 * error / spread).powf(1.5).min(1.0);
+        // (200·e/s)^1.5, as x·√x: pow is the slowest call a panel would make.
+        let ratio = 200.0 * error / spread;
+        error = spread * (ratio * ratio.sqrt()).min(1.0);
     }
     (kronrod * half, error)
 }
@@ -469,23 +534,31 @@ fn gk15<G: Fn(f64, f64) -> f64>(g: &G, a: f64, b: f64) -> (f64, f64) {
 /// integrand here needs (a near-zero sliding speed takes a few dozen).
 const MAX_PANELS: usize = 2000;
 
-/// ∫₀^`b` g(cos φ, sin φ) dφ by adaptive bisection of Gauss–Kronrod (7, 15) panels, each panel
-/// accepted when its error estimate is within its width's share of `tol` (absolute) or the
-/// panel can no longer be split in floating point.
+/// ∫₀^`b` g(cos φ, sin φ) dφ (b ≤ π) by adaptive bisection of Gauss–Kronrod (7, 15) panels,
+/// each panel accepted when its error estimate is within its width's share of `tol`
+/// (absolute) or the panel can no longer be split in floating point. The trigonometry is done
+/// once per integral: each depth's offsets are the one above halved, each child's centre its
+/// parent's shifted by the child's half-width.
 fn adaptive_gauss_kronrod<G: Fn(f64, f64) -> f64>(g: &G, b: f64, tol: f64) -> f64 {
     let density = tol / b;
-    let mut stack = vec![(0.0, b)];
+    let mut levels = vec![Level::top(0.5 * b)];
+    let mut stack = vec![(0.0, b, 0_usize, Turn::of(0.5 * b))];
     let mut total = 0.0;
     let mut panels = 0;
-    while let Some((lo, hi)) = stack.pop() {
+    while let Some((lo, hi, depth, centre)) = stack.pop() {
         panels += 1;
-        let (value, error) = gk15(g, lo, hi);
+        let (value, error) = gk15(g, centre, &levels[depth]);
         let mid = 0.5 * (lo + hi);
         if error <= density * (hi - lo) || mid <= lo || mid >= hi || panels >= MAX_PANELS {
             total += value;
         } else {
-            stack.push((mid, hi));
-            stack.push((lo, mid));
+            if levels.len() == depth + 1 {
+                let below = levels[depth].below();
+                levels.push(below);
+            }
+            let step = levels[depth + 1].turn;
+            stack.push((mid, hi, depth + 1, centre.shifted(step, 1.0)));
+            stack.push((lo, mid, depth + 1, centre.shifted(step, -1.0)));
         }
     }
     total

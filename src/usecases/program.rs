@@ -172,11 +172,13 @@ fn approach_feed(command: &ProgramCommand) -> f64 {
             if share == 0.0 {
                 continue;
             }
+            // Each bound less a hair, so rounding in the program's own arithmetic never puts
+            // the approach over the limit it was slowed for (at the bound itself a Z velocity
+            // came out 1 ulp above its limit, and the program was refused).
             if let Some(v) = limit.max_velocity_per_min {
-                feed = feed.min(v / share);
+                feed = feed.min(v / share * (1.0 - 1e-9));
             }
             if let Some(a) = limit.max_acceleration_per_s2 {
-                // Below the bound by a hair, so rounding never puts it over.
                 let bound = 60.0 * (a * command.clearance_mm / (2.0 * share)).sqrt();
                 feed = feed.min(bound * (1.0 - 1e-9));
             }
