@@ -203,7 +203,7 @@ fn recommendation_new_setup(bencher: divan::Bencher) {
             )
             .unwrap()
         })
-        .bench_values(|setting| recommender.for_plan(&setting, 100.0).unwrap());
+        .bench_values(|setting| recommender.for_plan(&setting, 100.0, None).unwrap());
 }
 
 #[divan::bench(args = [true, false], sample_count = 50)]

@@ -18,16 +18,39 @@
 //! per-entry row indices. Rows are independent, so large operators are computed across
 //! threads (rayon) row by row and then laid out by column.
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 
 use super::motion::{cell_boundaries_mm, move_share, stop_share};
 use super::path::PARALLEL_MIN_PATHS;
 use super::removal::RemovalKernel;
+use super::schedule::ConstantFeed;
 
 /// A single position's operator (a stop: one rate per row) is computed in parallel from this
 /// many entries; below it threads cost more than they save. Otherwise every row is a path
 /// integral, and [`PARALLEL_MIN_PATHS`] rows go parallel.
 const PARALLEL_MIN_ENTRIES: usize = 20_000;
+
+/// A constant feed read beside an operator: what it removes at the operator's rows `rows`
+/// (a range of its radii), as [`ConstantFeed::removal_read_nm`] computes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PassReading {
+    pub feed: ConstantFeed,
+    pub rows: Range<usize>,
+}
+
+impl PassReading {
+    /// F(stop) − F(start) at radius `r_mm` from a path integral made for it alone.
+    fn difference(&self, kernel: &RemovalKernel, r_mm: f64) -> f64 {
+        kernel.path_difference(r_mm, self.feed.start_mm(), self.feed.stop_mm())
+    }
+
+    /// The removal, nm, of an integral F(stop) − F(start).
+    fn removal(&self, difference: f64) -> f64 {
+        self.feed.dwell_density_s_per_mm() * difference
+    }
+}
 
 /// Banded removal operator, column-major (see the module docs). Rates in nm/s.
 #[derive(Debug, Clone, PartialEq)]
@@ -42,6 +65,19 @@ impl RemovalOperator {
     /// M for `radii_mm` (ascending) and the plan's `positions_mm` (strictly increasing, within
     /// the process's reach).
     pub fn assemble(kernel: &RemovalKernel, radii_mm: &[f64], positions_mm: &[f64]) -> Self {
+        Self::assemble_with_pass(kernel, radii_mm, positions_mm, None).0
+    }
+
+    /// M, and with `pass` what that constant feed removes at its rows, read from the rows'
+    /// own running integrals ([`PassReading`]): `None` for the pass when the kernel's running
+    /// integrals depend on where the path ends ([`RemovalKernel::path_ignores_end`]).
+    pub fn assemble_with_pass(
+        kernel: &RemovalKernel,
+        radii_mm: &[f64],
+        positions_mm: &[f64],
+        pass: Option<&PassReading>,
+    ) -> (Self, Option<Vec<f64>>) {
+        let pass = pass.filter(|_| kernel.path_ignores_end());
         debug_assert!(radii_mm.windows(2).all(|w| w[0] <= w[1]));
         debug_assert!(positions_mm.windows(2).all(|w| w[0] < w[1]));
         let n = positions_mm.len();
@@ -71,19 +107,25 @@ impl RemovalOperator {
         let row_end: Vec<usize> = (0..n)
             .map(|j| first_row[j] + col_ptr[j + 1] - col_ptr[j])
             .collect();
-        let row = |i: usize| -> (usize, Vec<f64>) {
+        let row = |i: usize| -> (usize, Vec<f64>, f64) {
             let j_lo = row_end.partition_point(|&end| end <= i);
             let j_hi = first_row.partition_point(|&first| first <= i);
-            if j_lo >= j_hi {
-                return (j_lo, Vec::new());
-            }
             let r = radii_mm[i];
+            let in_pass = pass.filter(|p| p.rows.contains(&i));
+            // A row with no path of its own reads the pass from a path made alone (the same F).
+            let alone = |p: &PassReading| p.removal(p.difference(kernel, r));
+            if j_lo >= j_hi {
+                return (j_lo, Vec::new(), in_pass.map_or(0.0, alone));
+            }
             let mut values = Vec::with_capacity(j_hi - j_lo);
             if n == 1 {
                 values.push(kernel.rate_nm_per_s(r, positions_mm[0]));
-                return (j_lo, values);
+                return (j_lo, values, in_pass.map_or(0.0, alone));
             }
             let path = kernel.path_integral(r, bounds[n]);
+            let passed = in_pass.map_or(0.0, |p| {
+                p.removal(path.at(p.feed.stop_mm()) - path.at(p.feed.start_mm()))
+            });
             let mut running = vec![0.0; j_hi + 1 - j_lo];
             path.at_ascending(&bounds[j_lo..=j_hi], &mut running);
             for (j, ends) in (j_lo..j_hi).zip(running.windows(2)) {
@@ -95,32 +137,34 @@ impl RemovalOperator {
                 }
                 values.push(value);
             }
-            (j_lo, values)
+            (j_lo, values, passed)
         };
         let parallel = if n == 1 {
             entries >= PARALLEL_MIN_ENTRIES
         } else {
             radii_mm.len() >= PARALLEL_MIN_PATHS
         };
-        let by_row: Vec<(usize, Vec<f64>)> = if parallel {
+        let by_row: Vec<(usize, Vec<f64>, f64)> = if parallel {
             (0..radii_mm.len()).into_par_iter().map(row).collect()
         } else {
             (0..radii_mm.len()).map(row).collect()
         };
         let mut values = vec![0.0; entries];
-        for (i, (j_lo, row_values)) in by_row.iter().enumerate() {
+        for (i, (j_lo, row_values, _)) in by_row.iter().enumerate() {
             for (k, &value) in row_values.iter().enumerate() {
                 let j = j_lo + k;
                 values[col_ptr[j] + i - first_row[j]] = value;
             }
         }
+        let passed = pass.map(|p| by_row[p.rows.clone()].iter().map(|row| row.2).collect());
 
-        RemovalOperator {
+        let operator = RemovalOperator {
             rows: radii_mm.len(),
             first_row,
             col_ptr,
             values,
-        }
+        };
+        (operator, passed)
     }
 
     pub fn rows(&self) -> usize {

@@ -312,6 +312,21 @@ impl RemovalKernel {
         }))
     }
 
+    /// F(stop) − F(start) read from [`Self::path_integral`]`(r, stop)`: what an operator row
+    /// reads from its own running integral when that does not depend on where the path ends
+    /// ([`Self::path_ignores_end`]), so a pass computed beside an operator and one computed
+    /// alone agree bit for bit.
+    pub fn path_difference(&self, r_mm: f64, start_mm: f64, stop_mm: f64) -> f64 {
+        let path = self.path_integral(r_mm, stop_mm);
+        path.at(stop_mm) - path.at(start_mm)
+    }
+
+    /// Whether [`Self::path_integral`]`(r, end)` is the same F for every end: all pressure
+    /// models but the linear pad's, whose open reach cuts the path at its end.
+    pub fn path_ignores_end(&self) -> bool {
+        !matches!(self.pressure_model, PressureModel::Linear { .. })
+    }
+
     /// F(stop) − F(start) for [`Self::path_integral`]'s F, without building F: the pieces cut
     /// at `start_mm` and `stop_mm` and integrated alone (what a constant-feed pass needs).
     pub fn path_total(&self, r_mm: f64, start_mm: f64, stop_mm: f64) -> f64 {

@@ -295,6 +295,21 @@ impl ConstantFeed {
 
     /// Removal in nm at each of `radii_mm`: τ·(F(b) − F(a)) with F the running integral of
     /// the removal rate along the surface at that radius.
+    /// [`Self::removal_nm`] read from each radius's running integral, F(stop) − F(start)
+    /// ([`RemovalKernel::path_difference`]): the reading an operator's rows make of their
+    /// own, so a pass computed beside an operator ([`super::operator::PassReading`]) gives
+    /// these very bits.
+    pub fn removal_read_nm(&self, process: &Process, radii_mm: &[f64]) -> Vec<f64> {
+        let kernel = RemovalKernel::new(process);
+        let tau = self.dwell_density_s_per_mm();
+        let at = |&r: &f64| tau * kernel.path_difference(r, self.start_mm, self.stop_mm);
+        if radii_mm.len() >= PARALLEL_MIN_PATHS {
+            radii_mm.par_iter().map(at).collect()
+        } else {
+            radii_mm.iter().map(at).collect()
+        }
+    }
+
     pub fn removal_nm(&self, process: &Process, radii_mm: &[f64]) -> Vec<f64> {
         let kernel = RemovalKernel::new(process);
         let tau = self.dwell_density_s_per_mm();

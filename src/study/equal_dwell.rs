@@ -1,7 +1,7 @@
 //! Equal dwell: one constant-feed pass over [0, L] (see [`super`]), and what it removes.
 
 use crate::physics::{
-    ClearAperture, ConstantFeed, Process, ProcessSpec, RadialGrid, UniformityMetrics,
+    ClearAperture, ConstantFeed, PassReading, Process, ProcessSpec, RadialGrid, UniformityMetrics,
 };
 
 /// Where a study looks: the radial grid removal is computed on and the clear aperture it is
@@ -51,34 +51,6 @@ pub fn translation_rate_factor(spec: &ProcessSpec, speed_rpm: f64) -> f64 {
         * (spec.pressure_kpa / CANONICAL_PRESSURE_KPA)
 }
 
-/// `spec` at the canonical speed scale, K and P with its η (or, with the tool stationary, its
-/// workpiece direction) kept, and how many times faster `spec` removes: at a fixed η every
-/// sliding speed is |tool speed| times a function of η and the geometry, so removal is linear
-/// in |tool speed|·K·P (in |workpiece speed|·K·P with the tool stationary). `None` when the
-/// canonical speeds would leave the model's domain (|η| > 1000) or the factor is not a normal
-/// number (K·P so small that rescaling would under- or overflow): compute such a process
-/// directly.
-pub fn scale_free(spec: &ProcessSpec) -> Option<(ProcessSpec, f64)> {
-    let (canonical, scale_rpm) = if spec.tool_rpm == 0.0 {
-        (
-            ProcessSpec {
-                workpiece_rpm: CANONICAL_RPM,
-                ..canonical_translation(spec)
-            },
-            spec.workpiece_rpm.abs(),
-        )
-    } else {
-        let eta = -spec.workpiece_rpm / spec.tool_rpm;
-        (
-            canonical_translation(spec).with_eta(eta),
-            spec.tool_rpm.abs(),
-        )
-    };
-    Process::new(canonical.clone()).ok()?;
-    let factor = translation_rate_factor(spec, scale_rpm);
-    (factor.is_normal() && (1.0 / factor).is_normal()).then_some((canonical, factor))
-}
-
 /// Path end L = min(outer + r_t, the farthest a pass may run), mm (r_t along the surface on a
 /// curved part; see [`Process::pass_reach_mm`]).
 pub fn path_end_mm(process: &Process, aperture: &ClearAperture) -> f64 {
@@ -87,15 +59,50 @@ pub fn path_end_mm(process: &Process, aperture: &ClearAperture) -> f64 {
         .min(process.pass_reach_mm())
 }
 
+/// The pass over [0, L] at 60 mm/min (1 s/mm): every equal-dwell plan is this one scaled, as
+/// removal is linear in the dwell density.
+fn unit_feed(process: &Process, aperture: &ClearAperture) -> Option<ConstantFeed> {
+    ConstantFeed::new(process, 0.0, path_end_mm(process, aperture), 60.0).ok()
+}
+
+/// The unit pass as an operator on the frame's grid reads it beside its rows
+/// ([`PassReading`]), for [`EqualDwell::read`].
+pub fn pass_reading(process: &Process, frame: Frame) -> Option<PassReading> {
+    Some(PassReading {
+        feed: unit_feed(process, frame.aperture)?,
+        rows: frame.grid.rows_in(frame.aperture),
+    })
+}
+
 impl EqualDwell {
     /// The pass whose mean removal over the aperture is `depth_nm` (> 0). `None` when the
     /// pass removes nothing inside the aperture.
     pub fn for_depth(process: &Process, frame: Frame, depth_nm: f64) -> Option<Self> {
-        let Frame { grid, aperture } = frame;
-        // One pass at 60 mm/min (1 s/mm), then scaled: removal is linear in the dwell density.
-        let unit = ConstantFeed::new(process, 0.0, path_end_mm(process, aperture), 60.0).ok()?;
-        let radii = &grid.radii_mm()[grid.rows_in(aperture)];
+        let unit = unit_feed(process, frame.aperture)?;
+        let radii = &frame.grid.radii_mm()[frame.grid.rows_in(frame.aperture)];
         let removal = unit.removal_nm(process, radii);
+        Self::from_unit(process, unit, removal, depth_nm)
+    }
+
+    /// The pass removing 1 nm on average, its removal read from each radius's running
+    /// integral ([`ConstantFeed::removal_read_nm`]): `read` is what an operator's rows read of
+    /// [`pass_reading`] beside it (the same bits), or `None` to read it here.
+    pub fn read(process: &Process, frame: Frame, read: Option<Vec<f64>>) -> Option<Self> {
+        let unit = unit_feed(process, frame.aperture)?;
+        let removal = read.unwrap_or_else(|| {
+            let radii = &frame.grid.radii_mm()[frame.grid.rows_in(frame.aperture)];
+            unit.removal_read_nm(process, radii)
+        });
+        Self::from_unit(process, unit, removal, 1.0)
+    }
+
+    /// The unit pass scaled to remove `depth_nm` on average, from its removal `removal`.
+    fn from_unit(
+        process: &Process,
+        unit: ConstantFeed,
+        removal: Vec<f64>,
+        depth_nm: f64,
+    ) -> Option<Self> {
         if removal.is_empty() {
             return None;
         }

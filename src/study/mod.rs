@@ -20,9 +20,9 @@ pub mod recommend;
 pub mod sweep;
 mod window;
 
-pub use equal_dwell::{scale_free, EqualDwell, Frame};
+pub use equal_dwell::{pass_reading, EqualDwell, Frame};
 pub use recommend::{
-    recommend, unit_pass, GeometryParts, Recommendation, SpeedLimit, SpeedLimits, SpeedRule,
+    current_pass, recommend, GeometryParts, Recommendation, SpeedLimit, SpeedLimits, SpeedRule,
 };
 pub use sweep::{eta_sweep, SweepEtas, SweepPoint};
 pub use window::{eta_window, EtaWindow};

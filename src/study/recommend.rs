@@ -145,10 +145,14 @@ impl GeometryParts {
     }
 }
 
-/// Equal dwell at `spec` removing 1 nm over the frame's aperture.
-pub fn unit_pass(spec: &ProcessSpec, frame: Frame) -> Result<EqualDwell, StudyError> {
-    let process = Process::new(spec.clone()).map_err(StudyError::RecommendedOutsideDomain)?;
-    EqualDwell::for_depth(&process, frame, 1.0).ok_or(StudyError::NoRemovalInAperture)
+/// Equal dwell at `process` removing 1 nm over the frame's aperture ([`EqualDwell::read`]:
+/// `read` is what an operator read of the pass beside its rows, if one did).
+pub fn current_pass(
+    process: &Process,
+    frame: Frame,
+    read: Option<Vec<f64>>,
+) -> Result<EqualDwell, StudyError> {
+    EqualDwell::read(process, frame, read).ok_or(StudyError::NoRemovalInAperture)
 }
 
 /// Recommends η = −1 speeds for `process`, comparing equal dwell removing `depth_nm` (> 0) at

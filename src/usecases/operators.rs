@@ -17,7 +17,7 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
-use crate::physics::{Process, RemovalKernel, RemovalOperator};
+use crate::physics::{PassReading, Process, RemovalKernel, RemovalOperator};
 
 /// Default memory budget of the cache, bytes.
 pub const DEFAULT_OPERATOR_CACHE_BYTES: usize = 64 * 1024 * 1024;
@@ -116,6 +116,20 @@ impl OperatorCache {
         radii_mm: &[f64],
         positions_mm: &[f64],
     ) -> Arc<RemovalOperator> {
+        self.operator_with_pass(process, radii_mm, positions_mm, None)
+            .0
+    }
+
+    /// [`Self::operator`], and when it is assembled now, what `pass` removes at its rows as
+    /// the operator's rows read it ([`RemovalOperator::assemble_with_pass`]); `None` for the
+    /// pass when the operator was held (or the rows could not read it).
+    pub fn operator_with_pass(
+        &self,
+        process: &Process,
+        radii_mm: &[f64],
+        positions_mm: &[f64],
+        pass: Option<&PassReading>,
+    ) -> (Arc<RemovalOperator>, Option<Vec<f64>>) {
         let key = key(process, radii_mm, positions_mm);
         if let Ok(mut held) = self.held.lock() {
             held.clock += 1;
@@ -123,17 +137,19 @@ impl OperatorCache {
             if let Some(entry) = held.entries.get_mut(&key) {
                 entry.last_used = now;
                 self.hits.fetch_add(1, Ordering::Relaxed);
-                return entry.operator.clone();
+                return (entry.operator.clone(), None);
             }
         }
         self.misses.fetch_add(1, Ordering::Relaxed);
-        let operator = Arc::new(RemovalOperator::assemble(
+        let (operator, passed) = RemovalOperator::assemble_with_pass(
             &RemovalKernel::new(process),
             radii_mm,
             positions_mm,
-        ));
+            pass,
+        );
+        let operator = Arc::new(operator);
         self.keep(key, &operator);
-        operator
+        (operator, passed)
     }
 
     fn keep(&self, key: Vec<u64>, operator: &Arc<RemovalOperator>) {

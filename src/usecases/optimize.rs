@@ -24,7 +24,7 @@ use crate::optimize::{
     MeasuredProfile, Objective, OptimizeError, Solution,
 };
 use crate::physics::{check_positions, UniformityMetrics};
-use crate::study::Recommendation;
+use crate::study::{self, Recommendation};
 use crate::surface::{Surface, SurfaceError};
 
 /// What to remove over the clear aperture.
@@ -448,7 +448,16 @@ pub fn optimize(
         time_limit_s,
         max_time_limit_s: _,
     } = command;
-    let operator = operators.operator(setting.process(), setting.grid().radii_mm(), &positions_mm);
+    // The recommendation's pass at these speeds is read beside a newly assembled operator.
+    let pass = Recommender::recommends_for(&setting)
+        .then(|| study::pass_reading(setting.process(), setting.frame()))
+        .flatten();
+    let (operator, passed) = operators.operator_with_pass(
+        setting.process(),
+        setting.grid().radii_mm(),
+        &positions_mm,
+        pass.as_ref(),
+    );
     let axes = axis_paths(&machine, &positions_mm);
     let cell_path_mm = cell_path_mm(&axes);
     let solution = solve(&DwellProblem {
@@ -506,7 +515,7 @@ pub fn optimize(
     }
     Ok(OptimizedPlan {
         warnings,
-        recommendation: recommender.for_plan(&setting, mean_target),
+        recommendation: recommender.for_plan(&setting, mean_target, passed),
         total_time_s: solution.dwell_s.iter().sum(),
         setting,
         positions_mm,

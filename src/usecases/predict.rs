@@ -4,7 +4,7 @@
 use super::warnings::unit_warning;
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::physics::{ConstantFeed, DwellSchedule, UniformityMetrics};
-use crate::study::Recommendation;
+use crate::study::{self, Recommendation};
 
 /// What the tool does: a dwell plan, or one constant feed along the surface.
 #[derive(Debug, Clone, PartialEq)]
@@ -95,28 +95,40 @@ pub fn predict(
     let PredictCommand { setting, travel } = command;
     let process = setting.process();
     let radii = setting.grid().radii_mm();
-    let (removal_nm, total_time_s, warnings) = match &travel {
-        Travel::Dwell(schedule) => (
-            operators
-                .operator(process, radii, schedule.positions_mm())
-                .apply(schedule.dwell_s()),
-            schedule.total_time_s(),
-            unit_warning(process, schedule.positions_mm())
-                .into_iter()
-                .collect(),
-        ),
+    // The recommendation's pass at these speeds is read beside a newly assembled operator.
+    let pass = Recommender::recommends_for(&setting)
+        .then(|| study::pass_reading(process, setting.frame()))
+        .flatten();
+    let (removal_nm, total_time_s, warnings, passed) = match &travel {
+        Travel::Dwell(schedule) => {
+            let (operator, passed) = operators.operator_with_pass(
+                process,
+                radii,
+                schedule.positions_mm(),
+                pass.as_ref(),
+            );
+            (
+                operator.apply(schedule.dwell_s()),
+                schedule.total_time_s(),
+                unit_warning(process, schedule.positions_mm())
+                    .into_iter()
+                    .collect(),
+                passed,
+            )
+        }
         Travel::Feed(feed) => (
             feed.removal_nm(process, radii),
             feed.total_time_s(process),
             unit_warning(process, &[feed.start_mm(), feed.stop_mm()])
                 .into_iter()
                 .collect(),
+            None,
         ),
     };
     let metrics = UniformityMetrics::over(setting.grid(), setting.aperture(), &removal_nm);
     Prediction {
         warnings,
-        recommendation: recommender.for_plan(&setting, metrics.mean_nm),
+        recommendation: recommender.for_plan(&setting, metrics.mean_nm, passed),
         total_time_s,
         setting,
         removal_nm,

@@ -7,12 +7,15 @@
 //! pass and the window depend on the geometry, pressure model, grid, aperture, pass and
 //! threshold alone (removal at η = −1 is linear in speed·K·P, and N(η) is scale-free in them:
 //! see [`crate::study::GeometryParts`]). So those are cached on that key, and every process of
-//! one machine set-up shares them: a new process costs one equal-dwell pass. Whole
-//! recommendations (per unit depth; plans scale with the depth) are cached on every input as
-//! well, for callers that ask about the same process again and again.
+//! one machine set-up shares them. The pass at the user's speeds is read from each radius's
+//! running integral ([`crate::study::current_pass`]); a prediction or an optimization that has
+//! just assembled its operator hands over what the operator's rows read of it
+//! ([`crate::study::pass_reading`]), the same bits, so a new process costs no pass of its own.
+//! Whole recommendations (per unit depth; plans scale with the depth) are cached on every
+//! input as well, for callers that ask about the same process again and again.
 //!
-//! Both caches are bounded (emptied when full) and deterministic: what they hold is a
-//! function of the key alone, so a response never depends on what was asked before.
+//! Every cache is bounded (emptied when full) and deterministic: what it holds is a function
+//! of the key alone, so a response never depends on what was asked before.
 
 use std::collections::HashMap;
 use std::hash::Hash;
@@ -147,8 +150,7 @@ pub struct Recommender {
     recommendations: BoundedCache<Vec<u64>, Arc<Recommendation>>,
     /// The geometry-only parts (η = −1 pass, η window), keyed by what they depend on.
     geometry: BoundedCache<Vec<u64>, Arc<GeometryParts>>,
-    /// Equal dwell per unit depth at the canonical speed scale, K and P, keyed by the geometry
-    /// and η (a process's own pass is this one retimed: it is linear in speed scale, K and P).
+    /// Equal dwell per unit depth at the user's speeds, keyed by the geometry, speeds, K and P.
     current: BoundedCache<Vec<u64>, Arc<EqualDwell>>,
 }
 
@@ -204,15 +206,33 @@ impl Recommender {
         depth_nm: f64,
         threshold: f64,
     ) -> Result<Recommendation, StudyError> {
+        self.recommendation_read(process, frame, limits, depth_nm, threshold, None)
+    }
+
+    /// [`Self::recommendation`], with the pass at the user's speeds as an operator read it
+    /// beside its rows (`read`, [`study::pass_reading`]) when one was just assembled: the same
+    /// bits as reading it alone, without the work.
+    fn recommendation_read(
+        &self,
+        process: &Process,
+        frame: Frame,
+        limits: SpeedLimits,
+        depth_nm: f64,
+        threshold: f64,
+        read: Option<Vec<f64>>,
+    ) -> Result<Recommendation, StudyError> {
         let s = process.spec();
         let frame_key = frame_key(process, frame);
-        let mut key = frame_key.clone();
-        key.extend(bits(&[
-            threshold,
+        let mut at_process = frame_key.clone();
+        at_process.extend(bits(&[
             s.workpiece_rpm,
             s.tool_rpm,
             s.preston_coefficient_m2_per_n,
             s.pressure_kpa,
+        ]));
+        let mut key = at_process.clone();
+        key.extend(bits(&[
+            threshold,
             limits.max_workpiece_rpm().unwrap_or(-1.0),
             limits.max_tool_rpm().unwrap_or(-1.0),
         ]));
@@ -222,29 +242,33 @@ impl Recommender {
             let parts = self.geometry.get_or_try(geometry, || {
                 GeometryParts::new(process, frame, threshold).map(Arc::new)
             })?;
-            // Equal dwell at the user's speeds: the pass at the canonical scale with the same η
-            // (shared by every process of this set-up and η), retimed to this one.
-            let current = match study::scale_free(s) {
-                Some((canonical, factor)) => {
-                    let mut at_eta = frame_key.clone();
-                    at_eta.extend(bits(&[canonical.workpiece_rpm, canonical.tool_rpm]));
-                    self.current
-                        .get_or_try(at_eta, || study::unit_pass(&canonical, frame).map(Arc::new))?
-                        .retimed(factor)
-                }
-                None => study::unit_pass(s, frame)?,
-            };
+            let current = self.current.get_or_try(at_process, || {
+                study::current_pass(process, frame, read).map(Arc::new)
+            })?;
             study::recommend(process, limits, 1.0, &parts, &current).map(Arc::new)
         })?;
         Ok(unit.scaled_to(depth_nm))
+    }
+
+    /// Whether a plan in `setting` carries a recommendation ([`Self::for_plan`]): all but
+    /// those at η = −1.
+    pub fn recommends_for(setting: &Setting) -> bool {
+        !setting.process().is_eta_minus_one()
     }
 
     /// The recommendation a plan (a prediction or an optimized plan) carries: `None` at
     /// η = −1 or when equal dwell removes nothing in the aperture. Uses the default
     /// threshold and pass, removing the plan's mean depth (the default depth when that is not
     /// a positive number).
-    pub fn for_plan(&self, setting: &Setting, mean_depth_nm: f64) -> Option<Recommendation> {
-        if setting.process().is_eta_minus_one() {
+    /// `read`: the pass at the user's speeds as the plan's operator read it beside its rows
+    /// ([`study::pass_reading`]), when it was assembled for this plan.
+    pub fn for_plan(
+        &self,
+        setting: &Setting,
+        mean_depth_nm: f64,
+        read: Option<Vec<f64>>,
+    ) -> Option<Recommendation> {
+        if !Self::recommends_for(setting) {
             return None;
         }
         let depth = if mean_depth_nm > 0.0 && mean_depth_nm.is_finite() {
@@ -252,12 +276,13 @@ impl Recommender {
         } else {
             DEFAULT_DEPTH_NM
         };
-        self.recommendation(
+        self.recommendation_read(
             setting.process(),
             setting.frame(),
             SpeedLimits::default(),
             depth,
             DEFAULT_THRESHOLD,
+            read,
         )
         .ok()
     }
@@ -266,6 +291,76 @@ impl Recommender {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::physics::{Orientation, Part, PressureModel, RemovalKernel, RemovalOperator};
+    use crate::surface::{Surface, SurfaceSpec};
+
+    /// The pass an operator reads beside its rows is the pass read alone, bit for bit, so a
+    /// recommendation never depends on whether its plan's operator was just assembled or came
+    /// from the cache: on a plane under uniform pressure and constant force, and on a sphere.
+    /// A linear pad's running integrals depend on the path's end, so its rows read no pass.
+    #[test]
+    fn a_pass_read_beside_an_operator_is_the_pass_read_alone() {
+        let base = paper_spec(-10.0, 200.0);
+        let sphere = Part {
+            surface: Surface::new(&SurfaceSpec::Sphere {
+                radius_of_curvature_mm: -150.0,
+            })
+            .unwrap(),
+            orientation: Orientation::Normal,
+        };
+        let specs = [
+            base.clone(),
+            ProcessSpec {
+                pressure_model: PressureModel::ConstantForce,
+                ..base.clone()
+            },
+            ProcessSpec {
+                part: sphere,
+                ..base.clone()
+            },
+            ProcessSpec {
+                pressure_model: PressureModel::Linear {
+                    pad_moment_share: 1.0,
+                },
+                ..base.clone()
+            },
+        ];
+        for spec in specs {
+            let process = Process::new(spec.clone()).unwrap();
+            let grid = RadialGrid::default_for(&process);
+            let aperture = ClearAperture::new(&process, 0.0, 40.0).unwrap();
+            let frame = Frame {
+                grid: &grid,
+                aperture: &aperture,
+            };
+            let reading = study::pass_reading(&process, frame).unwrap();
+            let positions: Vec<f64> = (0..=90).map(|j| 0.5 * j as f64).collect();
+            let (_, passed) = RemovalOperator::assemble_with_pass(
+                &RemovalKernel::new(&process),
+                grid.radii_mm(),
+                &positions,
+                Some(&reading),
+            );
+            if matches!(spec.pressure_model, PressureModel::Linear { .. }) {
+                assert!(passed.is_none());
+                continue;
+            }
+            let passed = passed.unwrap();
+            let alone = reading
+                .feed
+                .removal_read_nm(&process, &grid.radii_mm()[reading.rows.clone()]);
+            assert_eq!(passed.len(), 161);
+            for (k, (a, b)) in passed.iter().zip(&alone).enumerate() {
+                assert_eq!(a.to_bits(), b.to_bits(), "{spec:?}: row {k}");
+            }
+            let ask = |read| {
+                Recommender::new()
+                    .recommendation_read(&process, frame, SpeedLimits::default(), 100.0, 0.02, read)
+                    .unwrap()
+            };
+            assert_eq!(ask(Some(passed)), ask(None), "{spec:?}");
+        }
+    }
     use crate::physics::process::tests::paper_spec;
     use crate::physics::{ClearAperture, ProcessSpec, RadialGrid};
 
@@ -322,9 +417,12 @@ mod tests {
                 answers[0].current.total_time_s / 3.0
             ) < 1e-12
         );
-        assert_eq!(
-            answers[1].current.metrics.nonuniformity,
-            answers[0].current.metrics.nonuniformity
+        // Each pass is computed at its own speeds: linear in them to rounding.
+        assert!(
+            rel(
+                answers[1].current.metrics.nonuniformity.unwrap(),
+                answers[0].current.metrics.nonuniformity.unwrap()
+            ) < 1e-12
         );
         assert!(rel(answers[2].tool_rpm, answers[0].tool_rpm) < 1e-12);
         assert!(
