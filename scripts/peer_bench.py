@@ -1,25 +1,35 @@
-"""Preston's /v1/optimize against the obvious Python alternative, side by side, in one run.
+"""Preston against the obvious Python alternative, side by side, in one run: predict and optimize,
+each request cold (a process the service has not seen) and cached (the same request again).
 
-The problem is the paper's experiment 1 (workpiece 50 mm at -10 r/min, tool 10 mm at
-200 r/min, lab frame, eta = +0.05): remove a uniform 100 nm over the clear aperture
-[0, 40] mm, with n tool positions evenly spaced on [0, 50] mm and the removal sampled at the
-same n radii.
+The process is the paper's experiment 1 (workpiece 50 mm at -10 r/min, tool 10 mm at
+200 r/min, lab frame, eta = +0.05), with n tool positions evenly spaced on [0, 50] mm and the
+removal sampled at n radii.
 
-The peer builds the removal matrix with numpy/scipy (the closed form in incomplete elliptic
-integrals of the second kind, written here from docs/MODEL.md) and solves the dense
-non-negative least squares  min ||M t - d||^2, t >= 0  with cvxpy + Clarabel. It is timed
-in-process (matrix, problem and solve), which spares it any HTTP cost. Preston is timed end to
-end over HTTP on loopback (request body sent, JSON response read), twice: with its operator
-cache off (the operator assembled on every request) and at its defaults (the operator cached
-after the first request). The first request of each is a warm-up (it also computes the
-eta = -1 recommendation Preston's response carries, cached afterwards) and is not counted.
+**Cold and cached.** A cold request carries a process no earlier request had: the workpiece
+speed is moved by a few parts in 1e9 each time (a new eta), so neither the operator nor the
+recommendation the response carries is cached; only the eta = -1 pass and the eta window,
+which depend on the machine set-up alone and are shared by every speed, come from the first
+request (not counted). A new set-up (a new tool radius each request) is timed too: it also
+computes that eta window. A cached request repeats one request, so the operator and the
+recommendation come from the caches. Preston is timed end to end over HTTP on loopback
+(request body sent, JSON response read), medians over the runs.
 
-Each plan is then checked independently: the removal of the motion a machine program runs for
-it (docs/MODEL.md, "The motion of a plan": half of each end dwell as a stop, the cell between
-the midpoints around each position crossed at constant speed in its dwell) is integrated with
-this script's closed form, by Gauss-Legendre quadrature over each cell, on a grid 4x finer
-than the request's, and the nonuniformity (PV / mean over the aperture) reported. The peer's
-plan is checked the same way: whatever it assumed, the machine moves.
+**Predict** (n radii x n positions, 10 s at each): the peer is the removal matrix from the same
+closed form with numpy/scipy's incomplete elliptic integrals (written here from
+docs/MODEL.md), applied to the dwell, timed in-process. It samples R at the positions as if
+the tool stood there, a cheaper model than the motion Preston integrates (the tool crossing
+each cell), so the comparison favours the peer. A sphere (R = -150 mm) is timed for Preston
+alone (the closed form here is the plane's).
+
+**Optimize** (remove a uniform 100 nm over [0, 40] mm): the peer solves the dense
+non-negative least squares  min ||M t - d||^2, t >= 0  with cvxpy + Clarabel, timed
+in-process (matrix, problem and solve). Each plan is then checked independently: the removal
+of the motion a machine program runs for it (docs/MODEL.md, "The motion of a plan": half of
+each end dwell as a stop, the cell between the midpoints around each position crossed at
+constant speed in its dwell) is integrated with this script's closed form, by Gauss-Legendre
+quadrature over each cell, on a grid 4x finer than the request's, and the nonuniformity
+(PV / mean over the aperture) reported. The peer's plan is checked the same way: whatever it
+assumed, the machine moves.
 
 Usage: python scripts/peer_bench.py --binary target/release/preston [--sizes 501 1001 2001]
 (scripts/peer_bench.sh makes the virtualenv, builds Preston and runs this.)
@@ -139,23 +149,53 @@ def peer(n):
     return took, np.maximum(t.value, 0.0)
 
 
-def request_body(n):
+def process(vary=0, field="workpiece_rpm"):
+    """The paper's process; `vary` > 0 moves `field` by vary parts in 1e9 (a new process)."""
+    spec = {
+        "workpiece_radius_mm": WORKPIECE_MM,
+        "tool_radius_mm": TOOL_MM,
+        "workpiece_rpm": WORKPIECE_RPM,
+        "tool_rpm": TOOL_RPM,
+        "preston_coefficient_m2_per_n": K_M2_PER_N,
+        "pressure_kpa": P_KPA,
+    }
+    spec[field] *= 1 + 1e-9 * vary
+    return spec
+
+
+def request_body(n, vary=0, field="workpiece_rpm"):
     return json.dumps(
         {
-            "process": {
-                "workpiece_radius_mm": WORKPIECE_MM,
-                "tool_radius_mm": TOOL_MM,
-                "workpiece_rpm": WORKPIECE_RPM,
-                "tool_rpm": TOOL_RPM,
-                "preston_coefficient_m2_per_n": K_M2_PER_N,
-                "pressure_kpa": P_KPA,
-            },
+            "process": process(vary, field),
             "positions_mm": grid(n).tolist(),
             "target": {"uniform_depth_nm": DEPTH_NM},
             "radial_grid": {"start_mm": 0, "stop_mm": WORKPIECE_MM, "count": n},
             "clear_aperture": {"inner_mm": 0, "outer_mm": OUTER_MM},
         }
     ).encode()
+
+
+PREDICT_DWELL_S = 10.0
+SPHERE_MM = -150.0
+
+
+def predict_body(n, vary=0, field="workpiece_rpm", sphere=False):
+    body = {
+        "process": process(vary, field),
+        "dwell": {"positions_mm": grid(n).tolist(), "dwell_s": [PREDICT_DWELL_S] * n},
+        "radial_grid": {"start_mm": 0, "stop_mm": WORKPIECE_MM, "count": n},
+        "clear_aperture": {"inner_mm": 0, "outer_mm": OUTER_MM},
+    }
+    if sphere:
+        body["surface"] = {"kind": "sphere", "radius_of_curvature_mm": SPHERE_MM}
+    return json.dumps(body).encode()
+
+
+def peer_predict(n):
+    """numpy + scipy: the removal of n positions' dwell at n radii (seconds, removal)."""
+    started = time.perf_counter()
+    removal = removal_matrix(grid(n), grid(n)) @ np.full(n, PREDICT_DWELL_S)
+    return time.perf_counter() - started, removal
 
 
 def free_port():
@@ -198,6 +238,28 @@ class Preston:
         self.process.wait()
 
 
+def timed(server, bodies, path):
+    """Median seconds over `bodies` (each posted once to `path`) and the last response."""
+    runs = [server.post(body, path) for body in bodies]
+    return statistics.median(t for t, _ in runs), runs[-1][1]
+
+
+def cold_and_cached(server, make, path, runs):
+    """(cold, new set-up, cached) medians for requests made by make(vary, field).
+
+    The first request of the set-up is sent and not counted (it computes the set-up's eta
+    window, shared by every speed); the cold requests then each carry a new workpiece speed,
+    the new set-up ones a new tool radius; the cached ones repeat the first request.
+    """
+    server.post(make(0, "workpiece_rpm"), path)
+    cold, response = timed(
+        server, [make(k, "workpiece_rpm") for k in range(1, runs + 1)], path
+    )
+    setup, _ = timed(server, [make(k, "tool_radius_mm") for k in range(1, runs + 1)], path)
+    cached, _ = timed(server, [make(0, "workpiece_rpm")] * runs, path)
+    return cold, setup, cached, response
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--binary", default="target/release/preston")
@@ -206,53 +268,69 @@ def main():
     parser.add_argument("--peer-runs", type=int, default=3)
     args = parser.parse_args()
 
+    server = Preston(args.binary)
     # The closed form here against Preston's removal function (a few columns).
-    cold = Preston(args.binary, "--operator-cache-mib", "0")
-    warm = Preston(args.binary)
     probe = [0.0, 3.0, 10.0, 25.0, 44.0]
-    cold.connection.request(
-        "POST",
-        "/v1/removal-function",
+    _, answer = server.post(
         json.dumps(
             {
-                "process": json.loads(request_body(2))["process"],
+                "process": process(),
                 "tool_positions_mm": probe,
                 "radial_grid": {"start_mm": 0, "stop_mm": WORKPIECE_MM, "count": 501},
             }
-        ),
-        {"content-type": "application/json"},
+        ).encode(),
+        "/v1/removal-function",
     )
-    profiles = json.loads(cold.connection.getresponse().read())["profiles"]
     ours = removal_matrix(grid(501), probe)
     agreement = max(
         np.max(np.abs(np.asarray(p["removal_rate_nm_per_min"]) / 60 - ours[:, k])) / ours.max()
-        for k, p in enumerate(profiles)
+        for k, p in enumerate(answer["profiles"])
     )
     print(f"closed form here vs Preston's removal function: {agreement:.1e} of the peak")
 
+    print()
+    print("Predict, n radii x n positions (ms; ratio = peer / Preston cold)")
+    print()
+    print("| part | n | Preston cold (new speed) | Preston new set-up | Preston cached "
+          "| numpy + scipy | ratio |")
+    print("|---|---|---|---|---|---|---|")
+    for sphere, n in [(False, 201), (False, 1001), (True, 201), (True, 1001)]:
+        make = lambda vary, field, n=n, sphere=sphere: predict_body(n, vary, field, sphere)
+        cold, setup, cached, response = cold_and_cached(
+            server, make, "/v1/predict", args.preston_runs
+        )
+        if sphere:
+            peer_cell, ratio = "", ""
+        else:
+            peer_s = statistics.median(peer_predict(n)[0] for _ in range(args.peer_runs))
+            peer_cell, ratio = f"{peer_s * 1e3:.0f}", f"{peer_s / cold:.0f}x"
+            # The peer's point samples against Preston's motion: close, not equal.
+            gap = np.max(np.abs(peer_predict(n)[1] - response["removal_nm"]))
+            print(f"plane {n}: peer's point-sampled removal differs from the motion's by "
+                  f"{gap / max(response['removal_nm']):.1e} of the peak")
+        print(f"| {'sphere R = -150 mm' if sphere else 'plane'} | {n} | {cold * 1e3:.2f} "
+              f"| {setup * 1e3:.2f} | {cached * 1e3:.2f} | {peer_cell} | {ratio} |")
+
     rows = []
     for n in args.sizes:
-        body = request_body(n)
-        timings = {}
-        plan = None
-        for name, server in (("cold", cold), ("warm", warm)):
-            server.post(body)  # warm-up, not counted
-            runs = [server.post(body) for _ in range(args.preston_runs)]
-            timings[name] = statistics.median(t for t, _ in runs)
-            plan = runs[-1][1]
+        make = lambda vary, field, n=n: request_body(n, vary, field)
+        cold, setup, cached, plan = cold_and_cached(
+            server, make, "/v1/optimize", args.preston_runs
+        )
         peer_runs = [peer(n) for _ in range(args.peer_runs)]
         peer_s = statistics.median(t for t, _ in peer_runs)
         positions = plan["dwell"]["positions_mm"]
         if not rows:
             # This script's motion model against Preston's prediction of the same plan.
             fine = grid(4 * (n - 1) + 1)
-            predict = json.loads(body)
+            predict = json.loads(make(0, "workpiece_rpm"))
             del predict["positions_mm"], predict["target"]
             predict["dwell"] = plan["dwell"]
             predict["radial_grid"]["count"] = len(fine)
-            _, predicted = warm.post(json.dumps(predict).encode(), "/v1/predict")
+            _, predicted = server.post(json.dumps(predict).encode(), "/v1/predict")
             ours = motion_removal(fine, positions, plan["dwell"]["dwell_s"])
             theirs = np.asarray(predicted["removal_nm"])
+            print()
             print(
                 f"motion removal here vs Preston's predict ({n} positions, {len(fine)} radii): "
                 f"{np.max(np.abs(ours - theirs)) / theirs.max():.1e} of the peak"
@@ -260,29 +338,31 @@ def main():
         rows.append(
             (
                 n,
-                timings["cold"],
-                timings["warm"],
+                cold,
+                setup,
+                cached,
                 peer_s,
                 plan["metrics"]["nonuniformity"],
                 check(positions, plan["dwell"]["dwell_s"], n),
                 check(grid(n), peer_runs[-1][1], n),
             )
         )
-    cold.stop()
-    warm.stop()
+    server.stop()
 
     print()
+    print("Optimize, n positions (ms; ratios = peer / Preston cold and cached)")
+    print()
     print(
-        "| positions | Preston, operator assembled | Preston, operator cached | cvxpy + Clarabel "
-        "| ratio (assembled / cached) | nonuniformity: Preston reports | Preston, checked 4x finer "
-        "| cvxpy, checked 4x finer |"
+        "| positions | Preston cold (new speed) | Preston new set-up | Preston cached "
+        "| cvxpy + Clarabel | ratio cold / cached | nonuniformity: Preston reports "
+        "| Preston, checked 4x finer | cvxpy, checked 4x finer |"
     )
-    print("|---|---|---|---|---|---|---|---|")
-    for n, cold_s, warm_s, peer_s, reported, checked, peer_checked in rows:
+    print("|---|---|---|---|---|---|---|---|---|")
+    for n, cold, setup, cached, peer_s, reported, checked, peer_checked in rows:
         print(
-            f"| {n} | {cold_s * 1e3:.1f} ms | {warm_s * 1e3:.1f} ms | {peer_s * 1e3:.0f} ms "
-            f"| {peer_s / cold_s:.0f}x / {peer_s / warm_s:.0f}x | {reported:.2e} | {checked:.2e} "
-            f"| {peer_checked:.2e} |"
+            f"| {n} | {cold * 1e3:.1f} | {setup * 1e3:.1f} | {cached * 1e3:.1f} "
+            f"| {peer_s * 1e3:.0f} | {peer_s / cold:.0f}x / {peer_s / cached:.0f}x "
+            f"| {reported:.2e} | {checked:.2e} | {peer_checked:.2e} |"
         )
 
 

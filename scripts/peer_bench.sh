@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Preston's /v1/optimize side by side with cvxpy + Clarabel (scripts/peer_bench.py says what is
-# measured and how). Makes its own virtualenv under target/ with pinned packages, builds the
-# release binary, and prints a Markdown table. Usage: scripts/peer_bench.sh [--sizes 501 2001]
+# Preston side by side with numpy + scipy (predict) and cvxpy + Clarabel (optimize), each
+# request cold (a process the service has not seen) and cached (scripts/peer_bench.py says what
+# is measured and how). Makes its own virtualenv under target/ with pinned packages, builds the
+# release binary, and prints Markdown tables. Usage: scripts/peer_bench.sh [--sizes 501 2001]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv=target/peer-bench-venv
