@@ -45,7 +45,10 @@
 //! integrand is smooth except where the sliding speed nearly vanishes, so the integral is taken
 //! by adaptive Gauss–Kronrod (7, 15) with QUADPACK's error estimate, to an absolute tolerance of
 //! 1e-10 of the largest speed on the arc times the arc; the band |r − r1| < c_t ≤ r_t stays
-//! that of the flat operator.
+//! that of the flat operator. |v_t| depends on φ only through cos φ and sin²φ, so the rule runs
+//! in u = sin(φ/2) up to φ = π/2 and in w = cos(φ/2) beyond (cos φ = 1 − 2u² = 2w² − 1,
+//! dφ = 2·du/√(1 − u²)): the arc's end is the contact's half-angle as computed, and no node
+//! needs a trigonometric function.
 //!
 //! **Pressure.** The pressure models are the plane's taken in the developed plane (the point
 //! at arc length s and azimuth φ placed at (s·cos φ, s·sin φ)): the edge is the circle of
@@ -53,7 +56,9 @@
 //! is weighted by p/P = level + slope·(s·cos φ − s1), zero beyond the lift line, which cuts
 //! the arc at cos φ = u0/s.
 
-use super::contact::half_angle;
+use std::f64::consts::FRAC_1_SQRT_2;
+
+use super::contact::{half_angle, HalfAngle};
 use super::pressure::{pad_pressure, PadPressure, PressureModel};
 use crate::surface::Surface;
 
@@ -228,14 +233,19 @@ impl CurvedKernel {
         if pressure.slope_per_mm == 0.0 {
             return pressure.level * self.nominal_rate_nm_per_s(ring, site);
         }
-        let mut end = f64::INFINITY;
+        let mut end = HalfAngle::FULL;
         if let Some(lift) = pressure.lift_line_mm() {
             let u0 = site.arc1 + lift;
             if u0 >= ring.arc {
                 return 0.0;
             }
             if u0 > -ring.arc {
-                end = (u0 / ring.arc).acos();
+                // Half of acos(u0/s): sin² = (1 − u0/s)/2, cos² = (1 + u0/s)/2.
+                let c = u0 / ring.arc;
+                end = HalfAngle {
+                    sin: (0.5 * (1.0 - c)).sqrt(),
+                    cos: (0.5 * (1.0 + c)).sqrt(),
+                };
             }
         }
         let level = pressure.level - pressure.slope_per_mm * site.arc1;
@@ -247,16 +257,23 @@ impl CurvedKernel {
 
     /// Removal rate at nominal pressure on `ring` with the pad at `site`, nm/s.
     pub fn nominal_rate_nm_per_s(&self, ring: &Ring, site: &Site) -> f64 {
-        self.arc_rate(ring, site, f64::INFINITY, 1.0, &|_| 1.0)
+        self.arc_rate(ring, site, HalfAngle::FULL, 1.0, &|_| 1.0)
     }
 
-    /// K·P/π·∫₀^min(φ0, `end`) weight(cos φ)·|v_t| dφ, φ0 the arc under the pad; `most` bounds
-    /// the weight (for the tolerance).
+    /// K·P/π·∫₀^min(φ0, φe) weight(cos φ)·|v_t| dφ, φ0 the arc under the pad and φe/2 = `end`;
+    /// `most` bounds the weight (for the tolerance).
+    ///
+    /// |v_t| depends on φ through cos φ and sin²φ alone, so the integral is taken in the
+    /// half-angle's sine u = sin(φ/2) (cos φ = 1 − 2u², sin²φ = 4u²(1 − u²),
+    /// dφ = 2·du/√(1 − u²)) up to φ = π/2, and beyond in its cosine w = cos(φ/2)
+    /// (cos φ = 2w² − 1, dφ = −2·dw/√(1 − w²)): the ends come from the contact's half-angle
+    /// as they are, and no node needs a trigonometric function. Both variables stay within
+    /// [0, √½], well clear of the Jacobian's singularity at 1.
     fn arc_rate(
         &self,
         ring: &Ring,
         site: &Site,
-        end: f64,
+        end: HalfAngle,
         most: f64,
         weight: &dyn Fn(f64) -> f64,
     ) -> f64 {
@@ -269,7 +286,7 @@ impl CurvedKernel {
         if !psi.is_contact() {
             return 0.0;
         }
-        let phi0 = (2.0 * psi.radians()).min(end);
+        let psi = if end.sin < psi.sin { end } else { psi };
         let (w, t) = (self.omega_workpiece, self.omega_tool);
         let a = t * site.axis_z - w;
         let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
@@ -277,16 +294,30 @@ impl CurvedKernel {
         let d = c * ring.r * ring.cos - b * ring.sin;
         let e = (a * a + c * c) * ring.r * ring.r - d * d;
         let f = a * ring.r;
-        let integrand = |cos: f64, sin: f64| {
+        let speed = |cos: f64, sin2: f64| {
             let along = b - f * cos;
-            weight(cos) * (e * sin * sin + along * along).max(0.0).sqrt()
+            weight(cos) * (e * sin2 + along * along).max(0.0).sqrt()
         };
         // No sliding speed on the arc exceeds |B| + |A·r| + √|E|.
         let bound = most * (b.abs() + f.abs() + e.abs().sqrt());
-        if bound <= 0.0 || phi0 <= 0.0 {
+        if bound <= 0.0 || !psi.is_contact() {
             return 0.0;
         }
-        self.scale * adaptive_gauss_kronrod(&integrand, phi0, 1e-10 * bound * phi0)
+        let near = |u: f64| {
+            let (u2, rest) = (u * u, 1.0 - u * u);
+            2.0 * speed(1.0 - 2.0 * u2, 4.0 * u2 * rest) / rest.sqrt()
+        };
+        let far = |w: f64| {
+            let (w2, rest) = (w * w, 1.0 - w * w);
+            2.0 * speed(2.0 * w2 - 1.0, 4.0 * w2 * rest) / rest.sqrt()
+        };
+        // Within 1e-10 of the largest speed per radian of arc (dφ ≥ 2·du).
+        let density = 2e-10 * bound;
+        let mut total = adaptive_gauss_kronrod(&near, 0.0, psi.sin.min(FRAC_1_SQRT_2), density);
+        if psi.sin > FRAC_1_SQRT_2 {
+            total += adaptive_gauss_kronrod(&far, psi.cos, FRAC_1_SQRT_2, density);
+        }
+        self.scale * total
     }
 }
 
@@ -429,96 +460,29 @@ const WG: [f64; 4] = [
     0.417_959_183_673_469_4,
 ];
 
-/// sin and cos of an angle.
-#[derive(Debug, Clone, Copy)]
-struct Turn {
-    sin: f64,
-    cos: f64,
-}
-
-impl Turn {
-    fn of(angle: f64) -> Turn {
-        let (sin, cos) = angle.sin_cos();
-        Turn { sin, cos }
-    }
-
-    /// Half the angle (in [0, π]): cos(x/2) = √((1 + cos x)/2), sin(x/2) = sin x/(2·cos(x/2)),
-    /// with no cancellation for the angles here (at most π/2).
-    fn halved(self) -> Turn {
-        let cos = (0.5 * (1.0 + self.cos)).sqrt();
-        Turn {
-            sin: self.sin / (2.0 * cos),
-            cos,
-        }
-    }
-
-    /// This angle plus `other` (`sign` +1) or minus it (−1).
-    fn shifted(self, other: Turn, sign: f64) -> Turn {
-        Turn {
-            sin: self.sin * other.cos + sign * self.cos * other.sin,
-            cos: self.cos * other.cos - sign * self.sin * other.sin,
-        }
-    }
-}
-
-/// What every panel of one depth shares: its half-width h, sin and cos of h, and of the
-/// Kronrod nodes' offsets h·x_k from the panel's centre.
-#[derive(Debug, Clone, Copy)]
-struct Level {
-    half: f64,
-    turn: Turn,
-    offsets: [Turn; 7],
-}
-
-impl Level {
-    fn top(half: f64) -> Level {
-        Level {
-            half,
-            turn: Turn::of(half),
-            offsets: std::array::from_fn(|k| Turn::of(half * XGK[k])),
-        }
-    }
-
-    /// The level below: half the width, every angle halved.
-    fn below(&self) -> Level {
-        Level {
-            half: 0.5 * self.half,
-            turn: self.turn.halved(),
-            offsets: self.offsets.map(Turn::halved),
-        }
-    }
-}
-
-/// One panel of ∫ g(cos φ, sin φ) dφ about the centre `centre` (its sine and cosine) at
-/// `level`: the Kronrod value and QUADPACK's error estimate. The nodes' cosines and sines come
-/// by angle addition from the centre's and the level's offsets, so no panel calls a
-/// trigonometric function.
-fn gk15<G: Fn(f64, f64) -> f64>(g: &G, centre: Turn, level: &Level) -> (f64, f64) {
-    let half = level.half;
-    let (sin_c, cos_c) = (centre.sin, centre.cos);
-    let fc = g(cos_c, sin_c);
+/// One panel of ∫ g over [lo, hi]: the Kronrod value and QUADPACK's error estimate.
+fn gk15<G: Fn(f64) -> f64>(g: &G, lo: f64, hi: f64) -> (f64, f64) {
+    let centre = 0.5 * (lo + hi);
+    let half = 0.5 * (hi - lo);
+    let fc = g(centre);
     let mut kronrod = WGK[7] * fc;
     let mut gauss = WG[3] * fc;
     let mut values = [(0.0, 0.0); 7];
     for (k, value) in values.iter_mut().enumerate() {
-        let Turn {
-            sin: sin_d,
-            cos: cos_d,
-        } = level.offsets[k];
-        let lo = g(cos_c * cos_d + sin_c * sin_d, sin_c * cos_d - cos_c * sin_d);
-        let hi = g(cos_c * cos_d - sin_c * sin_d, sin_c * cos_d + cos_c * sin_d);
-        *value = (lo, hi);
-        kronrod += WGK[k] * (lo + hi);
+        let offset = half * XGK[k];
+        let (below, above) = (g(centre - offset), g(centre + offset));
+        *value = (below, above);
+        kronrod += WGK[k] * (below + above);
         if k % 2 == 1 {
-            gauss += WG[k / 2] * (lo + hi);
+            gauss += WG[k / 2] * (below + above);
         }
     }
     // QUADPACK's estimate: |K − G| scaled by the integrand's variation about its mean, which
     // is far less pessimistic than |K − G| itself for smooth integrands.
     let mean = 0.5 * kronrod;
     let mut spread = WGK[7] * (fc - mean).abs();
-    for (k, (lo, hi)) in values.iter().enumerate() {
-        spread += WGK[k] * ((lo - mean).abs() + (hi - mean).abs());
+    for (k, (below, above)) in values.iter().enumerate() {
+        spread += WGK[k] * ((below - mean).abs() + (above - mean).abs());
     }
     let spread = spread * half.abs();
     let mut error = ((kronrod - gauss) * half).abs();
@@ -534,31 +498,25 @@ fn gk15<G: Fn(f64, f64) -> f64>(g: &G, centre: Turn, level: &Level) -> (f64, f64
 /// integrand here needs (a near-zero sliding speed takes a few dozen).
 const MAX_PANELS: usize = 2000;
 
-/// ∫₀^`b` g(cos φ, sin φ) dφ (b ≤ π) by adaptive bisection of Gauss–Kronrod (7, 15) panels,
-/// each panel accepted when its error estimate is within its width's share of `tol`
-/// (absolute) or the panel can no longer be split in floating point. The trigonometry is done
-/// once per integral: each depth's offsets are the one above halved, each child's centre its
-/// parent's shifted by the child's half-width.
-fn adaptive_gauss_kronrod<G: Fn(f64, f64) -> f64>(g: &G, b: f64, tol: f64) -> f64 {
-    let density = tol / b;
-    let mut levels = vec![Level::top(0.5 * b)];
-    let mut stack = vec![(0.0, b, 0_usize, Turn::of(0.5 * b))];
+/// ∫ g over [`a`, `b`] by adaptive bisection of Gauss–Kronrod (7, 15) panels, each panel
+/// accepted when its error estimate is within `density` times its width or the panel can no
+/// longer be split in floating point.
+fn adaptive_gauss_kronrod<G: Fn(f64) -> f64>(g: &G, a: f64, b: f64, density: f64) -> f64 {
+    let mut stack = vec![(a, b)];
     let mut total = 0.0;
     let mut panels = 0;
-    while let Some((lo, hi, depth, centre)) = stack.pop() {
+    while let Some((lo, hi)) = stack.pop() {
+        if hi <= lo {
+            continue;
+        }
         panels += 1;
-        let (value, error) = gk15(g, centre, &levels[depth]);
+        let (value, error) = gk15(g, lo, hi);
         let mid = 0.5 * (lo + hi);
         if error <= density * (hi - lo) || mid <= lo || mid >= hi || panels >= MAX_PANELS {
             total += value;
         } else {
-            if levels.len() == depth + 1 {
-                let below = levels[depth].below();
-                levels.push(below);
-            }
-            let step = levels[depth + 1].turn;
-            stack.push((mid, hi, depth + 1, centre.shifted(step, 1.0)));
-            stack.push((lo, mid, depth + 1, centre.shifted(step, -1.0)));
+            stack.push((mid, hi));
+            stack.push((lo, mid));
         }
     }
     total
@@ -571,16 +529,12 @@ mod tests {
     #[test]
     fn gauss_kronrod_is_exact_for_polynomials_and_adapts_to_kinks() {
         // K15 integrates degree 22 exactly.
-        // The rule sees cos φ and sin φ; φ = atan2(sin, cos) recovers the variable.
-        let p = |c: f64, s: f64| {
-            let x = s.atan2(c);
-            3.0 * x.powi(22) - x.powi(7) + 2.0
-        };
+        let p = |x: f64| 3.0 * x.powi(22) - x.powi(7) + 2.0;
         let exact = 3.0 / 23.0 * 2f64.powi(23) - 2f64.powi(8) / 8.0 + 4.0;
-        let got = adaptive_gauss_kronrod(&p, 2.0, 1e-12);
+        let got = adaptive_gauss_kronrod(&p, 0.0, 2.0, 1e-12 / 2.0);
         assert!((got - exact).abs() < 1e-12 * exact, "{got} vs {exact}");
         // A kink inside: ∫₀³ |x − 1| dx = ½ + 2.
-        let got = adaptive_gauss_kronrod(&|c: f64, s: f64| (s.atan2(c) - 1.0).abs(), 3.0, 1e-13);
+        let got = adaptive_gauss_kronrod(&|x: f64| (x - 1.0).abs(), 0.0, 3.0, 1e-13 / 3.0);
         assert!((got - 2.5).abs() < 1e-12, "{got}");
     }
 
