@@ -252,12 +252,12 @@ impl CurvedKernel {
         let slope = pressure.slope_per_mm * ring.arc;
         // The weight is largest at φ = 0 (slope > 0).
         let most = level + slope;
-        self.arc_rate(ring, site, end, most, &|cos| (level + slope * cos).max(0.0))
+        self.arc_rate(ring, site, end, most, |cos| (level + slope * cos).max(0.0))
     }
 
     /// Removal rate at nominal pressure on `ring` with the pad at `site`, nm/s.
     pub fn nominal_rate_nm_per_s(&self, ring: &Ring, site: &Site) -> f64 {
-        self.arc_rate(ring, site, HalfAngle::FULL, 1.0, &|_| 1.0)
+        self.arc_rate(ring, site, HalfAngle::FULL, 1.0, |_| 1.0)
     }
 
     /// K·P/π·∫₀^min(φ0, φe) weight(cos φ)·|v_t| dφ, φ0 the arc under the pad and φe/2 = `end`;
@@ -275,7 +275,7 @@ impl CurvedKernel {
         site: &Site,
         end: HalfAngle,
         most: f64,
-        weight: &dyn Fn(f64) -> f64,
+        weight: impl Fn(f64) -> f64,
     ) -> f64 {
         let dz = ring.z - site.z1;
         let reach2 = site.chord * site.chord - dz * dz;
@@ -497,26 +497,40 @@ fn gk15<G: Fn(f64) -> f64>(g: &G, lo: f64, hi: f64) -> (f64, f64) {
 /// Most panels one integral may be split into (each a 15-point rule); far more than any
 /// integrand here needs (a near-zero sliding speed takes a few dozen).
 const MAX_PANELS: usize = 2000;
+/// Deepest bisection: a panel 2⁻⁶⁰ of the interval is taken as it is (far below any
+/// tolerance; it also bounds the stack of pending panels, kept on the call's own stack).
+const MAX_DEPTH: usize = 60;
 
 /// ∫ g over [`a`, `b`] by adaptive bisection of Gauss–Kronrod (7, 15) panels, each panel
-/// accepted when its error estimate is within `density` times its width or the panel can no
-/// longer be split in floating point.
+/// accepted when its error estimate is within `density` times its width, or at the deepest
+/// bisection, or when it can no longer be split in floating point.
 fn adaptive_gauss_kronrod<G: Fn(f64) -> f64>(g: &G, a: f64, b: f64, density: f64) -> f64 {
-    let mut stack = vec![(a, b)];
+    // Depth first: at most one pending panel per depth, plus the one being split.
+    let mut stack = [(0.0, 0.0, 0); MAX_DEPTH + 2];
+    stack[0] = (a, b, 0);
+    let mut pending = 1;
     let mut total = 0.0;
     let mut panels = 0;
-    while let Some((lo, hi)) = stack.pop() {
+    while pending > 0 {
+        pending -= 1;
+        let (lo, hi, depth) = stack[pending];
         if hi <= lo {
             continue;
         }
         panels += 1;
         let (value, error) = gk15(g, lo, hi);
         let mid = 0.5 * (lo + hi);
-        if error <= density * (hi - lo) || mid <= lo || mid >= hi || panels >= MAX_PANELS {
+        if error <= density * (hi - lo)
+            || mid <= lo
+            || mid >= hi
+            || panels >= MAX_PANELS
+            || depth >= MAX_DEPTH
+        {
             total += value;
         } else {
-            stack.push((mid, hi));
-            stack.push((lo, mid));
+            stack[pending] = (mid, hi, depth + 1);
+            stack[pending + 1] = (lo, mid, depth + 1);
+            pending += 2;
         }
     }
     total
