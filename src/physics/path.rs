@@ -491,6 +491,27 @@ impl Lobatto {
     /// All coefficients: g = Σ c_j·T_j exactly at the `points` nodes. Each c_j is summed in
     /// the order [`Self::coefficient`] sums it (so the same bits), all j side by side.
     fn coefficients(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
+            return unsafe { self.coefficients_avx2(values, points) };
+        }
+        self.dct(values, points)
+    }
+
+    /// [`Self::dct`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn coefficients_avx2(
+        &self,
+        values: &[f64; MAX_POINTS],
+        points: usize,
+    ) -> [f64; MAX_POINTS] {
+        self.dct(values, points)
+    }
+
+    #[inline(always)]
+    fn dct(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
         let nodes = gathered(values, points);
         let n = points - 1;
         let matrix = &self.dct[n.trailing_zeros() as usize - 3];

@@ -29,6 +29,7 @@
 //! these do not. η = −1 (ω1 + ω2 = 0, a = 0) is a pure translation, V = |ω2|·r1, and takes the
 //! fast path R = K·P·|ω2|·r1·θ0/π.
 
+use std::cell::RefCell;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -387,7 +388,7 @@ impl RemovalKernel {
                 use_it(&Pointwise(rate), points, CURVED_PATH_TOLERANCE)
             }
             None => use_it(
-                &FlatRow { kernel: self, r_mm },
+                &FlatRow::new(self, r_mm),
                 self.flat_breakpoints(r_mm),
                 FLAT_PATH_TOLERANCE,
             ),
@@ -475,6 +476,18 @@ impl RemovalKernel {
 struct FlatRow<'a> {
     kernel: &'a RemovalKernel,
     r_mm: f64,
+    /// The Carlson arguments of a batch, reused from batch to batch of the row.
+    queue: RefCell<CarlsonQueue>,
+}
+
+impl<'a> FlatRow<'a> {
+    fn new(kernel: &'a RemovalKernel, r_mm: f64) -> Self {
+        FlatRow {
+            kernel,
+            r_mm,
+            queue: RefCell::new(CarlsonQueue::new()),
+        }
+    }
 }
 
 /// Points a [`FlatRow`] batch holds: each needs at most two Carlson evaluations.
@@ -579,8 +592,9 @@ impl Integrand for FlatRow<'_> {
     fn values(&self, xs: &[f64], out: &mut [f64]) {
         let k = self.kernel;
         let r = self.r_mm;
+        let mut queue = self.queue.borrow_mut();
         for (xs, out) in xs.chunks(FLAT_BATCH).zip(out.chunks_mut(FLAT_BATCH)) {
-            let mut queue = CarlsonQueue::new();
+            queue.len = 0;
             let mut pending = [PendingRate::Known(0.0); FLAT_BATCH];
             for (p, &x) in pending.iter_mut().zip(xs) {
                 let pressure = k.path_pressure(x, x);
@@ -593,12 +607,13 @@ impl Integrand for FlatRow<'_> {
                 };
             }
             queue.evaluate();
+            let queue = &*queue;
             for (o, p) in out.iter_mut().zip(&pending) {
                 *o = match *p {
                     PendingRate::Known(rate) => rate,
-                    PendingRate::Single { g, level } => k.scale * (2.0 * g.value(&queue)) * level,
+                    PendingRate::Single { g, level } => k.scale * (2.0 * g.value(queue)) * level,
                     PendingRate::Difference { all, rest, level } => {
-                        k.scale * (2.0 * (all.value(&queue) - rest.value(&queue))) * level
+                        k.scale * (2.0 * (all.value(queue) - rest.value(queue))) * level
                     }
                 };
             }
@@ -877,11 +892,7 @@ mod tests {
                     .chain([r, (r - 10.0).abs(), r + 10.0])
                     .collect();
                 let mut batch = vec![f64::NAN; xs.len()];
-                FlatRow {
-                    kernel: &kernel,
-                    r_mm: r,
-                }
-                .values(&xs, &mut batch);
+                FlatRow::new(&kernel, r).values(&xs, &mut batch);
                 for (&x, &got) in xs.iter().zip(&batch) {
                     let want = kernel.rate_under(&kernel.path_pressure(x, x), r, x);
                     assert_eq!(got.to_bits(), want.to_bits(), "{spec:?}: r {r}, x {x}");
