@@ -11,7 +11,7 @@ use axum::http::Request;
 use http_body_util::BodyExt;
 use preston::config::ServiceLimits;
 use preston::http::{router, AppState};
-use preston::physics::{Part, PressureModel, ProcessSpec};
+use preston::physics::{PressureModel, ProcessSpec};
 use preston::surface::SurfaceSpec;
 use preston::usecases::predict::{predict, DwellSpec, PredictCommand, TravelSpec};
 use preston::usecases::{
@@ -91,18 +91,23 @@ fn predict_paper_201x201_cold(bencher: divan::Bencher, what: &str) {
         .bench_values(|body| service.predict(body));
 }
 
-/// The paper's experiment 1 on `count` radial samples × `count` positions (10 s each), at
-/// workpiece speed `workpiece_rpm`, on `surface`.
-fn paper(count: usize, workpiece_rpm: f64, surface: SurfaceSpec) -> PredictCommand {
-    let limits = ComputeLimits::default();
+/// The paper's experiment 1 set up on `count` radial samples over [0, 50] mm, the aperture
+/// [0, 40] mm, with a tool of radius `tool_radius_mm` and the workpiece at `workpiece_rpm`,
+/// on `surface`.
+fn paper_setting(
+    count: usize,
+    tool_radius_mm: f64,
+    workpiece_rpm: f64,
+    surface: SurfaceSpec,
+) -> Setting {
     let part = PartSpec {
         surface: Some(surface),
         ..PartSpec::default()
     };
-    let setting = Setting::new(
+    Setting::new(
         ProcessSpec {
             workpiece_radius_mm: 50.0,
-            tool_radius_mm: 10.0,
+            tool_radius_mm,
             workpiece_rpm,
             tool_rpm: 200.0,
             preston_coefficient_m2_per_n: 1e-13,
@@ -120,9 +125,16 @@ fn paper(count: usize, workpiece_rpm: f64, surface: SurfaceSpec) -> PredictComma
             inner_mm: Some(0.0),
             outer_mm: Some(40.0),
         },
-        &limits,
+        &ComputeLimits::default(),
     )
-    .unwrap();
+    .unwrap()
+}
+
+/// The paper's experiment 1 on `count` radial samples × `count` positions (10 s each), at
+/// workpiece speed `workpiece_rpm`, on `surface`.
+fn paper(count: usize, workpiece_rpm: f64, surface: SurfaceSpec) -> PredictCommand {
+    let limits = ComputeLimits::default();
+    let setting = paper_setting(count, 10.0, workpiece_rpm, surface);
     let positions: Vec<f64> = (0..count)
         .map(|j| 50.0 * j as f64 / (count - 1) as f64)
         .collect();
@@ -181,27 +193,12 @@ fn recommendation_new_setup(bencher: divan::Bencher) {
     bencher
         .with_inputs(|| {
             let k = 1 + counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let limits = ComputeLimits::default();
-            Setting::new(
-                ProcessSpec {
-                    workpiece_radius_mm: 50.0,
-                    tool_radius_mm: 10.0 * (1.0 + 1e-9 * k as f64),
-                    workpiece_rpm: -10.0,
-                    tool_rpm: 200.0,
-                    preston_coefficient_m2_per_n: 1e-13,
-                    pressure_kpa: 10.0,
-                    pressure_model: PressureModel::Uniform,
-                    part: Part::flat(),
-                },
-                &PartSpec::default(),
-                GridSpec::default(),
-                ApertureSpec {
-                    inner_mm: Some(0.0),
-                    outer_mm: Some(40.0),
-                },
-                &limits,
+            paper_setting(
+                201,
+                10.0 * (1.0 + 1e-9 * k as f64),
+                -10.0,
+                SurfaceSpec::Plane,
             )
-            .unwrap()
         })
         .bench_values(|setting| recommender.for_plan(&setting, 100.0, None).unwrap());
 }

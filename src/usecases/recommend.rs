@@ -108,6 +108,7 @@ pub fn recommend(
         *limits,
         *depth_nm,
         *threshold,
+        None,
     )
 }
 
@@ -197,22 +198,11 @@ impl Recommender {
         Self::default()
     }
 
-    /// The recommendation for these inputs at `depth_nm` (> 0), from the caches when possible.
+    /// The recommendation for these inputs at `depth_nm` (> 0), from the caches when possible;
+    /// `read` is the pass at the user's speeds as an operator read it beside its rows
+    /// ([`study::pass_reading`]) when one was just assembled (the same bits as reading it
+    /// alone, without the work), else `None`.
     pub fn recommendation(
-        &self,
-        process: &Process,
-        frame: Frame,
-        limits: SpeedLimits,
-        depth_nm: f64,
-        threshold: f64,
-    ) -> Result<Recommendation, StudyError> {
-        self.recommendation_read(process, frame, limits, depth_nm, threshold, None)
-    }
-
-    /// [`Self::recommendation`], with the pass at the user's speeds as an operator read it
-    /// beside its rows (`read`, [`study::pass_reading`]) when one was just assembled: the same
-    /// bits as reading it alone, without the work.
-    fn recommendation_read(
         &self,
         process: &Process,
         frame: Frame,
@@ -276,7 +266,7 @@ impl Recommender {
         } else {
             DEFAULT_DEPTH_NM
         };
-        self.recommendation_read(
+        self.recommendation(
             setting.process(),
             setting.frame(),
             SpeedLimits::default(),
@@ -355,7 +345,7 @@ mod tests {
             }
             let ask = |read| {
                 Recommender::new()
-                    .recommendation_read(&process, frame, SpeedLimits::default(), 100.0, 0.02, read)
+                    .recommendation(&process, frame, SpeedLimits::default(), 100.0, 0.02, read)
                     .unwrap()
             };
             assert_eq!(ask(Some(passed)), ask(None), "{spec:?}");
@@ -398,7 +388,7 @@ mod tests {
             aperture: &aperture,
         };
         let ask = |r: &Recommender, p: &Process| {
-            r.recommendation(p, frame, SpeedLimits::default(), 100.0, 0.02)
+            r.recommendation(p, frame, SpeedLimits::default(), 100.0, 0.02, None)
                 .unwrap()
         };
         let shared = Recommender::new();
