@@ -244,18 +244,19 @@ def timed(server, bodies, path):
     return statistics.median(t for t, _ in runs), runs[-1][1]
 
 
-def cold_and_cached(server, make, path, runs):
+def cold_and_cached(server, make, path, runs, offset):
     """(cold, new set-up, cached) medians for requests made by make(vary, field).
 
     The first request of the set-up is sent and not counted (it computes the set-up's eta
     window, shared by every speed); the cold requests then each carry a new workpiece speed,
-    the new set-up ones a new tool radius; the cached ones repeat the first request.
+    the new set-up ones a new tool radius; the cached ones repeat the first request. The
+    variations start at `offset`, so that each table row takes ones no other row took and
+    none is served by another's caches.
     """
+    fresh = [offset + k for k in range(1, runs + 1)]
     server.post(make(0, "workpiece_rpm"), path)
-    cold, response = timed(
-        server, [make(k, "workpiece_rpm") for k in range(1, runs + 1)], path
-    )
-    setup, _ = timed(server, [make(k, "tool_radius_mm") for k in range(1, runs + 1)], path)
+    cold, response = timed(server, [make(k, "workpiece_rpm") for k in fresh], path)
+    setup, _ = timed(server, [make(k, "tool_radius_mm") for k in fresh], path)
     cached, _ = timed(server, [make(0, "workpiece_rpm")] * runs, path)
     return cold, setup, cached, response
 
@@ -294,10 +295,11 @@ def main():
     print("| part | n | Preston cold (new speed) | Preston new set-up | Preston cached "
           "| numpy + scipy | ratio |")
     print("|---|---|---|---|---|---|---|")
-    for sphere, n in [(False, 201), (False, 1001), (True, 201), (True, 1001)]:
+    cases = [(False, 201), (False, 1001), (True, 201), (True, 1001)]
+    for row, (sphere, n) in enumerate(cases):
         make = lambda vary, field, n=n, sphere=sphere: predict_body(n, vary, field, sphere)
         cold, setup, cached, response = cold_and_cached(
-            server, make, "/v1/predict", args.preston_runs
+            server, make, "/v1/predict", args.preston_runs, 1000 * (row + 1)
         )
         if sphere:
             peer_cell, ratio = "", ""
@@ -312,10 +314,10 @@ def main():
               f"| {setup * 1e3:.2f} | {cached * 1e3:.2f} | {peer_cell} | {ratio} |")
 
     rows = []
-    for n in args.sizes:
+    for row, n in enumerate(args.sizes):
         make = lambda vary, field, n=n: request_body(n, vary, field)
         cold, setup, cached, plan = cold_and_cached(
-            server, make, "/v1/optimize", args.preston_runs
+            server, make, "/v1/optimize", args.preston_runs, 1000 * (len(cases) + row + 1)
         )
         peer_runs = [peer(n) for _ in range(args.peer_runs)]
         peer_s = statistics.median(t for t, _ in peer_runs)
