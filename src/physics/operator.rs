@@ -17,6 +17,11 @@
 //! the matrix column by column as (first row, values): compressed sparse column without
 //! per-entry row indices. Rows are independent, so large operators are computed across
 //! threads (rayon) row by row and then laid out by column.
+//!
+//! A row's running integral F_i also gives, for nothing, what a constant feed over [a, b]
+//! removes at r_i: τ·(F_i(b) − F_i(a)) ([`PassReading`]; the recommendation's equal-dwell pass
+//! at the user's speeds). It is read from the same F a pass computed alone reads
+//! ([`ConstantFeed::removal_read_nm`]), so both give the same bits.
 
 use std::ops::Range;
 
@@ -139,7 +144,8 @@ impl RemovalOperator {
             }
             (j_lo, values, passed)
         };
-        let parallel = if n == 1 {
+        // A stop's rows are single rates, unless they also read a pass (a path each).
+        let parallel = if n == 1 && pass.is_none() {
             entries >= PARALLEL_MIN_ENTRIES
         } else {
             radii_mm.len() >= PARALLEL_MIN_PATHS

@@ -29,6 +29,11 @@
 //! of the contact angle at x = 0 when r is close to the pad radius). The interpolant's
 //! antiderivative is exact in Chebyshev coefficients (C_k = (c_{k−1} − c_{k+1})/2k), so F at any
 //! x is one short Clenshaw sum: the cost per row does not depend on how many cells the plan has.
+//!
+//! **Batches.** The integrand is asked for a panel's new points together ([`Integrand`]), so
+//! the flat rate can take their Carlson integrals side by side; and F is read at many ascending
+//! points together ([`PathIntegral::at_ascending`]), eight Clenshaw recurrences of one panel
+//! interleaved. Both give the bits of one point at a time.
 
 /// Path integrals at and above this count are made across threads: each costs some 15 µs
 /// (about 150 evaluations of the rate), far more than handing it to another thread.
@@ -375,7 +380,7 @@ pub struct Lobatto {
     cosines: [f64; 2 * (MAX_POINTS - 1)],
     /// weights[m][k]: the weight of point k of the rule with 2^(m+3) + 1 points, on [−1, 1].
     weights: [[f64; MAX_POINTS]; 3],
-    /// cosines[m]: cos(πjk/n) for the rule with n + 1 = 2^(m+3) + 1 points, as an (n + 1)²
+    /// dct[m]: cos(πjk/n) for the rule with n + 1 = 2^(m+3) + 1 points, as an (n + 1)²
     /// matrix (symmetric in j and k), so a DCT reads consecutive memory.
     dct: [Vec<f64>; 3],
 }
