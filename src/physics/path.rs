@@ -269,7 +269,7 @@ impl PathIntegral {
 
     /// F at every x of `xs` (ascending) into `out`, bit for bit as [`Self::at`] reads it, but
     /// reading the points of one panel together: their Clenshaw recurrences run side by side
-    /// ([`clenshaw_lanes`]) instead of one latency-bound chain after another (an operator row
+    /// (eight at a time) instead of one latency-bound chain after another (an operator row
     /// reads F at every cell boundary in the pad's reach, hundreds of points on a few panels).
     pub fn at_ascending(&self, xs: &[f64], out: &mut [f64]) {
         debug_assert!(xs.windows(2).all(|w| w[0] <= w[1]));
