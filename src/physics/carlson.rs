@@ -56,6 +56,14 @@ fn rf_rd_chunks(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64])
     let mut k = 0;
     while k < x.len() {
         let m = LANES.min(x.len() - k);
+        if m <= 2 {
+            // One or two triples (a lone rate's) cost less alone than in a padded chunk.
+            for j in k..k + m {
+                let (f, d) = rf_rd_lanes([x[j]], [y[j]], [z[j]]);
+                (rf[j], rd[j]) = (f[0], d[0]);
+            }
+            break;
+        }
         // A short last chunk is padded with R(1, 1, 1), which converges at once.
         let lane = |v: &[f64], l: usize| if l < m { v[k + l] } else { 1.0 };
         let (f, d) = rf_rd_lanes::<LANES>(
@@ -86,20 +94,21 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
     let spread = |a: f64, l: usize| (a - x[l]).abs().max((a - y[l]).abs()).max((a - z[l]).abs());
     let a0_f: [f64; L] = std::array::from_fn(|l| (x[l] + y[l] + z[l]) / 3.0);
     let a0_d: [f64; L] = std::array::from_fn(|l| (x[l] + y[l] + 3.0 * z[l]) / 5.0);
-    // Carlson's Q for each function: once 4^-n Q < |A_n| the series is exact to TOLERANCE.
-    let mut q_f: [f64; L] =
+    // Carlson's Q for each function: once 4^-n Q < |A_n| the series is exact to TOLERANCE
+    // (4^-n Q is pow4·Q exactly: both are scaled by powers of two).
+    let q_f: [f64; L] =
         std::array::from_fn(|l| spread(a0_f[l], l) * (3.0 * TOLERANCE).powf(-1.0 / 6.0));
-    let mut q_d: [f64; L] =
+    let q_d: [f64; L] =
         std::array::from_fn(|l| spread(a0_d[l], l) * (0.25 * TOLERANCE).powf(-1.0 / 6.0));
 
     let (mut xn, mut yn, mut zn) = (x, y, z);
     let (mut a_f, mut a_d) = (a0_f, a0_d);
     let mut pow4 = [1.0; L]; // 4^-n
     let mut rd_sum = [0.0; L];
-    let going = |q_f: &[f64; L], q_d: &[f64; L], a_f: &[f64; L], a_d: &[f64; L], l: usize| {
-        q_f[l] >= a_f[l].abs() || q_d[l] >= a_d[l].abs()
+    let going = |pow4: &[f64; L], a_f: &[f64; L], a_d: &[f64; L], l: usize| {
+        pow4[l] * q_f[l] >= a_f[l].abs() || pow4[l] * q_d[l] >= a_d[l].abs()
     };
-    let mut active: [bool; L] = std::array::from_fn(|l| going(&q_f, &q_d, &a_f, &a_d, l));
+    let mut active: [bool; L] = std::array::from_fn(|l| going(&pow4, &a_f, &a_d, l));
     while active.iter().any(|&a| a) {
         for l in 0..L {
             let (sx, sy, sz) = (xn[l].sqrt(), yn[l].sqrt(), zn[l].sqrt());
@@ -108,8 +117,6 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
             let pick = |new: f64, old: f64| if on { new } else { old };
             rd_sum[l] = pick(rd_sum[l] + pow4[l] / (sz * (zn[l] + lambda)), rd_sum[l]);
             pow4[l] = pick(pow4[l] * 0.25, pow4[l]);
-            q_f[l] = pick(q_f[l] * 0.25, q_f[l]);
-            q_d[l] = pick(q_d[l] * 0.25, q_d[l]);
             xn[l] = pick(0.25 * (xn[l] + lambda), xn[l]);
             yn[l] = pick(0.25 * (yn[l] + lambda), yn[l]);
             zn[l] = pick(0.25 * (zn[l] + lambda), zn[l]);
@@ -117,7 +124,7 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
             a_d[l] = pick(0.25 * (a_d[l] + lambda), a_d[l]);
         }
         for (l, a) in active.iter_mut().enumerate() {
-            *a = *a && going(&q_f, &q_d, &a_f, &a_d, l);
+            *a = *a && going(&pow4, &a_f, &a_d, l);
         }
     }
 

@@ -39,6 +39,24 @@ impl HalfAngle {
     pub fn is_contact(self) -> bool {
         self.sin > 0.0
     }
+
+    /// This arc (|θ| ≤ 2ψ on a circle of radius `r`, θ from the +x direction) less its points
+    /// before the line x = `x0`: `None` when no point is left (x0 ≥ r), else the narrower of
+    /// the two, the line's own half-angle being half of acos(x0/r):
+    /// sin² = (r − x0)/(2r), cos² = (r + x0)/(2r).
+    pub fn cut_at(self, x0: f64, r: f64) -> Option<HalfAngle> {
+        if x0 >= r {
+            return None;
+        }
+        if x0 <= -r {
+            return Some(self);
+        }
+        let cut = HalfAngle {
+            sin: ((r - x0) / (2.0 * r)).sqrt(),
+            cos: ((r + x0) / (2.0 * r)).sqrt(),
+        };
+        Some(if cut.sin < self.sin { cut } else { self })
+    }
 }
 
 /// Half contact angle for sample radius `r`, tool position `r1`, pad radius `rt` (all ≥ 0, mm).

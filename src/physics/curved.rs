@@ -235,18 +235,10 @@ impl CurvedKernel {
         }
         let mut end = HalfAngle::FULL;
         if let Some(lift) = pressure.lift_line_mm() {
-            let u0 = site.arc1 + lift;
-            if u0 >= ring.arc {
+            let Some(cut) = end.cut_at(site.arc1 + lift, ring.arc) else {
                 return 0.0;
-            }
-            if u0 > -ring.arc {
-                // Half of acos(u0/s): sin² = (1 − u0/s)/2, cos² = (1 + u0/s)/2.
-                let c = u0 / ring.arc;
-                end = HalfAngle {
-                    sin: (0.5 * (1.0 - c)).sqrt(),
-                    cos: (0.5 * (1.0 + c)).sqrt(),
-                };
-            }
+            };
+            end = cut;
         }
         let level = pressure.level - pressure.slope_per_mm * site.arc1;
         let slope = pressure.slope_per_mm * ring.arc;
@@ -303,14 +295,14 @@ impl CurvedKernel {
         if bound <= 0.0 || !psi.is_contact() {
             return 0.0;
         }
-        let near = |u: f64| {
-            let (u2, rest) = (u * u, 1.0 - u * u);
-            2.0 * speed(1.0 - 2.0 * u2, 4.0 * u2 * rest) / rest.sqrt()
+        // t = u (side +1) or w (side −1): cos φ = ±(1 − 2t²), sin²φ = 4t²(1 − t²), and
+        // |dφ/dt| = 2/√(1 − t²).
+        let in_half_angle = |t: f64, side: f64| {
+            let (t2, rest) = (t * t, 1.0 - t * t);
+            2.0 * speed(side * (1.0 - 2.0 * t2), 4.0 * t2 * rest) / rest.sqrt()
         };
-        let far = |w: f64| {
-            let (w2, rest) = (w * w, 1.0 - w * w);
-            2.0 * speed(2.0 * w2 - 1.0, 4.0 * w2 * rest) / rest.sqrt()
-        };
+        let near = |u: f64| in_half_angle(u, 1.0);
+        let far = |w: f64| in_half_angle(w, -1.0);
         // Within 1e-10 of the largest speed per radian of arc (dφ ≥ 2·du).
         let density = 2e-10 * bound;
         let mut total = adaptive_gauss_kronrod(&near, 0.0, psi.sin.min(FRAC_1_SQRT_2), density);

@@ -267,8 +267,8 @@ impl PathIntegral {
         self.total
     }
 
-    /// F at every x of `xs` (ascending) into `out`, bit for bit as [`Self::at`] reads it, but
-    /// reading the points of one panel together: their Clenshaw recurrences run side by side
+    /// F at every x of `xs` (ascending) into `out`, as [`Self::at`] reads each, but reading
+    /// the points of one panel together: their Clenshaw recurrences run side by side
     /// (eight at a time) instead of one latency-bound chain after another (an operator row
     /// reads F at every cell boundary in the pad's reach, hundreds of points on a few panels).
     pub fn at_ascending(&self, xs: &[f64], out: &mut [f64]) {
@@ -348,27 +348,9 @@ impl PathIntegral {
 
     /// F(x) = ∫_lo^x f.
     pub fn at(&self, x: f64) -> f64 {
-        let k = self.halves.partition_point(|half| half.start() <= x);
-        if k == 0 {
-            return 0.0;
-        }
-        let half = &self.halves[k - 1];
-        if x >= half.top() {
-            return half.base + half.total;
-        }
-        let v = half.v(x);
-        let panels =
-            &self.panels[half.first_panel as usize..(half.first_panel + half.panels) as usize];
-        let j = panels.partition_point(|panel| panel.lo <= v).max(1) - 1;
-        let panel = &panels[j];
-        let t = ((2.0 * v - panel.lo - panel.hi) / (panel.hi - panel.lo)).clamp(-1.0, 1.0);
-        let coeffs = &self.coeffs[panel.first as usize..(panel.first + panel.len) as usize];
-        let from_end = panel.base + clenshaw(coeffs, t);
-        if half.from_below {
-            half.base + from_end
-        } else {
-            half.base + half.total - from_end
-        }
+        let mut value = [0.0];
+        self.read_ascending(&[x], &mut value);
+        value[0]
     }
 }
 

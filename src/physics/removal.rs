@@ -226,20 +226,10 @@ impl RemovalKernel {
         }
         let mut psi = half_angle(r_mm, r1_mm, self.tool_radius);
         if let Some(lift) = pressure.lift_line_mm() {
-            let x0 = r1_mm + lift;
-            if x0 >= r_mm {
+            let Some(cut) = psi.cut_at(r1_mm + lift, r_mm) else {
                 return 0.0;
-            }
-            if x0 > -r_mm {
-                // Half of θL = acos(x0/r): sin² = (r − x0)/(2r), cos² = (r + x0)/(2r).
-                let cut = HalfAngle {
-                    sin: ((r_mm - x0) / (2.0 * r_mm)).sqrt(),
-                    cos: ((r_mm + x0) / (2.0 * r_mm)).sqrt(),
-                };
-                if cut.sin < psi.sin {
-                    psi = cut;
-                }
-            }
+            };
+            psi = cut;
         }
         if !psi.is_contact() {
             return 0.0;
@@ -477,7 +467,7 @@ struct FlatRow<'a> {
     kernel: &'a RemovalKernel,
     r_mm: f64,
     /// The Carlson arguments of a batch, reused from batch to batch of the row.
-    queue: RefCell<CarlsonQueue>,
+    queue: RefCell<CarlsonQueue<FLAT_QUEUE>>,
 }
 
 impl<'a> FlatRow<'a> {
@@ -492,8 +482,12 @@ impl<'a> FlatRow<'a> {
 
 /// Points a [`FlatRow`] batch holds: each needs at most two Carlson evaluations.
 const FLAT_BATCH: usize = 32;
+/// Carlson triples a [`FlatRow`] batch may queue.
+const FLAT_QUEUE: usize = 2 * FLAT_BATCH;
 
-/// G(φ; A, B) of one point ([`g`]), known or waiting for the Carlson pair in `slot`.
+/// G(φ; A, B) = ∫_0^φ √(A + B·sin²ψ) dψ of one point (A ≥ 0, A + B·sin²φ > 0), known or
+/// waiting for the Carlson pair in `slot`:
+/// G = A·s·(R_F + B·s²·R_D/3) at (A·c², A + B·s², A).
 #[derive(Clone, Copy)]
 enum PendingG {
     Known(f64),
@@ -507,12 +501,20 @@ enum PendingG {
 }
 
 impl PendingG {
-    /// [`g`]'s value, queuing its Carlson arguments when it needs them.
-    fn queue(s: f64, c: f64, a: f64, b: f64, queue: &mut CarlsonQueue) -> PendingG {
+    /// G(φ; A, B) for s = sin φ, c = cos φ: known at once when φ = 0 or A = 0, else its Carlson
+    /// arguments queued.
+    fn queue<const N: usize>(
+        s: f64,
+        c: f64,
+        a: f64,
+        b: f64,
+        queue: &mut CarlsonQueue<N>,
+    ) -> PendingG {
         if s == 0.0 {
             return PendingG::Known(0.0);
         }
         if a == 0.0 {
+            // √B·(1 − cosφ), written without cancellation for small φ.
             return PendingG::Known(b.sqrt() * s * s / (1.0 + c));
         }
         let s2 = s * s;
@@ -520,7 +522,7 @@ impl PendingG {
         PendingG::Slot { slot, s, a, b, s2 }
     }
 
-    fn value(self, queue: &CarlsonQueue) -> f64 {
+    fn value<const N: usize>(self, queue: &CarlsonQueue<N>) -> f64 {
         match self {
             PendingG::Known(value) => value,
             PendingG::Slot { slot, s, a, b, s2 } => {
@@ -531,24 +533,24 @@ impl PendingG {
     }
 }
 
-/// Carlson argument triples gathered from a batch of points, evaluated together.
-struct CarlsonQueue {
-    x: [f64; 2 * FLAT_BATCH],
-    y: [f64; 2 * FLAT_BATCH],
-    z: [f64; 2 * FLAT_BATCH],
-    rf: [f64; 2 * FLAT_BATCH],
-    rd: [f64; 2 * FLAT_BATCH],
+/// Carlson argument triples gathered from `N` or fewer, evaluated together.
+struct CarlsonQueue<const N: usize> {
+    x: [f64; N],
+    y: [f64; N],
+    z: [f64; N],
+    rf: [f64; N],
+    rd: [f64; N],
     len: usize,
 }
 
-impl CarlsonQueue {
+impl<const N: usize> CarlsonQueue<N> {
     fn new() -> Self {
         CarlsonQueue {
-            x: [0.0; 2 * FLAT_BATCH],
-            y: [0.0; 2 * FLAT_BATCH],
-            z: [0.0; 2 * FLAT_BATCH],
-            rf: [0.0; 2 * FLAT_BATCH],
-            rd: [0.0; 2 * FLAT_BATCH],
+            x: [0.0; N],
+            y: [0.0; N],
+            z: [0.0; N],
+            rf: [0.0; N],
+            rd: [0.0; N],
             len: 0,
         }
     }
@@ -572,20 +574,12 @@ impl CarlsonQueue {
     }
 }
 
-/// One point of a [`FlatRow`] batch: its rate known, or [`scaled_sliding_integral`]'s terms
-/// pending, to be scaled by `level` (the pressure relative to nominal).
+/// One point of a [`FlatRow`] batch: its rate known, or its sliding integral pending, to be
+/// scaled by `level` (the pressure relative to nominal).
 #[derive(Clone, Copy)]
 enum PendingRate {
     Known(f64),
-    Single {
-        g: PendingG,
-        level: f64,
-    },
-    Difference {
-        all: PendingG,
-        rest: PendingG,
-        level: f64,
-    },
+    Sliding { sliding: Sliding, level: f64 },
 }
 
 impl Integrand for FlatRow<'_> {
@@ -611,9 +605,8 @@ impl Integrand for FlatRow<'_> {
             for (o, p) in out.iter_mut().zip(&pending) {
                 *o = match *p {
                     PendingRate::Known(rate) => rate,
-                    PendingRate::Single { g, level } => k.scale * (2.0 * g.value(queue)) * level,
-                    PendingRate::Difference { all, rest, level } => {
-                        k.scale * (2.0 * (all.value(queue) - rest.value(queue))) * level
+                    PendingRate::Sliding { sliding, level } => {
+                        k.scale * sliding.value(queue) * level
                     }
                 };
             }
@@ -625,25 +618,24 @@ impl RemovalKernel {
     /// [`Self::nominal_rate_nm_per_s`] on a plane away from η = −1, times `level`, as
     /// [`Self::rate_under`] computes it under a pressure without slope, with its Carlson
     /// integrals queued (or known at once where none are needed).
-    fn queue_nominal(&self, r: f64, x: f64, level: f64, queue: &mut CarlsonQueue) -> PendingRate {
+    fn queue_nominal(
+        &self,
+        r: f64,
+        x: f64,
+        level: f64,
+        queue: &mut CarlsonQueue<FLAT_QUEUE>,
+    ) -> PendingRate {
         let psi = half_angle(r, x, self.tool_radius);
         if !psi.is_contact() {
             return PendingRate::Known(0.0);
         }
         let (a, b) = (self.omega_sum * r, self.omega2 * x);
-        let size = a.abs().max(b.abs());
-        if size == 0.0 || !(2f64.powi(-300)..=2f64.powi(300)).contains(&size) {
+        if needs_scaling(a, b) {
             return PendingRate::Known(self.nominal_rate_nm_per_s(r, x) * level);
         }
-        let ab4 = 4.0 * a * b;
-        if ab4 >= 0.0 || psi.sin * psi.sin <= 0.5 {
-            let g = PendingG::queue(psi.sin, psi.cos, (a - b) * (a - b), ab4, queue);
-            PendingRate::Single { g, level }
-        } else {
-            let sum2 = (a + b) * (a + b);
-            let all = PendingG::queue(1.0, 0.0, sum2, -ab4, queue);
-            let rest = PendingG::queue(psi.cos, psi.sin, sum2, -ab4, queue);
-            PendingRate::Difference { all, rest, level }
+        PendingRate::Sliding {
+            sliding: Sliding::queue(a, b, psi, queue),
+            level,
         }
     }
 }
@@ -688,6 +680,14 @@ fn sliding_integral(a: f64, b: f64, psi: HalfAngle) -> f64 {
     )
 }
 
+/// Whether (a, b) must be scaled before their squares are taken: within 2^±300 neither the
+/// squares of speeds nor R_D (of degree −3/2 in them, so ~size⁻³) under- or overflow (nor for
+/// a = b = 0).
+fn needs_scaling(a: f64, b: f64) -> bool {
+    let size = a.abs().max(b.abs());
+    size != 0.0 && !(2f64.powi(-300)..=2f64.powi(300)).contains(&size)
+}
+
 /// `integral(a, b)` of an integral homogeneous of degree 1 in (a, b), with extreme (a, b)
 /// first scaled by a power of two to magnitude ~1 and the result scaled back by `back` (both
 /// exact).
@@ -697,12 +697,10 @@ fn homogeneous<T>(
     integral: impl Fn(f64, f64) -> T,
     back: impl Fn(T, &dyn Fn(f64) -> f64) -> T,
 ) -> T {
-    let size = a.abs().max(b.abs());
-    // Within 2^±300 neither the squares of speeds nor R_D (of degree −3/2 in them, so
-    // ~size⁻³) under- or overflow: no scaling needed (nor for a = b = 0).
-    if size == 0.0 || (2f64.powi(-300)..=2f64.powi(300)).contains(&size) {
+    if !needs_scaling(a, b) {
         return integral(a, b);
     }
+    let size = a.abs().max(b.abs());
     // Scale by 2^−e in two halves: for a subnormal size e is below −1022, and 2^−e itself
     // would overflow (0·∞ = NaN at r = 0). Each factor is a power of two, so this is exact.
     let exponent = size.log2().floor() as i32;
@@ -714,12 +712,47 @@ fn homogeneous<T>(
 
 /// [`sliding_integral`] for max(|a|, |b|) far from under- and overflow.
 fn scaled_sliding_integral(a: f64, b: f64, psi: HalfAngle) -> f64 {
-    let ab4 = 4.0 * a * b;
-    if ab4 >= 0.0 || psi.sin * psi.sin <= 0.5 {
-        2.0 * g(psi.sin, psi.cos, (a - b) * (a - b), ab4)
-    } else {
-        let sum2 = (a + b) * (a + b);
-        2.0 * (g(1.0, 0.0, sum2, -ab4) - g(psi.cos, psi.sin, sum2, -ab4))
+    let mut queue = CarlsonQueue::<2>::new();
+    let sliding = Sliding::queue(a, b, psi, &mut queue);
+    queue.evaluate();
+    sliding.value(&queue)
+}
+
+/// [`scaled_sliding_integral`] in the arrangement without cancellation (module docs), its
+/// Carlson integrals queued: 2·G(ψ0; (a−b)², 4ab), or 2·[G(π/2; (a+b)², −4ab) −
+/// G(π/2 − ψ0; (a+b)², −4ab)] when ab < 0 and ψ0 > π/4.
+#[derive(Clone, Copy)]
+enum Sliding {
+    Direct(PendingG),
+    Complement { all: PendingG, rest: PendingG },
+}
+
+impl Sliding {
+    fn queue<const N: usize>(a: f64, b: f64, psi: HalfAngle, queue: &mut CarlsonQueue<N>) -> Self {
+        let ab4 = 4.0 * a * b;
+        if ab4 >= 0.0 || psi.sin * psi.sin <= 0.5 {
+            Sliding::Direct(PendingG::queue(
+                psi.sin,
+                psi.cos,
+                (a - b) * (a - b),
+                ab4,
+                queue,
+            ))
+        } else {
+            let sum2 = (a + b) * (a + b);
+            Sliding::Complement {
+                all: PendingG::queue(1.0, 0.0, sum2, -ab4, queue),
+                rest: PendingG::queue(psi.cos, psi.sin, sum2, -ab4, queue),
+            }
+        }
+    }
+
+    /// ∫_0^{θ0} V dθ, once `queue` is evaluated.
+    fn value<const N: usize>(self, queue: &CarlsonQueue<N>) -> f64 {
+        match self {
+            Sliding::Direct(g) => 2.0 * g.value(queue),
+            Sliding::Complement { all, rest } => 2.0 * (all.value(queue) - rest.value(queue)),
+        }
     }
 }
 
@@ -796,20 +829,6 @@ fn g_pair(s: f64, c: f64, a: f64, b: f64) -> (f64, f64) {
         a * i0 + b * i2,
         2.0 / 3.0 * (a * i0 - (2.0 * a + b) * i2 + 2.0 * s * c * v),
     )
-}
-
-/// G(φ; A, B) = ∫_0^φ √(A + B·sin²ψ) dψ for s = sinφ, c = cosφ, A ≥ 0 and A + B·s² > 0.
-fn g(s: f64, c: f64, a: f64, b: f64) -> f64 {
-    if s == 0.0 {
-        return 0.0;
-    }
-    if a == 0.0 {
-        // √B·(1 − cosφ), written without cancellation for small φ.
-        return b.sqrt() * s * s / (1.0 + c);
-    }
-    let s2 = s * s;
-    let (rf, rd) = rf_rd(a * c * c, a + b * s2, a);
-    s * a * (rf + b * s2 * rd / 3.0)
 }
 
 /// Removal rate in nm/min at radius `r_mm` with the tool centre at `r1_mm`.
@@ -976,6 +995,14 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// G(φ; A, B) alone, as [`PendingG`] computes it.
+    fn g(s: f64, c: f64, a: f64, b: f64) -> f64 {
+        let mut queue = CarlsonQueue::<1>::new();
+        let g = PendingG::queue(s, c, a, b, &mut queue);
+        queue.evaluate();
+        g.value(&queue)
     }
 
     /// G against a composite Simpson rule on a smooth integrand (error ~h⁴ ≈ 1e-13).

@@ -24,7 +24,7 @@ use crate::optimize::{
     MeasuredProfile, Objective, OptimizeError, Solution,
 };
 use crate::physics::{check_positions, UniformityMetrics};
-use crate::study::{self, Recommendation};
+use crate::study::Recommendation;
 use crate::surface::{Surface, SurfaceError};
 
 /// What to remove over the clear aperture.
@@ -449,9 +449,7 @@ pub fn optimize(
         max_time_limit_s: _,
     } = command;
     // The recommendation's pass at these speeds is read beside a newly assembled operator.
-    let pass = Recommender::recommends_for(&setting)
-        .then(|| study::pass_reading(setting.process(), setting.frame()))
-        .flatten();
+    let pass = Recommender::pass_to_read(&setting);
     let (operator, passed) = operators.operator_with_pass(
         setting.process(),
         setting.grid().radii_mm(),

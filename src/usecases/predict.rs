@@ -4,7 +4,7 @@
 use super::warnings::unit_warning;
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::physics::{ConstantFeed, DwellSchedule, UniformityMetrics};
-use crate::study::{self, Recommendation};
+use crate::study::Recommendation;
 
 /// What the tool does: a dwell plan, or one constant feed along the surface.
 #[derive(Debug, Clone, PartialEq)]
@@ -96,9 +96,7 @@ pub fn predict(
     let process = setting.process();
     let radii = setting.grid().radii_mm();
     // The recommendation's pass at these speeds is read beside a newly assembled operator.
-    let pass = Recommender::recommends_for(&setting)
-        .then(|| study::pass_reading(process, setting.frame()))
-        .flatten();
+    let pass = Recommender::pass_to_read(&setting);
     let (removal_nm, total_time_s, warnings, passed) = match &travel {
         Travel::Dwell(schedule) => {
             let (operator, passed) = operators.operator_with_pass(

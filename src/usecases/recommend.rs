@@ -23,7 +23,7 @@ use std::sync::{Arc, Mutex};
 
 use super::{Input, InputError, Setting};
 use crate::optimize::problem::MAX_DEPTH_NM;
-use crate::physics::Process;
+use crate::physics::{PassReading, Process};
 use crate::study::{
     self, EqualDwell, Frame, GeometryParts, Recommendation, SpeedLimits, StudyError,
 };
@@ -240,10 +240,13 @@ impl Recommender {
         Ok(unit.scaled_to(depth_nm))
     }
 
-    /// Whether a plan in `setting` carries a recommendation ([`Self::for_plan`]): all but
-    /// those at η = −1.
-    pub fn recommends_for(setting: &Setting) -> bool {
-        !setting.process().is_eta_minus_one()
+    /// The pass a plan's operator reads beside its rows for [`Self::for_plan`] when it is
+    /// assembled: `None` where the plan carries no recommendation (η = −1).
+    pub fn pass_to_read(setting: &Setting) -> Option<PassReading> {
+        if setting.process().is_eta_minus_one() {
+            return None;
+        }
+        study::pass_reading(setting.process(), setting.frame())
     }
 
     /// The recommendation a plan (a prediction or an optimized plan) carries: `None` at
@@ -258,7 +261,7 @@ impl Recommender {
         mean_depth_nm: f64,
         read: Option<Vec<f64>>,
     ) -> Option<Recommendation> {
-        if !Self::recommends_for(setting) {
+        if setting.process().is_eta_minus_one() {
             return None;
         }
         let depth = if mean_depth_nm > 0.0 && mean_depth_nm.is_finite() {
