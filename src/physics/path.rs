@@ -274,23 +274,6 @@ impl PathIntegral {
     pub fn at_ascending(&self, xs: &[f64], out: &mut [f64]) {
         debug_assert!(xs.windows(2).all(|w| w[0] <= w[1]));
         assert_eq!(xs.len(), out.len(), "one output per point");
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
-            return unsafe { self.at_ascending_avx2(xs, out) };
-        }
-        self.read_ascending(xs, out);
-    }
-
-    /// [`Self::read_ascending`] compiled for AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn at_ascending_avx2(&self, xs: &[f64], out: &mut [f64]) {
-        self.read_ascending(xs, out);
-    }
-
-    #[inline(always)]
-    fn read_ascending(&self, xs: &[f64], out: &mut [f64]) {
         let mut i = 0;
         while i < xs.len() {
             let x = xs[i];
@@ -349,7 +332,7 @@ impl PathIntegral {
     /// F(x) = ∫_lo^x f.
     pub fn at(&self, x: f64) -> f64 {
         let mut value = [0.0];
-        self.read_ascending(&[x], &mut value);
+        self.at_ascending(&[x], &mut value);
         value[0]
     }
 }
@@ -478,27 +461,6 @@ impl Lobatto {
     /// All coefficients: g = Σ c_j·T_j exactly at the `points` nodes. Each c_j is summed in
     /// the order [`Self::coefficient`] sums it (so the same bits), all j side by side.
     fn coefficients(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
-            return unsafe { self.coefficients_avx2(values, points) };
-        }
-        self.dct(values, points)
-    }
-
-    /// [`Self::dct`] compiled for AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn coefficients_avx2(
-        &self,
-        values: &[f64; MAX_POINTS],
-        points: usize,
-    ) -> [f64; MAX_POINTS] {
-        self.dct(values, points)
-    }
-
-    #[inline(always)]
-    fn dct(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
         let nodes = gathered(values, points);
         let n = points - 1;
         let matrix = &self.dct[n.trailing_zeros() as usize - 3];
