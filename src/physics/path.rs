@@ -269,63 +269,86 @@ impl PathIntegral {
 
     /// F at every x of `xs` (ascending) into `out`, as [`Self::at`] reads each, but reading
     /// the points of one panel together: their Clenshaw recurrences run side by side
-    /// (eight at a time) instead of one latency-bound chain after another (an operator row
+    /// ([`LANES`] at a time) instead of one latency-bound chain after another (an operator row
     /// reads F at every cell boundary in the pad's reach, hundreds of points on a few panels).
     pub fn at_ascending(&self, xs: &[f64], out: &mut [f64]) {
         debug_assert!(xs.windows(2).all(|w| w[0] <= w[1]));
         assert_eq!(xs.len(), out.len(), "one output per point");
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
+            return unsafe { self.at_ascending_avx2(xs, out) };
+        }
+        self.read_ascending(xs, out);
+    }
+
+    /// [`Self::read_ascending`] compiled for AVX2 (four lanes per register, not two).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn at_ascending_avx2(&self, xs: &[f64], out: &mut [f64]) {
+        self.read_ascending(xs, out);
+    }
+
+    /// The points are taken half by half: those in one half are read by [`Self::read_half`],
+    /// those past the last half's top (or in a rounding gap after a half) are its total.
+    #[inline(always)]
+    fn read_ascending(&self, xs: &[f64], out: &mut [f64]) {
         let mut i = 0;
         while i < xs.len() {
-            let x = xs[i];
-            let k = self.halves.partition_point(|half| half.start() <= x);
+            let k = self.halves.partition_point(|half| half.start() <= xs[i]);
             if k == 0 {
                 out[i] = 0.0;
                 i += 1;
                 continue;
             }
             let half = &self.halves[k - 1];
-            if x >= half.top() {
+            if xs[i] >= half.top() {
                 out[i] = half.base + half.total;
                 i += 1;
                 continue;
             }
-            let panels =
-                &self.panels[half.first_panel as usize..(half.first_panel + half.panels) as usize];
-            let j = panels.partition_point(|panel| panel.lo <= half.v(x)).max(1) - 1;
+            let next = self.halves.get(k).map_or(f64::INFINITY, Half::start);
+            let run = xs[i..].partition_point(|&x| x < half.top() && x < next);
+            self.read_half(half, &xs[i..i + run], &mut out[i..i + run]);
+            i += run;
+        }
+    }
+
+    /// F at points of `xs` all inside `half`: their v, then for each run of points on one
+    /// panel, the panel's t, Clenshaw's sums side by side, and the half's offsets. `out`
+    /// holds v, then t, then F in turn.
+    #[inline(always)]
+    fn read_half(&self, half: &Half, xs: &[f64], out: &mut [f64]) {
+        for (o, &x) in out.iter_mut().zip(xs) {
+            *o = half.v(x);
+        }
+        let panels =
+            &self.panels[half.first_panel as usize..(half.first_panel + half.panels) as usize];
+        let mut i = 0;
+        while i < out.len() {
+            let j = panels.partition_point(|panel| panel.lo <= out[i]).max(1) - 1;
             let panel = &panels[j];
-            // Up to LANES points from i on that [`Self::at`] would read on this same panel.
             let upper = panels.get(j + 1).map_or(f64::INFINITY, |next| next.lo);
             let lower = if j == 0 { f64::NEG_INFINITY } else { panel.lo };
-            let mut ts = [0.0; LANES];
-            let mut m = 0;
-            while m < LANES && i + m < xs.len() && xs[i + m] < half.top() {
-                let v = half.v(xs[i + m]);
-                if v < lower || v >= upper {
-                    break;
-                }
-                ts[m] = ((2.0 * v - panel.lo - panel.hi) / (panel.hi - panel.lo)).clamp(-1.0, 1.0);
-                m += 1;
+            let run = out[i..]
+                .iter()
+                .position(|&v| v < lower || v >= upper)
+                .unwrap_or(out.len() - i);
+            let on_panel = &mut out[i..i + run];
+            for v in on_panel.iter_mut() {
+                *v = ((2.0 * *v - panel.lo - panel.hi) / (panel.hi - panel.lo)).clamp(-1.0, 1.0);
             }
             let coeffs = &self.coeffs[panel.first as usize..(panel.first + panel.len) as usize];
-            let finish = |from_end: f64| {
-                let from_end = panel.base + from_end;
-                if half.from_below {
+            clenshaw_in_place(coeffs, on_panel);
+            for value in on_panel.iter_mut() {
+                let from_end = panel.base + *value;
+                *value = if half.from_below {
                     half.base + from_end
                 } else {
                     half.base + half.total - from_end
-                }
-            };
-            if m == LANES {
-                let values = clenshaw_lanes::<LANES>(coeffs, ts);
-                for (o, value) in out[i..i + m].iter_mut().zip(values) {
-                    *o = finish(value);
-                }
-            } else {
-                for (o, &t) in out[i..i + m].iter_mut().zip(&ts[..m]) {
-                    *o = finish(clenshaw(coeffs, t));
-                }
+                };
             }
-            i += m;
+            i += run;
         }
     }
 
@@ -538,7 +561,21 @@ fn antiderivative_into(
 }
 
 /// Points whose Clenshaw recurrences [`PathIntegral::at_ascending`] runs side by side.
-const LANES: usize = 8;
+const LANES: usize = 16;
+
+/// [`clenshaw`] at every t of `ts`, replacing each t by its sum: [`LANES`] recurrences side by
+/// side, the last few one by one.
+#[inline(always)]
+fn clenshaw_in_place(a: &[f64], ts: &mut [f64]) {
+    let mut blocks = ts.chunks_exact_mut(LANES);
+    for block in &mut blocks {
+        let t: [f64; LANES] = (&*block).try_into().unwrap();
+        block.copy_from_slice(&clenshaw_lanes(a, t));
+    }
+    for t in blocks.into_remainder() {
+        *t = clenshaw(a, *t);
+    }
+}
 
 /// [`clenshaw`] at `L` points at once, each lane with exactly the operations of one call.
 #[inline(always)]
