@@ -57,6 +57,19 @@ impl PassReading {
     }
 }
 
+/// `values` cut at the ascending `ends` (the last is its length) into consecutive slices.
+fn split_at_offsets<'a>(mut values: &'a mut [f64], ends: &[usize]) -> Vec<&'a mut [f64]> {
+    let mut start = 0;
+    let mut slices = Vec::with_capacity(ends.len());
+    for &end in ends {
+        let (slice, rest) = std::mem::take(&mut values).split_at_mut(end - start);
+        slices.push(slice);
+        values = rest;
+        start = end;
+    }
+    slices
+}
+
 /// Banded removal operator, column-major (see the module docs). Rates in nm/s.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RemovalOperator {
@@ -155,12 +168,23 @@ impl RemovalOperator {
         } else {
             (0..radii_mm.len()).map(row).collect()
         };
+        // Laid out by column: each column gathers its run of rows (columns in parallel, as
+        // the rows were).
         let mut values = vec![0.0; entries];
-        for (i, (j_lo, row_values, _)) in by_row.iter().enumerate() {
-            for (k, &value) in row_values.iter().enumerate() {
-                let j = j_lo + k;
-                values[col_ptr[j] + i - first_row[j]] = value;
+        let gather = |(j, column): (usize, &mut [f64])| {
+            for (value, (j_lo, row, _)) in column.iter_mut().zip(&by_row[first_row[j]..]) {
+                *value = row[j - j_lo];
             }
+        };
+        let columns = split_at_offsets(&mut values, &col_ptr[1..]);
+        if parallel {
+            columns
+                .into_par_iter()
+                .enumerate()
+                .with_min_len(64)
+                .for_each(gather);
+        } else {
+            columns.into_iter().enumerate().for_each(gather);
         }
         let passed = pass.map(|p| by_row[p.rows.clone()].iter().map(|row| row.2).collect());
 

@@ -363,7 +363,7 @@ impl RemovalKernel {
                     if pressure == PadPressure::NONE {
                         return 0.0;
                     }
-                    let weight = curved.surface().slope(x).hypot(1.0);
+                    let weight = curved.surface().arc_integrand(x);
                     weight * curved.rate_nm_per_s(&ring, &site, &pressure)
                 };
                 let mut points = curved.breakpoints(&ring, self.reach_mm);
