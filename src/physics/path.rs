@@ -32,8 +32,10 @@
 //!
 //! **Batches.** The integrand is asked for a panel's new points together ([`Integrand`]), so
 //! the flat rate can take their Carlson integrals side by side; and F is read at many ascending
-//! points together ([`PathIntegral::at_ascending`]), eight Clenshaw recurrences of one panel
-//! interleaved. Both give the bits of one point at a time.
+//! points together ([`PathIntegral::at_ascending`]): a half's points get their v together, each
+//! panel's run its t together, and their Clenshaw recurrences run 16 side by side (each one a
+//! latency-bound chain; AVX2 where the CPU has it, chosen at run time). Both give the bits of
+//! one point at a time.
 
 /// Path integrals at and above this count are made across threads: each costs some 15 µs
 /// (about 150 evaluations of the rate), far more than handing it to another thread.
