@@ -36,15 +36,24 @@ use std::sync::OnceLock;
 use super::carlson::{rf_rd, rf_rd_many};
 use super::contact::{half_angle, HalfAngle};
 use super::curved::{CurvedKernel, Ring};
-use super::path::{Integrand, Lobatto, PathIntegral, Pointwise};
+use super::path::{Integrand, Lobatto, PathIntegral, PieceMap, Pointwise, Resolution};
 use super::pressure::{contact_area_mm2, pad_pressure, PadPressure, PressureCurve, PressureModel};
 use super::process::Process;
 use super::roots::illinois;
 
 /// How finely a [`PathIntegral`] resolves the rate along the path, relative to the rate's
-/// size: the closed form is exact to rounding; the curved kernel's own quadrature to ~1e-10.
-const FLAT_PATH_TOLERANCE: f64 = 1e-12;
-const CURVED_PATH_TOLERANCE: f64 = 1e-10;
+/// size: the closed form is exact to rounding, the curved kernel's own quadrature to ~1e-10.
+/// A curved rate is costly and its pieces' nearest singularities are their own ends, so it is
+/// fitted over whole pieces; the flat rate has singularities just beyond its pieces' ends
+/// (the contact angle's pole at x = 0), so halves ([`super::path`] compares the two).
+const FLAT_PATH: Resolution = Resolution {
+    tolerance: 1e-12,
+    map: PieceMap::Halves,
+};
+const CURVED_PATH: Resolution = Resolution {
+    tolerance: 1e-10,
+    map: PieceMap::Whole,
+};
 
 /// Everything about a process that the removal function needs, precomputed once. On a curved
 /// part the rate comes from [`super::curved`]; on a plane from the closed form here.
@@ -287,9 +296,9 @@ impl RemovalKernel {
         if let Some(lens) = self.lens(r_mm) {
             return RunningIntegral::Lens(lens);
         }
-        RunningIntegral::Panels(self.along_path(r_mm, |rate, points, tolerance| {
+        RunningIntegral::Panels(self.along_path(r_mm, |rate, points, resolution| {
             let (Some(&lo), Some(&hi)) = (points.first(), points.last()) else {
-                return PathIntegral::new(rate, &points, tolerance, &self.lobatto);
+                return PathIntegral::new(rate, &points, resolution, &self.lobatto);
             };
             // Only the linear model needs the cut: its reach is open, and the rate grows
             // without bound toward it (the others keep their panels as they were).
@@ -299,7 +308,7 @@ impl RemovalKernel {
             } else {
                 points
             };
-            PathIntegral::new(rate, &points, tolerance, &self.lobatto)
+            PathIntegral::new(rate, &points, resolution, &self.lobatto)
         }))
     }
 
@@ -324,7 +333,7 @@ impl RemovalKernel {
         if let Some(lens) = self.lens(r_mm) {
             return lens.at(stop_mm) - lens.at(start_mm);
         }
-        self.along_path(r_mm, |rate, points, tolerance| {
+        self.along_path(r_mm, |rate, points, resolution| {
             let (Some(&lo), Some(&hi)) = (points.first(), points.last()) else {
                 return 0.0;
             };
@@ -332,7 +341,7 @@ impl RemovalKernel {
             if b <= a {
                 return 0.0;
             }
-            PathIntegral::total_over(rate, &inside(points, a, b), tolerance, &self.lobatto)
+            PathIntegral::total_over(rate, &inside(points, a, b), resolution, &self.lobatto)
         })
     }
 
@@ -348,11 +357,11 @@ impl RemovalKernel {
     }
 
     /// Hands `use_it` the rate along the path at radius `r_mm` (per mm of x, with ds/dx on a
-    /// curved part), the breakpoints of its smooth pieces and the tolerance to resolve it to.
+    /// curved part), the breakpoints of its smooth pieces and how finely to resolve them.
     fn along_path<T>(
         &self,
         r_mm: f64,
-        use_it: impl FnOnce(&dyn Integrand, Vec<f64>, f64) -> T,
+        use_it: impl FnOnce(&dyn Integrand, Vec<f64>, Resolution) -> T,
     ) -> T {
         match &self.curved {
             Some(curved) => {
@@ -375,12 +384,12 @@ impl RemovalKernel {
                     points.extend(curved.lift_kinks(&ring, onset.max(lo), hi, &pressure));
                     points = inside(points, lo, hi);
                 }
-                use_it(&Pointwise(rate), points, CURVED_PATH_TOLERANCE)
+                use_it(&Pointwise(rate), points, CURVED_PATH)
             }
             None => use_it(
                 &FlatRow::new(self, r_mm),
                 self.flat_breakpoints(r_mm),
-                FLAT_PATH_TOLERANCE,
+                FLAT_PATH,
             ),
         }
     }
@@ -855,7 +864,10 @@ mod tests {
             let panels = PathIntegral::new(
                 Pointwise(|x| kernel.rate_nm_per_s(r, x)),
                 &kernel.flat_breakpoints(r),
-                1e-13,
+                Resolution {
+                    tolerance: 1e-13,
+                    ..FLAT_PATH
+                },
                 &kernel.lobatto,
             );
             let whole = panels.total();
