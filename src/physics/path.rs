@@ -151,6 +151,19 @@ struct Span {
 }
 
 impl Span {
+    /// A span not yet fitted.
+    fn new(kind: SpanKind, end: f64, width: f64) -> Span {
+        Span {
+            kind,
+            end,
+            width,
+            base: 0.0,
+            total: 0.0,
+            first_panel: 0,
+            panels: 0,
+        }
+    }
+
     /// The span's lower x end: the piece's start, or its middle for an upper half.
     fn start(&self) -> f64 {
         match self.kind {
@@ -172,16 +185,24 @@ impl Span {
         self.kind != SpanKind::Above
     }
 
-    /// The span's variable v at x, clamped to [0, 1].
-    fn v(&self, x: f64) -> f64 {
+    /// The span's variable v at every x of `xs` into `out`, clamped to [0, 1] (one loop per
+    /// kind, so each vectorises).
+    #[inline(always)]
+    fn v_into(&self, xs: &[f64], out: &mut [f64]) {
+        let (end, width) = (self.end, self.width);
+        let points = out.iter_mut().zip(xs);
         match self.kind {
-            SpanKind::Below => ((x - self.end) / self.width).clamp(0.0, 1.0).sqrt(),
-            SpanKind::Above => ((self.end - x) / self.width).clamp(0.0, 1.0).sqrt(),
-            SpanKind::Whole => {
-                let near = (x - self.end).max(0.0).sqrt();
-                let far = (self.end + self.width - x).max(0.0).sqrt();
-                (near / (self.width.sqrt() + far)).clamp(0.0, 1.0)
+            SpanKind::Below => {
+                points.for_each(|(v, &x)| *v = ((x - end) / width).clamp(0.0, 1.0).sqrt())
             }
+            SpanKind::Above => {
+                points.for_each(|(v, &x)| *v = ((end - x) / width).clamp(0.0, 1.0).sqrt())
+            }
+            SpanKind::Whole => points.for_each(|(v, &x)| {
+                let near = (x - end).max(0.0).sqrt();
+                let far = (end + width - x).max(0.0).sqrt();
+                *v = (near / (width.sqrt() + far)).clamp(0.0, 1.0);
+            }),
         }
     }
 }
@@ -241,49 +262,29 @@ impl PathIntegral {
             let tolerance = resolution
                 .tolerance
                 .max(ROUNDING_FLOOR * p.abs().max(q.abs()) / half);
-            let mut span =
-                |kind, end, width, x: &dyn Fn(f64) -> f64, dx: &dyn Fn(f64, f64) -> f64| {
-                    let g = |vs: &[f64], out: &mut [f64]| {
-                        let mut xs = [0.0; MAX_POINTS];
-                        let xs = &mut xs[..vs.len()];
-                        for (x_k, &v) in xs.iter_mut().zip(vs) {
-                            *x_k = x(v);
-                        }
-                        f.values(xs, out);
-                        for (o, &v) in out.iter_mut().zip(vs) {
-                            *o = dx(*o, v);
-                        }
-                    };
-                    let first_panel = integral.panels.len() as u32;
-                    let total = integral.fit_span(table, &g, tolerance, keep);
-                    integral.spans.push(Span {
-                        kind,
-                        end,
-                        width,
-                        base: integral.total,
-                        total,
-                        first_panel,
-                        panels: integral.panels.len() as u32 - first_panel,
-                    });
-                    integral.total += total;
-                };
             match resolution.map {
                 PieceMap::Halves => {
                     // g(v) = f(x)·2H·v, in that order of products (the bits of every release).
                     let dx = |f: f64, v: f64| f * 2.0 * half * v;
-                    span(
-                        SpanKind::Below,
-                        p,
-                        half,
-                        &|v| (p + half * v * v).min(middle),
-                        &dx,
+                    let below = |v: f64| (p + half * v * v).min(middle);
+                    let above = |v: f64| (q - half * v * v).max(middle);
+                    integral.push_span(
+                        &f,
+                        Span::new(SpanKind::Below, p, half),
+                        below,
+                        dx,
+                        table,
+                        tolerance,
+                        keep,
                     );
-                    span(
-                        SpanKind::Above,
-                        q,
-                        half,
-                        &|v| (q - half * v * v).max(middle),
-                        &dx,
+                    integral.push_span(
+                        &f,
+                        Span::new(SpanKind::Above, q, half),
+                        above,
+                        dx,
+                        table,
+                        tolerance,
+                        keep,
                     );
                 }
                 PieceMap::Whole => {
@@ -303,11 +304,51 @@ impl PathIntegral {
                         let d = 1.0 + t * t;
                         f * width * 8.0 * t * (1.0 - t * t) / (d * d * d)
                     };
-                    span(SpanKind::Whole, p, width, &x, &dx);
+                    integral.push_span(
+                        &f,
+                        Span::new(SpanKind::Whole, p, width),
+                        x,
+                        dx,
+                        table,
+                        tolerance,
+                        keep,
+                    );
                 }
             }
         }
         integral
+    }
+
+    /// Fits f on `span` (its base, total and panels filled in here) in the span's variable v:
+    /// g(v) = `dx`(f(`x`(v)), v), f's value times dx/dv.
+    #[allow(clippy::too_many_arguments)]
+    fn push_span<F: Integrand>(
+        &mut self,
+        f: &F,
+        mut span: Span,
+        x: impl Fn(f64) -> f64,
+        dx: impl Fn(f64, f64) -> f64,
+        table: &Lobatto,
+        tolerance: f64,
+        keep: bool,
+    ) {
+        let g = |vs: &[f64], out: &mut [f64]| {
+            let mut xs = [0.0; MAX_POINTS];
+            let xs = &mut xs[..vs.len()];
+            for (x_k, &v) in xs.iter_mut().zip(vs) {
+                *x_k = x(v);
+            }
+            f.values(xs, out);
+            for (o, &v) in out.iter_mut().zip(vs) {
+                *o = dx(*o, v);
+            }
+        };
+        span.first_panel = self.panels.len() as u32;
+        span.base = self.total;
+        span.total = self.fit_span(table, &g, tolerance, keep);
+        span.panels = self.panels.len() as u32 - span.first_panel;
+        self.total += span.total;
+        self.spans.push(span);
     }
 
     /// Panels of g over v ∈ [0, 1], depth first so they come out in ascending v (kept only
@@ -412,9 +453,7 @@ impl PathIntegral {
     /// holds v, then t, then F in turn.
     #[inline(always)]
     fn read_span(&self, span: &Span, xs: &[f64], out: &mut [f64]) {
-        for (o, &x) in out.iter_mut().zip(xs) {
-            *o = span.v(x);
-        }
+        span.v_into(xs, out);
         let panels =
             &self.panels[span.first_panel as usize..(span.first_panel + span.panels) as usize];
         let mut i = 0;
