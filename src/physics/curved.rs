@@ -532,6 +532,92 @@ fn adaptive_gauss_kronrod<G: Fn(f64) -> f64>(g: &G, a: f64, b: f64, density: f64
 mod tests {
     use super::*;
 
+    /// R(r; r1) by adaptive Gauss–Kronrod in φ itself (a sine and cosine per node, QUADPACK's
+    /// error estimate): |v_t|² = E·sin²φ + (B − A·r·cos φ)² as the module docs write it.
+    fn rate_in_the_angle(kernel: &CurvedKernel, ring: &Ring, site: &Site) -> f64 {
+        let dz = ring.z - site.z1;
+        let reach2 = site.chord * site.chord - dz * dz;
+        if reach2 <= 0.0 {
+            return 0.0;
+        }
+        let psi = half_angle(ring.r, site.r1, reach2.sqrt());
+        if !psi.is_contact() {
+            return 0.0;
+        }
+        let end = 2.0 * psi.sin.atan2(psi.cos);
+        let (w, t) = (kernel.omega_workpiece, kernel.omega_tool);
+        let a = t * site.axis_z - w;
+        let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
+        let c = -t * site.axis_x;
+        let d = c * ring.r * ring.cos - b * ring.sin;
+        let e = (a * a + c * c) * ring.r * ring.r - d * d;
+        let speed = |phi: f64| {
+            let along = b - a * ring.r * phi.cos();
+            (e * phi.sin().powi(2) + along * along).max(0.0).sqrt()
+        };
+        let bound = b.abs() + (a * ring.r).abs() + e.abs().sqrt();
+        kernel.scale * adaptive_gauss_kronrod(&speed, 0.0, end, 1e-14 * bound)
+    }
+
+    /// The rate in the half-angle's sine and cosine against quadrature in the angle itself,
+    /// over rings and pad positions on spheres and an asphere, both orientations, and speeds
+    /// that put the sliding speed's zero on the arc, near its end or nowhere.
+    #[test]
+    fn rates_in_the_half_angle_match_quadrature_in_the_angle() {
+        use crate::surface::{PolynomialTerm, SurfaceSpec};
+        let surfaces = [
+            SurfaceSpec::Sphere {
+                radius_of_curvature_mm: 100.0,
+            },
+            SurfaceSpec::Sphere {
+                radius_of_curvature_mm: -60.0,
+            },
+            SurfaceSpec::Asphere {
+                radius_of_curvature_mm: 100.0,
+                conic_constant: -0.5,
+                coefficients: vec![PolynomialTerm {
+                    power: 4,
+                    value: 1e-7,
+                }],
+            },
+        ];
+        let speeds = [
+            (-10.0, 200.0),
+            (15.0, 15.0),
+            (20.0, 21.0),
+            (-150.0, 150.0),
+            (5.0, -80.0),
+        ];
+        let mut worst: f64 = 0.0;
+        for spec in &surfaces {
+            for orientation in [Orientation::Normal, Orientation::Vertical] {
+                for (ww, wt) in speeds {
+                    let part = Part {
+                        surface: Surface::new(spec).unwrap(),
+                        orientation,
+                    };
+                    let kernel =
+                        CurvedKernel::new(part, ww, wt, 10.0, 50.0, PressureModel::Uniform, 1.0);
+                    let rates: Vec<(f64, f64)> = (0..=40)
+                        .flat_map(|i| (0..=40).map(move |j| (1.25 * i as f64, 1.25 * j as f64)))
+                        .map(|(r, r1)| {
+                            let (ring, site) = (kernel.ring(r), kernel.site(r1));
+                            (
+                                kernel.nominal_rate_nm_per_s(&ring, &site),
+                                rate_in_the_angle(&kernel, &ring, &site),
+                            )
+                        })
+                        .collect();
+                    let scale = rates.iter().map(|r| r.1.abs()).fold(0.0, f64::max);
+                    for (got, want) in rates {
+                        worst = worst.max((got - want).abs() / scale);
+                    }
+                }
+            }
+        }
+        assert!(worst < 1e-10, "worst {worst:e} of the largest rate");
+    }
+
     #[test]
     fn gauss_kronrod_is_exact_for_polynomials_and_adapts_to_kinks() {
         // K15 integrates degree 22 exactly.
