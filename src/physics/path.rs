@@ -106,6 +106,15 @@ struct Panel {
     len: u32,
 }
 
+/// How one piece's spans are fitted: the Chebyshev points, the piece's tolerance, and whether
+/// the interpolants are kept (for reading F) or only their integrals.
+#[derive(Clone, Copy)]
+struct Fitting<'a> {
+    table: &'a Lobatto,
+    tolerance: f64,
+    keep: bool,
+}
+
 /// How a piece [p, q] between kinks is mapped onto the variable its panels are fitted in (the
 /// module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -259,9 +268,13 @@ impl PathIntegral {
             let middle = p + half;
             // x = end ± H·v² is only known to |x|·ε: on a short piece far from the origin
             // (a 1 µm pad on a 9 m part) that is the best relative accuracy of any value.
-            let tolerance = resolution
-                .tolerance
-                .max(ROUNDING_FLOOR * p.abs().max(q.abs()) / half);
+            let fitting = Fitting {
+                table,
+                tolerance: resolution
+                    .tolerance
+                    .max(ROUNDING_FLOOR * p.abs().max(q.abs()) / half),
+                keep,
+            };
             match resolution.map {
                 PieceMap::Halves => {
                     // g(v) = f(x)·2H·v, in that order of products (the bits of every release).
@@ -273,18 +286,14 @@ impl PathIntegral {
                         Span::new(SpanKind::Below, p, half),
                         below,
                         dx,
-                        table,
-                        tolerance,
-                        keep,
+                        &fitting,
                     );
                     integral.push_span(
                         &f,
                         Span::new(SpanKind::Above, q, half),
                         above,
                         dx,
-                        table,
-                        tolerance,
-                        keep,
+                        &fitting,
                     );
                 }
                 PieceMap::Whole => {
@@ -304,15 +313,7 @@ impl PathIntegral {
                         let d = 1.0 + t * t;
                         f * width * 8.0 * t * (1.0 - t * t) / (d * d * d)
                     };
-                    integral.push_span(
-                        &f,
-                        Span::new(SpanKind::Whole, p, width),
-                        x,
-                        dx,
-                        table,
-                        tolerance,
-                        keep,
-                    );
+                    integral.push_span(&f, Span::new(SpanKind::Whole, p, width), x, dx, &fitting);
                 }
             }
         }
@@ -321,16 +322,13 @@ impl PathIntegral {
 
     /// Fits f on `span` (its base, total and panels filled in here) in the span's variable v:
     /// g(v) = `dx`(f(`x`(v)), v), f's value times dx/dv.
-    #[allow(clippy::too_many_arguments)]
     fn push_span<F: Integrand>(
         &mut self,
         f: &F,
         mut span: Span,
         x: impl Fn(f64) -> f64,
         dx: impl Fn(f64, f64) -> f64,
-        table: &Lobatto,
-        tolerance: f64,
-        keep: bool,
+        fitting: &Fitting,
     ) {
         let g = |vs: &[f64], out: &mut [f64]| {
             let mut xs = [0.0; MAX_POINTS];
@@ -345,21 +343,20 @@ impl PathIntegral {
         };
         span.first_panel = self.panels.len() as u32;
         span.base = self.total;
-        span.total = self.fit_span(table, &g, tolerance, keep);
+        span.total = self.fit_span(&g, fitting);
         span.panels = self.panels.len() as u32 - span.first_panel;
         self.total += span.total;
         self.spans.push(span);
     }
 
     /// Panels of g over v ∈ [0, 1], depth first so they come out in ascending v (kept only
-    /// with `keep`); returns ∫.
-    fn fit_span<G: Fn(&[f64], &mut [f64])>(
-        &mut self,
-        table: &Lobatto,
-        g: &G,
-        tolerance: f64,
-        keep: bool,
-    ) -> f64 {
+    /// with `fitting.keep`); returns ∫.
+    fn fit_span<G: Fn(&[f64], &mut [f64])>(&mut self, g: &G, fitting: &Fitting) -> f64 {
+        let Fitting {
+            table,
+            tolerance,
+            keep,
+        } = *fitting;
         let mut total = 0.0;
         let mut scale = 0.0_f64;
         let mut stack = vec![(0.0, 1.0, 0_u32)];
