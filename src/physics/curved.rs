@@ -62,6 +62,15 @@ use super::contact::{half_angle, HalfAngle};
 use super::pressure::{pad_pressure, PadPressure, PressureModel};
 use crate::surface::Surface;
 
+/// The arc under the pad (its half-angle ψ = φ0/2) and the sliding speed on it:
+/// |v_t|² = e·sin²φ + (b − f·cos φ)², with b = B, f = A·r and e = E of the module docs.
+struct ArcSpeed {
+    psi: HalfAngle,
+    b: f64,
+    f: f64,
+    e: f64,
+}
+
 /// How the pad's spin axis is carried.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Orientation {
@@ -269,23 +278,10 @@ impl CurvedKernel {
         most: f64,
         weight: impl Fn(f64) -> f64,
     ) -> f64 {
-        let dz = ring.z - site.z1;
-        let reach2 = site.chord * site.chord - dz * dz;
-        if reach2 <= 0.0 {
+        let Some(ArcSpeed { psi, b, f, e }) = self.arc_speed(ring, site) else {
             return 0.0;
-        }
-        let psi = half_angle(ring.r, site.r1, reach2.sqrt());
-        if !psi.is_contact() {
-            return 0.0;
-        }
+        };
         let psi = if end.sin < psi.sin { end } else { psi };
-        let (w, t) = (self.omega_workpiece, self.omega_tool);
-        let a = t * site.axis_z - w;
-        let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
-        let c = -t * site.axis_x;
-        let d = c * ring.r * ring.cos - b * ring.sin;
-        let e = (a * a + c * c) * ring.r * ring.r - d * d;
-        let f = a * ring.r;
         let speed = |cos: f64, sin2: f64| {
             let along = b - f * cos;
             weight(cos) * (e * sin2 + along * along).max(0.0).sqrt()
@@ -314,6 +310,31 @@ impl CurvedKernel {
 }
 
 impl CurvedKernel {
+    /// The arc of `ring` under the pad at `site` and the sliding speed on it (module docs),
+    /// or `None` where the pad does not touch the ring.
+    fn arc_speed(&self, ring: &Ring, site: &Site) -> Option<ArcSpeed> {
+        let dz = ring.z - site.z1;
+        let reach2 = site.chord * site.chord - dz * dz;
+        if reach2 <= 0.0 {
+            return None;
+        }
+        let psi = half_angle(ring.r, site.r1, reach2.sqrt());
+        if !psi.is_contact() {
+            return None;
+        }
+        let (w, t) = (self.omega_workpiece, self.omega_tool);
+        let a = t * site.axis_z - w;
+        let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
+        let c = -t * site.axis_x;
+        let d = c * ring.r * ring.cos - b * ring.sin;
+        Some(ArcSpeed {
+            psi,
+            b,
+            f: a * ring.r,
+            e: (a * a + c * c) * ring.r * ring.r - d * d,
+        })
+    }
+
     /// The tool positions (radii, ascending) that bound the support of R(`ring`; ·), clipped
     /// to `reach_mm`, with the kinks inside it: where the pad's contact ball becomes tangent
     /// to the ring on the pad centre's side (|X − P₀| = c_t at φ = 0) or starts to cover it
@@ -533,29 +554,17 @@ mod tests {
     use super::*;
 
     /// R(r; r1) by adaptive Gauss–Kronrod in φ itself (a sine and cosine per node, QUADPACK's
-    /// error estimate): |v_t|² = E·sin²φ + (B − A·r·cos φ)² as the module docs write it.
+    /// error estimate), on the same arc and speed as the kernel's.
     fn rate_in_the_angle(kernel: &CurvedKernel, ring: &Ring, site: &Site) -> f64 {
-        let dz = ring.z - site.z1;
-        let reach2 = site.chord * site.chord - dz * dz;
-        if reach2 <= 0.0 {
+        let Some(ArcSpeed { psi, b, f, e }) = kernel.arc_speed(ring, site) else {
             return 0.0;
-        }
-        let psi = half_angle(ring.r, site.r1, reach2.sqrt());
-        if !psi.is_contact() {
-            return 0.0;
-        }
+        };
         let end = 2.0 * psi.sin.atan2(psi.cos);
-        let (w, t) = (kernel.omega_workpiece, kernel.omega_tool);
-        let a = t * site.axis_z - w;
-        let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
-        let c = -t * site.axis_x;
-        let d = c * ring.r * ring.cos - b * ring.sin;
-        let e = (a * a + c * c) * ring.r * ring.r - d * d;
         let speed = |phi: f64| {
-            let along = b - a * ring.r * phi.cos();
+            let along = b - f * phi.cos();
             (e * phi.sin().powi(2) + along * along).max(0.0).sqrt()
         };
-        let bound = b.abs() + (a * ring.r).abs() + e.abs().sqrt();
+        let bound = b.abs() + f.abs() + e.abs().sqrt();
         kernel.scale * adaptive_gauss_kronrod(&speed, 0.0, end, 1e-14 * bound)
     }
 
