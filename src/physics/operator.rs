@@ -29,7 +29,7 @@ use rayon::prelude::*;
 
 use super::motion::{cell_boundaries_mm, move_share, stop_share};
 use super::path::PARALLEL_MIN_PATHS;
-use super::removal::RemovalKernel;
+use super::removal::{RemovalKernel, RunningIntegral};
 use super::schedule::ConstantFeed;
 
 /// A single position's operator (a stop: one rate per row) is computed in parallel from this
@@ -46,9 +46,9 @@ pub struct PassReading {
 }
 
 impl PassReading {
-    /// F(stop) − F(start) at radius `r_mm` from a path integral made for it alone.
-    fn difference(&self, kernel: &RemovalKernel, r_mm: f64) -> f64 {
-        kernel.path_difference(r_mm, self.feed.start_mm(), self.feed.stop_mm())
+    /// F(stop) − F(start) read from a row's running integral `path`.
+    fn difference(&self, path: &RunningIntegral) -> f64 {
+        path.between(self.feed.start_mm(), self.feed.stop_mm())
     }
 
     /// The removal, nm, of an integral F(stop) − F(start).
@@ -131,7 +131,9 @@ impl RemovalOperator {
             let r = radii_mm[i];
             let in_pass = pass.filter(|p| p.rows.contains(&i));
             // A row with no path of its own reads the pass from a path made alone (the same F).
-            let alone = |p: &PassReading| p.removal(p.difference(kernel, r));
+            let alone = |p: &PassReading| {
+                p.removal(kernel.path_difference(r, p.feed.start_mm(), p.feed.stop_mm()))
+            };
             if j_lo >= j_hi {
                 return (j_lo, Vec::new(), in_pass.map_or(0.0, alone));
             }
@@ -141,9 +143,7 @@ impl RemovalOperator {
                 return (j_lo, values, in_pass.map_or(0.0, alone));
             }
             let path = kernel.path_integral(r, bounds[n]);
-            let passed = in_pass.map_or(0.0, |p| {
-                p.removal(path.at(p.feed.stop_mm()) - path.at(p.feed.start_mm()))
-            });
+            let passed = in_pass.map_or(0.0, |p| p.removal(p.difference(&path)));
             let mut running = vec![0.0; j_hi + 1 - j_lo];
             path.at_ascending(&bounds[j_lo..=j_hi], &mut running);
             for (j, ends) in (j_lo..j_hi).zip(running.windows(2)) {

@@ -96,6 +96,11 @@ impl RunningIntegral {
         }
     }
 
+    /// F(stop) − F(start): what a constant feed over [start, stop] removes per s/mm of dwell.
+    pub fn between(&self, start: f64, stop: f64) -> f64 {
+        self.at(stop) - self.at(start)
+    }
+
     /// F at every x of `xs` (ascending) into `out`, as [`Self::at`] would read each.
     pub fn at_ascending(&self, xs: &[f64], out: &mut [f64]) {
         match self {
@@ -263,17 +268,17 @@ impl RemovalKernel {
         if let Some(curved) = &self.curved {
             return curved.nominal_rate_nm_per_s(&curved.ring(r_mm), &curved.site(r1_mm));
         }
-        let psi = half_angle(r_mm, r1_mm, self.tool_radius);
-        if !psi.is_contact() {
-            return 0.0;
+        if self.translation {
+            let psi = half_angle(r_mm, r1_mm, self.tool_radius);
+            if !psi.is_contact() {
+                return 0.0;
+            }
+            return self.scale * (2.0 * psi.radians() * (self.omega2 * r1_mm).abs());
         }
-        let b = self.omega2 * r1_mm;
-        let integral = if self.translation {
-            2.0 * psi.radians() * b.abs()
-        } else {
-            sliding_integral(self.omega_sum * r_mm, b, psi)
-        };
-        self.scale * integral
+        let mut queue = CarlsonQueue::<2>::new();
+        let pending = self.queue_nominal(r_mm, r1_mm, 1.0, &mut queue);
+        queue.evaluate();
+        pending.value(self.scale, &queue)
     }
 }
 
@@ -317,8 +322,7 @@ impl RemovalKernel {
     /// ([`Self::path_ignores_end`]), so a pass computed beside an operator and one computed
     /// alone agree bit for bit.
     pub fn path_difference(&self, r_mm: f64, start_mm: f64, stop_mm: f64) -> f64 {
-        let path = self.path_integral(r_mm, stop_mm);
-        path.at(stop_mm) - path.at(start_mm)
+        self.path_integral(r_mm, stop_mm).between(start_mm, stop_mm)
     }
 
     /// Whether [`Self::path_integral`]`(r, end)` is the same F for every end: all pressure
@@ -591,6 +595,16 @@ enum PendingRate {
     Sliding { sliding: Sliding, level: f64 },
 }
 
+impl PendingRate {
+    /// The rate, nm/s, once `queue` is evaluated (`scale` the kernel's K·P/π).
+    fn value<const N: usize>(self, scale: f64, queue: &CarlsonQueue<N>) -> f64 {
+        match self {
+            PendingRate::Known(rate) => rate,
+            PendingRate::Sliding { sliding, level } => scale * sliding.value(queue) * level,
+        }
+    }
+}
+
 impl Integrand for FlatRow<'_> {
     fn values(&self, xs: &[f64], out: &mut [f64]) {
         let k = self.kernel;
@@ -610,29 +624,23 @@ impl Integrand for FlatRow<'_> {
                 };
             }
             queue.evaluate();
-            let queue = &*queue;
             for (o, p) in out.iter_mut().zip(&pending) {
-                *o = match *p {
-                    PendingRate::Known(rate) => rate,
-                    PendingRate::Sliding { sliding, level } => {
-                        k.scale * sliding.value(queue) * level
-                    }
-                };
+                *o = p.value(k.scale, &queue);
             }
         }
     }
 }
 
 impl RemovalKernel {
-    /// [`Self::nominal_rate_nm_per_s`] on a plane away from η = −1, times `level`, as
-    /// [`Self::rate_under`] computes it under a pressure without slope, with its Carlson
-    /// integrals queued (or known at once where none are needed).
-    fn queue_nominal(
+    /// The rate at nominal pressure on a plane away from η = −1, times `level`, with its
+    /// Carlson integrals queued (or known at once where none are needed, or at extreme
+    /// speeds, which are rescaled and taken alone).
+    fn queue_nominal<const N: usize>(
         &self,
         r: f64,
         x: f64,
         level: f64,
-        queue: &mut CarlsonQueue<FLAT_QUEUE>,
+        queue: &mut CarlsonQueue<N>,
     ) -> PendingRate {
         let psi = half_angle(r, x, self.tool_radius);
         if !psi.is_contact() {
@@ -640,7 +648,7 @@ impl RemovalKernel {
         }
         let (a, b) = (self.omega_sum * r, self.omega2 * x);
         if needs_scaling(a, b) {
-            return PendingRate::Known(self.nominal_rate_nm_per_s(r, x) * level);
+            return PendingRate::Known(self.scale * sliding_integral(a, b, psi) * level);
         }
         PendingRate::Sliding {
             sliding: Sliding::queue(a, b, psi, queue),

@@ -293,8 +293,6 @@ impl ConstantFeed {
         }
     }
 
-    /// Removal in nm at each of `radii_mm`: τ·(F(b) − F(a)) with F the running integral of
-    /// the removal rate along the surface at that radius.
     /// [`Self::removal_nm`] read from each radius's running integral, F(stop) − F(start)
     /// ([`RemovalKernel::path_difference`]): the reading an operator's rows make of their
     /// own, so a pass computed beside an operator ([`super::operator::PassReading`]) gives
@@ -302,30 +300,33 @@ impl ConstantFeed {
     pub fn removal_read_nm(&self, process: &Process, radii_mm: &[f64]) -> Vec<f64> {
         let kernel = RemovalKernel::new(process);
         let tau = self.dwell_density_s_per_mm();
-        let at = |&r: &f64| tau * kernel.path_difference(r, self.start_mm, self.stop_mm);
-        if radii_mm.len() >= PARALLEL_MIN_PATHS {
-            radii_mm.par_iter().map(at).collect()
-        } else {
-            radii_mm.iter().map(at).collect()
-        }
+        per_radius(radii_mm, |r| {
+            tau * kernel.path_difference(r, self.start_mm, self.stop_mm)
+        })
     }
 
+    /// Removal in nm at each of `radii_mm`: τ·(F(b) − F(a)) with F the running integral of
+    /// the removal rate along the surface at that radius.
     pub fn removal_nm(&self, process: &Process, radii_mm: &[f64]) -> Vec<f64> {
         let kernel = RemovalKernel::new(process);
         let tau = self.dwell_density_s_per_mm();
         let rt = process.tool_radius_mm();
-        let at = |&r: &f64| {
+        per_radius(radii_mm, |r| {
             // Outside the pad's reach of the path nothing is removed.
             if r + rt <= self.start_mm || r - rt >= self.stop_mm {
                 return 0.0;
             }
             tau * kernel.path_total(r, self.start_mm, self.stop_mm)
-        };
-        if radii_mm.len() >= PARALLEL_MIN_PATHS {
-            radii_mm.par_iter().map(at).collect()
-        } else {
-            radii_mm.iter().map(at).collect()
-        }
+        })
+    }
+}
+
+/// `at` of every radius, across threads when there are enough path integrals to share.
+fn per_radius(radii_mm: &[f64], at: impl Fn(f64) -> f64 + Sync) -> Vec<f64> {
+    if radii_mm.len() >= PARALLEL_MIN_PATHS {
+        radii_mm.par_iter().map(|&r| at(r)).collect()
+    } else {
+        radii_mm.iter().map(|&r| at(r)).collect()
     }
 }
 

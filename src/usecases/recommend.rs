@@ -284,7 +284,11 @@ impl Recommender {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::{Orientation, Part, PressureModel, RemovalKernel, RemovalOperator};
+    use crate::physics::process::tests::paper_spec;
+    use crate::physics::{
+        ClearAperture, Orientation, Part, PressureModel, ProcessSpec, RadialGrid, RemovalKernel,
+        RemovalOperator,
+    };
     use crate::surface::{Surface, SurfaceSpec};
 
     /// The pass an operator reads beside its rows is the pass read alone, bit for bit, so a
@@ -362,8 +366,6 @@ mod tests {
             }
         }
     }
-    use crate::physics::process::tests::paper_spec;
-    use crate::physics::{ClearAperture, ProcessSpec, RadialGrid};
 
     /// What one service caches for one process must never answer for another: recommendations
     /// from a shared recommender, asked in turn about processes that share a set-up and η (or
