@@ -309,10 +309,18 @@ impl Surface {
         self.slope(r).atan()
     }
 
+    /// (sin θ, cos θ) of the slope angle, from z′ without trigonometry:
+    /// cos θ = 1/√(1 + z′²), sin θ = z′·cos θ.
+    pub fn slope_sin_cos(&self, r: f64) -> (f64, f64) {
+        let slope = self.slope(r);
+        let cos = 1.0 / (1.0 + slope * slope).sqrt();
+        (slope * cos, cos)
+    }
+
     /// Unit normal toward the tool, (−sin θ, cos θ).
     pub fn normal(&self, r: f64) -> (f64, f64) {
-        let theta = self.slope_angle_rad(r);
-        (-theta.sin(), theta.cos())
+        let (sin, cos) = self.slope_sin_cos(r);
+        (-sin, cos)
     }
 
     /// Meridional curvature κ = z″/(1 + z′²)^(3/2), 1/mm (> 0 concave toward the tool).

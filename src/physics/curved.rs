@@ -178,7 +178,7 @@ impl CurvedKernel {
     /// The ring at radius `r_mm`.
     pub fn ring(&self, r_mm: f64) -> Ring {
         let surface = &self.part.surface;
-        let (sin, cos) = surface.slope_angle_rad(r_mm).sin_cos();
+        let (sin, cos) = surface.slope_sin_cos(r_mm);
         Ring {
             r: r_mm,
             z: surface.sag_mm(r_mm),
@@ -191,7 +191,7 @@ impl CurvedKernel {
     /// The pad at radial position `r1_mm`.
     pub fn site(&self, r1_mm: f64) -> Site {
         let surface = &self.part.surface;
-        let (sin1, cos1) = surface.slope_angle_rad(r1_mm).sin_cos();
+        let (sin1, cos1) = surface.slope_sin_cos(r1_mm);
         let (axis_x, axis_z) = match self.part.orientation {
             Orientation::Normal => (-sin1, cos1),
             Orientation::Vertical => (0.0, 1.0),
@@ -278,24 +278,55 @@ impl CurvedKernel {
         most: f64,
         weight: impl Fn(f64) -> f64,
     ) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
+            return unsafe { self.arc_rate_avx2(ring, site, end, most, weight) };
+        }
+        self.integrate_arc(ring, site, end, most, weight)
+    }
+
+    /// [`Self::integrate_arc`] compiled for AVX2: a panel's nodes four to a register.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn arc_rate_avx2(
+        &self,
+        ring: &Ring,
+        site: &Site,
+        end: HalfAngle,
+        most: f64,
+        weight: impl Fn(f64) -> f64,
+    ) -> f64 {
+        self.integrate_arc(ring, site, end, most, weight)
+    }
+
+    /// The body of [`Self::arc_rate`], inlined into each build of it.
+    #[inline(always)]
+    fn integrate_arc(
+        &self,
+        ring: &Ring,
+        site: &Site,
+        end: HalfAngle,
+        most: f64,
+        weight: impl Fn(f64) -> f64,
+    ) -> f64 {
         let Some(ArcSpeed { psi, b, f, e }) = self.arc_speed(ring, site) else {
             return 0.0;
         };
         let psi = if end.sin < psi.sin { end } else { psi };
-        let speed = |cos: f64, sin2: f64| {
-            let along = b - f * cos;
-            weight(cos) * (e * sin2 + along * along).max(0.0).sqrt()
-        };
         // No sliding speed on the arc exceeds |B| + |A·r| + √|E|.
         let bound = most * (b.abs() + f.abs() + e.abs().sqrt());
         if bound <= 0.0 || !psi.is_contact() {
             return 0.0;
         }
         // t = u (side +1) or w (side −1): cos φ = ±(1 − 2t²), sin²φ = 4t²(1 − t²), and
-        // |dφ/dt| = 2/√(1 − t²).
+        // |dφ/dt| = 2/√(1 − t²); |v_t|·|dφ/dt| is taken as 2·√(|v_t|²/(1 − t²)), one root.
         let in_half_angle = |t: f64, side: f64| {
             let (t2, rest) = (t * t, 1.0 - t * t);
-            2.0 * speed(side * (1.0 - 2.0 * t2), 4.0 * t2 * rest) / rest.sqrt()
+            let cos = side * (1.0 - 2.0 * t2);
+            let along = b - f * cos;
+            let speed2 = (e * (4.0 * t2 * rest) + along * along).max(0.0);
+            2.0 * weight(cos) * (speed2 / rest).sqrt()
         };
         let near = |u: f64| in_half_angle(u, 1.0);
         let far = |w: f64| in_half_angle(w, -1.0);
@@ -473,31 +504,57 @@ const WG: [f64; 4] = [
     0.417_959_183_673_469_4,
 ];
 
-/// One panel of ∫ g over [lo, hi]: the Kronrod value and QUADPACK's error estimate.
+/// The 15 Kronrod nodes on [−1, 1] in lane order, and a 16th lane (the centre again, weight
+/// 0) so a panel is four AVX2 registers.
+const NODES: [f64; 16] = {
+    let mut x = [0.0; 16];
+    let mut k = 0;
+    while k < 7 {
+        x[k] = -XGK[k];
+        x[14 - k] = XGK[k];
+        k += 1;
+    }
+    x
+};
+/// Kronrod and Gauss weights in [`NODES`]' lane order (zero where a rule has no node).
+const KRONROD: [f64; 16] = {
+    let mut w = [0.0; 16];
+    let mut k = 0;
+    while k < 8 {
+        w[k] = WGK[k];
+        w[14 - k] = WGK[k];
+        k += 1;
+    }
+    w
+};
+const GAUSS: [f64; 16] = {
+    let mut w = [0.0; 16];
+    let mut k = 0;
+    while k < 4 {
+        w[2 * k + 1] = WG[k];
+        w[13 - 2 * k] = WG[k];
+        k += 1;
+    }
+    w
+};
+
+/// One panel of ∫ g over [lo, hi]: the Kronrod value and QUADPACK's error estimate. The
+/// nodes are evaluated as one array so that, inlined into a caller compiled for wider
+/// registers, g runs on four (or eight) nodes at once.
+#[inline(always)]
 fn gk15<G: Fn(f64) -> f64>(g: &G, lo: f64, hi: f64) -> (f64, f64) {
     let centre = 0.5 * (lo + hi);
     let half = 0.5 * (hi - lo);
-    let fc = g(centre);
-    let mut kronrod = WGK[7] * fc;
-    let mut gauss = WG[3] * fc;
-    let mut values = [(0.0, 0.0); 7];
-    for (k, value) in values.iter_mut().enumerate() {
-        let offset = half * XGK[k];
-        let (below, above) = (g(centre - offset), g(centre + offset));
-        *value = (below, above);
-        kronrod += WGK[k] * (below + above);
-        if k % 2 == 1 {
-            gauss += WG[k / 2] * (below + above);
-        }
+    let mut values = [0.0; 16];
+    for (value, node) in values.iter_mut().zip(NODES) {
+        *value = g(centre + half * node);
     }
+    let kronrod = lane_sum(|i| KRONROD[i] * values[i]);
+    let gauss = lane_sum(|i| GAUSS[i] * values[i]);
     // QUADPACK's estimate: |K − G| scaled by the integrand's variation about its mean, which
     // is far less pessimistic than |K − G| itself for smooth integrands.
     let mean = 0.5 * kronrod;
-    let mut spread = WGK[7] * (fc - mean).abs();
-    for (k, (below, above)) in values.iter().enumerate() {
-        spread += WGK[k] * ((below - mean).abs() + (above - mean).abs());
-    }
-    let spread = spread * half.abs();
+    let spread = lane_sum(|i| KRONROD[i] * (values[i] - mean).abs()) * half.abs();
     let mut error = ((kronrod - gauss) * half).abs();
     if spread > 0.0 && error > 0.0 {
         // (200·e/s)^1.5, as x·√x: pow is the slowest call a panel would make.
@@ -505,6 +562,19 @@ fn gk15<G: Fn(f64) -> f64>(g: &G, lo: f64, hi: f64) -> (f64, f64) {
         error = spread * (ratio * ratio.sqrt()).min(1.0);
     }
     (kronrod * half, error)
+}
+
+/// Σ term(i) over the 16 lanes, summed as four lanes of four (an order fixed in the code, so
+/// the wide and the narrow build agree to the bit).
+#[inline(always)]
+fn lane_sum(term: impl Fn(usize) -> f64) -> f64 {
+    let mut lanes = [0.0; 4];
+    for row in 0..4 {
+        for (lane, sum) in lanes.iter_mut().enumerate() {
+            *sum += term(4 * row + lane);
+        }
+    }
+    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
 }
 
 /// Most panels one integral may be split into (each a 15-point rule); far more than any
@@ -517,6 +587,7 @@ const MAX_DEPTH: usize = 60;
 /// ∫ g over [`a`, `b`] by adaptive bisection of Gauss–Kronrod (7, 15) panels, each panel
 /// accepted when its error estimate is within `density` times its width, or at the deepest
 /// bisection, or when it can no longer be split in floating point.
+#[inline(always)]
 fn adaptive_gauss_kronrod<G: Fn(f64) -> f64>(g: &G, a: f64, b: f64, density: f64) -> f64 {
     // Depth first: at most one pending panel per depth, plus the one being split.
     let mut stack = [(0.0, 0.0, 0); MAX_DEPTH + 2];
