@@ -260,7 +260,21 @@ impl Surface {
 
     /// Sag z(r) in mm (even in r).
     pub fn sag_mm(&self, r: f64) -> f64 {
+        self.sag_given_root(r, self.root(r))
+    }
+
+    /// z, z′ and z″ at r, the conic's root taken once (the same values as [`Self::sag_mm`],
+    /// [`Self::slope`] and [`Self::second_derivative`]).
+    pub fn local(&self, r: f64) -> Local {
         let s = self.root(r);
+        Local {
+            sag_mm: self.sag_given_root(r, s),
+            slope: self.slope_given_root(r, s),
+            second_derivative: self.second_derivative_given_root(r, s),
+        }
+    }
+
+    fn sag_given_root(&self, r: f64, s: f64) -> f64 {
         let conic = self.curvature * r * r / (1.0 + s);
         let a = r.abs();
         conic
@@ -273,7 +287,10 @@ impl Surface {
 
     /// dz/dr (odd in r).
     pub fn slope(&self, r: f64) -> f64 {
-        let s = self.root(r);
+        self.slope_given_root(r, self.root(r))
+    }
+
+    fn slope_given_root(&self, r: f64, s: f64) -> f64 {
         let a = r.abs();
         let poly: f64 = self
             .terms
@@ -290,7 +307,10 @@ impl Surface {
 
     /// d²z/dr² (even in r; the |r| term contributes nothing).
     pub fn second_derivative(&self, r: f64) -> f64 {
-        let s = self.root(r);
+        self.second_derivative_given_root(r, self.root(r))
+    }
+
+    fn second_derivative_given_root(&self, r: f64, s: f64) -> f64 {
         let a = r.abs();
         let poly: f64 = self
             .terms
@@ -309,17 +329,9 @@ impl Surface {
         self.slope(r).atan()
     }
 
-    /// (sin θ, cos θ) of the slope angle, from z′ without trigonometry:
-    /// cos θ = 1/√(1 + z′²), sin θ = z′·cos θ.
-    pub fn slope_sin_cos(&self, r: f64) -> (f64, f64) {
-        let slope = self.slope(r);
-        let cos = 1.0 / (1.0 + slope * slope).sqrt();
-        (slope * cos, cos)
-    }
-
     /// Unit normal toward the tool, (−sin θ, cos θ).
     pub fn normal(&self, r: f64) -> (f64, f64) {
-        let (sin, cos) = self.slope_sin_cos(r);
+        let (sin, cos) = self.local(r).slope_sin_cos();
         (-sin, cos)
     }
 
@@ -411,6 +423,28 @@ impl Surface {
             r = next;
         }
         r
+    }
+}
+
+/// A surface near one radius: z, z′ and z″ there.
+#[derive(Debug, Clone, Copy)]
+pub struct Local {
+    pub sag_mm: f64,
+    pub slope: f64,
+    pub second_derivative: f64,
+}
+
+impl Local {
+    /// ds/dr = √(1 + z′²), as [`Surface::arc_integrand`].
+    pub fn arc_integrand(&self) -> f64 {
+        (1.0 + self.slope * self.slope).sqrt()
+    }
+
+    /// (sin θ, cos θ) of the slope angle θ = atan z′, without trigonometry:
+    /// cos θ = 1/√(1 + z′²), sin θ = z′·cos θ.
+    pub fn slope_sin_cos(&self) -> (f64, f64) {
+        let cos = 1.0 / self.arc_integrand();
+        (self.slope * cos, cos)
     }
 }
 

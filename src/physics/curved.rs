@@ -121,6 +121,8 @@ pub struct CurvedKernel {
     pressure_model: PressureModel,
     /// K·P/π in (nm/s) per (mm/s · rad).
     scale: f64,
+    /// The contact chord where it is the same at every site (a sphere's).
+    sphere_chord: Option<f64>,
 }
 
 /// A pad position: its centre (and its arc length, as [`Ring`]'s), spin axis and contact chord.
@@ -132,12 +134,31 @@ pub struct Site {
     axis_x: f64,
     axis_z: f64,
     chord: f64,
+    arc_integrand: f64,
 }
 
 impl Site {
     /// The centre's arc length from the vertex, mm (NaN unless the pad is linear).
     pub fn arc_mm(&self) -> f64 {
         self.arc1
+    }
+
+    /// ds/dr1 at the centre, √(1 + z′²): a path's rate per mm of radius is per mm of arc
+    /// times this.
+    pub fn arc_integrand(&self) -> f64 {
+        self.arc_integrand
+    }
+}
+
+/// The contact chord c_t = 2·sin(h)/H = r_t·sin(h)/h, h = r_t·H/2, of a pad of radius r_t on a
+/// ball of mean curvature H (module docs).
+fn chord(tool_radius: f64, mean_curvature: f64) -> f64 {
+    let half = 0.5 * tool_radius * mean_curvature;
+    // The quotient is 1 − h²/6 + … for tiny h.
+    if half.abs() < 1e-8 {
+        tool_radius * (1.0 - half * half / 6.0)
+    } else {
+        tool_radius * half.sin() / half
     }
 }
 
@@ -152,7 +173,13 @@ impl CurvedKernel {
         scale: f64,
     ) -> CurvedKernel {
         let edge_arc_mm = part.surface.arc_length_mm(workpiece_radius);
+        // A sphere's mean curvature is its curvature everywhere.
+        let sphere_chord = part
+            .surface
+            .is_sphere()
+            .then(|| chord(tool_radius, part.surface.vertex_curvature_per_mm()));
         CurvedKernel {
+            sphere_chord,
             part,
             omega_workpiece,
             omega_tool,
@@ -178,7 +205,7 @@ impl CurvedKernel {
     /// The ring at radius `r_mm`.
     pub fn ring(&self, r_mm: f64) -> Ring {
         let surface = &self.part.surface;
-        let (sin, cos) = surface.slope_sin_cos(r_mm);
+        let (sin, cos) = surface.local(r_mm).slope_sin_cos();
         Ring {
             r: r_mm,
             z: surface.sag_mm(r_mm),
@@ -191,32 +218,29 @@ impl CurvedKernel {
     /// The pad at radial position `r1_mm`.
     pub fn site(&self, r1_mm: f64) -> Site {
         let surface = &self.part.surface;
-        let (sin1, cos1) = surface.slope_sin_cos(r1_mm);
+        let local = surface.local(r1_mm);
+        let (sin1, cos1) = local.slope_sin_cos();
         let (axis_x, axis_z) = match self.part.orientation {
             Orientation::Normal => (-sin1, cos1),
             Orientation::Vertical => (0.0, 1.0),
         };
-        let meridional = surface.second_derivative(r1_mm) * cos1 * cos1 * cos1;
-        let sagittal = if r1_mm > 0.0 {
-            sin1 / r1_mm
-        } else {
-            surface.second_derivative(0.0)
-        };
-        let mean = 0.5 * (meridional + sagittal);
-        let half = 0.5 * self.tool_radius * mean;
-        // 2·sin(h)/H = r_t·sin(h)/h; the quotient is 1 − h²/6 + … for tiny h.
-        let chord = if half.abs() < 1e-8 {
-            self.tool_radius * (1.0 - half * half / 6.0)
-        } else {
-            self.tool_radius * half.sin() / half
-        };
+        let chord = self.sphere_chord.unwrap_or_else(|| {
+            let meridional = local.second_derivative * cos1 * cos1 * cos1;
+            let sagittal = if r1_mm > 0.0 {
+                sin1 / r1_mm
+            } else {
+                surface.second_derivative(0.0)
+            };
+            chord(self.tool_radius, 0.5 * (meridional + sagittal))
+        });
         Site {
             r1: r1_mm,
             arc1: self.arc_if_linear(r1_mm),
-            z1: surface.sag_mm(r1_mm),
+            z1: local.sag_mm,
             axis_x,
             axis_z,
             chord,
+            arc_integrand: local.arc_integrand(),
         }
     }
 
@@ -279,10 +303,30 @@ impl CurvedKernel {
         weight: impl Fn(f64) -> f64,
     ) -> f64 {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
-            return unsafe { self.arc_rate_avx2(ring, site, end, most, weight) };
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has AVX-512F, the only feature the function is compiled for.
+                return unsafe { self.arc_rate_avx512(ring, site, end, most, weight) };
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
+                return unsafe { self.arc_rate_avx2(ring, site, end, most, weight) };
+            }
         }
+        self.integrate_arc(ring, site, end, most, weight)
+    }
+
+    /// [`Self::integrate_arc`] compiled for AVX-512: a panel's nodes eight to a register.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn arc_rate_avx512(
+        &self,
+        ring: &Ring,
+        site: &Site,
+        end: HalfAngle,
+        most: f64,
+        weight: impl Fn(f64) -> f64,
+    ) -> f64 {
         self.integrate_arc(ring, site, end, most, weight)
     }
 
@@ -540,7 +584,7 @@ const GAUSS: [f64; 16] = {
 
 /// One panel of ∫ g over [lo, hi]: the Kronrod value and QUADPACK's error estimate. The
 /// nodes are evaluated as one array so that, inlined into a caller compiled for wider
-/// registers, g runs on four (or eight) nodes at once.
+/// registers, g runs on four (AVX2) or eight (AVX-512) nodes at once.
 #[inline(always)]
 fn gk15<G: Fn(f64) -> f64>(g: &G, lo: f64, hi: f64) -> (f64, f64) {
     let centre = 0.5 * (lo + hi);

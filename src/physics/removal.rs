@@ -376,7 +376,7 @@ impl RemovalKernel {
                     if pressure == PadPressure::NONE {
                         return 0.0;
                     }
-                    let weight = curved.surface().arc_integrand(x);
+                    let weight = site.arc_integrand();
                     weight * curved.rate_nm_per_s(&ring, &site, &pressure)
                 };
                 let mut points = curved.breakpoints(&ring, self.reach_mm);
