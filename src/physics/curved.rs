@@ -742,6 +742,32 @@ mod tests {
         assert!(worst < 1e-10, "worst {worst:e} of the largest rate");
     }
 
+    /// The build the CPU is dispatched to (AVX-512 or AVX2 here) and the portable one give
+    /// the same bits: the lane sums run in one order, and nothing is fused.
+    #[test]
+    fn wide_and_portable_arc_rates_agree_to_the_bit() {
+        let part = Part {
+            surface: Surface::new(&crate::surface::SurfaceSpec::Sphere {
+                radius_of_curvature_mm: 80.0,
+            })
+            .unwrap(),
+            orientation: Orientation::Normal,
+        };
+        let kernel = CurvedKernel::new(part, 20.0, 21.0, 10.0, 50.0, PressureModel::Uniform, 1.0);
+        let mut compared = 0;
+        for i in 0..=60 {
+            for j in 0..=60 {
+                let (ring, site) = (kernel.ring(0.8 * i as f64), kernel.site(0.8 * j as f64));
+                let end = HalfAngle::FULL;
+                let wide = kernel.arc_rate(&ring, &site, end, 1.5, |cos| 1.0 + 0.5 * cos);
+                let portable = kernel.integrate_arc(&ring, &site, end, 1.5, |cos| 1.0 + 0.5 * cos);
+                assert_eq!(wide.to_bits(), portable.to_bits(), "r {i}, r1 {j}");
+                compared += usize::from(wide > 0.0);
+            }
+        }
+        assert!(compared > 1000, "{compared} rates in contact");
+    }
+
     #[test]
     fn gauss_kronrod_is_exact_for_polynomials_and_adapts_to_kinks() {
         // K15 integrates degree 22 exactly.

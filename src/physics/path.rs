@@ -886,6 +886,12 @@ mod tests {
             for (&x, &got) in xs.iter().zip(&out) {
                 assert_eq!(got.to_bits(), f.at(x).to_bits(), "{resolution:?}, x = {x}");
             }
+            // The portable build (the wide ones are dispatched to on this CPU) agrees bit for bit.
+            let mut portable = vec![f64::NAN; xs.len()];
+            f.read_ascending(&xs, &mut portable);
+            for ((&x, &got), &want) in xs.iter().zip(&out).zip(&portable) {
+                assert_eq!(got.to_bits(), want.to_bits(), "portable, x = {x}");
+            }
             assert!(
                 f.panels.len() > 2,
                 "{resolution:?}: {} panels",
