@@ -37,10 +37,23 @@ pub fn rf_rd_many(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64
     let n = x.len();
     assert!(y.len() == n && z.len() == n && rf.len() == n && rd.len() == n);
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
-        return unsafe { rf_rd_many_avx2(x, y, z, rf, rd) };
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F, the only feature the function is compiled for.
+            return unsafe { rf_rd_many_avx512(x, y, z, rf, rd) };
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
+            return unsafe { rf_rd_many_avx2(x, y, z, rf, rd) };
+        }
     }
+    rf_rd_chunks(x, y, z, rf, rd);
+}
+
+/// [`rf_rd_chunks`] compiled for AVX-512 (eight lanes per register).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn rf_rd_many_avx512(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64]) {
     rf_rd_chunks(x, y, z, rf, rd);
 }
 

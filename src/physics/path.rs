@@ -58,8 +58,13 @@
 /// (about 150 evaluations of the rate), far more than handing it to another thread.
 pub const PARALLEL_MIN_PATHS: usize = 16;
 
-/// Most Chebyshev points on one panel (a power of two plus one).
-const MAX_POINTS: usize = 33;
+/// Intervals of the coarsest Chebyshev–Lobatto rule a panel tries; each further level doubles
+/// them (nested rules: a level reuses every point of the one before).
+const FIRST_INTERVALS: usize = 8;
+/// How many rules a panel tries: 7, 13, 25 and 49 points.
+const LEVELS: usize = 3;
+/// Most Chebyshev points on one panel.
+const MAX_POINTS: usize = (FIRST_INTERVALS << (LEVELS - 1)) + 1;
 /// Coefficients of a panel's antiderivative (one more than its points).
 const MAX_COEFFS: usize = MAX_POINTS + 1;
 /// Deepest halving of a span's panels; past it a panel is taken as it is.
@@ -509,10 +514,10 @@ impl PathIntegral {
 pub struct Lobatto {
     cosines: [f64; 2 * (MAX_POINTS - 1)],
     /// weights[m][k]: the weight of point k of the rule with 2^(m+3) + 1 points, on [−1, 1].
-    weights: [[f64; MAX_POINTS]; 3],
+    weights: [[f64; MAX_POINTS]; LEVELS],
     /// dct[m]: cos(πjk/n) for the rule with n + 1 = 2^(m+3) + 1 points, as an (n + 1)²
     /// matrix (symmetric in j and k), so a DCT reads consecutive memory.
-    dct: [Vec<f64>; 3],
+    dct: [Vec<f64>; LEVELS],
 }
 
 impl Default for Lobatto {
@@ -525,9 +530,9 @@ impl Default for Lobatto {
         // w_k = (c_k/N)·(1 − Σ_{j=1}^{N/2} b_j/(4j² − 1)·cos(2πjk/N)), c_k = 1 at the two
         // ends and 2 inside, b_j = 1 for j = N/2 and 2 below (Waldvogel 2006).
         let period = 2 * (MAX_POINTS - 1);
-        let mut weights = [[0.0; MAX_POINTS]; 3];
+        let mut weights = [[0.0; MAX_POINTS]; LEVELS];
         for (m, rule) in weights.iter_mut().enumerate() {
-            let intervals = 8 << m;
+            let intervals = FIRST_INTERVALS << m;
             let stride = (MAX_POINTS - 1) / intervals;
             for (k, w) in rule.iter_mut().enumerate().take(intervals + 1) {
                 let mut sum = 0.0;
@@ -541,7 +546,7 @@ impl Default for Lobatto {
             }
         }
         let dct = std::array::from_fn(|m| {
-            let n = 8 << m;
+            let n = FIRST_INTERVALS << m;
             let stride = (MAX_POINTS - 1) / n;
             let mut matrix = vec![0.0; (n + 1) * (n + 1)];
             for j in 0..=n {
@@ -575,7 +580,7 @@ impl Lobatto {
     ) -> Option<([f64; MAX_POINTS], usize)> {
         let mut values = [f64::NAN; MAX_POINTS];
         let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
-        let mut points = 9;
+        let mut points = FIRST_INTERVALS + 1;
         loop {
             let stride = (MAX_POINTS - 1) / (points - 1);
             // The level's new points, all at once.
@@ -615,7 +620,7 @@ impl Lobatto {
     /// for j = 0 and n.
     fn coefficient(&self, nodes: &[f64; MAX_POINTS], points: usize, j: usize) -> f64 {
         let n = points - 1;
-        let cos = &self.dct[n.trailing_zeros() as usize - 3][j * points..(j + 1) * points];
+        let cos = &self.dct[level(n)][j * points..(j + 1) * points];
         let mut sum = 0.5 * (nodes[0] + nodes[n] * cos[n]);
         for k in 1..n {
             sum += nodes[k] * cos[k];
@@ -628,7 +633,7 @@ impl Lobatto {
     fn coefficients(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
         let nodes = gathered(values, points);
         let n = points - 1;
-        let matrix = &self.dct[n.trailing_zeros() as usize - 3];
+        let matrix = &self.dct[level(n)];
         // Row k of the symmetric matrix is cos(πjk/n) for every j.
         let row = |k: usize| &matrix[k * points..(k + 1) * points];
         let mut sums = [0.0; MAX_POINTS];
@@ -652,9 +657,14 @@ impl Lobatto {
     /// ∫_{−1}^{1} of the interpolant through the `points` nodes (Clenshaw–Curtis).
     fn integral(&self, values: &[f64; MAX_POINTS], points: usize) -> f64 {
         let stride = (MAX_POINTS - 1) / (points - 1);
-        let rule = &self.weights[(points - 1).trailing_zeros() as usize - 3];
+        let rule = &self.weights[level(points - 1)];
         (0..points).map(|k| rule[k] * values[k * stride]).sum()
     }
+}
+
+/// The level of the rule with `intervals` intervals (0 for the coarsest).
+fn level(intervals: usize) -> usize {
+    (intervals / FIRST_INTERVALS).trailing_zeros() as usize
 }
 
 /// c_j from its DCT sum over n intervals.
@@ -805,7 +815,7 @@ mod tests {
     #[test]
     fn totals_without_an_interpolant_agree() {
         let table = Lobatto::default();
-        for points in [9, 17, 33] {
+        for points in (0..LEVELS).map(|m| (FIRST_INTERVALS << m) + 1) {
             let stride = (MAX_POINTS - 1) / (points - 1);
             for j in 0..points {
                 let mut values = [f64::NAN; MAX_POINTS];
