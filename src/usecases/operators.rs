@@ -3,7 +3,7 @@
 //!
 //! Assembling M costs a running integral of the rate along the path per radius (about 130
 //! rates on a plane, each a closed form; about 80 on a curved part, each an adaptive
-//! quadrature): for 1001 × 1001 about 7 ms flat and 19 ms on a sphere on two cores
+//! quadrature): for 1001 × 1001 about 6 ms flat and 11 ms on a sphere on two cores
 //! (docs/PERFORMANCE.md), where applying it to a dwell takes well under a millisecond. A
 //! shop's callers ask about the same set-up again and again (a front-end editing the dwell, a
 //! batch of targets on one process), so predictions and optimizations take M from here.
