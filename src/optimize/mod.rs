@@ -65,6 +65,17 @@
 //! meets, or rows the solver keeps less tightly than the tolerance): the positions' own QP
 //! then answers.
 //!
+//! A smoothed spline QP is first solved on about two of its position rows per function (those
+//! at every stride-th position; a cubic between knots r_t/8 apart cannot dip far between
+//! them). Every row its answer breaks or comes within 1e-9 of (in units of the dwell scale)
+//! is added and the QP solved again; after three rounds it takes all rows. The answer that
+//! keeps every omitted row with room to spare is the optimum with all of them: omitting rows
+//! only widens the feasible set, so its optimum is no worse, and it is feasible for the full
+//! set. With the strictly convex objective smoothing gives, that optimum is unique, so the
+//! plan does not depend on which rows were omitted (without smoothing the optimum can be a
+//! face, and which point of it an interior point returns depends on every row: those QPs take
+//! all rows at once).
+//!
 //! The QP goes to Clarabel (interior point, sparse LDLᵀ) as dense normal equations: the
 //! Hessian (MS)ᵀMS/m_Ω is banded (functions more than 2·r_t apart never share a sample), built
 //! from the operator's column bands in parallel. The residual formulation (M·S·c − e = d as

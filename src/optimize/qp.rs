@@ -350,6 +350,45 @@ fn normal_hessian(problem: &DwellProblem, vars: &Variables, s: &Scales) -> CscMa
     p.build()
 }
 
+/// (the margin the change rows are tightened by, the duality gap) for these variables.
+fn tolerances(vars: &Variables) -> (f64, f64) {
+    let basis = &vars.basis;
+    if basis.is_positions() && vars.size() > SMALL_QP_VARIABLES {
+        (0.0, GAP_TOLERANCE)
+    } else if basis.is_positions() {
+        (0.0, SPLINE_GAP_TOLERANCE)
+    } else {
+        (SPLINE_ROW_MARGIN, SPLINE_GAP_TOLERANCE)
+    }
+}
+
+/// The rows on the dwell at the positions that the first solve of a spline QP carries: those
+/// that touch every `stride`-th position or the last (every multi-position row touches one),
+/// or `None` (all rows) when the dwell has a variable per position or few positions per
+/// variable. About two rows per spline function: a cubic between knots r_t/8 apart cannot
+/// dip far between them, so the rest rarely bind, and those that do are added
+/// ([`attempt`]).
+fn first_rows(rows: &Rows, vars: &Variables, objective: &Objective) -> Option<Vec<bool>> {
+    let positions = vars.basis.positions_len();
+    let stride = positions / (2 * vars.size().max(1));
+    // Without smoothing the optimum need not be unique, and which optimum an interior point
+    // returns depends on every row, omitted ones too.
+    if vars.basis.is_positions() || stride < 2 || objective.smoothing <= 0.0 {
+        return None;
+    }
+    let mut keep = vec![false; rows.rhs.len()];
+    for (&r, &j) in rows.rows.iter().zip(&rows.cols) {
+        keep[r] |= j % stride == 0 || j + 1 == positions;
+    }
+    Some(keep)
+}
+
+/// Rounds of added rows before a spline QP takes all of its rows.
+const MAX_ROW_ROUNDS: usize = 3;
+/// An omitted row within this of binding (a·x > b − slack, x = t/τ) is added: the rows kept
+/// then hold the optimum, and the omitted ones hold with room to spare.
+const ROW_SLACK: f64 = 1e-9;
+
 /// The QP for Clarabel on the variables (c, [e], [p̃], [u]). `floors_s`: each position's least
 /// dwell. With `around` (a scaled plan that keeps the machine's acceleration limits), the
 /// between-cell acceleration rows made convex around it are added, with their cone variables
@@ -359,7 +398,7 @@ fn assemble(
     problem: &DwellProblem,
     vars: &Variables,
     s: &Scales,
-    floors_s: &[f64],
+    position_rows: Rows,
     around: Option<&[f64]>,
 ) -> ClarabelQp {
     let band = &vars.band;
@@ -372,16 +411,9 @@ fn assemble(
         problem.objective.time_weight / s.n;
         basis.positions_len()
     ]);
-    let c = &problem.constraints;
     let piston = usize::from(problem.free_piston);
-    let (margin, gap) = if basis.is_positions() && n > SMALL_QP_VARIABLES {
-        (0.0, GAP_TOLERANCE)
-    } else if basis.is_positions() {
-        (0.0, SPLINE_GAP_TOLERANCE)
-    } else {
-        (SPLINE_ROW_MARGIN, SPLINE_GAP_TOLERANCE)
-    };
-    let position_rows = constraint_rows(c, floors_s, s.dwell_s, true, true, margin).through(basis);
+    let (_, gap) = tolerances(vars);
+    let position_rows = position_rows.through(basis);
     // (P's columns, q, rows, how many of the rows are equalities at the top)
     let (mut p, mut q, mut rows, equalities) = match problem.formulation {
         Formulation::NormalEquations => {
@@ -562,8 +594,48 @@ fn attempt(
     budget: &Budget,
 ) -> Result<Attempt, OptimizeError> {
     let n = vars.size();
-    let qp = assemble(problem, vars, scales, floors_s, around);
-    let (v, iterations, solve_time_s, status) = run_clarabel(&qp, budget)?;
+    let (margin, _) = tolerances(vars);
+    let rows = constraint_rows(
+        &problem.constraints,
+        floors_s,
+        scales.dwell_s,
+        true,
+        true,
+        margin,
+    );
+    // A spline QP is solved on a few of its rows first; any other row the answer comes near
+    // is added and the QP solved again. The answer that keeps every row it omits is the
+    // optimum with all of them (omitting rows only widens the feasible set).
+    let mut kept = first_rows(&rows, vars, &problem.objective);
+    let (mut iterations, mut solve_time_s, mut rounds) = (0, 0.0, 0);
+    let (v, status) = loop {
+        let these = match &kept {
+            Some(keep) => rows.select(keep),
+            None => rows.select(&vec![true; rows.rhs.len()]),
+        };
+        let qp = assemble(problem, vars, scales, these, around);
+        let (v, its, seconds, status) = run_clarabel(&qp, budget)?;
+        iterations += its;
+        solve_time_s += seconds;
+        let Some(keep) = kept.as_mut() else {
+            break (v, status);
+        };
+        let excess = rows.excess(&vars.basis.dwell(&v[..n]));
+        let mut added = false;
+        for (r, e) in excess.into_iter().enumerate() {
+            if !keep[r] && e > -ROW_SLACK {
+                keep[r] = true;
+                added = true;
+            }
+        }
+        if !added {
+            break (v, status);
+        }
+        rounds += 1;
+        if rounds >= MAX_ROW_ROUNDS {
+            kept = None;
+        }
+    };
     let dwell_s = polish(
         &problem.constraints,
         floors_s,

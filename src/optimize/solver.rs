@@ -144,6 +144,35 @@ impl Rows {
         out
     }
 
+    /// The rows `keep` marks, in order, renumbered from 0.
+    pub(super) fn select(&self, keep: &[bool]) -> Rows {
+        let mut index = vec![None; self.rhs.len()];
+        let mut out = Rows::default();
+        for (r, &rhs) in self.rhs.iter().enumerate() {
+            if keep[r] {
+                index[r] = Some(out.rhs.len());
+                out.rhs.push(rhs);
+            }
+        }
+        for ((&r, &col), &v) in self.rows.iter().zip(&self.cols).zip(&self.values) {
+            if let Some(new) = index[r] {
+                out.rows.push(new);
+                out.cols.push(col);
+                out.values.push(v);
+            }
+        }
+        out
+    }
+
+    /// a·x − b of every row at `x`.
+    pub(super) fn excess(&self, x: &[f64]) -> Vec<f64> {
+        let mut excess: Vec<f64> = self.rhs.iter().map(|b| -b).collect();
+        for ((&r, &col), &v) in self.rows.iter().zip(&self.cols).zip(&self.values) {
+            excess[r] += v * x[col];
+        }
+        excess
+    }
+
     /// (A, b) with `cols` variables.
     pub(super) fn into_csc(self, cols: usize) -> (CscMatrix<f64>, Vec<f64>) {
         let a =

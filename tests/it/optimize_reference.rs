@@ -396,8 +396,11 @@ fn random_problem(
     };
     let process = Process::new(spec.clone()).unwrap();
     let n = if spline {
+        // Two or three positions per function, or four to seven: with four or more, and
+        // smoothing, the optimizer's first solve carries only some of the rows.
         let functions = (0.9 * (rm + rt) / (rt / 8.0)).ceil() as usize + 3;
-        2 * functions + rng.usize(0..10)
+        let per = if rng.bool() { 2 } else { 4 + rng.usize(0..4) };
+        per * functions + rng.usize(0..10)
     } else {
         rng.usize(4..16)
     };
@@ -571,7 +574,7 @@ fn objective_matches_an_active_set_reference_on_random_problems() {
 #[test]
 fn spline_objective_matches_an_active_set_reference_on_random_problems() {
     let mut rng = fastrand::Rng::with_seed(20261123);
-    let (mut with_active, mut cases) = (0, 0);
+    let (mut with_active, mut with_rows_added, mut cases) = (0, 0, 0);
     let (mut worst, mut widest_gap): (f64, f64) = (0.0, 0.0);
     while with_active < 50 {
         cases += 1;
@@ -649,8 +652,11 @@ fn spline_objective_matches_an_active_set_reference_on_random_problems() {
         let j_ref = dense.objective(&t_ref, p_ref);
         let j_ours = dense.objective(&ours.dwell_s, ours.piston_nm.unwrap_or(0.0));
         let rel = (j_ours - j_ref) / j_ref.abs().max(1e-12);
+        // 1e-6 relative, or 1e-9 of J's constant j0 (≈ ½) where the fit is near exact: the
+        // solver's duality gap is absolute on J (1e-12 of its scaled objective), and clamping
+        // the spline's dwell to its bounds at the positions moves J by ~1e-10 there.
         assert!(
-            rel.abs() <= 1e-6,
+            (j_ours - j_ref).abs() <= 1e-6 * j_ref.abs() + 1e-9 * j0.abs(),
             "case {cases}: ours {j_ours} vs reference {j_ref} (rel {rel:e}), {:?}",
             problem.formulation
         );
@@ -667,9 +673,17 @@ fn spline_objective_matches_an_active_set_reference_on_random_problems() {
         let tol = 1e-9 * hi;
         if t_ref.iter().any(|&t| t <= lo + tol || t >= hi - tol) {
             with_active += 1;
+            // The optimizer solves these on a subset of the rows first (and adds what binds).
+            if n >= 4 * k && dense.smoothing > 0.0 {
+                with_rows_added += 1;
+            }
         }
     }
     println!(
-        "{with_active} spline problems with active bounds out of {cases}; worst relative objective difference {worst:e}; the positions' optimum lower by at most {widest_gap:.2e} of J"
+        "{with_active} spline problems with active bounds out of {cases} ({with_rows_added} solved on some rows first); worst relative objective difference {worst:e}; the positions' optimum lower by at most {widest_gap:.2e} of J"
+    );
+    assert!(
+        with_rows_added >= 10,
+        "{with_rows_added} cases solved on some rows first"
     );
 }
