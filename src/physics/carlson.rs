@@ -36,32 +36,25 @@ pub fn rf_rd(x: f64, y: f64, z: f64) -> (f64, f64) {
 pub fn rf_rd_many(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64]) {
     let n = x.len();
     assert!(y.len() == n && z.len() == n && rf.len() == n && rd.len() == n);
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU has AVX-512F, the only feature the function is compiled for.
-            return unsafe { rf_rd_many_avx512(x, y, z, rf, rd) };
-        }
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
-            return unsafe { rf_rd_many_avx2(x, y, z, rf, rd) };
-        }
+    super::wide::widest(Chunks { x, y, z, rf, rd });
+}
+
+/// [`rf_rd_many`]'s work, for [`super::wide::widest`].
+struct Chunks<'a> {
+    x: &'a [f64],
+    y: &'a [f64],
+    z: &'a [f64],
+    rf: &'a mut [f64],
+    rd: &'a mut [f64],
+}
+
+impl super::wide::Wide for Chunks<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run(self) {
+        rf_rd_chunks(self.x, self.y, self.z, self.rf, self.rd);
     }
-    rf_rd_chunks(x, y, z, rf, rd);
-}
-
-/// [`rf_rd_chunks`] compiled for AVX-512 (eight lanes per register).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-unsafe fn rf_rd_many_avx512(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64]) {
-    rf_rd_chunks(x, y, z, rf, rd);
-}
-
-/// [`rf_rd_chunks`] compiled for AVX2 (four lanes per register instead of SSE2's two).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn rf_rd_many_avx2(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64]) {
-    rf_rd_chunks(x, y, z, rf, rd);
 }
 
 #[inline(always)]

@@ -71,6 +71,33 @@ struct ArcSpeed {
     e: f64,
 }
 
+/// [`CurvedKernel::arc_rate`]'s work, for [`super::wide::widest`].
+struct ArcRate<'a, W> {
+    kernel: &'a CurvedKernel,
+    ring: &'a Ring,
+    site: &'a Site,
+    end: HalfAngle,
+    most: f64,
+    weight: W,
+}
+
+impl<W: Fn(f64) -> f64> super::wide::Wide for ArcRate<'_, W> {
+    type Output = f64;
+
+    #[inline(always)]
+    fn run(self) -> f64 {
+        let ArcRate {
+            kernel,
+            ring,
+            site,
+            end,
+            most,
+            weight,
+        } = self;
+        kernel.integrate_arc(ring, site, end, most, weight)
+    }
+}
+
 /// How the pad's spin axis is carried.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Orientation {
@@ -302,46 +329,14 @@ impl CurvedKernel {
         most: f64,
         weight: impl Fn(f64) -> f64,
     ) -> f64 {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU has AVX-512F, the only feature the function is compiled for.
-                return unsafe { self.arc_rate_avx512(ring, site, end, most, weight) };
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
-                return unsafe { self.arc_rate_avx2(ring, site, end, most, weight) };
-            }
-        }
-        self.integrate_arc(ring, site, end, most, weight)
-    }
-
-    /// [`Self::integrate_arc`] compiled for AVX-512: a panel's nodes eight to a register.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn arc_rate_avx512(
-        &self,
-        ring: &Ring,
-        site: &Site,
-        end: HalfAngle,
-        most: f64,
-        weight: impl Fn(f64) -> f64,
-    ) -> f64 {
-        self.integrate_arc(ring, site, end, most, weight)
-    }
-
-    /// [`Self::integrate_arc`] compiled for AVX2: a panel's nodes four to a register.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn arc_rate_avx2(
-        &self,
-        ring: &Ring,
-        site: &Site,
-        end: HalfAngle,
-        most: f64,
-        weight: impl Fn(f64) -> f64,
-    ) -> f64 {
-        self.integrate_arc(ring, site, end, most, weight)
+        super::wide::widest(ArcRate {
+            kernel: self,
+            ring,
+            site,
+            end,
+            most,
+            weight,
+        })
     }
 
     /// The body of [`Self::arc_rate`], inlined into each build of it.

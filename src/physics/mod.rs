@@ -15,6 +15,7 @@ pub mod process;
 pub mod removal;
 pub mod roots;
 pub mod schedule;
+mod wide;
 
 pub use curved::{Orientation, Part};
 pub use grid::{check_radius, ClearAperture, GridError, RadialGrid, Reach};

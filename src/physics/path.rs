@@ -410,32 +410,11 @@ impl PathIntegral {
     pub fn at_ascending(&self, xs: &[f64], out: &mut [f64]) {
         debug_assert!(xs.windows(2).all(|w| w[0] <= w[1]));
         assert_eq!(xs.len(), out.len(), "one output per point");
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                // SAFETY: the CPU has AVX-512F, the only feature the function is compiled for.
-                return unsafe { self.at_ascending_avx512(xs, out) };
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
-                return unsafe { self.at_ascending_avx2(xs, out) };
-            }
-        }
-        self.read_ascending(xs, out);
-    }
-
-    /// [`Self::read_ascending`] compiled for AVX-512 (eight lanes per register).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn at_ascending_avx512(&self, xs: &[f64], out: &mut [f64]) {
-        self.read_ascending(xs, out);
-    }
-
-    /// [`Self::read_ascending`] compiled for AVX2 (four lanes per register, not two).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn at_ascending_avx2(&self, xs: &[f64], out: &mut [f64]) {
-        self.read_ascending(xs, out);
+        super::wide::widest(Read {
+            path: self,
+            xs,
+            out,
+        });
     }
 
     /// The points are taken span by span: those in one span are read by [`Self::read_span`],
@@ -504,6 +483,22 @@ impl PathIntegral {
         let mut value = [0.0];
         self.at_ascending(&[x], &mut value);
         value[0]
+    }
+}
+
+/// [`PathIntegral::at_ascending`]'s work, for [`super::wide::widest`].
+struct Read<'a> {
+    path: &'a PathIntegral,
+    xs: &'a [f64],
+    out: &'a mut [f64],
+}
+
+impl super::wide::Wide for Read<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run(self) {
+        self.path.read_ascending(self.xs, self.out);
     }
 }
 
