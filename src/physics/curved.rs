@@ -231,11 +231,11 @@ impl CurvedKernel {
 
     /// The ring at radius `r_mm`.
     pub fn ring(&self, r_mm: f64) -> Ring {
-        let surface = &self.part.surface;
-        let (sin, cos) = surface.local(r_mm).slope_sin_cos();
+        let local = self.part.surface.local(r_mm);
+        let (sin, cos) = local.slope_sin_cos();
         Ring {
             r: r_mm,
-            z: surface.sag_mm(r_mm),
+            z: local.sag_mm,
             sin,
             cos,
             arc: self.arc_if_linear(r_mm),

@@ -61,7 +61,8 @@ pub const PARALLEL_MIN_PATHS: usize = 16;
 /// Intervals of the coarsest Chebyshev–Lobatto rule a panel tries; each further level doubles
 /// them (nested rules: a level reuses every point of the one before).
 const FIRST_INTERVALS: usize = 8;
-/// How many rules a panel tries: 7, 13, 25 and 49 points.
+/// How many rules a panel tries: 9, 17 and 33 points (7/13/25/49 and 6/11/21/41 cost more on a
+/// plane: docs/PERFORMANCE.md).
 const LEVELS: usize = 3;
 /// Most Chebyshev points on one panel.
 const MAX_POINTS: usize = (FIRST_INTERVALS << (LEVELS - 1)) + 1;
@@ -508,9 +509,10 @@ impl super::wide::Wide for Read<'_> {
 #[derive(Debug, Clone)]
 pub struct Lobatto {
     cosines: [f64; 2 * (MAX_POINTS - 1)],
-    /// weights[m][k]: the weight of point k of the rule with 2^(m+3) + 1 points, on [−1, 1].
+    /// weights[m][k]: the weight of point k of the rule at level m (FIRST_INTERVALS·2^m + 1
+    /// points), on [−1, 1].
     weights: [[f64; MAX_POINTS]; LEVELS],
-    /// dct[m]: cos(πjk/n) for the rule with n + 1 = 2^(m+3) + 1 points, as an (n + 1)²
+    /// dct[m]: cos(πjk/n) for the rule at level m (n = FIRST_INTERVALS·2^m), as an (n + 1)²
     /// matrix (symmetric in j and k), so a DCT reads consecutive memory.
     dct: [Vec<f64>; LEVELS],
 }
