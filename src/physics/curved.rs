@@ -543,39 +543,25 @@ const WG: [f64; 4] = [
     0.417_959_183_673_469_4,
 ];
 
-/// The 15 Kronrod nodes on [−1, 1] in lane order, and a 16th lane (the centre again, weight
-/// 0) so a panel is four AVX2 registers.
-const NODES: [f64; 16] = {
-    let mut x = [0.0; 16];
-    let mut k = 0;
-    while k < 7 {
-        x[k] = -XGK[k];
-        x[14 - k] = XGK[k];
-        k += 1;
-    }
-    x
-};
-/// Kronrod and Gauss weights in [`NODES`]' lane order (zero where a rule has no node).
-const KRONROD: [f64; 16] = {
-    let mut w = [0.0; 16];
+/// Values at the Kronrod nodes' non-negative half (XGK's order, the centre last) in a panel's
+/// lane order: node k in lanes k (below the centre, times `below`) and 14 − k (above it), and
+/// a 16th lane of 0, so a panel is four AVX2 registers (that lane's node is the centre again,
+/// with weight 0).
+const fn lanes(half: [f64; 8], below: f64) -> [f64; 16] {
+    let mut out = [0.0; 16];
     let mut k = 0;
     while k < 8 {
-        w[k] = WGK[k];
-        w[14 - k] = WGK[k];
+        out[k] = below * half[k];
+        out[14 - k] = half[k];
         k += 1;
     }
-    w
-};
-const GAUSS: [f64; 16] = {
-    let mut w = [0.0; 16];
-    let mut k = 0;
-    while k < 4 {
-        w[2 * k + 1] = WG[k];
-        w[13 - 2 * k] = WG[k];
-        k += 1;
-    }
-    w
-};
+    out
+}
+/// The 15 Kronrod nodes on [−1, 1] in lane order, and their Kronrod and Gauss weights (zero
+/// where the Gauss rule has no node).
+const NODES: [f64; 16] = lanes(XGK, -1.0);
+const KRONROD: [f64; 16] = lanes(WGK, 1.0);
+const GAUSS: [f64; 16] = lanes([0.0, WG[0], 0.0, WG[1], 0.0, WG[2], 0.0, WG[3]], 1.0);
 
 /// One panel of ∫ g over [lo, hi]: the Kronrod value and QUADPACK's error estimate. The
 /// nodes are evaluated as one array so that, inlined into a caller compiled for wider
