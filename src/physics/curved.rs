@@ -84,6 +84,8 @@ struct ArcRate<'a, W> {
 impl<W: Fn(f64) -> f64> super::wide::Wide for ArcRate<'_, W> {
     type Output = f64;
 
+    /// The arc rate itself ([`CurvedKernel::arc_rate`] has the mathematics), inlined into
+    /// each build.
     #[inline(always)]
     fn run(self) -> f64 {
         let ArcRate {
@@ -94,7 +96,33 @@ impl<W: Fn(f64) -> f64> super::wide::Wide for ArcRate<'_, W> {
             most,
             weight,
         } = self;
-        kernel.integrate_arc(ring, site, end, most, weight)
+        let Some(ArcSpeed { psi, b, f, e }) = kernel.arc_speed(ring, site) else {
+            return 0.0;
+        };
+        let psi = if end.sin < psi.sin { end } else { psi };
+        // No sliding speed on the arc exceeds |B| + |A·r| + √|E|.
+        let bound = most * (b.abs() + f.abs() + e.abs().sqrt());
+        if bound <= 0.0 || !psi.is_contact() {
+            return 0.0;
+        }
+        // t = u (side +1) or w (side −1): cos φ = ±(1 − 2t²), sin²φ = 4t²(1 − t²), and
+        // |dφ/dt| = 2/√(1 − t²); |v_t|·|dφ/dt| is taken as 2·√(|v_t|²/(1 − t²)), one root.
+        let in_half_angle = |t: f64, side: f64| {
+            let (t2, rest) = (t * t, 1.0 - t * t);
+            let cos = side * (1.0 - 2.0 * t2);
+            let along = b - f * cos;
+            let speed2 = (e * (4.0 * t2 * rest) + along * along).max(0.0);
+            2.0 * weight(cos) * (speed2 / rest).sqrt()
+        };
+        let near = |u: f64| in_half_angle(u, 1.0);
+        let far = |w: f64| in_half_angle(w, -1.0);
+        // Within 1e-10 of the largest speed per radian of arc (dφ ≥ 2·du).
+        let density = 2e-10 * bound;
+        let mut total = adaptive_gauss_kronrod(&near, 0.0, psi.sin.min(FRAC_1_SQRT_2), density);
+        if psi.sin > FRAC_1_SQRT_2 {
+            total += adaptive_gauss_kronrod(&far, psi.cos, FRAC_1_SQRT_2, density);
+        }
+        kernel.scale * total
     }
 }
 
@@ -337,45 +365,6 @@ impl CurvedKernel {
             most,
             weight,
         })
-    }
-
-    /// The body of [`Self::arc_rate`], inlined into each build of it.
-    #[inline(always)]
-    fn integrate_arc(
-        &self,
-        ring: &Ring,
-        site: &Site,
-        end: HalfAngle,
-        most: f64,
-        weight: impl Fn(f64) -> f64,
-    ) -> f64 {
-        let Some(ArcSpeed { psi, b, f, e }) = self.arc_speed(ring, site) else {
-            return 0.0;
-        };
-        let psi = if end.sin < psi.sin { end } else { psi };
-        // No sliding speed on the arc exceeds |B| + |A·r| + √|E|.
-        let bound = most * (b.abs() + f.abs() + e.abs().sqrt());
-        if bound <= 0.0 || !psi.is_contact() {
-            return 0.0;
-        }
-        // t = u (side +1) or w (side −1): cos φ = ±(1 − 2t²), sin²φ = 4t²(1 − t²), and
-        // |dφ/dt| = 2/√(1 − t²); |v_t|·|dφ/dt| is taken as 2·√(|v_t|²/(1 − t²)), one root.
-        let in_half_angle = |t: f64, side: f64| {
-            let (t2, rest) = (t * t, 1.0 - t * t);
-            let cos = side * (1.0 - 2.0 * t2);
-            let along = b - f * cos;
-            let speed2 = (e * (4.0 * t2 * rest) + along * along).max(0.0);
-            2.0 * weight(cos) * (speed2 / rest).sqrt()
-        };
-        let near = |u: f64| in_half_angle(u, 1.0);
-        let far = |w: f64| in_half_angle(w, -1.0);
-        // Within 1e-10 of the largest speed per radian of arc (dφ ≥ 2·du).
-        let density = 2e-10 * bound;
-        let mut total = adaptive_gauss_kronrod(&near, 0.0, psi.sin.min(FRAC_1_SQRT_2), density);
-        if psi.sin > FRAC_1_SQRT_2 {
-            total += adaptive_gauss_kronrod(&far, psi.cos, FRAC_1_SQRT_2, density);
-        }
-        self.scale * total
     }
 }
 
@@ -727,6 +716,7 @@ mod tests {
     /// the same bits: the lane sums run in one order, and nothing is fused.
     #[test]
     fn wide_and_portable_arc_rates_agree_to_the_bit() {
+        use crate::physics::wide::Wide;
         let part = Part {
             surface: Surface::new(&crate::surface::SurfaceSpec::Sphere {
                 radius_of_curvature_mm: 80.0,
@@ -741,7 +731,15 @@ mod tests {
                 let (ring, site) = (kernel.ring(0.8 * i as f64), kernel.site(0.8 * j as f64));
                 let end = HalfAngle::FULL;
                 let wide = kernel.arc_rate(&ring, &site, end, 1.5, |cos| 1.0 + 0.5 * cos);
-                let portable = kernel.integrate_arc(&ring, &site, end, 1.5, |cos| 1.0 + 0.5 * cos);
+                let portable = ArcRate {
+                    kernel: &kernel,
+                    ring: &ring,
+                    site: &site,
+                    end,
+                    most: 1.5,
+                    weight: |cos: f64| 1.0 + 0.5 * cos,
+                }
+                .run();
                 assert_eq!(wide.to_bits(), portable.to_bits(), "r {i}, r1 {j}");
                 compared += usize::from(wide > 0.0);
             }
