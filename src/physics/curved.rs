@@ -552,11 +552,11 @@ const NODES: [f64; 16] = lanes(XGK, -1.0);
 const KRONROD: [f64; 16] = lanes(WGK, 1.0);
 const GAUSS: [f64; 16] = lanes([0.0, WG[0], 0.0, WG[1], 0.0, WG[2], 0.0, WG[3]], 1.0);
 
-/// One panel of ∫ g over [lo, hi]: the Kronrod value and QUADPACK's error estimate. The
+/// One panel of ∫ g over [lo, hi]: the Kronrod value and what QUADPACK's error estimate needs. The
 /// nodes are evaluated as one array so that, inlined into a caller compiled for wider
 /// registers, g runs on four (AVX2) or eight (AVX-512) nodes at once.
 #[inline(always)]
-fn gk15<G: Fn(f64) -> f64>(g: &G, lo: f64, hi: f64) -> (f64, f64) {
+fn gk15<G: Fn(f64) -> f64>(g: &G, lo: f64, hi: f64) -> Panel {
     let centre = 0.5 * (lo + hi);
     let half = 0.5 * (hi - lo);
     let mut values = [0.0; 16];
@@ -569,13 +569,39 @@ fn gk15<G: Fn(f64) -> f64>(g: &G, lo: f64, hi: f64) -> (f64, f64) {
     // is far less pessimistic than |K − G| itself for smooth integrands.
     let mean = 0.5 * kronrod;
     let spread = lane_sum(|i| KRONROD[i] * (values[i] - mean).abs()) * half.abs();
-    let mut error = ((kronrod - gauss) * half).abs();
-    if spread > 0.0 && error > 0.0 {
-        // (200·e/s)^1.5, as x·√x: pow is the slowest call a panel would make.
-        let ratio = 200.0 * error / spread;
-        error = spread * (ratio * ratio.sqrt()).min(1.0);
+    Panel {
+        value: kronrod * half,
+        difference: ((kronrod - gauss) * half).abs(),
+        spread,
     }
-    (kronrod * half, error)
+}
+
+/// A Kronrod panel's value, |K − G| and the integrand's variation about its mean (QUADPACK's
+/// `resasc`), both times the half-width.
+struct Panel {
+    value: f64,
+    difference: f64,
+    spread: f64,
+}
+
+impl Panel {
+    /// Whether QUADPACK's error estimate, s·min(1, (200·d/s)^1.5) (d = |K − G|, s the spread;
+    /// d itself when either is zero), is within `tolerance`. Decided without the power: for
+    /// 200·d < s, s·(200·d/s)^1.5 ≤ t ⟺ (200·d)³ ≤ t²·s (both sides squared, times s), which
+    /// leaves a panel no square root or division on its critical path.
+    fn within(&self, tolerance: f64) -> bool {
+        let (d, s) = (self.difference, self.spread);
+        if s > 0.0 && d > 0.0 {
+            let scaled = 200.0 * d;
+            if scaled >= s {
+                s <= tolerance
+            } else {
+                scaled * scaled * scaled <= tolerance * tolerance * s
+            }
+        } else {
+            d <= tolerance
+        }
+    }
 }
 
 /// Σ term(i) over the 16 lanes, summed as four lanes of four (an order fixed in the code, so
@@ -616,15 +642,15 @@ fn adaptive_gauss_kronrod<G: Fn(f64) -> f64>(g: &G, a: f64, b: f64, density: f64
             continue;
         }
         panels += 1;
-        let (value, error) = gk15(g, lo, hi);
+        let panel = gk15(g, lo, hi);
         let mid = 0.5 * (lo + hi);
-        if error <= density * (hi - lo)
+        if panel.within(density * (hi - lo))
             || mid <= lo
             || mid >= hi
             || panels >= MAX_PANELS
             || depth >= MAX_DEPTH
         {
-            total += value;
+            total += panel.value;
         } else {
             stack[pending] = (mid, hi, depth + 1);
             stack[pending + 1] = (lo, mid, depth + 1);

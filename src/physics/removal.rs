@@ -35,8 +35,8 @@ use std::sync::OnceLock;
 
 use super::carlson::{rf_rd, rf_rd_many};
 use super::contact::{half_angle, HalfAngle};
-use super::curved::{CurvedKernel, Ring};
-use super::path::{Integrand, Lobatto, PathIntegral, PieceMap, Pointwise, Resolution};
+use super::curved::{CurvedKernel, Ring, Site};
+use super::path::{Integrand, Lobatto, PathIntegral, PieceMap, Resolution};
 use super::pressure::{contact_area_mm2, pad_pressure, PadPressure, PressureCurve, PressureModel};
 use super::process::Process;
 use super::roots::illinois;
@@ -370,14 +370,11 @@ impl RemovalKernel {
         match &self.curved {
             Some(curved) => {
                 let ring = curved.ring(r_mm);
-                let rate = |x: f64| {
-                    let site = curved.site(x);
-                    let pressure = self.path_pressure(x, site.arc_mm());
-                    if pressure == PadPressure::NONE {
-                        return 0.0;
-                    }
-                    let weight = site.arc_integrand();
-                    weight * curved.rate_nm_per_s(&ring, &site, &pressure)
+                let rate = CurvedRow {
+                    kernel: self,
+                    curved,
+                    ring,
+                    sites: RefCell::new(Vec::new()),
                 };
                 let mut points = curved.breakpoints(&ring, self.reach_mm);
                 if let (Some(onset), Some(&lo), Some(&hi)) =
@@ -388,7 +385,7 @@ impl RemovalKernel {
                     points.extend(curved.lift_kinks(&ring, onset.max(lo), hi, &pressure));
                     points = inside(points, lo, hi);
                 }
-                use_it(&Pointwise(rate), points, CURVED_PATH)
+                use_it(&rate, points, CURVED_PATH)
             }
             None => use_it(
                 &FlatRow::new(self, r_mm),
@@ -489,6 +486,34 @@ impl<'a> FlatRow<'a> {
             kernel,
             r_mm,
             queue: RefCell::new(CarlsonQueue::new()),
+        }
+    }
+}
+
+/// The rate along the path at one radius of a curved part, per mm of x (times ds/dx): the
+/// pad's sites of a batch first, then each rate. The sites are independent of each other, so
+/// their square roots and divisions overlap, where one site before each rate sat on the
+/// critical path. Bit for bit the rate point by point.
+struct CurvedRow<'a> {
+    kernel: &'a RemovalKernel,
+    curved: &'a CurvedKernel,
+    ring: Ring,
+    /// The sites of a batch, reused from batch to batch of the row.
+    sites: RefCell<Vec<Site>>,
+}
+
+impl Integrand for CurvedRow<'_> {
+    fn values(&self, xs: &[f64], out: &mut [f64]) {
+        let mut sites = self.sites.borrow_mut();
+        sites.clear();
+        sites.extend(xs.iter().map(|&x| self.curved.site(x)));
+        for ((o, &x), site) in out.iter_mut().zip(xs).zip(sites.iter()) {
+            let pressure = self.kernel.path_pressure(x, site.arc_mm());
+            *o = if pressure == PadPressure::NONE {
+                0.0
+            } else {
+                site.arc_integrand() * self.curved.rate_nm_per_s(&self.ring, site, &pressure)
+            };
         }
     }
 }
@@ -856,6 +881,7 @@ pub fn removal_rate_nm_per_min(process: &Process, r_mm: f64, r1_mm: f64) -> f64 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::physics::path::Pointwise;
 
     /// The lens closed form at η = −1 equals the adaptive running integral of the rate, on
     /// rings on the axis, inside the pad's radius, at it, in the middle and at the edge, read
