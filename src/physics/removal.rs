@@ -493,7 +493,7 @@ impl<'a> FlatRow<'a> {
 /// The rate along the path at one radius of a curved part, per mm of x (times ds/dx): the
 /// pad's sites of a batch first, then each rate. The sites are independent of each other, so
 /// their square roots and divisions overlap, where one site before each rate sat on the
-/// critical path. Bit for bit the rate point by point.
+/// critical path. Each point gets the arithmetic it got alone.
 struct CurvedRow<'a> {
     kernel: &'a RemovalKernel,
     curved: &'a CurvedKernel,
