@@ -376,11 +376,9 @@ impl Surface {
         r.copysign(s_mm)
     }
 
-    /// ds/dr = √(1 + z′²), directly: hypot's guard against overflow costs more than the slope's
-    /// square, which no finite slope of a part overflows.
+    /// ds/dr = √(1 + z′²) at r.
     pub fn arc_integrand(&self, r: f64) -> f64 {
-        let slope = self.slope(r);
-        (1.0 + slope * slope).sqrt()
+        stretch(self.slope(r))
     }
 
     fn arc_between(&self, a: f64, b: f64) -> f64 {
@@ -437,7 +435,7 @@ pub struct Local {
 impl Local {
     /// ds/dr = √(1 + z′²), as [`Surface::arc_integrand`].
     pub fn arc_integrand(&self) -> f64 {
-        (1.0 + self.slope * self.slope).sqrt()
+        stretch(self.slope)
     }
 
     /// (sin θ, cos θ) of the slope angle θ = atan z′, without trigonometry:
@@ -446,6 +444,12 @@ impl Local {
         let cos = 1.0 / self.arc_integrand();
         (self.slope * cos, cos)
     }
+}
+
+/// ds/dr = √(1 + z′²) for the slope z′, directly: hypot's guard against overflow costs more
+/// than the square, which no finite slope of a part overflows.
+fn stretch(slope: f64) -> f64 {
+    (1.0 + slope * slope).sqrt()
 }
 
 /// 8-point Gauss–Legendre nodes and weights on [−1, 1] (positive half).

@@ -606,34 +606,36 @@ fn attempt(
     // A spline QP is solved on a few of its rows first; any other row the answer comes near
     // is added and the QP solved again. The answer that keeps every row it omits is the
     // optimum with all of them (omitting rows only widens the feasible set).
-    let mut kept = first_rows(&rows, vars, &problem.objective);
-    let (mut iterations, mut solve_time_s, mut rounds) = (0, 0.0, 0);
-    let (v, status) = loop {
-        let these = match &kept {
-            Some(keep) => rows.select(keep),
-            None => rows.select(&vec![true; rows.rhs.len()]),
-        };
-        let qp = assemble(problem, vars, scales, these, around);
+    let (mut iterations, mut solve_time_s) = (0, 0.0);
+    let mut solve = |rows: Rows| {
+        let qp = assemble(problem, vars, scales, rows, around);
         let (v, its, seconds, status) = run_clarabel(&qp, budget)?;
         iterations += its;
         solve_time_s += seconds;
-        let Some(keep) = kept.as_mut() else {
-            break (v, status);
-        };
-        let excess = rows.excess(&vars.basis.dwell(&v[..n]));
-        let mut added = false;
-        for (r, e) in excess.into_iter().enumerate() {
-            if !keep[r] && e > -ROW_SLACK {
-                keep[r] = true;
-                added = true;
+        Ok::<_, OptimizeError>((v, status))
+    };
+    let (v, status) = match first_rows(&rows, vars, &problem.objective) {
+        None => solve(rows)?,
+        Some(mut keep) => {
+            let mut rounds = 0;
+            loop {
+                if rounds == MAX_ROW_ROUNDS {
+                    break solve(rows)?;
+                }
+                let (v, status) = solve(rows.select(&keep))?;
+                let excess = rows.excess(&vars.basis.dwell(&v[..n]));
+                let mut added = false;
+                for (r, e) in excess.into_iter().enumerate() {
+                    if !keep[r] && e > -ROW_SLACK {
+                        keep[r] = true;
+                        added = true;
+                    }
+                }
+                if !added {
+                    break (v, status);
+                }
+                rounds += 1;
             }
-        }
-        if !added {
-            break (v, status);
-        }
-        rounds += 1;
-        if rounds >= MAX_ROW_ROUNDS {
-            kept = None;
         }
     };
     let dwell_s = polish(
