@@ -14,6 +14,7 @@ pub mod config;
 pub mod healthcheck;
 pub mod http;
 pub mod keys;
+pub mod ledger;
 pub mod lsq;
 pub mod machine;
 pub mod metrology;

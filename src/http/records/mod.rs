@@ -1,5 +1,7 @@
 //! The record endpoints: process profiles and their calibrations, parts, measurements, plans,
-//! runs and a part's history (`usecases::records` states the cycle and the learned rate).
+//! runs and a part's history. What each does is `ledger`'s (composing its computation from the
+//! records, the write's transaction); `usecases::records` states the cycle and the learned
+//! rate; this layer maps requests and records to the wire and implements `ledger::Compute`.
 //!
 //! Their conventions, written once here: records are immutable; a write is one transaction
 //! and is answered 201 with `Location` only after it committed; a POST may carry an
@@ -25,17 +27,22 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::Router;
 use serde::Serialize;
-use serde_json::{Map, Value};
+use serde_json::Value;
 use sha2::{Digest, Sha256};
 
 use super::auth::{KeyName, KeyRole};
+use super::calibration::CalibrationEndpoint;
 use super::endpoint::Endpoint;
 use super::error::{ApiError, Kind};
 use super::extract;
+use super::measurement_fit::MeasurementFitEndpoint;
+use super::optimize::OptimizeEndpoint;
+use super::predict::PredictEndpoint;
 use super::state::AppState;
 use crate::keys::Role;
-use crate::store::{new_stamp, Store};
-use crate::usecases::records::{Claim, Record, Records, RecordsError, Replay, Stamp, Written};
+use crate::ledger::{Computation, Compute, Document, LedgerError, Setting, Write};
+use crate::store::Store;
+use crate::usecases::records::{Record, RecordsError, Replay};
 
 pub use docs::{document_operations, schemas};
 
@@ -111,102 +118,77 @@ impl<S: Send + Sync> FromRequestParts<S> for Writer {
     }
 }
 
-/// A record write in progress: the caller, checked for the right to write, and its
-/// Idempotency-Key with the request's fingerprint.
-pub struct Write {
-    caller: Writer,
-    claim: Option<(String, String)>,
-}
-
 pub const IDEMPOTENCY_KEY: &str = "idempotency-key";
 
-impl Write {
-    /// Refuses a malformed Idempotency-Key (422); `request` is the request's identity for the
-    /// key (path and canonical body).
-    fn begin(caller: Writer, headers: &HeaderMap, request: &str) -> Result<Write, ApiError> {
-        let claim = match headers.get(IDEMPOTENCY_KEY) {
-            None => None,
-            Some(value) => {
-                let key = value
-                    .to_str()
-                    .ok()
-                    .filter(|k| (1..=255).contains(&k.len()) && k.bytes().all(|b| b.is_ascii_graphic()))
-                    .ok_or_else(|| {
-                        ApiError::invalid(
-                            "Idempotency-Key",
-                            "an Idempotency-Key is 1 to 255 visible ASCII characters (a UUID will do)",
-                        )
-                    })?;
-                let fingerprint: String = Sha256::digest(request.as_bytes())
-                    .iter()
-                    .map(|b| format!("{b:02x}"))
-                    .collect();
-                Some((key.to_string(), fingerprint))
+/// Begins a write by `caller`, with the request's Idempotency-Key when it sent one; `request`
+/// is the request's identity for the key (its path and canonical body).
+fn begin<'s>(
+    store: &'s Store,
+    caller: &Writer,
+    headers: &HeaderMap,
+    request: &str,
+) -> Result<Write<'s>, ApiError> {
+    let key = headers.get(IDEMPOTENCY_KEY).map(HeaderValue::as_bytes);
+    Ok(Write::begin(store, &caller.name, key, request)?)
+}
+
+/// Commits a write whose answer is `body` at `location`, and answers as the write did.
+async fn commit(
+    write: Write<'_>,
+    records: &[Record],
+    location: String,
+    body: &impl Serialize,
+    taken: Option<&str>,
+) -> Result<Response, ApiError> {
+    let body = serde_json::to_string(body).map_err(|e| ApiError::internal(e.to_string()))?;
+    Ok(replayed(
+        write.commit(records, location, body, taken).await?,
+    ))
+}
+
+impl From<LedgerError> for ApiError {
+    fn from(error: LedgerError) -> Self {
+        match error {
+            LedgerError::Invalid { field, detail } => ApiError::invalid(field, detail),
+            LedgerError::NotFound { what, id } => {
+                ApiError::new(Kind::NotFound, format!("there is no {what} `{id}`"))
             }
-        };
-        Ok(Write { caller, claim })
-    }
-
-    /// The first answer under this key, when there is one (before any work is done).
-    async fn replay(&self, store: &Store) -> Result<Option<Response>, ApiError> {
-        let Some((key, fingerprint)) = &self.claim else {
-            return Ok(None);
-        };
-        match store.claimed(&self.caller.name, key).await? {
-            None => Ok(None),
-            Some((first, replay)) if &first == fingerprint => Ok(Some(replayed(replay))),
-            Some(_) => Err(key_reused()),
-        }
-    }
-
-    fn stamp(&self) -> Stamp {
-        new_stamp(&self.caller.name)
-    }
-
-    /// Writes `records` (and the claim) in one transaction; 201 with `Location` once committed.
-    /// `taken` is the 409's words when a record has a unique name.
-    async fn commit(
-        self,
-        store: &Store,
-        records: &[Record],
-        location: String,
-        body: &impl Serialize,
-        taken: Option<&str>,
-    ) -> Result<Response, ApiError> {
-        let body = serde_json::to_string(body).map_err(|e| ApiError::internal(e.to_string()))?;
-        let claim = self.claim.map(|(key, fingerprint)| Claim {
-            owner: self.caller.name.to_string(),
-            key,
-            fingerprint,
-            answer: Replay {
-                status: 201,
-                location: location.clone(),
-                body: body.clone(),
-            },
-        });
-        match store.write(records, claim.as_ref()).await? {
-            Written::Committed => Ok(replayed(Replay {
-                status: 201,
-                location,
-                body,
-            })),
-            Written::Replayed(replay) => Ok(replayed(replay)),
-            Written::KeyReused => Err(key_reused()),
-            // Only a unique name can be taken; ids are fresh UUIDv7s.
-            Written::Taken => Err(match taken {
-                Some(taken) => ApiError::new(Kind::Conflict, taken),
-                None => ApiError::internal("a fresh record id collided"),
-            }),
+            LedgerError::Taken(taken) => ApiError::new(Kind::Conflict, taken),
+            LedgerError::Store(error) => error.into(),
+            LedgerError::Broken(defect) => ApiError::internal(defect),
         }
     }
 }
 
-/// 422, as the IETF's Idempotency-Key draft says for a key reused with another payload.
-fn key_reused() -> ApiError {
-    ApiError::invalid(
-        "Idempotency-Key",
-        "this Idempotency-Key was sent before with another request: use a new key for a new request",
-    )
+/// The record use cases' computations: the compute endpoints' own parse (problems name the
+/// request's fields) and run, in a computation slot.
+impl Compute for AppState {
+    type Problem = ApiError;
+
+    async fn compute(&self, what: Computation, request: &Document) -> Result<Value, ApiError> {
+        match what {
+            Computation::MeasurementFit => compute::<MeasurementFitEndpoint>(self, request).await,
+            Computation::Calibration => compute::<CalibrationEndpoint>(self, request).await,
+            Computation::Optimize => compute::<OptimizeEndpoint>(self, request).await,
+        }
+    }
+
+    fn check_setting(&self, setting: &Document, of: Setting) -> Result<(), ApiError> {
+        let mut request = setting.clone();
+        request.insert(
+            "dwell".into(),
+            serde_json::json!({"positions_mm": [0.0], "dwell_s": [1.0]}),
+        );
+        let bytes = serde_json::to_vec(&request).map_err(|e| ApiError::internal(e.to_string()))?;
+        let checked = PredictEndpoint::parse(extract::parse_json(&bytes)?, &self.compute);
+        checked
+            .map(|_| ())
+            .map_err(|e| match (of, e.field.as_deref()) {
+                // A part's workpiece radius is its own field.
+                (Setting::Part, Some("process.workpiece_radius_mm")) => e.at("workpiece_radius_mm"),
+                _ => e,
+            })
+    }
 }
 
 fn replayed(replay: Replay) -> Response {
@@ -250,38 +232,9 @@ fn fetched(headers: &HeaderMap, body: &impl Serialize) -> Result<Response, ApiEr
         .into_response())
 }
 
-fn not_found(what: &str, id: &str) -> ApiError {
-    ApiError::new(Kind::NotFound, format!("there is no {what} `{id}`"))
-}
-
-/// A stored document (JSON text this layer wrote).
-fn document(text: &str) -> Result<Value, ApiError> {
-    serde_json::from_str(text).map_err(|e| ApiError::internal(format!("a stored record: {e}")))
-}
-
-/// A request body that must not name `fields` (the record supplies them).
-fn without(
-    mut body: Map<String, Value>,
-    fields: &[(&str, &str)],
-) -> Result<Map<String, Value>, ApiError> {
-    for (field, from) in fields {
-        if body.contains_key(*field) {
-            return Err(ApiError::invalid(
-                *field,
-                format!("`{field}` comes from {from}: leave it out"),
-            ));
-        }
-    }
-    body.retain(|_, v| !v.is_null());
-    Ok(body)
-}
-
 /// Runs endpoint `E` on a request assembled from records: parsed (errors name its fields),
 /// computed in a slot, answered as its JSON body.
-async fn compute<E: Endpoint>(
-    state: &AppState,
-    request: &Map<String, Value>,
-) -> Result<Value, ApiError> {
+async fn compute<E: Endpoint>(state: &AppState, request: &Document) -> Result<Value, ApiError> {
     let bytes = serde_json::to_vec(request).map_err(|e| ApiError::internal(e.to_string()))?;
     let command = E::parse(extract::parse_json(&bytes)?, &state.compute)?;
     let services = state.services.clone();

@@ -1,4 +1,4 @@
-//! Process profiles and their calibrations.
+//! Process profiles and their calibrations (`ledger::profiles`).
 
 use axum::extract::{Path, State};
 use axum::http::HeaderMap;
@@ -10,72 +10,13 @@ use super::dto::{
     CalibrationRecordDto, ProcessProfileDto, ProcessProfileListDto, ProcessProfileRequest,
     RateSourceDto,
 };
-use super::{compute, document, fetched, not_found, store, without, Write, Writer};
-use crate::http::calibration::CalibrationEndpoint;
-use crate::http::endpoint::Endpoint;
+use super::{begin, commit, fetched, replayed, store, Writer};
 use crate::http::error::ApiError;
 use crate::http::extract::ApiJson;
-use crate::http::predict::PredictEndpoint;
 use crate::http::state::AppState;
-use crate::store::Store;
-use crate::usecases::records::{current_rate, CalibrationRecord, ProfileRecord, Record, Records};
-
-/// A name or serial that is also a path segment: 1–64 of A–Z, a–z, 0–9, `-`, `_`, `.`.
-pub(super) fn check_name(field: &str, name: &str) -> Result<(), ApiError> {
-    let ok = (1..=64).contains(&name.len())
-        && name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c));
-    if ok {
-        Ok(())
-    } else {
-        Err(ApiError::invalid(
-            field,
-            "a name is 1 to 64 of A–Z, a–z, 0–9, '-', '_', '.'",
-        ))
-    }
-}
-
-/// Checks a process (with a surface and tool) as every compute endpoint would, without
-/// computing: the fields keep their names (`process.*`, `surface.*`, `tool.*`,
-/// `clear_aperture.*`).
-pub(super) fn check_setting(
-    state: &AppState,
-    setting: &Map<String, Value>,
-) -> Result<(), ApiError> {
-    let mut request = setting.clone();
-    request.insert(
-        "dwell".into(),
-        serde_json::json!({"positions_mm": [0.0], "dwell_s": [1.0]}),
-    );
-    let bytes = serde_json::to_vec(&request).map_err(|e| ApiError::internal(e.to_string()))?;
-    PredictEndpoint::parse(crate::http::extract::parse_json(&bytes)?, &state.compute).map(|_| ())
-}
-
-/// The profile's process a plan uses now, and where its coefficient comes from.
-pub(super) fn current_process(
-    profile: &ProfileRecord,
-    calibrations: &[CalibrationRecord],
-) -> Result<(Value, RateSourceDto, Option<f64>), ApiError> {
-    let own = document(&profile.body)?["process"].clone();
-    let own_k = own["preston_coefficient_m2_per_n"]
-        .as_f64()
-        .unwrap_or(f64::NAN);
-    let rate = current_rate(calibrations, own_k);
-    let mut process = match rate.base {
-        Some(base) => document(&base.process)?,
-        None => own,
-    };
-    let source = match (rate.base, rate.learned.is_empty()) {
-        (_, false) => RateSourceDto::Learned,
-        (Some(_), true) => RateSourceDto::Calibration,
-        (None, true) => RateSourceDto::Profile,
-    };
-    if let (Some(k), Some(object)) = (rate.preston_coefficient_m2_per_n, process.as_object_mut()) {
-        object.insert("preston_coefficient_m2_per_n".into(), k.into());
-    }
-    Ok((process, source, rate.standard_error_m2_per_n))
-}
+use crate::ledger::document;
+use crate::ledger::profiles::{self, current_process, NewProfile, RateSource};
+use crate::usecases::records::{CalibrationRecord, ProfileRecord, Record, Records};
 
 pub(super) fn calibration_dto(
     record: &CalibrationRecord,
@@ -99,7 +40,7 @@ fn profile_dto(
     listed: bool,
 ) -> Result<ProcessProfileDto, ApiError> {
     let body = document(&profile.body)?;
-    let (current, source, standard_error) = current_process(profile, calibrations)?;
+    let current = current_process(profile, calibrations)?;
     let calibrations = if listed {
         Some(
             calibrations
@@ -116,20 +57,17 @@ fn profile_dto(
         process: body["process"].clone(),
         surface: body.get("surface").cloned(),
         tool: body.get("tool").cloned(),
-        current_process: current,
-        preston_coefficient_source: source,
-        preston_coefficient_standard_error_m2_per_n: standard_error,
+        preston_coefficient_source: match current.source {
+            RateSource::Profile => RateSourceDto::Profile,
+            RateSource::Calibration => RateSourceDto::Calibration,
+            RateSource::Learned => RateSourceDto::Learned,
+        },
+        preston_coefficient_standard_error_m2_per_n: current.standard_error_m2_per_n,
+        current_process: current.process,
         created_at: profile.stamp.created_at.clone(),
         created_by: profile.stamp.created_by.clone(),
         calibrations,
     })
-}
-
-pub(super) async fn load_profile(store: &Store, name: &str) -> Result<ProfileRecord, ApiError> {
-    store
-        .profile(name)
-        .await?
-        .ok_or_else(|| not_found("process profile", name))
 }
 
 #[utoipa::path(post, path = "/v1/process-profiles", tag = "records", operation_id = "createProcessProfile", summary = "Create a process profile",
@@ -143,41 +81,35 @@ pub async fn create(
     headers: HeaderMap,
     ApiJson(request): ApiJson<ProcessProfileRequest>,
 ) -> Result<Response, ApiError> {
-    check_name("name", &request.name)?;
     let body = serde_json::to_value(&request).map_err(|e| ApiError::internal(e.to_string()))?;
     let mut setting = body.as_object().cloned().unwrap_or_default();
     setting.remove("name");
-    check_setting(&state, &setting)?;
+    let profile = NewProfile::new(&state, request.name, setting)?;
     let store = store(&state)?;
-    let write = Write::begin(
-        caller,
+    let write = begin(
+        store,
+        &caller,
         &headers,
         &format!("POST /v1/process-profiles\n{body}"),
     )?;
-    if let Some(replay) = write.replay(store).await? {
-        return Ok(replay);
+    if let Some(replay) = write.replay().await? {
+        return Ok(replayed(replay));
     }
-    let mut stamp = write.stamp();
-    stamp.id = request.name.clone();
-    let record = ProfileRecord {
-        stamp,
-        body: Value::Object(setting).to_string(),
-    };
-    let dto = profile_dto(&record, &[], true)?;
-    let location = format!("/v1/process-profiles/{}", request.name);
+    let location = format!("/v1/process-profiles/{}", profile.name());
     let taken = format!(
         "a process profile named `{}` exists (profiles are immutable: choose a new name)",
-        request.name
+        profile.name()
     );
-    write
-        .commit(
-            store,
-            &[Record::Profile(record)],
-            location,
-            &dto,
-            Some(&taken),
-        )
-        .await
+    let record = profile.record(write.stamp());
+    let dto = profile_dto(&record, &[], true)?;
+    commit(
+        write,
+        &[Record::Profile(record)],
+        location,
+        &dto,
+        Some(&taken),
+    )
+    .await
 }
 
 #[utoipa::path(get, path = "/v1/process-profiles", tag = "records", operation_id = "listProcessProfiles", summary = "List the process profiles",
@@ -206,18 +138,9 @@ pub async fn show(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let store = store(&state)?;
-    let profile = load_profile(store, &name).await?;
+    let profile = profiles::load(store, &name).await?;
     let calibrations = store.calibrations(&name).await?;
     fetched(&headers, &profile_dto(&profile, &calibrations, true)?)
-}
-
-/// The estimate and standard error of the Preston coefficient in a calibration's answer.
-pub(super) fn fitted_coefficient(result: &Value) -> Result<(f64, Option<f64>), ApiError> {
-    let estimate = &result["parameters"]["preston_coefficient_m2_per_n"];
-    let value = estimate["value"]
-        .as_f64()
-        .ok_or_else(|| ApiError::internal("a calibration without a Preston coefficient"))?;
-    Ok((value, estimate["standard_error"].as_f64()))
 }
 
 #[utoipa::path(post, path = "/v1/process-profiles/{name}/calibrations", tag = "records", operation_id = "calibrateProcessProfile", summary = "Calibrate a process profile: the fit becomes its current process",
@@ -237,38 +160,14 @@ pub async fn calibrate(
         "POST /v1/process-profiles/{name}/calibrations\n{}",
         Value::Object(body.clone())
     );
-    let write = Write::begin(caller, &headers, &fingerprint)?;
-    if let Some(replay) = write.replay(store).await? {
-        return Ok(replay);
+    let write = begin(store, &caller, &headers, &fingerprint)?;
+    if let Some(replay) = write.replay().await? {
+        return Ok(replayed(replay));
     }
-    let profile = load_profile(store, &name).await?;
-    let calibrations = store.calibrations(&name).await?;
-    let mut request = without(body, &[("process", "the process profile")])?;
-    let (process, _, _) = current_process(&profile, &calibrations)?;
-    let profile_body = document(&profile.body)?;
-    request.insert("process".into(), process);
-    for field in ["surface", "tool"] {
-        if let Some(value) = profile_body.get(field) {
-            request.entry(field).or_insert_with(|| value.clone());
-        }
-    }
-    let result = compute::<CalibrationEndpoint>(&state, &request).await?;
-    let (k, standard_error) = fitted_coefficient(&result)?;
-    let record = CalibrationRecord {
-        stamp: write.stamp(),
-        profile: name,
-        request: Value::Object(request).to_string(),
-        process: result["process"].to_string(),
-        result: result.to_string(),
-        preston_coefficient_m2_per_n: k,
-        standard_error_m2_per_n: standard_error,
-        run: None,
-    };
+    let record = profiles::calibrate(&state, &write, &name, body).await?;
     let dto = calibration_dto(&record)?;
     let location = format!("/v1/calibrations/{}", record.stamp.id);
-    write
-        .commit(store, &[Record::Calibration(record)], location, &dto, None)
-        .await
+    commit(write, &[Record::Calibration(record)], location, &dto, None).await
 }
 
 #[utoipa::path(get, path = "/v1/calibrations/{id}", tag = "records", operation_id = "getCalibration", summary = "A stored calibration",
@@ -281,9 +180,6 @@ pub async fn calibration(
     Path(id): Path<String>,
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
-    let record = store(&state)?
-        .calibration(&id)
-        .await?
-        .ok_or_else(|| not_found("calibration", &id))?;
+    let record = profiles::load_calibration(store(&state)?, &id).await?;
     fetched(&headers, &calibration_dto(&record)?)
 }

@@ -1,0 +1,258 @@
+//! Plans, their machine programs, runs, and a part's history of cycles (what a cycle is:
+//! `usecases::records`).
+
+use std::time::SystemTime;
+
+use serde_json::Value;
+
+use super::parts::{self, on_part};
+use super::profiles::{self, current_process};
+use super::{document, fill, found, without, Computation, Compute, Document, LedgerError, Write};
+use crate::store::Store;
+use crate::usecases::records::{
+    cycles, CalibrationRecord, Cycle, MeasurementHead, PartRecord, PlanHead, PlanRecord, Records,
+    RunRecord,
+};
+
+/// Plans part `id`'s next correction: `body` is a `/v1/optimize` request without `process`
+/// (the profile's current one, at the part's workpiece radius) and `surface` (the part's);
+/// `target` defaults to the correction of the part's latest measurement, `clear_aperture` to
+/// the part's.
+pub async fn plan<C: Compute>(
+    compute: &C,
+    write: &Write<'_>,
+    id: &str,
+    body: Document,
+) -> Result<PlanRecord, C::Problem> {
+    let store = write.store();
+    let part = parts::load(store, id).await?;
+    let profile = profiles::load(store, &part.process_profile).await?;
+    let current = current_process(&profile, &store.calibrations(&profile.stamp.id).await?)?;
+    let mut request = without(
+        body,
+        &[
+            ("process", "the part's process profile"),
+            ("surface", "the part"),
+        ],
+    )?;
+    for (field, value) in on_part(current.process, &document(&part.body)?) {
+        request.entry(field).or_insert(value);
+    }
+    let latest = store.measurements(id).await?.pop();
+    if !request.contains_key("target") {
+        let head = latest.as_ref().ok_or_else(|| {
+            LedgerError::invalid(
+                "target",
+                "this part has no measurement yet: send a `target`, or measure it first",
+            )
+        })?;
+        let measurement = found(
+            store.measurement(&head.stamp.id).await?,
+            "measurement",
+            &head.stamp.id,
+        )?;
+        let target = document(&measurement.result)?["correction_target"].clone();
+        request.insert("target".into(), target);
+    }
+    let result = compute.compute(Computation::Optimize, &request).await?;
+    Ok(PlanRecord {
+        stamp: write.stamp(),
+        part: id.to_string(),
+        measurement: latest.map(|m| m.stamp.id),
+        request: Value::Object(request).to_string(),
+        predicted_rms_after_nm: result["residual"]["rms_nm"].as_f64().unwrap_or(f64::NAN),
+        result: result.to_string(),
+    })
+}
+
+pub async fn load_plan(store: &Store, id: &str) -> Result<PlanRecord, LedgerError> {
+    found(store.plan(id).await?, "plan", id)
+}
+
+pub async fn load_run(store: &Store, id: &str) -> Result<RunRecord, LedgerError> {
+    found(store.run(id).await?, "run", id)
+}
+
+/// A plan's machine program, as a `/v1/program` request.
+pub struct ProgramRequest {
+    pub request: Document,
+    /// What the program's header names: the plan and its part.
+    pub provenance: String,
+}
+
+/// Plan `id`'s program request: `body` is a `/v1/program` request without `process`,
+/// `surface` and `dwell` (the plan's); `tool` defaults to the profile's.
+pub async fn program_request(
+    store: &Store,
+    id: &str,
+    body: Document,
+) -> Result<ProgramRequest, LedgerError> {
+    let plan = load_plan(store, id).await?;
+    let part = parts::load(store, &plan.part).await?;
+    let profile = profiles::load(store, &part.process_profile).await?;
+    let plan_request = document(&plan.request)?;
+    let mut request = without(
+        body,
+        &[
+            ("process", "the plan"),
+            ("surface", "the plan"),
+            ("dwell", "the plan"),
+        ],
+    )?;
+    request.insert("process".into(), plan_request["process"].clone());
+    request.insert("dwell".into(), document(&plan.result)?["dwell"].clone());
+    fill(&mut request, &plan_request, &["surface"]);
+    fill(&mut request, &document(&profile.body)?, &["tool"]);
+    Ok(ProgramRequest {
+        request,
+        provenance: format!(
+            "plan {} of part {}, part id {}",
+            plan.stamp.id, part.name, part.stamp.id
+        ),
+    })
+}
+
+/// A run to record, checked: its plan, when it ran (RFC 3339 UTC), the machine and notes.
+pub struct NewRun {
+    plan: String,
+    started_at: String,
+    finished_at: String,
+    machine: Option<String>,
+    notes: Option<String>,
+}
+
+impl NewRun {
+    pub fn new(
+        plan: String,
+        started_at: String,
+        finished_at: String,
+        machine: Option<String>,
+        notes: Option<String>,
+    ) -> Result<NewRun, LedgerError> {
+        let started = timestamp("started_at", &started_at)?;
+        if timestamp("finished_at", &finished_at)? < started {
+            return Err(LedgerError::invalid(
+                "finished_at",
+                "a run cannot finish before it started",
+            ));
+        }
+        for (field, text, most) in [("machine", &machine, 200), ("notes", &notes, 4000)] {
+            if text.as_ref().is_some_and(|t| t.chars().count() > most) {
+                return Err(LedgerError::invalid(
+                    field,
+                    format!("at most {most} characters"),
+                ));
+            }
+        }
+        Ok(NewRun {
+            plan,
+            started_at,
+            finished_at,
+            machine,
+            notes,
+        })
+    }
+
+    /// The record of a run on part `id`, whose plan it must be.
+    pub async fn record(self, write: &Write<'_>, id: &str) -> Result<RunRecord, LedgerError> {
+        let store = write.store();
+        let part = parts::load(store, id).await?;
+        let plan = store
+            .plan(&self.plan)
+            .await?
+            .filter(|p| p.part == part.stamp.id)
+            .ok_or_else(|| {
+                LedgerError::invalid(
+                    "plan_id",
+                    format!("part `{id}` has no plan `{}`", self.plan),
+                )
+            })?;
+        Ok(RunRecord {
+            stamp: write.stamp(),
+            part: id.to_string(),
+            plan: plan.stamp.id,
+            started_at: self.started_at,
+            finished_at: self.finished_at,
+            machine: self.machine,
+            notes: self.notes,
+        })
+    }
+}
+
+/// An RFC 3339 UTC timestamp, as given.
+fn timestamp(field: &str, text: &str) -> Result<SystemTime, LedgerError> {
+    humantime::parse_rfc3339(text).map_err(|_| {
+        LedgerError::invalid(
+            field,
+            "an RFC 3339 UTC timestamp, such as 2026-11-25T08:00:00Z",
+        )
+    })
+}
+
+/// A part's records and the process its next plan uses.
+pub struct History {
+    pub part: PartRecord,
+    measurements: Vec<MeasurementHead>,
+    plans: Vec<PlanHead>,
+    runs: Vec<RunRecord>,
+    calibrations: Vec<CalibrationRecord>,
+    /// The profile's current process at the part's workpiece radius.
+    pub next_process: Value,
+}
+
+impl History {
+    /// The part's cycles, in the order they ran.
+    pub fn cycles(&self) -> Vec<Cycle<'_>> {
+        cycles(
+            &self.measurements,
+            &self.plans,
+            &self.runs,
+            &self.calibrations,
+        )
+    }
+}
+
+pub async fn history(store: &Store, id: &str) -> Result<History, LedgerError> {
+    let part = parts::load(store, id).await?;
+    let profile = profiles::load(store, &part.process_profile).await?;
+    let calibrations = store.calibrations(&part.process_profile).await?;
+    let current = current_process(&profile, &calibrations)?;
+    let next_process = on_part(current.process, &document(&part.body)?)
+        .remove("process")
+        .unwrap_or_default();
+    Ok(History {
+        measurements: store.measurements(id).await?,
+        plans: store.plans(id).await?,
+        runs: store.runs(id).await?,
+        calibrations,
+        next_process,
+        part,
+    })
+}
+
+/// A ratio and its standard error.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ratio {
+    pub value: f64,
+    pub standard_error: Option<f64>,
+}
+
+/// A cycle's removal ratio, actual / predicted removal: its learned calibration's
+/// K_fit / K_plan (the plan's process was its nominal), with the standard error scaled alike.
+pub fn removal_ratio(cycle: &Cycle<'_>) -> Option<Ratio> {
+    // Read alone, the rest of the answer skipped unparsed (a history reads a hundred of them).
+    #[derive(serde::Deserialize)]
+    struct Answer {
+        removal_rate_ratio: f64,
+    }
+    let learned = cycle.learned?;
+    let value = serde_json::from_str::<Answer>(&learned.result)
+        .ok()?
+        .removal_rate_ratio;
+    Some(Ratio {
+        value,
+        standard_error: learned
+            .standard_error_m2_per_n
+            .map(|se| se * value / learned.preston_coefficient_m2_per_n),
+    })
+}

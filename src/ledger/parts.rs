@@ -1,0 +1,220 @@
+//! Parts and their measurements. A measurement that follows a run completes that run's cycle:
+//! the run's dwell is fitted to the measured removal (before − after) as a calibration of the
+//! Preston coefficient, stored with the measurement (one transaction) as learned from
+//! production.
+
+use serde_json::{json, Value};
+
+use super::profiles::{self, calibration_record, current_process};
+use super::{
+    document, fill, found, without, Computation, Compute, Document, LedgerError, Setting, Write,
+};
+use crate::store::Store;
+use crate::usecases::records::{
+    cycles, run_completed_by_new_measurement, CalibrationRecord, MeasurementRecord, PartRecord,
+    Records,
+};
+
+/// A part to create: its name (the shop's serial), its profile and its body (surface,
+/// workpiece radius, clear aperture).
+pub struct NewPart {
+    name: String,
+    process_profile: String,
+    body: Document,
+}
+
+impl NewPart {
+    /// A serial is 1 to 200 characters, no control characters, no leading or trailing spaces.
+    pub fn new(
+        name: String,
+        process_profile: String,
+        body: Document,
+    ) -> Result<NewPart, LedgerError> {
+        let ok = (1..=200).contains(&name.chars().count())
+            && !name.chars().any(char::is_control)
+            && name.trim() == name;
+        if !ok {
+            return Err(LedgerError::invalid(
+                "name",
+                "a part's name (its serial) is 1 to 200 characters, no control characters, no \
+                 leading or trailing spaces",
+            ));
+        }
+        Ok(NewPart {
+            name,
+            process_profile,
+            body,
+        })
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The record, once its profile's current process on the part is a setting every compute
+    /// endpoint accepts.
+    pub async fn record<C: Compute>(
+        self,
+        compute: &C,
+        write: &Write<'_>,
+    ) -> Result<PartRecord, C::Problem> {
+        let store = write.store();
+        let profile = store.profile(&self.process_profile).await?.ok_or_else(|| {
+            LedgerError::invalid(
+                "process_profile",
+                format!("there is no process profile `{}`", self.process_profile),
+            )
+        })?;
+        let current = current_process(&profile, &store.calibrations(&profile.stamp.id).await?)?;
+        let body = Value::Object(self.body);
+        compute.check_setting(&on_part(current.process, &body), Setting::Part)?;
+        Ok(PartRecord {
+            stamp: write.stamp(),
+            name: self.name,
+            process_profile: self.process_profile,
+            body: body.to_string(),
+        })
+    }
+}
+
+/// A request's setting on a part: the process at the part's workpiece radius, the part's
+/// surface and clear aperture (`part` is the part's stored body).
+pub fn on_part(mut process: Value, part: &Value) -> Document {
+    process["workpiece_radius_mm"] = part["workpiece_radius_mm"].clone();
+    let mut setting = Document::new();
+    setting.insert("process".into(), process);
+    fill(&mut setting, part, &["surface", "clear_aperture"]);
+    setting
+}
+
+pub async fn load(store: &Store, id: &str) -> Result<PartRecord, LedgerError> {
+    found(store.part(id).await?, "part", id)
+}
+
+/// A new measurement, and the cycle it completes.
+pub struct Measured {
+    pub measurement: MeasurementRecord,
+    /// The run whose cycle it completes.
+    pub completes_run: Option<String>,
+    /// The calibration learned from that cycle (none when its removal does not determine the
+    /// coefficient; the measurement still completes the cycle).
+    pub learned: Option<CalibrationRecord>,
+}
+
+/// Fits a measurement of part `id`: `body` is a `/v1/measurement/fit` request without
+/// `surface` (the part's); `clear_aperture` defaults to the part's.
+pub async fn measure<C: Compute>(
+    compute: &C,
+    write: &Write<'_>,
+    id: &str,
+    body: Document,
+) -> Result<Measured, C::Problem> {
+    let store = write.store();
+    let part = load(store, id).await?;
+    let mut request = without(body, &[("surface", "the part")])?;
+    fill(
+        &mut request,
+        &document(&part.body)?,
+        &["surface", "clear_aperture"],
+    );
+    let result = compute
+        .compute(Computation::MeasurementFit, &request)
+        .await?;
+    let measurement = MeasurementRecord {
+        stamp: write.stamp(),
+        part: id.to_string(),
+        rms_nm: result["form_error"]["rms_nm"].as_f64().unwrap_or(f64::NAN),
+        request: Value::Object(request).to_string(),
+        result: result.to_string(),
+    };
+    let (completes_run, learned) =
+        match learn_from_cycle(compute, write, &part, &result["profile"]).await? {
+            Some((run, learned)) => (Some(run), learned),
+            None => (None, None),
+        };
+    Ok(Measured {
+        measurement,
+        completes_run,
+        learned,
+    })
+}
+
+/// The cycle a new measurement (its form-error `profile`) completes, if any: its run, and the
+/// calibration learned from it.
+async fn learn_from_cycle<C: Compute>(
+    compute: &C,
+    write: &Write<'_>,
+    part: &PartRecord,
+    after: &Value,
+) -> Result<Option<(String, Option<CalibrationRecord>)>, C::Problem> {
+    let store = write.store();
+    let id = &part.stamp.id;
+    let (measurements, plans, runs) = (
+        store.measurements(id).await?,
+        store.plans(id).await?,
+        store.runs(id).await?,
+    );
+    let Some((run, plan)) = run_completed_by_new_measurement(&measurements, &plans, &runs) else {
+        return Ok(None);
+    };
+    let missing = || LedgerError::Broken("a cycle's plan or measurement is missing".into());
+    let plan = store.plan(&plan.stamp.id).await?.ok_or_else(missing)?;
+    let before_id = plan.measurement.as_deref().ok_or_else(missing)?;
+    let before = store.measurement(before_id).await?.ok_or_else(missing)?;
+    let plan_request = document(&plan.request)?;
+    let profile = profiles::load(store, &part.process_profile).await?;
+    let mut run_fit = json!({
+        "dwell": document(&plan.result)?["dwell"],
+        "before": document(&before.result)?["profile"],
+        "after": after,
+    });
+    if let Some(aperture) = plan_request.get("clear_aperture") {
+        run_fit["clear_aperture"] = aperture.clone();
+    }
+    let mut request = Document::new();
+    request.insert("process".into(), plan_request["process"].clone());
+    fill(&mut request, &plan_request, &["surface"]);
+    fill(&mut request, &document(&profile.body)?, &["tool"]);
+    request.insert("runs".into(), json!([run_fit]));
+    request.insert("fit".into(), json!({"preston_coefficient": true}));
+    let learned = match compute.compute(Computation::Calibration, &request).await {
+        Ok(result) => Some(calibration_record(
+            write.stamp(),
+            &profile.stamp.id,
+            &request,
+            &result,
+            Some(run.stamp.id.clone()),
+        )?),
+        Err(error) => {
+            tracing::info!(run = %run.stamp.id, %error, "the cycle's removal determines no calibration");
+            None
+        }
+    };
+    Ok(Some((run.stamp.id.clone(), learned)))
+}
+
+/// A stored measurement, and the cycle it completed.
+pub struct StoredMeasurement {
+    pub record: MeasurementRecord,
+    pub completes_run: Option<String>,
+    pub learned_calibration: Option<String>,
+}
+
+pub async fn measurement(store: &Store, id: &str) -> Result<StoredMeasurement, LedgerError> {
+    let record = found(store.measurement(id).await?, "measurement", id)?;
+    let part = load(store, &record.part).await?;
+    let (measurements, plans, runs, calibrations) = (
+        store.measurements(&part.stamp.id).await?,
+        store.plans(&part.stamp.id).await?,
+        store.runs(&part.stamp.id).await?,
+        store.calibrations(&part.process_profile).await?,
+    );
+    let cycle = cycles(&measurements, &plans, &runs, &calibrations)
+        .into_iter()
+        .find(|c| c.after.is_some_and(|m| m.stamp.id == id));
+    Ok(StoredMeasurement {
+        completes_run: cycle.as_ref().map(|c| c.run.stamp.id.clone()),
+        learned_calibration: cycle.and_then(|c| c.learned).map(|c| c.stamp.id.clone()),
+        record,
+    })
+}

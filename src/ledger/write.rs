@@ -1,0 +1,114 @@
+//! A record write: the caller's stamp on every record, and the Idempotency-Key's claim kept in
+//! the write's own transaction.
+
+use sha2::{Digest, Sha256};
+
+use super::LedgerError;
+use crate::store::{new_stamp, Store};
+use crate::usecases::records::{Claim, Record, Records, Replay, Stamp, Written};
+
+/// A write in progress: the store, the writer (the API key's name) and the Idempotency-Key
+/// claimed with the request's fingerprint.
+pub struct Write<'s> {
+    store: &'s Store,
+    owner: String,
+    claim: Option<(String, String)>,
+}
+
+/// The field a malformed or reused key is reported at.
+const KEY: &str = "Idempotency-Key";
+
+impl<'s> Write<'s> {
+    /// Refuses a malformed Idempotency-Key (1 to 255 visible ASCII characters); `request` is
+    /// the request's identity for the key (its path and canonical body).
+    pub fn begin(
+        store: &'s Store,
+        owner: &str,
+        key: Option<&[u8]>,
+        request: &str,
+    ) -> Result<Write<'s>, LedgerError> {
+        let claim = match key {
+            None => None,
+            Some(key) => {
+                if !(1..=255).contains(&key.len()) || !key.iter().all(u8::is_ascii_graphic) {
+                    return Err(LedgerError::invalid(
+                        KEY,
+                        "an Idempotency-Key is 1 to 255 visible ASCII characters (a UUID will do)",
+                    ));
+                }
+                let fingerprint: String = Sha256::digest(request.as_bytes())
+                    .iter()
+                    .map(|b| format!("{b:02x}"))
+                    .collect();
+                Some((String::from_utf8_lossy(key).into_owned(), fingerprint))
+            }
+        };
+        Ok(Write {
+            store,
+            owner: owner.to_string(),
+            claim,
+        })
+    }
+
+    /// The first answer under this key, when there is one (asked before any work is done).
+    pub async fn replay(&self) -> Result<Option<Replay>, LedgerError> {
+        let Some((key, fingerprint)) = &self.claim else {
+            return Ok(None);
+        };
+        match self.store.claimed(&self.owner, key).await? {
+            None => Ok(None),
+            Some((first, replay)) if &first == fingerprint => Ok(Some(replay)),
+            Some(_) => Err(key_reused()),
+        }
+    }
+
+    pub fn store(&self) -> &'s Store {
+        self.store
+    }
+
+    /// A new record's stamp, with the writer's name.
+    pub fn stamp(&self) -> Stamp {
+        new_stamp(&self.owner)
+    }
+
+    /// Writes `records` (and the claim) in one transaction and answers 201 with `location`
+    /// and `body` once committed (or the first answer, when a retry with the same key won).
+    /// `taken` is the caller's words when a record has a unique name.
+    pub async fn commit(
+        self,
+        records: &[Record],
+        location: String,
+        body: String,
+        taken: Option<&str>,
+    ) -> Result<Replay, LedgerError> {
+        let answer = Replay {
+            status: 201,
+            location,
+            body,
+        };
+        let claim = self.claim.map(|(key, fingerprint)| Claim {
+            owner: self.owner.clone(),
+            key,
+            fingerprint,
+            answer: answer.clone(),
+        });
+        match self.store.write(records, claim.as_ref()).await? {
+            Written::Committed => Ok(answer),
+            Written::Replayed(replay) => Ok(replay),
+            Written::KeyReused => Err(key_reused()),
+            // Only a unique name can be taken; ids are fresh UUIDv7s.
+            Written::Taken => Err(match taken {
+                Some(taken) => LedgerError::Taken(taken.to_string()),
+                None => LedgerError::Broken("a fresh record id collided".into()),
+            }),
+        }
+    }
+}
+
+/// 422, as the IETF's Idempotency-Key draft says for a key reused with another payload.
+fn key_reused() -> LedgerError {
+    LedgerError::invalid(
+        KEY,
+        "this Idempotency-Key was sent before with another request: use a new key for a new request",
+    )
+}
