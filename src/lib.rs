@@ -11,6 +11,7 @@
 
 pub mod calibration;
 pub mod config;
+pub mod contract;
 pub mod healthcheck;
 pub mod http;
 pub mod keys;

@@ -91,7 +91,7 @@ pub async fn load(store: &Store, id: &str) -> Result<PartRecord, LedgerError> {
     found(store.part(id).await?, "part", id)
 }
 
-/// A new measurement, and the cycle it completes.
+/// A measurement, and the cycle it completes.
 pub struct Measured {
     pub measurement: MeasurementRecord,
     /// The run whose cycle it completes.
@@ -99,6 +99,12 @@ pub struct Measured {
     /// The calibration learned from that cycle (none when its removal does not determine the
     /// coefficient; the measurement still completes the cycle).
     pub learned: Option<CalibrationRecord>,
+}
+
+impl Measured {
+    pub fn learned_calibration(&self) -> Option<&str> {
+        self.learned.as_ref().map(|c| c.stamp.id.as_str())
+    }
 }
 
 /// Fits a measurement of part `id`: `body` is a `/v1/measurement/fit` request without
@@ -194,15 +200,9 @@ async fn learn_from_cycle<C: Compute>(
 }
 
 /// A stored measurement, and the cycle it completed.
-pub struct StoredMeasurement {
-    pub record: MeasurementRecord,
-    pub completes_run: Option<String>,
-    pub learned_calibration: Option<String>,
-}
-
-pub async fn measurement(store: &Store, id: &str) -> Result<StoredMeasurement, LedgerError> {
-    let record = found(store.measurement(id).await?, "measurement", id)?;
-    let part = load(store, &record.part).await?;
+pub async fn measurement(store: &Store, id: &str) -> Result<Measured, LedgerError> {
+    let measurement = found(store.measurement(id).await?, "measurement", id)?;
+    let part = load(store, &measurement.part).await?;
     let (measurements, plans, runs, calibrations) = (
         store.measurements(&part.stamp.id).await?,
         store.plans(&part.stamp.id).await?,
@@ -212,9 +212,9 @@ pub async fn measurement(store: &Store, id: &str) -> Result<StoredMeasurement, L
     let cycle = cycles(&measurements, &plans, &runs, &calibrations)
         .into_iter()
         .find(|c| c.after.is_some_and(|m| m.stamp.id == id));
-    Ok(StoredMeasurement {
+    Ok(Measured {
         completes_run: cycle.as_ref().map(|c| c.run.stamp.id.clone()),
-        learned_calibration: cycle.and_then(|c| c.learned).map(|c| c.stamp.id.clone()),
-        record,
+        learned: cycle.and_then(|c| c.learned).cloned(),
+        measurement,
     })
 }

@@ -44,7 +44,7 @@ use crate::ledger::{Computation, Compute, Document, LedgerError, Setting, Write}
 use crate::store::Store;
 use crate::usecases::records::{Record, RecordsError, Replay};
 
-pub use docs::{document_operations, schemas};
+pub use docs::schemas;
 
 /// The record routes.
 pub fn routes() -> Router<AppState> {

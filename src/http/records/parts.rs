@@ -15,7 +15,7 @@ use crate::http::error::ApiError;
 use crate::http::extract::ApiJson;
 use crate::http::state::AppState;
 use crate::ledger::document;
-use crate::ledger::parts::{self, NewPart};
+use crate::ledger::parts::{self, Measured, NewPart};
 use crate::usecases::records::{PartRecord, Record, Records};
 
 /// Most parts a page lists.
@@ -163,17 +163,7 @@ pub async fn measure(
         return Ok(replayed(replay));
     }
     let measured = parts::measure(&state, &write, &id, body).await?;
-    let dto = MeasurementDto {
-        id: measured.measurement.stamp.id.clone(),
-        part_id: id,
-        rms_nm: measured.measurement.rms_nm,
-        request: document(&measured.measurement.request)?,
-        result: document(&measured.measurement.result)?,
-        completes_run_id: measured.completes_run,
-        learned_calibration_id: measured.learned.as_ref().map(|c| c.stamp.id.clone()),
-        created_at: measured.measurement.stamp.created_at.clone(),
-        created_by: measured.measurement.stamp.created_by.clone(),
-    };
+    let dto = measurement_dto(&measured)?;
     let location = format!("/v1/measurements/{}", dto.id);
     let mut records = vec![Record::Measurement(measured.measurement)];
     records.extend(measured.learned.map(Record::Calibration));
@@ -190,20 +180,21 @@ pub async fn measurement(
     Path(id): Path<String>,
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
-    let stored = parts::measurement(store(&state)?, &id).await?;
-    let record = stored.record;
-    fetched(
-        &headers,
-        &MeasurementDto {
-            id: record.stamp.id.clone(),
-            part_id: record.part.clone(),
-            rms_nm: record.rms_nm,
-            request: document(&record.request)?,
-            result: document(&record.result)?,
-            completes_run_id: stored.completes_run,
-            learned_calibration_id: stored.learned_calibration,
-            created_at: record.stamp.created_at.clone(),
-            created_by: record.stamp.created_by.clone(),
-        },
-    )
+    let measured = parts::measurement(store(&state)?, &id).await?;
+    fetched(&headers, &measurement_dto(&measured)?)
+}
+
+fn measurement_dto(measured: &Measured) -> Result<MeasurementDto, ApiError> {
+    let record = &measured.measurement;
+    Ok(MeasurementDto {
+        id: record.stamp.id.clone(),
+        part_id: record.part.clone(),
+        rms_nm: record.rms_nm,
+        request: document(&record.request)?,
+        result: document(&record.result)?,
+        completes_run_id: measured.completes_run.clone(),
+        learned_calibration_id: measured.learned_calibration().map(str::to_string),
+        created_at: record.stamp.created_at.clone(),
+        created_by: record.stamp.created_by.clone(),
+    })
 }
