@@ -336,6 +336,24 @@ async fn idempotent_retries_never_duplicate_a_record() {
         assert_eq!(reused.status, 422, "{}", reused.text());
         assert_eq!(reused.json()["field"], "Idempotency-Key");
 
+        // A malformed key is refused before anything is written: 1 to 255 visible ASCII
+        // characters (256 is one too many; a space is not visible).
+        for malformed in ["k".repeat(256), "a key".to_string()] {
+            let refused = post(
+                &app,
+                "/v1/parts",
+                &other,
+                &[("idempotency-key", &malformed)],
+            )
+            .await;
+            assert_eq!(refused.status, 422, "{}", refused.text());
+            assert_eq!(refused.json()["field"], "Idempotency-Key");
+        }
+        let listed = get(&app, &format!("/v1/parts?name=SN-{token}"))
+            .await
+            .json();
+        assert_eq!(listed["items"].as_array().unwrap().len(), 1, "{url}");
+
         // Without a key, the same serial again is a conflict, not a second part.
         let again = post(&app, "/v1/parts", &body, &[]).await;
         assert_eq!(again.status, 409, "{}", again.text());
