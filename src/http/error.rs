@@ -309,13 +309,6 @@ impl ApiError {
 
 /// The response: status and headers; the body is the [`Problem`], written by [`render`] with
 /// the request's id.
-/// The detail, as a log line gives it.
-impl std::fmt::Display for ApiError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.detail)
-    }
-}
-
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         if let Some(internal) = &self.extra.internal {

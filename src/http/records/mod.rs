@@ -160,6 +160,14 @@ impl From<LedgerError> for ApiError {
     }
 }
 
+/// A problem in a log line (the ledger logs a cycle whose removal determines no calibration):
+/// its detail.
+impl std::fmt::Display for ApiError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.detail)
+    }
+}
+
 /// The record use cases' computations: the compute endpoints' own parse (problems name the
 /// request's fields) and run, in a computation slot.
 impl Compute for AppState {
