@@ -331,7 +331,7 @@ impl Surface {
 
     /// Unit normal toward the tool, (−sin θ, cos θ).
     pub fn normal(&self, r: f64) -> (f64, f64) {
-        let (sin, cos) = self.local(r).slope_sin_cos();
+        let (sin, cos) = slope_sin_cos(self.slope(r));
         (-sin, cos)
     }
 
@@ -438,12 +438,17 @@ impl Local {
         stretch(self.slope)
     }
 
-    /// (sin θ, cos θ) of the slope angle θ = atan z′, without trigonometry:
-    /// cos θ = 1/√(1 + z′²), sin θ = z′·cos θ.
+    /// (sin θ, cos θ) of the slope angle θ = atan z′.
     pub fn slope_sin_cos(&self) -> (f64, f64) {
-        let cos = 1.0 / self.arc_integrand();
-        (self.slope * cos, cos)
+        slope_sin_cos(self.slope)
     }
+}
+
+/// (sin θ, cos θ) of the slope angle θ = atan z′, without trigonometry:
+/// cos θ = 1/√(1 + z′²), sin θ = z′·cos θ.
+fn slope_sin_cos(slope: f64) -> (f64, f64) {
+    let cos = 1.0 / stretch(slope);
+    (slope * cos, cos)
 }
 
 /// ds/dr = √(1 + z′²) for the slope z′, directly: hypot's guard against overflow costs more

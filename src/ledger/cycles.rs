@@ -10,8 +10,8 @@ use super::profiles::{self, current_process};
 use super::{document, fill, found, without, Computation, Compute, Document, LedgerError, Write};
 use crate::store::Store;
 use crate::usecases::records::{
-    cycles, CalibrationRecord, Cycle, MeasurementHead, PartRecord, PlanHead, PlanRecord, Records,
-    RunRecord,
+    cycles, CalibrationRecord, Cycle, MeasurementHead, PartRecord, PlanHead, PlanRecord,
+    ProfileRecord, Records, RunRecord,
 };
 
 /// Plans part `id`'s next correction: `body` is a `/v1/optimize` request without `process`
@@ -27,7 +27,7 @@ pub async fn plan<C: Compute>(
     let store = write.store();
     let part = parts::load(store, id).await?;
     let profile = profiles::load(store, &part.process_profile).await?;
-    let current = current_process(&profile, &store.calibrations(&profile.stamp.id).await?)?;
+    let current = profiles::current(store, &profile).await?;
     let mut request = without(
         body,
         &[
@@ -99,10 +99,8 @@ pub async fn program_request(
             ("dwell", "the plan"),
         ],
     )?;
-    request.insert("process".into(), plan_request["process"].clone());
+    plan_setting(&mut request, &plan_request, &profile)?;
     request.insert("dwell".into(), document(&plan.result)?["dwell"].clone());
-    fill(&mut request, &plan_request, &["surface"]);
-    fill(&mut request, &document(&profile.body)?, &["tool"]);
     Ok(ProgramRequest {
         request,
         provenance: format!(
@@ -110,6 +108,19 @@ pub async fn program_request(
             plan.stamp.id, part.name, part.stamp.id
         ),
     })
+}
+
+/// What ran a plan (its `plan_request`): its process and surface, and the profile's tool
+/// unless `into` names one.
+pub(super) fn plan_setting(
+    into: &mut Document,
+    plan_request: &Value,
+    profile: &ProfileRecord,
+) -> Result<(), LedgerError> {
+    into.insert("process".into(), plan_request["process"].clone());
+    fill(into, plan_request, &["surface"]);
+    fill(into, &document(&profile.body)?, &["tool"]);
+    Ok(())
 }
 
 /// A run to record, checked: its plan, when it ran (RFC 3339 UTC), the machine and notes.

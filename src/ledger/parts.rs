@@ -5,7 +5,8 @@
 
 use serde_json::{json, Value};
 
-use super::profiles::{self, calibration_record, current_process};
+use super::cycles::plan_setting;
+use super::profiles::{self, calibration_record};
 use super::{
     document, fill, found, without, Computation, Compute, Document, LedgerError, Setting, Write,
 };
@@ -65,7 +66,7 @@ impl NewPart {
                 format!("there is no process profile `{}`", self.process_profile),
             )
         })?;
-        let current = current_process(&profile, &store.calibrations(&profile.stamp.id).await?)?;
+        let current = profiles::current(store, &profile).await?;
         let body = Value::Object(self.body);
         compute.check_setting(&on_part(current.process, &body), Setting::Part)?;
         Ok(PartRecord {
@@ -178,9 +179,7 @@ async fn learn_from_cycle<C: Compute>(
         run_fit["clear_aperture"] = aperture.clone();
     }
     let mut request = Document::new();
-    request.insert("process".into(), plan_request["process"].clone());
-    fill(&mut request, &plan_request, &["surface"]);
-    fill(&mut request, &document(&profile.body)?, &["tool"]);
+    plan_setting(&mut request, &plan_request, &profile)?;
     request.insert("runs".into(), json!([run_fit]));
     request.insert("fit".into(), json!({"preston_coefficient": true}));
     let learned = match compute.compute(Computation::Calibration, &request).await {

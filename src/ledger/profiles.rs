@@ -103,6 +103,14 @@ pub fn current_process(
     })
 }
 
+/// The profile's current process, from its calibrations in the store.
+pub(super) async fn current(
+    store: &Store,
+    profile: &ProfileRecord,
+) -> Result<CurrentProcess, LedgerError> {
+    current_process(profile, &store.calibrations(&profile.stamp.id).await?)
+}
+
 pub async fn load(store: &Store, name: &str) -> Result<ProfileRecord, LedgerError> {
     found(store.profile(name).await?, "process profile", name)
 }
@@ -122,12 +130,8 @@ pub async fn calibrate<C: Compute>(
 ) -> Result<CalibrationRecord, C::Problem> {
     let store = write.store();
     let profile = load(store, name).await?;
-    let calibrations = store.calibrations(name).await?;
     let mut request = without(body, &[("process", "the process profile")])?;
-    request.insert(
-        "process".into(),
-        current_process(&profile, &calibrations)?.process,
-    );
+    request.insert("process".into(), current(store, &profile).await?.process);
     fill(
         &mut request,
         &document(&profile.body)?,
