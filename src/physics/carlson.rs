@@ -98,8 +98,8 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
         debug_assert!(x[l] + y[l] > 0.0, "rf_rd: at most one of x, y may be zero");
     }
     let spread = |a: f64, l: usize| (a - x[l]).abs().max((a - y[l]).abs()).max((a - z[l]).abs());
-    let a0_f: [f64; L] = std::array::from_fn(|l| (x[l] + y[l] + z[l]) / 3.0);
-    let a0_d: [f64; L] = std::array::from_fn(|l| (x[l] + y[l] + 3.0 * z[l]) / 5.0);
+    let a0_f: [f64; L] = std::array::from_fn(|l| (x[l] + y[l] + z[l]) * (1.0 / 3.0));
+    let a0_d: [f64; L] = std::array::from_fn(|l| (x[l] + y[l] + 3.0 * z[l]) * (1.0 / 5.0));
     // Carlson's Q for each function: once 4^-n Q < |A_n| the series is exact to TOLERANCE
     // (4^-n Q is pow4·Q exactly: both are scaled by powers of two).
     let q_f: [f64; L] =
@@ -111,8 +111,10 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
     let (mut a_f, mut a_d) = (a0_f, a0_d);
     let mut pow4 = [1.0; L]; // 4^-n
     let mut rd_sum = [0.0; L];
+    // Non-short-circuit `|` and `&`, so that the test runs on all lanes at once (with `||` it
+    // compiled to a branch per lane, which cost more than the duplication step).
     let going = |pow4: &[f64; L], a_f: &[f64; L], a_d: &[f64; L], l: usize| {
-        pow4[l] * q_f[l] >= a_f[l].abs() || pow4[l] * q_d[l] >= a_d[l].abs()
+        (pow4[l] * q_f[l] >= a_f[l].abs()) | (pow4[l] * q_d[l] >= a_d[l].abs())
     };
     let mut active: [bool; L] = std::array::from_fn(|l| going(&pow4, &a_f, &a_d, l));
     while active.iter().any(|&a| a) {
@@ -130,33 +132,44 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
             a_d[l] = pick(0.25 * (a_d[l] + lambda), a_d[l]);
         }
         for (l, a) in active.iter_mut().enumerate() {
-            *a = *a && going(&pow4, &a_f, &a_d, l);
+            *a &= going(&pow4, &a_f, &a_d, l);
         }
     }
 
+    // The divider (square roots and divisions) is what limits this loop's throughput, so the
+    // series divide once each: with t = 1/(A·√A), 1/A = t·√A and 1/√A = t·A; the series'
+    // constants are multiplied as reciprocals.
     let rf = std::array::from_fn(|l| {
-        let xs = (a0_f[l] - x[l]) * pow4[l] / a_f[l];
-        let ys = (a0_f[l] - y[l]) * pow4[l] / a_f[l];
+        let root = a_f[l].sqrt();
+        let t = 1.0 / (a_f[l] * root);
+        let scale = pow4[l] * (t * root);
+        let xs = (a0_f[l] - x[l]) * scale;
+        let ys = (a0_f[l] - y[l]) * scale;
         let zs = -(xs + ys);
         let e2 = xs * ys - zs * zs;
         let e3 = xs * ys * zs;
-        (1.0 - e2 / 10.0 + e3 / 14.0 + e2 * e2 / 24.0 - 3.0 * e2 * e3 / 44.0) / a_f[l].sqrt()
+        let series = 1.0 - e2 * (1.0 / 10.0) + e3 * (1.0 / 14.0) + e2 * e2 * (1.0 / 24.0)
+            - e2 * e3 * (3.0 / 44.0);
+        series * (t * a_f[l])
     });
     let rd = std::array::from_fn(|l| {
-        let xs = (a0_d[l] - x[l]) * pow4[l] / a_d[l];
-        let ys = (a0_d[l] - y[l]) * pow4[l] / a_d[l];
-        let zs = -(xs + ys) / 3.0;
+        let root = a_d[l].sqrt();
+        let t = 1.0 / (a_d[l] * root);
+        let scale = pow4[l] * (t * root);
+        let xs = (a0_d[l] - x[l]) * scale;
+        let ys = (a0_d[l] - y[l]) * scale;
+        let zs = -(xs + ys) * (1.0 / 3.0);
         let xy = xs * ys;
         let z2 = zs * zs;
         let e2 = xy - 6.0 * z2;
         let e3 = (3.0 * xy - 8.0 * z2) * zs;
         let e4 = 3.0 * (xy - z2) * z2;
         let e5 = xy * z2 * zs;
-        let series = 1.0 - 3.0 * e2 / 14.0 + e3 / 6.0 + 9.0 * e2 * e2 / 88.0
-            - 3.0 * e4 / 22.0
-            - 9.0 * e2 * e3 / 52.0
-            + 3.0 * e5 / 26.0;
-        pow4[l] * series / (a_d[l] * a_d[l].sqrt()) + 3.0 * rd_sum[l]
+        let series = 1.0 - e2 * (3.0 / 14.0) + e3 * (1.0 / 6.0) + e2 * e2 * (9.0 / 88.0)
+            - e4 * (3.0 / 22.0)
+            - e2 * e3 * (9.0 / 52.0)
+            + e5 * (3.0 / 26.0);
+        pow4[l] * series * t + 3.0 * rd_sum[l]
     });
     (rf, rd)
 }

@@ -712,8 +712,8 @@ fn antiderivative_into(
 /// Points whose Clenshaw recurrences [`PathIntegral::at_ascending`] runs side by side.
 const LANES: usize = 16;
 
-/// [`clenshaw`] at every t of `ts`, replacing each t by its sum: [`LANES`] recurrences side by
-/// side, the last few one by one.
+/// Σ a_k·T_k(t) by Clenshaw's recurrence at every t of `ts`, replacing each t by its sum:
+/// [`LANES`] recurrences side by side.
 #[inline(always)]
 fn clenshaw_in_place(a: &[f64], ts: &mut [f64]) {
     let mut blocks = ts.chunks_exact_mut(LANES);
@@ -721,12 +721,18 @@ fn clenshaw_in_place(a: &[f64], ts: &mut [f64]) {
         let t: [f64; LANES] = (&*block).try_into().unwrap();
         block.copy_from_slice(&clenshaw_lanes(a, t));
     }
-    for t in blocks.into_remainder() {
-        *t = clenshaw(a, *t);
+    // The last few points run as one padded block: one at a time, each would be a chain of
+    // its own, as long as a whole block's.
+    let rest = blocks.into_remainder();
+    if !rest.is_empty() {
+        let mut t = [0.0; LANES];
+        t[..rest.len()].copy_from_slice(rest);
+        let sums = clenshaw_lanes(a, t);
+        rest.copy_from_slice(&sums[..rest.len()]);
     }
 }
 
-/// [`clenshaw`] at `L` points at once, each lane with exactly the operations of one call.
+/// Clenshaw's recurrence at `L` points at once, each lane on its own.
 #[inline(always)]
 fn clenshaw_lanes<const L: usize>(a: &[f64], t: [f64; L]) -> [f64; L] {
     let (mut b1, mut b2) = ([0.0; L], [0.0; L]);
@@ -739,19 +745,6 @@ fn clenshaw_lanes<const L: usize>(a: &[f64], t: [f64; L]) -> [f64; L] {
         }
     }
     std::array::from_fn(|l| a[0] + t[l] * b1[l] - b2[l])
-}
-
-/// Σ a_k·T_k(t) by Clenshaw's recurrence.
-#[inline(always)]
-fn clenshaw(a: &[f64], t: f64) -> f64 {
-    let (mut b1, mut b2) = (0.0, 0.0);
-    let two_t = 2.0 * t;
-    for &ak in a[1..].iter().rev() {
-        let b0 = ak + two_t * b1 - b2;
-        b2 = b1;
-        b1 = b0;
-    }
-    a[0] + t * b1 - b2
 }
 
 #[cfg(test)]
