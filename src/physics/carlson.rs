@@ -62,12 +62,10 @@ fn rf_rd_chunks(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64])
     let mut k = 0;
     while k < x.len() {
         let m = LANES.min(x.len() - k);
-        if m <= 2 {
-            // One or two triples (a lone rate's) cost less alone than in a padded chunk.
-            for j in k..k + m {
-                let (f, d) = rf_rd_lanes([x[j]], [y[j]], [z[j]]);
-                (rf[j], rd[j]) = (f[0], d[0]);
-            }
+        if m == 1 {
+            // A lone triple (a single rate's) costs less alone than in a padded chunk.
+            let (f, d) = rf_rd_lanes([x[k]], [y[k]], [z[k]]);
+            (rf[k], rd[k]) = (f[0], d[0]);
             break;
         }
         // A short last chunk is padded with R(1, 1, 1), which converges at once.
@@ -111,18 +109,21 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
     let (mut a_f, mut a_d) = (a0_f, a0_d);
     let mut pow4 = [1.0; L]; // 4^-n
     let mut rd_sum = [0.0; L];
-    // Non-short-circuit `|` and `&`, so that the test runs on all lanes at once (with `||` it
-    // compiled to a branch per lane, which cost more than the duplication step).
+    // Each lane's state is replaced by a bitwise select on its mask (all ones while the lane
+    // is running), and the stopping rule is tested with `|`, not `||`: written with `if` and
+    // `||`, the compiler made masked stores and a branch per lane, stalling every step.
     let going = |pow4: &[f64; L], a_f: &[f64; L], a_d: &[f64; L], l: usize| {
-        (pow4[l] * q_f[l] >= a_f[l].abs()) | (pow4[l] * q_d[l] >= a_d[l].abs())
+        let go = (pow4[l] * q_f[l] >= a_f[l].abs()) | (pow4[l] * q_d[l] >= a_d[l].abs());
+        (go as u64).wrapping_neg()
     };
-    let mut active: [bool; L] = std::array::from_fn(|l| going(&pow4, &a_f, &a_d, l));
-    while active.iter().any(|&a| a) {
+    let mut running: [u64; L] = std::array::from_fn(|l| going(&pow4, &a_f, &a_d, l));
+    while running.iter().fold(0, |any, &m| any | m) != 0 {
         for l in 0..L {
             let (sx, sy, sz) = (xn[l].sqrt(), yn[l].sqrt(), zn[l].sqrt());
             let lambda = sx * sy + sx * sz + sy * sz;
-            let on = active[l];
-            let pick = |new: f64, old: f64| if on { new } else { old };
+            let on = running[l];
+            let pick =
+                |new: f64, old: f64| f64::from_bits((new.to_bits() & on) | (old.to_bits() & !on));
             rd_sum[l] = pick(rd_sum[l] + pow4[l] / (sz * (zn[l] + lambda)), rd_sum[l]);
             pow4[l] = pick(pow4[l] * 0.25, pow4[l]);
             xn[l] = pick(0.25 * (xn[l] + lambda), xn[l]);
@@ -131,8 +132,8 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
             a_f[l] = pick(0.25 * (a_f[l] + lambda), a_f[l]);
             a_d[l] = pick(0.25 * (a_d[l] + lambda), a_d[l]);
         }
-        for (l, a) in active.iter_mut().enumerate() {
-            *a &= going(&pow4, &a_f, &a_d, l);
+        for (l, on) in running.iter_mut().enumerate() {
+            *on &= going(&pow4, &a_f, &a_d, l);
         }
     }
 

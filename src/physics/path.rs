@@ -628,6 +628,16 @@ impl Lobatto {
     /// All coefficients: g = Σ c_j·T_j exactly at the `points` nodes. Each c_j is summed in
     /// the order [`Self::coefficient`] sums it (so the same bits), all j side by side.
     fn coefficients(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
+        super::wide::widest(Dct {
+            table: self,
+            values,
+            points,
+        })
+    }
+
+    /// [`Self::coefficients`], compiled into each wide build.
+    #[inline(always)]
+    fn dct(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
         let nodes = gathered(values, points);
         let n = points - 1;
         let matrix = &self.dct[level(n)];
@@ -659,12 +669,29 @@ impl Lobatto {
     }
 }
 
+/// [`Lobatto::coefficients`]' work, for [`super::wide::widest`].
+struct Dct<'a> {
+    table: &'a Lobatto,
+    values: &'a [f64; MAX_POINTS],
+    points: usize,
+}
+
+impl super::wide::Wide for Dct<'_> {
+    type Output = [f64; MAX_POINTS];
+
+    #[inline(always)]
+    fn run(self) -> Self::Output {
+        self.table.dct(self.values, self.points)
+    }
+}
+
 /// The level of the rule with `intervals` intervals (0 for the coarsest).
 fn level(intervals: usize) -> usize {
     (intervals / FIRST_INTERVALS).trailing_zeros() as usize
 }
 
 /// c_j from its DCT sum over n intervals.
+#[inline(always)]
 fn finish_coefficient(sum: f64, n: usize, j: usize) -> f64 {
     let value = 2.0 * sum / n as f64;
     if j == 0 || j == n {
@@ -675,6 +702,7 @@ fn finish_coefficient(sum: f64, n: usize, j: usize) -> f64 {
 }
 
 /// The values of the `points` nodes, consecutive (`values` holds them every 32/(points − 1)).
+#[inline(always)]
 fn gathered(values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
     let stride = (MAX_POINTS - 1) / (points - 1);
     std::array::from_fn(|k| if k < points { values[k * stride] } else { 0.0 })
