@@ -74,14 +74,18 @@ pub fn half_angle(r: f64, r1: f64, rt: f64) -> HalfAngle {
             }
         };
     }
+    let (sin, cos) = half_angle_off_axis(r, r1, rt);
+    HalfAngle { sin, cos }
+}
+
+/// [`half_angle`]'s (sin, cos) for r, r1 > 0: no branch, so a loop over many r1 vectorises.
+#[inline(always)]
+pub fn half_angle_off_axis(r: f64, r1: f64, rt: f64) -> (f64, f64) {
     let sin2 = ((rt - r + r1) * (rt + r - r1)).max(0.0);
     let cos2 = ((r + r1 - rt) * (r + r1 + rt)).max(0.0);
     // sin2 + cos2 = 4·r·r1 > 0 whenever neither is clamped; if one is, the other is positive.
     let norm = sin2 + cos2;
-    HalfAngle {
-        sin: (sin2 / norm).sqrt(),
-        cos: (cos2 / norm).sqrt(),
-    }
+    ((sin2 / norm).sqrt(), (cos2 / norm).sqrt())
 }
 
 #[cfg(test)]
