@@ -122,6 +122,8 @@ impl RemovalOperator {
         // Arc lengths of the cells, and each row's columns: those whose rows contain it (a
         // contiguous run, since both ends of the columns' row runs grow with j).
         let arcs: Vec<f64> = bounds.iter().map(|&b| kernel.arc_length_mm(b)).collect();
+        let cell_arcs: Vec<f64> = arcs.windows(2).map(|w| w[1] - w[0]).collect();
+        let moving: Vec<f64> = (0..n).map(|j| move_share(j, n)).collect();
         let row_end: Vec<usize> = (0..n)
             .map(|j| first_row[j] + col_ptr[j + 1] - col_ptr[j])
             .collect();
@@ -146,14 +148,17 @@ impl RemovalOperator {
             let passed = in_pass.map_or(0.0, |p| p.removal(p.difference(&path)));
             let mut running = vec![0.0; j_hi + 1 - j_lo];
             path.at_ascending(&bounds[j_lo..=j_hi], &mut running);
-            for (j, ends) in (j_lo..j_hi).zip(running.windows(2)) {
-                let (before, after) = (ends[0], ends[1]);
-                let mut value = move_share(j, n) * (after - before) / (arcs[j + 1] - arcs[j]);
-                let stop = stop_share(j, n);
-                if stop > 0.0 {
-                    value += stop * kernel.rate_nm_per_s(r, positions_mm[j]);
+            // One straight loop over the cells (it vectorises), then the two end stops.
+            let cells = j_lo..j_hi;
+            values.extend(
+                (running.windows(2).zip(&moving[cells.clone()]))
+                    .zip(&cell_arcs[cells])
+                    .map(|((ends, &share), &arc)| share * (ends[1] - ends[0]) / arc),
+            );
+            for j in [0, n - 1] {
+                if (j_lo..j_hi).contains(&j) {
+                    values[j - j_lo] += stop_share(j, n) * kernel.rate_nm_per_s(r, positions_mm[j]);
                 }
-                values.push(value);
             }
             (j_lo, values, passed)
         };

@@ -767,7 +767,9 @@ fn clenshaw_lanes<const L: usize>(a: &[f64], t: [f64; L]) -> [f64; L] {
     let two_t = t.map(|t| 2.0 * t);
     for &ak in a[1..].iter().rev() {
         for l in 0..L {
-            let b0 = ak + two_t[l] * b1[l] - b2[l];
+            // a_k − b_{k+2} is ready a step early, so only a product and a sum lie on the
+            // recurrence's critical path.
+            let b0 = (ak - b2[l]) + two_t[l] * b1[l];
             b2[l] = b1[l];
             b1[l] = b0;
         }

@@ -665,13 +665,16 @@ impl FlatRow<'_> {
             return false;
         }
         let n = xs.len();
-        let mut level = [0.0; FLAT_BATCH];
-        for (level, &x) in level.iter_mut().zip(xs) {
-            let pressure = k.path_pressure(x, x);
-            if pressure.slope_per_mm != 0.0 || pressure.level == 0.0 {
-                return false;
+        // Uniform pressure is nominal wherever the pad is (pad_pressure), so not asked per point.
+        let mut level = [PadPressure::NOMINAL.level; FLAT_BATCH];
+        if k.pressure_model != PressureModel::Uniform {
+            for (level, &x) in level.iter_mut().zip(xs) {
+                let pressure = k.path_pressure(x, x);
+                if pressure.slope_per_mm != 0.0 || pressure.level == 0.0 {
+                    return false;
+                }
+                *level = pressure.level;
             }
-            *level = pressure.level;
         }
         let (rt, a) = (k.tool_radius, k.omega_sum * r);
         let mut sin = [0.0; FLAT_BATCH];
