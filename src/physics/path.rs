@@ -381,12 +381,12 @@ impl PathIntegral {
                 total += 0.5 * (hi - lo) * table.integral(&values, points);
                 continue;
             }
-            let coeffs = (table.coefficients(&values, points), points);
+            let big = table.antiderivative(&values, points);
             let first = self.coeffs.len() as u32;
             // Trailing coefficients far below the tolerance are dropped: reading F then costs
             // only the terms that matter (each dropped one moves F by less than its size).
             let negligible = 1e-3 * tolerance * scale * (hi - lo);
-            let value = antiderivative_into(&coeffs, 0.5 * (hi - lo), negligible, &mut self.coeffs);
+            let value = append_scaled(&big, points, 0.5 * (hi - lo), negligible, &mut self.coeffs);
             self.panels.push(Panel {
                 lo,
                 hi,
@@ -515,6 +515,10 @@ pub struct Lobatto {
     /// dct[m]: cos(πjk/n) for the rule at level m (n = FIRST_INTERVALS·2^m), as an (n + 1)²
     /// matrix (symmetric in j and k), so a DCT reads consecutive memory.
     dct: [Vec<f64>; LEVELS],
+    /// antiderivative[m]: row k holds the antiderivative's n + 2 Chebyshev coefficients for
+    /// node values e_k (the DCT then [`antiderivative_coefficients`], both linear), so a
+    /// panel's antiderivative is one product with its node values.
+    antiderivative: [Vec<f64>; LEVELS],
 }
 
 impl Default for Lobatto {
@@ -553,11 +557,24 @@ impl Default for Lobatto {
             }
             matrix
         });
-        Lobatto {
+        let mut table = Lobatto {
             cosines,
             weights,
             dct,
-        }
+            antiderivative: Default::default(),
+        };
+        table.antiderivative = std::array::from_fn(|m| {
+            let points = (FIRST_INTERVALS << m) + 1;
+            let mut matrix = Vec::with_capacity(points * (points + 1));
+            for k in 0..points {
+                let mut unit = [0.0; MAX_POINTS];
+                unit[k] = 1.0;
+                let big = antiderivative_coefficients(&table.dct_of_nodes(&unit, points), points);
+                matrix.extend_from_slice(&big[..=points]);
+            }
+            matrix
+        });
+        table
     }
 }
 
@@ -625,40 +642,46 @@ impl Lobatto {
         finish_coefficient(sum, n, j)
     }
 
-    /// All coefficients: g = Σ c_j·T_j exactly at the `points` nodes. Each c_j is summed in
-    /// the order [`Self::coefficient`] sums it (so the same bits), all j side by side.
-    fn coefficients(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
-        super::wide::widest(Dct {
+    /// All coefficients of the interpolant through the consecutive node values `nodes`:
+    /// g = Σ c_j·T_j exactly at the `points` nodes (made once, for the antiderivative tables).
+    fn dct_of_nodes(&self, nodes: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
+        std::array::from_fn(|j| {
+            if j < points {
+                self.coefficient(nodes, points, j)
+            } else {
+                0.0
+            }
+        })
+    }
+
+    /// The Chebyshev coefficients of ∫_{−1}^t of the interpolant through the `points` node
+    /// values held in `values` (every 32/(points − 1)-th): the node values times the level's
+    /// antiderivative table, every coefficient summed side by side in the widest build.
+    fn antiderivative(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_COEFFS] {
+        super::wide::widest(Antiderivative {
             table: self,
             values,
             points,
         })
     }
 
-    /// [`Self::coefficients`], compiled into each wide build.
     #[inline(always)]
-    fn dct(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
+    fn antiderivative_product(
+        &self,
+        values: &[f64; MAX_POINTS],
+        points: usize,
+    ) -> [f64; MAX_COEFFS] {
         let nodes = gathered(values, points);
-        let n = points - 1;
-        let matrix = &self.dct[level(n)];
-        // Row k of the symmetric matrix is cos(πjk/n) for every j.
-        let row = |k: usize| &matrix[k * points..(k + 1) * points];
-        let mut sums = [0.0; MAX_POINTS];
-        for ((s, &first), &last) in sums.iter_mut().zip(row(0)).zip(row(n)) {
-            *s = 0.5 * (nodes[0] * first + nodes[n] * last);
-        }
-        for (k, &g) in nodes.iter().enumerate().take(n).skip(1) {
-            for (s, &cos) in sums.iter_mut().zip(row(k)) {
-                *s += g * cos;
+        let width = points + 1;
+        let matrix = &self.antiderivative[level(points - 1)];
+        let mut sums = [0.0; MAX_COEFFS];
+        for (k, &g) in nodes.iter().enumerate().take(points) {
+            let row = &matrix[k * width..(k + 1) * width];
+            for (s, &m) in sums.iter_mut().zip(row) {
+                *s += g * m;
             }
         }
-        std::array::from_fn(|j| {
-            if j < points {
-                finish_coefficient(sums[j], n, j)
-            } else {
-                0.0
-            }
-        })
+        sums
     }
 
     /// ∫_{−1}^{1} of the interpolant through the `points` nodes (Clenshaw–Curtis).
@@ -669,19 +692,19 @@ impl Lobatto {
     }
 }
 
-/// [`Lobatto::coefficients`]' work, for [`super::wide::widest`].
-struct Dct<'a> {
+/// [`Lobatto::antiderivative`]'s work, for [`super::wide::widest`].
+struct Antiderivative<'a> {
     table: &'a Lobatto,
     values: &'a [f64; MAX_POINTS],
     points: usize,
 }
 
-impl super::wide::Wide for Dct<'_> {
-    type Output = [f64; MAX_POINTS];
+impl super::wide::Wide for Antiderivative<'_> {
+    type Output = [f64; MAX_COEFFS];
 
     #[inline(always)]
     fn run(self) -> Self::Output {
-        self.table.dct(self.values, self.points)
+        self.table.antiderivative_product(self.values, self.points)
     }
 }
 
@@ -708,28 +731,34 @@ fn gathered(values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_POINTS] {
     std::array::from_fn(|k| if k < points { values[k * stride] } else { 0.0 })
 }
 
-/// Appends the coefficients of ∫_{−1}^t Σ c_k·T_k (the first `len` of `c`), times `half`
-/// (the panel's half-width, so the result is in the panel's own variable), less trailing ones
-/// of size at most `negligible`, and returns the integral over the panel.
-fn antiderivative_into(
-    (c, len): &([f64; MAX_POINTS], usize),
-    half: f64,
-    negligible: f64,
-    out: &mut Vec<f64>,
-) -> f64 {
-    let n = *len;
+/// The coefficients of ∫_{−1}^t Σ c_k·T_k (the first `n` of `c`): C_k = (c_{k−1} − c_{k+1})/2k,
+/// and C_0 so that the value at t = −1 is zero (T_k(−1) = (−1)^k).
+fn antiderivative_coefficients(c: &[f64; MAX_POINTS], n: usize) -> [f64; MAX_COEFFS] {
     let at = |k: usize| if k < n { c[k] } else { 0.0 };
     let mut big = [0.0; MAX_COEFFS];
     big[1] = at(0) - 0.5 * at(2);
     for (k, value) in big.iter_mut().enumerate().take(n + 1).skip(2) {
         *value = (at(k - 1) - at(k + 1)) / (2 * k) as f64;
     }
-    // The constant makes the value at t = −1 zero: T_k(−1) = (−1)^k.
     big[0] = -(1..=n)
         .map(|k| if k % 2 == 0 { big[k] } else { -big[k] })
         .sum::<f64>();
-    let total: f64 = big[..=n].iter().sum::<f64>() * half;
-    let kept = big[..=n]
+    big
+}
+
+/// Appends the first `points + 1` of the antiderivative coefficients `big` times `half` (the
+/// panel's half-width, so the result is in the panel's own variable), less trailing ones of
+/// size at most `negligible`, and returns the integral over the panel.
+fn append_scaled(
+    big: &[f64; MAX_COEFFS],
+    points: usize,
+    half: f64,
+    negligible: f64,
+    out: &mut Vec<f64>,
+) -> f64 {
+    let big = &big[..=points];
+    let total: f64 = big.iter().sum::<f64>() * half;
+    let kept = big
         .iter()
         .rposition(|v| (v * half).abs() > negligible)
         .map_or(1, |k| k + 1);
