@@ -264,7 +264,15 @@ impl PathIntegral {
         table: &Lobatto,
         keep: bool,
     ) -> Self {
-        let mut integral = PathIntegral::default();
+        // Room for the usual row (a few pieces, two spans each, one panel of at most 34
+        // coefficients a span), so the vectors are not grown a step at a time.
+        let spans = 2 * breakpoints.len().saturating_sub(1);
+        let mut integral = PathIntegral {
+            spans: Vec::with_capacity(spans),
+            panels: Vec::with_capacity(if keep { spans } else { 0 }),
+            coeffs: Vec::with_capacity(if keep { spans * MAX_COEFFS } else { 0 }),
+            total: 0.0,
+        };
         for w in breakpoints.windows(2) {
             let (p, q) = (w[0], w[1]);
             if q <= p || q.is_nan() || p.is_nan() {
