@@ -139,22 +139,20 @@ impl RemovalOperator {
             if j_lo >= j_hi {
                 return (j_lo, Vec::new(), in_pass.map_or(0.0, alone));
             }
-            let mut values = Vec::with_capacity(j_hi - j_lo);
             if n == 1 {
-                values.push(kernel.rate_nm_per_s(r, positions_mm[0]));
+                let values = vec![kernel.rate_nm_per_s(r, positions_mm[0])];
                 return (j_lo, values, in_pass.map_or(0.0, alone));
             }
             let path = kernel.path_integral(r, bounds[n]);
             let passed = in_pass.map_or(0.0, |p| p.removal(p.difference(&path)));
-            let mut running = vec![0.0; j_hi + 1 - j_lo];
-            path.at_ascending(&bounds[j_lo..=j_hi], &mut running);
-            // One straight loop over the cells (it vectorises), then the two end stops.
-            let cells = j_lo..j_hi;
-            values.extend(
-                (running.windows(2).zip(&moving[cells.clone()]))
-                    .zip(&cell_arcs[cells])
-                    .map(|((ends, &share), &arc)| share * (ends[1] - ends[0]) / arc),
-            );
+            // F at the cells' ends, then each cell's entry in its place (cell j reads ends j
+            // and j + 1 before entry j overwrites end j): one straight loop, then the end stops.
+            let mut values = vec![0.0; j_hi + 1 - j_lo];
+            path.at_ascending(&bounds[j_lo..=j_hi], &mut values);
+            for (k, j) in (j_lo..j_hi).enumerate() {
+                values[k] = moving[j] * (values[k + 1] - values[k]) / cell_arcs[j];
+            }
+            values.pop();
             for j in [0, n - 1] {
                 if (j_lo..j_hi).contains(&j) {
                     values[j - j_lo] += stop_share(j, n) * kernel.rate_nm_per_s(r, positions_mm[j]);

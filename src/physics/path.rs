@@ -373,15 +373,22 @@ impl PathIntegral {
         } = *fitting;
         let mut total = 0.0;
         let mut scale = 0.0_f64;
-        let mut stack = vec![(0.0, 1.0, 0_u32)];
+        // Depth first, so at most one pending panel per depth besides the two just split: on
+        // the call's own stack (no allocation per span).
+        let mut stack = [(0.0, 0.0, 0_u32); MAX_DEPTH as usize + 2];
+        stack[0] = (0.0, 1.0, 0);
+        let mut pending = 1;
         let mut panels = 0;
-        while let Some((lo, hi, depth)) = stack.pop() {
+        while pending > 0 {
+            pending -= 1;
+            let (lo, hi, depth) = stack[pending];
             let anyway = depth >= MAX_DEPTH || panels >= MAX_PANELS;
             let Some((values, points)) = table.sample(g, lo, hi, &mut scale, tolerance, anyway)
             else {
                 let mid = 0.5 * (lo + hi);
-                stack.push((mid, hi, depth + 1));
-                stack.push((lo, mid, depth + 1));
+                stack[pending] = (mid, hi, depth + 1);
+                stack[pending + 1] = (lo, mid, depth + 1);
+                pending += 2;
                 continue;
             };
             panels += 1;
