@@ -477,8 +477,11 @@ impl PathIntegral {
                 .position(|&v| v < lower || v >= upper)
                 .unwrap_or(out.len() - i);
             let on_panel = &mut out[i..i + run];
+            // A panel's width is a power of two (halvings of [0, 1]), so its reciprocal is
+            // exact and the product is the quotient, without a division per point.
+            let per_width = 1.0 / (panel.hi - panel.lo);
             for v in on_panel.iter_mut() {
-                *v = ((2.0 * *v - panel.lo - panel.hi) / (panel.hi - panel.lo)).clamp(-1.0, 1.0);
+                *v = ((2.0 * *v - panel.lo - panel.hi) * per_width).clamp(-1.0, 1.0);
             }
             let coeffs = &self.coeffs[panel.first as usize..(panel.first + panel.len) as usize];
             clenshaw_in_place(coeffs, on_panel);

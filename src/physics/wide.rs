@@ -1,9 +1,11 @@
 //! Run-time choice of the widest vector registers. The hot loops (Carlson's lanes, a curved
-//! rate's Kronrod nodes, a path's Clenshaw reads) are plain loops over arrays, summed in an
-//! order fixed in the code, with nothing fused; compiled for AVX-512 or AVX2 the compiler runs
-//! them eight or four lanes to a register, and since each lane does exactly the portable
-//! build's operations, every build gives the same bits. The binary stays portable: the
-//! features are detected when called (a cached flag), not assumed at compile time.
+//! rate's Kronrod nodes, a panel's antiderivative, a path's Clenshaw reads) are plain loops
+//! over arrays, summed in an order fixed in the code, with nothing fused; compiled for AVX-512
+//! or AVX2 the compiler runs them eight or four lanes to a register, and since each lane does
+//! exactly the portable build's operations, every build gives the same bits. The binary stays
+//! portable: the features are detected when called (a cached flag), not assumed at compile
+//! time. Written as plain loops they vectorise only when nothing in them is a branch per lane:
+//! a lane that must stop early is frozen by a bitwise select, not an `if` (see `carlson.rs`).
 
 /// Work to run in the widest build. `run` must be `#[inline(always)]`, as must what it calls,
 /// so that all of it is compiled inside that build (a closure would be compiled on its own,
