@@ -4,6 +4,7 @@
 //! a₄ = 1e-7, a₆ = −2e-11), where each entry is an adaptive quadrature. The edge models side by
 //! side: uniform against linear pressure (κ 1 and 0.5) at η = +0.05 with the positions on
 //! [0, 49.9] mm (a free gimbal's reach is the edge itself, excluded).
+//! Carlson's integrals alone (`carlson_triples`): the lanes every flat rate goes through.
 
 use preston::physics::{
     Orientation, Part, PressureModel, Process, ProcessSpec, RemovalKernel, RemovalOperator,
@@ -141,4 +142,35 @@ fn edge_linear_half(bencher: divan::Bencher, n: usize) {
             pad_moment_share: 0.5,
         },
     );
+}
+
+/// Carlson's R_F and R_D for 4,096 argument triples of the flat rate's form (A·c², A + B·s²,
+/// A) with A/B from 1e-4 to 1 and φ up to 1.5 rad, handed over 16 at a time as a row's panel
+/// levels hand them (the duplication's lanes and their stopping rule).
+#[divan::bench]
+fn carlson_triples(bencher: divan::Bencher) {
+    use preston::physics::carlson::rf_rd_many;
+    let n = 4096;
+    let (mut x, mut y, mut z) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    for k in 0..n {
+        // A fixed low-discrepancy spread of (A, φ), so every run times the same triples.
+        let u = (k as f64 * 0.618_033_988_749_895).fract();
+        let v = (k as f64 + 0.5) / n as f64;
+        let a = 10f64.powf(-4.0 * u);
+        let (s, c) = (1.5 * v).sin_cos();
+        (x[k], y[k], z[k]) = (a * c * c, a + s * s, a);
+    }
+    let (mut rf, mut rd) = (vec![0.0; n], vec![0.0; n]);
+    bencher.bench_local(|| {
+        for k in (0..n).step_by(16) {
+            rf_rd_many(
+                &x[k..k + 16],
+                &y[k..k + 16],
+                &z[k..k + 16],
+                &mut rf[k..k + 16],
+                &mut rd[k..k + 16],
+            );
+        }
+        divan::black_box(rf[n - 1] + rd[n - 1])
+    });
 }
