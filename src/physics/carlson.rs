@@ -137,9 +137,8 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
         }
     }
 
-    // The divider (square roots and divisions) is what limits this loop's throughput, so the
-    // series divide once each: with t = 1/(A·√A), 1/A = t·√A and 1/√A = t·A; the series'
-    // constants are multiplied as reciprocals.
+    // Each series divides once: with t = 1/(A·√A), 1/A = t·√A and 1/√A = t·A; its constants
+    // are multiplied as reciprocals.
     let rf = std::array::from_fn(|l| {
         let root = a_f[l].sqrt();
         let t = 1.0 / (a_f[l] * root);

@@ -683,6 +683,7 @@ impl Lobatto {
         })
     }
 
+    /// [`Self::antiderivative`], compiled into each wide build.
     #[inline(always)]
     fn antiderivative_product(
         &self,

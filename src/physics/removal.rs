@@ -473,8 +473,6 @@ impl RemovalKernel {
 /// x: what [`RemovalKernel::rate_under`] gives point by point, bit for bit, but with the
 /// Carlson integrals of a batch of points taken together ([`rf_rd_many`]). Points under a
 /// sloped (linear) pressure, at extreme speeds (rescaled) or at η = −1 are taken alone.
-pub static DBG: [std::sync::atomic::AtomicU64; 4] =
-    [const { std::sync::atomic::AtomicU64::new(0) }; 4];
 struct FlatRow<'a> {
     kernel: &'a RemovalKernel,
     r_mm: f64,
