@@ -733,7 +733,6 @@ fn level(intervals: usize) -> usize {
 }
 
 /// c_j from its DCT sum over n intervals.
-#[inline(always)]
 fn finish_coefficient(sum: f64, n: usize, j: usize) -> f64 {
     let value = 2.0 * sum / n as f64;
     if j == 0 || j == n {

@@ -529,13 +529,7 @@ const FLAT_QUEUE: usize = 2 * FLAT_BATCH;
 #[derive(Clone, Copy)]
 enum PendingG {
     Known(f64),
-    Slot {
-        slot: usize,
-        s: f64,
-        a: f64,
-        b: f64,
-        s2: f64,
-    },
+    Slot { slot: usize, s: f64, a: f64, b: f64 },
 }
 
 impl PendingG {
@@ -555,19 +549,30 @@ impl PendingG {
             // √B·(1 − cosφ), written without cancellation for small φ.
             return PendingG::Known(b.sqrt() * s * s / (1.0 + c));
         }
-        let s2 = s * s;
-        let slot = queue.push(a * c * c, a + b * s2, a);
-        PendingG::Slot { slot, s, a, b, s2 }
+        let (x, y, z) = Self::arguments(s, c, a, b);
+        let slot = queue.push(x, y, z);
+        PendingG::Slot { slot, s, a, b }
     }
 
     fn value<const N: usize>(self, queue: &CarlsonQueue<N>) -> f64 {
         match self {
             PendingG::Known(value) => value,
-            PendingG::Slot { slot, s, a, b, s2 } => {
-                let (rf, rd) = (queue.rf[slot], queue.rd[slot]);
-                s * a * (rf + b * s2 * rd / 3.0)
+            PendingG::Slot { slot, s, a, b } => {
+                Self::from_pair(s, a, b, queue.rf[slot], queue.rd[slot])
             }
         }
+    }
+
+    /// Carlson's arguments of G(φ; A, B): (A·c², A + B·s², A).
+    #[inline(always)]
+    fn arguments(s: f64, c: f64, a: f64, b: f64) -> (f64, f64, f64) {
+        (a * c * c, a + b * (s * s), a)
+    }
+
+    /// G(φ; A, B) from R_F and R_D at [`Self::arguments`].
+    #[inline(always)]
+    fn from_pair(s: f64, a: f64, b: f64, rf: f64, rd: f64) -> f64 {
+        s * a * (rf + b * (s * s) * rd / 3.0)
     }
 }
 
@@ -625,8 +630,16 @@ impl PendingRate {
     fn value<const N: usize>(self, scale: f64, queue: &CarlsonQueue<N>) -> f64 {
         match self {
             PendingRate::Known(rate) => rate,
-            PendingRate::Sliding { sliding, level } => scale * sliding.value(queue) * level,
+            PendingRate::Sliding { sliding, level } => {
+                Self::finish(scale, sliding.value(queue), level)
+            }
         }
+    }
+
+    /// The rate, nm/s, of the sliding integral ∫V dθ at a pressure `level` times nominal.
+    #[inline(always)]
+    fn finish(scale: f64, sliding: f64, level: f64) -> f64 {
+        scale * sliding * level
     }
 }
 
@@ -687,7 +700,7 @@ impl FlatRow<'_> {
             let aa = (a - b) * (a - b);
             other |= (x == 0.0) | (aa == 0.0) | ((ab4 < 0.0) & (s * s > 0.5)) | needs_scaling(a, b);
             (sin[i], big_a[i], big_b[i]) = (s, aa, ab4);
-            (queue.x[i], queue.y[i], queue.z[i]) = (aa * c * c, aa + ab4 * (s * s), aa);
+            (queue.x[i], queue.y[i], queue.z[i]) = PendingG::arguments(s, c, aa, ab4);
         }
         if other {
             return false;
@@ -696,9 +709,8 @@ impl FlatRow<'_> {
         queue.evaluate();
         for i in 0..n {
             let (s, aa, ab4) = (sin[i], big_a[i], big_b[i]);
-            // PendingG::value, Sliding::value and PendingRate::value, in their order.
-            let g = s * aa * (queue.rf[i] + ab4 * (s * s) * queue.rd[i] / 3.0);
-            out[i] = k.scale * (2.0 * g) * level[i];
+            let g = PendingG::from_pair(s, aa, ab4, queue.rf[i], queue.rd[i]);
+            out[i] = PendingRate::finish(k.scale, Sliding::direct(g), level[i]);
         }
         true
     }
@@ -865,10 +877,16 @@ impl Sliding {
         }
     }
 
+    /// ∫_0^{θ0} V dθ in the direct arrangement, from G(ψ0; (a−b)², 4ab).
+    #[inline(always)]
+    fn direct(g: f64) -> f64 {
+        2.0 * g
+    }
+
     /// ∫_0^{θ0} V dθ, once `queue` is evaluated.
     fn value<const N: usize>(self, queue: &CarlsonQueue<N>) -> f64 {
         match self {
-            Sliding::Direct(g) => 2.0 * g.value(queue),
+            Sliding::Direct(g) => Self::direct(g.value(queue)),
             Sliding::Complement { all, rest } => 2.0 * (all.value(queue) - rest.value(queue)),
         }
     }
