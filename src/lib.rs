@@ -18,6 +18,7 @@ pub mod keys;
 pub mod ledger;
 pub mod lsq;
 pub mod machine;
+pub mod memory;
 pub mod metrology;
 pub mod optimize;
 pub mod physics;

@@ -46,6 +46,7 @@ fn main() -> ExitCode {
 }
 
 fn serve(args: preston::config::ServeArgs) -> ExitCode {
+    preston::memory::keep_freed_memory();
     preston::telemetry::init(args.log_format);
     let runtime = match tokio::runtime::Runtime::new() {
         Ok(rt) => rt,
