@@ -122,36 +122,33 @@ impl super::wide::Wide for ArcRate<'_> {
             most,
             weight,
         } = self;
-        let Some(ArcSpeed { psi, b, f, e }) = kernel.arc_speed(ring, site) else {
+        let Some(speed) = kernel.arc_speed(ring, site) else {
             return 0.0;
         };
-        let psi = if end.sin < psi.sin { end } else { psi };
+        let psi = if end.sin < speed.psi.sin {
+            end
+        } else {
+            speed.psi
+        };
         // No sliding speed on the arc exceeds |B| + |A·r| + √|E|.
-        let bound = most * (b.abs() + f.abs() + e.abs().sqrt());
+        let bound = most * (speed.b.abs() + speed.f.abs() + speed.e.abs().sqrt());
         if bound <= 0.0 || !psi.is_contact() {
             return 0.0;
         }
         // Within 1e-10 of the largest speed per radian of arc (dφ ≥ 2·du).
         let density = 2e-10 * bound;
-        let mut total = side_integral(
-            b,
-            f,
-            e,
-            weight,
-            1.0,
-            0.0,
-            psi.sin.min(FRAC_1_SQRT_2),
-            density,
-        );
+        let near = 0.0..psi.sin.min(FRAC_1_SQRT_2);
+        let mut total = side_integral(&speed, weight, 1.0, near, density);
         if psi.sin > FRAC_1_SQRT_2 {
-            total += side_integral(b, f, e, weight, -1.0, psi.cos, FRAC_1_SQRT_2, density);
+            let far = psi.cos..FRAC_1_SQRT_2;
+            total += side_integral(&speed, weight, -1.0, far, density);
         }
         kernel.scale * total
     }
 }
 
 /// ∫ weight(cos φ)·|v_t| dφ over one side of the arc, in t = u (`side` +1, φ ≤ π/2) or
-/// t = w (`side` −1, φ ≥ π/2) from `lo` to `hi` (module docs): cos φ = ±(1 − 2t²),
+/// t = w (`side` −1, φ ≥ π/2) over `range` = [lo, hi] (module docs): cos φ = ±(1 − 2t²),
 /// sin²φ = 4t²(1 − t²), |dφ/dt| = 2/√(1 − t²), so the integrand is m(t)·√Q(t²) with
 /// m(t) = 2·weight(cos φ)/√(1 − t²) and Q(x) = δ² + c₂·x + c₄·x², δ = B ∓ A·r,
 /// c₂ = 4E ± 4A·r·δ, c₄ = 4(A·r)² − 4E.
@@ -170,17 +167,15 @@ impl super::wide::Wide for ArcRate<'_> {
 /// side's range (measured on the sphere benchmark: 4.3 panels a side before, 1.6 after).
 /// Elsewhere the integrand is smooth and taken as it is.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn side_integral(
-    b: f64,
-    f: f64,
-    e: f64,
+    speed: &ArcSpeed,
     weight: Weight,
     side: f64,
-    lo: f64,
-    hi: f64,
+    range: std::ops::Range<f64>,
     density: f64,
 ) -> f64 {
+    let ArcSpeed { b, f, e, .. } = *speed;
+    let std::ops::Range { start: lo, end: hi } = range;
     let integrand = |t: f64| {
         let (t2, rest) = (t * t, 1.0 - t * t);
         let cos = side * (1.0 - 2.0 * t2);
