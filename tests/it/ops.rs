@@ -146,12 +146,14 @@ async fn slot_taken(app: &axum::Router) {
 const SLOW_PATH: &str = "/v1/studies/eta-sweep";
 
 fn slow_computation() -> String {
-    // A 2001-position plan on an asphere at 8 speeds: eight 2001 × 2001 curved operators.
+    // A 2001-position plan on an asphere at 24 speeds: twenty-four 2001 × 2001 curved
+    // operators (about 0.6 s here; eight took 0.2 s, too short for the drain test's 300 ms).
     let positions: Vec<f64> = (0..2001).map(|k| 0.025 * k as f64).collect();
+    let etas: Vec<f64> = (0..24).map(|k| -0.05 - 0.1 * k as f64).collect();
     json!({"process": {"workpiece_radius_mm": 50, "tool_radius_mm": 10, "workpiece_rpm": 7.5, "tool_rpm": 150},
            "surface": {"kind": "asphere", "radius_of_curvature_mm": -150, "conic_constant": -0.5,
                        "coefficients": [{"power": 4, "value": 1e-7}]},
-           "etas": [-0.05, -0.25, -0.5, -0.75, -1.25, -1.5, -1.75, -2.0],
+           "etas": etas,
            "dwell": {"positions_mm": positions, "dwell_s": vec![1.0; 2001]},
            "radial_grid": {"count": 2001}})
     .to_string()
