@@ -389,11 +389,6 @@ impl CurvedKernel {
     /// pressure varying with the developed radial coordinate u = s(r)·cos φ of the ring point
     /// at arc length s(r) and azimuth φ.
     pub fn pad_pressure(&self, r1_mm: f64) -> PadPressure {
-        // Uniform pressure is nominal wherever the pad is: no arc length needed (on an
-        // asphere a quadrature).
-        if self.pressure_model == PressureModel::Uniform {
-            return PadPressure::NOMINAL;
-        }
         pad_pressure(
             self.pressure_model,
             self.edge_arc_mm,

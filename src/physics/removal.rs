@@ -180,6 +180,9 @@ impl RemovalKernel {
     /// The pressure with the tool at `r1_mm`, relative to nominal (see [`super::pressure`]);
     /// no pressure where no contact carries the load.
     pub fn pad_pressure(&self, r1_mm: f64) -> PadPressure {
+        if self.nominal_everywhere() {
+            return PadPressure::NOMINAL;
+        }
         if let Some(curved) = &self.curved {
             return curved.pad_pressure(r1_mm);
         }
@@ -190,6 +193,13 @@ impl RemovalKernel {
             r1_mm,
         )
         .unwrap_or(PadPressure::NONE)
+    }
+
+    /// Whether the pressure is nominal wherever the pad is (uniform pressure), so that no
+    /// position need be known to ask it: on a curved part that position is an arc length, on
+    /// an asphere a quadrature, and a path asks at every point.
+    fn nominal_everywhere(&self) -> bool {
+        self.pressure_model == PressureModel::Uniform
     }
 
     /// The linear pad's pressure curve, made on first use.
@@ -676,9 +686,9 @@ impl FlatRow<'_> {
             return false;
         }
         let n = xs.len();
-        // Uniform pressure is nominal wherever the pad is (pad_pressure), so not asked per point.
+        // Not asked point by point where it is nominal everywhere (a hot loop's worth).
         let mut level = [PadPressure::NOMINAL.level; FLAT_BATCH];
-        if k.pressure_model != PressureModel::Uniform {
+        if !k.nominal_everywhere() {
             for (level, &x) in level.iter_mut().zip(xs) {
                 let pressure = k.path_pressure(x, x);
                 if pressure.slope_per_mm != 0.0 || pressure.level == 0.0 {
