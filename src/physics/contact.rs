@@ -84,8 +84,8 @@ pub fn half_angle_off_axis(r: f64, r1: f64, rt: f64) -> (f64, f64) {
     let sin2 = ((rt - r + r1) * (rt + r - r1)).max(0.0);
     let cos2 = ((r + r1 - rt) * (r + r1 + rt)).max(0.0);
     // sin2 + cos2 = 4·r·r1 > 0 whenever neither is clamped; if one is, the other is positive.
-    let norm = sin2 + cos2;
-    ((sin2 / norm).sqrt(), (cos2 / norm).sqrt())
+    let per_norm = 1.0 / (sin2 + cos2);
+    ((sin2 * per_norm).sqrt(), (cos2 * per_norm).sqrt())
 }
 
 #[cfg(test)]

@@ -533,9 +533,11 @@ pub struct Lobatto {
     /// dct[m]: cos(πjk/n) for the rule at level m (n = FIRST_INTERVALS·2^m), as an (n + 1)²
     /// matrix (symmetric in j and k), so a DCT reads consecutive memory.
     dct: [Vec<f64>; LEVELS],
-    /// antiderivative[m]: row k holds the antiderivative's n + 2 Chebyshev coefficients for
-    /// node values e_k (the DCT then [`antiderivative_coefficients`], both linear), so a
-    /// panel's antiderivative is one product with its node values.
+    /// antiderivative[m]: row k (k ≤ n/2) holds the antiderivative's n + 2 Chebyshev
+    /// coefficients for node values e_k (the DCT then [`antiderivative_coefficients`], both
+    /// linear), so a panel's antiderivative is one product with its node values. Node n − k's
+    /// row is row k with the even coefficients (but C_0) negated (cos(πj(n − k)/n) =
+    /// (−1)^j·cos(πjk/n), and C_m takes c_{m±1}), so only half the rows are kept.
     antiderivative: [Vec<f64>; LEVELS],
 }
 
@@ -583,8 +585,9 @@ impl Default for Lobatto {
         };
         table.antiderivative = std::array::from_fn(|m| {
             let points = (FIRST_INTERVALS << m) + 1;
-            let mut matrix = Vec::with_capacity(points * (points + 1));
-            for k in 0..points {
+            let rows = points / 2 + 1;
+            let mut matrix = Vec::with_capacity(rows * (points + 1));
+            for k in 0..rows {
                 let mut unit = [0.0; MAX_POINTS];
                 unit[k] = 1.0;
                 let big = antiderivative_coefficients(&table.dct_of_nodes(&unit, points), points);
@@ -615,14 +618,18 @@ impl Lobatto {
         let mut points = FIRST_INTERVALS + 1;
         loop {
             let stride = (MAX_POINTS - 1) / (points - 1);
-            // The level's new points, all at once.
+            // The level's new points, all at once: every point of the first rule, then the
+            // odd ones of each finer rule (its even ones are the coarser rule's).
+            let (first, step) = if points == FIRST_INTERVALS + 1 {
+                (0, stride)
+            } else {
+                (stride, 2 * stride)
+            };
             let (mut new, mut vs, mut count) = ([0; MAX_POINTS], [0.0; MAX_POINTS], 0);
-            for k in (0..MAX_POINTS).step_by(stride) {
-                if values[k].is_nan() {
-                    new[count] = k;
-                    vs[count] = centre + half * self.cosines[k];
-                    count += 1;
-                }
+            for k in (first..MAX_POINTS).step_by(step) {
+                new[count] = k;
+                vs[count] = centre + half * self.cosines[k];
+                count += 1;
             }
             let mut got = [0.0; MAX_POINTS];
             g(&vs[..count], &mut got[..count]);
@@ -691,15 +698,27 @@ impl Lobatto {
         points: usize,
     ) -> [f64; MAX_COEFFS] {
         let nodes = gathered(values, points);
+        let n = points - 1;
         let width = points + 1;
-        let matrix = &self.antiderivative[level(points - 1)];
+        let matrix = &self.antiderivative[level(n)];
         let mut sums = [0.0; MAX_COEFFS];
-        for (k, &g) in nodes.iter().enumerate().take(points) {
+        // Nodes k and n − k together: their sum weighs row k's odd coefficients, their
+        // difference its even ones (the middle node alone: its even ones are zero).
+        for k in 0..=n / 2 {
+            let (even, odd) = if 2 * k == n {
+                (0.0, nodes[k])
+            } else {
+                (nodes[k] - nodes[n - k], nodes[k] + nodes[n - k])
+            };
             let row = &matrix[k * width..(k + 1) * width];
-            for (s, &m) in sums.iter_mut().zip(row) {
-                *s += g * m;
+            for (m, (s, &t)) in sums.iter_mut().zip(row).enumerate() {
+                *s += t * if m % 2 == 0 { even } else { odd };
             }
         }
+        // C_0 puts the value at t = −1 at zero, as in [`antiderivative_coefficients`].
+        sums[0] = -(1..width)
+            .map(|k| if k % 2 == 0 { sums[k] } else { -sums[k] })
+            .sum::<f64>();
         sums
     }
 

@@ -582,7 +582,7 @@ impl PendingG {
     /// G(φ; A, B) from R_F and R_D at [`Self::arguments`].
     #[inline(always)]
     fn from_pair(s: f64, a: f64, b: f64, rf: f64, rd: f64) -> f64 {
-        s * a * (rf + b * (s * s) * rd / 3.0)
+        s * a * (rf + b * (s * s) * rd * (1.0 / 3.0))
     }
 }
 
