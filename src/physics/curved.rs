@@ -705,7 +705,12 @@ const MAX_DEPTH: usize = 60;
 /// accepted when its error estimate is within `density` times its width, or at the deepest
 /// bisection, or when it can no longer be split in floating point.
 #[inline(always)]
-fn adaptive_gauss_kronrod<G: Fn(f64) -> f64>(g: &G, a: f64, b: f64, density: f64) -> f64 {
+pub(super) fn adaptive_gauss_kronrod<G: Fn(f64) -> f64>(
+    g: &G,
+    a: f64,
+    b: f64,
+    density: f64,
+) -> f64 {
     // Depth first: at most one pending panel per depth, plus the one being split.
     let mut stack = [(0.0, 0.0, 0); MAX_DEPTH + 2];
     stack[0] = (a, b, 0);

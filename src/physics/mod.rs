@@ -15,6 +15,7 @@ pub mod process;
 pub mod removal;
 pub mod roots;
 pub mod schedule;
+pub mod sliding_log;
 mod wide;
 
 pub use curved::{Orientation, Part};

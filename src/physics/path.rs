@@ -35,9 +35,12 @@
 //! once; the map's own poles at t = ±i bound the convergence (Bernstein ρ ≈ 4.6 against the
 //! halves' 3.4). It also draws singularities beyond the piece's ends closer (x − p ≈ 4W·t²
 //! against H·v²), so it pays where those are far: on curved parts (whose rates are costly) it
-//! needs 42 % fewer rates than halves; on a plane, whose rate has the contact angle's pole
-//! near the piece and δ²·ln δ at the sliding speed's zero, 47 % more. Reading F costs two
-//! square roots.
+//! needs 42 % fewer rates than halves. A plane's rate has δ²·ln δ at the sliding speed's zero,
+//! which the whole map leaves as slow as the halves do (47 % more rates over a row), unless the
+//! logarithm is taken out first ([`super::sliding_log`]): then a piece at least its own width
+//! from the contact angle's pole at x = 0 needs one span of 33 points where its halves need two
+//! (34 % fewer rates over the paper's 201 rows). The integrand says which map each piece
+//! takes ([`Integrand::piece_map`]). Reading F costs two square roots.
 //!
 //! **Panels.** g is represented on panels of [0, 1] by its Chebyshev interpolant at
 //! Chebyshev–Lobatto points, 9, 17 then 33 (reusing every value), until the last three
@@ -82,6 +85,12 @@ const ROUNDING_FLOOR: f64 = 64.0 * f64::EPSILON;
 pub trait Integrand {
     /// f(x) for every x of `xs` into `out` (of the same length).
     fn values(&self, xs: &[f64], out: &mut [f64]);
+
+    /// How the piece [p, q] is best mapped, where the integrand knows its singularities
+    /// better than the [`Resolution`]'s one map for every piece.
+    fn piece_map(&self, _p: f64, _q: f64) -> Option<PieceMap> {
+        None
+    }
 }
 
 /// A function of one point as an [`Integrand`], evaluated point by point.
@@ -98,6 +107,10 @@ impl<F: Fn(f64) -> f64> Integrand for Pointwise<F> {
 impl<T: Integrand + ?Sized> Integrand for &T {
     fn values(&self, xs: &[f64], out: &mut [f64]) {
         (**self).values(xs, out)
+    }
+
+    fn piece_map(&self, p: f64, q: f64) -> Option<PieceMap> {
+        (**self).piece_map(p, q)
     }
 }
 
@@ -289,7 +302,7 @@ impl PathIntegral {
                     .max(ROUNDING_FLOOR * p.abs().max(q.abs()) / half),
                 keep,
             };
-            match resolution.map {
+            match f.piece_map(p, q).unwrap_or(resolution.map) {
                 PieceMap::Halves => {
                     // g(v) = f(x)·2H·v, in that order of products (the bits of every release).
                     let dx = |f: f64, v: f64| f * 2.0 * half * v;

@@ -40,12 +40,15 @@ use super::path::{Integrand, Lobatto, PathIntegral, PieceMap, Resolution};
 use super::pressure::{contact_area_mm2, pad_pressure, PadPressure, PressureCurve, PressureModel};
 use super::process::Process;
 use super::roots::illinois;
+use super::sliding_log::SlidingLog;
 
 /// How finely a [`PathIntegral`] resolves the rate along the path, relative to the rate's
 /// size: the closed form is exact to rounding, the curved kernel's own quadrature to ~1e-10.
 /// A curved rate is costly and its pieces' nearest singularities are their own ends, so it is
 /// fitted over whole pieces; the flat rate has singularities just beyond its pieces' ends
-/// (the contact angle's pole at x = 0), so halves ([`super::path`] compares the two).
+/// (the contact angle's pole at x = 0) and δ²·ln δ at the sliding speed's zero, so halves,
+/// but whole pieces where that logarithm is taken out and the pole is far
+/// ([`FlatRow`]'s `piece_map`; [`super::path`] compares the two).
 const FLAT_PATH: Resolution = Resolution {
     tolerance: 1e-12,
     map: PieceMap::Halves,
@@ -83,6 +86,9 @@ pub struct RemovalKernel {
 pub enum RunningIntegral {
     /// Adaptive Chebyshev panels between the kinks of R ([`super::path`]).
     Panels(PathIntegral),
+    /// Panels of R less its logarithm at the sliding speed's zero, and that logarithm's
+    /// integral in closed form ([`super::sliding_log`]).
+    PanelsAndLog(PathIntegral, SlidingLog),
     /// The closed form on a plane at η = −1 under uniform pressure (see [`Lens`]).
     Lens(Lens),
 }
@@ -92,6 +98,7 @@ impl RunningIntegral {
     pub fn at(&self, x: f64) -> f64 {
         match self {
             RunningIntegral::Panels(panels) => panels.at(x),
+            RunningIntegral::PanelsAndLog(panels, log) => panels.at(x) + log.integral_to(x),
             RunningIntegral::Lens(lens) => lens.at(x),
         }
     }
@@ -105,6 +112,10 @@ impl RunningIntegral {
     pub fn at_ascending(&self, xs: &[f64], out: &mut [f64]) {
         match self {
             RunningIntegral::Panels(panels) => panels.at_ascending(xs, out),
+            RunningIntegral::PanelsAndLog(panels, log) => {
+                panels.at_ascending(xs, out);
+                log.add_integrals(xs, out);
+            }
             RunningIntegral::Lens(lens) => {
                 for (o, &x) in out.iter_mut().zip(xs) {
                     *o = lens.at(x);
@@ -311,9 +322,14 @@ impl RemovalKernel {
         if let Some(lens) = self.lens(r_mm) {
             return RunningIntegral::Lens(lens);
         }
-        RunningIntegral::Panels(self.along_path(r_mm, |rate, points, resolution| {
+        self.along_path(r_mm, |rate, points, resolution, log| {
             let (Some(&lo), Some(&hi)) = (points.first(), points.last()) else {
-                return PathIntegral::new(rate, &points, resolution, &self.lobatto);
+                return RunningIntegral::Panels(PathIntegral::new(
+                    rate,
+                    &points,
+                    resolution,
+                    &self.lobatto,
+                ));
             };
             // Only the linear model needs the cut: its reach is open, and the rate grows
             // without bound toward it (the others keep their panels as they were).
@@ -323,8 +339,12 @@ impl RemovalKernel {
             } else {
                 points
             };
-            PathIntegral::new(rate, &points, resolution, &self.lobatto)
-        }))
+            let panels = PathIntegral::new(rate, &points, resolution, &self.lobatto);
+            match log {
+                Some(log) => RunningIntegral::PanelsAndLog(panels, log),
+                None => RunningIntegral::Panels(panels),
+            }
+        })
     }
 
     /// F(stop) − F(start) read from [`Self::path_integral`]`(r, stop)`: what an operator row
@@ -347,7 +367,7 @@ impl RemovalKernel {
         if let Some(lens) = self.lens(r_mm) {
             return lens.at(stop_mm) - lens.at(start_mm);
         }
-        self.along_path(r_mm, |rate, points, resolution| {
+        self.along_path(r_mm, |rate, points, resolution, log| {
             let (Some(&lo), Some(&hi)) = (points.first(), points.last()) else {
                 return 0.0;
             };
@@ -355,7 +375,9 @@ impl RemovalKernel {
             if b <= a {
                 return 0.0;
             }
+            let logarithm = log.map_or(0.0, |log| log.integral_to(b) - log.integral_to(a));
             PathIntegral::total_over(rate, &inside(points, a, b), resolution, &self.lobatto)
+                + logarithm
         })
     }
 
@@ -371,11 +393,12 @@ impl RemovalKernel {
     }
 
     /// Hands `use_it` the rate along the path at radius `r_mm` (per mm of x, with ds/dx on a
-    /// curved part), the breakpoints of its smooth pieces and how finely to resolve them.
+    /// curved part), the breakpoints of its smooth pieces, how finely to resolve them, and
+    /// the logarithm the rate is given without, if any ([`Self::sliding_log`]).
     fn along_path<T>(
         &self,
         r_mm: f64,
-        use_it: impl FnOnce(&dyn Integrand, Vec<f64>, Resolution) -> T,
+        use_it: impl FnOnce(&dyn Integrand, Vec<f64>, Resolution, Option<SlidingLog>) -> T,
     ) -> T {
         match &self.curved {
             Some(curved) => {
@@ -395,14 +418,33 @@ impl RemovalKernel {
                     points.extend(curved.lift_kinks(&ring, onset.max(lo), hi, &pressure));
                     points = inside(points, lo, hi);
                 }
-                use_it(&rate, points, CURVED_PATH)
+                use_it(&rate, points, CURVED_PATH, None)
             }
-            None => use_it(
-                &FlatRow::new(self, r_mm),
-                self.flat_breakpoints(r_mm),
-                FLAT_PATH,
-            ),
+            None => {
+                let points = self.flat_breakpoints(r_mm);
+                let log = self.sliding_log(r_mm, &points);
+                let rate = FlatRow::new(self, r_mm).without(log);
+                use_it(&rate, points, FLAT_PATH, log)
+            }
         }
+    }
+
+    /// The logarithm of the plane's rate at the sliding speed's zero x*, to be taken out over
+    /// the pieces beside x* among `points` ([`super::sliding_log`]): under uniform pressure
+    /// (a level one, so S's weight is the rate's), away from η = −1, x* a breakpoint strictly
+    /// inside, at ordinary speeds.
+    fn sliding_log(&self, r: f64, points: &[f64]) -> Option<SlidingLog> {
+        if self.translation || !self.nominal_everywhere() || self.omega2 == 0.0 || r <= 0.0 {
+            return None;
+        }
+        let a = self.omega_sum * r;
+        let zero = a / self.omega2;
+        let k = points.iter().position(|&x| x == zero)?;
+        let (lo, hi) = (*points.get(k.checked_sub(1)?)?, *points.get(k + 1)?);
+        if needs_scaling(a, self.omega2 * lo) || needs_scaling(a, self.omega2 * hi) {
+            return None;
+        }
+        SlidingLog::new(a, self.omega2, self.scale, lo, hi)
     }
 
     /// The support of R(r; ·) on a plane, clipped to the reach, and the kinks inside it.
@@ -488,6 +530,8 @@ struct FlatRow<'a> {
     r_mm: f64,
     /// The Carlson arguments of a batch, reused from batch to batch of the row.
     queue: RefCell<CarlsonQueue<FLAT_QUEUE>>,
+    /// The logarithm at the sliding speed's zero the rates are given without, if any.
+    log: Option<SlidingLog>,
 }
 
 impl<'a> FlatRow<'a> {
@@ -496,7 +540,13 @@ impl<'a> FlatRow<'a> {
             kernel,
             r_mm,
             queue: RefCell::new(CarlsonQueue::new()),
+            log: None,
         }
+    }
+
+    /// The same rates less `log`'s part.
+    fn without(self, log: Option<SlidingLog>) -> Self {
+        FlatRow { log, ..self }
     }
 }
 
@@ -661,6 +711,26 @@ impl Integrand for FlatRow<'_> {
                 self.batch_point_by_point(xs, out, &mut queue);
             }
         }
+        if let Some(log) = &self.log {
+            log.subtract(xs, out);
+        }
+    }
+
+    /// With the logarithm taken out, a piece is fitted whole (one span, where two halves
+    /// need twice the rates) unless it ends at x* with the logarithm left in on it, or lies
+    /// closer to the contact angle's pole at x = 0 than its own width (the whole map draws
+    /// what lies beyond a piece's ends closer: [`super::path`]).
+    fn piece_map(&self, p: f64, q: f64) -> Option<PieceMap> {
+        let log = self.log.as_ref()?;
+        let (lo, hi) = log.range_mm();
+        let zero = log.zero_mm();
+        let beside_zero = p == zero || q == zero;
+        let log_left_in = beside_zero && (p < lo || q > hi);
+        Some(if p >= q - p && !log_left_in {
+            PieceMap::Whole
+        } else {
+            PieceMap::Halves
+        })
     }
 }
 
