@@ -37,6 +37,9 @@ use super::schedule::ConstantFeed;
 /// integral, and [`PARALLEL_MIN_PATHS`] rows go parallel.
 const PARALLEL_MIN_ENTRIES: usize = 20_000;
 
+/// Columns laid out together from the rows (see `assemble_with_pass`).
+const GATHER_BLOCK: usize = 16;
+
 /// A constant feed read beside an operator: what it removes at the operator's rows `rows`
 /// (a range of its radii), as [`ConstantFeed::removal_read_nm`] computes it.
 #[derive(Debug, Clone, PartialEq)]
@@ -122,8 +125,12 @@ impl RemovalOperator {
         // Arc lengths of the cells, and each row's columns: those whose rows contain it (a
         // contiguous run, since both ends of the columns' row runs grow with j).
         let arcs: Vec<f64> = bounds.iter().map(|&b| kernel.arc_length_mm(b)).collect();
-        let cell_arcs: Vec<f64> = arcs.windows(2).map(|w| w[1] - w[0]).collect();
-        let moving: Vec<f64> = (0..n).map(|j| move_share(j, n)).collect();
+        // w_j/L_j per column, so a row's entries take a product each, not a division.
+        let per_arc: Vec<f64> = arcs
+            .windows(2)
+            .enumerate()
+            .map(|(j, w)| move_share(j, n) / (w[1] - w[0]))
+            .collect();
         let row_end: Vec<usize> = (0..n)
             .map(|j| first_row[j] + col_ptr[j + 1] - col_ptr[j])
             .collect();
@@ -150,7 +157,7 @@ impl RemovalOperator {
             let mut values = vec![0.0; j_hi + 1 - j_lo];
             path.at_ascending(&bounds[j_lo..=j_hi], &mut values);
             for (k, j) in (j_lo..j_hi).enumerate() {
-                values[k] = moving[j] * (values[k + 1] - values[k]) / cell_arcs[j];
+                values[k] = (values[k + 1] - values[k]) * per_arc[j];
             }
             values.pop();
             for j in [0, n - 1] {
@@ -171,23 +178,39 @@ impl RemovalOperator {
         } else {
             (0..radii_mm.len()).map(row).collect()
         };
-        // Laid out by column: each column gathers its run of rows (columns in parallel, as
-        // the rows were).
+        // Laid out by column, a block of columns at a time: each row touching the block copies
+        // its few entries there, so the rows are read in order instead of one entry from
+        // every row per column (blocks in parallel, as the rows were).
         let mut values = vec![0.0; entries];
-        let gather = |(j, column): (usize, &mut [f64])| {
-            for (value, (j_lo, row, _)) in column.iter_mut().zip(&by_row[first_row[j]..]) {
-                *value = row[j - j_lo];
+        // Entry (i, j) sits at col_ptr[j] − first_row[j] + i.
+        let column_start: Vec<usize> = (0..n).map(|j| col_ptr[j] - first_row[j]).collect();
+        let gather = |(b, block): (usize, &mut [f64])| {
+            let (j0, j1) = (b * GATHER_BLOCK, ((b + 1) * GATHER_BLOCK).min(n));
+            let base = col_ptr[j0];
+            for (i, (j_lo, row, _)) in by_row
+                .iter()
+                .enumerate()
+                .take(row_end[j1 - 1])
+                .skip(first_row[j0])
+            {
+                let (from, to) = ((*j_lo).max(j0), (j_lo + row.len()).min(j1));
+                for (j, &value) in (from..to).zip(&row[from - j_lo..to - j_lo]) {
+                    block[column_start[j] + i - base] = value;
+                }
             }
         };
-        let columns = split_at_offsets(&mut values, &col_ptr[1..]);
+        let block_ends: Vec<usize> = (1..=n.div_ceil(GATHER_BLOCK))
+            .map(|b| col_ptr[(b * GATHER_BLOCK).min(n)])
+            .collect();
+        let blocks = split_at_offsets(&mut values, &block_ends);
         if parallel {
-            columns
+            blocks
                 .into_par_iter()
                 .enumerate()
-                .with_min_len(64)
+                .with_min_len(4)
                 .for_each(gather);
         } else {
-            columns.into_iter().enumerate().for_each(gather);
+            blocks.into_iter().enumerate().for_each(gather);
         }
         let passed = pass.map(|p| by_row[p.rows.clone()].iter().map(|row| row.2).collect());
 
