@@ -491,18 +491,38 @@ impl CurvedKernel {
         };
         let top = (r + rt).min(reach_mm);
         let mut points = Vec::new();
+        // On a sphere the tangencies are where the arc lengths differ by r_t (module docs):
+        // each root is first sought in a hair's bracket about that.
+        let at_arc = |s: f64| surface.is_sphere().then(|| surface.radius_at_arc_length(s));
+        let ring_arc = if surface.is_sphere() {
+            surface.arc_length_mm(r)
+        } else {
+            f64::NAN
+        };
         // The pad's near rim: between r − r_t (out of reach) and r (on the ring).
         let low = (r - rt).max(0.0);
         let g_low = gap(low, false);
         let lo = if g_low > 0.0 {
-            root(&|x| gap(x, false), (low, g_low), (r, gap(r, false)))
+            let near = |x| gap(x, false);
+            root_near(
+                &near,
+                at_arc(ring_arc - rt),
+                (low, g_low),
+                (r, gap(r, false)),
+            )
         } else {
             0.0
         };
         // The far rim, beyond r, unless the reach ends first.
         let g_top = gap(top, false);
         let hi = if g_top > 0.0 && top > r {
-            root(&|x| gap(x, false), (r, gap(r, false)), (top, g_top))
+            let near = |x| gap(x, false);
+            root_near(
+                &near,
+                at_arc(ring_arc + rt),
+                (r, gap(r, false)),
+                (top, g_top),
+            )
         } else {
             top
         };
@@ -512,7 +532,9 @@ impl CurvedKernel {
             let end = rt.min(top);
             let g_end = gap(end, true);
             if g_end > 0.0 {
-                points.push(root(&|x| gap(x, true), (0.0, g_axis), (end, g_end)));
+                let far = |x| gap(x, true);
+                let guess = at_arc(rt - ring_arc);
+                points.push(root_near(&far, guess, (0.0, g_axis), (end, g_end)));
             }
         }
         if self.pressure_model != PressureModel::Uniform && self.edge_arc_mm > rt {
@@ -578,6 +600,21 @@ impl CurvedKernel {
 fn root(f: &dyn Fn(f64) -> f64, a: (f64, f64), b: (f64, f64)) -> f64 {
     let ulps = 4.0 * f64::EPSILON * a.0.abs().max(b.0.abs());
     super::roots::illinois(f, a, b, ulps, 0.0)
+}
+
+/// [`root`] in the bracket a–b, sought first within 1e-9 of the bracket's size about `guess`
+/// (two values of f, where the whole bracket takes about ten): the same root to a few ulps
+/// when the guess is good, the whole bracket when it is not.
+fn root_near(f: &dyn Fn(f64) -> f64, guess: Option<f64>, a: (f64, f64), b: (f64, f64)) -> f64 {
+    if let Some(guess) = guess.filter(|g| *g > a.0 && *g < b.0) {
+        let hair = 1e-9 * a.0.abs().max(b.0.abs());
+        let (lo, hi) = ((guess - hair).max(a.0), (guess + hair).min(b.0));
+        let (f_lo, f_hi) = (f(lo), f(hi));
+        if (f_lo <= 0.0) != (f_hi <= 0.0) {
+            return root(f, (lo, f_lo), (hi, f_hi));
+        }
+    }
+    root(f, a, b)
 }
 
 /// Gauss–Kronrod (7, 15) nodes on [−1, 1] (non-negative half) and weights.
