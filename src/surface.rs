@@ -274,6 +274,12 @@ impl Surface {
         }
     }
 
+    /// z and z′ at r, the conic's root taken once (what [`Self::local`] gives, without z″).
+    pub fn sag_and_slope(&self, r: f64) -> (f64, f64) {
+        let s = self.root(r);
+        (self.sag_given_root(r, s), self.slope_given_root(r, s))
+    }
+
     fn sag_given_root(&self, r: f64, s: f64) -> f64 {
         let conic = self.curvature * r * r / (1.0 + s);
         let a = r.abs();
@@ -447,8 +453,16 @@ impl Local {
 /// (sin θ, cos θ) of the slope angle θ = atan z′, without trigonometry:
 /// cos θ = 1/√(1 + z′²), sin θ = z′·cos θ.
 fn slope_sin_cos(slope: f64) -> (f64, f64) {
-    let cos = 1.0 / stretch(slope);
-    (slope * cos, cos)
+    let (_, sin, cos) = slope_frame(slope);
+    (sin, cos)
+}
+
+/// (ds/dr, sin θ, cos θ) for the slope z′, from one square root: ds/dr = √(1 + z′²), and
+/// [`slope_sin_cos`]'s sine and cosine.
+pub fn slope_frame(slope: f64) -> (f64, f64, f64) {
+    let stretch = stretch(slope);
+    let cos = 1.0 / stretch;
+    (stretch, slope * cos, cos)
 }
 
 /// ds/dr = √(1 + z′²) for the slope z′, directly: hypot's guard against overflow costs more

@@ -357,14 +357,24 @@ impl CurvedKernel {
     /// The pad at radial position `r1_mm`.
     pub fn site(&self, r1_mm: f64) -> Site {
         let surface = &self.part.surface;
-        let local = surface.local(r1_mm);
-        let (sin1, cos1) = local.slope_sin_cos();
+        // A sphere's chord is the same everywhere: its curvature is not needed per site.
+        let (z1, slope, second_derivative) = match self.sphere_chord {
+            Some(_) => {
+                let (sag, slope) = surface.sag_and_slope(r1_mm);
+                (sag, slope, f64::NAN)
+            }
+            None => {
+                let local = surface.local(r1_mm);
+                (local.sag_mm, local.slope, local.second_derivative)
+            }
+        };
+        let (arc_integrand, sin1, cos1) = crate::surface::slope_frame(slope);
         let (axis_x, axis_z) = match self.part.orientation {
             Orientation::Normal => (-sin1, cos1),
             Orientation::Vertical => (0.0, 1.0),
         };
         let chord = self.sphere_chord.unwrap_or_else(|| {
-            let meridional = local.second_derivative * cos1 * cos1 * cos1;
+            let meridional = second_derivative * cos1 * cos1 * cos1;
             let sagittal = if r1_mm > 0.0 {
                 sin1 / r1_mm
             } else {
@@ -375,11 +385,11 @@ impl CurvedKernel {
         Site {
             r1: r1_mm,
             arc1: self.arc_if_linear(r1_mm),
-            z1: local.sag_mm,
+            z1,
             axis_x,
             axis_z,
             chord,
-            arc_integrand: local.arc_integrand(),
+            arc_integrand,
         }
     }
 
