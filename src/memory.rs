@@ -9,8 +9,8 @@
 //! So the service raises both thresholds once, before any thread starts: blocks up to 32 MiB
 //! come from the heap, and up to 64 MiB of freed memory is kept for reuse. Measured in the
 //! server (docs/PERFORMANCE.md): 58–138 page faults a cold 1001 × 1001 request before, 1–29
-//! after, and the request about 3 % faster. What the process holds stays bounded by what it used at its peak (the operator
-//! cache bounds most of that).
+//! after, and the request about 3 % faster. What the process holds stays bounded by what it
+//! used at its peak (the operator cache bounds most of that).
 
 /// Largest block served from the heap rather than mapped on its own, bytes.
 const HEAP_BLOCKS_UP_TO: usize = 32 << 20;

@@ -80,8 +80,11 @@ impl ComputeSlots {
     /// Slots and their lanes (a thread each, started here: like the runtime's own threads, the
     /// service cannot run without them).
     pub fn new(limits: SlotLimits, metrics: Arc<Metrics>) -> Self {
-        let slots = limits.slots.max(1);
-        let lanes = (0..slots)
+        let limits = SlotLimits {
+            slots: limits.slots.max(1),
+            ..limits
+        };
+        let lanes = (0..limits.slots)
             .map(|i| {
                 let lane = rayon::ThreadPoolBuilder::new()
                     .num_threads(1)
@@ -92,7 +95,7 @@ impl ComputeSlots {
             })
             .collect();
         ComputeSlots {
-            free: Arc::new(Semaphore::new(slots)),
+            free: Arc::new(Semaphore::new(limits.slots)),
             waiting: Arc::new(AtomicUsize::new(0)),
             limits,
             metrics,
@@ -124,7 +127,7 @@ impl ComputeSlots {
                 }
             };
             let running = Running::enter(&self.metrics);
-            let alone = self.free.available_permits() + 1 == self.limits.slots.max(1);
+            let alone = self.free.available_permits() + 1 == self.limits.slots;
             let lane = if alone { None } else { self.take_lane() };
             let Some(lane) = lane else {
                 return tokio::task::spawn_blocking(move || {

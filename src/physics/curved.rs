@@ -357,15 +357,16 @@ impl CurvedKernel {
     /// The pad at radial position `r1_mm`.
     pub fn site(&self, r1_mm: f64) -> Site {
         let surface = &self.part.surface;
-        // A sphere's chord is the same everywhere: its curvature is not needed per site.
-        let (z1, slope, second_derivative) = match self.sphere_chord {
-            Some(_) => {
+        // A sphere's chord is the same everywhere (`Ok`); elsewhere it comes from the
+        // surface's curvature z″ here (`Err`), which a sphere's site need not compute.
+        let (z1, slope, known_chord) = match self.sphere_chord {
+            Some(chord) => {
                 let (sag, slope) = surface.sag_and_slope(r1_mm);
-                (sag, slope, f64::NAN)
+                (sag, slope, Ok(chord))
             }
             None => {
                 let local = surface.local(r1_mm);
-                (local.sag_mm, local.slope, local.second_derivative)
+                (local.sag_mm, local.slope, Err(local.second_derivative))
             }
         };
         let (arc_integrand, sin1, cos1) = crate::surface::slope_frame(slope);
@@ -373,7 +374,7 @@ impl CurvedKernel {
             Orientation::Normal => (-sin1, cos1),
             Orientation::Vertical => (0.0, 1.0),
         };
-        let chord = self.sphere_chord.unwrap_or_else(|| {
+        let chord = known_chord.unwrap_or_else(|second_derivative| {
             let meridional = second_derivative * cos1 * cos1 * cos1;
             let sagittal = if r1_mm > 0.0 {
                 sin1 / r1_mm
@@ -503,36 +504,24 @@ impl CurvedKernel {
         let mut points = Vec::new();
         // On a sphere the tangencies are where the arc lengths differ by r_t (module docs):
         // each root is first sought in a hair's bracket about that.
-        let at_arc = |s: f64| surface.is_sphere().then(|| surface.radius_at_arc_length(s));
-        let ring_arc = if surface.is_sphere() {
-            surface.arc_length_mm(r)
-        } else {
-            f64::NAN
-        };
+        let ring_arc = surface.is_sphere().then(|| surface.arc_length_mm(r));
+        let at_arc =
+            |arc: fn(f64, f64) -> f64| ring_arc.map(|s| surface.radius_at_arc_length(arc(s, rt)));
+        let near = |x| gap(x, false);
         // The pad's near rim: between r − r_t (out of reach) and r (on the ring).
         let low = (r - rt).max(0.0);
         let g_low = gap(low, false);
         let lo = if g_low > 0.0 {
-            let near = |x| gap(x, false);
-            root_near(
-                &near,
-                at_arc(ring_arc - rt),
-                (low, g_low),
-                (r, gap(r, false)),
-            )
+            let guess = at_arc(|s, rt| s - rt);
+            root_near(&near, guess, (low, g_low), (r, gap(r, false)))
         } else {
             0.0
         };
         // The far rim, beyond r, unless the reach ends first.
         let g_top = gap(top, false);
         let hi = if g_top > 0.0 && top > r {
-            let near = |x| gap(x, false);
-            root_near(
-                &near,
-                at_arc(ring_arc + rt),
-                (r, gap(r, false)),
-                (top, g_top),
-            )
+            let guess = at_arc(|s, rt| s + rt);
+            root_near(&near, guess, (r, gap(r, false)), (top, g_top))
         } else {
             top
         };
@@ -543,7 +532,7 @@ impl CurvedKernel {
             let g_end = gap(end, true);
             if g_end > 0.0 {
                 let far = |x| gap(x, true);
-                let guess = at_arc(rt - ring_arc);
+                let guess = at_arc(|s, rt| rt - s);
                 points.push(root_near(&far, guess, (0.0, g_axis), (end, g_end)));
             }
         }

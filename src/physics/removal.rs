@@ -423,7 +423,7 @@ impl RemovalKernel {
             None => {
                 let points = self.flat_breakpoints(r_mm);
                 let log = self.sliding_log(r_mm, &points);
-                let rate = FlatRow::new(self, r_mm).without(log);
+                let rate = FlatRow::new(self, r_mm, log);
                 use_it(&rate, points, FLAT_PATH, log)
             }
         }
@@ -431,10 +431,11 @@ impl RemovalKernel {
 
     /// The logarithm of the plane's rate at the sliding speed's zero x*, to be taken out over
     /// the pieces beside x* among `points` ([`super::sliding_log`]): under uniform pressure
-    /// (a level one, so S's weight is the rate's), away from η = −1, x* a breakpoint strictly
-    /// inside, at ordinary speeds.
+    /// (a level one, so S's weight is the rate's), x* a breakpoint strictly inside, at
+    /// ordinary speeds. (At η = −1, with ω2 = 0 or on the axis x* is 0 or not finite, which
+    /// [`SlidingLog::new`] refuses.)
     fn sliding_log(&self, r: f64, points: &[f64]) -> Option<SlidingLog> {
-        if self.translation || !self.nominal_everywhere() || self.omega2 == 0.0 || r <= 0.0 {
+        if !self.nominal_everywhere() {
             return None;
         }
         let a = self.omega_sum * r;
@@ -535,18 +536,14 @@ struct FlatRow<'a> {
 }
 
 impl<'a> FlatRow<'a> {
-    fn new(kernel: &'a RemovalKernel, r_mm: f64) -> Self {
+    /// The rates at radius `r_mm`, less `log`'s part if given.
+    fn new(kernel: &'a RemovalKernel, r_mm: f64, log: Option<SlidingLog>) -> Self {
         FlatRow {
             kernel,
             r_mm,
             queue: RefCell::new(CarlsonQueue::new()),
-            log: None,
+            log,
         }
-    }
-
-    /// The same rates less `log`'s part.
-    fn without(self, log: Option<SlidingLog>) -> Self {
-        FlatRow { log, ..self }
     }
 }
 
@@ -1131,7 +1128,7 @@ mod tests {
                     .chain([r, (r - 10.0).abs(), r + 10.0])
                     .collect();
                 let mut batch = vec![f64::NAN; xs.len()];
-                FlatRow::new(&kernel, r).values(&xs, &mut batch);
+                FlatRow::new(&kernel, r, None).values(&xs, &mut batch);
                 for (&x, &got) in xs.iter().zip(&batch) {
                     let want = kernel.rate_under(&kernel.path_pressure(x, x), r, x);
                     assert_eq!(got.to_bits(), want.to_bits(), "{spec:?}: r {r}, x {x}");
