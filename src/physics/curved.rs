@@ -43,8 +43,9 @@
 //!
 //! **The rate.** R(r; r1) = K·P/π·∫₀^φ₀ |v_t| dφ (|v_t| is even in φ), along the normal. The
 //! integrand is smooth except where the sliding speed nearly vanishes, so the integral is taken
-//! by adaptive Gauss–Kronrod (7, 15) with QUADPACK's error estimate, to an absolute tolerance of
-//! 1e-10 of the largest speed on the arc times the arc; the band |r − r1| < c_t ≤ r_t stays
+//! by adaptive Gauss–Kronrod (7, 15) panels, extended to 31 points before one is halved
+//! ([`super::kronrod`]), to an absolute tolerance of 1e-10 of the largest speed on the arc
+//! times the arc; the band |r − r1| < c_t ≤ r_t stays
 //! that of the flat operator. |v_t| depends on φ only through cos φ and sin²φ, so the rule runs
 //! in u = sin(φ/2) up to φ = π/2 and in w = cos(φ/2) beyond (cos φ = 1 − 2u² = 2w² − 1,
 //! dφ = 2·du/√(1 − u²)): the arc's end is the contact's half-angle as computed, and no node
@@ -62,6 +63,7 @@
 use std::f64::consts::FRAC_1_SQRT_2;
 
 use super::contact::{half_angle, HalfAngle};
+use super::kronrod::adaptive_gauss_kronrod;
 use super::pressure::{pad_pressure, PadPressure, PressureModel};
 use crate::surface::Surface;
 
@@ -616,168 +618,6 @@ fn root_near(f: &dyn Fn(f64) -> f64, guess: Option<f64>, a: (f64, f64), b: (f64,
     root(f, a, b)
 }
 
-/// Gauss–Kronrod (7, 15) nodes on [−1, 1] (non-negative half) and weights.
-const XGK: [f64; 8] = [
-    0.991_455_371_120_812_6,
-    0.949_107_912_342_758_5,
-    0.864_864_423_359_769_1,
-    0.741_531_185_599_394_4,
-    0.586_087_235_467_691_1,
-    0.405_845_151_377_397_2,
-    0.207_784_955_007_898_5,
-    0.0,
-];
-const WGK: [f64; 8] = [
-    0.022_935_322_010_529_22,
-    0.063_092_092_629_978_55,
-    0.104_790_010_322_250_18,
-    0.140_653_259_715_525_92,
-    0.169_004_726_639_267_9,
-    0.190_350_578_064_785_4,
-    0.204_432_940_075_298_9,
-    0.209_482_141_084_727_83,
-];
-/// Gauss 7-point weights at XGK[1], XGK[3], XGK[5], XGK[7].
-const WG: [f64; 4] = [
-    0.129_484_966_168_869_7,
-    0.279_705_391_489_276_7,
-    0.381_830_050_505_118_9,
-    0.417_959_183_673_469_4,
-];
-
-/// Values at the Kronrod nodes' non-negative half (XGK's order, the centre last) in a panel's
-/// lane order: node k in lanes k (below the centre, times `below`) and 14 − k (above it), and
-/// a 16th lane of 0, so a panel is four AVX2 registers (that lane's node is the centre again,
-/// with weight 0).
-const fn lanes(half: [f64; 8], below: f64) -> [f64; 16] {
-    let mut out = [0.0; 16];
-    let mut k = 0;
-    while k < 8 {
-        out[k] = below * half[k];
-        out[14 - k] = half[k];
-        k += 1;
-    }
-    out
-}
-/// The 15 Kronrod nodes on [−1, 1] in lane order, and their Kronrod and Gauss weights (zero
-/// where the Gauss rule has no node).
-const NODES: [f64; 16] = lanes(XGK, -1.0);
-const KRONROD: [f64; 16] = lanes(WGK, 1.0);
-const GAUSS: [f64; 16] = lanes([0.0, WG[0], 0.0, WG[1], 0.0, WG[2], 0.0, WG[3]], 1.0);
-
-/// One panel of ∫ g over [lo, hi]: the Kronrod value and what QUADPACK's error estimate needs. The
-/// nodes are evaluated as one array so that, inlined into a caller compiled for wider
-/// registers, g runs on four (AVX2) or eight (AVX-512) nodes at once.
-#[inline(always)]
-fn gk15<G: Fn(f64) -> f64>(g: &G, lo: f64, hi: f64) -> Panel {
-    let centre = 0.5 * (lo + hi);
-    let half = 0.5 * (hi - lo);
-    let mut values = [0.0; 16];
-    for (value, node) in values.iter_mut().zip(NODES) {
-        *value = g(centre + half * node);
-    }
-    let kronrod = lane_sum(|i| KRONROD[i] * values[i]);
-    let gauss = lane_sum(|i| GAUSS[i] * values[i]);
-    // QUADPACK's estimate: |K − G| scaled by the integrand's variation about its mean, which
-    // is far less pessimistic than |K − G| itself for smooth integrands.
-    let mean = 0.5 * kronrod;
-    let spread = lane_sum(|i| KRONROD[i] * (values[i] - mean).abs()) * half.abs();
-    Panel {
-        value: kronrod * half,
-        difference: ((kronrod - gauss) * half).abs(),
-        spread,
-    }
-}
-
-/// A Kronrod panel's value, |K − G| and the integrand's variation about its mean (QUADPACK's
-/// `resasc`), both times the half-width.
-struct Panel {
-    value: f64,
-    difference: f64,
-    spread: f64,
-}
-
-impl Panel {
-    /// Whether QUADPACK's error estimate, s·min(1, (200·d/s)^1.5) (d = |K − G|, s the spread;
-    /// d itself when either is zero), is within `tolerance`. Decided without the power: for
-    /// 200·d < s, s·(200·d/s)^1.5 ≤ t ⟺ (200·d)³ ≤ t²·s (both sides squared, times s), which
-    /// leaves a panel no square root or division on its critical path.
-    fn within(&self, tolerance: f64) -> bool {
-        let (d, s) = (self.difference, self.spread);
-        if s > 0.0 && d > 0.0 {
-            let scaled = 200.0 * d;
-            if scaled >= s {
-                s <= tolerance
-            } else {
-                scaled * scaled * scaled <= tolerance * tolerance * s
-            }
-        } else {
-            d <= tolerance
-        }
-    }
-}
-
-/// Σ term(i) over the 16 lanes, summed as four lanes of four (an order fixed in the code, so
-/// the wide and the narrow build agree to the bit).
-#[inline(always)]
-fn lane_sum(term: impl Fn(usize) -> f64) -> f64 {
-    let mut lanes = [0.0; 4];
-    for row in 0..4 {
-        for (lane, sum) in lanes.iter_mut().enumerate() {
-            *sum += term(4 * row + lane);
-        }
-    }
-    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3])
-}
-
-/// Most panels one integral may be split into (each a 15-point rule); far more than any
-/// integrand here needs (a near-zero sliding speed, once its hyperbola is taken out, takes three).
-const MAX_PANELS: usize = 2000;
-/// Deepest bisection: a panel 2⁻⁶⁰ of the interval is taken as it is (far below any
-/// tolerance; it also bounds the stack of pending panels, kept on the call's own stack).
-const MAX_DEPTH: usize = 60;
-
-/// ∫ g over [`a`, `b`] by adaptive bisection of Gauss–Kronrod (7, 15) panels, each panel
-/// accepted when its error estimate is within `density` times its width, or at the deepest
-/// bisection, or when it can no longer be split in floating point.
-#[inline(always)]
-pub(super) fn adaptive_gauss_kronrod<G: Fn(f64) -> f64>(
-    g: &G,
-    a: f64,
-    b: f64,
-    density: f64,
-) -> f64 {
-    // Depth first: at most one pending panel per depth, plus the one being split.
-    let mut stack = [(0.0, 0.0, 0); MAX_DEPTH + 2];
-    stack[0] = (a, b, 0);
-    let mut pending = 1;
-    let mut total = 0.0;
-    let mut panels = 0;
-    while pending > 0 {
-        pending -= 1;
-        let (lo, hi, depth) = stack[pending];
-        if hi <= lo {
-            continue;
-        }
-        panels += 1;
-        let panel = gk15(g, lo, hi);
-        let mid = 0.5 * (lo + hi);
-        if panel.within(density * (hi - lo))
-            || mid <= lo
-            || mid >= hi
-            || panels >= MAX_PANELS
-            || depth >= MAX_DEPTH
-        {
-            total += panel.value;
-        } else {
-            stack[pending] = (mid, hi, depth + 1);
-            stack[pending + 1] = (lo, mid, depth + 1);
-            pending += 2;
-        }
-    }
-    total
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -911,18 +751,6 @@ mod tests {
             }
         }
         assert!(compared > 1000, "{compared} rates in contact");
-    }
-
-    #[test]
-    fn gauss_kronrod_is_exact_for_polynomials_and_adapts_to_kinks() {
-        // K15 integrates degree 22 exactly.
-        let p = |x: f64| 3.0 * x.powi(22) - x.powi(7) + 2.0;
-        let exact = 3.0 / 23.0 * 2f64.powi(23) - 2f64.powi(8) / 8.0 + 4.0;
-        let got = adaptive_gauss_kronrod(&p, 0.0, 2.0, 1e-12 / 2.0);
-        assert!((got - exact).abs() < 1e-12 * exact, "{got} vs {exact}");
-        // A kink inside: ∫₀³ |x − 1| dx = ½ + 2.
-        let got = adaptive_gauss_kronrod(&|x: f64| (x - 1.0).abs(), 0.0, 3.0, 1e-13 / 3.0);
-        assert!((got - 2.5).abs() < 1e-12, "{got}");
     }
 
     /// On a sphere the mean-curvature chord is the geodesic's: 2ρ·sin(r_t/(2ρ)), at the vertex

@@ -6,6 +6,7 @@ pub mod carlson;
 pub mod contact;
 pub mod curved;
 pub mod grid;
+pub mod kronrod;
 pub mod metrics;
 pub mod motion;
 pub mod operator;

@@ -241,7 +241,7 @@ mod tests {
     /// side of x* (S is smooth there) against integral_to's difference, on both sides.
     #[test]
     fn the_integral_is_the_integral_of_what_is_taken_out() {
-        use crate::physics::curved::adaptive_gauss_kronrod;
+        use crate::physics::kronrod::adaptive_gauss_kronrod;
         let log = SlidingLog::new(3.0, 0.2, 0.7, 4.0, 27.0).unwrap();
         assert_eq!(log.zero_mm(), 15.0);
         assert_eq!(log.range_mm(), (4.0, 27.0));
