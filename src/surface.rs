@@ -274,10 +274,17 @@ impl Surface {
         }
     }
 
-    /// z and z′ at r, the conic's root taken once (what [`Self::local`] gives, without z″).
-    pub fn sag_and_slope(&self, r: f64) -> (f64, f64) {
+    /// z at r and the slope's frame there, (ds/dr, sin θ, cos θ) as [`slope_frame`] gives it.
+    /// On a sphere, z = c·r²/(1 + s) with s = √(1 − c²r²), so z′ = c·r/s and √(1 + z′²) = 1/s:
+    /// cos θ is the root s itself and sin θ = c·r, one root and two divisions in all.
+    pub fn sag_and_frame(&self, r: f64) -> (f64, (f64, f64, f64)) {
         let s = self.root(r);
-        (self.sag_given_root(r, s), self.slope_given_root(r, s))
+        let sag = self.sag_given_root(r, s);
+        if self.is_sphere() {
+            (sag, (1.0 / s, self.curvature * r, s))
+        } else {
+            (sag, slope_frame(self.slope_given_root(r, s)))
+        }
     }
 
     fn sag_given_root(&self, r: f64, s: f64) -> f64 {
@@ -566,6 +573,31 @@ mod tests {
                 - s.with_vertex_curvature(c - dc).sag_mm(r))
                 / (2.0 * dc);
             assert!((by_c - s.sag_derivative_by_curvature(r)).abs() < 1e-6 * by_c.abs().max(1.0));
+        }
+    }
+
+    /// A sphere's frame in closed form (cos θ = s, sin θ = c·r, ds/dr = 1/s) is the general one
+    /// from its slope, to a few ulps, convex and concave, from the vertex to near the edge of
+    /// the hemisphere (where s → 0 and ds/dr grows as 1/s: compared relative to it).
+    #[test]
+    fn a_spheres_frame_is_its_slopes() {
+        for radius in [100.0, -60.0, 12.5] {
+            let sphere = Surface::new(&SurfaceSpec::Sphere {
+                radius_of_curvature_mm: radius,
+            })
+            .unwrap();
+            for i in 0..200 {
+                let r = 0.99 * f64::abs(radius) * i as f64 / 200.0;
+                let (sag, (stretch, sin, cos)) = sphere.sag_and_frame(r);
+                let (want_stretch, want_sin, want_cos) = slope_frame(sphere.slope(r));
+                assert_eq!(sag, sphere.sag_mm(r));
+                assert!(
+                    (stretch - want_stretch).abs() < 1e-14 * want_stretch,
+                    "{radius} {r}"
+                );
+                assert!((sin - want_sin).abs() < 1e-14, "{radius} {r}");
+                assert!((cos - want_cos).abs() < 1e-14, "{radius} {r}");
+            }
         }
     }
 

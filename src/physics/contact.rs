@@ -62,27 +62,56 @@ impl HalfAngle {
 /// Half contact angle for sample radius `r`, tool position `r1`, pad radius `rt` (all ≥ 0, mm).
 pub fn half_angle(r: f64, r1: f64, rt: f64) -> HalfAngle {
     if r == 0.0 || r1 == 0.0 {
-        let reach = r + r1;
-        return if reach < rt {
-            HalfAngle::FULL
-        } else if reach > rt {
-            HalfAngle::NONE
-        } else {
-            HalfAngle {
-                sin: FRAC_1_SQRT_2,
-                cos: FRAC_1_SQRT_2,
-            }
-        };
+        return on_axis(r + r1, rt);
     }
     let (sin, cos) = half_angle_off_axis(r, r1, rt);
     HalfAngle { sin, cos }
 }
 
+/// [`half_angle`] for a pad whose reach is given by its square `reach2` (> 0), as a curved part's
+/// contact is: the factors' products are reach² − (r − r1)² and (r + r1)² − reach², so the reach
+/// itself (a square root) is not needed, and they are as accurate (reach² is rounded once either
+/// way, before its root or here).
+pub fn half_angle_of_squared_reach(r: f64, r1: f64, reach2: f64) -> HalfAngle {
+    let (near, far) = (r - r1, r + r1);
+    if r == 0.0 || r1 == 0.0 {
+        // The reach compared with r + r1 ≥ 0 as their squares.
+        return on_axis(far * far, reach2);
+    }
+    let (sin, cos) = normalised(
+        (reach2 - near * near).max(0.0),
+        (far * far - reach2).max(0.0),
+    );
+    HalfAngle { sin, cos }
+}
+
+/// The limit from the interior where r or r1 is 0 (module docs): the whole ring under the pad
+/// when `reach` (r + r1) is below the pad's `rt`, none when beyond, half on the boundary.
+fn on_axis(reach: f64, rt: f64) -> HalfAngle {
+    if reach < rt {
+        HalfAngle::FULL
+    } else if reach > rt {
+        HalfAngle::NONE
+    } else {
+        HalfAngle {
+            sin: FRAC_1_SQRT_2,
+            cos: FRAC_1_SQRT_2,
+        }
+    }
+}
+
 /// [`half_angle`]'s (sin, cos) for r, r1 > 0: no branch, so a loop over many r1 vectorises.
 #[inline(always)]
 pub fn half_angle_off_axis(r: f64, r1: f64, rt: f64) -> (f64, f64) {
-    let sin2 = ((rt - r + r1) * (rt + r - r1)).max(0.0);
-    let cos2 = ((r + r1 - rt) * (r + r1 + rt)).max(0.0);
+    normalised(
+        ((rt - r + r1) * (rt + r - r1)).max(0.0),
+        ((r + r1 - rt) * (r + r1 + rt)).max(0.0),
+    )
+}
+
+/// (sin, cos) of the half-angle from 4·r·r1 times their squares, each clamped at zero.
+#[inline(always)]
+fn normalised(sin2: f64, cos2: f64) -> (f64, f64) {
     // sin2 + cos2 = 4·r·r1 > 0 whenever neither is clamped; if one is, the other is positive.
     let per_norm = 1.0 / (sin2 + cos2);
     ((sin2 * per_norm).sqrt(), (cos2 * per_norm).sqrt())
@@ -116,6 +145,35 @@ mod tests {
         assert!((half_angle(0.0, 10.0, 10.0).radians() - FRAC_PI_4).abs() < 1e-15);
         // Approaching r = 0 along r1 = r_t tends to θ0 = π/2, the value used at r = 0.
         assert!((2.0 * half_angle(1e-9, 10.0, 10.0).radians() - FRAC_PI_2).abs() < 1e-9);
+    }
+
+    /// From the reach's square: the same angle as from the reach to a few ulps of the
+    /// half-angle's sine and cosine (≤ 1), over rings and pads in and out of contact, at
+    /// tangency and on the axis. Just inside tangency (δ = 1e-9 mm) the sine is as accurate as
+    /// a curved part's reach allows: reach² = c_t² − Δz² is rounded (~1e-16 of it) whether or not
+    /// its root is taken, which is 2·r_t·δ·1e-6 here, so 1e-6 of the sine's square.
+    #[test]
+    fn the_squared_reach_gives_the_same_angle() {
+        let mut worst: f64 = 0.0;
+        for i in 0..=60 {
+            for j in 0..=60 {
+                for reach in [0.5, 7.3, 10.0, 19.9] {
+                    let (r, r1) = (0.5 * i as f64, 0.5 * j as f64);
+                    let want = half_angle(r, r1, reach);
+                    let got = half_angle_of_squared_reach(r, r1, reach * reach);
+                    worst = worst
+                        .max((got.sin - want.sin).abs())
+                        .max((got.cos - want.cos).abs());
+                }
+            }
+        }
+        assert!(worst < 1e-14, "{worst:e}");
+        let (r, rt) = (20.0_f64, 10.0);
+        let r1 = r + rt - 1e-9;
+        let delta = (r + rt) - r1;
+        let want = (delta * (2.0 * rt - delta) / (4.0 * r * r1)).sqrt();
+        let got = half_angle_of_squared_reach(r, r1, rt * rt).sin;
+        assert!((got - want).abs() < 1e-6 * want, "{got:e} vs {want:e}");
     }
 
     #[test]

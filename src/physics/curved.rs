@@ -62,7 +62,7 @@
 
 use std::f64::consts::FRAC_1_SQRT_2;
 
-use super::contact::{half_angle, HalfAngle};
+use super::contact::{half_angle_of_squared_reach, HalfAngle};
 use super::kronrod::adaptive_gauss_kronrod;
 use super::pressure::{pad_pressure, PadPressure, PressureModel};
 use crate::surface::Surface;
@@ -361,17 +361,17 @@ impl CurvedKernel {
         let surface = &self.part.surface;
         // A sphere's chord is the same everywhere (`Ok`); elsewhere it comes from the
         // surface's curvature z″ here (`Err`), which a sphere's site need not compute.
-        let (z1, slope, known_chord) = match self.sphere_chord {
+        let (z1, (arc_integrand, sin1, cos1), known_chord) = match self.sphere_chord {
             Some(chord) => {
-                let (sag, slope) = surface.sag_and_slope(r1_mm);
-                (sag, slope, Ok(chord))
+                let (sag, frame) = surface.sag_and_frame(r1_mm);
+                (sag, frame, Ok(chord))
             }
             None => {
                 let local = surface.local(r1_mm);
-                (local.sag_mm, local.slope, Err(local.second_derivative))
+                let frame = crate::surface::slope_frame(local.slope);
+                (local.sag_mm, frame, Err(local.second_derivative))
             }
         };
-        let (arc_integrand, sin1, cos1) = crate::surface::slope_frame(slope);
         let (axis_x, axis_z) = match self.part.orientation {
             Orientation::Normal => (-sin1, cos1),
             Orientation::Vertical => (0.0, 1.0),
@@ -467,7 +467,7 @@ impl CurvedKernel {
         if reach2 <= 0.0 {
             return None;
         }
-        let psi = half_angle(ring.r, site.r1, reach2.sqrt());
+        let psi = half_angle_of_squared_reach(ring.r, site.r1, reach2);
         if !psi.is_contact() {
             return None;
         }
@@ -586,7 +586,7 @@ impl CurvedKernel {
             let site = self.site(x);
             let dz = ring.z - site.z1;
             let reach2 = site.chord * site.chord - dz * dz;
-            let psi = half_angle(ring.r, x, reach2.max(0.0).sqrt());
+            let psi = half_angle_of_squared_reach(ring.r, x, reach2.max(0.0));
             ring.arc * (2.0 * psi.radians()).cos()
         };
         let past_arc_end = |x: f64| lift_line(x) - arc_end(x);
