@@ -13,10 +13,12 @@
 //!
 //! It is not shift invariant (R depends on r and r1, not only on r − r1) but it is banded:
 //! R(r; ρ) = 0 when |r − ρ| ≥ r_t, so column j is zero outside the rows within r_t of its cell.
-//! With the radii sorted, each column's non-zeros are one contiguous run of rows, so we store
-//! the matrix column by column as (first row, values): compressed sparse column without
-//! per-entry row indices. Rows are independent, so large operators are computed across
-//! threads (rayon) row by row and then laid out by column.
+//! With the radii sorted, each column's non-zeros are one contiguous run of rows, and each
+//! row's one contiguous run of columns. Rows are independent, so large operators are computed
+//! across threads (rayon) row by row and kept as rows, (first column, values): M·t (a
+//! prediction) reads them as they are. The optimizer reads columns; they are laid out from the
+//! rows when first asked for (compressed sparse column without per-entry row indices) and kept
+//! beside them.
 //!
 //! A row's running integral F_i also gives, for nothing, what a constant feed over [a, b]
 //! removes at r_i: τ·(F_i(b) − F_i(a)) ([`PassReading`]; the recommendation's equal-dwell pass
@@ -24,6 +26,7 @@
 //! ([`ConstantFeed::removal_read_nm`]), so both give the same bits.
 
 use std::ops::Range;
+use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
@@ -73,13 +76,26 @@ fn split_at_offsets<'a>(mut values: &'a mut [f64], ends: &[usize]) -> Vec<&'a mu
     slices
 }
 
-/// Banded removal operator, column-major (see the module docs). Rates in nm/s.
-#[derive(Debug, Clone, PartialEq)]
+/// Banded removal operator, kept by row, laid out by column when a column is first asked for
+/// (see the module docs). Rates in nm/s.
+#[derive(Debug, Clone)]
 pub struct RemovalOperator {
-    rows: usize,
+    /// Row i: its first column and its entries over the consecutive columns from there.
+    rows: Vec<(usize, Vec<f64>)>,
+    /// Column j's first row, and where its entries start in the column layout (one more
+    /// than there are columns: the last is the number of entries).
     first_row: Vec<usize>,
     col_ptr: Vec<usize>,
-    values: Vec<f64>,
+    /// The entries column by column, once laid out.
+    columns: OnceLock<Vec<f64>>,
+}
+
+/// Two operators are equal when their entries are (whether or not either has laid out its
+/// columns yet).
+impl PartialEq for RemovalOperator {
+    fn eq(&self, other: &Self) -> bool {
+        self.rows == other.rows && self.first_row == other.first_row
+    }
 }
 
 impl RemovalOperator {
@@ -178,32 +194,77 @@ impl RemovalOperator {
         } else {
             (0..radii_mm.len()).map(row).collect()
         };
-        // Laid out by column, a block of columns at a time: each row touching the block copies
-        // its few entries there, so the rows are read in order instead of one entry from
-        // every row per column (blocks in parallel, as the rows were).
-        let mut values = vec![0.0; entries];
-        // Entry (i, j) sits at col_ptr[j] − first_row[j] + i.
-        let column_start: Vec<usize> = (0..n).map(|j| col_ptr[j] - first_row[j]).collect();
+        let passed = pass.map(|p| by_row[p.rows.clone()].iter().map(|row| row.2).collect());
+        let operator = RemovalOperator {
+            rows: by_row
+                .into_iter()
+                .map(|(j_lo, values, _)| (j_lo, values))
+                .collect(),
+            first_row,
+            col_ptr,
+            columns: OnceLock::new(),
+        };
+        (operator, passed)
+    }
+
+    pub fn rows(&self) -> usize {
+        self.rows.len()
+    }
+    pub fn cols(&self) -> usize {
+        self.first_row.len()
+    }
+    /// Stored entries (the band), not the dense size.
+    pub fn stored_entries(&self) -> usize {
+        *self.col_ptr.last().unwrap_or(&0)
+    }
+
+    /// Heap memory the operator holds, bytes, its column layout counted whether or not it has
+    /// been laid out yet (so that a cache's account of it does not grow afterwards).
+    pub fn heap_bytes(&self) -> usize {
+        let row = std::mem::size_of::<(usize, Vec<f64>)>();
+        2 * std::mem::size_of::<f64>() * self.stored_entries()
+            + row * self.rows.len()
+            + std::mem::size_of::<usize>() * (self.first_row.len() + self.col_ptr.len())
+    }
+
+    /// Column j as (first row, rates in nm/s of the consecutive rows from there).
+    pub fn column(&self, j: usize) -> (usize, &[f64]) {
+        let columns = self.columns.get_or_init(|| self.lay_out_columns());
+        (
+            self.first_row[j],
+            &columns[self.col_ptr[j]..self.col_ptr[j + 1]],
+        )
+    }
+
+    /// The entries column by column: a block of columns at a time, each row touching the
+    /// block copying its few entries there, so the rows are read in order instead of one
+    /// entry from every row per column (blocks in parallel for a large operator).
+    fn lay_out_columns(&self) -> Vec<f64> {
+        let n = self.cols();
+        let row_end = |j: usize| self.first_row[j] + self.col_ptr[j + 1] - self.col_ptr[j];
+        let mut values = vec![0.0; self.stored_entries()];
         let gather = |(b, block): (usize, &mut [f64])| {
             let (j0, j1) = (b * GATHER_BLOCK, ((b + 1) * GATHER_BLOCK).min(n));
-            let base = col_ptr[j0];
-            for (i, (j_lo, row, _)) in by_row
+            let base = self.col_ptr[j0];
+            for (i, (j_lo, row)) in self
+                .rows
                 .iter()
                 .enumerate()
-                .take(row_end[j1 - 1])
-                .skip(first_row[j0])
+                .take(row_end(j1 - 1))
+                .skip(self.first_row[j0])
             {
                 let (from, to) = ((*j_lo).max(j0), (j_lo + row.len()).min(j1));
                 for (j, &value) in (from..to).zip(&row[from - j_lo..to - j_lo]) {
-                    block[column_start[j] + i - base] = value;
+                    // Entry (i, j) sits at col_ptr[j] − first_row[j] + i.
+                    block[self.col_ptr[j] - self.first_row[j] + i - base] = value;
                 }
             }
         };
         let block_ends: Vec<usize> = (1..=n.div_ceil(GATHER_BLOCK))
-            .map(|b| col_ptr[(b * GATHER_BLOCK).min(n)])
+            .map(|b| self.col_ptr[(b * GATHER_BLOCK).min(n)])
             .collect();
         let blocks = split_at_offsets(&mut values, &block_ends);
-        if parallel {
+        if self.stored_entries() >= PARALLEL_MIN_ENTRIES {
             blocks
                 .into_par_iter()
                 .enumerate()
@@ -212,76 +273,47 @@ impl RemovalOperator {
         } else {
             blocks.into_iter().enumerate().for_each(gather);
         }
-        let passed = pass.map(|p| by_row[p.rows.clone()].iter().map(|row| row.2).collect());
-
-        let operator = RemovalOperator {
-            rows: radii_mm.len(),
-            first_row,
-            col_ptr,
-            values,
-        };
-        (operator, passed)
+        values
     }
 
-    pub fn rows(&self) -> usize {
-        self.rows
-    }
-    pub fn cols(&self) -> usize {
-        self.first_row.len()
-    }
-    /// Stored entries (the band), not the dense size.
-    pub fn stored_entries(&self) -> usize {
-        self.values.len()
-    }
-
-    /// Heap memory the operator holds, bytes.
-    pub fn heap_bytes(&self) -> usize {
-        std::mem::size_of::<f64>() * self.values.len()
-            + std::mem::size_of::<usize>() * (self.first_row.len() + self.col_ptr.len())
-    }
-
-    /// Column j as (first row, rates in nm/s of the consecutive rows from there).
-    pub fn column(&self, j: usize) -> (usize, &[f64]) {
-        (
-            self.first_row[j],
-            &self.values[self.col_ptr[j]..self.col_ptr[j + 1]],
-        )
-    }
-
-    /// Removal depth in nm at each radius for dwell times `dwell_s` (one per column).
+    /// Removal depth in nm at each radius for dwell times `dwell_s` (one per column): each
+    /// row's entries times their dwells, summed in column order.
     pub fn apply(&self, dwell_s: &[f64]) -> Vec<f64> {
         assert_eq!(dwell_s.len(), self.cols(), "one dwell per tool position");
-        let mut out = vec![0.0; self.rows];
-        for (j, &t) in dwell_s.iter().enumerate() {
-            let (first, column) = self.column(j);
-            for (o, &m) in out[first..first + column.len()].iter_mut().zip(column) {
-                *o += m * t;
+        self.rows
+            .iter()
+            .map(|(j_lo, row)| {
+                let mut sum = 0.0;
+                for (&m, &t) in row.iter().zip(&dwell_s[*j_lo..]) {
+                    sum += m * t;
+                }
+                sum
+            })
+            .collect()
+    }
+
+    /// Mᵀ·y: for each tool position, Σ_i M[i][j]·y_i (summed in row order).
+    pub fn apply_transpose(&self, y: &[f64]) -> Vec<f64> {
+        assert_eq!(y.len(), self.rows(), "one value per radius");
+        let mut out = vec![0.0; self.cols()];
+        for ((j_lo, row), &v) in self.rows.iter().zip(y) {
+            for (o, &m) in out[*j_lo..].iter_mut().zip(row) {
+                *o += m * v;
             }
         }
         out
     }
 
-    /// Mᵀ·y: for each tool position, Σ_i M[i][j]·y_i.
-    pub fn apply_transpose(&self, y: &[f64]) -> Vec<f64> {
-        assert_eq!(y.len(), self.rows, "one value per radius");
-        (0..self.cols())
-            .map(|j| {
-                let (first, column) = self.column(j);
-                column.iter().zip(&y[first..]).map(|(m, v)| m * v).sum()
-            })
-            .collect()
-    }
-
     /// The dense matrix, row-major (for tests and small problems).
     pub fn to_dense(&self) -> Vec<Vec<f64>> {
-        let mut dense = vec![vec![0.0; self.cols()]; self.rows];
-        for j in 0..self.cols() {
-            let (first, column) = self.column(j);
-            for (row, &m) in dense[first..].iter_mut().zip(column) {
-                row[j] = m;
-            }
-        }
-        dense
+        self.rows
+            .iter()
+            .map(|(j_lo, row)| {
+                let mut dense = vec![0.0; self.cols()];
+                dense[*j_lo..*j_lo + row.len()].copy_from_slice(row);
+                dense
+            })
+            .collect()
     }
 }
 
@@ -351,6 +383,38 @@ mod tests {
         for j in 0..37 {
             let want: f64 = (0..61).map(|i| dense[i][j] * y[i]).sum();
             assert!((mty[j] - want).abs() <= 1e-12 * (1.0 + want.abs()));
+        }
+    }
+
+    /// The columns laid out from the rows hold the same entries, bit for bit, in a small
+    /// (serial) and a large (parallel, many blocks) operator, and an empty column is empty.
+    #[test]
+    fn columns_laid_out_from_the_rows_are_the_rows() {
+        let k = kernel(-10.0, 200.0);
+        for (rows, cols) in [(37, 23), (401, 301)] {
+            let radii = linspace(0.0, 50.0, rows);
+            // Positions beyond the pad's reach of every radius leave their columns empty.
+            let mut positions = linspace(0.0, 50.0, cols);
+            positions.push(75.0);
+            let op = RemovalOperator::assemble(&k, &radii, &positions);
+            assert!(op.stored_entries() >= PARALLEL_MIN_ENTRIES || rows < 100);
+            let dense = op.to_dense();
+            let mut seen = 0;
+            for j in 0..op.cols() {
+                let (first, column) = op.column(j);
+                for (i, row) in dense.iter().enumerate() {
+                    let want = row[j];
+                    let got = if (first..first + column.len()).contains(&i) {
+                        column[i - first]
+                    } else {
+                        0.0
+                    };
+                    assert_eq!(got.to_bits(), want.to_bits(), "({i}, {j})");
+                }
+                seen += column.len();
+            }
+            assert_eq!(seen, op.stored_entries());
+            assert!(op.column(cols).1.is_empty());
         }
     }
 
