@@ -22,7 +22,7 @@ mod wide;
 pub use curved::{Orientation, Part};
 pub use grid::{check_radius, ClearAperture, GridError, RadialGrid, Reach};
 pub use metrics::UniformityMetrics;
-pub use operator::{PassReading, RemovalOperator};
+pub use operator::{Layout, PassReading, RemovalOperator};
 pub use pressure::{PressureModel, PressureModelKind};
 pub use process::{Eta, Process, ProcessError, ProcessSpec};
 pub use removal::{removal_rate_nm_per_min, RemovalKernel, RunningIntegral};

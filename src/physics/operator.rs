@@ -15,10 +15,10 @@
 //! R(r; ρ) = 0 when |r − ρ| ≥ r_t, so column j is zero outside the rows within r_t of its cell.
 //! With the radii sorted, each column's non-zeros are one contiguous run of rows, and each
 //! row's one contiguous run of columns. Rows are independent, so large operators are computed
-//! across threads (rayon) row by row and kept as rows, (first column, values): M·t (a
-//! prediction) reads them as they are. The optimizer reads columns; they are laid out from the
-//! rows when first asked for (compressed sparse column without per-entry row indices) and kept
-//! beside them.
+//! across threads (rayon) row by row. An operator is kept in the layout its first user reads
+//! ([`Layout`]): by row, (first column, values), for M·t (a prediction), or by column,
+//! compressed sparse column without per-entry row indices, for the optimizer; the other layout
+//! is made from it when first asked for (the same entries, bit for bit) and kept beside it.
 //!
 //! A row's running integral F_i also gives, for nothing, what a constant feed over [a, b]
 //! removes at r_i: τ·(F_i(b) − F_i(a)) ([`PassReading`]; the recommendation's equal-dwell pass
@@ -76,33 +76,44 @@ fn split_at_offsets<'a>(mut values: &'a mut [f64], ends: &[usize]) -> Vec<&'a mu
     slices
 }
 
-/// Banded removal operator, kept by row, laid out by column when a column is first asked for
-/// (see the module docs). Rates in nm/s.
+/// Which layout an operator is assembled in (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Layout {
+    /// By row: what M·t reads (a prediction).
+    Rows,
+    /// By column: what the optimizer reads.
+    Columns,
+}
+
+/// One row's entries: its first column and its values over the consecutive columns from there.
+type Row = (usize, Vec<f64>);
+
+/// Banded removal operator, in one or both of its layouts (see the module docs). Rates in nm/s.
 #[derive(Debug, Clone)]
 pub struct RemovalOperator {
-    /// Row i: its first column and its entries over the consecutive columns from there.
-    rows: Vec<(usize, Vec<f64>)>,
     /// Column j's first row, and where its entries start in the column layout (one more
     /// than there are columns: the last is the number of entries).
     first_row: Vec<usize>,
     col_ptr: Vec<usize>,
-    /// The entries column by column, once laid out.
+    row_count: usize,
+    /// The entries by row and by column: at least one is set.
+    rows: OnceLock<Vec<Row>>,
     columns: OnceLock<Vec<f64>>,
 }
 
-/// Two operators are equal when their entries are (whether or not either has laid out its
-/// columns yet).
+/// Two operators are equal when their entries are, whatever layouts each holds.
 impl PartialEq for RemovalOperator {
     fn eq(&self, other: &Self) -> bool {
-        self.rows == other.rows && self.first_row == other.first_row
+        self.first_row == other.first_row && self.row_view() == other.row_view()
     }
 }
 
 impl RemovalOperator {
     /// M for `radii_mm` (ascending) and the plan's `positions_mm` (strictly increasing, within
     /// the process's reach).
+    /// By row; the columns are laid out when first asked for.
     pub fn assemble(kernel: &RemovalKernel, radii_mm: &[f64], positions_mm: &[f64]) -> Self {
-        Self::assemble_with_pass(kernel, radii_mm, positions_mm, None).0
+        Self::assemble_with_pass(kernel, radii_mm, positions_mm, None, Layout::Rows).0
     }
 
     /// M, and with `pass` what that constant feed removes at its rows, read from the rows'
@@ -113,6 +124,7 @@ impl RemovalOperator {
         radii_mm: &[f64],
         positions_mm: &[f64],
         pass: Option<&PassReading>,
+        layout: Layout,
     ) -> (Self, Option<Vec<f64>>) {
         let pass = pass.filter(|_| kernel.path_ignores_end());
         debug_assert!(radii_mm.windows(2).all(|w| w[0] <= w[1]));
@@ -195,20 +207,29 @@ impl RemovalOperator {
             (0..radii_mm.len()).map(row).collect()
         };
         let passed = pass.map(|p| by_row[p.rows.clone()].iter().map(|row| row.2).collect());
+        let rows: Vec<Row> = by_row
+            .into_iter()
+            .map(|(j_lo, values, _)| (j_lo, values))
+            .collect();
+        let (rows, columns) = match layout {
+            Layout::Rows => (OnceLock::from(rows), OnceLock::new()),
+            Layout::Columns => (
+                OnceLock::new(),
+                OnceLock::from(columns_from_rows(&rows, &first_row, &col_ptr)),
+            ),
+        };
         let operator = RemovalOperator {
-            rows: by_row
-                .into_iter()
-                .map(|(j_lo, values, _)| (j_lo, values))
-                .collect(),
             first_row,
             col_ptr,
-            columns: OnceLock::new(),
+            row_count: radii_mm.len(),
+            rows,
+            columns,
         };
         (operator, passed)
     }
 
     pub fn rows(&self) -> usize {
-        self.rows.len()
+        self.row_count
     }
     pub fn cols(&self) -> usize {
         self.first_row.len()
@@ -218,95 +239,83 @@ impl RemovalOperator {
         *self.col_ptr.last().unwrap_or(&0)
     }
 
-    /// Heap memory the operator holds, bytes, its column layout counted whether or not it has
-    /// been laid out yet (so that a cache's account of it does not grow afterwards).
+    /// Heap memory the operator holds, bytes, both layouts counted whether or not the second
+    /// has been made yet (so that a cache's account of it does not grow afterwards).
     pub fn heap_bytes(&self) -> usize {
-        let row = std::mem::size_of::<(usize, Vec<f64>)>();
         2 * std::mem::size_of::<f64>() * self.stored_entries()
-            + row * self.rows.len()
+            + std::mem::size_of::<Row>() * self.row_count
             + std::mem::size_of::<usize>() * (self.first_row.len() + self.col_ptr.len())
+    }
+
+    /// The entries by row, made from the columns if the operator was assembled by column.
+    fn row_view(&self) -> &[Row] {
+        self.rows.get_or_init(|| {
+            let columns = self.columns.get().expect("an operator holds a layout");
+            rows_from_columns(columns, self.row_count, &self.first_row, &self.col_ptr)
+        })
+    }
+
+    /// The entries by column, laid out from the rows if the operator was assembled by row.
+    fn column_view(&self) -> &[f64] {
+        self.columns.get_or_init(|| {
+            let rows = self.rows.get().expect("an operator holds a layout");
+            columns_from_rows(rows, &self.first_row, &self.col_ptr)
+        })
     }
 
     /// Column j as (first row, rates in nm/s of the consecutive rows from there).
     pub fn column(&self, j: usize) -> (usize, &[f64]) {
-        let columns = self.columns.get_or_init(|| self.lay_out_columns());
         (
             self.first_row[j],
-            &columns[self.col_ptr[j]..self.col_ptr[j + 1]],
+            &self.column_view()[self.col_ptr[j]..self.col_ptr[j + 1]],
         )
     }
 
-    /// The entries column by column: a block of columns at a time, each row touching the
-    /// block copying its few entries there, so the rows are read in order instead of one
-    /// entry from every row per column (blocks in parallel for a large operator).
-    fn lay_out_columns(&self) -> Vec<f64> {
-        let n = self.cols();
-        let row_end = |j: usize| self.first_row[j] + self.col_ptr[j + 1] - self.col_ptr[j];
-        let mut values = vec![0.0; self.stored_entries()];
-        let gather = |(b, block): (usize, &mut [f64])| {
-            let (j0, j1) = (b * GATHER_BLOCK, ((b + 1) * GATHER_BLOCK).min(n));
-            let base = self.col_ptr[j0];
-            for (i, (j_lo, row)) in self
-                .rows
-                .iter()
-                .enumerate()
-                .take(row_end(j1 - 1))
-                .skip(self.first_row[j0])
-            {
-                let (from, to) = ((*j_lo).max(j0), (j_lo + row.len()).min(j1));
-                for (j, &value) in (from..to).zip(&row[from - j_lo..to - j_lo]) {
-                    // Entry (i, j) sits at col_ptr[j] − first_row[j] + i.
-                    block[self.col_ptr[j] - self.first_row[j] + i - base] = value;
-                }
-            }
-        };
-        let block_ends: Vec<usize> = (1..=n.div_ceil(GATHER_BLOCK))
-            .map(|b| self.col_ptr[(b * GATHER_BLOCK).min(n)])
-            .collect();
-        let blocks = split_at_offsets(&mut values, &block_ends);
-        if self.stored_entries() >= PARALLEL_MIN_ENTRIES {
-            blocks
-                .into_par_iter()
-                .enumerate()
-                .with_min_len(4)
-                .for_each(gather);
-        } else {
-            blocks.into_iter().enumerate().for_each(gather);
-        }
-        values
-    }
-
-    /// Removal depth in nm at each radius for dwell times `dwell_s` (one per column): each
-    /// row's entries times their dwells, summed in column order.
+    /// Removal depth in nm at each radius for dwell times `dwell_s` (one per column), each
+    /// radius's products summed in column order from whichever layout the operator holds
+    /// (the same bits either way).
     pub fn apply(&self, dwell_s: &[f64]) -> Vec<f64> {
         assert_eq!(dwell_s.len(), self.cols(), "one dwell per tool position");
-        self.rows
-            .iter()
-            .map(|(j_lo, row)| {
+        if let Some(rows) = self.rows.get() {
+            return rows
+                .iter()
+                .map(|(j_lo, row)| {
+                    let mut sum = 0.0;
+                    for (&m, &t) in row.iter().zip(&dwell_s[*j_lo..]) {
+                        sum += m * t;
+                    }
+                    sum
+                })
+                .collect();
+        }
+        let mut out = vec![0.0; self.row_count];
+        for (j, &t) in dwell_s.iter().enumerate() {
+            let (first, column) = self.column(j);
+            for (o, &m) in out[first..first + column.len()].iter_mut().zip(column) {
+                *o += m * t;
+            }
+        }
+        out
+    }
+
+    /// Mᵀ·y: for each tool position, Σ_i M[i][j]·y_i (summed in row order).
+    pub fn apply_transpose(&self, y: &[f64]) -> Vec<f64> {
+        assert_eq!(y.len(), self.row_count, "one value per radius");
+        (0..self.cols())
+            .map(|j| {
+                let (first, column) = self.column(j);
                 let mut sum = 0.0;
-                for (&m, &t) in row.iter().zip(&dwell_s[*j_lo..]) {
-                    sum += m * t;
+                for (m, v) in column.iter().zip(&y[first..]) {
+                    sum += m * v;
                 }
                 sum
             })
             .collect()
     }
 
-    /// Mᵀ·y: for each tool position, Σ_i M[i][j]·y_i (summed in row order).
-    pub fn apply_transpose(&self, y: &[f64]) -> Vec<f64> {
-        assert_eq!(y.len(), self.rows(), "one value per radius");
-        let mut out = vec![0.0; self.cols()];
-        for ((j_lo, row), &v) in self.rows.iter().zip(y) {
-            for (o, &m) in out[*j_lo..].iter_mut().zip(row) {
-                *o += m * v;
-            }
-        }
-        out
-    }
-
     /// The dense matrix, row-major (for tests and small problems).
     pub fn to_dense(&self) -> Vec<Vec<f64>> {
-        self.rows
+        self.row_view()
             .iter()
             .map(|(j_lo, row)| {
                 let mut dense = vec![0.0; self.cols()];
@@ -315,6 +324,71 @@ impl RemovalOperator {
             })
             .collect()
     }
+}
+
+/// The entries of `rows` by column (`first_row` and `col_ptr` as the operator's): a block of
+/// columns at a time, each row touching the block copying its few entries there, so the rows
+/// are read in order instead of one entry from every row per column (blocks in parallel for a
+/// large operator).
+fn columns_from_rows(rows: &[Row], first_row: &[usize], col_ptr: &[usize]) -> Vec<f64> {
+    let n = first_row.len();
+    let entries = *col_ptr.last().unwrap_or(&0);
+    let row_end = |j: usize| first_row[j] + col_ptr[j + 1] - col_ptr[j];
+    let mut values = vec![0.0; entries];
+    let gather = |(b, block): (usize, &mut [f64])| {
+        let (j0, j1) = (b * GATHER_BLOCK, ((b + 1) * GATHER_BLOCK).min(n));
+        let base = col_ptr[j0];
+        for (i, (j_lo, row)) in rows
+            .iter()
+            .enumerate()
+            .take(row_end(j1 - 1))
+            .skip(first_row[j0])
+        {
+            let (from, to) = ((*j_lo).max(j0), (j_lo + row.len()).min(j1));
+            for (j, &value) in (from..to).zip(&row[from - j_lo..to - j_lo]) {
+                // Entry (i, j) sits at col_ptr[j] − first_row[j] + i.
+                block[col_ptr[j] - first_row[j] + i - base] = value;
+            }
+        }
+    };
+    let block_ends: Vec<usize> = (1..=n.div_ceil(GATHER_BLOCK))
+        .map(|b| col_ptr[(b * GATHER_BLOCK).min(n)])
+        .collect();
+    let blocks = split_at_offsets(&mut values, &block_ends);
+    if entries >= PARALLEL_MIN_ENTRIES {
+        blocks
+            .into_par_iter()
+            .enumerate()
+            .with_min_len(4)
+            .for_each(gather);
+    } else {
+        blocks.into_iter().enumerate().for_each(gather);
+    }
+    values
+}
+
+/// The entries of `columns` by row: row i spans the columns whose runs of rows hold it, a
+/// contiguous run since both ends of those runs grow with the column.
+fn rows_from_columns(
+    columns: &[f64],
+    row_count: usize,
+    first_row: &[usize],
+    col_ptr: &[usize],
+) -> Vec<Row> {
+    let n = first_row.len();
+    let row_end: Vec<usize> = (0..n)
+        .map(|j| first_row[j] + col_ptr[j + 1] - col_ptr[j])
+        .collect();
+    (0..row_count)
+        .map(|i| {
+            let j_lo = row_end.partition_point(|&end| end <= i);
+            let j_hi = first_row.partition_point(|&first| first <= i).max(j_lo);
+            let values = (j_lo..j_hi)
+                .map(|j| columns[col_ptr[j] - first_row[j] + i])
+                .collect();
+            (j_lo, values)
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -387,7 +461,8 @@ mod tests {
     }
 
     /// The columns laid out from the rows hold the same entries, bit for bit, in a small
-    /// (serial) and a large (parallel, many blocks) operator, and an empty column is empty.
+    /// (serial) and a large (parallel, many blocks) operator, and an empty column is empty;
+    /// the rows made from the columns likewise.
     #[test]
     fn columns_laid_out_from_the_rows_are_the_rows() {
         let k = kernel(-10.0, 200.0);
@@ -415,6 +490,22 @@ mod tests {
             }
             assert_eq!(seen, op.stored_entries());
             assert!(op.column(cols).1.is_empty());
+            // Assembled by column: the rows made from the columns are the rows, and M·t and
+            // Mᵀ·y are the same bits from either layout.
+            let by_column =
+                RemovalOperator::assemble_with_pass(&k, &radii, &positions, None, Layout::Columns)
+                    .0;
+            assert!(by_column.rows.get().is_none());
+            let t: Vec<f64> = (0..op.cols()).map(|j| 1.0 + (j as f64).sin()).collect();
+            let y: Vec<f64> = (0..rows).map(|i| (i as f64 * 0.3).cos()).collect();
+            let bits = |v: Vec<f64>| v.into_iter().map(f64::to_bits).collect::<Vec<_>>();
+            assert_eq!(bits(by_column.apply(&t)), bits(op.apply(&t)));
+            assert_eq!(
+                bits(by_column.apply_transpose(&y)),
+                bits(op.apply_transpose(&y))
+            );
+            assert_eq!(by_column.to_dense(), dense);
+            assert_eq!(by_column, op);
         }
     }
 

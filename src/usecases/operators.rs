@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
-use crate::physics::{PassReading, Process, RemovalKernel, RemovalOperator};
+use crate::physics::{Layout, PassReading, Process, RemovalKernel, RemovalOperator};
 
 /// Default memory budget of the cache, bytes.
 pub const DEFAULT_OPERATOR_CACHE_BYTES: usize = 64 * 1024 * 1024;
@@ -110,26 +110,29 @@ impl OperatorCache {
     }
 
     /// The operator of `process` from `positions_mm` to `radii_mm`, assembled (outside the
-    /// lock) when not held.
+    /// lock, by row) when not held.
     pub fn operator(
         &self,
         process: &Process,
         radii_mm: &[f64],
         positions_mm: &[f64],
     ) -> Arc<RemovalOperator> {
-        self.operator_with_pass(process, radii_mm, positions_mm, None)
+        self.operator_with_pass(process, radii_mm, positions_mm, None, Layout::Rows)
             .0
     }
 
-    /// [`Self::operator`], and when it is assembled now, what `pass` removes at its rows as
-    /// the operator's rows read it ([`RemovalOperator::assemble_with_pass`]); `None` for the
-    /// pass when the operator was held (or the rows could not read it).
+    /// [`Self::operator`], assembled in `layout` (what the caller reads; a held operator
+    /// makes the other layout when first asked for), and when it is assembled now, what `pass`
+    /// removes at its rows as the operator's rows read it
+    /// ([`RemovalOperator::assemble_with_pass`]); `None` for the pass when the operator was
+    /// held (or the rows could not read it).
     pub fn operator_with_pass(
         &self,
         process: &Process,
         radii_mm: &[f64],
         positions_mm: &[f64],
         pass: Option<&PassReading>,
+        layout: Layout,
     ) -> (Arc<RemovalOperator>, Option<Vec<f64>>) {
         let key = key(process, radii_mm, positions_mm);
         if let Ok(mut held) = self.held.lock() {
@@ -147,6 +150,7 @@ impl OperatorCache {
             radii_mm,
             positions_mm,
             pass,
+            layout,
         );
         let operator = Arc::new(operator);
         self.keep(key, &operator);

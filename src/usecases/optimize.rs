@@ -23,7 +23,7 @@ use crate::optimize::{
     optimize as solve, Constraints, ConstraintsSpec, DwellBasis, DwellProblem, Formulation,
     MeasuredProfile, Objective, OptimizeError, Solution,
 };
-use crate::physics::{check_positions, UniformityMetrics};
+use crate::physics::{check_positions, Layout, UniformityMetrics};
 use crate::study::Recommendation;
 use crate::surface::{Surface, SurfaceError};
 
@@ -455,6 +455,7 @@ pub fn optimize(
         setting.grid().radii_mm(),
         &positions_mm,
         pass.as_ref(),
+        Layout::Columns,
     );
     let axes = axis_paths(&machine, &positions_mm);
     let cell_path_mm = cell_path_mm(&axes);

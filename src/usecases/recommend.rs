@@ -286,8 +286,8 @@ mod tests {
     use super::*;
     use crate::physics::process::tests::paper_spec;
     use crate::physics::{
-        ClearAperture, Orientation, Part, PressureModel, ProcessSpec, RadialGrid, RemovalKernel,
-        RemovalOperator,
+        ClearAperture, Layout, Orientation, Part, PressureModel, ProcessSpec, RadialGrid,
+        RemovalKernel, RemovalOperator,
     };
     use crate::surface::{Surface, SurfaceSpec};
 
@@ -347,6 +347,7 @@ mod tests {
                     grid.radii_mm(),
                     &positions,
                     Some(&reading),
+                    Layout::Rows,
                 );
                 if matches!(spec.pressure_model, PressureModel::Linear { .. }) {
                     assert!(passed.is_none());
