@@ -75,7 +75,7 @@ pub fn half_angle(r: f64, r1: f64, rt: f64) -> HalfAngle {
 pub fn half_angle_of_squared_reach(r: f64, r1: f64, reach2: f64) -> HalfAngle {
     let (near, far) = (r - r1, r + r1);
     if r == 0.0 || r1 == 0.0 {
-        // The reach compared with r + r1 ≥ 0 as their squares.
+        // r + r1 ≥ 0 against the reach, both squared.
         return on_axis(far * far, reach2);
     }
     let (sin, cos) = normalised(
@@ -86,11 +86,12 @@ pub fn half_angle_of_squared_reach(r: f64, r1: f64, reach2: f64) -> HalfAngle {
 }
 
 /// The limit from the interior where r or r1 is 0 (module docs): the whole ring under the pad
-/// when `reach` (r + r1) is below the pad's `rt`, none when beyond, half on the boundary.
-fn on_axis(reach: f64, rt: f64) -> HalfAngle {
-    if reach < rt {
+/// when `span` (r + r1, from the pad's centre to the ring's far side) is below the pad's
+/// `radius`, none when beyond, half on the boundary (either both given squared).
+fn on_axis(span: f64, radius: f64) -> HalfAngle {
+    if span < radius {
         HalfAngle::FULL
-    } else if reach > rt {
+    } else if span > radius {
         HalfAngle::NONE
     } else {
         HalfAngle {

@@ -159,19 +159,19 @@ impl RemovalOperator {
             .enumerate()
             .map(|(j, w)| move_share(j, n) / (w[1] - w[0]))
             .collect();
-        let row_end: Vec<usize> = (0..n)
-            .map(|j| first_row[j] + col_ptr[j + 1] - col_ptr[j])
-            .collect();
+        let row_end = row_ends(&first_row, &col_ptr);
         let row = |i: usize| -> (usize, Vec<f64>, f64) {
-            let j_lo = row_end.partition_point(|&end| end <= i);
-            let j_hi = first_row.partition_point(|&first| first <= i);
+            let Range {
+                start: j_lo,
+                end: j_hi,
+            } = row_columns(i, &first_row, &row_end);
             let r = radii_mm[i];
             let in_pass = pass.filter(|p| p.rows.contains(&i));
             // A row with no path of its own reads the pass from a path made alone (the same F).
             let alone = |p: &PassReading| {
                 p.removal(kernel.path_difference(r, p.feed.start_mm(), p.feed.stop_mm()))
             };
-            if j_lo >= j_hi {
+            if j_lo == j_hi {
                 return (j_lo, Vec::new(), in_pass.map_or(0.0, alone));
             }
             if n == 1 {
@@ -333,7 +333,7 @@ impl RemovalOperator {
 fn columns_from_rows(rows: &[Row], first_row: &[usize], col_ptr: &[usize]) -> Vec<f64> {
     let n = first_row.len();
     let entries = *col_ptr.last().unwrap_or(&0);
-    let row_end = |j: usize| first_row[j] + col_ptr[j + 1] - col_ptr[j];
+    let row_end = row_ends(first_row, col_ptr);
     let mut values = vec![0.0; entries];
     let gather = |(b, block): (usize, &mut [f64])| {
         let (j0, j1) = (b * GATHER_BLOCK, ((b + 1) * GATHER_BLOCK).min(n));
@@ -341,7 +341,7 @@ fn columns_from_rows(rows: &[Row], first_row: &[usize], col_ptr: &[usize]) -> Ve
         for (i, (j_lo, row)) in rows
             .iter()
             .enumerate()
-            .take(row_end(j1 - 1))
+            .take(row_end[j1 - 1])
             .skip(first_row[j0])
         {
             let (from, to) = ((*j_lo).max(j0), (j_lo + row.len()).min(j1));
@@ -367,28 +367,39 @@ fn columns_from_rows(rows: &[Row], first_row: &[usize], col_ptr: &[usize]) -> Ve
     values
 }
 
-/// The entries of `columns` by row: row i spans the columns whose runs of rows hold it, a
-/// contiguous run since both ends of those runs grow with the column.
+/// The entries of `columns` by row ([`row_columns`] says which columns each spans).
 fn rows_from_columns(
     columns: &[f64],
     row_count: usize,
     first_row: &[usize],
     col_ptr: &[usize],
 ) -> Vec<Row> {
-    let n = first_row.len();
-    let row_end: Vec<usize> = (0..n)
-        .map(|j| first_row[j] + col_ptr[j + 1] - col_ptr[j])
-        .collect();
+    let row_end = row_ends(first_row, col_ptr);
     (0..row_count)
         .map(|i| {
-            let j_lo = row_end.partition_point(|&end| end <= i);
-            let j_hi = first_row.partition_point(|&first| first <= i).max(j_lo);
-            let values = (j_lo..j_hi)
+            let span = row_columns(i, first_row, &row_end);
+            let j_lo = span.start;
+            let values = span
                 .map(|j| columns[col_ptr[j] - first_row[j] + i])
                 .collect();
             (j_lo, values)
         })
         .collect()
+}
+
+/// One past each column's last row.
+fn row_ends(first_row: &[usize], col_ptr: &[usize]) -> Vec<usize> {
+    (0..first_row.len())
+        .map(|j| first_row[j] + col_ptr[j + 1] - col_ptr[j])
+        .collect()
+}
+
+/// The columns whose runs of rows hold row `i`: a contiguous run, since both ends of those runs
+/// grow with the column (empty, at where it would start, when none does).
+fn row_columns(i: usize, first_row: &[usize], row_end: &[usize]) -> Range<usize> {
+    let j_lo = row_end.partition_point(|&end| end <= i);
+    let j_hi = first_row.partition_point(|&first| first <= i);
+    j_lo..j_hi.max(j_lo)
 }
 
 #[cfg(test)]
