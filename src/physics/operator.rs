@@ -85,8 +85,28 @@ pub enum Layout {
     Columns,
 }
 
-/// One row's entries: its first column and its values over the consecutive columns from there.
-type Row = (usize, Vec<f64>);
+/// The entries by row, in one block: row i's are `values[row_ptr[i]..row_ptr[i + 1]]`, over the
+/// consecutive columns from `first_col[i]`.
+#[derive(Debug, Clone, PartialEq)]
+struct Rows {
+    first_col: Vec<usize>,
+    row_ptr: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl Rows {
+    /// Row i as (first column, entries).
+    fn row(&self, i: usize) -> (usize, &[f64]) {
+        (
+            self.first_col[i],
+            &self.values[self.row_ptr[i]..self.row_ptr[i + 1]],
+        )
+    }
+
+    fn iter(&self) -> impl Iterator<Item = (usize, &[f64])> {
+        (0..self.first_col.len()).map(|i| self.row(i))
+    }
+}
 
 /// Banded removal operator, in one or both of its layouts (see the module docs). Rates in nm/s.
 #[derive(Debug, Clone)]
@@ -97,7 +117,7 @@ pub struct RemovalOperator {
     col_ptr: Vec<usize>,
     row_count: usize,
     /// The entries by row and by column: at least one is set.
-    rows: OnceLock<Vec<Row>>,
+    rows: OnceLock<Rows>,
     columns: OnceLock<Vec<f64>>,
 }
 
@@ -160,11 +180,20 @@ impl RemovalOperator {
             .map(|(j, w)| move_share(j, n) / (w[1] - w[0]))
             .collect();
         let row_end = row_ends(&first_row, &col_ptr);
-        let row = |i: usize| -> (usize, Vec<f64>, f64) {
+        let spans: Vec<Range<usize>> = (0..radii_mm.len())
+            .map(|i| row_columns(i, &first_row, &row_end))
+            .collect();
+        let mut row_ptr = Vec::with_capacity(spans.len() + 1);
+        row_ptr.push(0);
+        for span in &spans {
+            row_ptr.push(row_ptr.last().unwrap() + span.len());
+        }
+        // Row i's entries, written in its own slice of one block; what the pass removes there.
+        let row = |(i, out): (usize, &mut [f64])| -> f64 {
             let Range {
                 start: j_lo,
                 end: j_hi,
-            } = row_columns(i, &first_row, &row_end);
+            } = spans[i];
             let r = radii_mm[i];
             let in_pass = pass.filter(|p| p.rows.contains(&i));
             // A row with no path of its own reads the pass from a path made alone (the same F).
@@ -172,28 +201,28 @@ impl RemovalOperator {
                 p.removal(kernel.path_difference(r, p.feed.start_mm(), p.feed.stop_mm()))
             };
             if j_lo == j_hi {
-                return (j_lo, Vec::new(), in_pass.map_or(0.0, alone));
+                return in_pass.map_or(0.0, alone);
             }
             if n == 1 {
-                let values = vec![kernel.rate_nm_per_s(r, positions_mm[0])];
-                return (j_lo, values, in_pass.map_or(0.0, alone));
+                out[0] = kernel.rate_nm_per_s(r, positions_mm[0]);
+                return in_pass.map_or(0.0, alone);
             }
             let path = kernel.path_integral(r, bounds[n]);
             let passed = in_pass.map_or(0.0, |p| p.removal(p.difference(&path)));
-            // F at the cells' ends, then each cell's entry in its place (cell j reads ends j
-            // and j + 1 before entry j overwrites end j): one straight loop, then the end stops.
-            let mut values = vec![0.0; j_hi + 1 - j_lo];
-            path.at_ascending(&bounds[j_lo..=j_hi], &mut values);
+            // F at the cells' starts, and at the last cell's end; then each cell's entry in its
+            // place (cell j reads ends j and j + 1 before entry j overwrites end j).
+            path.at_ascending(&bounds[j_lo..j_hi], out);
+            let last = path.at(bounds[j_hi]);
             for (k, j) in (j_lo..j_hi).enumerate() {
-                values[k] = (values[k + 1] - values[k]) * per_arc[j];
+                let end = out.get(k + 1).copied().unwrap_or(last);
+                out[k] = (end - out[k]) * per_arc[j];
             }
-            values.pop();
             for j in [0, n - 1] {
                 if (j_lo..j_hi).contains(&j) {
-                    values[j - j_lo] += stop_share(j, n) * kernel.rate_nm_per_s(r, positions_mm[j]);
+                    out[j - j_lo] += stop_share(j, n) * kernel.rate_nm_per_s(r, positions_mm[j]);
                 }
             }
-            (j_lo, values, passed)
+            passed
         };
         // A stop's rows are single rates, unless they also read a pass (a path each).
         let parallel = if n == 1 && pass.is_none() {
@@ -201,16 +230,19 @@ impl RemovalOperator {
         } else {
             radii_mm.len() >= PARALLEL_MIN_PATHS
         };
-        let by_row: Vec<(usize, Vec<f64>, f64)> = if parallel {
-            (0..radii_mm.len()).into_par_iter().map(row).collect()
+        let mut values = vec![0.0; entries];
+        let slices = split_at_offsets(&mut values, &row_ptr[1..]);
+        let passed_by_row: Vec<f64> = if parallel {
+            slices.into_par_iter().enumerate().map(row).collect()
         } else {
-            (0..radii_mm.len()).map(row).collect()
+            slices.into_iter().enumerate().map(row).collect()
         };
-        let passed = pass.map(|p| by_row[p.rows.clone()].iter().map(|row| row.2).collect());
-        let rows: Vec<Row> = by_row
-            .into_iter()
-            .map(|(j_lo, values, _)| (j_lo, values))
-            .collect();
+        let passed = pass.map(|p| passed_by_row[p.rows.clone()].to_vec());
+        let rows = Rows {
+            first_col: spans.iter().map(|span| span.start).collect(),
+            row_ptr,
+            values,
+        };
         let (rows, columns) = match layout {
             Layout::Rows => (OnceLock::from(rows), OnceLock::new()),
             Layout::Columns => (
@@ -243,12 +275,12 @@ impl RemovalOperator {
     /// has been made yet (so that a cache's account of it does not grow afterwards).
     pub fn heap_bytes(&self) -> usize {
         2 * std::mem::size_of::<f64>() * self.stored_entries()
-            + std::mem::size_of::<Row>() * self.row_count
-            + std::mem::size_of::<usize>() * (self.first_row.len() + self.col_ptr.len())
+            + std::mem::size_of::<usize>()
+                * (2 * self.row_count + self.first_row.len() + self.col_ptr.len())
     }
 
     /// The entries by row, made from the columns if the operator was assembled by column.
-    fn row_view(&self) -> &[Row] {
+    fn row_view(&self) -> &Rows {
         self.rows.get_or_init(|| {
             let columns = self.columns.get().expect("an operator holds a layout");
             rows_from_columns(columns, self.row_count, &self.first_row, &self.col_ptr)
@@ -281,7 +313,7 @@ impl RemovalOperator {
                 .iter()
                 .map(|(j_lo, row)| {
                     let mut sum = 0.0;
-                    for (&m, &t) in row.iter().zip(&dwell_s[*j_lo..]) {
+                    for (&m, &t) in row.iter().zip(&dwell_s[j_lo..]) {
                         sum += m * t;
                     }
                     sum
@@ -319,7 +351,7 @@ impl RemovalOperator {
             .iter()
             .map(|(j_lo, row)| {
                 let mut dense = vec![0.0; self.cols()];
-                dense[*j_lo..*j_lo + row.len()].copy_from_slice(row);
+                dense[j_lo..j_lo + row.len()].copy_from_slice(row);
                 dense
             })
             .collect()
@@ -330,7 +362,7 @@ impl RemovalOperator {
 /// columns at a time, each row touching the block copying its few entries there, so the rows
 /// are read in order instead of one entry from every row per column (blocks in parallel for a
 /// large operator).
-fn columns_from_rows(rows: &[Row], first_row: &[usize], col_ptr: &[usize]) -> Vec<f64> {
+fn columns_from_rows(rows: &Rows, first_row: &[usize], col_ptr: &[usize]) -> Vec<f64> {
     let n = first_row.len();
     let entries = *col_ptr.last().unwrap_or(&0);
     let row_end = row_ends(first_row, col_ptr);
@@ -344,7 +376,7 @@ fn columns_from_rows(rows: &[Row], first_row: &[usize], col_ptr: &[usize]) -> Ve
             .take(row_end[j1 - 1])
             .skip(first_row[j0])
         {
-            let (from, to) = ((*j_lo).max(j0), (j_lo + row.len()).min(j1));
+            let (from, to) = (j_lo.max(j0), (j_lo + row.len()).min(j1));
             for (j, &value) in (from..to).zip(&row[from - j_lo..to - j_lo]) {
                 // Entry (i, j) sits at col_ptr[j] − first_row[j] + i.
                 block[col_ptr[j] - first_row[j] + i - base] = value;
@@ -373,18 +405,21 @@ fn rows_from_columns(
     row_count: usize,
     first_row: &[usize],
     col_ptr: &[usize],
-) -> Vec<Row> {
+) -> Rows {
     let row_end = row_ends(first_row, col_ptr);
-    (0..row_count)
-        .map(|i| {
-            let span = row_columns(i, first_row, &row_end);
-            let j_lo = span.start;
-            let values = span
-                .map(|j| columns[col_ptr[j] - first_row[j] + i])
-                .collect();
-            (j_lo, values)
-        })
-        .collect()
+    let mut rows = Rows {
+        first_col: Vec::with_capacity(row_count),
+        row_ptr: vec![0],
+        values: Vec::with_capacity(columns.len()),
+    };
+    for i in 0..row_count {
+        let span = row_columns(i, first_row, &row_end);
+        rows.first_col.push(span.start);
+        rows.values
+            .extend(span.map(|j| columns[col_ptr[j] - first_row[j] + i]));
+        rows.row_ptr.push(rows.values.len());
+    }
+    rows
 }
 
 /// One past each column's last row.
