@@ -17,8 +17,9 @@
 //! row's one contiguous run of columns. Rows are independent, so large operators are computed
 //! across threads (rayon) row by row. An operator is kept in the layout its first user reads
 //! ([`Layout`]): by row, (first column, values), for M·t (a prediction), or by column,
-//! compressed sparse column without per-entry row indices, for the optimizer; the other layout
-//! is made from it when first asked for (the same entries, bit for bit) and kept beside it.
+//! compressed sparse column without per-entry row indices, for the optimizer. Rows held, the
+//! columns are laid out from them when first asked for (the same entries, bit for bit) and
+//! kept beside them; columns held, M·t reads them, and no rows are made.
 //!
 //! A row's running integral F_i also gives, for nothing, what a constant feed over [a, b]
 //! removes at r_i: τ·(F_i(b) − F_i(a)) ([`PassReading`]; the recommendation's equal-dwell pass
@@ -116,15 +117,16 @@ pub struct RemovalOperator {
     first_row: Vec<usize>,
     col_ptr: Vec<usize>,
     row_count: usize,
-    /// The entries by row and by column: at least one is set.
-    rows: OnceLock<Rows>,
+    /// The entries by row (assembled so) and by column (assembled so, or laid out from the
+    /// rows on first use): at least one is there.
+    rows: Option<Rows>,
     columns: OnceLock<Vec<f64>>,
 }
 
 /// Two operators are equal when their entries are, whatever layouts each holds.
 impl PartialEq for RemovalOperator {
     fn eq(&self, other: &Self) -> bool {
-        self.first_row == other.first_row && self.row_view() == other.row_view()
+        self.first_row == other.first_row && self.to_dense() == other.to_dense()
     }
 }
 
@@ -244,9 +246,9 @@ impl RemovalOperator {
             values,
         };
         let (rows, columns) = match layout {
-            Layout::Rows => (OnceLock::from(rows), OnceLock::new()),
+            Layout::Rows => (Some(rows), OnceLock::new()),
             Layout::Columns => (
-                OnceLock::new(),
+                None,
                 OnceLock::from(columns_from_rows(&rows, &first_row, &col_ptr)),
             ),
         };
@@ -279,18 +281,10 @@ impl RemovalOperator {
                 * (2 * self.row_count + self.first_row.len() + self.col_ptr.len())
     }
 
-    /// The entries by row, made from the columns if the operator was assembled by column.
-    fn row_view(&self) -> &Rows {
-        self.rows.get_or_init(|| {
-            let columns = self.columns.get().expect("an operator holds a layout");
-            rows_from_columns(columns, self.row_count, &self.first_row, &self.col_ptr)
-        })
-    }
-
     /// The entries by column, laid out from the rows if the operator was assembled by row.
     fn column_view(&self) -> &[f64] {
         self.columns.get_or_init(|| {
-            let rows = self.rows.get().expect("an operator holds a layout");
+            let rows = self.rows.as_ref().expect("an operator holds a layout");
             columns_from_rows(rows, &self.first_row, &self.col_ptr)
         })
     }
@@ -308,7 +302,7 @@ impl RemovalOperator {
     /// (the same bits either way).
     pub fn apply(&self, dwell_s: &[f64]) -> Vec<f64> {
         assert_eq!(dwell_s.len(), self.cols(), "one dwell per tool position");
-        if let Some(rows) = self.rows.get() {
+        if let Some(rows) = &self.rows {
             return rows
                 .iter()
                 .map(|(j_lo, row)| {
@@ -347,14 +341,20 @@ impl RemovalOperator {
 
     /// The dense matrix, row-major (for tests and small problems).
     pub fn to_dense(&self) -> Vec<Vec<f64>> {
-        self.row_view()
-            .iter()
-            .map(|(j_lo, row)| {
-                let mut dense = vec![0.0; self.cols()];
-                dense[j_lo..j_lo + row.len()].copy_from_slice(row);
-                dense
-            })
-            .collect()
+        let mut dense = vec![vec![0.0; self.cols()]; self.row_count];
+        if let Some(rows) = &self.rows {
+            for ((j_lo, row), out) in rows.iter().zip(&mut dense) {
+                out[j_lo..j_lo + row.len()].copy_from_slice(row);
+            }
+        } else {
+            for j in 0..self.cols() {
+                let (first, column) = self.column(j);
+                for (out, &m) in dense[first..].iter_mut().zip(column) {
+                    out[j] = m;
+                }
+            }
+        }
+        dense
     }
 }
 
@@ -397,29 +397,6 @@ fn columns_from_rows(rows: &Rows, first_row: &[usize], col_ptr: &[usize]) -> Vec
         blocks.into_iter().enumerate().for_each(gather);
     }
     values
-}
-
-/// The entries of `columns` by row ([`row_columns`] says which columns each spans).
-fn rows_from_columns(
-    columns: &[f64],
-    row_count: usize,
-    first_row: &[usize],
-    col_ptr: &[usize],
-) -> Rows {
-    let row_end = row_ends(first_row, col_ptr);
-    let mut rows = Rows {
-        first_col: Vec::with_capacity(row_count),
-        row_ptr: vec![0],
-        values: Vec::with_capacity(columns.len()),
-    };
-    for i in 0..row_count {
-        let span = row_columns(i, first_row, &row_end);
-        rows.first_col.push(span.start);
-        rows.values
-            .extend(span.map(|j| columns[col_ptr[j] - first_row[j] + i]));
-        rows.row_ptr.push(rows.values.len());
-    }
-    rows
 }
 
 /// One past each column's last row.
@@ -508,7 +485,7 @@ mod tests {
 
     /// The columns laid out from the rows hold the same entries, bit for bit, in a small
     /// (serial) and a large (parallel, many blocks) operator, and an empty column is empty;
-    /// the rows made from the columns likewise.
+    /// one assembled by column gives the same products.
     #[test]
     fn columns_laid_out_from_the_rows_are_the_rows() {
         let k = kernel(-10.0, 200.0);
@@ -541,7 +518,7 @@ mod tests {
             let by_column =
                 RemovalOperator::assemble_with_pass(&k, &radii, &positions, None, Layout::Columns)
                     .0;
-            assert!(by_column.rows.get().is_none());
+            assert!(by_column.rows.is_none());
             let t: Vec<f64> = (0..op.cols()).map(|j| 1.0 + (j as f64).sin()).collect();
             let y: Vec<f64> = (0..rows).map(|i| (i as f64 * 0.3).cos()).collect();
             let bits = |v: Vec<f64>| v.into_iter().map(f64::to_bits).collect::<Vec<_>>();

@@ -121,8 +121,8 @@ impl OperatorCache {
             .0
     }
 
-    /// [`Self::operator`], assembled in `layout` (what the caller reads; a held operator
-    /// makes the other layout when first asked for), and when it is assembled now, what `pass`
+    /// [`Self::operator`], assembled in `layout` (what the caller reads; a held operator's
+    /// columns are laid out when first asked for), and when it is assembled now, what `pass`
     /// removes at its rows as the operator's rows read it
     /// ([`RemovalOperator::assemble_with_pass`]); `None` for the pass when the operator was
     /// held (or the rows could not read it).
