@@ -462,15 +462,8 @@ impl CurvedKernel {
     /// The arc of `ring` under the pad at `site` and the sliding speed on it (module docs),
     /// or `None` where the pad does not touch the ring.
     fn arc_speed(&self, ring: &Ring, site: &Site) -> Option<ArcSpeed> {
+        let psi = covered_arc(ring, site)?;
         let dz = ring.z - site.z1;
-        let reach2 = site.chord * site.chord - dz * dz;
-        if reach2 <= 0.0 {
-            return None;
-        }
-        let psi = half_angle_of_squared_reach(ring.r, site.r1, reach2);
-        if !psi.is_contact() {
-            return None;
-        }
         let (w, t) = (self.omega_workpiece, self.omega_tool);
         let a = t * site.axis_z - w;
         let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
@@ -583,10 +576,7 @@ impl CurvedKernel {
                 .map_or(f64::NEG_INFINITY, |u| arc1 + u)
         };
         let arc_end = |x: f64| {
-            let site = self.site(x);
-            let dz = ring.z - site.z1;
-            let reach2 = site.chord * site.chord - dz * dz;
-            let psi = half_angle_of_squared_reach(ring.r, x, reach2.max(0.0));
+            let psi = covered_arc(ring, &self.site(x)).unwrap_or(HalfAngle::NONE);
             ring.arc * (2.0 * psi.radians()).cos()
         };
         let past_arc_end = |x: f64| lift_line(x) - arc_end(x);
@@ -595,6 +585,17 @@ impl CurvedKernel {
         kinks.extend(super::removal::crossings(&past_ring, from, to));
         kinks
     }
+}
+
+/// The half-angle of `ring`'s arc under the pad at `site` (module docs: the flat contact of
+/// the reach √(c_t² − (z − z₁)²)), or `None` where the pad does not touch the ring.
+fn covered_arc(ring: &Ring, site: &Site) -> Option<HalfAngle> {
+    let dz = ring.z - site.z1;
+    let reach2 = site.chord * site.chord - dz * dz;
+    if reach2 <= 0.0 {
+        return None;
+    }
+    Some(half_angle_of_squared_reach(ring.r, site.r1, reach2)).filter(|psi| psi.is_contact())
 }
 
 /// A root of `f` on a bracket whose ends' values have opposite signs, to a few ulps.
