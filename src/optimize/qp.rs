@@ -38,8 +38,9 @@ pub enum Formulation {
     Residual,
 }
 
-/// One dwell optimization: the operator over the radial grid, the rows of the clear aperture,
-/// the target there, and what the plan must respect.
+/// One dwell optimization: the operator over the radial grid (or over the clear aperture's
+/// radii alone), the rows of the clear aperture in it, the target there, and what the plan
+/// must respect.
 #[derive(Debug, Clone)]
 pub struct DwellProblem<'a> {
     pub operator: &'a RemovalOperator,

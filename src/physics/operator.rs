@@ -19,7 +19,9 @@
 //! ([`Layout`]): by row, (first column, values), for M·t (a prediction), or by column,
 //! compressed sparse column without per-entry row indices, for the optimizer. Rows held, the
 //! columns are laid out from them when first asked for (the same entries, bit for bit) and
-//! kept beside them; columns held, M·t reads them, and no rows are made.
+//! kept beside them; columns held, M·t reads them, and no rows are made. An optimizer reads
+//! only the clear aperture's rows: a new operator's other rows are assembled while it solves
+//! ([`RemovalOperator::assemble_while`]), and stacked with them after.
 //!
 //! A row's running integral F_i also gives, for nothing, what a constant feed over [a, b]
 //! removes at r_i: τ·(F_i(b) − F_i(a)) ([`PassReading`]; the recommendation's equal-dwell pass
@@ -152,25 +154,8 @@ impl RemovalOperator {
         debug_assert!(radii_mm.windows(2).all(|w| w[0] <= w[1]));
         debug_assert!(positions_mm.windows(2).all(|w| w[0] < w[1]));
         let n = positions_mm.len();
-        let rt = kernel.tool_radius_mm();
         let bounds = cell_boundaries_mm(positions_mm);
-        // Column j covers the rows within r_t of its cell (of its position for a single one),
-        // widened by a hair so rounding never drops a (tiny) non-zero entry.
-        let mut first_row = Vec::with_capacity(n);
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        col_ptr.push(0);
-        for j in 0..n {
-            let (a, b) = if n == 1 {
-                (positions_mm[0], positions_mm[0])
-            } else {
-                (bounds[j], bounds[j + 1])
-            };
-            let slack = 1e-9 * (b + rt);
-            let lo = radii_mm.partition_point(|&r| r <= a - rt - slack);
-            let hi = radii_mm.partition_point(|&r| r < b + rt + slack);
-            first_row.push(lo);
-            col_ptr.push(col_ptr.last().unwrap() + hi.max(lo) - lo);
-        }
+        let (first_row, col_ptr) = column_runs(kernel, radii_mm, positions_mm, &bounds);
         let entries = *col_ptr.last().unwrap();
         // Arc lengths of the cells, and each row's columns: those whose rows contain it (a
         // contiguous run, since both ends of the columns' row runs grow with j).
@@ -260,6 +245,93 @@ impl RemovalOperator {
             columns,
         };
         (operator, passed)
+    }
+
+    /// [`Self::assemble_with_pass`] for a caller that first needs only the rows `first` (an
+    /// optimizer reads only the clear aperture's), and `during(operator, rows)` run on an
+    /// operator holding them, `rows` being where they are in it. When there are at least
+    /// [`PARALLEL_MIN_PATHS`] other rows, it is done in two stages: the rows `first` are
+    /// assembled (in both layouts), an operator of their own; then `during` runs on it while
+    /// the other rows are assembled beside it (`rayon::join`: on another core when one is
+    /// free) and stacked with them into the whole operator, by row. Otherwise the whole is
+    /// assembled by column first. Rows are independent, so either way the whole is the
+    /// operator one assembly gives, and `during` reads the same entries, bit for bit.
+    pub fn assemble_while<R: Send>(
+        kernel: &RemovalKernel,
+        radii_mm: &[f64],
+        positions_mm: &[f64],
+        pass: Option<&PassReading>,
+        first: Range<usize>,
+        during: impl FnOnce(&RemovalOperator, Range<usize>) -> R + Send,
+    ) -> (Self, Option<Vec<f64>>, R) {
+        if radii_mm.len() - first.len() < PARALLEL_MIN_PATHS {
+            let (whole, passed) =
+                Self::assemble_with_pass(kernel, radii_mm, positions_mm, pass, Layout::Columns);
+            let result = during(&whole, first);
+            return (whole, passed, result);
+        }
+        let part = |rows: Range<usize>| {
+            // The pass's rows among these, counted from the first of them.
+            let pass = pass.map(|p| PassReading {
+                feed: p.feed,
+                rows: p.rows.start.clamp(rows.start, rows.end) - rows.start
+                    ..p.rows.end.clamp(rows.start, rows.end) - rows.start,
+            });
+            let radii = &radii_mm[rows];
+            Self::assemble_with_pass(kernel, radii, positions_mm, pass.as_ref(), Layout::Rows)
+        };
+        let (inner, inner_passed) = part(first.clone());
+        // Laid out here, across threads, before `during` reads them on one.
+        inner.column_view();
+        let (result, (whole, passed)) = rayon::join(
+            || during(&inner, 0..inner.rows()),
+            || {
+                let (below, below_passed) = part(0..first.start);
+                let (above, above_passed) = part(first.end..radii_mm.len());
+                let whole = Self::stacked(kernel, radii_mm, positions_mm, [&below, &inner, &above]);
+                let passed = [below_passed, inner_passed, above_passed]
+                    .into_iter()
+                    .collect::<Option<Vec<Vec<f64>>>>()
+                    .map(|parts| parts.concat());
+                (whole, passed)
+            },
+        );
+        (whole, passed, result)
+    }
+
+    /// The operator on `radii_mm` whose rows are those of `parts` (each held by row, on
+    /// consecutive runs of `radii_mm`, in order), copied into one block.
+    fn stacked(
+        kernel: &RemovalKernel,
+        radii_mm: &[f64],
+        positions_mm: &[f64],
+        parts: [&RemovalOperator; 3],
+    ) -> Self {
+        let bounds = cell_boundaries_mm(positions_mm);
+        let (first_row, col_ptr) = column_runs(kernel, radii_mm, positions_mm, &bounds);
+        let mut rows = Rows {
+            first_col: Vec::with_capacity(radii_mm.len()),
+            row_ptr: Vec::with_capacity(radii_mm.len() + 1),
+            values: Vec::with_capacity(*col_ptr.last().unwrap_or(&0)),
+        };
+        rows.row_ptr.push(0);
+        for part in parts {
+            let held = part.rows.as_ref().expect("parts are assembled by row");
+            let offset = rows.values.len();
+            rows.first_col.extend_from_slice(&held.first_col);
+            rows.row_ptr
+                .extend(held.row_ptr[1..].iter().map(|&end| offset + end));
+            rows.values.extend_from_slice(&held.values);
+        }
+        debug_assert_eq!(rows.first_col.len(), radii_mm.len());
+        debug_assert_eq!(rows.values.len(), *col_ptr.last().unwrap_or(&0));
+        RemovalOperator {
+            first_row,
+            col_ptr,
+            row_count: radii_mm.len(),
+            rows: Some(rows),
+            columns: OnceLock::new(),
+        }
     }
 
     pub fn rows(&self) -> usize {
@@ -399,6 +471,36 @@ fn columns_from_rows(rows: &Rows, first_row: &[usize], col_ptr: &[usize]) -> Vec
     values
 }
 
+/// Each column's first row and where its entries start (one more than there are columns: the
+/// last is the number of entries). Column j covers the rows within r_t of its cell [b_j,
+/// b_{j+1}] (of its position for a single one), widened by a hair so rounding never drops a
+/// (tiny) non-zero entry: whether a row is in a column's run depends on its radius alone.
+fn column_runs(
+    kernel: &RemovalKernel,
+    radii_mm: &[f64],
+    positions_mm: &[f64],
+    bounds: &[f64],
+) -> (Vec<usize>, Vec<usize>) {
+    let n = positions_mm.len();
+    let rt = kernel.tool_radius_mm();
+    let mut first_row = Vec::with_capacity(n);
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    col_ptr.push(0);
+    for j in 0..n {
+        let (a, b) = if n == 1 {
+            (positions_mm[0], positions_mm[0])
+        } else {
+            (bounds[j], bounds[j + 1])
+        };
+        let slack = 1e-9 * (b + rt);
+        let lo = radii_mm.partition_point(|&r| r <= a - rt - slack);
+        let hi = radii_mm.partition_point(|&r| r < b + rt + slack);
+        first_row.push(lo);
+        col_ptr.push(col_ptr.last().unwrap() + hi.max(lo) - lo);
+    }
+    (first_row, col_ptr)
+}
+
 /// One past each column's last row.
 fn row_ends(first_row: &[usize], col_ptr: &[usize]) -> Vec<usize> {
     (0..first_row.len())
@@ -529,6 +631,43 @@ mod tests {
             );
             assert_eq!(by_column.to_dense(), dense);
             assert_eq!(by_column, op);
+        }
+    }
+
+    /// Assembled while its first rows are read, the whole operator is the one assembly gives,
+    /// bit for bit, and `during` reads those rows of it: rows in the middle, a prefix, a
+    /// suffix, none; and with too few other rows to stage, the whole by column.
+    #[test]
+    fn an_operator_assembled_while_its_first_rows_are_read_is_the_whole() {
+        let k = kernel(-10.0, 200.0);
+        let radii = linspace(0.0, 50.0, 201);
+        let positions = linspace(0.0, 50.0, 151);
+        let dense = RemovalOperator::assemble(&k, &radii, &positions).to_dense();
+        let bits = |rows: &[Vec<f64>]| -> Vec<Vec<u64>> {
+            rows.iter()
+                .map(|row| row.iter().map(|v| v.to_bits()).collect())
+                .collect()
+        };
+        for first in [40..161, 0..161, 40..201, 100..100, 0..195, 0..201] {
+            let staged = radii.len() - first.len() >= PARALLEL_MIN_PATHS;
+            let (whole, passed, seen) = RemovalOperator::assemble_while(
+                &k,
+                &radii,
+                &positions,
+                None,
+                first.clone(),
+                |operator, rows| {
+                    // The solver reads columns: they are laid out already.
+                    assert!(operator.columns.get().is_some());
+                    (operator.rows(), operator.to_dense()[rows].to_vec())
+                },
+            );
+            assert!(passed.is_none());
+            assert_eq!(bits(&whole.to_dense()), bits(&dense), "first {first:?}");
+            assert_eq!(whole.rows.is_some(), staged, "first {first:?}");
+            let (rows, seen) = seen;
+            assert_eq!(rows, if staged { first.len() } else { radii.len() });
+            assert_eq!(bits(&seen), bits(&dense[first.clone()]), "first {first:?}");
         }
     }
 

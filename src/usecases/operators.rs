@@ -15,6 +15,7 @@
 //! recently used operators go first, and one larger than the whole budget is not kept.
 
 use std::collections::HashMap;
+use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -135,16 +136,9 @@ impl OperatorCache {
         layout: Layout,
     ) -> (Arc<RemovalOperator>, Option<Vec<f64>>) {
         let key = key(process, radii_mm, positions_mm);
-        if let Ok(mut held) = self.held.lock() {
-            held.clock += 1;
-            let now = held.clock;
-            if let Some(entry) = held.entries.get_mut(&key) {
-                entry.last_used = now;
-                self.hits.fetch_add(1, Ordering::Relaxed);
-                return (entry.operator.clone(), None);
-            }
+        if let Some(held) = self.held(&key) {
+            return (held, None);
         }
-        self.misses.fetch_add(1, Ordering::Relaxed);
         let (operator, passed) = RemovalOperator::assemble_with_pass(
             &RemovalKernel::new(process),
             radii_mm,
@@ -155,6 +149,52 @@ impl OperatorCache {
         let operator = Arc::new(operator);
         self.keep(key, &operator);
         (operator, passed)
+    }
+
+    /// [`Self::operator_with_pass`] for a caller that first needs only the rows `first`, with
+    /// `during(operator, rows)` run on an operator holding them (`rows`: where they are in
+    /// it): the held operator, or when it is assembled now, the rows `first` alone while the
+    /// others are assembled beside it ([`RemovalOperator::assemble_while`]).
+    pub fn operator_while<R: Send>(
+        &self,
+        process: &Process,
+        radii_mm: &[f64],
+        positions_mm: &[f64],
+        pass: Option<&PassReading>,
+        first: Range<usize>,
+        during: impl FnOnce(&RemovalOperator, Range<usize>) -> R + Send,
+    ) -> (Arc<RemovalOperator>, Option<Vec<f64>>, R) {
+        let key = key(process, radii_mm, positions_mm);
+        if let Some(held) = self.held(&key) {
+            let result = during(&held, first);
+            return (held, None, result);
+        }
+        let (operator, passed, result) = RemovalOperator::assemble_while(
+            &RemovalKernel::new(process),
+            radii_mm,
+            positions_mm,
+            pass,
+            first,
+            during,
+        );
+        let operator = Arc::new(operator);
+        self.keep(key, &operator);
+        (operator, passed, result)
+    }
+
+    /// The operator held under `key`, counted as a hit (or the miss counted).
+    fn held(&self, key: &[u64]) -> Option<Arc<RemovalOperator>> {
+        if let Ok(mut held) = self.held.lock() {
+            held.clock += 1;
+            let now = held.clock;
+            if let Some(entry) = held.entries.get_mut(key) {
+                entry.last_used = now;
+                self.hits.fetch_add(1, Ordering::Relaxed);
+                return Some(entry.operator.clone());
+            }
+        }
+        self.misses.fetch_add(1, Ordering::Relaxed);
+        None
     }
 
     fn keep(&self, key: Vec<u64>, operator: &Arc<RemovalOperator>) {

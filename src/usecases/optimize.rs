@@ -23,7 +23,7 @@ use crate::optimize::{
     optimize as solve, Constraints, ConstraintsSpec, DwellBasis, DwellProblem, Formulation,
     MeasuredProfile, Objective, OptimizeError, Solution,
 };
-use crate::physics::{check_positions, Layout, UniformityMetrics};
+use crate::physics::{check_positions, UniformityMetrics};
 use crate::study::Recommendation;
 use crate::surface::{Surface, SurfaceError};
 
@@ -450,30 +450,35 @@ pub fn optimize(
     } = command;
     // The recommendation's pass at these speeds is read beside a newly assembled operator.
     let pass = Recommender::pass_to_read(&setting);
-    let (operator, passed) = operators.operator_with_pass(
+    let axes = axis_paths(&machine, &positions_mm);
+    let cell_path_mm = cell_path_mm(&axes);
+    // The solver reads the aperture's rows alone; a new operator's others are assembled
+    // while it runs.
+    let (operator, passed, solution) = operators.operator_while(
         setting.process(),
         setting.grid().radii_mm(),
         &positions_mm,
         pass.as_ref(),
-        Layout::Columns,
+        rows.clone(),
+        |operator, rows| {
+            solve(&DwellProblem {
+                operator,
+                positions_mm: &positions_mm,
+                tool_radius_mm: setting.process().tool_radius_mm(),
+                rows,
+                target_nm: &target_nm,
+                free_piston,
+                constraints,
+                objective,
+                time_limit_s,
+                formulation: Formulation::default(),
+                basis: DwellBasis::default(),
+                axes: &axes,
+                cell_path_mm: &cell_path_mm,
+            })
+        },
     );
-    let axes = axis_paths(&machine, &positions_mm);
-    let cell_path_mm = cell_path_mm(&axes);
-    let solution = solve(&DwellProblem {
-        operator: &operator,
-        positions_mm: &positions_mm,
-        tool_radius_mm: setting.process().tool_radius_mm(),
-        rows: rows.clone(),
-        target_nm: &target_nm,
-        free_piston,
-        constraints,
-        objective,
-        time_limit_s,
-        formulation: Formulation::default(),
-        basis: DwellBasis::default(),
-        axes: &axes,
-        cell_path_mm: &cell_path_mm,
-    })?;
+    let solution = solution?;
     let program = program_of(&machine, &positions_mm, &solution.dwell_s, &mut warnings);
     if let Some(program) = &program {
         warnings.extend(machine_warnings(&machine, setting.process(), program)?);

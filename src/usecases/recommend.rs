@@ -358,6 +358,20 @@ mod tests {
                 for (k, (a, b)) in passed.iter().zip(&alone).enumerate() {
                     assert_eq!(a.to_bits(), b.to_bits(), "{spec:?}: row {k}");
                 }
+                // Read in two stages (the rows of an aperture first, the pass's rows in both
+                // stages, or in the second alone): the same bits.
+                let n = grid.radii_mm().len();
+                for first in [reading.rows.clone(), 50..n, 0..80, 180..n] {
+                    let (_, staged, ()) = RemovalOperator::assemble_while(
+                        &RemovalKernel::new(&process),
+                        grid.radii_mm(),
+                        &positions,
+                        Some(&reading),
+                        first.clone(),
+                        |_, _| (),
+                    );
+                    assert_eq!(staged.as_ref(), Some(&passed), "{spec:?}: first {first:?}");
+                }
                 let ask = |read| {
                     Recommender::new()
                         .recommendation(&process, frame, SpeedLimits::default(), 100.0, 0.02, read)
