@@ -17,6 +17,8 @@
 //! positive, so the result is accurate to a few ulps; the iteration count grows like
 //! log₄(max/min) of the arguments, which stays small for the arguments the removal function uses.
 
+use super::wide::lanes;
+
 /// Relative tolerance handed to Carlson's stopping rule; gives results within a few ulps.
 const TOLERANCE: f64 = 1.0e-16;
 
@@ -71,9 +73,9 @@ fn rf_rd_chunks(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64])
         // A short last chunk is padded with R(1, 1, 1), which converges at once.
         let lane = |v: &[f64], l: usize| if l < m { v[k + l] } else { 1.0 };
         let (f, d) = rf_rd_lanes::<LANES>(
-            std::array::from_fn(|l| lane(x, l)),
-            std::array::from_fn(|l| lane(y, l)),
-            std::array::from_fn(|l| lane(z, l)),
+            lanes(|l| lane(x, l)),
+            lanes(|l| lane(y, l)),
+            lanes(|l| lane(z, l)),
         );
         rf[k..k + m].copy_from_slice(&f[..m]);
         rd[k..k + m].copy_from_slice(&d[..m]);
@@ -96,14 +98,12 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
         debug_assert!(x[l] + y[l] > 0.0, "rf_rd: at most one of x, y may be zero");
     }
     let spread = |a: f64, l: usize| (a - x[l]).abs().max((a - y[l]).abs()).max((a - z[l]).abs());
-    let a0_f: [f64; L] = std::array::from_fn(|l| (x[l] + y[l] + z[l]) * (1.0 / 3.0));
-    let a0_d: [f64; L] = std::array::from_fn(|l| (x[l] + y[l] + 3.0 * z[l]) * (1.0 / 5.0));
+    let a0_f: [f64; L] = lanes(|l| (x[l] + y[l] + z[l]) * (1.0 / 3.0));
+    let a0_d: [f64; L] = lanes(|l| (x[l] + y[l] + 3.0 * z[l]) * (1.0 / 5.0));
     // Carlson's Q for each function: once 4^-n Q < |A_n| the series is exact to TOLERANCE
     // (4^-n Q is pow4·Q exactly: both are scaled by powers of two).
-    let q_f: [f64; L] =
-        std::array::from_fn(|l| spread(a0_f[l], l) * (3.0 * TOLERANCE).powf(-1.0 / 6.0));
-    let q_d: [f64; L] =
-        std::array::from_fn(|l| spread(a0_d[l], l) * (0.25 * TOLERANCE).powf(-1.0 / 6.0));
+    let q_f: [f64; L] = lanes(|l| spread(a0_f[l], l) * (3.0 * TOLERANCE).powf(-1.0 / 6.0));
+    let q_d: [f64; L] = lanes(|l| spread(a0_d[l], l) * (0.25 * TOLERANCE).powf(-1.0 / 6.0));
 
     let (mut xn, mut yn, mut zn) = (x, y, z);
     let (mut a_f, mut a_d) = (a0_f, a0_d);
@@ -116,7 +116,7 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
         let go = (pow4[l] * q_f[l] >= a_f[l].abs()) | (pow4[l] * q_d[l] >= a_d[l].abs());
         (go as u64).wrapping_neg()
     };
-    let mut running: [u64; L] = std::array::from_fn(|l| going(&pow4, &a_f, &a_d, l));
+    let mut running: [u64; L] = lanes(|l| going(&pow4, &a_f, &a_d, l));
     while running.iter().fold(0, |any, &m| any | m) != 0 {
         for l in 0..L {
             let (sx, sy, sz) = (xn[l].sqrt(), yn[l].sqrt(), zn[l].sqrt());
@@ -139,7 +139,7 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
 
     // Each series divides once: with t = 1/(A·√A), 1/A = t·√A and 1/√A = t·A; its constants
     // are multiplied as reciprocals.
-    let rf = std::array::from_fn(|l| {
+    let rf = lanes(|l| {
         let root = a_f[l].sqrt();
         let t = 1.0 / (a_f[l] * root);
         let scale = pow4[l] * (t * root);
@@ -152,7 +152,7 @@ fn rf_rd_lanes<const L: usize>(x: [f64; L], y: [f64; L], z: [f64; L]) -> ([f64; 
             - e2 * e3 * (3.0 / 44.0);
         series * (t * a_f[l])
     });
-    let rd = std::array::from_fn(|l| {
+    let rd = lanes(|l| {
         let root = a_d[l].sqrt();
         let t = 1.0 / (a_d[l] * root);
         let scale = pow4[l] * (t * root);

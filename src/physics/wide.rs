@@ -43,3 +43,15 @@ unsafe fn avx512<W: Wide>(work: W) -> W::Output {
 unsafe fn avx2<W: Wide>(work: W) -> W::Output {
     work.run()
 }
+
+/// `[f(0), …, f(L − 1)]` in a plain loop, so that it is compiled inside the caller's build:
+/// `std::array::from_fn` may be left a call of its own, compiled for the baseline (two lanes
+/// to a register, out of line), in the middle of a wide build's lanes.
+#[inline(always)]
+pub fn lanes<T: Copy + Default, const L: usize>(f: impl Fn(usize) -> T) -> [T; L] {
+    let mut out = [T::default(); L];
+    for (l, value) in out.iter_mut().enumerate() {
+        *value = f(l);
+    }
+    out
+}
