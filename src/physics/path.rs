@@ -57,6 +57,8 @@
 //! latency-bound chain; AVX-512 or AVX2 where the CPU has it, chosen at run time by
 //! [`super::wide`]). Both give the bits of one point at a time.
 
+use std::sync::OnceLock;
+
 /// Path integrals at and above this count are made across threads: each costs some 15 µs
 /// (about 150 evaluations of the rate), far more than handing it to another thread.
 pub const PARALLEL_MIN_PATHS: usize = 16;
@@ -552,6 +554,15 @@ pub struct Lobatto {
     /// row is row k with the even coefficients (but C_0) negated (cos(πj(n − k)/n) =
     /// (−1)^j·cos(πjk/n), and C_m takes c_{m±1}), so only half the rows are kept.
     antiderivative: [Vec<f64>; LEVELS],
+}
+
+impl Lobatto {
+    /// The table, made once for the whole program (a few tens of microseconds: every kernel
+    /// made its own, once per request) and never changed after.
+    pub fn shared() -> &'static Lobatto {
+        static TABLE: OnceLock<Lobatto> = OnceLock::new();
+        TABLE.get_or_init(Lobatto::default)
+    }
 }
 
 impl Default for Lobatto {

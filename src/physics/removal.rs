@@ -77,7 +77,7 @@ pub struct RemovalKernel {
     /// pressure directly).
     curve: OnceLock<PressureCurve>,
     /// The Chebyshev points every path integral is taken with.
-    lobatto: Lobatto,
+    lobatto: &'static Lobatto,
     curved: Option<CurvedKernel>,
 }
 
@@ -164,7 +164,7 @@ impl RemovalKernel {
             translation: process.is_eta_minus_one(),
             reach_mm: process.max_tool_position_mm(),
             curve: OnceLock::new(),
-            lobatto: Lobatto::default(),
+            lobatto: Lobatto::shared(),
             curved: (!process.part().is_flat()).then(|| {
                 CurvedKernel::new(
                     process.part().clone(),
@@ -328,7 +328,7 @@ impl RemovalKernel {
                     rate,
                     &points,
                     resolution,
-                    &self.lobatto,
+                    self.lobatto,
                 ));
             };
             // Only the linear model needs the cut: its reach is open, and the rate grows
@@ -339,7 +339,7 @@ impl RemovalKernel {
             } else {
                 points
             };
-            let panels = PathIntegral::new(rate, &points, resolution, &self.lobatto);
+            let panels = PathIntegral::new(rate, &points, resolution, self.lobatto);
             match log {
                 Some(log) => RunningIntegral::PanelsAndLog(panels, log),
                 None => RunningIntegral::Panels(panels),
@@ -376,7 +376,7 @@ impl RemovalKernel {
                 return 0.0;
             }
             let logarithm = log.map_or(0.0, |log| log.integral_to(b) - log.integral_to(a));
-            PathIntegral::total_over(rate, &inside(points, a, b), resolution, &self.lobatto)
+            PathIntegral::total_over(rate, &inside(points, a, b), resolution, self.lobatto)
                 + logarithm
         })
     }
@@ -1073,7 +1073,7 @@ mod tests {
                     tolerance: 1e-13,
                     ..FLAT_PATH
                 },
-                &kernel.lobatto,
+                kernel.lobatto,
             );
             let whole = panels.total();
             for x in [
