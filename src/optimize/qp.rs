@@ -3,9 +3,12 @@
 
 use std::borrow::Cow;
 use std::ops::Range;
+use std::time::Instant;
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::SupportedConeT;
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
 use rayon::prelude::*;
 
 use super::basis::{Basis, DwellBasis};
@@ -390,6 +393,86 @@ const MAX_ROW_ROUNDS: usize = 3;
 /// then hold the optimum, and the omitted ones hold with room to spare.
 const ROW_SLACK: f64 = 1e-9;
 
+/// The fit in the normal equations on (c, [p̃]): P's upper triangle and q.
+struct NormalObjective {
+    p: CscMatrix<f64>,
+    q: Vec<f64>,
+}
+
+/// The objective's linear term for the total time: μ·Σ_j x_j/n_positions =
+/// Σ_k c_k·(μ/n_positions)·Σ_j S_jk.
+fn time_term(problem: &DwellProblem, vars: &Variables, s: &Scales) -> Vec<f64> {
+    let basis = &vars.basis;
+    basis.transpose_apply(&vec![
+        problem.objective.time_weight / s.n;
+        basis.positions_len()
+    ])
+}
+
+/// The target in depth units, one per aperture row.
+fn scaled_target(problem: &DwellProblem, s: &Scales) -> Vec<f64> {
+    problem.target_nm.iter().map(|d| d / s.depth_nm).collect()
+}
+
+impl NormalObjective {
+    fn new(problem: &DwellProblem, vars: &Variables, s: &Scales) -> Self {
+        let band = &vars.band;
+        let g = scaled_target(problem, s);
+        let time = time_term(problem, vars, s);
+        let lin = 1.0 / (s.m * s.rate);
+        let mut q: Vec<f64> = (0..vars.size())
+            .map(|k| time[k] - lin * band.dot_rows(k, &g, problem.rows.start))
+            .collect();
+        if problem.free_piston {
+            q.push(g.iter().sum::<f64>() / s.m);
+        }
+        NormalObjective {
+            p: normal_hessian(problem, vars, s),
+            q,
+        }
+    }
+
+    /// The minimiser of ½vᵀPv + qᵀv over every v, −P⁻¹q: a dense Cholesky factorisation and
+    /// one step of iterative refinement. `None` for more than [`DIRECT_MAX_VARIABLES`]
+    /// variables, or when P is not (numerically) positive definite.
+    fn unconstrained_minimum(&self) -> Option<Vec<f64>> {
+        let n = self.q.len();
+        if n > DIRECT_MAX_VARIABLES {
+            return None;
+        }
+        let mut dense = Mat::<f64>::zeros(n, n);
+        let p = &self.p;
+        for j in 0..n {
+            for idx in p.colptr[j]..p.colptr[j + 1] {
+                let i = p.rowval[idx];
+                dense[(i, j)] = p.nzval[idx];
+                dense[(j, i)] = p.nzval[idx];
+            }
+        }
+        let llt = dense.llt(Side::Lower).ok()?;
+        let mut v = Mat::<f64>::from_fn(n, 1, |i, _| -self.q[i]);
+        llt.solve_in_place(v.as_mut());
+        // One refinement step: the residual −q − P·v, solved and added.
+        let mut residual = Mat::<f64>::from_fn(n, 1, |i, _| -self.q[i]);
+        for j in 0..n {
+            for idx in p.colptr[j]..p.colptr[j + 1] {
+                let (i, value) = (p.rowval[idx], p.nzval[idx]);
+                residual[(i, 0)] -= value * v[(j, 0)];
+                if i != j {
+                    residual[(j, 0)] -= value * v[(i, 0)];
+                }
+            }
+        }
+        llt.solve_in_place(residual.as_mut());
+        let v: Vec<f64> = (0..n).map(|i| v[(i, 0)] + residual[(i, 0)]).collect();
+        v.iter().all(|x| x.is_finite()).then_some(v)
+    }
+}
+
+/// Most variables the unconstrained minimum is tried for: its dense factorisation costs n³/3
+/// flops, microseconds for a spline's few dozen variables.
+const DIRECT_MAX_VARIABLES: usize = 256;
+
 /// The QP for Clarabel on the variables (c, [e], [p̃], [u]). `floors_s`: each position's least
 /// dwell. With `around` (a scaled plan that keeps the machine's acceleration limits), the
 /// between-cell acceleration rows made convex around it are added, with their cone variables
@@ -399,6 +482,7 @@ fn assemble(
     problem: &DwellProblem,
     vars: &Variables,
     s: &Scales,
+    normal: Option<&NormalObjective>,
     position_rows: Rows,
     around: Option<&[f64]>,
 ) -> ClarabelQp {
@@ -406,26 +490,14 @@ fn assemble(
     let basis = &vars.basis;
     let n = vars.size();
     let m = problem.rows.len();
-    let g: Vec<f64> = problem.target_nm.iter().map(|d| d / s.depth_nm).collect();
-    // μ·Σ_j x_j/n_positions = Σ_k c_k·(μ/n_positions)·Σ_j S_jk.
-    let time: Vec<f64> = basis.transpose_apply(&vec![
-        problem.objective.time_weight / s.n;
-        basis.positions_len()
-    ]);
     let piston = usize::from(problem.free_piston);
     let (_, gap) = tolerances(vars);
     let position_rows = position_rows.through(basis);
     // (P's columns, q, rows, how many of the rows are equalities at the top)
     let (mut p, mut q, mut rows, equalities) = match problem.formulation {
         Formulation::NormalEquations => {
-            let lin = 1.0 / (s.m * s.rate);
-            let mut q: Vec<f64> = (0..n)
-                .map(|k| time[k] - lin * band.dot_rows(k, &g, problem.rows.start))
-                .collect();
-            if problem.free_piston {
-                q.push(g.iter().sum::<f64>() / s.m);
-            }
-            (normal_hessian(problem, vars, s), q, position_rows, 0)
+            let normal = normal.expect("the normal equations' objective is made by the caller");
+            (normal.p.clone(), normal.q.clone(), position_rows, 0)
         }
         Formulation::Residual => {
             // Variables (c, e, [p̃]); rows: M·S·c/ā − e − p̃ = g (zero cone), then inequalities.
@@ -445,7 +517,7 @@ fn assemble(
             if problem.free_piston {
                 p.push_column([]);
             }
-            let mut q = time;
+            let mut q = time_term(problem, vars, s);
             q.resize(nv, 0.0);
 
             let mut rows = Rows::default();
@@ -466,7 +538,7 @@ fn assemble(
                     rows.values.push(-1.0);
                 }
             }
-            rows.rhs = g;
+            rows.rhs = scaled_target(problem, s);
             rows.append(position_rows);
             (p.build(), q, rows, m)
         }
@@ -608,14 +680,37 @@ fn attempt(
     // is added and the QP solved again. The answer that keeps every row it omits is the
     // optimum with all of them (omitting rows only widens the feasible set).
     let (mut iterations, mut solve_time_s) = (0, 0.0);
+    let normal = (problem.formulation == Formulation::NormalEquations)
+        .then(|| NormalObjective::new(problem, vars, scales));
+    let started = Instant::now();
+    // Where the fit's own minimum keeps every row, no row binds: it is the QP's optimum (the
+    // KKT conditions hold with zero multipliers), exactly, without an interior point. A
+    // uniform layer usually asks for dwell well inside its bounds.
+    let unconstrained = normal
+        .as_ref()
+        .filter(|_| around.is_none())
+        .and_then(NormalObjective::unconstrained_minimum)
+        .filter(|v| {
+            let keeps_rows = rows
+                .excess(&vars.basis.dwell(&v[..n]))
+                .iter()
+                .all(|&e| e <= 0.0);
+            keeps_rows && (!problem.free_piston || v[n] >= 0.0)
+        });
     let mut solve = |rows: Rows| {
-        let qp = assemble(problem, vars, scales, rows, around);
+        let qp = assemble(problem, vars, scales, normal.as_ref(), rows, around);
         let (v, its, seconds, status) = run_clarabel(&qp, budget)?;
         iterations += its;
         solve_time_s += seconds;
         Ok::<_, OptimizeError>((v, status))
     };
     let (v, status) = match first_rows(&rows, vars, &problem.objective) {
+        _ if unconstrained.is_some() => {
+            // As any solver call, within the budget.
+            budget.remaining_s()?;
+            solve_time_s = started.elapsed().as_secs_f64();
+            (unconstrained.expect("tested"), SolveStatus::Solved)
+        }
         None => solve(rows)?,
         Some(mut keep) => {
             let mut rounds = 0;

@@ -108,6 +108,43 @@ fn experiment_1_is_made_uniform_and_the_central_pit_is_removed() {
     assert!((m.mean_nm - 100.0).abs() < 1e-3, "{}", m.mean_nm);
 }
 
+/// No bound binds on experiment 1's uniform layer (the dwell stays above zero everywhere), so
+/// the plan is the fit's own minimum, solved directly: no interior-point iteration, and its J
+/// no higher than the interior point's (the residual formulation, always solved by Clarabel)
+/// and equal to it within that solver's duality gap (1e-12 absolute on J ≈ 4e-6).
+#[test]
+fn a_uniform_layer_with_no_bound_binding_is_the_fits_own_minimum() {
+    let c = case(&paper_process(-10.0, 200.0));
+    let direct = solve(&c, Objective::default());
+    assert_eq!(direct.iterations, 0);
+    let rows = aperture_rows(&c.grid, &c.aperture);
+    let target = vec![100.0; rows.len()];
+    let interior = optimize(&DwellProblem {
+        operator: &c.operator,
+        positions_mm: &c.positions,
+        tool_radius_mm: 10.0,
+        rows,
+        target_nm: &target,
+        free_piston: false,
+        constraints: Constraints::default(),
+        objective: Objective::default(),
+        time_limit_s: 60.0,
+        formulation: Formulation::Residual,
+        basis: DwellBasis::Auto,
+        axes: &[],
+        cell_path_mm: &[],
+    })
+    .unwrap();
+    assert!(interior.iterations > 0);
+    println!(
+        "J direct {:.12e}, interior point {:.12e} ({} iterations)",
+        direct.objective, interior.objective, interior.iterations
+    );
+    assert!(direct.objective <= interior.objective * (1.0 + 1e-12));
+    assert!(interior.objective - direct.objective <= 1e-11);
+    assert!(direct.dwell_s.iter().all(|&t| t > 0.0));
+}
+
 /// At η = −1 equal dwell is exactly uniform (the motion's removal, docs/MODEL.md), so the
 /// optimizer cannot beat it in uniformity; with its default weights it stays within their
 /// documented cost (the time term trades ~1e-4 of uniformity at the aperture's edge for time)

@@ -190,7 +190,8 @@ pub struct SolverDto {
     pub status: SolverStatusDto,
     /// True for `almost_solved`.
     pub reduced_accuracy: bool,
-    /// Interior-point iterations.
+    /// Interior-point iterations: 0 when no constraint binds (the fit's own minimum keeps
+    /// them all and is the plan, solved directly).
     pub iterations: u32,
     /// Solver wall-clock time, ms.
     pub solve_time_ms: f64,
