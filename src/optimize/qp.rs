@@ -393,6 +393,10 @@ const MAX_ROW_ROUNDS: usize = 3;
 /// then hold the optimum, and the omitted ones hold with room to spare.
 const ROW_SLACK: f64 = 1e-9;
 
+/// Most variables the unconstrained minimum is tried for: its dense factorisation costs n³/3
+/// flops, microseconds for a spline's few dozen variables.
+const DIRECT_MAX_VARIABLES: usize = 256;
+
 /// The fit in the normal equations on (c, [p̃]): P's upper triangle and q.
 struct NormalObjective {
     p: CscMatrix<f64>,
@@ -468,10 +472,6 @@ impl NormalObjective {
         v.iter().all(|x| x.is_finite()).then_some(v)
     }
 }
-
-/// Most variables the unconstrained minimum is tried for: its dense factorisation costs n³/3
-/// flops, microseconds for a spline's few dozen variables.
-const DIRECT_MAX_VARIABLES: usize = 256;
 
 /// The QP for Clarabel on the variables (c, [e], [p̃], [u]). `floors_s`: each position's least
 /// dwell. With `around` (a scaled plan that keeps the machine's acceleration limits), the
@@ -704,33 +704,34 @@ fn attempt(
         solve_time_s += seconds;
         Ok::<_, OptimizeError>((v, status))
     };
-    let (v, status) = match first_rows(&rows, vars, &problem.objective) {
-        _ if unconstrained.is_some() => {
-            // As any solver call, within the budget.
-            budget.remaining_s()?;
-            solve_time_s = started.elapsed().as_secs_f64();
-            (unconstrained.expect("tested"), SolveStatus::Solved)
-        }
-        None => solve(rows)?,
-        Some(mut keep) => {
-            let mut rounds = 0;
-            loop {
-                if rounds == MAX_ROW_ROUNDS {
-                    break solve(rows)?;
-                }
-                let (v, status) = solve(rows.select(&keep))?;
-                let excess = rows.excess(&vars.basis.dwell(&v[..n]));
-                let mut added = false;
-                for (r, e) in excess.into_iter().enumerate() {
-                    if !keep[r] && e > -ROW_SLACK {
-                        keep[r] = true;
-                        added = true;
+    let (v, status) = if let Some(v) = unconstrained {
+        // As any solver call, within the budget.
+        budget.remaining_s()?;
+        solve_time_s = started.elapsed().as_secs_f64();
+        (v, SolveStatus::Solved)
+    } else {
+        match first_rows(&rows, vars, &problem.objective) {
+            None => solve(rows)?,
+            Some(mut keep) => {
+                let mut rounds = 0;
+                loop {
+                    if rounds == MAX_ROW_ROUNDS {
+                        break solve(rows)?;
                     }
+                    let (v, status) = solve(rows.select(&keep))?;
+                    let excess = rows.excess(&vars.basis.dwell(&v[..n]));
+                    let mut added = false;
+                    for (r, e) in excess.into_iter().enumerate() {
+                        if !keep[r] && e > -ROW_SLACK {
+                            keep[r] = true;
+                            added = true;
+                        }
+                    }
+                    if !added {
+                        break (v, status);
+                    }
+                    rounds += 1;
                 }
-                if !added {
-                    break (v, status);
-                }
-                rounds += 1;
             }
         }
     };

@@ -642,7 +642,8 @@ mod tests {
         let k = kernel(-10.0, 200.0);
         let radii = linspace(0.0, 50.0, 201);
         let positions = linspace(0.0, 50.0, 151);
-        let dense = RemovalOperator::assemble(&k, &radii, &positions).to_dense();
+        let one = RemovalOperator::assemble(&k, &radii, &positions);
+        let dense = one.to_dense();
         let bits = |rows: &[Vec<f64>]| -> Vec<Vec<u64>> {
             rows.iter()
                 .map(|row| row.iter().map(|v| v.to_bits()).collect())
@@ -664,6 +665,14 @@ mod tests {
             );
             assert!(passed.is_none());
             assert_eq!(bits(&whole.to_dense()), bits(&dense), "first {first:?}");
+            // The same columns' runs: the columns laid out from the stacked rows are the
+            // columns of one assembly.
+            assert_eq!(whole, one);
+            for j in 0..positions.len() {
+                let (a, b) = (whole.column(j), one.column(j));
+                assert_eq!(a.0, b.0, "first {first:?}, column {j}");
+                assert_eq!(bits(&[a.1.to_vec()]), bits(&[b.1.to_vec()]), "column {j}");
+            }
             assert_eq!(whole.rows.is_some(), staged, "first {first:?}");
             let (rows, seen) = seen;
             assert_eq!(rows, if staged { first.len() } else { radii.len() });
