@@ -42,6 +42,15 @@ fn solve(c: &Case, objective: Objective) -> Solution {
 }
 
 fn solve_in(c: &Case, objective: Objective, basis: DwellBasis) -> Solution {
+    solve_as(c, objective, basis, Formulation::NormalEquations)
+}
+
+fn solve_as(
+    c: &Case,
+    objective: Objective,
+    basis: DwellBasis,
+    formulation: Formulation,
+) -> Solution {
     let rows = aperture_rows(&c.grid, &c.aperture);
     let target = vec![100.0; rows.len()];
     optimize(&DwellProblem {
@@ -54,7 +63,7 @@ fn solve_in(c: &Case, objective: Objective, basis: DwellBasis) -> Solution {
         constraints: Constraints::default(),
         objective,
         time_limit_s: 60.0,
-        formulation: Formulation::NormalEquations,
+        formulation,
         basis,
         axes: &[],
         cell_path_mm: &[],
@@ -117,24 +126,12 @@ fn a_uniform_layer_with_no_bound_binding_is_the_fits_own_minimum() {
     let c = case(&paper_process(-10.0, 200.0));
     let direct = solve(&c, Objective::default());
     assert_eq!(direct.iterations, 0);
-    let rows = aperture_rows(&c.grid, &c.aperture);
-    let target = vec![100.0; rows.len()];
-    let interior = optimize(&DwellProblem {
-        operator: &c.operator,
-        positions_mm: &c.positions,
-        tool_radius_mm: 10.0,
-        rows,
-        target_nm: &target,
-        free_piston: false,
-        constraints: Constraints::default(),
-        objective: Objective::default(),
-        time_limit_s: 60.0,
-        formulation: Formulation::Residual,
-        basis: DwellBasis::Auto,
-        axes: &[],
-        cell_path_mm: &[],
-    })
-    .unwrap();
+    let interior = solve_as(
+        &c,
+        Objective::default(),
+        DwellBasis::Auto,
+        Formulation::Residual,
+    );
     assert!(interior.iterations > 0);
     println!(
         "J direct {:.12e}, interior point {:.12e} ({} iterations)",
