@@ -118,25 +118,22 @@ impl OperatorCache {
         radii_mm: &[f64],
         positions_mm: &[f64],
     ) -> Arc<RemovalOperator> {
-        self.operator_with_pass(process, radii_mm, positions_mm, None, Layout::Rows)
+        self.operator_with_pass(process, radii_mm, positions_mm, None)
             .0
     }
 
-    /// [`Self::operator`], assembled in `layout` (what the caller reads; a held operator's
-    /// columns are laid out when first asked for), and when it is assembled now, what `pass`
-    /// removes at its rows as the operator's rows read it
-    /// ([`RemovalOperator::assemble_with_pass`]); `None` for the pass when the operator was
-    /// held (or the rows could not read it).
+    /// [`Self::operator`], and when it is assembled now, what `pass` removes at its rows as
+    /// the operator's rows read it ([`RemovalOperator::assemble_with_pass`]); `None` for the
+    /// pass when the operator was held (or the rows could not read it).
     pub fn operator_with_pass(
         &self,
         process: &Process,
         radii_mm: &[f64],
         positions_mm: &[f64],
         pass: Option<&PassReading>,
-        layout: Layout,
     ) -> (Arc<RemovalOperator>, Option<Vec<f64>>) {
         let key = key(process, radii_mm, positions_mm);
-        if let Some(held) = self.held(&key) {
+        if let Some(held) = self.lookup(&key) {
             return (held, None);
         }
         let (operator, passed) = RemovalOperator::assemble_with_pass(
@@ -144,11 +141,9 @@ impl OperatorCache {
             radii_mm,
             positions_mm,
             pass,
-            layout,
+            Layout::Rows,
         );
-        let operator = Arc::new(operator);
-        self.keep(key, &operator);
-        (operator, passed)
+        (self.keep(key, operator), passed)
     }
 
     /// [`Self::operator_with_pass`] for a caller that first needs only the rows `first`, with
@@ -165,7 +160,7 @@ impl OperatorCache {
         during: impl FnOnce(&RemovalOperator, Range<usize>) -> R + Send,
     ) -> (Arc<RemovalOperator>, Option<Vec<f64>>, R) {
         let key = key(process, radii_mm, positions_mm);
-        if let Some(held) = self.held(&key) {
+        if let Some(held) = self.lookup(&key) {
             let result = during(&held, first);
             return (held, None, result);
         }
@@ -177,13 +172,11 @@ impl OperatorCache {
             first,
             during,
         );
-        let operator = Arc::new(operator);
-        self.keep(key, &operator);
-        (operator, passed, result)
+        (self.keep(key, operator), passed, result)
     }
 
     /// The operator held under `key`, counted as a hit (or the miss counted).
-    fn held(&self, key: &[u64]) -> Option<Arc<RemovalOperator>> {
+    fn lookup(&self, key: &[u64]) -> Option<Arc<RemovalOperator>> {
         if let Ok(mut held) = self.held.lock() {
             held.clock += 1;
             let now = held.clock;
@@ -197,13 +190,15 @@ impl OperatorCache {
         None
     }
 
-    fn keep(&self, key: Vec<u64>, operator: &Arc<RemovalOperator>) {
+    /// A newly assembled operator, shared, and kept within the budget.
+    fn keep(&self, key: Vec<u64>, operator: RemovalOperator) -> Arc<RemovalOperator> {
+        let operator = Arc::new(operator);
         let bytes = operator.heap_bytes() + 8 * key.len();
         if bytes > self.capacity_bytes {
-            return;
+            return operator;
         }
         let Ok(mut held) = self.held.lock() else {
-            return;
+            return operator;
         };
         while held.bytes + bytes > self.capacity_bytes {
             let Some(oldest) = held
@@ -233,6 +228,7 @@ impl OperatorCache {
             held.bytes -= previous.bytes;
         }
         held.bytes += bytes;
+        operator
     }
 
     pub fn stats(&self) -> OperatorCacheStats {

@@ -3,7 +3,7 @@
 
 use super::warnings::unit_warning;
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
-use crate::physics::{ConstantFeed, DwellSchedule, Layout, UniformityMetrics};
+use crate::physics::{ConstantFeed, DwellSchedule, UniformityMetrics};
 use crate::study::Recommendation;
 
 /// What the tool does: a dwell plan, or one constant feed along the surface.
@@ -104,7 +104,6 @@ pub fn predict(
                 radii,
                 schedule.positions_mm(),
                 pass.as_ref(),
-                Layout::Rows,
             );
             (
                 operator.apply(schedule.dwell_s()),
