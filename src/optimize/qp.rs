@@ -454,21 +454,13 @@ impl NormalObjective {
             }
         }
         let llt = dense.llt(Side::Lower).ok()?;
-        let mut v = Mat::<f64>::from_fn(n, 1, |i, _| -self.q[i]);
+        let minus_q = Mat::<f64>::from_fn(n, 1, |i, _| -self.q[i]);
+        let mut v = minus_q.clone();
         llt.solve_in_place(v.as_mut());
         // One refinement step: the residual −q − P·v, solved and added.
-        let mut residual = Mat::<f64>::from_fn(n, 1, |i, _| -self.q[i]);
-        for j in 0..n {
-            for idx in p.colptr[j]..p.colptr[j + 1] {
-                let (i, value) = (p.rowval[idx], p.nzval[idx]);
-                residual[(i, 0)] -= value * v[(j, 0)];
-                if i != j {
-                    residual[(j, 0)] -= value * v[(i, 0)];
-                }
-            }
-        }
-        llt.solve_in_place(residual.as_mut());
-        let v: Vec<f64> = (0..n).map(|i| v[(i, 0)] + residual[(i, 0)]).collect();
+        let mut step = &minus_q - &dense * &v;
+        llt.solve_in_place(step.as_mut());
+        let v: Vec<f64> = (0..n).map(|i| v[(i, 0)] + step[(i, 0)]).collect();
         v.iter().all(|x| x.is_finite()).then_some(v)
     }
 }
