@@ -79,6 +79,28 @@ fn split_at_offsets<'a>(mut values: &'a mut [f64], ends: &[usize]) -> Vec<&'a mu
     slices
 }
 
+/// The plan's cells as every row reads them: their boundaries b_j, and w_j/L_j per column
+/// (the move share over the cell's arc length, so a row's entries take a product each, not a
+/// division). Made once per assembly, however many runs of rows it is assembled in.
+struct Cells {
+    bounds: Vec<f64>,
+    per_arc: Vec<f64>,
+}
+
+impl Cells {
+    fn new(kernel: &RemovalKernel, positions_mm: &[f64]) -> Self {
+        let n = positions_mm.len();
+        let bounds = cell_boundaries_mm(positions_mm);
+        let arcs: Vec<f64> = bounds.iter().map(|&b| kernel.arc_length_mm(b)).collect();
+        let per_arc = arcs
+            .windows(2)
+            .enumerate()
+            .map(|(j, w)| move_share(j, n) / (w[1] - w[0]))
+            .collect();
+        Cells { bounds, per_arc }
+    }
+}
+
 /// Which layout an operator is assembled in (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Layout {
@@ -150,22 +172,28 @@ impl RemovalOperator {
         pass: Option<&PassReading>,
         layout: Layout,
     ) -> (Self, Option<Vec<f64>>) {
+        let cells = Cells::new(kernel, positions_mm);
+        Self::assemble_on(kernel, radii_mm, positions_mm, &cells, pass, layout)
+    }
+
+    /// [`Self::assemble_with_pass`] on the plan's `cells`, made once by the caller.
+    fn assemble_on(
+        kernel: &RemovalKernel,
+        radii_mm: &[f64],
+        positions_mm: &[f64],
+        cells: &Cells,
+        pass: Option<&PassReading>,
+        layout: Layout,
+    ) -> (Self, Option<Vec<f64>>) {
         let pass = pass.filter(|_| kernel.path_ignores_end());
         debug_assert!(radii_mm.windows(2).all(|w| w[0] <= w[1]));
         debug_assert!(positions_mm.windows(2).all(|w| w[0] < w[1]));
         let n = positions_mm.len();
-        let bounds = cell_boundaries_mm(positions_mm);
-        let (first_row, col_ptr) = column_runs(kernel, radii_mm, positions_mm, &bounds);
+        let Cells { bounds, per_arc } = cells;
+        let (first_row, col_ptr) = column_runs(kernel, radii_mm, positions_mm, bounds);
         let entries = *col_ptr.last().unwrap();
-        // Arc lengths of the cells, and each row's columns: those whose rows contain it (a
-        // contiguous run, since both ends of the columns' row runs grow with j).
-        let arcs: Vec<f64> = bounds.iter().map(|&b| kernel.arc_length_mm(b)).collect();
-        // w_j/L_j per column, so a row's entries take a product each, not a division.
-        let per_arc: Vec<f64> = arcs
-            .windows(2)
-            .enumerate()
-            .map(|(j, w)| move_share(j, n) / (w[1] - w[0]))
-            .collect();
+        // Each row's columns: those whose rows contain it (a contiguous run, since both ends
+        // of the columns' row runs grow with j).
         let row_end = row_ends(&first_row, &col_ptr);
         let spans: Vec<Range<usize>> = (0..radii_mm.len())
             .map(|i| row_columns(i, &first_row, &row_end))
@@ -270,6 +298,7 @@ impl RemovalOperator {
             let result = during(&whole, first);
             return (whole, passed, result);
         }
+        let cells = Cells::new(kernel, positions_mm);
         let part = |rows: Range<usize>| {
             // The pass's rows among these, counted from the first of them.
             let pass = pass.map(|p| PassReading {
@@ -278,7 +307,8 @@ impl RemovalOperator {
                     ..p.rows.end.clamp(rows.start, rows.end) - rows.start,
             });
             let radii = &radii_mm[rows];
-            Self::assemble_with_pass(kernel, radii, positions_mm, pass.as_ref(), Layout::Rows)
+            let layout = Layout::Rows;
+            Self::assemble_on(kernel, radii, positions_mm, &cells, pass.as_ref(), layout)
         };
         let (inner, inner_passed) = part(first.clone());
         // Laid out here, across threads, before `during` reads them on one.
@@ -288,7 +318,8 @@ impl RemovalOperator {
             || {
                 let (below, below_passed) = part(0..first.start);
                 let (above, above_passed) = part(first.end..radii_mm.len());
-                let whole = Self::stacked(kernel, radii_mm, positions_mm, [&below, &inner, &above]);
+                let parts = [&below, &inner, &above];
+                let whole = Self::stacked(kernel, radii_mm, positions_mm, &cells, parts);
                 let passed = [below_passed, inner_passed, above_passed]
                     .into_iter()
                     .collect::<Option<Vec<Vec<f64>>>>()
@@ -305,10 +336,10 @@ impl RemovalOperator {
         kernel: &RemovalKernel,
         radii_mm: &[f64],
         positions_mm: &[f64],
+        cells: &Cells,
         parts: [&RemovalOperator; 3],
     ) -> Self {
-        let bounds = cell_boundaries_mm(positions_mm);
-        let (first_row, col_ptr) = column_runs(kernel, radii_mm, positions_mm, &bounds);
+        let (first_row, col_ptr) = column_runs(kernel, radii_mm, positions_mm, &cells.bounds);
         let mut rows = Rows {
             first_col: Vec::with_capacity(radii_mm.len()),
             row_ptr: Vec::with_capacity(radii_mm.len() + 1),
