@@ -46,8 +46,8 @@
 //! by adaptive Gauss–Kronrod (7, 15) panels, extended to 31 points before one is halved
 //! ([`super::kronrod`]), to an absolute tolerance of 1e-10 of the largest speed on the arc
 //! times the arc; the band |r − r1| < c_t ≤ r_t stays that of the flat operator. |v_t|
-//! depends on φ only through cos φ and sin²φ, so the rule runs
-//! in u = sin(φ/2) up to φ = π/2 and in w = cos(φ/2) beyond (cos φ = 1 − 2u² = 2w² − 1,
+//! depends on φ only through cos φ and sin²φ, so the rule runs in u = sin(φ/2) up to
+//! φ = π/2 and in w = cos(φ/2) beyond (cos φ = 1 − 2u² = 2w² − 1,
 //! dφ = 2·du/√(1 − u²)): the arc's end is the contact's half-angle as computed, and no node
 //! needs a trigonometric function. Where the speed nearly vanishes it does so at φ = 0 or π,
 //! as the hyperbola √(δ² + c₂t²) in t = u or w; that hyperbola (times the start of the rest's
