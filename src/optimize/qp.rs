@@ -260,15 +260,23 @@ struct Variables<'a> {
     basis: Basis,
     band: Band<'a>,
     smooth: Vec<Vec<f64>>,
+    /// The objective on them in the normal equations (that formulation only), made once for
+    /// every solve on these variables.
+    normal: Option<NormalObjective>,
 }
 
 impl<'a> Variables<'a> {
     fn new(problem: &DwellProblem, operator: &Band<'a>, basis: Basis, s: &Scales) -> Self {
-        Variables {
+        let mut vars = Variables {
             band: operator.through(&basis),
             smooth: smoothing_band(problem.positions_mm, &basis, s.smoothing),
             basis,
+            normal: None,
+        };
+        if problem.formulation == Formulation::NormalEquations {
+            vars.normal = Some(NormalObjective::new(problem, &vars, s));
         }
+        vars
     }
 
     fn size(&self) -> usize {
@@ -474,7 +482,6 @@ fn assemble(
     problem: &DwellProblem,
     vars: &Variables,
     s: &Scales,
-    normal: Option<&NormalObjective>,
     position_rows: Rows,
     around: Option<&[f64]>,
 ) -> ClarabelQp {
@@ -488,7 +495,7 @@ fn assemble(
     // (P's columns, q, rows, how many of the rows are equalities at the top)
     let (mut p, mut q, mut rows, equalities) = match problem.formulation {
         Formulation::NormalEquations => {
-            let normal = normal.expect("the normal equations' objective is made by the caller");
+            let normal = vars.normal.as_ref().expect("made with the variables");
             (normal.p.clone(), normal.q.clone(), position_rows, 0)
         }
         Formulation::Residual => {
@@ -672,13 +679,12 @@ fn attempt(
     // is added and the QP solved again. The answer that keeps every row it omits is the
     // optimum with all of them (omitting rows only widens the feasible set).
     let (mut iterations, mut solve_time_s) = (0, 0.0);
-    let normal = (problem.formulation == Formulation::NormalEquations)
-        .then(|| NormalObjective::new(problem, vars, scales));
     let started = Instant::now();
     // Where the fit's own minimum keeps every row, no row binds: it is the QP's optimum (the
     // KKT conditions hold with zero multipliers), exactly, without an interior point. A
     // uniform layer usually asks for dwell well inside its bounds.
-    let unconstrained = normal
+    let unconstrained = vars
+        .normal
         .as_ref()
         .filter(|_| around.is_none())
         .and_then(NormalObjective::unconstrained_minimum)
@@ -690,7 +696,7 @@ fn attempt(
             keeps_rows && (!problem.free_piston || v[n] >= 0.0)
         });
     let mut solve = |rows: Rows| {
-        let qp = assemble(problem, vars, scales, normal.as_ref(), rows, around);
+        let qp = assemble(problem, vars, scales, rows, around);
         let (v, its, seconds, status) = run_clarabel(&qp, budget)?;
         iterations += its;
         solve_time_s += seconds;
