@@ -336,11 +336,18 @@ pub struct Calibrated {
     pub correlation: Vec<Vec<f64>>,
     pub removal_rate_ratio: f64,
     pub runs: Vec<RunFit>,
+    /// The residual is below [`EXACT_FIT_NM`] RMS: the runs carry no estimate of their noise,
+    /// and no parameter has a standard error.
+    pub exact_fit: bool,
     pub degrees_of_freedom: usize,
     pub steps: usize,
     pub reweightings: usize,
     pub robust_scale_nm: Option<f64>,
 }
+
+/// A fit whose residual RMS is below this, nm (a femtometre, far below any instrument's
+/// resolution), is exact: its σ̂ is no estimate of the measurement noise.
+pub const EXACT_FIT_NM: f64 = 1e-6;
 
 /// The longest a ring may run, s.
 pub const MAX_RING_DURATION_S: f64 = 1e9;
@@ -658,6 +665,10 @@ impl CalibrationModel<'_> {
             .map_err(|e| FitFailure::Domain(e.to_string()))?;
         let model = self.model_values(&fit.parameters, &g);
         let t = lsq::t_quantile_95(fit.degrees_of_freedom);
+        // A residual this small is no measurement's: the runs are the model exactly (a
+        // measurement repeated unchanged as before and after, say) and say nothing of their
+        // noise, so no parameter gets a standard error (σ̂ = 0 would claim it exact).
+        let exact_fit = fit.variance.sqrt() < EXACT_FIT_NM;
         let k_nominal = calibration.nominal.spec().preston_coefficient_m2_per_n;
         let scale = |q: ProcessParameter| match q {
             ProcessParameter::PrestonCoefficient => k_nominal,
@@ -672,7 +683,7 @@ impl CalibrationModel<'_> {
             }
             let slot = self.slots.iter().position(|s| *s == Slot::Process(q));
             let value = values[q as usize] * scale(q);
-            let uncertainty = slot.map(|k| {
+            let uncertainty = slot.filter(|_| !exact_fit).map(|k| {
                 let se = fit.standard_error(k) * scale(q);
                 correlated.push(q);
                 indices.push(k);
@@ -740,6 +751,7 @@ impl CalibrationModel<'_> {
             correlation,
             removal_rate_ratio: values[0],
             runs,
+            exact_fit,
             degrees_of_freedom: fit.degrees_of_freedom,
             steps: fit.steps,
             reweightings: fit.reweightings,

@@ -26,10 +26,14 @@ pub async fn asset(State(state): State<AppState>, path: Option<Path<String>>) ->
     let tail = path.map(|Path(p)| p).unwrap_or_default();
     match utoipa_swagger_ui::serve(&tail, state.swagger.clone()) {
         Ok(Some(file)) => {
+            let mut bytes = file.bytes.into_owned();
+            if file.content_type.starts_with("text/html") && !file.gzpipped {
+                bytes = titled(&bytes);
+            }
             let mut response = (
                 StatusCode::OK,
                 [(header::CONTENT_TYPE, file.content_type)],
-                file.bytes.into_owned(),
+                bytes,
             )
                 .into_response();
             if file.gzpipped {
@@ -42,4 +46,14 @@ pub async fn asset(State(state): State<AppState>, path: Option<Path<String>>) ->
         Ok(None) => ApiError::not_found(&format!("/docs/{tail}")).into_response(),
         Err(e) => ApiError::internal(format!("serving docs asset {tail}: {e}")).into_response(),
     }
+}
+
+/// The page titled for Preston (the vendored page says "Swagger UI").
+fn titled(html: &[u8]) -> Vec<u8> {
+    String::from_utf8_lossy(html)
+        .replace(
+            "<title>Swagger UI</title>",
+            "<title>Preston API — interactive docs</title>",
+        )
+        .into_bytes()
 }

@@ -5,7 +5,7 @@ use utoipa::ToSchema;
 
 use super::dto::{
     setting_of, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
-    SurfaceDto, ToolDto,
+    SurfaceDto, ToolDto, WarningDto,
 };
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
@@ -62,6 +62,9 @@ pub struct EtaSweepResponse {
     pub clear_aperture: ApertureEcho,
     /// One point per requested η, in request order.
     pub points: Vec<SweepPointDto>,
+    /// What looks wrong in the input though it is valid (radii that look like metres, a
+    /// pressure that looks like pascals); empty when there is nothing to say.
+    pub warnings: Vec<WarningDto>,
 }
 
 /// Uniformity at one η.
@@ -126,6 +129,7 @@ given dwell schedule) over the clear aperture is reported. `Accept: text/csv` gi
                     metrics: MetricsDto::from(&p.metrics),
                 })
                 .collect(),
+            warnings: WarningDto::all(&sweep.warnings),
         }
     }
 }

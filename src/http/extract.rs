@@ -47,8 +47,9 @@ const NOT_JSON: &str = "{what}: send one JSON object, such as {\"process\": {...
     Content-Type: application/json (curl: -H 'Content-Type: application/json' -d @file.json)";
 
 fn problem_of(path: &str, inner: serde_json::Error) -> ApiError {
-    let message = in_users_words(strip_position(&inner.to_string()));
-    let field = field_of(path, &message);
+    let raw = strip_position(&inner.to_string());
+    let field = field_of(path, &raw);
+    let message = in_users_words(raw);
     match inner.classify() {
         serde_json::error::Category::Data => ApiError::new(Kind::SchemaMismatch, message)
             .at(field.unwrap_or_else(|| "body".to_string())),
@@ -99,6 +100,9 @@ fn in_users_words(message: String) -> String {
             return ours.to_string();
         }
     }
+    if let Some(words) = unknown_variant(&message).or_else(|| retired_field(&message)) {
+        return words;
+    }
     let Some((got, expected)) = message
         .strip_prefix("invalid type: ")
         .and_then(|rest| rest.rsplit_once(", expected "))
@@ -135,6 +139,50 @@ fn in_users_words(message: String) -> String {
         }
     };
     format!("expected {expected} here, got {got}")
+}
+
+/// Fields the API no longer takes, each with what replaced it.
+const RETIRED_FIELDS: &[(&str, &str)] = &[(
+    "equal_dwell_positions",
+    "equal_dwell_positions is retired: equal dwell is no longer cut into cells but computed \
+     exactly as one constant feed, so there is no count to give. The recommendation returns \
+     that pass as equal_dwell.feed, and /v1/predict takes it as `feed` ({\"start_mm\", \
+     \"stop_mm\", \"feed_mm_per_min\"}) in place of `dwell`",
+)];
+
+/// serde's "unknown field `equal_dwell_positions`, expected one of …" for a retired field:
+/// what replaced it.
+fn retired_field(message: &str) -> Option<String> {
+    let name = message.strip_prefix("unknown field `")?.split('`').next()?;
+    RETIRED_FIELDS
+        .iter()
+        .find(|(retired, _)| *retired == name)
+        .map(|(_, words)| words.to_string())
+}
+
+/// serde's "unknown variant `spherical`, expected one of `plane`, `sphere`" (or "expected
+/// `plane` or `sphere`") in the user's words: the values accepted, listed.
+fn unknown_variant(message: &str) -> Option<String> {
+    let rest = message.strip_prefix("unknown variant `")?;
+    let (got, expected) = rest.split_once("`, expected ")?;
+    let accepted: Vec<&str> = expected
+        .trim_start_matches("one of ")
+        .split(['`', ','])
+        .map(str::trim)
+        .filter(|w| !w.is_empty() && *w != "or")
+        .collect();
+    let list = match accepted.as_slice() {
+        [] => return None,
+        [one] => format!("\"{one}\""),
+        [init @ .., last] => format!(
+            "{} or \"{last}\"",
+            init.iter()
+                .map(|w| format!("\"{w}\""))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    };
+    Some(format!("\"{got}\" is not accepted here: use {list}"))
 }
 
 /// A deserializer that gives structs only a JSON object. serde's derive also fills a struct

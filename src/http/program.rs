@@ -5,12 +5,14 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use utoipa::ToSchema;
 
-use super::dto::{part_spec, AxesDto, DwellDto, MachineDto, ProcessDto, SurfaceDto, ToolDto};
+use super::dto::{
+    part_spec, AxesDto, DwellDto, MachineChoiceDto, ProcessDto, SurfaceDto, ToolDto, WarningDto,
+};
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::Services;
-use crate::machine::{BlockKind, FeedMode, GcodeFormatSpec, MachineLimitsSpec, SpindleWordsSpec};
+use crate::machine::{BlockKind, FeedMode, GcodeFormatSpec, SpindleWordsSpec};
 use crate::report::results;
 use crate::usecases::program::{program, MachineProgram, ProgramCommand, ProgramSpec};
 use crate::usecases::ComputeLimits;
@@ -89,9 +91,9 @@ pub struct ProgramRequest {
     /// Default: pivot at the pad face, B following the normal.
     #[serde(default, deserialize_with = "optional_object")]
     pub tool: Option<ToolDto>,
-    /// Default: no limits.
-    #[serde(default, deserialize_with = "optional_object")]
-    pub machine: Option<MachineDto>,
+    /// The machine's limits, or `"unlimited"`; default: the default machine.
+    #[serde(default)]
+    pub machine: Option<MachineChoiceDto>,
     /// Default: 5 mm clearance at 100 mm/min.
     #[serde(default, deserialize_with = "optional_object")]
     pub approach: Option<ApproachDto>,
@@ -193,6 +195,9 @@ pub struct ProgramResponse {
     /// Largest distance of the pad centre from the surface, along the normal, halfway through
     /// a move (linear interpolation of X, Z and B between poses), mm.
     pub max_path_deviation_mm: f64,
+    /// What looks wrong in the input though it is valid (a unit mistake), and a machine asked
+    /// to be `"unlimited"`; empty when there is nothing to say.
+    pub warnings: Vec<WarningDto>,
     /// The G-code (served with `Accept: text/x-gcode`).
     #[serde(skip)]
     pub gcode: String,
@@ -264,11 +269,7 @@ seconds), `text/csv` the block table.",
             part: part_spec(req.surface.as_ref(), req.tool.as_ref()),
             positions_mm: req.dwell.positions_mm,
             dwell_s: req.dwell.dwell_s,
-            machine: req
-                .machine
-                .as_ref()
-                .map(MachineLimitsSpec::from)
-                .unwrap_or_default(),
+            machine: MachineChoiceDto::choice(req.machine.as_ref()),
             clearance_mm: approach.clearance_mm,
             approach_feed_mm_per_min: approach.feed_mm_per_min,
             format: req
@@ -335,6 +336,7 @@ seconds), `text/csv` the block table.",
             approach_clearance_mm: m.approach.clearance_mm,
             approach_feed_mm_per_min: m.approach.feed_mm_per_min,
             max_path_deviation_mm: p.max_path_deviation_mm,
+            warnings: WarningDto::all_at(&m.warnings, "dwell.positions_mm"),
             gcode: m.gcode,
         }
     }

@@ -6,16 +6,16 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::dto::{
-    setting_of, ClearApertureDto, ProcessDto, RadialGridDto, RecommendationDto, SurfaceDto, ToolDto,
+    setting_of, ClearApertureDto, ProcessDto, RadialGridDto, RecommendationDto, SurfaceDto,
+    ToolDto, WarningDto,
 };
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
 
 use super::state::Services;
-use crate::study::Recommendation;
 use crate::study::SpeedLimits;
-use crate::usecases::recommend::{recommend, RecommendCommand};
+use crate::usecases::recommend::{recommend, RecommendCommand, Recommended};
 use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -66,6 +66,9 @@ pub struct SpeedLimitsDto {
 pub struct RecommendResponse {
     /// The recommendation.
     pub recommendation: RecommendationDto,
+    /// What looks wrong in the input though it is valid (radii that look like metres, a
+    /// pressure that looks like pascals); empty when there is nothing to say.
+    pub warnings: Vec<WarningDto>,
 }
 
 /// `POST /v1/recommend`.
@@ -89,7 +92,7 @@ the model).",
     type Request = RecommendRequest;
     type Body = ApiJson<RecommendRequest>;
     type Command = RecommendCommand;
-    type Output = Recommendation;
+    type Output = Recommended;
     type Response = RecommendResponse;
 
     fn parse(req: RecommendRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
@@ -104,13 +107,14 @@ the model).",
         )?)
     }
 
-    fn run(command: Self::Command, services: &Services) -> Result<Recommendation, ApiError> {
+    fn run(command: Self::Command, services: &Services) -> Result<Recommended, ApiError> {
         Ok(recommend(&command, &services.recommender)?)
     }
 
-    fn respond(recommendation: Recommendation) -> RecommendResponse {
+    fn respond(r: Recommended) -> RecommendResponse {
         RecommendResponse {
-            recommendation: RecommendationDto::from(&recommendation),
+            recommendation: RecommendationDto::from(&r.recommendation),
+            warnings: WarningDto::all(&r.warnings),
         }
     }
 }

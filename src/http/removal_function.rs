@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::dto::{part_spec, ProcessDto, RadialGridDto, SurfaceDto, ToolDto};
+use super::dto::{part_spec, ProcessDto, RadialGridDto, SurfaceDto, ToolDto, WarningDto};
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object, ApiJson};
@@ -54,6 +54,9 @@ pub struct RemovalFunctionResponse {
     pub arc_length_mm: Option<Vec<f64>>,
     /// One removal profile per requested tool position, in request order.
     pub profiles: Vec<ProfileDto>,
+    /// What looks wrong in the input though it is valid (radii or positions that look like metres, a
+    /// pressure that looks like pascals); empty when there is nothing to say.
+    pub warnings: Vec<WarningDto>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
@@ -116,6 +119,7 @@ returns one column per profile with a unit header.",
                     removal_rate_nm_per_min: p.removal_rate_nm_per_min,
                 })
                 .collect(),
+            warnings: WarningDto::all_at(&result.warnings, "tool_positions_mm"),
         }
     }
 }

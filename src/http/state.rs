@@ -76,7 +76,13 @@ impl AppState {
             store: None,
             ready: Arc::new(AtomicBool::new(true)),
             openapi_json: openapi::spec_json().into(),
-            swagger: Arc::new(Config::new(["/openapi.json"]).try_it_out_enabled(true)),
+            // No validator: its default is an outside host, which a shop network may not reach
+            // and which would learn of the document.
+            swagger: Arc::new(
+                Config::new(["/openapi.json"])
+                    .try_it_out_enabled(true)
+                    .validator_url("none"),
+            ),
             workbench_page: Arc::default(),
         }
     }

@@ -141,10 +141,10 @@ impl NewRun {
         notes: Option<String>,
     ) -> Result<NewRun, LedgerError> {
         let started = timestamp("started_at", &started_at)?;
-        if timestamp("finished_at", &finished_at)? < started {
+        if timestamp("finished_at", &finished_at)? <= started {
             return Err(LedgerError::invalid(
                 "finished_at",
-                "a run cannot finish before it started",
+                "a run must finish after it starts (finished_at after started_at)",
             ));
         }
         for (field, text, most) in [("machine", &machine, 200), ("notes", &notes, 4000)] {
@@ -178,6 +178,18 @@ impl NewRun {
                     format!("part `{id}` has no plan `{}`", self.plan),
                 )
             })?;
+        // A run cannot start before its plan existed (a clock or a plan id mixed up).
+        let planned = timestamp("plan_id", &plan.stamp.created_at)?;
+        if timestamp("started_at", &self.started_at)? < planned {
+            return Err(LedgerError::invalid(
+                "started_at",
+                format!(
+                    "the run starts before its plan was made ({}): a run cannot start before \
+                     its plan exists (check the clock, or plan_id)",
+                    plan.stamp.created_at
+                ),
+            ));
+        }
         Ok(RunRecord {
             stamp: write.stamp(),
             part: id.to_string(),

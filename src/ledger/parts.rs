@@ -15,6 +15,7 @@ use crate::usecases::records::{
     cycles, run_completed_by_new_measurement, CalibrationRecord, MeasurementRecord, PartRecord,
     Records,
 };
+use crate::usecases::Warning;
 
 /// A part to create: its name (the shop's serial), its profile and its body (surface,
 /// workpiece radius, clear aperture).
@@ -106,6 +107,19 @@ impl Measured {
     pub fn learned_calibration(&self) -> Option<&str> {
         self.learned.as_ref().map(|c| c.stamp.id.as_str())
     }
+
+    /// A cycle completed that taught nothing (see [`crate::usecases::records::Cycle::warnings`]).
+    pub fn warnings(&self) -> Vec<Warning> {
+        let taught = self
+            .learned
+            .as_ref()
+            .is_some_and(CalibrationRecord::significant);
+        if self.completes_run.is_some() && !taught {
+            vec![Warning::RemovalNotSignificant]
+        } else {
+            Vec::new()
+        }
+    }
 }
 
 /// Fits a measurement of part `id`: `body` is a `/v1/measurement/fit` request without
@@ -183,13 +197,16 @@ async fn learn_from_cycle<C: Compute>(
     request.insert("runs".into(), json!([run_fit]));
     request.insert("fit".into(), json!({"preston_coefficient": true}));
     let learned = match compute.compute(Computation::Calibration, &request).await {
+        // A K not significantly above 0 (a run that removed nothing measurable) is not kept:
+        // the cycle warns instead (`Cycle::warnings`).
         Ok(result) => Some(calibration_record(
             write.stamp(),
             &profile.stamp.id,
             &request,
             &result,
             Some(run.stamp.id.clone()),
-        )?),
+        )?)
+        .filter(CalibrationRecord::significant),
         Err(error) => {
             tracing::info!(run = %run.stamp.id, %error, "the cycle's removal determines no calibration");
             None

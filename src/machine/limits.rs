@@ -97,6 +97,90 @@ pub struct MachineLimitsSpec {
     pub tool_max_rpm: Option<f64>,
 }
 
+/// The default machine: what a plan or program is held to when the request names no machine
+/// (docs/MACHINE.md, "The default machine", says where each figure comes from). Linear axes
+/// 10 m/min and 2 m/s² (a servo axis of a CNC polishing or diamond-turning machine: the
+/// slow-tool-servo literature sizes X at 2,000 mm/s²); B moves the pad at the same speeds on
+/// a 60 mm pivot (10 m/min / 60 mm ≈ 9,500 deg/min, 2 m/s² / 60 mm ≈ 1,900 deg/s²), rounded
+/// down; spindles as a small-tool polisher's (workpiece 1,000 r/min, tool 3,000 r/min). No
+/// travel: that depends on the machine's size, and no dwell changes it.
+pub const DEFAULT_MACHINE: MachineLimitsSpec = MachineLimitsSpec {
+    x: AxisLimits {
+        min: None,
+        max: None,
+        max_velocity_per_min: Some(10_000.0),
+        max_acceleration_per_s2: Some(2_000.0),
+    },
+    z: AxisLimits {
+        min: None,
+        max: None,
+        max_velocity_per_min: Some(10_000.0),
+        max_acceleration_per_s2: Some(2_000.0),
+    },
+    b: AxisLimits {
+        min: None,
+        max: None,
+        max_velocity_per_min: Some(9_000.0),
+        max_acceleration_per_s2: Some(1_800.0),
+    },
+    workpiece_max_rpm: Some(1_000.0),
+    tool_max_rpm: Some(3_000.0),
+};
+
+/// Which machine a plan or program is for.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub enum MachineChoice {
+    /// None named: [`DEFAULT_MACHINE`].
+    #[default]
+    Default,
+    /// No limits at all: a study, not a program for any machine.
+    Unlimited,
+    /// The limits given; a limit left out is the default machine's.
+    Given(MachineLimitsSpec),
+}
+
+impl AxisLimits {
+    /// Each limit of `self`, or where absent, `default`'s.
+    fn or(self, default: AxisLimits) -> AxisLimits {
+        AxisLimits {
+            min: self.min.or(default.min),
+            max: self.max.or(default.max),
+            max_velocity_per_min: self.max_velocity_per_min.or(default.max_velocity_per_min),
+            max_acceleration_per_s2: self
+                .max_acceleration_per_s2
+                .or(default.max_acceleration_per_s2),
+        }
+    }
+}
+
+impl MachineChoice {
+    /// The limits in force: the default machine's, none, or those given over the default's.
+    pub fn spec(self) -> MachineLimitsSpec {
+        match self {
+            MachineChoice::Default => DEFAULT_MACHINE,
+            MachineChoice::Unlimited => MachineLimitsSpec::default(),
+            MachineChoice::Given(given) => MachineLimitsSpec {
+                x: given.x.or(DEFAULT_MACHINE.x),
+                z: given.z.or(DEFAULT_MACHINE.z),
+                b: given.b.or(DEFAULT_MACHINE.b),
+                workpiece_max_rpm: given
+                    .workpiece_max_rpm
+                    .or(DEFAULT_MACHINE.workpiece_max_rpm),
+                tool_max_rpm: given.tool_max_rpm.or(DEFAULT_MACHINE.tool_max_rpm),
+            },
+        }
+    }
+
+    /// The limits in force, checked.
+    pub fn limits(self) -> Result<MachineLimits, InvalidLimit> {
+        MachineLimits::new(self.spec())
+    }
+
+    pub fn is_unlimited(self) -> bool {
+        self == MachineChoice::Unlimited
+    }
+}
+
 /// Every limit of the machine, checked ([`MachineLimits::new`] is the only way to make one;
 /// the default has none).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -214,4 +214,14 @@ impl FitProblem {
     pub fn points(&self) -> usize {
         self.x_mm.len()
     }
+    /// The trace, (X, Z) in machine coordinates, mm.
+    pub fn trace(&self) -> (&[f64], &[f64]) {
+        (&self.x_mm, &self.z_mm)
+    }
+    pub fn probe(&self) -> Probe {
+        self.probe
+    }
+    pub fn robust(&self) -> RobustLoss {
+        self.robust
+    }
 }

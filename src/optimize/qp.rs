@@ -815,7 +815,11 @@ fn within_acceleration(
         );
     }
     let tau = scales.dwell_s;
-    let mut around = vec![start_s / tau; n];
+    // Start from the constant dwell that fits best among those keeping every row: of the
+    // target's scale, so the first linearisation is well conditioned (the least constant
+    // dwell may be 1e5 times shorter than the plan's, and its tangents as steep).
+    let start = constant_fallback(problem, operator, scales, start_s);
+    let mut around: Vec<f64> = start.dwell_s.iter().map(|t| t / tau).collect();
     let mut best: Option<Attempt> = None;
     let (mut iterations, mut solve_time_s) = (0, 0.0);
     for _ in 0..MAX_CCP_ITERATIONS {
@@ -830,6 +834,16 @@ fn within_acceleration(
         )?;
         iterations += next.iterations;
         solve_time_s += next.solve_time_s;
+        // Every exact iterate keeps the limits; one that does not is the solver's inaccuracy
+        // (an almost-solved, badly conditioned round): the last iterate that kept them stands.
+        let kept = problem
+            .axes
+            .iter()
+            .all(|a| peak_acceleration_ratio(a, &next.dwell_s) <= 1.0);
+        if !kept {
+            best.get_or_insert(start);
+            break;
+        }
         let settled = best
             .as_ref()
             .is_some_and(|b| b.objective - next.objective <= CCP_TOLERANCE * b.objective.abs());
@@ -846,6 +860,55 @@ fn within_acceleration(
     best.iterations = iterations;
     best.solve_time_s = solve_time_s;
     Ok(best)
+}
+
+/// The constant dwell that fits the target best (least squares, no piston) but no less than
+/// `start_s`, the constant dwell that keeps every row: a constant dwell keeps the acceleration
+/// rows the more the longer it is (velocities fall as 1/t, the allowed change grows as t), so
+/// it is a plan within the limits when the solver cannot improve on the procedure's start.
+/// Reported as almost solved: within every limit, but not the optimum.
+fn constant_fallback(
+    problem: &DwellProblem,
+    band: &Band,
+    scales: &Scales,
+    start_s: f64,
+) -> Attempt {
+    let rows = &problem.rows;
+    let n = problem.positions_mm.len();
+    let mut unit = vec![0.0; rows.len()];
+    for j in 0..n {
+        let from = band.start[j] - rows.start;
+        for (o, m) in unit[from..].iter_mut().zip(band.values[j].iter()) {
+            *o += m;
+        }
+    }
+    let (md, mm) = unit
+        .iter()
+        .zip(problem.target_nm)
+        .fold((0.0, 0.0), |(md, mm), (m, d)| (md + m * d, mm + m * m));
+    let mut t = if mm > 0.0 {
+        (md / mm).max(start_s)
+    } else {
+        start_s
+    };
+    let c = &problem.constraints;
+    if let Some(hi) = c.max_dwell_s {
+        t = t.min(hi);
+    }
+    if let Some(total) = c.max_total_time_s {
+        t = t.min(total / n as f64);
+    }
+    let t = t.max(start_s);
+    let dwell_s = vec![t; n];
+    let piston_nm = problem.free_piston.then_some(0.0);
+    Attempt {
+        objective: objective_value(problem, band, scales, &dwell_s, 0.0),
+        dwell_s,
+        piston_nm,
+        status: SolveStatus::AlmostSolved,
+        iterations: 0,
+        solve_time_s: 0.0,
+    }
 }
 
 /// Refuses a plan that breaks a constraint or the machine's acceleration limits by more than

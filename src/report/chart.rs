@@ -130,6 +130,8 @@ fn draw(chart: &Chart, svg: &mut String) -> Result<(), Box<dyn std::error::Error
     ctx.configure_mesh()
         .x_desc(chart.x_label.as_str())
         .y_desc(chart.y_label.as_str())
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
         .axis_desc_style(("sans-serif", 16))
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
@@ -156,6 +158,7 @@ fn draw(chart: &Chart, svg: &mut String) -> Result<(), Box<dyn std::error::Error
         let colour = COLOURS[(chart.series.len()) % COLOURS.len()];
         ctx.configure_secondary_axes()
             .y_desc(label.as_str())
+            .y_label_formatter(&|v| tick(*v))
             .axis_desc_style(("sans-serif", 16))
             .draw()?;
         ctx.draw_secondary_series(LineSeries::new(
@@ -186,5 +189,35 @@ mod tests {
         let (lo, hi) = extent([2.0, 4.0, f64::NAN].into_iter(), true);
         assert_eq!(lo, 0.0);
         assert!((hi - 4.2).abs() < 1e-12);
+    }
+}
+
+/// A tick's label: six significant figures at most, trailing zeros dropped, and never "-0"
+/// (a tick at zero that the axis's arithmetic left at −1e-17 or −0.0 reads 0: no chart here
+/// has an axis spanning less than 1e-12 of its unit).
+fn tick(v: f64) -> String {
+    let rounded: f64 = format!("{v:.5e}").parse().unwrap_or(v);
+    if rounded.abs() < 1e-12 {
+        return "0".to_string();
+    }
+    let text = rounded.to_string();
+    // Plain decimals for the magnitudes charts use; scientific beyond them.
+    if (1e-4..1e7).contains(&rounded.abs()) {
+        text
+    } else {
+        format!("{rounded:e}")
+    }
+}
+
+#[cfg(test)]
+mod tick_tests {
+    #[test]
+    fn ticks_read_as_numbers_never_minus_zero() {
+        assert_eq!(super::tick(-0.0), "0");
+        assert_eq!(super::tick(-1.3877787807814457e-17), "0");
+        assert_eq!(super::tick(0.30000000000000004), "0.3");
+        assert_eq!(super::tick(-2.5), "-2.5");
+        assert_eq!(super::tick(150.0), "150");
+        assert_eq!(super::tick(2.5e-7), "2.5e-7");
     }
 }

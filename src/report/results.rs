@@ -139,7 +139,7 @@ pub fn eta_sweep_svg(s: &EtaSweep) -> String {
             "Equal-dwell nonuniformity against η (tool {} r/min)",
             s.tool_rpm
         ),
-        x_label: "η = −workpiece_rpm / tool_rpm (1)".to_string(),
+        x_label: "η = −workpiece_rpm / tool_rpm".to_string(),
         y_label: "nonuniformity pv/mean (%)".to_string(),
         series: vec![Series {
             name: format!("over [{}, {}] mm", aperture.inner_mm(), aperture.outer_mm()),

@@ -65,6 +65,10 @@ pub struct Recommendation {
     /// the recommended one is below [`UNIFORM_TO_ROUNDING`]: on a plane equal dwell at η = −1
     /// is exactly uniform, and a ratio of 1e15 to rounding noise means nothing).
     pub improvement_factor: Option<f64>,
+    /// Equal dwell at the recommended speeds is uniform to rounding (nonuniformity below
+    /// [`UNIFORM_TO_ROUNDING`]) while at the current speeds it is not: the recommendation
+    /// removes the nonuniformity (no finite factor says that).
+    pub nonuniformity_removed: bool,
     /// `None` when equal dwell at η = −1 is itself above the threshold (e.g. an aperture out
     /// to the edge, where the pad cannot overhang).
     pub eta_window: Option<EtaWindow>,
@@ -173,10 +177,10 @@ pub fn recommend(
     let per_rpm = unit.mean_rate_nm_per_min() * translation_rate_factor(spec, 1.0);
     let matching = current.mean_rate_nm_per_min() / per_rpm;
     let cap = limits.cap();
-    let (speed, rule) = if matching <= cap {
-        (matching, SpeedRule::MatchRemovalRate)
+    let (speed, rule) = if rounded_speed(matching, false) <= cap {
+        (rounded_speed(matching, false), SpeedRule::MatchRemovalRate)
     } else {
-        (cap, SpeedRule::FastestAllowed)
+        (rounded_speed(cap, true), SpeedRule::FastestAllowed)
     };
     Process::new(ProcessSpec {
         workpiece_rpm: direction * speed,
@@ -198,6 +202,10 @@ pub fn recommend(
         (Some(c), Some(r)) if r >= UNIFORM_TO_ROUNDING => Some(c / r),
         _ => None,
     };
+    let nonuniformity_removed = matches!(
+        (current.metrics.nonuniformity, recommended.metrics.nonuniformity),
+        (Some(c), Some(r)) if r < UNIFORM_TO_ROUNDING && c >= UNIFORM_TO_ROUNDING
+    );
     Ok(Recommendation {
         workpiece_rpm: direction * speed,
         tool_rpm: direction * speed,
@@ -205,6 +213,25 @@ pub fn recommend(
         recommended,
         current,
         improvement_factor,
+        nonuniformity_removed,
         eta_window: parts.window,
     })
+}
+
+/// Recommended speeds are set to this resolution, r/min: what a spindle is set to (a speed
+/// below 1 r/min to three significant figures instead, never 0).
+pub const SPEED_RESOLUTION_RPM: f64 = 0.1;
+
+/// `speed` (> 0) to [`SPEED_RESOLUTION_RPM`], rounded to nearest or, for a limit that must
+/// not be exceeded, `down`. The result is the double nearest the decimal, so it prints short.
+fn rounded_speed(speed: f64, down: bool) -> f64 {
+    let round = |x: f64| if down { x.floor() } else { x.round() };
+    if speed >= 1.0 {
+        round(speed / SPEED_RESOLUTION_RPM) / (1.0 / SPEED_RESOLUTION_RPM)
+    } else {
+        let scale = 10f64.powi(2 - speed.log10().floor() as i32);
+        let rounded = round(speed * scale) / scale;
+        // A decimal with three significant figures, as text and back: its nearest double.
+        format!("{rounded:.2e}").parse().unwrap_or(rounded)
+    }
 }

@@ -4,6 +4,7 @@
 
 use super::limits::{ComputeLimits, SizeLimitError};
 use super::setting::{process_on_part, SettingError};
+use super::warnings::process_warnings;
 use super::{PartSpec, Warning};
 use crate::calibration::{
     Calibrated, Calibration, CalibrationError, FitFailure, Freedom, Motion, ProcessParameter,
@@ -69,6 +70,8 @@ pub enum CalibrationInputError {
 pub struct CalibrationCommand {
     calibration: Calibration,
     expected_noise_nm: Option<f64>,
+    /// Likely unit mistakes in the nominal process.
+    process_warnings: Vec<Warning>,
 }
 
 impl CalibrationCommand {
@@ -78,6 +81,7 @@ impl CalibrationCommand {
     ) -> Result<Self, CalibrationInputError> {
         use CalibrationInputError as E;
         let (process, _) = process_on_part(spec.process, &spec.part).map_err(E::Setting)?;
+        let process_warnings = process_warnings(&process);
         if spec.runs.len() > MAX_RUNS {
             return Err(E::Runs(SizeLimitError::Runs {
                 count: spec.runs.len(),
@@ -111,6 +115,7 @@ impl CalibrationCommand {
         Ok(CalibrationCommand {
             calibration,
             expected_noise_nm: spec.expected_noise_nm,
+            process_warnings,
         })
     }
 }
@@ -132,9 +137,15 @@ pub struct CalibrationResult {
 
 pub fn calibrate(command: CalibrationCommand) -> Result<CalibrationResult, FitFailure> {
     let calibrated = command.calibration.fit()?;
-    let mut warnings = Vec::new();
+    let mut warnings = command.process_warnings.clone();
+    if calibrated.exact_fit {
+        warnings.push(Warning::ExactFit);
+    }
     for e in &calibrated.estimates {
         let Some(u) = e.uncertainty else {
+            if calibrated.exact_fit {
+                continue;
+            }
             warnings.push(Warning::ParameterUndetermined {
                 parameter: e.parameter,
                 held_at: e.value,

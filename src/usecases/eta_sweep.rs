@@ -1,7 +1,8 @@
 //! η sweeps: uniformity against η with the tool speed held.
 
 use super::recommend::equal_dwell_depth;
-use super::{ComputeLimits, Input, InputError, Setting};
+use super::warnings::process_warnings;
+use super::{ComputeLimits, Input, InputError, Setting, Warning};
 use crate::physics::DwellSchedule;
 use crate::study::{self, StudyError, SweepEtas, SweepPoint};
 
@@ -63,6 +64,8 @@ pub struct EtaSweep {
     pub tool_rpm: f64,
     /// One point per η, in the command's order.
     pub points: Vec<SweepPoint>,
+    /// Likely unit mistakes in the process.
+    pub warnings: Vec<Warning>,
 }
 
 pub fn eta_sweep(command: EtaSweepCommand) -> Result<EtaSweep, StudyError> {
@@ -74,6 +77,7 @@ pub fn eta_sweep(command: EtaSweepCommand) -> Result<EtaSweep, StudyError> {
     } = command;
     let points = study::eta_sweep(&etas, setting.frame(), dwell.as_ref(), depth_nm)?;
     Ok(EtaSweep {
+        warnings: process_warnings(setting.process()),
         tool_rpm: etas.spec().tool_rpm,
         setting,
         points,

@@ -10,11 +10,11 @@
 
 use std::ops::Range;
 
-use super::warnings::{active_constraints, unit_warning, ACTIVE_USE, TARGET_MISS_FRACTION};
+use super::warnings::{active_constraints, unit_warnings, ACTIVE_USE, TARGET_MISS_FRACTION};
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::machine::{
-    cell_travel, Approach, Drive, InvalidLimit, LimitKind, MachineLimits, MachineLimitsSpec,
-    Program, ProgramError, Tool, Violation,
+    cell_travel, Approach, Drive, InvalidLimit, LimitKind, MachineChoice, MachineLimits, Program,
+    ProgramError, Tool, Violation,
 };
 use crate::optimize::kinematics::AxisPath;
 use crate::optimize::problem::MAX_DEPTH_NM;
@@ -94,8 +94,8 @@ pub struct OptimizeSpec {
     pub objective: Objective,
     /// The solver's budget, s; default and most: the limits' solver time.
     pub time_limit_s: Option<f64>,
-    /// The machine's limits, when the plan must run on a machine.
-    pub machine: Option<MachineLimitsSpec>,
+    /// The machine the plan must run on (default: the default machine).
+    pub machine: MachineChoice,
 }
 
 /// The machine a plan must run on: the surface and tool that give the axes' poses, and the
@@ -129,6 +129,8 @@ pub struct OptimizeCommand {
     /// The machine the plan runs on: without [`Self::on_machine`], an unlimited one carrying
     /// the default tool over the setting's surface.
     machine: Machine,
+    /// The request asked for no machine limits (the plan then warns that it is a study).
+    unlimited: bool,
     setting: Setting,
     positions_mm: Vec<f64>,
     rows: Range<usize>,
@@ -142,10 +144,14 @@ pub struct OptimizeCommand {
 }
 
 impl OptimizeCommand {
-    /// What looks wrong in the input though it is valid (a unit mistake), for hints on
+    /// What looks wrong in the input though it is valid (unit mistakes), for hints on
     /// solver failures as well as for the plan's warnings.
-    pub fn input_warning(&self) -> Option<Warning> {
-        unit_warning(self.setting.process(), &self.positions_mm)
+    pub fn input_warnings(&self) -> Vec<Warning> {
+        let mut warnings = unit_warnings(self.setting.process(), &self.positions_mm);
+        if self.unlimited {
+            warnings.push(Warning::MachineUnlimited);
+        }
+        warnings
     }
 
     /// The most a request's solver time limit may be, s.
@@ -211,6 +217,7 @@ impl OptimizeCommand {
                 tool: Tool::default(),
                 limits: MachineLimits::default(),
             },
+            unlimited: machine.is_unlimited(),
             setting,
             positions_mm,
             rows,
@@ -224,16 +231,15 @@ impl OptimizeCommand {
         Ok(command.on_machine(machine)?)
     }
 
-    /// The machine the plan must run on, when the request names one (`limits`) or describes
-    /// the part or the tool: the positions are then checked against the poses, and the limits
-    /// given (none: an unlimited machine) bind the plan. Otherwise the plan is the motion alone.
-    fn on_machine(self, limits: Option<MachineLimitsSpec>) -> Result<Self, MachineFitError> {
+    /// The machine the plan must run on: the positions are checked against the poses, and
+    /// the limits in force bind the plan. Only an unlimited machine on an undescribed part
+    /// and tool leaves the plan the motion alone.
+    fn on_machine(self, choice: MachineChoice) -> Result<Self, MachineFitError> {
         let mount = self.setting.mount();
-        if limits.is_none() && !mount.described {
+        if choice.is_unlimited() && !mount.described {
             return Ok(self);
         }
-        let limits = MachineLimits::new(limits.unwrap_or_default())
-            .map_err(MachineFitError::InvalidLimit)?;
+        let limits = choice.limits().map_err(MachineFitError::InvalidLimit)?;
         let machine = Machine {
             surface: mount.part.surface.clone(),
             tool: mount.tool,
@@ -435,7 +441,7 @@ pub fn optimize(
     recommender: &Recommender,
     operators: &OperatorCache,
 ) -> Result<OptimizedPlan, OptimizeError> {
-    let mut warnings: Vec<Warning> = command.input_warning().into_iter().collect();
+    let mut warnings = command.input_warnings();
     let OptimizeCommand {
         machine,
         setting,
@@ -447,6 +453,7 @@ pub fn optimize(
         objective,
         time_limit_s,
         max_time_limit_s: _,
+        unlimited: _,
     } = command;
     // The recommendation's pass at these speeds is read beside a newly assembled operator.
     let pass = Recommender::pass_to_read(&setting);

@@ -1,7 +1,7 @@
 //! Prediction: the cumulative removal of a dwell plan (or a constant feed) and its uniformity.
 //! Both are the motion of [`crate::physics::motion`].
 
-use super::warnings::unit_warning;
+use super::warnings::unit_warnings;
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::physics::{ConstantFeed, DwellSchedule, UniformityMetrics};
 use crate::study::Recommendation;
@@ -108,18 +108,14 @@ pub fn predict(
             (
                 operator.apply(schedule.dwell_s()),
                 schedule.total_time_s(),
-                unit_warning(process, schedule.positions_mm())
-                    .into_iter()
-                    .collect(),
+                unit_warnings(process, schedule.positions_mm()),
                 passed,
             )
         }
         Travel::Feed(feed) => (
             feed.removal_nm(process, radii),
             feed.total_time_s(process),
-            unit_warning(process, &[feed.start_mm(), feed.stop_mm()])
-                .into_iter()
-                .collect(),
+            unit_warnings(process, &[feed.start_mm(), feed.stop_mm()]),
             None,
         ),
     };

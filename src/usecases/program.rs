@@ -3,9 +3,11 @@
 
 use super::limits::{ComputeLimits, SizeLimitError};
 use super::setting::{process_on_part, Mount, PartSpec, SettingError};
+use super::warnings::process_warnings;
+use super::Warning;
 use crate::machine::{
     gcode, Approach, Drive, GcodeFormat, GcodeFormatError, GcodeFormatSpec, InvalidLimit,
-    MachineLimits, MachineLimitsSpec, Program, ProgramError, Tool, Violation,
+    MachineChoice, MachineLimits, Program, ProgramError, Tool, Violation,
 };
 use crate::physics::{DwellSchedule, Process, ProcessSpec, ScheduleError};
 use crate::surface::SurfaceError;
@@ -26,7 +28,7 @@ pub struct ProgramSpec {
     pub part: PartSpec,
     pub positions_mm: Vec<f64>,
     pub dwell_s: Vec<f64>,
-    pub machine: MachineLimitsSpec,
+    pub machine: MachineChoice,
     /// Default [`DEFAULT_CLEARANCE_MM`].
     pub clearance_mm: Option<f64>,
     /// Default [`DEFAULT_APPROACH_FEED_MM_PER_MIN`], lowered to what the axis limits allow.
@@ -66,12 +68,16 @@ pub struct ProgramCommand {
     schedule: DwellSchedule,
     tool: Tool,
     machine: MachineLimits,
+    /// Which machine the limits are, for the header.
+    choice: MachineChoice,
     clearance_mm: f64,
     approach_feed_mm_per_min: Option<f64>,
     format: GcodeFormat,
     request_digest: String,
     /// More header lines: where the plan came from.
     provenance: Vec<String>,
+    /// Likely unit mistakes, and a machine asked to be unlimited.
+    warnings: Vec<Warning>,
 }
 
 impl ProgramCommand {
@@ -99,7 +105,11 @@ impl ProgramCommand {
                 .check_defined_to(r)
                 .map_err(|error| E::PositionOffSurface { index, error })?;
         }
-        let machine = MachineLimits::new(spec.machine).map_err(E::Limits)?;
+        let machine = spec.machine.limits().map_err(E::Limits)?;
+        let mut warnings = process_warnings(&process);
+        if spec.machine.is_unlimited() {
+            warnings.push(Warning::MachineUnlimited);
+        }
         let format = GcodeFormat::new(spec.format).map_err(E::Format)?;
         let clearance_mm = spec.clearance_mm.unwrap_or(DEFAULT_CLEARANCE_MM);
         if !(0.0..=MAX_CLEARANCE_MM).contains(&clearance_mm) {
@@ -116,11 +126,13 @@ impl ProgramCommand {
             schedule,
             tool,
             machine,
+            choice: spec.machine,
             clearance_mm,
             approach_feed_mm_per_min: spec.approach_feed_mm_per_min,
             format,
             request_digest: spec.request_digest,
             provenance: Vec::new(),
+            warnings,
         })
     }
 }
@@ -135,9 +147,11 @@ pub enum ProgramFailure {
     Limits(Vec<Violation>),
 }
 
-/// A program within every stated limit, and its G-code.
+/// A program within every limit in force, and its G-code.
 #[derive(Debug, Clone)]
 pub struct MachineProgram {
+    /// Likely unit mistakes, and a machine asked to be unlimited.
+    pub warnings: Vec<Warning>,
     pub program: Program,
     pub process: Process,
     pub tool: Tool,
@@ -217,6 +231,7 @@ pub fn program(command: ProgramCommand) -> Result<MachineProgram, ProgramFailure
         &command.format,
     );
     Ok(MachineProgram {
+        warnings: command.warnings,
         program,
         process: command.process,
         tool: command.tool,
@@ -269,6 +284,16 @@ fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
             program.program_time_s
         ),
         format!("axes: {}", axes.join(", ")),
+        match command.choice {
+            MachineChoice::Default => "limits: Preston's default machine".to_string(),
+            MachineChoice::Given(_) => {
+                "limits: the machine as given (the default machine's where not given)".to_string()
+            }
+            MachineChoice::Unlimited => {
+                "WARNING: machine unlimited: no limit was checked; a study, not a program to run"
+                    .to_string()
+            }
+        },
         format!("request sha256 {}", command.request_digest),
     ]);
     lines

@@ -21,7 +21,8 @@ use std::collections::HashMap;
 use std::hash::Hash;
 use std::sync::{Arc, Mutex};
 
-use super::{Input, InputError, Setting};
+use super::warnings::process_warnings;
+use super::{Input, InputError, Setting, Warning};
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::physics::{PassReading, Process};
 use crate::study::{
@@ -91,25 +92,37 @@ pub(super) fn equal_dwell_depth(depth_nm: Option<f64>) -> Result<f64, InputError
     }
 }
 
+/// A recommendation and what the caller should know about the input it was made for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recommended {
+    pub recommendation: Recommendation,
+    /// Likely unit mistakes in the process.
+    pub warnings: Vec<Warning>,
+}
+
 /// Recommends η = −1 speeds (see [`crate::study::recommend`]).
 pub fn recommend(
     command: &RecommendCommand,
     recommender: &Recommender,
-) -> Result<Recommendation, StudyError> {
+) -> Result<Recommended, StudyError> {
     let RecommendCommand {
         setting,
         limits,
         depth_nm,
         threshold,
     } = command;
-    recommender.recommendation(
+    let recommendation = recommender.recommendation(
         setting.process(),
         setting.frame(),
         *limits,
         *depth_nm,
         *threshold,
         None,
-    )
+    )?;
+    Ok(Recommended {
+        recommendation,
+        warnings: process_warnings(setting.process()),
+    })
 }
 
 /// A map that empties itself when it reaches its capacity.

@@ -26,6 +26,8 @@
 //! test's K rather than being averaged with it; a new ring test (a new pad, a dressed tool)
 //! starts the learning again.
 
+use super::Warning;
+
 /// Who wrote a record and when: its id (a UUIDv7, or the name of a process profile), an RFC 3339
 /// UTC timestamp and the API key's name (empty without keys).
 #[derive(Debug, Clone, PartialEq)]
@@ -57,9 +59,23 @@ pub struct CalibrationRecord {
     pub run: Option<String>,
 }
 
+/// A learned K teaches the profile only when it is this many standard errors above 0 (about
+/// 95 % confidence that the run removed something).
+pub const SIGNIFICANT_STANDARD_ERRORS: f64 = 2.0;
+
 impl CalibrationRecord {
+    /// Learned from a production run (not asked for).
     pub fn learned(&self) -> bool {
         self.run.is_some()
+    }
+
+    /// Its K is determined: a standard error (finite, > 0) and K at least
+    /// [`SIGNIFICANT_STANDARD_ERRORS`] of them above 0. A cycle's calibration that is not
+    /// is never stored (its cycle warns instead); one stored before that rule teaches nothing.
+    pub fn significant(&self) -> bool {
+        let k = self.preston_coefficient_m2_per_n;
+        self.standard_error_m2_per_n
+            .is_some_and(|se| se.is_finite() && se > 0.0 && k >= SIGNIFICANT_STANDARD_ERRORS * se)
     }
 }
 
@@ -237,7 +253,7 @@ pub fn current_rate(calibrations: &[CalibrationRecord], profile_k: f64) -> Curre
     let plausible = |k: f64| k / base_k <= PLAUSIBLE_FACTOR && base_k / k <= PLAUSIBLE_FACTOR;
     let learned: Vec<&CalibrationRecord> = calibrations[base_index.map_or(0, |i| i + 1)..]
         .iter()
-        .filter(|c| c.learned() && plausible(c.preston_coefficient_m2_per_n))
+        .filter(|c| c.learned() && c.significant() && plausible(c.preston_coefficient_m2_per_n))
         .collect();
     if learned.is_empty() {
         return CurrentRate {
@@ -280,6 +296,17 @@ pub struct Cycle<'a> {
 }
 
 impl Cycle<'_> {
+    /// What the caller should know: a completed cycle that taught nothing (its removal did not
+    /// determine K, or an older record's K is not significant).
+    pub fn warnings(&self) -> Vec<Warning> {
+        let taught = self.learned.is_some_and(CalibrationRecord::significant);
+        if self.after.is_some() && !taught {
+            vec![Warning::RemovalNotSignificant]
+        } else {
+            Vec::new()
+        }
+    }
+
     pub fn rms_before_nm(&self) -> Option<f64> {
         self.before.map(|m| m.rms_nm)
     }

@@ -1,7 +1,8 @@
 //! The removal function: R(r; r1) across the radial grid for each requested tool position.
 
 use super::setting::{process_and_grid, PartSpec};
-use super::{ComputeLimits, GridSpec, Input, InputError};
+use super::warnings::unit_warnings;
+use super::{ComputeLimits, GridSpec, Input, InputError, Warning};
 use crate::physics::{check_positions, Process, ProcessSpec, RadialGrid, RemovalKernel};
 
 /// Profiles of one tool at the given positions (any order, within the tool's reach).
@@ -54,6 +55,8 @@ pub struct RemovalFunction {
     pub arc_length_mm: Option<Vec<f64>>,
     /// In the order of the command's positions.
     pub profiles: Vec<Profile>,
+    /// Likely unit mistakes in the process or the positions.
+    pub warnings: Vec<Warning>,
 }
 
 pub fn removal_function(command: RemovalFunctionCommand) -> RemovalFunction {
@@ -62,6 +65,7 @@ pub fn removal_function(command: RemovalFunctionCommand) -> RemovalFunction {
         grid,
         tool_positions_mm,
     } = command;
+    let warnings = unit_warnings(&process, &tool_positions_mm);
     let kernel = RemovalKernel::new(&process);
     let radii = grid.radii_mm();
     let rings = kernel.rings(radii);
@@ -81,5 +85,6 @@ pub fn removal_function(command: RemovalFunctionCommand) -> RemovalFunction {
         arc_length_mm: process.arc_lengths_mm(radii),
         grid,
         profiles,
+        warnings,
     }
 }

@@ -15,6 +15,9 @@ const ACTIVE: f64 = 1e-6;
 pub(super) const ACTIVE_USE: f64 = 0.999;
 /// A plan whose residual RMS exceeds this fraction of the target's RMS misses its target.
 pub const TARGET_MISS_FRACTION: f64 = 0.1;
+/// A nominal pressure above this, kPa, looks like pascals typed as kilopascals: polishing
+/// pressures are about 1 to 100 kPa, and 1 MPa (10 bar) is far beyond any pad's.
+pub const PASCALS_ABOVE_KPA: f64 = 1000.0;
 
 /// Something about a result the caller should know; its `Display` says it in words (naming
 /// inputs by their role; the caller adds where they sit in its request).
@@ -71,6 +74,41 @@ pub enum Warning {
         workpiece_radius_mm: f64,
         tool_radius_mm: f64,
     },
+    /// The nominal pressure is above [`PASCALS_ABOVE_KPA`]: pascals typed as kilopascals?
+    #[error(
+        "the pressure is {pressure_kpa} kPa ({:.3} bar); polishing pressures are about 1 to \
+         100 kPa: pressure_kpa is in kilopascals; is this in pascals (10 kPa = 10000 Pa)?",
+        pressure_kpa / 100.0
+    )]
+    PressureLooksLikePascals { pressure_kpa: f64 },
+    /// The request asked for no machine limits: the plan or program is a study, checked
+    /// against no machine, and must not be sent to one as it is.
+    #[error(
+        "machine is \"unlimited\": no axis velocity, acceleration or spindle limit was kept, so \
+         this is a study, not a machine program; leave machine out for the default machine, or \
+         give your machine's limits"
+    )]
+    MachineUnlimited,
+    /// A measurement fitted without a surface was fitted to a plane; the best-fit sphere says
+    /// what the trace looks like.
+    #[error(
+        "no surface was given, so the trace was fitted to a plane: {plane_rms_nm:.1} nm RMS of \
+         form error{}; give the part's surface",
+        match sphere {
+            Some((r, rms)) => format!(
+                ". The best-fit sphere has R = {r:.6} mm (residual {rms:.1} nm RMS): \
+                 if the part is that sphere, send surface {{\"kind\": \"sphere\", \
+                 \"radius_of_curvature_mm\": {r:.6}}}"
+            ),
+            None => String::new(),
+        }
+    )]
+    SurfaceAssumedPlane {
+        plane_rms_nm: f64,
+        /// The best-fit sphere's vertex radius, mm, and residual RMS, nm; `None` when the
+        /// trace is flat or no sphere holds it.
+        sphere: Option<(f64, f64)>,
+    },
     /// Calibration: no run responds to this parameter (κ with no pad over the edge, say), so
     /// it was held at its nominal value.
     #[error(
@@ -95,6 +133,24 @@ pub enum Warning {
         value: f64,
         standard_error: f64,
     },
+    /// Calibration: the model fits the runs exactly (residual below a femtometre RMS), so
+    /// they carry no estimate of their noise and no standard error can be given.
+    #[error(
+        "the model fits the runs exactly (residual RMS below 1e-6 nm): no measurement is that \
+         exact, so the runs say nothing of their noise and no parameter has a standard error; \
+         a measurement repeated unchanged as before and after does this (it removed nothing)"
+    )]
+    ExactFit,
+    /// A production cycle's removal does not determine the removal rate: fitted as a
+    /// calibration, its K is not 2 standard errors above 0, has no standard error, or could
+    /// not be fitted; so the profile learns nothing from it.
+    #[error(
+        "the cycle's removal (before − after) does not determine the removal rate: fitted to \
+         the plan's dwell, K is not 2 standard errors above 0 (or has no standard error, or no \
+         fit); nothing was learned from it. The run removed nothing measurable, or the \
+         measurements do not show what it removed (the same trace sent twice, another part's)"
+    )]
+    RemovalNotSignificant,
     /// Calibration: a run's residual is far above its measurement noise: the model does not
     /// explain it.
     #[error(
@@ -111,23 +167,37 @@ pub enum Warning {
     },
 }
 
-/// The unit check on the process's radii, then on the tool positions.
-pub(super) fn unit_warning(process: &Process, positions_mm: &[f64]) -> Option<Warning> {
+/// The unit checks on a process: radii that look like metres, a pressure that looks like
+/// pascals. Every use case that takes a process runs them.
+pub fn process_warnings(process: &Process) -> Vec<Warning> {
+    let mut warnings = Vec::new();
     let workpiece_radius_mm = process.workpiece_radius_mm();
     if workpiece_radius_mm < 1.0 {
-        return Some(Warning::ProcessLooksLikeMetres {
+        warnings.push(Warning::ProcessLooksLikeMetres {
             workpiece_radius_mm,
             tool_radius_mm: process.tool_radius_mm(),
         });
     }
-    let max_position_mm = positions_mm.iter().copied().fold(0.0_f64, f64::max);
+    let pressure_kpa = process.spec().pressure_kpa;
+    if pressure_kpa > PASCALS_ABOVE_KPA {
+        warnings.push(Warning::PressureLooksLikePascals { pressure_kpa });
+    }
+    warnings
+}
+
+/// The unit checks on a process ([`process_warnings`]) and, when its radii look right, on the
+/// tool positions (all below 1 mm on a workpiece of 10 mm or more).
+pub(super) fn unit_warnings(process: &Process, positions_mm: &[f64]) -> Vec<Warning> {
+    let mut warnings = process_warnings(process);
     let workpiece_radius_mm = process.workpiece_radius_mm();
-    (max_position_mm < 1.0 && workpiece_radius_mm >= 10.0).then_some(
-        Warning::PositionsLookLikeMetres {
+    let max_position_mm = positions_mm.iter().copied().fold(0.0_f64, f64::max);
+    if workpiece_radius_mm >= 10.0 && max_position_mm < 1.0 {
+        warnings.push(Warning::PositionsLookLikeMetres {
             max_position_mm,
             workpiece_radius_mm,
-        },
-    )
+        });
+    }
+    warnings
 }
 
 /// The limits a plan sits on, in the order of [`Constraints`]' fields. `peak_feed_mm_per_min`:

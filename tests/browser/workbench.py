@@ -23,6 +23,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.parse
 import urllib.request
 from pathlib import Path
 
@@ -83,7 +84,7 @@ def browser():
     for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu",
                 "--window-size=1280,800", "--hide-scrollbars"):
         options.add_argument(arg)
-    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL", "performance": "ALL"})
     driver = webdriver.Chrome(options=options, service=Service(
         os.environ.get("CHROMEDRIVER", "/usr/bin/chromedriver")))
     # A 1280 × 800 viewport, whatever the window's own decorations take.
@@ -314,9 +315,12 @@ def main_flow(binary, screenshots):
         call("POST", f"/v1/parts/{part['id']}/measurements", measurement)
         plan = call("POST", f"/v1/parts/{part['id']}/plans",
                     {"positions_mm": [i / 2 for i in range(91)]})
+        # A run starts after its plan exists: from now on.
+        start = time.time() + 1
+        stamp = lambda t: time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(t))
         call("POST", f"/v1/parts/{part['id']}/runs", {
-            "plan_id": plan["id"], "started_at": "2026-11-25T08:00:00Z",
-            "finished_at": "2026-11-25T12:00:00Z"})
+            "plan_id": plan["id"], "started_at": stamp(start),
+            "finished_at": stamp(start + 4 * 3600)})
         call("POST", f"/v1/parts/{part['id']}/measurements", measurement)
         page.one("#tab-parts").click()
         page.finished("parts")
@@ -379,6 +383,38 @@ def keyed_flow(binary):
         service.stop()
 
 
+def docs_flow(binary):
+    """The interactive docs load from the service alone: every request the browser makes
+    (DevTools' network log, so nothing is missed that the page's own API would not list) goes
+    to 127.0.0.1, and the page is titled for Preston."""
+    service = Preston(binary)
+    driver = browser()
+    try:
+        driver.get_log("performance")  # what the empty tab did before
+        driver.get(service.url + "/docs/")
+        WebDriverWait(driver, 20).until(
+            lambda d: d.find_elements(By.CSS_SELECTOR, ".swagger-ui .info .title"))
+        WebDriverWait(driver, 20).until(
+            lambda d: d.find_elements(By.CSS_SELECTOR, ".swagger-ui .opblock"))
+        time.sleep(1.0)  # a validator badge or font would be asked for by now
+        requested = []
+        for entry in driver.get_log("performance"):
+            message = json.loads(entry["message"])["message"]
+            if message.get("method") == "Network.requestWillBeSent":
+                requested.append(message["params"]["request"]["url"])
+        hosts = {urllib.parse.urlsplit(u).hostname for u in requested
+                 if not u.startswith(("data:", "blob:"))}
+        print(f"/docs/ requested {len(requested)} URLs from {hosts}")
+        check(requested and hosts == {"127.0.0.1"},
+              f"every request of /docs/ goes to 127.0.0.1 ({len(requested)} requests, hosts {hosts})")
+        check("Preston" in driver.title, f"/docs/ is titled for Preston ({driver.title!r})")
+        check(driver.find_elements(By.CSS_SELECTOR, ".swagger-ui .opblock"),
+              "/docs/ lists the operations")
+    finally:
+        driver.quit()
+        service.stop()
+
+
 if __name__ == "__main__":
     parser = argparse.ArgumentParser()
     parser.add_argument("binary")
@@ -386,4 +422,5 @@ if __name__ == "__main__":
     args = parser.parse_args()
     main_flow(args.binary, args.screenshots)
     keyed_flow(args.binary)
+    docs_flow(args.binary)
     print("browser test passed")

@@ -28,6 +28,7 @@ mod optimize_paper;
 mod optimize_reference;
 mod paper;
 mod plan_program;
+mod plausibility;
 mod plots;
 mod problems;
 mod recommend;

@@ -1,12 +1,13 @@
 //! The optimizer moves as the program does: on 20 random set-ups (flat and spherical parts,
-//! uneven positions, random tools, with and without machine and feed limits) every plan that
-//! `/v1/optimize` returns for a machine is accepted by `/v1/program` with the same surface,
-//! tool and machine; the motion the optimizer reports is the program's (per-axis peaks and each
+//! uneven positions, random tools, on the default machine or with machine limits of their own,
+//! with and without feed limits) every plan that `/v1/optimize` returns for a machine is
+//! accepted by `/v1/program` with the same surface, tool and machine; the motion the optimizer reports is the program's (per-axis peaks and each
 //! cell's feed, to 1e-9 relative); and its warnings name exactly the limits the program uses at
 //! 99.9 % or more.
 
 use serde_json::{json, Value};
 
+use crate::common::default_machine_limit;
 use crate::common::http::{app, post_json};
 
 async fn post(path: &str, request: &Value) -> (u16, Value) {
@@ -96,7 +97,7 @@ async fn plans_move_as_their_programs_do() {
     for case in 0..20 {
         let Case { optimize, program } = random_case(&mut rng, case % 2 == 1);
         let (status, plain) = post("/v1/optimize", &optimize).await;
-        assert_eq!(status, 200, "case {case}: {plain}");
+        assert_eq!(status, 200, "case {case}: {plain}\nrequest: {optimize}");
         let mut request = optimize.clone();
         let mut machine = json!({});
         if case % 4 >= 2 && !plain["motion"].is_null() {
@@ -190,7 +191,11 @@ async fn plans_move_as_their_programs_do() {
         for (axis, unit) in [("x", "mm"), ("z", "mm"), ("b", "deg")] {
             for (kind, rate) in [("velocity", "per_min"), ("acceleration", "per_s2")] {
                 let limit_key = format!("max_{kind}_{unit}_{rate}");
-                let Some(limit) = machine[axis][&limit_key].as_f64() else {
+                // The limit given, else the default machine's.
+                let Some(limit) = machine[axis][&limit_key]
+                    .as_f64()
+                    .or_else(|| default_machine_limit(axis, &limit_key))
+                else {
                     continue;
                 };
                 let peak = polishing["axes"][axis][format!("peak_{kind}_{unit}_{rate}")]

@@ -35,10 +35,7 @@ const CHARTS: [(&str, &str, &str, &[&str]); 4] = [
         "/v1/studies/eta-sweep",
         "eta_sweep_figure7.json",
         "eta_sweep.svg",
-        &[
-            "η = −workpiece_rpm / tool_rpm (1)",
-            "nonuniformity pv/mean (%)",
-        ],
+        &["η = −workpiece_rpm / tool_rpm", "nonuniformity pv/mean (%)"],
     ),
 ];
 

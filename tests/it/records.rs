@@ -213,8 +213,8 @@ async fn full_cycle(url: &str) {
     created(
         &app,
         &format!("/v1/parts/{part_id}/runs"),
-        &json!({"plan_id": plan_id, "started_at": "2026-11-25T08:00:00Z",
-                "finished_at": "2026-11-25T13:12:00Z", "machine": "cell 3"}),
+        &json!({"plan_id": plan_id, "started_at": from_now(1),
+                "finished_at": from_now(313), "machine": "cell 3"}),
     )
     .await;
 
@@ -273,6 +273,7 @@ async fn full_cycle(url: &str) {
         .json();
     assert_eq!(shown["preston_coefficient_source"], "learned");
     assert_eq!(shown["calibrations"][0]["learned"], true);
+    let calibrations_after_learning = shown["calibrations"].as_array().unwrap().len();
     let learned = shown["current_process"]["preston_coefficient_m2_per_n"]
         .as_f64()
         .unwrap();
@@ -287,7 +288,65 @@ async fn full_cycle(url: &str) {
         history["next_process"]["preston_coefficient_m2_per_n"].as_f64(),
         Some(learned)
     );
+
+    // Runs that removed nothing: the part measured again unchanged (the same trace, then the
+    // same error under fresh noise). The cycles complete, but teach nothing, and say so.
+    let next_id = next["id"].as_str().unwrap();
+    for (cycle, again) in [
+        (1, trace(&after_error, 0.3, 8)),
+        (2, trace(&after_error, 0.3, 9)),
+    ] {
+        let plan_id = if cycle == 1 {
+            next_id.to_string()
+        } else {
+            created(&app, &format!("/v1/parts/{part_id}/plans"), &plan_body()).await["id"]
+                .as_str()
+                .unwrap()
+                .to_string()
+        };
+        created(
+            &app,
+            &format!("/v1/parts/{part_id}/runs"),
+            &json!({"plan_id": plan_id, "started_at": from_now(1), "finished_at": from_now(60)}),
+        )
+        .await;
+        let repeated = created(&app, &format!("/v1/parts/{part_id}/measurements"), &again).await;
+        assert!(repeated["completes_run_id"].is_string(), "{repeated}");
+        assert!(repeated["learned_calibration_id"].is_null(), "{repeated}");
+        assert_eq!(repeated["warnings"][0]["code"], "removal_not_significant");
+        let history = get(&app, &format!("/v1/parts/{part_id}/history"))
+            .await
+            .json();
+        let shown = &history["cycles"][cycle];
+        assert_eq!(
+            shown["warnings"][0]["code"], "removal_not_significant",
+            "{shown}"
+        );
+        assert!(shown["learned_calibration_id"].is_null());
+        // No standard error of 0 anywhere: the ratio is not claimed at all.
+        assert!(shown["removal_ratio"].is_null(), "{shown}");
+        assert_eq!(history["cycles"][0]["warnings"], json!([]));
+        let profile_now = get(&app, &format!("/v1/process-profiles/{profile}"))
+            .await
+            .json();
+        assert_eq!(
+            profile_now["current_process"]["preston_coefficient_m2_per_n"].as_f64(),
+            Some(learned),
+            "cycle {cycle} taught nothing"
+        );
+        assert_eq!(
+            profile_now["calibrations"].as_array().unwrap().len(),
+            calibrations_after_learning,
+            "no calibration stored for cycle {cycle}"
+        );
+    }
     store.close().await;
+}
+
+/// An RFC 3339 UTC timestamp `minutes` from now (runs cannot start before their plan exists).
+fn from_now(minutes: u64) -> String {
+    let at = std::time::SystemTime::now() + Duration::from_secs(60 * minutes);
+    humantime::format_rfc3339_seconds(at).to_string()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

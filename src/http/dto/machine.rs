@@ -6,7 +6,8 @@ use utoipa::ToSchema;
 
 use super::super::extract::optional_object;
 use crate::machine::{
-    AxisLimits, Drive, MachineLimits, MachineLimitsSpec, Orientation, Program, Utilisation,
+    AxisLimits, Drive, MachineChoice, MachineLimits, MachineLimitsSpec, Orientation, Program,
+    Utilisation,
 };
 
 /// How the tool is carried: `normal` (B follows the surface normal) or `vertical` (no tilt).
@@ -88,6 +89,67 @@ pub struct MachineDto {
     /// The tool spindle's speed limit.
     #[serde(default, deserialize_with = "optional_object")]
     pub tool_spindle: Option<SpindleLimitDto>,
+}
+
+/// `"unlimited"`: no machine limits at all.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum UnlimitedDto {
+    Unlimited,
+}
+
+/// The machine a plan or program is for: its limits (each one left out is the default
+/// machine's), or `"unlimited"` for a study that keeps no limit (every response then warns
+/// `machine_unlimited`). Left out: the default machine (docs/MACHINE.md: X and Z 10,000 mm/min
+/// and 2,000 mm/s², B 9,000 deg/min and 1,800 deg/s², workpiece spindle 1,000 r/min, tool
+/// spindle 3,000 r/min, no travel limits).
+#[derive(Debug, Clone, Serialize, ToSchema)]
+#[serde(untagged)]
+pub enum MachineChoiceDto {
+    Unlimited(UnlimitedDto),
+    Limits(MachineDto),
+}
+
+impl<'de> Deserialize<'de> for MachineChoiceDto {
+    /// A JSON object of limits or the text `"unlimited"`; anything else is refused in those
+    /// words (serde's untagged enums only say that nothing matched).
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Choice;
+        impl<'de> serde::de::Visitor<'de> for Choice {
+            type Value = MachineChoiceDto;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("an object of machine limits, or \"unlimited\"")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Self::Value, E> {
+                match v {
+                    "unlimited" => Ok(MachineChoiceDto::Unlimited(UnlimitedDto::Unlimited)),
+                    other => Err(E::custom(format!(
+                        "expected an object of machine limits or \"unlimited\" here, got the \
+                         text \"{other}\""
+                    ))),
+                }
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<Self::Value, A::Error> {
+                MachineDto::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(MachineChoiceDto::Limits)
+            }
+        }
+        d.deserialize_any(Choice)
+    }
+}
+
+impl MachineChoiceDto {
+    /// The core's choice for an optional request field.
+    pub fn choice(dto: Option<&MachineChoiceDto>) -> MachineChoice {
+        match dto {
+            None => MachineChoice::Default,
+            Some(MachineChoiceDto::Unlimited(_)) => MachineChoice::Unlimited,
+            Some(MachineChoiceDto::Limits(m)) => MachineChoice::Given(m.into()),
+        }
+    }
 }
 
 /// Fraction of each limit used (1 = at the limit); null where the limit is not stated.

@@ -12,9 +12,13 @@ use crate::study::{EqualDwell, Recommendation, SpeedRule};
 /// feed over [0, min(outer + r_t, reach)] mm) removing the same mean depth.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct RecommendationDto {
-    /// Recommended workpiece speed, r/min, signed (lab frame, CCW positive); equals tool_rpm.
+    /// Recommended workpiece speed, r/min, signed (lab frame, CCW positive); equals tool_rpm,
+    /// so η is exactly −1. Set to 0.1 r/min (below 1 r/min, to three significant figures),
+    /// to the nearest for `match_removal_rate` (the mean rate then matches to that
+    /// resolution) and down for `fastest_allowed`; every figure is computed at this speed.
     pub workpiece_rpm: f64,
-    /// Recommended tool speed, r/min, signed; keeps the current tool direction.
+    /// Recommended tool speed, r/min, signed; keeps the current tool direction (rounded as
+    /// `workpiece_rpm`).
     pub tool_rpm: f64,
     /// −1.
     pub eta: f64,
@@ -29,11 +33,15 @@ pub struct RecommendationDto {
     pub metrics: MetricsDto,
     /// Predicted uniformity of equal dwell at the current speeds, nm.
     pub current_metrics: MetricsDto,
-    /// Current nonuniformity / recommended nonuniformity; null when undefined or when equal
-    /// dwell at the recommended speeds is uniform to rounding (below 1e-9), as it is on a
-    /// plane.
+    /// Current nonuniformity / recommended nonuniformity; null when undefined, and when equal
+    /// dwell at the recommended speeds is uniform to rounding (below 1e-9, as on a plane):
+    /// then `nonuniformity_removed` is true.
     #[schema(required = true)]
     pub improvement_factor: Option<f64>,
+    /// True when equal dwell at the recommended speeds is uniform to rounding (nonuniformity
+    /// below 1e-9) and at the current speeds it is not: the recommendation removes the
+    /// nonuniformity, the largest improvement there is (no finite factor says it).
+    pub nonuniformity_removed: bool,
     /// The equal-dwell plan at the recommended speeds.
     pub equal_dwell: EqualDwellDto,
     /// The constant feed equal dwell needs at the current speeds for the same depth, mm/min.
@@ -125,6 +133,7 @@ impl From<&Recommendation> for RecommendationDto {
             metrics: MetricsDto::from(&r.recommended.metrics),
             current_metrics: MetricsDto::from(&r.current.metrics),
             improvement_factor: r.improvement_factor,
+            nonuniformity_removed: r.nonuniformity_removed,
             equal_dwell: EqualDwellDto::from(&r.recommended),
             current_feed_mm_per_min: r.current.feed_mm_per_min(),
         }

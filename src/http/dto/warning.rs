@@ -38,18 +38,43 @@ pub enum WarningCode {
     /// The plan has zero dwell between positions with dwell at the position in `field`: no
     /// machine program can run it (set `constraints.min_dwell_s` > 0 or a feed limit).
     NotProgrammable,
+    /// The nominal pressure is above 1000 kPa (10 bar); polishing pressures are about 1 to
+    /// 100 kPa, so this looks like pascals typed as kilopascals.
+    PressureLooksLikePascals,
+    /// `machine` is `"unlimited"`: the plan or program was checked against no machine's
+    /// limits; it is a study, not a program to send to a machine.
+    MachineUnlimited,
+    /// A measurement was fitted without `surface`, to a plane; the message gives the
+    /// best-fit sphere's radius of curvature and residual beside the plane's.
+    SurfaceAssumedPlane,
     /// Calibration: no run depends on the parameter in `field` (e.g. `fit.pad_moment_share`
     /// with no pad over the edge): it was held at its nominal value, with no standard error.
     ParameterUndetermined,
     /// Calibration: the parameter in `field` was fitted, but its 95 % interval is wider than
     /// 20 % of its value (0.25 for `pad_moment_share`): the runs barely determine it.
     ParameterPoorlyDetermined,
+    /// Calibration: the model fits the runs exactly (residual RMS below 1e-6 nm), so they
+    /// carry no estimate of their noise: no parameter has a standard error.
+    ExactFit,
+    /// A production cycle's removal does not determine the removal rate (its K is not 2
+    /// standard errors above 0, or has none): the profile does not learn from it.
+    RemovalNotSignificant,
     /// Calibration: the run in `field` leaves a residual more than 3× its measurement noise
     /// (`expected_noise_nm`, else the noise of its point-to-point differences).
     ResidualAboveNoise,
 }
 
 impl WarningDto {
+    /// Warnings that name no tool positions (a request without them).
+    pub fn all(warnings: &[Warning]) -> Vec<Self> {
+        Self::all_at(warnings, "positions_mm")
+    }
+
+    /// Warnings whose tool positions are the request field `positions`.
+    pub fn all_at(warnings: &[Warning], positions: &str) -> Vec<Self> {
+        warnings.iter().map(|w| Self::new(w, positions)).collect()
+    }
+
     /// `positions` is the request field holding the tool positions.
     pub fn new(w: &Warning, positions: &str) -> Self {
         let (code, field) = match w {
@@ -73,6 +98,19 @@ impl WarningDto {
             Warning::PositionsLookLikeMetres { .. } => {
                 (WarningCode::PositionsLookLikeMetres, positions.to_string())
             }
+            Warning::PressureLooksLikePascals { .. } => (
+                WarningCode::PressureLooksLikePascals,
+                "process.pressure_kpa".to_string(),
+            ),
+            Warning::MachineUnlimited => (WarningCode::MachineUnlimited, "machine".to_string()),
+            Warning::SurfaceAssumedPlane { .. } => {
+                (WarningCode::SurfaceAssumedPlane, "surface".to_string())
+            }
+            Warning::ExactFit => (WarningCode::ExactFit, "runs".to_string()),
+            Warning::RemovalNotSignificant { .. } => (
+                WarningCode::RemovalNotSignificant,
+                "removal_ratio".to_string(),
+            ),
             Warning::ParameterUndetermined { parameter, .. } => (
                 WarningCode::ParameterUndetermined,
                 format!("fit.{}", parameter.name()),

@@ -52,7 +52,7 @@ impl CsvForm for MeasurementFitRequest {
                 ReadError::NotANumber { column, index, .. } => {
                     format!("profile.{column}[{index}]")
                 }
-                ReadError::Csv(_) | ReadError::NoHeader(..) => "profile".to_string(),
+                ReadError::Csv { .. } | ReadError::NoHeader { .. } => "profile".to_string(),
             };
             ApiError::invalid(field, e.to_string())
         })?;

@@ -10,7 +10,7 @@ mod csv_query;
 pub use csv_query::CsvQuery;
 
 use super::csv_body::{self, CsvOrJson};
-use super::dto::{ApertureEcho, ClearApertureDto, RadialGridDto, SurfaceDto};
+use super::dto::{ApertureEcho, ClearApertureDto, RadialGridDto, SurfaceDto, WarningDto};
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object};
@@ -244,6 +244,22 @@ pub struct MeasurementFitResponse {
     pub correction_target: TargetDto,
     /// How the fit went.
     pub solver: FitReportDto,
+    /// Only when the request gave no `surface` (a plane was fitted): the sphere that fits the
+    /// trace best, beside the plane's `form_error`; null when a surface was given, the trace
+    /// is flat (R beyond 10 km) or no sphere holds it.
+    #[schema(required = true)]
+    pub best_fit_sphere: Option<BestFitSphereDto>,
+    /// `surface_assumed_plane` when no surface was given; empty when there is nothing to say.
+    pub warnings: Vec<WarningDto>,
+}
+
+/// A sphere fitted to the trace with its vertex radius, lateral offset and piston free.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
+pub struct BestFitSphereDto {
+    /// Vertex radius of curvature, mm (> 0 concave as the tool sees it).
+    pub radius_of_curvature_mm: f64,
+    /// RMS of the axial residual on that sphere, nm (over the points the fit kept).
+    pub residual_rms_nm: f64,
 }
 
 /// `POST /v1/measurement/fit`.
@@ -281,10 +297,7 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
     fn parse(req: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let fit = req.fit.unwrap_or_default();
         let spec = MeasurementFitSpec {
-            surface: req
-                .surface
-                .as_ref()
-                .map_or(SurfaceSpec::Plane, SurfaceSpec::from),
+            surface: req.surface.as_ref().map(SurfaceSpec::from),
             x_mm: req.profile.x_mm,
             z_mm: req.profile.z_mm,
             probe_tip_radius_mm: req.probe_tip_radius_mm,
@@ -367,6 +380,11 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
                 robust_scale_nm: m.outcome.robust_scale_mm.map(|s| s * NM_PER_MM),
                 ignored_points: points.iter().filter(|p| p.weight == 0.0).count(),
             },
+            best_fit_sphere: m.best_fit_sphere.map(|s| BestFitSphereDto {
+                radius_of_curvature_mm: s.radius_of_curvature_mm,
+                residual_rms_nm: s.residual_rms_nm,
+            }),
+            warnings: WarningDto::all(&m.warnings),
         }
     }
 }

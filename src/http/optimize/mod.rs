@@ -12,12 +12,11 @@ use super::dto::{
     setting_of, ApertureEcho, ClearApertureDto, DwellDto, MetricsDto, ProcessDto, RadialGridDto,
     RecommendationDto, SurfaceDto, WarningDto,
 };
-use super::dto::{AxesDto, MachineDto, ToolDto};
+use super::dto::{AxesDto, MachineChoiceDto, ToolDto};
 use super::endpoint::{Doc, Endpoint};
 use super::error::{ApiError, Kind};
 use super::extract::{object, optional_object, ApiJson};
 use super::state::Services;
-use crate::machine::MachineLimitsSpec;
 use crate::optimize::{OptimizeError, SolveStatus};
 use crate::report::results;
 use crate::usecases::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan};
@@ -57,12 +56,14 @@ pub struct OptimizeRequest {
     /// Solver settings.
     #[serde(default, deserialize_with = "optional_object")]
     pub solver: Option<SolverOptionsDto>,
-    /// The machine the plan must run on: with it, every axis velocity and acceleration limit
-    /// becomes a constraint on the dwell, so that `/v1/program` with the same surface, tool
-    /// and machine accepts the plan. Positions that put an axis outside its travel, or speeds
-    /// over a spindle's limit, are refused (422 `machine-limits`). Default: no machine.
-    #[serde(default, deserialize_with = "optional_object")]
-    pub machine: Option<MachineDto>,
+    /// The machine the plan must run on: every axis velocity and acceleration limit becomes
+    /// a constraint on the dwell, so that `/v1/program` with the same surface, tool and
+    /// machine accepts the plan. Positions that put an axis outside its travel, or speeds
+    /// over a spindle's limit, are refused (422 `machine-limits`). Default: the default
+    /// machine; `"unlimited"` keeps no machine limit (a study: the plan warns
+    /// `machine_unlimited`).
+    #[serde(default)]
+    pub machine: Option<MachineChoiceDto>,
     /// The part's surface; default a plane. Positions and the radial grid are radial
     /// coordinates of surface points; removal is along the normal, for a pad that conforms to
     /// the surface. With `machine`, the surface also gives the axes' poses.
@@ -234,7 +235,7 @@ text/csv` returns the plan (position and dwell columns).",
             constraints: ConstraintsDto::to_constraints(req.constraints.as_ref()),
             objective: ObjectiveDto::to_objective(req.objective.as_ref()),
             time_limit_s: req.solver.and_then(|s| s.time_limit_s),
-            machine: req.machine.as_ref().map(MachineLimitsSpec::from),
+            machine: MachineChoiceDto::choice(req.machine.as_ref()),
         };
         Ok(OptimizeCommand::new(setting, spec, limits)?)
     }
@@ -242,8 +243,9 @@ text/csv` returns the plan (position and dwell columns).",
     fn run(command: Self::Command, services: &Services) -> Result<OptimizedPlan, ApiError> {
         let max_time_limit_s = command.max_time_limit_s();
         let suspect = command
-            .input_warning()
-            .map(|w| WarningDto::new(&w, "positions_mm"));
+            .input_warnings()
+            .first()
+            .map(|w| WarningDto::new(w, "positions_mm"));
         let plan = optimize(command, &services.recommender, &services.operators);
         services
             .metrics

@@ -9,6 +9,7 @@ use super::docs::{PartPlanRequest, PlanProgramRequest, RecordReadProblems, Recor
 use super::dto::{CycleDto, HistoryDto, PlanDto, RatioDto, RunRecordDto, RunRequest};
 use super::parts::part_dto;
 use super::{begin, commit, fetched, replayed, store, Writer};
+use crate::http::dto::WarningDto;
 use crate::http::endpoint::{offered, render, Endpoint};
 use crate::http::error::ApiError;
 use crate::http::extract::{self, ApiJson};
@@ -174,6 +175,7 @@ fn cycle_dto(cycle: &Cycle<'_>) -> CycleDto {
         convergence_ratio: cycle.convergence_ratio(),
         removal_ratio,
         learned_calibration_id: cycle.learned.map(|c| c.stamp.id.clone()),
+        warnings: WarningDto::all(&cycle.warnings()),
     }
 }
 

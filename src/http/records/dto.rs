@@ -6,7 +6,7 @@ use serde_json::Value;
 use utoipa::ToSchema;
 
 use crate::http::calibration::CalibrationResponse;
-use crate::http::dto::{ClearApertureDto, ProcessDto, SurfaceDto, ToolDto};
+use crate::http::dto::{ClearApertureDto, ProcessDto, SurfaceDto, ToolDto, WarningDto};
 use crate::http::measurement_fit::{MeasurementFitRequest, MeasurementFitResponse};
 use crate::http::optimize::{OptimizeRequest, OptimizeResponse};
 
@@ -177,6 +177,9 @@ pub struct MeasurementDto {
     pub completes_run_id: Option<String>,
     /// The calibration learned from that cycle, if the removal determined one.
     pub learned_calibration_id: Option<String>,
+    /// `removal_not_significant` when this measurement completed a cycle that taught
+    /// nothing; empty otherwise.
+    pub warnings: Vec<WarningDto>,
     /// When it was written, RFC 3339 UTC.
     pub created_at: String,
     /// The name of the API key that wrote it (empty when the service runs without keys).
@@ -278,8 +281,11 @@ pub struct CycleDto {
     /// Actual / predicted removal: the run's dwell fitted to before − after as a calibration
     /// of the Preston coefficient, relative to the coefficient the plan used.
     pub removal_ratio: Option<RatioDto>,
-    /// The calibration learned from this cycle.
+    /// The calibration learned from this cycle (none when its removal did not determine K).
     pub learned_calibration_id: Option<String>,
+    /// `removal_not_significant` when the cycle is complete but taught nothing (its removal
+    /// is not 2 standard errors above 0: the run removed nothing measurable); empty otherwise.
+    pub warnings: Vec<WarningDto>,
 }
 
 /// `GET /v1/parts/{id}/history`.

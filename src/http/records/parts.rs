@@ -11,6 +11,7 @@ use super::docs::{PartMeasurementRequest, RecordReadProblems, RecordWriteProblem
 use super::dto::{MeasurementDto, PartDto, PartListDto, PartRequest};
 use super::{begin, commit, fetched, replayed, store, Writer};
 use crate::http::csv_body::{CsvForm, CsvOrJson};
+use crate::http::dto::WarningDto;
 use crate::http::error::ApiError;
 use crate::http::extract::ApiJson;
 use crate::http::state::AppState;
@@ -194,6 +195,7 @@ fn measurement_dto(measured: &Measured) -> Result<MeasurementDto, ApiError> {
         result: document(&record.result)?,
         completes_run_id: measured.completes_run.clone(),
         learned_calibration_id: measured.learned_calibration().map(str::to_string),
+        warnings: WarningDto::all(&measured.warnings()),
         created_at: record.stamp.created_at.clone(),
         created_by: record.stamp.created_by.clone(),
     })

@@ -317,7 +317,8 @@
   function lineChart({ title, xLabel, yLabel, series, band, hline, fromZero = true }) {
     const W = 560;
     const H = 330;
-    const m = { l: 66, r: 14, t: 30, b: 44 };
+    // The top margin holds the legend and, under it, the band's label (out of the curves' way).
+    const m = { l: 66, r: 14, t: 42, b: 44 };
     const points = series.flatMap((s) => s.points).filter(([x, y]) => Number.isFinite(x) && Number.isFinite(y));
     const [x0, x1] = extent([...points.map((p) => p[0]), ...(band ? [band.from, band.to] : [])], false);
     const [y0, y1] = extent([...points.map((p) => p[1]), ...(hline ? [hline.y] : [])], fromZero);
@@ -329,7 +330,7 @@
       const bx0 = X(Math.max(band.from, x0));
       const bx1 = X(Math.min(band.to, x1));
       root.append(svg('rect', { class: 'band', x: bx0, y: m.t, width: Math.max(bx1 - bx0, 1), height: H - m.t - m.b }));
-      root.append(svg('text', { x: bx0 + 4, y: m.t + 12, class: 'band-label' }, band.label));
+      root.append(svg('text', { x: bx0 + 2, y: m.t - 5, class: 'band-label' }, band.label));
     }
     for (const t of niceTicks(x0, x1)) {
       root.append(svg('line', { class: 'grid', x1: X(t), x2: X(t), y1: m.t, y2: H - m.b }));
@@ -537,7 +538,7 @@
     const w = r.eta_window;
     draw(view, 'eta-sweep', {
       title: 'Equal-dwell nonuniformity against η',
-      xLabel: 'η = −workpiece_rpm / tool_rpm (1)', yLabel: 'nonuniformity pv/mean (%)',
+      xLabel: 'η = −workpiece_rpm / tool_rpm', yLabel: 'nonuniformity pv/mean (%)',
       series: [{ name: `tool at ${label(sweep.tool_rpm)} r/min`, points: sweep.points.map((p) => [p.eta, 100 * (p.metrics.nonuniformity ?? NaN)]), markers: true }],
       band: w ? { from: w.low, to: w.high, label: `η window ${label(w.low)} … ${label(w.high)}` } : undefined,
       hline: w ? { y: 100 * w.nonuniformity_threshold, label: `threshold ${pct(w.nonuniformity_threshold)}` } : undefined,
@@ -548,7 +549,7 @@
       ['η window', w ? `${label(w.low)} … ${label(w.high)}` : 'none'],
       ['Nonuniformity now', pct(r.current_metrics.nonuniformity)],
       ['Nonuniformity at η = −1', pct(r.metrics.nonuniformity), 'good'],
-      ['Improvement', r.improvement_factor ? `${label(r.improvement_factor)}×` : 'n/a'],
+      ['Improvement', r.nonuniformity_removed ? 'removed' : r.improvement_factor ? `${label(r.improvement_factor)}×` : 'n/a'],
       ['Equal-dwell time', fmtTime(r.equal_dwell.total_time_s)],
     ]);
   }

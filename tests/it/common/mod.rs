@@ -220,3 +220,16 @@ pub fn request_fixtures() -> Vec<String> {
     names.sort();
     names
 }
+
+/// The default machine's limit `key` on `axis` (docs/MACHINE.md, "The default machine"),
+/// written out here from the docs, not read from the code: X and Z 10,000 mm/min and
+/// 2,000 mm/s², B 9,000 deg/min and 1,800 deg/s², no travel limits.
+pub fn default_machine_limit(axis: &str, key: &str) -> Option<f64> {
+    match (axis, key) {
+        ("x" | "z", "max_velocity_mm_per_min") => Some(10_000.0),
+        ("x" | "z", "max_acceleration_mm_per_s2") => Some(2_000.0),
+        ("b", "max_velocity_deg_per_min") => Some(9_000.0),
+        ("b", "max_acceleration_deg_per_s2") => Some(1_800.0),
+        _ => None,
+    }
+}
