@@ -171,6 +171,9 @@ def request_body(n, vary=0, field="workpiece_rpm"):
             "target": {"uniform_depth_nm": DEPTH_NM},
             "radial_grid": {"start_mm": 0, "stop_mm": WORKPIECE_MM, "count": n},
             "clear_aperture": {"inner_mm": 0, "outer_mm": OUTER_MM},
+            # The peer keeps no machine limits; nor does Preston here (its default machine
+            # would add the axes' limits as constraints: docs/MACHINE.md).
+            "machine": "unlimited",
         }
     ).encode()
 

@@ -128,6 +128,9 @@ pub const DEFAULT_MACHINE: MachineLimitsSpec = MachineLimitsSpec {
 };
 
 /// Which machine a plan or program is for.
+// One per request, copied a few times: 224 bytes is nothing beside a plan, and `Copy` keeps
+// the commands simple.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub enum MachineChoice {
     /// None named: [`DEFAULT_MACHINE`].

@@ -196,7 +196,8 @@ def main_flow(binary, screenshots):
         check("η window" in sweep_fig and page.css('figure[data-chart="eta-sweep"] rect.band'),
               "η window shaded on the sweep")
         summary = page.text_of('[data-summary="recommend"]')
-        check("106.096" in summary, f"η = −1 speeds of paper experiment 1 shown ({summary!r})")
+        check("106.1, 106.1 r/min" in summary, f"η = −1 speeds of paper experiment 1 shown ({summary!r})")
+        check("Improvement\nremoved" in summary, f"the nonuniformity η = −1 removes is said so ({summary!r})")
         page.screenshot(screenshots, "predict")
         page.one('figure[data-chart="predict"] a[data-format="csv"]').click()
         table = DOWNLOADS / "preston-predict.csv"

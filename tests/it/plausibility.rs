@@ -253,6 +253,7 @@ async fn every_compute_endpoint_answers_warnings_as_an_array() {
 /// takes a process, naming the process field.
 #[tokio::test]
 async fn unit_mistakes_in_the_process_warn_on_every_endpoint() {
+    let mut metres = std::collections::BTreeSet::new();
     for fixture in request_fixtures() {
         let request = read_fixture(&fixture);
         if request.get("process").is_none() {
@@ -271,38 +272,49 @@ async fn unit_mistakes_in_the_process_warn_on_every_endpoint() {
             .unwrap_or_else(|| panic!("{fixture}: {}", response["warnings"]));
         assert_eq!(warning["field"], "process.pressure_kpa");
 
-        // The same part in metres: every length / 1000 (only where the endpoint can still
-        // compute: the removal function and the η endpoints take any geometry).
-        if [
-            "/v1/removal-function",
-            "/v1/recommend",
-            "/v1/studies/eta-sweep",
-            "/v1/predict",
-        ]
-        .contains(&endpoint)
-        {
-            let metres = json!({
-                "process": {"workpiece_radius_mm": 0.05, "tool_radius_mm": 0.01,
-                            "workpiece_rpm": -10, "tool_rpm": 200},
-            });
-            let mut body = metres.clone();
-            match endpoint {
-                "/v1/removal-function" => body["tool_positions_mm"] = json!([0.02]),
-                "/v1/predict" => {
-                    body["feed"] =
-                        json!({"start_mm": 0.0, "stop_mm": 0.05, "feed_mm_per_min": 0.02})
-                }
-                "/v1/studies/eta-sweep" => body["etas"] = json!([-1.0, -0.5]),
-                _ => {}
+        // The paper's part in metres (a 0.05 mm workpiece, a 0.01 mm pad), in the body each
+        // endpoint takes.
+        let mut body = json!({
+            "process": {"workpiece_radius_mm": 0.05, "tool_radius_mm": 0.01,
+                        "workpiece_rpm": -10, "tool_rpm": 200},
+        });
+        let positions = json!([0.0, 0.01, 0.02, 0.03, 0.04, 0.05]);
+        match endpoint {
+            "/v1/removal-function" => body["tool_positions_mm"] = json!([0.02]),
+            "/v1/predict" => {
+                body["feed"] = json!({"start_mm": 0.0, "stop_mm": 0.05, "feed_mm_per_min": 0.02})
             }
-            let (status, response) = post(endpoint, &body).await;
-            assert_eq!(status, 200, "{endpoint}: {response}");
-            assert!(
-                codes(&response).contains(&"process_looks_like_metres".to_string()),
-                "{endpoint}: {response}"
-            );
+            "/v1/optimize" => {
+                body["positions_mm"] = positions;
+                body["target"] = json!({"uniform_depth_nm": 100});
+            }
+            "/v1/program" => {
+                body["dwell"] = json!({"positions_mm": positions, "dwell_s": [1, 1, 1, 1, 1, 1]})
+            }
+            "/v1/calibration" => {
+                body["runs"] = json!([{"ring": {"position_mm": 0.02, "duration_s": 60},
+                    "removal": {"radius_mm": [0.01, 0.015, 0.02, 0.025, 0.03],
+                                "depth_nm": [1, 3, 4, 3, 1]}}])
+            }
+            "/v1/studies/eta-sweep" => body["etas"] = json!([-1.0, -0.5]),
+            _ => {}
         }
+        let (status, response) = post(endpoint, &body).await;
+        assert_eq!(status, 200, "{endpoint}: {response}");
+        let warning = response["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|w| w["code"] == "process_looks_like_metres")
+            .unwrap_or_else(|| panic!("{endpoint}: {}", response["warnings"]));
+        assert_eq!(warning["field"], "process.workpiece_radius_mm");
+        metres.insert(endpoint);
     }
+    assert_eq!(
+        metres.len(),
+        7,
+        "every endpoint that takes a process: {metres:?}"
+    );
 }
 
 /// A concave sphere traced with a lateral offset and noise, fitted without `surface`: a

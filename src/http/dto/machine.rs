@@ -107,7 +107,7 @@ pub enum UnlimitedDto {
 #[serde(untagged)]
 pub enum MachineChoiceDto {
     Unlimited(UnlimitedDto),
-    Limits(MachineDto),
+    Limits(Box<MachineDto>),
 }
 
 impl<'de> Deserialize<'de> for MachineChoiceDto {
@@ -134,7 +134,7 @@ impl<'de> Deserialize<'de> for MachineChoiceDto {
                 map: A,
             ) -> Result<Self::Value, A::Error> {
                 MachineDto::deserialize(serde::de::value::MapAccessDeserializer::new(map))
-                    .map(MachineChoiceDto::Limits)
+                    .map(|m| MachineChoiceDto::Limits(Box::new(m)))
             }
         }
         d.deserialize_any(Choice)
@@ -147,7 +147,7 @@ impl MachineChoiceDto {
         match dto {
             None => MachineChoice::Default,
             Some(MachineChoiceDto::Unlimited(_)) => MachineChoice::Unlimited,
-            Some(MachineChoiceDto::Limits(m)) => MachineChoice::Given(m.into()),
+            Some(MachineChoiceDto::Limits(m)) => MachineChoice::Given(m.as_ref().into()),
         }
     }
 }

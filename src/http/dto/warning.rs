@@ -107,7 +107,7 @@ impl WarningDto {
                 (WarningCode::SurfaceAssumedPlane, "surface".to_string())
             }
             Warning::ExactFit => (WarningCode::ExactFit, "runs".to_string()),
-            Warning::RemovalNotSignificant { .. } => (
+            Warning::RemovalNotSignificant => (
                 WarningCode::RemovalNotSignificant,
                 "removal_ratio".to_string(),
             ),
