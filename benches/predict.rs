@@ -11,6 +11,7 @@ use axum::http::Request;
 use http_body_util::BodyExt;
 use preston::config::ServiceLimits;
 use preston::http::{router, AppState};
+use preston::machine::MachineLimits;
 use preston::physics::{PressureModel, ProcessSpec};
 use preston::surface::SurfaceSpec;
 use preston::usecases::predict::{predict, DwellSpec, PredictCommand, TravelSpec};
@@ -200,7 +201,11 @@ fn recommendation_new_setup(bencher: divan::Bencher) {
                 SurfaceSpec::Plane,
             )
         })
-        .bench_values(|setting| recommender.for_plan(&setting, 100.0, None).unwrap());
+        .bench_values(|setting| {
+            recommender
+                .for_plan(&setting, 100.0, None, &MachineLimits::default())
+                .unwrap()
+        });
 }
 
 #[divan::bench(args = [true, false], sample_count = 50)]

@@ -178,14 +178,16 @@ impl NewRun {
                     format!("part `{id}` has no plan `{}`", self.plan),
                 )
             })?;
-        // A run cannot start before its plan existed (a clock or a plan id mixed up).
+        // A run cannot start before its plan existed (a plan id mixed up); the MES's clock may
+        // differ from the service's, and write whole seconds, by up to CLOCK_SKEW.
         let planned = timestamp("plan_id", &plan.stamp.created_at)?;
-        if timestamp("started_at", &self.started_at)? < planned {
+        if timestamp("started_at", &self.started_at)? + CLOCK_SKEW < planned {
             return Err(LedgerError::invalid(
                 "started_at",
                 format!(
-                    "the run starts before its plan was made ({}): a run cannot start before \
-                     its plan exists (check the clock, or plan_id)",
+                    "the run starts more than {} min before its plan was made ({}): a run \
+                     cannot start before its plan exists (check plan_id, or the MES's clock)",
+                    CLOCK_SKEW.as_secs() / 60,
                     plan.stamp.created_at
                 ),
             ));
@@ -201,6 +203,10 @@ impl NewRun {
         })
     }
 }
+
+/// How far a run's start may precede its plan's creation: the MES's clock against the
+/// service's, and its whole seconds against the record's milliseconds.
+const CLOCK_SKEW: std::time::Duration = std::time::Duration::from_secs(300);
 
 /// An RFC 3339 UTC timestamp, as given.
 fn timestamp(field: &str, text: &str) -> Result<SystemTime, LedgerError> {

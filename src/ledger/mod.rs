@@ -94,6 +94,10 @@ pub trait Compute: Sync {
         request: &Document,
     ) -> impl Future<Output = Result<Value, Self::Problem>> + Send;
 
+    /// Whether `problem` refuses the request itself (a 4xx: the input cannot be computed), as
+    /// against a computation that could not run now (overload, a timeout, an internal error).
+    fn refuses(problem: &Self::Problem) -> bool;
+
     /// Checks a setting as every compute endpoint would, without computing.
     fn check_setting(&self, setting: &Document, of: Setting) -> Result<(), Self::Problem>;
 }

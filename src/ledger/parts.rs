@@ -12,8 +12,8 @@ use super::{
 };
 use crate::store::Store;
 use crate::usecases::records::{
-    cycles, run_completed_by_new_measurement, CalibrationRecord, MeasurementRecord, PartRecord,
-    Records,
+    cycles, lesson_warnings, run_completed_by_new_measurement, CalibrationRecord,
+    MeasurementRecord, PartRecord, Records,
 };
 use crate::usecases::Warning;
 
@@ -98,27 +98,29 @@ pub struct Measured {
     pub measurement: MeasurementRecord,
     /// The run whose cycle it completes.
     pub completes_run: Option<String>,
-    /// The calibration learned from that cycle (none when its removal does not determine the
-    /// coefficient; the measurement still completes the cycle).
-    pub learned: Option<CalibrationRecord>,
+    /// That cycle was measured before too (its plan's measurement), so it can teach.
+    pub measured_before: bool,
+    /// The calibration fitted to that cycle's removal: learned when significant
+    /// ([`CalibrationRecord::learned`]); none when no K > 0 fits it, or nothing was measured
+    /// before.
+    pub fitted: Option<CalibrationRecord>,
 }
 
 impl Measured {
+    /// The calibration the profile learned from the cycle, if it learned one.
     pub fn learned_calibration(&self) -> Option<&str> {
-        self.learned.as_ref().map(|c| c.stamp.id.as_str())
+        self.fitted
+            .as_ref()
+            .filter(|c| c.learned())
+            .map(|c| c.stamp.id.as_str())
     }
 
-    /// A cycle completed that taught nothing (see [`crate::usecases::records::Cycle::warnings`]).
+    /// A complete cycle that taught nothing ([`lesson_warnings`]), as its history says.
     pub fn warnings(&self) -> Vec<Warning> {
-        let taught = self
-            .learned
-            .as_ref()
-            .is_some_and(CalibrationRecord::significant);
-        if self.completes_run.is_some() && !taught {
-            vec![Warning::RemovalNotSignificant]
-        } else {
-            Vec::new()
-        }
+        lesson_warnings(
+            self.completes_run.is_some() && self.measured_before,
+            self.fitted.as_ref(),
+        )
     }
 }
 
@@ -148,26 +150,33 @@ pub async fn measure<C: Compute>(
         request: Value::Object(request).to_string(),
         result: result.to_string(),
     };
-    let (completes_run, learned) =
-        match learn_from_cycle(compute, write, &part, &result["profile"]).await? {
-            Some((run, learned)) => (Some(run), learned),
-            None => (None, None),
-        };
+    let lesson = learn_from_cycle(compute, write, &part, &result["profile"]).await?;
     Ok(Measured {
         measurement,
-        completes_run,
-        learned,
+        completes_run: lesson.as_ref().map(|l| l.run.clone()),
+        measured_before: lesson.as_ref().is_some_and(|l| l.measured_before),
+        fitted: lesson.and_then(|l| l.fitted),
     })
 }
 
+/// What a new measurement's cycle taught.
+struct Lesson {
+    run: String,
+    measured_before: bool,
+    fitted: Option<CalibrationRecord>,
+}
+
 /// The cycle a new measurement (its form-error `profile`) completes, if any: its run, and the
-/// calibration learned from it.
+/// calibration fitted to its removal (kept whether or not it is significant: the profile
+/// learns only from those that are). A computation that could not run (the service
+/// overloaded) fails the write, to be retried; one that refuses the removal (no K > 0 fits
+/// it) leaves the cycle without a calibration.
 async fn learn_from_cycle<C: Compute>(
     compute: &C,
     write: &Write<'_>,
     part: &PartRecord,
     after: &Value,
-) -> Result<Option<(String, Option<CalibrationRecord>)>, C::Problem> {
+) -> Result<Option<Lesson>, C::Problem> {
     let store = write.store();
     let id = &part.stamp.id;
     let (measurements, plans, runs) = (
@@ -180,7 +189,14 @@ async fn learn_from_cycle<C: Compute>(
     };
     let missing = || LedgerError::Broken("a cycle's plan or measurement is missing".into());
     let plan = store.plan(&plan.stamp.id).await?.ok_or_else(missing)?;
-    let before_id = plan.measurement.as_deref().ok_or_else(missing)?;
+    let Some(before_id) = plan.measurement.as_deref() else {
+        // Planned with a target of its own: nothing measured before, nothing to learn.
+        return Ok(Some(Lesson {
+            run: run.stamp.id.clone(),
+            measured_before: false,
+            fitted: None,
+        }));
+    };
     let before = store.measurement(before_id).await?.ok_or_else(missing)?;
     let plan_request = document(&plan.request)?;
     let profile = profiles::load(store, &part.process_profile).await?;
@@ -196,23 +212,25 @@ async fn learn_from_cycle<C: Compute>(
     plan_setting(&mut request, &plan_request, &profile)?;
     request.insert("runs".into(), json!([run_fit]));
     request.insert("fit".into(), json!({"preston_coefficient": true}));
-    let learned = match compute.compute(Computation::Calibration, &request).await {
-        // A K not significantly above 0 (a run that removed nothing measurable) is not kept:
-        // the cycle warns instead (`Cycle::warnings`).
+    let fitted = match compute.compute(Computation::Calibration, &request).await {
         Ok(result) => Some(calibration_record(
             write.stamp(),
             &profile.stamp.id,
             &request,
             &result,
             Some(run.stamp.id.clone()),
-        )?)
-        .filter(CalibrationRecord::significant),
-        Err(error) => {
+        )?),
+        Err(error) if C::refuses(&error) => {
             tracing::info!(run = %run.stamp.id, %error, "the cycle's removal determines no calibration");
             None
         }
+        Err(error) => return Err(error),
     };
-    Ok(Some((run.stamp.id.clone(), learned)))
+    Ok(Some(Lesson {
+        run: run.stamp.id.clone(),
+        measured_before: true,
+        fitted,
+    }))
 }
 
 /// A stored measurement, and the cycle it completed.
@@ -230,7 +248,8 @@ pub async fn measurement(store: &Store, id: &str) -> Result<Measured, LedgerErro
         .find(|c| c.after.is_some_and(|m| m.stamp.id == id));
     Ok(Measured {
         completes_run: cycle.as_ref().map(|c| c.run.stamp.id.clone()),
-        learned: cycle.and_then(|c| c.learned).cloned(),
+        measured_before: cycle.as_ref().is_some_and(|c| c.before.is_some()),
+        fitted: cycle.and_then(|c| c.learned).cloned(),
         measurement,
     })
 }

@@ -182,6 +182,39 @@ impl MachineChoice {
     pub fn is_unlimited(self) -> bool {
         self == MachineChoice::Unlimited
     }
+
+    /// Whether `limit` of `drive` in force is the default machine's (not given by the caller).
+    pub fn is_default(self, drive: Drive, limit: LimitKind) -> bool {
+        match self {
+            MachineChoice::Default => true,
+            MachineChoice::Unlimited => false,
+            MachineChoice::Given(given) => {
+                let axis = |a: &AxisLimits| match limit {
+                    LimitKind::Min => a.min,
+                    LimitKind::Max => a.max,
+                    LimitKind::MaxVelocity => a.max_velocity_per_min,
+                    LimitKind::MaxAcceleration => a.max_acceleration_per_s2,
+                    LimitKind::MaxRpm => None,
+                };
+                let stated = match drive {
+                    Drive::X => axis(&given.x),
+                    Drive::Z => axis(&given.z),
+                    Drive::B => axis(&given.b),
+                    Drive::WorkpieceSpindle => given.workpiece_max_rpm,
+                    Drive::ToolSpindle => given.tool_max_rpm,
+                };
+                stated.is_none()
+            }
+        }
+    }
+
+    /// `violations` with each marked when the limit it breaks is the default machine's.
+    pub fn mark(self, mut violations: Vec<Violation>) -> Vec<Violation> {
+        for v in &mut violations {
+            v.default_machine = self.is_default(v.drive, v.limit);
+        }
+        violations
+    }
 }
 
 /// Every limit of the machine, checked ([`MachineLimits::new`] is the only way to make one;
@@ -217,6 +250,11 @@ impl MachineLimits {
         };
         limits.check()?;
         Ok(limits)
+    }
+
+    /// The workpiece's and the tool's spindle speed limits, r/min (`None`: none).
+    pub fn spindle_max_rpm(&self) -> (Option<f64>, Option<f64>) {
+        (self.workpiece_max_rpm, self.tool_max_rpm)
     }
 
     /// The limits of axis `drive` (X, Z or B).
@@ -287,6 +325,8 @@ pub struct Violation {
     /// The first block breaking it; `None` for a spindle speed (the whole program).
     pub first_block: Option<usize>,
     pub blocks: usize,
+    /// The limit is the default machine's, not one the caller gave ([`MachineChoice::mark`]).
+    pub default_machine: bool,
 }
 
 impl MachineLimits {
@@ -347,6 +387,7 @@ impl MachineLimits {
                         value,
                         first_block: Some(program.block_of(limit, first)),
                         blocks: bad.len(),
+                        default_machine: false,
                     });
                 }
             }
@@ -367,6 +408,7 @@ impl MachineLimits {
                     value: rpm.abs(),
                     first_block: None,
                     blocks: program.blocks().len(),
+                    default_machine: false,
                 });
             }
         }

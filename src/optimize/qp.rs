@@ -839,7 +839,11 @@ fn within_acceleration(
         let kept = problem
             .axes
             .iter()
-            .all(|a| peak_acceleration_ratio(a, &next.dwell_s) <= 1.0);
+            .all(|a| peak_acceleration_ratio(a, &next.dwell_s) <= 1.0)
+            && problem
+                .constraints
+                .violation(&next.dwell_s, floors, scales.dwell_s)
+                .is_none();
         if !kept {
             best.get_or_insert(start);
             break;
@@ -862,11 +866,13 @@ fn within_acceleration(
     Ok(best)
 }
 
-/// The constant dwell that fits the target best (least squares, no piston) but no less than
-/// `start_s`, the constant dwell that keeps every row: a constant dwell keeps the acceleration
-/// rows the more the longer it is (velocities fall as 1/t, the allowed change grows as t), so
-/// it is a plan within the limits when the solver cannot improve on the procedure's start.
-/// Reported as almost solved: within every limit, but not the optimum.
+/// The constant dwell t (with the piston p ≥ 0 when free) that fits the target best in least
+/// squares, but no less than `start_s`, the constant dwell that keeps every row: a constant
+/// dwell keeps the acceleration rows the more the longer it is (velocities fall as 1/t, the
+/// allowed change grows as t), sits on no dwell change, and stays within `max_dwell_s` and
+/// `max_total_time_s`/n (checked above `start_s` before). The convex–concave procedure starts
+/// from it, and it stands when no round improves on it within the limits (reported as almost
+/// solved: within every limit, not the optimum).
 fn constant_fallback(
     problem: &DwellProblem,
     band: &Band,
@@ -875,6 +881,7 @@ fn constant_fallback(
 ) -> Attempt {
     let rows = &problem.rows;
     let n = problem.positions_mm.len();
+    // u: the removal of one second at every position, on the aperture's rows.
     let mut unit = vec![0.0; rows.len()];
     for j in 0..n {
         let from = band.start[j] - rows.start;
@@ -882,15 +889,27 @@ fn constant_fallback(
             *o += m;
         }
     }
-    let (md, mm) = unit
-        .iter()
-        .zip(problem.target_nm)
-        .fold((0.0, 0.0), |(md, mm), (m, d)| (md + m * d, mm + m * m));
-    let mut t = if mm > 0.0 {
-        (md / mm).max(start_s)
+    let (mut su, mut suu, mut sd, mut sud) = (0.0, 0.0, 0.0, 0.0);
+    for (&u, &d) in unit.iter().zip(problem.target_nm) {
+        (su, suu, sd, sud) = (su + u, suu + u * u, sd + d, sud + u * d);
+    }
+    let m = unit.len() as f64;
+    // min Σ (t·u − d − p)²: with p free, the normal equations t·Σu² − p·Σu = Σud,
+    // −t·Σu + p·m = −Σd; p < 0 (or no piston) leaves t = Σud/Σu².
+    let alone = if suu > 0.0 { sud / suu } else { 0.0 };
+    let t = if problem.free_piston {
+        let det = suu * m - su * su;
+        let t = (sud * m - su * sd) / det;
+        let p = (t * su - sd) / m;
+        if det > 0.0 && p > 0.0 && t.is_finite() {
+            t
+        } else {
+            alone
+        }
     } else {
-        start_s
+        alone
     };
+    let mut t = t.max(start_s);
     let c = &problem.constraints;
     if let Some(hi) = c.max_dwell_s {
         t = t.min(hi);
@@ -899,12 +918,17 @@ fn constant_fallback(
         t = t.min(total / n as f64);
     }
     let t = t.max(start_s);
+    // The best piston for the dwell kept (p ≥ 0).
+    let p = if problem.free_piston {
+        ((t * su - sd) / m).max(0.0)
+    } else {
+        0.0
+    };
     let dwell_s = vec![t; n];
-    let piston_nm = problem.free_piston.then_some(0.0);
     Attempt {
-        objective: objective_value(problem, band, scales, &dwell_s, 0.0),
+        objective: objective_value(problem, band, scales, &dwell_s, p),
+        piston_nm: problem.free_piston.then_some(p),
         dwell_s,
-        piston_nm,
         status: SolveStatus::AlmostSolved,
         iterations: 0,
         solve_time_s: 0.0,

@@ -46,8 +46,9 @@ pub enum ReadError {
     },
 }
 
-/// Lines looked at for the delimiter and the header before the numbers must have begun.
-const PREAMBLE_LINES: usize = 20;
+/// Lines looked at for the header before the numbers must have begun (an export's metadata
+/// block: operator, instrument, part, settings).
+const PREAMBLE_LINES: usize = 100;
 
 /// A header cell as a column name: lower case, quotes dropped, a unit in brackets or
 /// parentheses or after a space or slash joined with `_` (`X [mm]`, `x (mm)`, `X/mm` and
@@ -67,18 +68,21 @@ fn column_name(header: &str) -> String {
     name.trim_end_matches('_').to_string()
 }
 
-/// The field separator: `;` if a line of the preamble has one (its numbers may then have
-/// decimal commas), else a tab if one has a tab, else `,`.
+/// The field separator, from the data's last lines (a title or metadata line above may hold
+/// anything): the one most of them hold, `;` or a tab before `,` (numbers may then have
+/// decimal commas, so those lines hold a comma too).
 fn delimiter(bytes: &[u8]) -> u8 {
     let lines: Vec<&[u8]> = bytes
         .split(|&b| b == b'\n')
-        .filter(|l| !l.starts_with(b"#"))
-        .take(PREAMBLE_LINES)
+        .filter(|l| !l.starts_with(b"#") && !l.trim_ascii().is_empty())
         .collect();
-    let has = |d: u8| lines.iter().any(|l| l.contains(&d));
-    if has(b';') {
+    let data = &lines[lines.len().saturating_sub(5)..];
+    let count = |d: u8| data.iter().filter(|l| l.contains(&d)).count();
+    let (semicolons, tabs, commas) = (count(b';'), count(b'\t'), count(b','));
+    // Lines with decimal commas hold the separator too, so it wins a tie.
+    if semicolons > 0 && semicolons >= commas {
         b';'
-    } else if has(b'\t') {
+    } else if tabs > 0 && tabs >= commas {
         b'\t'
     } else {
         b','
@@ -86,11 +90,12 @@ fn delimiter(bytes: &[u8]) -> u8 {
 }
 
 /// N columns of finite numbers from an instrument's CSV export: optional `#` comment lines;
-/// fields separated by `,`, `;` (numbers then with a decimal point or comma) or tabs; title
-/// lines (fewer fields than N) before an optional header naming `names` (matched without
+/// fields separated by `,`, `;` or tabs (with `;` or tabs, numbers with a decimal point or
+/// comma); title and metadata lines before an optional header naming `names` (matched without
 /// regard to case, quotes or how the unit is written: `X [mm]` is `x_mm`; other columns
-/// ignored); then one point per row. Without a header the first N columns are read. Blank rows
-/// are skipped.
+/// ignored); then one point per row. Without a header, rows of exactly N numbers are read in
+/// that order (more columns are refused: which are which cannot be told). Blank rows are
+/// skipped.
 pub fn read_columns<const N: usize>(
     bytes: &[u8],
     names: [&'static str; N],
@@ -104,7 +109,7 @@ pub fn read_columns<const N: usize>(
         .flexible(true)
         .from_reader(bytes);
     let parse = |text: &str| {
-        let text = if delimiter == b';' {
+        let text = if delimiter != b',' {
             text.replace(',', ".")
         } else {
             text.to_string()
@@ -153,9 +158,17 @@ pub fn read_columns<const N: usize>(
                     }
                     continue;
                 }
-                // Numbers with no header: a line before them that could have been one was not.
+                // Numbers with no header: a line before them that could have been one was not;
+                // and with more columns than asked for, which are which cannot be told (a
+                // point number first would be read as x).
                 if not_a_header.is_some() {
                     break;
+                }
+                if record.len() > N {
+                    return Err(ReadError::NoHeader {
+                        names: names.to_vec(),
+                        first: Some((line, row_text(&record))),
+                    });
                 }
                 *columns.insert(std::array::from_fn(|k| k))
             }
@@ -254,6 +267,23 @@ mod tests {
                 .unwrap_or_else(|e| panic!("{text:?}: {e}"));
             assert_eq!((x, z), expected, "{text:?}");
         }
+        // A metadata line with a `;` above comma-separated data does not decide the separator.
+        let [x, z] = super::read_columns(
+            "Operator: Smith; cell 3\nx_mm,z_mm\n-20,0.6678\n0.5,0\n".as_bytes(),
+            names,
+        )
+        .unwrap();
+        assert_eq!((x, z), expected);
+        // Tabs with decimal commas.
+        let [x, z] =
+            super::read_columns("X [mm]\tZ [mm]\n-20\t0,6678\n0,5\t0\n".as_bytes(), names).unwrap();
+        assert_eq!((x, z), expected);
+        // Headerless rows with a point number first are refused, not read as x.
+        let error = super::read_columns(b"Trace 7\n1,-20,0.6678\n2,0.5,0\n", names).unwrap_err();
+        assert!(
+            error.to_string().contains("line 2 reads `1,-20,0.6678`"),
+            "{error}"
+        );
         // A header in other units is not read as millimetres.
         let error = super::read_columns(b"X [um],Z [um]\n1,2\n", names).unwrap_err();
         assert!(error.to_string().contains("`X [um],Z [um]`"), "{error}");

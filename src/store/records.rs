@@ -130,7 +130,7 @@ async fn insert(tx: &mut Transaction<'_, Any>, record: &Record) -> Result<(), sq
         .bind(c.preston_coefficient_m2_per_n)
         .bind(c.standard_error_m2_per_n)
         .bind(&c.run)
-        .bind(c.learned())
+        .bind(c.from_run())
         .bind(&c.stamp.created_at)
         .bind(&c.stamp.created_by),
         Record::Part(p) => sqlx::query(

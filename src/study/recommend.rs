@@ -223,15 +223,48 @@ pub fn recommend(
 pub const SPEED_RESOLUTION_RPM: f64 = 0.1;
 
 /// `speed` (> 0) to [`SPEED_RESOLUTION_RPM`], rounded to nearest or, for a limit that must
-/// not be exceeded, `down`. The result is the double nearest the decimal, so it prints short.
+/// not be exceeded, `down` (never above `speed`). The result is the double nearest the
+/// decimal, so it prints short.
 fn rounded_speed(speed: f64, down: bool) -> f64 {
-    let round = |x: f64| if down { x.floor() } else { x.round() };
-    if speed >= 1.0 {
-        round(speed / SPEED_RESOLUTION_RPM) / (1.0 / SPEED_RESOLUTION_RPM)
+    // Steps of the resolution: 1/0.1 = 10 per r/min, or three significant figures below 1.
+    let per_rpm = if speed >= 1.0 {
+        1.0 / SPEED_RESOLUTION_RPM
     } else {
-        let scale = 10f64.powi(2 - speed.log10().floor() as i32);
-        let rounded = round(speed * scale) / scale;
-        // A decimal with three significant figures, as text and back: its nearest double.
-        format!("{rounded:.2e}").parse().unwrap_or(rounded)
+        10f64.powi(2 - speed.log10().floor() as i32)
+    };
+    let steps = speed * per_rpm;
+    // Rounding down, a limit that is itself a step (2.3 r/min: 22.999999999999996 steps in
+    // binary) is that step, not the one below; then the step is checked against the limit.
+    // n steps of an exact power of ten, divided once: the double nearest the decimal, so it
+    // prints short (106.1, not 106.10000000000001).
+    let decimal = |n: f64| n / per_rpm;
+    if !down {
+        return decimal(steps.round());
+    }
+    let n = (steps + 1e-9 * steps.max(1.0)).floor();
+    if decimal(n) <= speed {
+        decimal(n)
+    } else {
+        decimal(n - 1.0)
+    }
+}
+
+#[cfg(test)]
+mod speed_tests {
+    use super::rounded_speed;
+
+    #[test]
+    fn speeds_are_set_to_a_tenth_and_limits_never_exceeded() {
+        assert_eq!(rounded_speed(106.09554537664748, false), 106.1);
+        assert_eq!(rounded_speed(2224.2499, false), 2224.2);
+        assert_eq!(rounded_speed(0.0012345, false), 0.00123);
+        // Down: a limit that is a step stays that step; anything else the step below.
+        for (limit, expected) in [(2.3, 2.3), (1.9, 1.9), (1000.0, 1000.0), (2.29999, 2.2)] {
+            let r = rounded_speed(limit, true);
+            assert_eq!(r, expected, "{limit}");
+            assert!(r <= limit);
+        }
+        assert_eq!(rounded_speed(0.5, true), 0.5);
+        assert!(rounded_speed(0.00123999, true) <= 0.00123999);
     }
 }

@@ -129,8 +129,10 @@ pub struct OptimizeCommand {
     /// The machine the plan runs on: without [`Self::on_machine`], an unlimited one carrying
     /// the default tool over the setting's surface.
     machine: Machine,
-    /// The request asked for no machine limits (the plan then warns that it is a study).
-    unlimited: bool,
+    /// The machine as the request named it (default, unlimited or given): an unlimited one
+    /// makes the plan warn that it is a study, and warnings and errors say which limits are
+    /// the default machine's.
+    choice: MachineChoice,
     setting: Setting,
     positions_mm: Vec<f64>,
     rows: Range<usize>,
@@ -148,7 +150,7 @@ impl OptimizeCommand {
     /// solver failures as well as for the plan's warnings.
     pub fn input_warnings(&self) -> Vec<Warning> {
         let mut warnings = unit_warnings(self.setting.process(), &self.positions_mm);
-        if self.unlimited {
+        if self.choice.is_unlimited() {
             warnings.push(Warning::MachineUnlimited);
         }
         warnings
@@ -217,7 +219,7 @@ impl OptimizeCommand {
                 tool: Tool::default(),
                 limits: MachineLimits::default(),
             },
-            unlimited: machine.is_unlimited(),
+            choice: machine,
             setting,
             positions_mm,
             rows,
@@ -276,7 +278,7 @@ impl OptimizeCommand {
             .filter(|v| matches!(v.limit, LimitKind::Min | LimitKind::Max | LimitKind::MaxRpm))
             .collect();
         if !fixed.is_empty() {
-            return Err(MachineFitError::Limits(fixed));
+            return Err(MachineFitError::Limits(self.choice.mark(fixed)));
         }
         self.machine = machine;
         Ok(self)
@@ -349,6 +351,7 @@ fn program_of(
 /// of the optimizer, never returned.
 fn machine_warnings(
     machine: &Machine,
+    choice: MachineChoice,
     process: &crate::physics::Process,
     program: &Program,
 ) -> Result<Vec<Warning>, OptimizeError> {
@@ -376,6 +379,7 @@ fn machine_warnings(
             warnings.push(Warning::MachineLimitActive {
                 drive,
                 limit: LimitKind::MaxVelocity,
+                default_machine: choice.is_default(drive, LimitKind::MaxVelocity),
             });
         }
         if near(
@@ -385,6 +389,7 @@ fn machine_warnings(
             warnings.push(Warning::MachineLimitActive {
                 drive,
                 limit: LimitKind::MaxAcceleration,
+                default_machine: choice.is_default(drive, LimitKind::MaxAcceleration),
             });
         }
     }
@@ -453,7 +458,7 @@ pub fn optimize(
         objective,
         time_limit_s,
         max_time_limit_s: _,
-        unlimited: _,
+        choice,
     } = command;
     // The recommendation's pass at these speeds is read beside a newly assembled operator.
     let pass = Recommender::pass_to_read(&setting);
@@ -488,7 +493,12 @@ pub fn optimize(
     let solution = solution?;
     let program = program_of(&machine, &positions_mm, &solution.dwell_s, &mut warnings);
     if let Some(program) = &program {
-        warnings.extend(machine_warnings(&machine, setting.process(), program)?);
+        warnings.extend(machine_warnings(
+            &machine,
+            choice,
+            setting.process(),
+            program,
+        )?);
     }
 
     let removal_nm = operator.apply(&solution.dwell_s);
@@ -526,7 +536,7 @@ pub fn optimize(
     }
     Ok(OptimizedPlan {
         warnings,
-        recommendation: recommender.for_plan(&setting, mean_target, passed),
+        recommendation: recommender.for_plan(&setting, mean_target, passed, &machine.limits),
         total_time_s: solution.dwell_s.iter().sum(),
         setting,
         positions_mm,

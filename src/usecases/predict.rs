@@ -3,6 +3,7 @@
 
 use super::warnings::unit_warnings;
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
+use crate::machine::MachineChoice;
 use crate::physics::{ConstantFeed, DwellSchedule, UniformityMetrics};
 use crate::study::Recommendation;
 
@@ -122,7 +123,14 @@ pub fn predict(
     let metrics = UniformityMetrics::over(setting.grid(), setting.aperture(), &removal_nm);
     Prediction {
         warnings,
-        recommendation: recommender.for_plan(&setting, metrics.mean_nm, passed),
+        // A prediction names no machine: its recommendation keeps the default machine's
+        // spindle limits, as the plans made without one will.
+        recommendation: recommender.for_plan(
+            &setting,
+            metrics.mean_nm,
+            passed,
+            &MachineChoice::Default.limits().unwrap_or_default(),
+        ),
         total_time_s,
         setting,
         removal_nm,

@@ -216,9 +216,11 @@ pub fn program(command: ProgramCommand) -> Result<MachineProgram, ProgramFailure
     )
     .map_err(ProgramFailure::Plan)?;
     let spec = command.process.spec();
-    let violations = command
-        .machine
-        .violations(&program, (spec.workpiece_rpm, spec.tool_rpm));
+    let violations = command.choice.mark(
+        command
+            .machine
+            .violations(&program, (spec.workpiece_rpm, spec.tool_rpm)),
+    );
     if !violations.is_empty() {
         return Err(ProgramFailure::Limits(violations));
     }

@@ -23,6 +23,7 @@ use std::sync::{Arc, Mutex};
 
 use super::warnings::process_warnings;
 use super::{Input, InputError, Setting, Warning};
+use crate::machine::MachineLimits;
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::physics::{PassReading, Process};
 use crate::study::{
@@ -268,11 +269,14 @@ impl Recommender {
     /// a positive number).
     /// `read`: the pass at the user's speeds as the plan's operator read it beside its rows
     /// ([`study::pass_reading`]), when it was assembled for this plan.
+    /// `machine`: the spindle limits of the machine the plan is for, which the recommended
+    /// speeds keep.
     pub fn for_plan(
         &self,
         setting: &Setting,
         mean_depth_nm: f64,
         read: Option<Vec<f64>>,
+        machine: &MachineLimits,
     ) -> Option<Recommendation> {
         if setting.process().is_eta_minus_one() {
             return None;
@@ -282,10 +286,13 @@ impl Recommender {
         } else {
             DEFAULT_DEPTH_NM
         };
+        let (workpiece, tool) = machine.spindle_max_rpm();
+        // Checked limits (finite, > 0) always make speed limits.
+        let limits = SpeedLimits::new(workpiece, tool).unwrap_or_default();
         self.recommendation(
             setting.process(),
             setting.frame(),
-            SpeedLimits::default(),
+            limits,
             depth,
             DEFAULT_THRESHOLD,
             read,

@@ -64,14 +64,19 @@ pub struct CalibrationRecord {
 pub const SIGNIFICANT_STANDARD_ERRORS: f64 = 2.0;
 
 impl CalibrationRecord {
-    /// Learned from a production run (not asked for).
-    pub fn learned(&self) -> bool {
+    /// Fitted to a production run's removal (not asked for: a ring test).
+    pub fn from_run(&self) -> bool {
         self.run.is_some()
     }
 
+    /// Fitted to a production run and significant: the profile learns from it.
+    pub fn learned(&self) -> bool {
+        self.from_run() && self.significant()
+    }
+
     /// Its K is determined: a standard error (finite, > 0) and K at least
-    /// [`SIGNIFICANT_STANDARD_ERRORS`] of them above 0. A cycle's calibration that is not
-    /// is never stored (its cycle warns instead); one stored before that rule teaches nothing.
+    /// [`SIGNIFICANT_STANDARD_ERRORS`] of them above 0. A cycle's calibration that is not is
+    /// kept (the cycle's evidence, shown in its history with a warning) but teaches nothing.
     pub fn significant(&self) -> bool {
         let k = self.preston_coefficient_m2_per_n;
         self.standard_error_m2_per_n
@@ -247,13 +252,13 @@ pub const PLAUSIBLE_FACTOR: f64 = 5.0;
 /// The rule in the module docs, over a profile's calibrations (oldest first) and the profile's
 /// own Preston coefficient.
 pub fn current_rate(calibrations: &[CalibrationRecord], profile_k: f64) -> CurrentRate<'_> {
-    let base_index = calibrations.iter().rposition(|c| !c.learned());
+    let base_index = calibrations.iter().rposition(|c| !c.from_run());
     let base = base_index.map(|i| &calibrations[i]);
     let base_k = base.map_or(profile_k, |b| b.preston_coefficient_m2_per_n);
     let plausible = |k: f64| k / base_k <= PLAUSIBLE_FACTOR && base_k / k <= PLAUSIBLE_FACTOR;
     let learned: Vec<&CalibrationRecord> = calibrations[base_index.map_or(0, |i| i + 1)..]
         .iter()
-        .filter(|c| c.learned() && c.significant() && plausible(c.preston_coefficient_m2_per_n))
+        .filter(|c| c.learned() && plausible(c.preston_coefficient_m2_per_n))
         .collect();
     if learned.is_empty() {
         return CurrentRate {
@@ -291,20 +296,15 @@ pub struct Cycle<'a> {
     pub plan: &'a PlanHead,
     pub run: &'a RunRecord,
     pub after: Option<&'a MeasurementHead>,
-    /// The calibration learned from this run, once the cycle is complete.
+    /// The calibration fitted to this run's removal, once the cycle is complete (it teaches
+    /// the profile only when [`CalibrationRecord::learned`]).
     pub learned: Option<&'a CalibrationRecord>,
 }
 
 impl Cycle<'_> {
-    /// What the caller should know: a completed cycle that taught nothing (its removal did not
-    /// determine K, or an older record's K is not significant).
+    /// What the caller should know: a complete cycle that taught nothing.
     pub fn warnings(&self) -> Vec<Warning> {
-        let taught = self.learned.is_some_and(CalibrationRecord::significant);
-        if self.after.is_some() && !taught {
-            vec![Warning::RemovalNotSignificant]
-        } else {
-            Vec::new()
-        }
+        lesson_warnings(self.before.is_some() && self.after.is_some(), self.learned)
     }
 
     pub fn rms_before_nm(&self) -> Option<f64> {
@@ -368,8 +368,21 @@ fn after_measurement<'a>(
     }
 }
 
+/// What a complete cycle (`complete`: measured before and after) taught, as warnings: its
+/// calibration (`fitted`) not significant, or none fitted at all.
+pub fn lesson_warnings(complete: bool, fitted: Option<&CalibrationRecord>) -> Vec<Warning> {
+    match fitted {
+        _ if !complete => Vec::new(),
+        Some(c) if c.significant() => Vec::new(),
+        Some(c) => vec![Warning::RemovalNotSignificant {
+            fitted: Some((c.preston_coefficient_m2_per_n, c.standard_error_m2_per_n)),
+        }],
+        None => vec![Warning::RemovalNotSignificant { fitted: None }],
+    }
+}
+
 /// The run a new measurement completes: the part's latest run, when no measurement was written
-/// after it yet and its plan has a measurement before.
+/// after it yet.
 pub fn run_completed_by_new_measurement<'a>(
     measurements: &[MeasurementHead],
     plans: &'a [PlanHead],
@@ -380,7 +393,6 @@ pub fn run_completed_by_new_measurement<'a>(
         return None;
     }
     let plan = plans.iter().find(|p| p.stamp.id == run.plan)?;
-    plan.measurement.as_ref()?;
     Some((run, plan))
 }
 
@@ -436,5 +448,49 @@ mod tests {
         assert!((k - 1.16e-13).abs() < 1e-26, "{k}");
         let se = rate.standard_error_m2_per_n.unwrap();
         assert!((se - 1e-15 / 1.25f64.sqrt()).abs() < 1e-28, "{se}");
+        // A cycle's calibration under 2 standard errors, or without one, is kept but teaches
+        // nothing; it does not end the learning either (it is no ring test).
+        for weak in [
+            calibration("5", 1.9e-15, Some(1e-15), Some("r4")),
+            calibration("5", 2e-13, None, Some("r4")),
+            calibration("5", 2e-13, Some(0.0), Some("r4")),
+            calibration("5", -1e-13, Some(1e-15), Some("r4")),
+        ] {
+            assert!(weak.from_run() && !weak.significant() && !weak.learned());
+            let with = [
+                learned[0].clone(),
+                learned[1].clone(),
+                learned[2].clone(),
+                weak,
+            ];
+            let rate = current_rate(&with, 1e-13);
+            assert_eq!(rate.learned.len(), 2);
+            assert_eq!(rate.preston_coefficient_m2_per_n, Some(k));
+        }
+        let exactly_two = calibration("6", 2e-15, Some(1e-15), Some("r5"));
+        assert!(exactly_two.significant());
+    }
+
+    /// A complete cycle warns when it taught nothing, with the fit's K and standard error
+    /// when one fitted; a cycle not measured before says nothing.
+    #[test]
+    fn a_cycle_that_taught_nothing_says_why() {
+        let weak = calibration("1", 1e-15, Some(1e-15), Some("r1"));
+        let strong = calibration("2", 1e-13, Some(1e-15), Some("r2"));
+        assert_eq!(lesson_warnings(true, Some(&strong)), vec![]);
+        assert_eq!(lesson_warnings(false, None), vec![]);
+        assert_eq!(
+            lesson_warnings(true, Some(&weak)),
+            vec![Warning::RemovalNotSignificant {
+                fitted: Some((1e-15, Some(1e-15)))
+            }]
+        );
+        let none = lesson_warnings(true, None);
+        assert_eq!(none, vec![Warning::RemovalNotSignificant { fitted: None }]);
+        assert!(
+            none[0].to_string().contains("no K above 0 fits it"),
+            "{}",
+            none[0]
+        );
     }
 }

@@ -41,10 +41,21 @@ pub enum Warning {
     },
     /// The plan sits on this axis limit of the machine somewhere.
     #[error(
-        "the plan sits on {}: the machine, not the target, decided it there",
-        limit.describe(*drive)
+        "the plan sits on {}{}: the machine, not the target, decided it there",
+        limit.describe(*drive),
+        if *default_machine {
+            ", the default machine's (a limit the request did not give: state your machine's \
+             in `machine`)"
+        } else {
+            ""
+        }
     )]
-    MachineLimitActive { drive: Drive, limit: LimitKind },
+    MachineLimitActive {
+        drive: Drive,
+        limit: LimitKind,
+        /// The limit is the default machine's, not one the caller gave.
+        default_machine: bool,
+    },
     /// The plan has zero dwell at this position between positions with dwell, so the tool
     /// would cross its cell in no time: no program can run it (give `min_dwell_s`, a feed
     /// limit or the machine's velocity limits).
@@ -141,16 +152,28 @@ pub enum Warning {
          a measurement repeated unchanged as before and after does this (it removed nothing)"
     )]
     ExactFit,
-    /// A production cycle's removal does not determine the removal rate: fitted as a
-    /// calibration, its K is not 2 standard errors above 0, has no standard error, or could
-    /// not be fitted; so the profile learns nothing from it.
+    /// A production cycle's removal does not determine the removal rate: fitted to the plan's
+    /// dwell as a calibration, its K is not [`super::records::SIGNIFICANT_STANDARD_ERRORS`]
+    /// standard errors above 0 (`fitted`: K and its standard error, m²/N), or no K > 0 fits
+    /// it at all (`None`); the profile learns nothing from it.
     #[error(
-        "the cycle's removal (before − after) does not determine the removal rate: fitted to \
-         the plan's dwell, K is not 2 standard errors above 0 (or has no standard error, or no \
-         fit); nothing was learned from it. The run removed nothing measurable, or the \
-         measurements do not show what it removed (the same trace sent twice, another part's)"
+        "the cycle's removal (before − after) does not determine the removal rate: {}; nothing \
+         was learned from it. The run removed nothing measurable, or the measurements do not \
+         show what it removed (the same trace sent twice, another part's, before and after \
+         swapped)",
+        match fitted {
+            Some((k, Some(se))) => format!(
+                "fitted to the plan's dwell, K = {k:.3e} ± {se:.2e} m²/N, not 2 standard errors \
+                 above 0"
+            ),
+            Some((k, None)) => format!(
+                "fitted to the plan's dwell, K = {k:.3e} m²/N with no standard error (the fit is \
+                 exact: the measurements carry no estimate of their noise)"
+            ),
+            None => "no K above 0 fits it to the plan's dwell".to_string(),
+        }
     )]
-    RemovalNotSignificant,
+    RemovalNotSignificant { fitted: Option<(f64, Option<f64>)> },
     /// Calibration: a run's residual is far above its measurement noise: the model does not
     /// explain it.
     #[error(

@@ -465,3 +465,78 @@ async fn recommended_speeds_are_rounded_and_removal_of_nonuniformity_is_said() {
     assert!(rec["improvement_factor"].is_null());
     assert!(rec["current_metrics"]["nonuniformity"].as_f64().unwrap() > 1.0);
 }
+
+/// A spindle over the default machine's limit is refused at the speed asked for, saying whose
+/// limit it is; the recommendation inside a plan keeps the spindle limits in force.
+#[tokio::test]
+async fn the_default_machine_is_named_where_it_refuses_or_binds() {
+    let mut request = read_fixture("optimize_paper_exp1.json");
+    request["process"]["tool_rpm"] = json!(3500.0);
+    let (status, refused) = post("/v1/optimize", &request).await;
+    assert_eq!(status, 422, "{refused}");
+    assert_eq!(refused["field"], "process.tool_rpm");
+    assert!(
+        refused["detail"]
+            .as_str()
+            .unwrap()
+            .contains("default machine"),
+        "{refused}"
+    );
+    // Given, the same speed is the caller's own limit's business.
+    request["machine"] = json!({"tool_spindle": {"max_rpm": 5000}});
+    let (status, plan) = post("/v1/optimize", &request).await;
+    assert_eq!(status, 200, "{plan}");
+
+    // Workpiece −900, tool 2900 r/min: matching the removal rate at η = −1 needs about
+    // 2,200 r/min, beyond the default workpiece spindle's 1,000; the plan's recommendation
+    // keeps the limit.
+    let mut fast = read_fixture("optimize_paper_exp1.json");
+    fast["process"]["workpiece_rpm"] = json!(-900.0);
+    fast["process"]["tool_rpm"] = json!(2900.0);
+    let (status, plan) = post("/v1/optimize", &fast).await;
+    assert_eq!(status, 200, "{plan}");
+    let rec = &plan["recommendation"];
+    assert_eq!(rec["rule"], "fastest_allowed", "{rec}");
+    assert_eq!(rec["workpiece_rpm"], json!(1000.0), "{rec}");
+    // The warning for a default limit the plan sits on says whose it is.
+    let (_, plan) = post("/v1/optimize", &read_fixture("optimize_paper_exp1.json")).await;
+    let message = plan["warnings"][0]["message"].as_str().unwrap();
+    assert!(message.contains("the default machine's"), "{message}");
+}
+
+/// Ring grooves that are the model's own prediction: the fit is exact, so it carries no
+/// estimate of the noise: no standard error (never 0) and the `exact_fit` warning.
+#[tokio::test]
+async fn an_exact_calibration_claims_no_standard_error() {
+    let process = json!({"workpiece_radius_mm": 50, "tool_radius_mm": 10,
+                         "workpiece_rpm": -10, "tool_rpm": 200});
+    let radii: Vec<f64> = (0..=40).map(|k| 10.0 + 0.5 * k as f64).collect();
+    let (status, rf) = post(
+        "/v1/removal-function",
+        &json!({"process": process, "tool_positions_mm": [20.0],
+                "radial_grid": {"start_mm": 10, "stop_mm": 30, "count": 41}}),
+    )
+    .await;
+    assert_eq!(status, 200, "{rf}");
+    let minutes = 30.0;
+    let depth: Vec<f64> = rf["profiles"][0]["removal_rate_nm_per_min"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r.as_f64().unwrap() * minutes)
+        .collect();
+    let (status, fit) = post(
+        "/v1/calibration",
+        &json!({"process": process, "runs": [{"ring": {"position_mm": 20.0, "duration_s": 60.0 * minutes},
+                 "removal": {"radius_mm": radii, "depth_nm": depth}}]}),
+    )
+    .await;
+    assert_eq!(status, 200, "{fit}");
+    let k = &fit["parameters"]["preston_coefficient_m2_per_n"];
+    assert!(
+        (k["value"].as_f64().unwrap() / 1e-13 - 1.0).abs() < 1e-9,
+        "{k}"
+    );
+    assert!(k["standard_error"].is_null(), "{k}");
+    assert!(codes(&fit).contains(&"exact_fit".to_string()), "{fit}");
+}

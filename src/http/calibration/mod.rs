@@ -121,13 +121,15 @@ pub struct CalibrationFitDto {
 }
 
 /// A fitted parameter. Without a standard error (null) the runs carry no information on it
-/// and it holds its nominal value (see `warnings`).
+/// and it holds its nominal value, or the fit is exact and carries no estimate of the noise
+/// (see `warnings`: `parameter_undetermined`, `exact_fit`).
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct EstimateDto {
     /// The fitted value (in the parameter's unit).
     pub value: f64,
     /// √ of its variance, σ²·(JᵀWJ)⁻¹, σ² the residual variance over n − p; null when no
-    /// run depends on it.
+    /// run depends on it, or when the fit is exact (residual below 1e-6 nm RMS: σ̂ = 0 is no
+    /// measurement's noise, so no standard error is claimed, never 0).
     #[schema(required = true)]
     pub standard_error: Option<f64>,
     /// value ± t(0.975, n − p)·standard_error.

@@ -29,7 +29,8 @@ pub struct ToolDto {
     pub orientation: Option<OrientationDto>,
 }
 
-/// Limits of a linear axis (X or Z); each optional (absent = unlimited).
+/// Limits of a linear axis (X or Z); each optional (absent: the default machine's, which has
+/// no travel limits).
 #[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LinearAxisDto {
@@ -45,7 +46,8 @@ pub struct LinearAxisDto {
     pub max_acceleration_mm_per_s2: Option<f64>,
 }
 
-/// Limits of the tilt axis B; each optional (absent = unlimited).
+/// Limits of the tilt axis B; each optional (absent: the default machine's, which has no
+/// travel limits).
 #[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RotaryAxisDto {
@@ -61,7 +63,7 @@ pub struct RotaryAxisDto {
     pub max_acceleration_deg_per_s2: Option<f64>,
 }
 
-/// A spindle's speed limit.
+/// A spindle's speed limit (absent: the default machine's).
 #[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SpindleLimitDto {
@@ -70,7 +72,8 @@ pub struct SpindleLimitDto {
     pub max_rpm: Option<f64>,
 }
 
-/// The machine's limits, per axis and spindle; everything optional (absent = unlimited).
+/// The machine's limits, per axis and spindle; each optional (absent: the default machine's,
+/// docs/MACHINE.md; for no limits at all send `machine: "unlimited"`).
 #[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MachineDto {

@@ -83,7 +83,7 @@ impl WarningDto {
                 format!("constraints.{}", constraint.name()),
             ),
             Warning::TargetNotMet { .. } => (WarningCode::TargetNotMet, "target".to_string()),
-            Warning::MachineLimitActive { drive, limit } => (
+            Warning::MachineLimitActive { drive, limit, .. } => (
                 WarningCode::ConstraintActive,
                 super::super::fields::limit_field(*drive, *limit),
             ),
@@ -107,7 +107,7 @@ impl WarningDto {
                 (WarningCode::SurfaceAssumedPlane, "surface".to_string())
             }
             Warning::ExactFit => (WarningCode::ExactFit, "runs".to_string()),
-            Warning::RemovalNotSignificant => (
+            Warning::RemovalNotSignificant { .. } => (
                 WarningCode::RemovalNotSignificant,
                 "removal_ratio".to_string(),
             ),

@@ -275,10 +275,29 @@ pub fn machine_limits_error(found: &[Violation], what: &str) -> ApiError {
         })
         .collect::<Vec<_>>()
         .join("; ");
-    ApiError::machine_limits(
+    // A default limit the caller never wrote: say where it comes from, and for a spindle
+    // point at the speed asked for.
+    let defaults = found.iter().any(|v| v.default_machine);
+    let note = if defaults {
+        " (the default machine's limits, docs/MACHINE.md, as no machine gave them: state your \
+         machine's in `machine`, or send machine: \"unlimited\" for a study)"
+    } else {
+        ""
+    };
+    let mut error = ApiError::machine_limits(
         violations,
-        format!("no program within the machine's limits: {detail}"),
-    )
+        format!("no program within the machine's limits: {detail}{note}"),
+    );
+    if let Some(spindle) = found
+        .first()
+        .filter(|v| v.default_machine && v.limit == LimitKind::MaxRpm)
+    {
+        error.field = Some(match spindle.drive {
+            Drive::WorkpieceSpindle => "process.workpiece_rpm".to_string(),
+            _ => "process.tool_rpm".to_string(),
+        });
+    }
+    error
 }
 
 impl From<ProgramFailure> for ApiError {

@@ -20,7 +20,7 @@ use super::state::Services;
 use crate::optimize::{OptimizeError, SolveStatus};
 use crate::report::results;
 use crate::usecases::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan};
-use crate::usecases::ComputeLimits;
+use crate::usecases::{ComputeLimits, Warning};
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -242,9 +242,18 @@ text/csv` returns the plan (position and dwell columns).",
 
     fn run(command: Self::Command, services: &Services) -> Result<OptimizedPlan, ApiError> {
         let max_time_limit_s = command.max_time_limit_s();
+        // Lengths in metres can make the solver fail; a pascal pressure or a study machine
+        // cannot, so only those are suspects.
         let suspect = command
             .input_warnings()
-            .first()
+            .iter()
+            .find(|w| {
+                matches!(
+                    w,
+                    Warning::ProcessLooksLikeMetres { .. }
+                        | Warning::PositionsLookLikeMetres { .. }
+                )
+            })
             .map(|w| WarningDto::new(w, "positions_mm"));
         let plan = optimize(command, &services.recommender, &services.operators);
         services

@@ -174,7 +174,10 @@ fn cycle_dto(cycle: &Cycle<'_>) -> CycleDto {
         rms_after_nm: cycle.rms_after_nm(),
         convergence_ratio: cycle.convergence_ratio(),
         removal_ratio,
-        learned_calibration_id: cycle.learned.map(|c| c.stamp.id.clone()),
+        learned_calibration_id: cycle
+            .learned
+            .filter(|c| c.learned())
+            .map(|c| c.stamp.id.clone()),
         warnings: WarningDto::all(&cycle.warnings()),
     }
 }

@@ -84,9 +84,12 @@ pub struct CalibrationRecordDto {
     pub id: String,
     /// The process profile's name.
     pub process_profile: String,
-    /// Learned from a production cycle (`run_id`) rather than asked for.
+    /// The profile learns from it: fitted to a production cycle (`run_id`) and significant
+    /// (K at least 2 standard errors above 0). A cycle's calibration that is not keeps its
+    /// `run_id` but is `learned: false` and teaches nothing (its cycle warns
+    /// `removal_not_significant`); a calibration asked for (ring tests) has no `run_id`.
     pub learned: bool,
-    /// The run's id.
+    /// The production run it was fitted to (null for a calibration asked for).
     pub run_id: Option<String>,
     /// The Preston coefficient K, m²/N.
     pub preston_coefficient_m2_per_n: f64,
@@ -281,7 +284,8 @@ pub struct CycleDto {
     /// Actual / predicted removal: the run's dwell fitted to before − after as a calibration
     /// of the Preston coefficient, relative to the coefficient the plan used.
     pub removal_ratio: Option<RatioDto>,
-    /// The calibration learned from this cycle (none when its removal did not determine K).
+    /// The calibration the profile learned from this cycle (none when its removal did not
+    /// determine K: then `warnings` says so, and `removal_ratio` is the fit's, if one fitted).
     pub learned_calibration_id: Option<String>,
     /// `removal_not_significant` when the cycle is complete but taught nothing (its removal
     /// is not 2 standard errors above 0: the run removed nothing measurable); empty otherwise.

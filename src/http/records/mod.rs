@@ -181,6 +181,10 @@ impl Compute for AppState {
         }
     }
 
+    fn refuses(problem: &ApiError) -> bool {
+        problem.kind.meta().2.is_client_error()
+    }
+
     fn check_setting(&self, setting: &Document, of: Setting) -> Result<(), ApiError> {
         let mut request = setting.clone();
         request.insert(

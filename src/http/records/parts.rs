@@ -167,7 +167,7 @@ pub async fn measure(
     let dto = measurement_dto(&measured)?;
     let location = format!("/v1/measurements/{}", dto.id);
     let mut records = vec![Record::Measurement(measured.measurement)];
-    records.extend(measured.learned.map(Record::Calibration));
+    records.extend(measured.fitted.map(Record::Calibration));
     commit(write, &records, location, &dto, None).await
 }
 
