@@ -5,9 +5,12 @@ use std::time::SystemTime;
 
 use serde_json::Value;
 
+use super::answers::{read, MeasurementAnswer, PlanAnswer};
 use super::parts::{self, on_part};
 use super::profiles::{self, current_process};
-use super::{document, fill, found, without, Computation, Compute, Document, LedgerError, Write};
+use super::{
+    absent, document, fill, found, without, Computation, Compute, Document, LedgerError, Write,
+};
 use crate::store::Store;
 use crate::usecases::records::{
     cycles, CalibrationRecord, Cycle, MeasurementHead, PartRecord, PlanHead, PlanRecord,
@@ -36,10 +39,12 @@ pub async fn plan<C: Compute>(
         ],
     )?;
     for (field, value) in on_part(current.process, &document(&part.body)?) {
-        request.entry(field).or_insert(value);
+        if absent(&request, &field) {
+            request.insert(field, value);
+        }
     }
     let latest = store.measurements(id).await?.pop();
-    if !request.contains_key("target") {
+    if absent(&request, "target") {
         let head = latest.as_ref().ok_or_else(|| {
             LedgerError::invalid(
                 "target",
@@ -51,16 +56,17 @@ pub async fn plan<C: Compute>(
             "measurement",
             &head.stamp.id,
         )?;
-        let target = document(&measurement.result)?["correction_target"].clone();
-        request.insert("target".into(), target);
+        let answer: MeasurementAnswer = read(&document(&measurement.result)?, "a measurement")?;
+        request.insert("target".into(), answer.correction_target);
     }
     let result = compute.compute(Computation::Optimize, &request).await?;
+    let answer: PlanAnswer = read(&result, "an optimize answer")?;
     Ok(PlanRecord {
         stamp: write.stamp(),
         part: id.to_string(),
         measurement: latest.map(|m| m.stamp.id),
         request: Value::Object(request).to_string(),
-        predicted_rms_after_nm: result["residual"]["rms_nm"].as_f64().unwrap_or(f64::NAN),
+        predicted_rms_after_nm: answer.residual.rms_nm,
         result: result.to_string(),
     })
 }
@@ -100,7 +106,8 @@ pub async fn program_request(
         ],
     )?;
     plan_setting(&mut request, &plan_request, &profile)?;
-    request.insert("dwell".into(), document(&plan.result)?["dwell"].clone());
+    let answer: PlanAnswer = read(&document(&plan.result)?, "a plan")?;
+    request.insert("dwell".into(), answer.dwell);
     Ok(ProgramRequest {
         request,
         provenance: format!(
@@ -117,7 +124,14 @@ pub(super) fn plan_setting(
     plan_request: &Value,
     profile: &ProfileRecord,
 ) -> Result<(), LedgerError> {
-    into.insert("process".into(), plan_request["process"].clone());
+    #[derive(serde::Deserialize)]
+    struct Ran {
+        process: Value,
+    }
+    into.insert(
+        "process".into(),
+        read::<Ran>(plan_request, "a plan's request")?.process,
+    );
     fill(into, plan_request, &["surface"]);
     fill(into, &document(&profile.body)?, &["tool"]);
     Ok(())

@@ -13,6 +13,7 @@
 //! sent an Idempotency-Key, the claim on it with the answer, so a retry gets the first answer
 //! and never a second record.
 
+mod answers;
 pub mod cycles;
 pub mod parts;
 pub mod profiles;
@@ -115,9 +116,10 @@ fn found<T>(record: Option<T>, what: &'static str, id: &str) -> Result<T, Ledger
     })
 }
 
-/// A request body that must not name `fields` (the records supply them: each with where from),
-/// its null members dropped.
-fn without(mut body: Document, fields: &[(&str, &str)]) -> Result<Document, LedgerError> {
+/// A request body that must not name `fields` (the records supply them: each with where from).
+/// Its other members stay as sent, nulls included, so the compute endpoint that parses the
+/// composed request refuses a member it does not know (`{"": null}` too).
+fn without(body: Document, fields: &[(&str, &str)]) -> Result<Document, LedgerError> {
     for (field, from) in fields {
         if body.contains_key(*field) {
             return Err(LedgerError::invalid(
@@ -126,16 +128,22 @@ fn without(mut body: Document, fields: &[(&str, &str)]) -> Result<Document, Ledg
             ));
         }
     }
-    body.retain(|_, v| !v.is_null());
     Ok(body)
 }
 
-/// Copies `fields` of `from` that are present and not null into `into`, keeping what `into`
-/// has already.
+/// `field` of `document` is absent or null (a null member means "not given").
+fn absent(document: &Document, field: &str) -> bool {
+    document.get(field).is_none_or(Value::is_null)
+}
+
+/// Copies `fields` of `from` that are present and not null into `into` where it has none (or
+/// null).
 fn fill(into: &mut Document, from: &Value, fields: &[&str]) {
     for field in fields {
         if let Some(value) = from.get(*field).filter(|v| !v.is_null()) {
-            into.entry(*field).or_insert_with(|| value.clone());
+            if absent(into, field) {
+                into.insert((*field).to_string(), value.clone());
+            }
         }
     }
 }

@@ -5,6 +5,7 @@
 
 use serde_json::{json, Value};
 
+use super::answers::{read, MeasurementAnswer, PlanAnswer};
 use super::cycles::plan_setting;
 use super::profiles::{self, calibration_record};
 use super::{
@@ -143,14 +144,15 @@ pub async fn measure<C: Compute>(
     let result = compute
         .compute(Computation::MeasurementFit, &request)
         .await?;
+    let answer: MeasurementAnswer = read(&result, "a measurement fit's answer")?;
     let measurement = MeasurementRecord {
         stamp: write.stamp(),
         part: id.to_string(),
-        rms_nm: result["form_error"]["rms_nm"].as_f64().unwrap_or(f64::NAN),
+        rms_nm: answer.form_error.rms_nm,
         request: Value::Object(request).to_string(),
         result: result.to_string(),
     };
-    let lesson = learn_from_cycle(compute, write, &part, &result["profile"]).await?;
+    let lesson = learn_from_cycle(compute, write, &part, &answer.profile).await?;
     Ok(Measured {
         measurement,
         completes_run: lesson.as_ref().map(|l| l.run.clone()),
@@ -201,8 +203,8 @@ async fn learn_from_cycle<C: Compute>(
     let plan_request = document(&plan.request)?;
     let profile = profiles::load(store, &part.process_profile).await?;
     let mut run_fit = json!({
-        "dwell": document(&plan.result)?["dwell"],
-        "before": document(&before.result)?["profile"],
+        "dwell": read::<PlanAnswer>(&document(&plan.result)?, "a plan")?.dwell,
+        "before": read::<MeasurementAnswer>(&document(&before.result)?, "a measurement")?.profile,
         "after": after,
     });
     if let Some(aperture) = plan_request.get("clear_aperture") {

@@ -2,6 +2,7 @@
 //! calibration's, with the Preston coefficient learned from production since: the rule is
 //! `usecases::records::current_rate`).
 
+use super::answers::{read, CalibrationAnswer, ProcessRate};
 use serde_json::Value;
 
 use super::{
@@ -79,10 +80,13 @@ pub fn current_process(
     profile: &ProfileRecord,
     calibrations: &[CalibrationRecord],
 ) -> Result<CurrentProcess, LedgerError> {
-    let own = document(&profile.body)?["process"].clone();
-    let own_k = own["preston_coefficient_m2_per_n"]
-        .as_f64()
-        .unwrap_or(f64::NAN);
+    #[derive(serde::Deserialize)]
+    struct Body {
+        process: Value,
+    }
+    let own = read::<Body>(&document(&profile.body)?, "a process profile")?.process;
+    let own_k =
+        read::<ProcessRate>(&own, "a process profile's process")?.preston_coefficient_m2_per_n;
     let rate = current_rate(calibrations, own_k);
     let mut process = match rate.base {
         Some(base) => document(&base.process)?,
@@ -156,18 +160,16 @@ pub(super) fn calibration_record(
     result: &Value,
     run: Option<String>,
 ) -> Result<CalibrationRecord, LedgerError> {
-    let estimate = &result["parameters"]["preston_coefficient_m2_per_n"];
-    let k = estimate["value"]
-        .as_f64()
-        .ok_or_else(|| LedgerError::Broken("a calibration without a Preston coefficient".into()))?;
+    let answer: CalibrationAnswer = read(result, "a calibration's answer")?;
+    let estimate = answer.parameters.preston_coefficient_m2_per_n;
     Ok(CalibrationRecord {
         stamp,
         profile: profile.to_string(),
         request: Value::Object(request.clone()).to_string(),
-        process: result["process"].to_string(),
+        process: answer.process.to_string(),
         result: result.to_string(),
-        preston_coefficient_m2_per_n: k,
-        standard_error_m2_per_n: estimate["standard_error"].as_f64(),
+        preston_coefficient_m2_per_n: estimate.value,
+        standard_error_m2_per_n: estimate.standard_error,
         run,
     })
 }

@@ -1,6 +1,7 @@
 //! A record write: the caller's stamp on every record, and the Idempotency-Key's claim kept in
 //! the write's own transaction.
 
+use serde_json::Value;
 use sha2::{Digest, Sha256};
 
 use super::LedgerError;
@@ -15,18 +16,43 @@ pub struct Write<'s> {
     claim: Option<(String, String)>,
 }
 
+/// `value` as JSON text with every object's members sorted by name (recursively), so that
+/// two documents equal as JSON values have one text whatever order their members came in.
+pub fn canonical(value: &Value) -> String {
+    match value {
+        Value::Object(members) => {
+            let mut sorted: Vec<(&String, &Value)> = members.iter().collect();
+            sorted.sort_by(|a, b| a.0.cmp(b.0));
+            let inner: Vec<String> = sorted
+                .into_iter()
+                .map(|(name, v)| format!("{}:{}", Value::String(name.clone()), canonical(v)))
+                .collect();
+            format!("{{{}}}", inner.join(","))
+        }
+        Value::Array(items) => {
+            let inner: Vec<String> = items.iter().map(canonical).collect();
+            format!("[{}]", inner.join(","))
+        }
+        scalar => scalar.to_string(),
+    }
+}
+
 /// The field a malformed or reused key is reported at.
 const KEY: &str = "Idempotency-Key";
 
 impl<'s> Write<'s> {
-    /// Refuses a malformed Idempotency-Key (1 to 255 visible ASCII characters); `request` is
-    /// the request's identity for the key (its path and canonical body).
+    /// Refuses a malformed Idempotency-Key (1 to 255 visible ASCII characters). The request's
+    /// identity for the key is `operation` (method and path) and its `body` in canonical form
+    /// ([`canonical`]): a retry that sends the same members in another order is the same
+    /// request.
     pub fn begin(
         store: &'s Store,
         owner: &str,
         key: Option<&[u8]>,
-        request: &str,
+        operation: &str,
+        body: &Value,
     ) -> Result<Write<'s>, LedgerError> {
+        let request = format!("{operation}\n{}", canonical(body));
         let claim = match key {
             None => None,
             Some(key) => {
@@ -111,4 +137,22 @@ fn key_reused() -> LedgerError {
         KEY,
         "this Idempotency-Key was sent before with another request: use a new key for a new request",
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    #[test]
+    fn canonical_text_ignores_member_order_but_not_values() {
+        let a = json!({"b": [1, {"y": 2, "x": null}], "a": "q\"uote", "c": 1.5});
+        let b = json!({"c": 1.5, "a": "q\"uote", "b": [1, {"x": null, "y": 2}]});
+        assert_eq!(super::canonical(&a), super::canonical(&b));
+        assert_eq!(
+            super::canonical(&a),
+            r#"{"a":"q\"uote","b":[1,{"x":null,"y":2}],"c":1.5}"#
+        );
+        let reordered_list = json!({"b": [{"y": 2, "x": null}, 1], "a": "q\"uote", "c": 1.5});
+        assert_ne!(super::canonical(&a), super::canonical(&reordered_list));
+    }
 }

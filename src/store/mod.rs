@@ -41,7 +41,23 @@ const MIGRATIONS: &[(i64, &str, &str)] = &[
         "cycle indexes",
         include_str!("../../migrations/0003_cycle_indexes.sql"),
     ),
+    (
+        4,
+        "computed by",
+        include_str!("../../migrations/0004_computed_by.sql"),
+    ),
 ];
+
+/// Which code writes the records: the crate's version, the build's git revision (build.rs)
+/// and the records schema (the last migration's version).
+pub fn computed_by() -> String {
+    format!(
+        "preston {} (git {}), records schema {}",
+        env!("CARGO_PKG_VERSION"),
+        env!("PRESTON_GIT_REVISION"),
+        MIGRATIONS.len()
+    )
+}
 
 /// The default store: a SQLite file in the working directory.
 pub const DEFAULT_DATABASE_URL: &str = "sqlite://preston.db";
@@ -99,6 +115,7 @@ pub fn new_stamp(created_by: &str) -> Stamp {
         id: uuid::Uuid::now_v7().to_string(),
         created_at: now(),
         created_by: created_by.to_string(),
+        computed_by: computed_by(),
     }
 }
 
@@ -292,7 +309,7 @@ mod tests {
         let store = Store::open(&options).await.unwrap();
         assert!(path.exists());
         assert_eq!(store.backend(), Backend::Sqlite);
-        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3]);
+        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3, 4]);
         assert!(store.is_reachable().await);
         let (mode,): (String,) = sqlx::query_as("PRAGMA journal_mode")
             .fetch_one(&store.pool)
@@ -310,7 +327,7 @@ mod tests {
         assert!(orphan.is_err(), "{orphan:?}");
         store.close().await;
         let again = Store::open(&options).await.unwrap();
-        assert_eq!(again.applied_versions().await.unwrap(), vec![1, 2, 3]);
+        assert_eq!(again.applied_versions().await.unwrap(), vec![1, 2, 3, 4]);
         again.close().await;
         remove(&path);
     }
@@ -342,9 +359,13 @@ mod tests {
             pool.close().await;
         }
         let store = Store::open(&options).await.unwrap();
-        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3]);
+        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3, 4]);
         let old = store.profile("old").await.unwrap().unwrap();
         assert_eq!(old.stamp.created_by, "mes");
+        assert_eq!(
+            old.stamp.computed_by, "",
+            "written before computed_by was kept"
+        );
         assert!(store.calibrations("old").await.unwrap().is_empty());
         let (copy, copy_options) = temporary("copy");
         store.backup(&copy).await.unwrap();

@@ -24,6 +24,8 @@ fn stamp(row: &AnyRow, id: &str) -> Result<Stamp, sqlx::Error> {
         id: row.try_get(id)?,
         created_at: row.try_get("created_at")?,
         created_by: row.try_get("created_by")?,
+        // A head (measurement or plan in a history) reads only what its covering index holds.
+        computed_by: row.try_get("computed_by").unwrap_or_default(),
     })
 }
 
@@ -105,22 +107,24 @@ fn run(row: AnyRow) -> Result<RunRecord, sqlx::Error> {
 }
 
 const CALIBRATION_COLUMNS: &str = "id, profile, request, result, process, \
-    preston_coefficient_m2_per_n, standard_error_m2_per_n, run, created_at, created_by";
+    preston_coefficient_m2_per_n, standard_error_m2_per_n, run, created_at, created_by, \
+    computed_by";
 
 async fn insert(tx: &mut Transaction<'_, Any>, record: &Record) -> Result<(), sqlx::Error> {
     let query = match record {
         Record::Profile(p) => sqlx::query(
-            "INSERT INTO process_profiles (name, body, created_at, created_by) \
-             VALUES ($1, $2, $3, $4)",
+            "INSERT INTO process_profiles (name, body, created_at, created_by, computed_by) \
+             VALUES ($1, $2, $3, $4, $5)",
         )
         .bind(&p.stamp.id)
         .bind(&p.body)
         .bind(&p.stamp.created_at)
-        .bind(&p.stamp.created_by),
+        .bind(&p.stamp.created_by)
+        .bind(&p.stamp.computed_by),
         Record::Calibration(c) => sqlx::query(
             "INSERT INTO calibrations (id, profile, request, result, process, \
              preston_coefficient_m2_per_n, standard_error_m2_per_n, run, learned, created_at, \
-             created_by) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11)",
+             created_by, computed_by) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
         )
         .bind(&c.stamp.id)
         .bind(&c.profile)
@@ -132,20 +136,22 @@ async fn insert(tx: &mut Transaction<'_, Any>, record: &Record) -> Result<(), sq
         .bind(&c.run)
         .bind(c.from_run())
         .bind(&c.stamp.created_at)
-        .bind(&c.stamp.created_by),
+        .bind(&c.stamp.created_by)
+        .bind(&c.stamp.computed_by),
         Record::Part(p) => sqlx::query(
-            "INSERT INTO parts (id, name, process_profile, body, created_at, created_by) \
-             VALUES ($1, $2, $3, $4, $5, $6)",
+            "INSERT INTO parts (id, name, process_profile, body, created_at, created_by, \
+             computed_by) VALUES ($1, $2, $3, $4, $5, $6, $7)",
         )
         .bind(&p.stamp.id)
         .bind(&p.name)
         .bind(&p.process_profile)
         .bind(&p.body)
         .bind(&p.stamp.created_at)
-        .bind(&p.stamp.created_by),
+        .bind(&p.stamp.created_by)
+        .bind(&p.stamp.computed_by),
         Record::Measurement(m) => sqlx::query(
             "INSERT INTO measurements (id, part, request, result, rms_nm, created_at, \
-             created_by) VALUES ($1, $2, $3, $4, $5, $6, $7)",
+             created_by, computed_by) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
         )
         .bind(&m.stamp.id)
         .bind(&m.part)
@@ -153,11 +159,12 @@ async fn insert(tx: &mut Transaction<'_, Any>, record: &Record) -> Result<(), sq
         .bind(&m.result)
         .bind(m.rms_nm)
         .bind(&m.stamp.created_at)
-        .bind(&m.stamp.created_by),
+        .bind(&m.stamp.created_by)
+        .bind(&m.stamp.computed_by),
         Record::Plan(p) => sqlx::query(
             "INSERT INTO plans (id, part, measurement, request, result, \
-             predicted_rms_after_nm, created_at, created_by) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+             predicted_rms_after_nm, created_at, created_by, computed_by) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
         )
         .bind(&p.stamp.id)
         .bind(&p.part)
@@ -166,10 +173,12 @@ async fn insert(tx: &mut Transaction<'_, Any>, record: &Record) -> Result<(), sq
         .bind(&p.result)
         .bind(p.predicted_rms_after_nm)
         .bind(&p.stamp.created_at)
-        .bind(&p.stamp.created_by),
+        .bind(&p.stamp.created_by)
+        .bind(&p.stamp.computed_by),
         Record::Run(r) => sqlx::query(
             "INSERT INTO runs (id, part, plan, started_at, finished_at, machine, notes, \
-             created_at, created_by) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
+             created_at, created_by, computed_by) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10)",
         )
         .bind(&r.stamp.id)
         .bind(&r.part)
@@ -179,7 +188,8 @@ async fn insert(tx: &mut Transaction<'_, Any>, record: &Record) -> Result<(), sq
         .bind(&r.machine)
         .bind(&r.notes)
         .bind(&r.stamp.created_at)
-        .bind(&r.stamp.created_by),
+        .bind(&r.stamp.created_by)
+        .bind(&r.stamp.computed_by),
     };
     query.execute(&mut **tx).await.map(|_| ())
 }
@@ -314,7 +324,8 @@ impl Records for Store {
 
     async fn profile(&self, name: &str) -> Result<Option<ProfileRecord>, RecordsError> {
         self.one(
-            "SELECT name, body, created_at, created_by FROM process_profiles WHERE name = $1",
+            "SELECT name, body, created_at, created_by, computed_by FROM process_profiles \
+             WHERE name = $1",
             name,
             profile,
         )
@@ -324,7 +335,8 @@ impl Records for Store {
     async fn profiles(&self) -> Result<Vec<ProfileRecord>, RecordsError> {
         self.ready().await?;
         let rows = sqlx::query(
-            "SELECT name, body, created_at, created_by FROM process_profiles ORDER BY name",
+            "SELECT name, body, created_at, created_by, computed_by FROM process_profiles \
+             ORDER BY name",
         )
         .fetch_all(&self.pool)
         .await

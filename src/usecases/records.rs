@@ -29,12 +29,15 @@
 use super::Warning;
 
 /// Who wrote a record and when: its id (a UUIDv7, or the name of a process profile), an RFC 3339
-/// UTC timestamp and the API key's name (empty without keys).
+/// UTC timestamp, the API key's name (empty without keys) and which code wrote it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Stamp {
     pub id: String,
     pub created_at: String,
     pub created_by: String,
+    /// Which code wrote it (version, git revision, records schema); empty for a record
+    /// written before that was kept.
+    pub computed_by: String,
 }
 
 /// Bodies are documents in the API's own vocabulary (JSON text written and read by the HTTP
@@ -405,6 +408,7 @@ mod tests {
             id: id.into(),
             created_at: "2026-11-25T00:00:00Z".into(),
             created_by: String::new(),
+            computed_by: String::new(),
         }
     }
 

@@ -271,6 +271,24 @@ async fn full_cycle(url: &str) {
     let shown = get(&app, &format!("/v1/process-profiles/{profile}"))
         .await
         .json();
+    // Every record says which code wrote it.
+    let run_id = cycle["run_id"].as_str().unwrap();
+    let run = get(&app, &format!("/v1/runs/{run_id}")).await.json();
+    for (what, record) in [
+        ("part", &part),
+        ("measurement", &before),
+        ("plan", &plan),
+        ("run", &run),
+        ("profile", &shown),
+        ("calibration", &shown["calibrations"][0]),
+    ] {
+        let by = record["computed_by"].as_str().unwrap_or_default();
+        assert!(
+            by.starts_with(&format!("preston {} (git ", env!("CARGO_PKG_VERSION")))
+                && by.ends_with("records schema 4"),
+            "{what}: {by:?}"
+        );
+    }
     assert_eq!(shown["preston_coefficient_source"], "learned");
     assert_eq!(shown["calibrations"][0]["learned"], true);
     let learned_after_first = shown["calibrations"]
@@ -489,6 +507,37 @@ async fn idempotent_retries_never_duplicate_a_record() {
             .await
             .json();
         assert_eq!(listed["items"].as_array().unwrap().len(), 1, "{url}");
+
+        // A retry whose members (and nested members) come in another order is the same
+        // request: the first answer, one record.
+        let part_id = listed["items"][0]["id"].as_str().unwrap().to_string();
+        let plan_key = format!("plan-{token}");
+        let positions: Vec<f64> = (0..=40).map(|k| f64::from(k)).collect();
+        let in_order: Value = serde_json::from_str(&format!(
+            r#"{{"positions_mm": {}, "target": {{"uniform_depth_nm": 50, "free_piston": null}}}}"#,
+            json!(positions)
+        ))
+        .unwrap();
+        let reordered: Value = serde_json::from_str(&format!(
+            r#"{{"target": {{"free_piston": null, "uniform_depth_nm": 50}}, "positions_mm": {}}}"#,
+            json!(positions)
+        ))
+        .unwrap();
+        assert_ne!(in_order.to_string(), reordered.to_string());
+        let path = format!("/v1/parts/{part_id}/plans");
+        let first = post(&app, &path, &in_order, &[("idempotency-key", &plan_key)]).await;
+        let retry = post(&app, &path, &reordered, &[("idempotency-key", &plan_key)]).await;
+        assert_eq!(first.status, 201, "{}", first.text());
+        assert_eq!(retry.status, 201, "{}", retry.text());
+        assert_eq!(first.headers["location"], retry.headers["location"]);
+        assert_eq!(first.body, retry.body);
+
+        // A member the schema does not name is refused, null or not (it used to be dropped).
+        let plan_id = first.json()["id"].as_str().unwrap().to_string();
+        for stray in [json!({"": null}), json!({"feed_mode": null})] {
+            let refused = post(&app, &format!("/v1/plans/{plan_id}/program"), &stray, &[]).await;
+            assert_eq!(refused.status, 422, "{stray}: {}", refused.text());
+        }
 
         // Without a key, the same serial again is a conflict, not a second part.
         let again = post(&app, "/v1/parts", &body, &[]).await;

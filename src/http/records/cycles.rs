@@ -8,7 +8,7 @@ use serde_json::{Map, Value};
 use super::docs::{PartPlanRequest, PlanProgramRequest, RecordReadProblems, RecordWriteProblems};
 use super::dto::{CycleDto, HistoryDto, PlanDto, RatioDto, RunRecordDto, RunRequest};
 use super::parts::part_dto;
-use super::{begin, commit, fetched, replayed, store, Writer};
+use super::{begin, commit, computed_by, fetched, replayed, store, Writer};
 use crate::http::dto::WarningDto;
 use crate::http::endpoint::{offered, render, Endpoint};
 use crate::http::error::ApiError;
@@ -29,6 +29,7 @@ fn plan_dto(plan: &PlanRecord) -> Result<PlanDto, ApiError> {
         result: document(&plan.result)?,
         created_at: plan.stamp.created_at.clone(),
         created_by: plan.stamp.created_by.clone(),
+        computed_by: computed_by(&plan.stamp),
     })
 }
 
@@ -43,6 +44,7 @@ fn run_dto(run: &RunRecord) -> RunRecordDto {
         notes: run.notes.clone(),
         created_at: run.stamp.created_at.clone(),
         created_by: run.stamp.created_by.clone(),
+        computed_by: computed_by(&run.stamp),
     }
 }
 
@@ -59,8 +61,13 @@ pub async fn plan(
     ApiJson(body): ApiJson<Map<String, Value>>,
 ) -> Result<Response, ApiError> {
     let store = store(&state)?;
-    let fingerprint = format!("POST /v1/parts/{id}/plans\n{}", Value::Object(body.clone()));
-    let write = begin(store, &caller, &headers, &fingerprint)?;
+    let write = begin(
+        store,
+        &caller,
+        &headers,
+        &format!("POST /v1/parts/{id}/plans"),
+        &Value::Object(body.clone()),
+    )?;
     if let Some(replay) = write.replay().await? {
         return Ok(replayed(replay));
     }
@@ -134,7 +141,8 @@ pub async fn run(
         store,
         &caller,
         &headers,
-        &format!("POST /v1/parts/{id}/runs\n{body}"),
+        &format!("POST /v1/parts/{id}/runs"),
+        &body,
     )?;
     if let Some(replay) = write.replay().await? {
         return Ok(replayed(replay));

@@ -65,6 +65,11 @@ pub struct ProcessProfileDto {
     pub created_at: String,
     /// The API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
+    /// Which code wrote it: the Preston version, the build's git revision and the records
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 4`; null for a record
+    /// written before the records kept it.
+    #[schema(required = true)]
+    pub computed_by: Option<String>,
     /// Its calibrations, newest first (in `GET /v1/process-profiles/{name}` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub calibrations: Option<Vec<CalibrationRecordDto>>,
@@ -102,6 +107,11 @@ pub struct CalibrationRecordDto {
     pub created_at: String,
     /// The name of the API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
+    /// Which code wrote it: the Preston version, the build's git revision and the records
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 4`; null for a record
+    /// written before the records kept it.
+    #[schema(required = true)]
+    pub computed_by: Option<String>,
 }
 
 /// `POST /v1/parts`.
@@ -150,6 +160,11 @@ pub struct PartDto {
     pub created_at: String,
     /// The name of the API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
+    /// Which code wrote it: the Preston version, the build's git revision and the records
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 4`; null for a record
+    /// written before the records kept it.
+    #[schema(required = true)]
+    pub computed_by: Option<String>,
 }
 
 /// `GET /v1/parts`: a page in creation order.
@@ -187,6 +202,11 @@ pub struct MeasurementDto {
     pub created_at: String,
     /// The name of the API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
+    /// Which code wrote it: the Preston version, the build's git revision and the records
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 4`; null for a record
+    /// written before the records kept it.
+    #[schema(required = true)]
+    pub computed_by: Option<String>,
 }
 
 /// A stored plan: the optimization as run (with the process and surface it used) and its answer.
@@ -210,6 +230,11 @@ pub struct PlanDto {
     pub created_at: String,
     /// The name of the API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
+    /// Which code wrote it: the Preston version, the build's git revision and the records
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 4`; null for a record
+    /// written before the records kept it.
+    #[schema(required = true)]
+    pub computed_by: Option<String>,
 }
 
 /// `POST /v1/parts/{id}/runs`: a plan run on the machine.
@@ -251,6 +276,11 @@ pub struct RunRecordDto {
     pub created_at: String,
     /// The name of the API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
+    /// Which code wrote it: the Preston version, the build's git revision and the records
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 4`; null for a record
+    /// written before the records kept it.
+    #[schema(required = true)]
+    pub computed_by: Option<String>,
 }
 
 /// A value with its standard error.

@@ -126,10 +126,11 @@ fn begin<'s>(
     store: &'s Store,
     caller: &Writer,
     headers: &HeaderMap,
-    request: &str,
+    operation: &str,
+    body: &Value,
 ) -> Result<Write<'s>, ApiError> {
     let key = headers.get(IDEMPOTENCY_KEY).map(HeaderValue::as_bytes);
-    Ok(Write::begin(store, &caller.name, key, request)?)
+    Ok(Write::begin(store, &caller.name, key, operation, body)?)
 }
 
 /// Commits a write whose answer is `body` at `location`, and answers as the write did.
@@ -252,4 +253,9 @@ async fn compute<E: Endpoint>(state: &AppState, request: &Document) -> Result<Va
     let services = state.services.clone();
     let output = state.run(move || E::run(command, &services)).await?;
     serde_json::to_value(E::respond(output)).map_err(|e| ApiError::internal(e.to_string()))
+}
+
+/// A record's `computed_by` as its wire form: null for one written before it was kept.
+fn computed_by(stamp: &crate::usecases::records::Stamp) -> Option<String> {
+    (!stamp.computed_by.is_empty()).then(|| stamp.computed_by.clone())
 }

@@ -9,7 +9,7 @@ use serde_json::{Map, Value};
 
 use super::docs::{PartMeasurementRequest, RecordReadProblems, RecordWriteProblems};
 use super::dto::{MeasurementDto, PartDto, PartListDto, PartRequest};
-use super::{begin, commit, fetched, replayed, store, Writer};
+use super::{begin, commit, computed_by, fetched, replayed, store, Writer};
 use crate::http::csv_body::{CsvForm, CsvOrJson};
 use crate::http::dto::WarningDto;
 use crate::http::error::ApiError;
@@ -33,6 +33,7 @@ pub(super) fn part_dto(part: &PartRecord) -> Result<PartDto, ApiError> {
         clear_aperture: body.get("clear_aperture").cloned(),
         created_at: part.stamp.created_at.clone(),
         created_by: part.stamp.created_by.clone(),
+        computed_by: computed_by(&part.stamp),
     })
 }
 
@@ -54,7 +55,7 @@ pub async fn create(
     }
     let part = NewPart::new(request.name, request.process_profile, rest)?;
     let store = store(&state)?;
-    let write = begin(store, &caller, &headers, &format!("POST /v1/parts\n{body}"))?;
+    let write = begin(store, &caller, &headers, "POST /v1/parts", &body)?;
     if let Some(replay) = write.replay().await? {
         return Ok(replayed(replay));
     }
@@ -155,11 +156,13 @@ pub async fn measure(
     CsvOrJson(MeasurementBody(body)): CsvOrJson<MeasurementBody>,
 ) -> Result<Response, ApiError> {
     let store = store(&state)?;
-    let fingerprint = format!(
-        "POST /v1/parts/{id}/measurements\n{}",
-        Value::Object(body.clone())
-    );
-    let write = begin(store, &caller, &headers, &fingerprint)?;
+    let write = begin(
+        store,
+        &caller,
+        &headers,
+        &format!("POST /v1/parts/{id}/measurements"),
+        &Value::Object(body.clone()),
+    )?;
     if let Some(replay) = write.replay().await? {
         return Ok(replayed(replay));
     }
@@ -198,5 +201,6 @@ fn measurement_dto(measured: &Measured) -> Result<MeasurementDto, ApiError> {
         warnings: WarningDto::all(&measured.warnings()),
         created_at: record.stamp.created_at.clone(),
         created_by: record.stamp.created_by.clone(),
+        computed_by: computed_by(&record.stamp),
     })
 }

@@ -10,7 +10,7 @@ use super::dto::{
     CalibrationRecordDto, ProcessProfileDto, ProcessProfileListDto, ProcessProfileRequest,
     RateSourceDto,
 };
-use super::{begin, commit, fetched, replayed, store, Writer};
+use super::{begin, commit, computed_by, fetched, replayed, store, Writer};
 use crate::http::error::ApiError;
 use crate::http::extract::ApiJson;
 use crate::http::state::AppState;
@@ -31,6 +31,7 @@ pub(super) fn calibration_dto(
         result: document(&record.result)?,
         created_at: record.stamp.created_at.clone(),
         created_by: record.stamp.created_by.clone(),
+        computed_by: computed_by(&record.stamp),
     })
 }
 
@@ -66,6 +67,7 @@ fn profile_dto(
         current_process: current.process,
         created_at: profile.stamp.created_at.clone(),
         created_by: profile.stamp.created_by.clone(),
+        computed_by: computed_by(&profile.stamp),
         calibrations,
     })
 }
@@ -86,12 +88,7 @@ pub async fn create(
     setting.remove("name");
     let profile = NewProfile::new(&state, request.name, setting)?;
     let store = store(&state)?;
-    let write = begin(
-        store,
-        &caller,
-        &headers,
-        &format!("POST /v1/process-profiles\n{body}"),
-    )?;
+    let write = begin(store, &caller, &headers, "POST /v1/process-profiles", &body)?;
     if let Some(replay) = write.replay().await? {
         return Ok(replayed(replay));
     }
@@ -156,11 +153,13 @@ pub async fn calibrate(
     ApiJson(body): ApiJson<Map<String, Value>>,
 ) -> Result<Response, ApiError> {
     let store = store(&state)?;
-    let fingerprint = format!(
-        "POST /v1/process-profiles/{name}/calibrations\n{}",
-        Value::Object(body.clone())
-    );
-    let write = begin(store, &caller, &headers, &fingerprint)?;
+    let write = begin(
+        store,
+        &caller,
+        &headers,
+        &format!("POST /v1/process-profiles/{name}/calibrations"),
+        &Value::Object(body.clone()),
+    )?;
     if let Some(replay) = write.replay().await? {
         return Ok(replayed(replay));
     }

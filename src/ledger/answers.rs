@@ -1,0 +1,59 @@
+//! What the ledger reads of the compute endpoints' answers and of its stored documents, as
+//! typed projections in the API's own member names: a document that lacks a member is a broken
+//! record ([`LedgerError::Broken`]), never a NaN or a silent default.
+
+use serde::de::DeserializeOwned;
+use serde::Deserialize;
+use serde_json::Value;
+
+use super::LedgerError;
+
+/// `value` read as `T`; `what` names the document in the error.
+pub(super) fn read<T: DeserializeOwned>(value: &Value, what: &str) -> Result<T, LedgerError> {
+    T::deserialize(value).map_err(|e| LedgerError::Broken(format!("{what}: {e}")))
+}
+
+/// An RMS figure.
+#[derive(Debug, Deserialize)]
+pub(super) struct Rms {
+    pub rms_nm: f64,
+}
+
+/// A `/v1/optimize` answer: the plan and its predicted residual.
+#[derive(Debug, Deserialize)]
+pub(super) struct PlanAnswer {
+    pub residual: Rms,
+    pub dwell: Value,
+}
+
+/// A `/v1/measurement/fit` answer: the form error, its radial profile and the correction.
+#[derive(Debug, Deserialize)]
+pub(super) struct MeasurementAnswer {
+    pub form_error: Rms,
+    pub profile: Value,
+    pub correction_target: Value,
+}
+
+/// A `/v1/calibration` answer: K with its standard error, and the calibrated process.
+#[derive(Debug, Deserialize)]
+pub(super) struct CalibrationAnswer {
+    pub parameters: CalibratedParameters,
+    pub process: Value,
+}
+
+#[derive(Debug, Deserialize)]
+pub(super) struct CalibratedParameters {
+    pub preston_coefficient_m2_per_n: Estimate,
+}
+
+#[derive(Debug, Deserialize)]
+pub(super) struct Estimate {
+    pub value: f64,
+    pub standard_error: Option<f64>,
+}
+
+/// A process document's Preston coefficient (profiles store it filled in).
+#[derive(Debug, Deserialize)]
+pub(super) struct ProcessRate {
+    pub preston_coefficient_m2_per_n: f64,
+}
