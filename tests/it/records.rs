@@ -512,7 +512,7 @@ async fn idempotent_retries_never_duplicate_a_record() {
         // request: the first answer, one record.
         let part_id = listed["items"][0]["id"].as_str().unwrap().to_string();
         let plan_key = format!("plan-{token}");
-        let positions: Vec<f64> = (0..=40).map(|k| f64::from(k)).collect();
+        let positions: Vec<f64> = (0..=40).map(f64::from).collect();
         let in_order: Value = serde_json::from_str(&format!(
             r#"{{"positions_mm": {}, "target": {{"uniform_depth_nm": 50, "free_piston": null}}}}"#,
             json!(positions)
