@@ -3,35 +3,82 @@
 
 use super::program::Program;
 
-/// An axis or a spindle.
+/// Whether an axis moves along a line (positions in mm) or turns (positions in deg).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Drive {
-    X,
-    Z,
-    B,
-    WorkpieceSpindle,
-    ToolSpindle,
+pub enum AxisKind {
+    Linear,
+    Rotary,
 }
 
-impl Drive {
-    pub const AXES: [Drive; 3] = [Drive::X, Drive::Z, Drive::B];
+/// A moving axis of the machine, by name; what kind it is is its property, never its place in
+/// an array.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Axis {
+    /// The radial axis.
+    X,
+    /// The axial axis (positive toward the tool).
+    Z,
+    /// The tool's tilt in the meridian plane.
+    B,
+}
+
+impl Axis {
+    /// Every axis a program drives, in the order reports list them.
+    pub const ALL: [Axis; 3] = [Axis::X, Axis::Z, Axis::B];
+
+    pub fn kind(self) -> AxisKind {
+        match self {
+            Axis::X | Axis::Z => AxisKind::Linear,
+            Axis::B => AxisKind::Rotary,
+        }
+    }
 
     /// Its name (snake case, as limits and reports name it).
     pub fn name(self) -> &'static str {
         match self {
-            Drive::X => "x",
-            Drive::Z => "z",
-            Drive::B => "b",
+            Axis::X => "x",
+            Axis::Z => "z",
+            Axis::B => "b",
+        }
+    }
+
+    /// Unit of its positions: mm for a linear axis, deg for a rotary one.
+    pub fn unit(self) -> &'static str {
+        match self.kind() {
+            AxisKind::Linear => "mm",
+            AxisKind::Rotary => "deg",
+        }
+    }
+}
+
+/// An axis or a spindle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Drive {
+    Axis(Axis),
+    WorkpieceSpindle,
+    ToolSpindle,
+}
+
+impl From<Axis> for Drive {
+    fn from(axis: Axis) -> Drive {
+        Drive::Axis(axis)
+    }
+}
+
+impl Drive {
+    /// Its name (snake case, as limits and reports name it).
+    pub fn name(self) -> &'static str {
+        match self {
+            Drive::Axis(axis) => axis.name(),
             Drive::WorkpieceSpindle => "workpiece_spindle",
             Drive::ToolSpindle => "tool_spindle",
         }
     }
 
-    /// Unit of its positions: mm for X and Z, deg for B.
+    /// Unit of its positions (an axis's) or speeds (a spindle's, r/min).
     pub fn unit(self) -> &'static str {
         match self {
-            Drive::B => "deg",
-            Drive::X | Drive::Z => "mm",
+            Drive::Axis(axis) => axis.unit(),
             Drive::WorkpieceSpindle | Drive::ToolSpindle => "rpm",
         }
     }
@@ -50,7 +97,7 @@ pub enum LimitKind {
 impl LimitKind {
     /// The limit's name on `drive` (units in the name).
     pub fn name(self, drive: Drive) -> &'static str {
-        let rotary = drive == Drive::B;
+        let rotary = matches!(drive, Drive::Axis(axis) if axis.kind() == AxisKind::Rotary);
         match (self, rotary) {
             (LimitKind::Min, false) => "min_mm",
             (LimitKind::Min, true) => "min_deg",
@@ -69,7 +116,7 @@ impl LimitKind {
     /// The limit in words, for messages: `the x axis's max_velocity_mm_per_min`.
     pub fn describe(self, drive: Drive) -> String {
         let what = match drive {
-            Drive::X | Drive::Z | Drive::B => "axis",
+            Drive::Axis(_) => "axis",
             Drive::WorkpieceSpindle | Drive::ToolSpindle => "drive",
         };
         format!("the {} {what}'s {}", drive.name(), self.name(drive))
@@ -197,9 +244,9 @@ impl MachineChoice {
                     LimitKind::MaxRpm => None,
                 };
                 let stated = match drive {
-                    Drive::X => axis(&given.x),
-                    Drive::Z => axis(&given.z),
-                    Drive::B => axis(&given.b),
+                    Drive::Axis(Axis::X) => axis(&given.x),
+                    Drive::Axis(Axis::Z) => axis(&given.z),
+                    Drive::Axis(Axis::B) => axis(&given.b),
                     Drive::WorkpieceSpindle => given.workpiece_max_rpm,
                     Drive::ToolSpindle => given.tool_max_rpm,
                 };
@@ -257,12 +304,12 @@ impl MachineLimits {
         (self.workpiece_max_rpm, self.tool_max_rpm)
     }
 
-    /// The limits of axis `drive` (X, Z or B).
-    pub fn axis(&self, drive: Drive) -> &AxisLimits {
-        match drive {
-            Drive::X => &self.x,
-            Drive::Z => &self.z,
-            _ => &self.b,
+    /// The limits of `axis`.
+    pub fn axis(&self, axis: Axis) -> &AxisLimits {
+        match axis {
+            Axis::X => &self.x,
+            Axis::Z => &self.z,
+            Axis::B => &self.b,
         }
     }
 
@@ -272,8 +319,9 @@ impl MachineLimits {
             limit,
             message: format!("{} {message}", LimitKind::name(limit, drive)),
         };
-        for drive in Drive::AXES {
-            let a = self.axis(drive);
+        for axis in Axis::ALL {
+            let a = self.axis(axis);
+            let drive = Drive::from(axis);
             for (value, limit) in [(a.min, LimitKind::Min), (a.max, LimitKind::Max)] {
                 if value.is_some_and(|v| !v.is_finite()) {
                     return Err(error(drive, limit, "must be a finite number"));
@@ -334,9 +382,10 @@ impl MachineLimits {
     /// per (drive, limit). Empty means the program is within every stated limit.
     pub fn violations(&self, program: &Program, spindle_rpm: (f64, f64)) -> Vec<Violation> {
         let mut found = Vec::new();
-        for drive in Drive::AXES {
-            let limits = self.axis(drive);
-            let motion = program.motion(drive);
+        for axis in Axis::ALL {
+            let limits = self.axis(axis);
+            let motion = program.motion(axis);
+            let drive = Drive::from(axis);
             // (limit, values, compared as magnitudes, an upper bound)
             let checks = [
                 (limits.min, LimitKind::Min, &motion.positions, false, false),

@@ -46,8 +46,8 @@ pub use gcode::{
     FeedMode, GcodeFormat, GcodeFormatError, GcodeFormatSpec, SpindleWords, SpindleWordsSpec,
 };
 pub use limits::{
-    AxisLimits, Drive, InvalidLimit, LimitKind, MachineChoice, MachineLimits, MachineLimitsSpec,
-    Violation, DEFAULT_MACHINE,
+    Axis, AxisKind, AxisLimits, Drive, InvalidLimit, LimitKind, MachineChoice, MachineLimits,
+    MachineLimitsSpec, Violation, DEFAULT_MACHINE,
 };
 pub use pose::{Orientation, Pose, Tool, ToolError};
 pub use program::{

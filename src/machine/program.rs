@@ -5,7 +5,7 @@
 //! figure is computed for: a stop of half the dwell at each end, and a constant-speed move
 //! across each position's cell.
 
-use super::limits::{AxisLimits, Drive, LimitKind};
+use super::limits::{Axis, AxisLimits, LimitKind};
 use super::pose::{Pose, Tool};
 use crate::physics::motion::{cell_boundaries_mm, move_share};
 use crate::surface::Surface;
@@ -268,8 +268,8 @@ impl Program {
         &self.blocks
     }
 
-    pub fn motion(&self, drive: Drive) -> &AxisMotion {
-        &self.motion[axis_index(drive)]
+    pub fn motion(&self, axis: Axis) -> &AxisMotion {
+        &self.motion[axis_index(axis)]
     }
 
     /// A move's feed as G94 states it: the X–Z path length over the duration, mm/min, or
@@ -354,11 +354,12 @@ pub fn cell_travel(surface: &Surface, tool: &Tool, positions_mm: &[f64]) -> [Vec
     [0, 1, 2].map(|axis| poses.windows(2).map(|w| w[1][axis] - w[0][axis]).collect())
 }
 
-fn axis_index(drive: Drive) -> usize {
-    match drive {
-        Drive::X => 0,
-        Drive::Z => 1,
-        _ => 2,
+/// Where `axis` sits in the program's per-axis arrays (the order of [`Axis::ALL`]).
+fn axis_index(axis: Axis) -> usize {
+    match axis {
+        Axis::X => 0,
+        Axis::Z => 1,
+        Axis::B => 2,
     }
 }
 
@@ -425,11 +426,11 @@ mod tests {
         assert_eq!(p.polishing_time_s, 12.0);
         // X: 0.5 mm in 1 s, 1 mm in 4 s, 0.5 mm in 3 s → 30, 15, 10 mm/min.
         assert_eq!(
-            p.motion(Drive::X).velocity_per_min,
+            p.motion(Axis::X).velocity_per_min,
             [0.0, 30.0, 15.0, 10.0, 0.0]
         );
         // From the dwell into the first move: 0.5 mm/s over (1 + 1)/2 s.
-        assert_eq!(p.motion(Drive::X).acceleration_per_s2[1], 0.5);
+        assert_eq!(p.motion(Axis::X).acceleration_per_s2[1], 0.5);
     }
 
     #[test]

@@ -36,12 +36,12 @@
 //! program's own arithmetic never puts a plan over its limit.
 
 use super::problem::{Bound, Constraint};
-use crate::machine::{cell_share, Drive, LimitKind};
+use crate::machine::{cell_share, Axis, LimitKind};
 
 /// One axis of the machine as the plan drives it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisPath {
-    pub drive: Drive,
+    pub axis: Axis,
     /// The axis's travel across each position's cell, in its unit (mm or deg); one per
     /// position (empty for a single position, which has no move).
     pub cell_travel: Vec<f64>,
@@ -53,11 +53,11 @@ pub struct AxisPath {
 
 impl AxisPath {
     pub fn velocity_bound(&self) -> Bound {
-        Bound::Machine(self.drive, LimitKind::MaxVelocity)
+        Bound::Machine(self.axis.into(), LimitKind::MaxVelocity)
     }
 
     pub fn acceleration_bound(&self) -> Bound {
-        Bound::Machine(self.drive, LimitKind::MaxAcceleration)
+        Bound::Machine(self.axis.into(), LimitKind::MaxAcceleration)
     }
 }
 
@@ -253,7 +253,7 @@ mod tests {
 
     fn axis(cell_travel: Vec<f64>, v: Option<f64>, a: Option<f64>) -> AxisPath {
         AxisPath {
-            drive: Drive::X,
+            axis: Axis::X,
             cell_travel,
             max_velocity_per_s: v,
             max_acceleration_per_s2: a,

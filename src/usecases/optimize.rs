@@ -13,8 +13,8 @@ use std::ops::Range;
 use super::warnings::{active_constraints, unit_warnings, ACTIVE_USE, TARGET_MISS_FRACTION};
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::machine::{
-    cell_travel, Approach, Drive, InvalidLimit, LimitKind, MachineChoice, MachineLimits, Program,
-    ProgramError, Tool, Violation,
+    cell_travel, Approach, Axis, Drive, InvalidLimit, LimitKind, MachineChoice, MachineLimits,
+    Program, ProgramError, Tool, Violation,
 };
 use crate::optimize::kinematics::AxisPath;
 use crate::optimize::problem::MAX_DEPTH_NM;
@@ -294,13 +294,13 @@ const NO_APPROACH: Approach = Approach {
 /// The machine's axes as the plan at `positions_mm` drives them.
 fn axis_paths(machine: &Machine, positions_mm: &[f64]) -> Vec<AxisPath> {
     let travel = cell_travel(&machine.surface, &machine.tool, positions_mm);
-    Drive::AXES
+    Axis::ALL
         .iter()
         .zip(travel)
-        .map(|(&drive, cell_travel)| {
-            let limits = machine.limits.axis(drive);
+        .map(|(&axis, cell_travel)| {
+            let limits = machine.limits.axis(axis);
             AxisPath {
-                drive,
+                axis,
                 cell_travel,
                 max_velocity_per_s: limits.max_velocity_per_min.map(|v| v / 60.0),
                 max_acceleration_per_s2: limits.max_acceleration_per_s2,
@@ -311,14 +311,14 @@ fn axis_paths(machine: &Machine, positions_mm: &[f64]) -> Vec<AxisPath> {
 
 /// The length of the tool's X–Z path across each position's cell, mm.
 fn cell_path_mm(axes: &[AxisPath]) -> Vec<f64> {
-    let travel = |drive| {
+    let travel = |axis| {
         axes.iter()
-            .find(|a| a.drive == drive)
+            .find(|a| a.axis == axis)
             .map_or(&[][..], |a| &a.cell_travel[..])
     };
-    travel(Drive::X)
+    travel(Axis::X)
         .iter()
-        .zip(travel(Drive::Z))
+        .zip(travel(Axis::Z))
         .map(|(x, z)| x.hypot(*z))
         .collect()
 }
@@ -371,9 +371,10 @@ fn machine_warnings(
         });
     }
     // Which limits the plan sits on: used at 99.9 % or more (the optimizer keeps 1e-6 below).
-    for drive in Drive::AXES {
-        let motion = program.motion(drive);
-        let limits = machine.limits.axis(drive);
+    for axis in Axis::ALL {
+        let motion = program.motion(axis);
+        let limits = machine.limits.axis(axis);
+        let drive = Drive::from(axis);
         let near = |peak: f64, limit: Option<f64>| limit.is_some_and(|l| peak >= l * ACTIVE_USE);
         if near(motion.peak_velocity_per_min, limits.max_velocity_per_min) {
             warnings.push(Warning::MachineLimitActive {

@@ -6,7 +6,7 @@ use super::setting::{process_on_part, Mount, PartSpec, SettingError};
 use super::warnings::process_warnings;
 use super::Warning;
 use crate::machine::{
-    gcode, Approach, Drive, GcodeFormat, GcodeFormatError, GcodeFormatSpec, InvalidLimit,
+    gcode, Approach, Axis, GcodeFormat, GcodeFormatError, GcodeFormatSpec, InvalidLimit,
     MachineChoice, MachineLimits, Program, ProgramError, Tool, Violation,
 };
 use crate::physics::{DwellSchedule, Process, ProcessSpec, ScheduleError};
@@ -179,8 +179,8 @@ fn approach_feed(command: &ProgramCommand) -> f64 {
             .to_radians()
             .sin_cos();
         for (share, limit) in [
-            (sin, command.machine.axis(Drive::X)),
-            (cos, command.machine.axis(Drive::Z)),
+            (sin, command.machine.axis(Axis::X)),
+            (cos, command.machine.axis(Axis::Z)),
         ] {
             let share = share.abs();
             if share == 0.0 {
@@ -255,7 +255,7 @@ fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
         Some(r) if command.process.part().surface.is_sphere() => format!("sphere R = {r} mm"),
         Some(r) => format!("asphere R = {r} mm"),
     };
-    let axes: Vec<String> = Drive::AXES
+    let axes: Vec<String> = Axis::ALL
         .iter()
         .map(|&d| {
             let m = program.motion(d);

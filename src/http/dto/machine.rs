@@ -6,7 +6,7 @@ use utoipa::ToSchema;
 
 use super::super::extract::optional_object;
 use crate::machine::{
-    AxisLimits, Drive, MachineChoice, MachineLimits, MachineLimitsSpec, Orientation, Program,
+    Axis, AxisLimits, MachineChoice, MachineLimits, MachineLimitsSpec, Orientation, Program,
     Utilisation,
 };
 
@@ -272,28 +272,28 @@ impl From<Utilisation> for UtilisationDto {
 impl AxesDto {
     /// Each axis's travel, peaks and use of `machine`'s limits over `program`.
     pub fn of(program: &Program, machine: &MachineLimits) -> Self {
-        let linear = |drive| {
-            let m = program.motion(drive);
+        let linear = |axis| {
+            let m = program.motion(axis);
             LinearAxisReport {
                 min_mm: m.min,
                 max_mm: m.max,
                 travel_mm: m.travel(),
                 peak_velocity_mm_per_min: m.peak_velocity_per_min,
                 peak_acceleration_mm_per_s2: m.peak_acceleration_per_s2,
-                utilisation: m.utilisation(machine.axis(drive)).into(),
+                utilisation: m.utilisation(machine.axis(axis)).into(),
             }
         };
-        let b = program.motion(Drive::B);
+        let b = program.motion(Axis::B);
         AxesDto {
-            x: linear(Drive::X),
-            z: linear(Drive::Z),
+            x: linear(Axis::X),
+            z: linear(Axis::Z),
             b: RotaryAxisReport {
                 min_deg: b.min,
                 max_deg: b.max,
                 travel_deg: b.travel(),
                 peak_velocity_deg_per_min: b.peak_velocity_per_min,
                 peak_acceleration_deg_per_s2: b.peak_acceleration_per_s2,
-                utilisation: b.utilisation(machine.axis(Drive::B)).into(),
+                utilisation: b.utilisation(machine.axis(Axis::B)).into(),
             },
         }
     }
