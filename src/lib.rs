@@ -12,6 +12,7 @@
 pub mod calibration;
 pub mod config;
 pub mod contract;
+pub mod field;
 pub mod healthcheck;
 pub mod http;
 pub mod keys;

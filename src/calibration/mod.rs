@@ -32,6 +32,7 @@
 //! it at all) is held at its nominal value and reported without a standard error; the caller
 //! says why. Standard errors are √ of the diagonal of σ²·(JᵀWJ)⁻¹, σ² = S/(n − p).
 
+use crate::field::Field;
 use faer::Mat;
 
 use crate::lsq::{self, Fit, LsqError, Model, RobustLoss};
@@ -867,34 +868,24 @@ fn check_profile(role: ProfileRole, profile: &Profile, edge_mm: f64) -> Result<(
     Ok(())
 }
 
-/// The measured removal at the before's radii within the after's span.
+/// The measured removal at the before's radii within the after's span (the after linearly
+/// interpolated: [`Field::at`]; a single after point is its own span).
 fn removal_between(before: &Profile, after: &Profile) -> Profile {
+    let field = Field::radial(after.radius_mm.clone(), after.depth_nm.clone()).ok();
+    let at = |r: f64| match &field {
+        Some(field) => field.at(r),
+        None => (after.radius_mm == [r]).then(|| after.depth_nm[0]),
+    };
     let (radius_mm, depth_nm) = before
         .radius_mm
         .iter()
         .zip(&before.depth_nm)
-        .filter_map(|(&r, &b)| interpolate(after, r).map(|a| (r, b - a)))
+        .filter_map(|(&r, &b)| at(r).map(|a| (r, b - a)))
         .unzip();
     Profile {
         radius_mm,
         depth_nm,
     }
-}
-
-/// `profile` at `r` by linear interpolation; `None` outside its span.
-fn interpolate(profile: &Profile, r: f64) -> Option<f64> {
-    let radii = &profile.radius_mm;
-    let (&first, &last) = (radii.first()?, radii.last()?);
-    if r < first || r > last {
-        return None;
-    }
-    let i = radii.partition_point(|&x| x < r);
-    if radii[i.min(radii.len() - 1)] == r {
-        return Some(profile.depth_nm[i]);
-    }
-    let (r0, r1) = (radii[i - 1], radii[i]);
-    let (d0, d1) = (profile.depth_nm[i - 1], profile.depth_nm[i]);
-    Some(d0 + (d1 - d0) * (r - r0) / (r1 - r0))
 }
 
 fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {

@@ -104,4 +104,4 @@ pub use problem::{
     Bound, Breach, Constraint, Constraints, ConstraintsSpec, Objective, OptimizeError, Weight,
 };
 pub use qp::{optimize, DwellProblem, Formulation, Solution, SolveStatus};
-pub use target::{resample_profile, MeasuredProfile, MeasuredProfileError};
+pub use target::{measured_profile, resample_profile, MeasuredProfileError};

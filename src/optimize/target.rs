@@ -4,6 +4,7 @@
 use std::ops::Range;
 
 use super::problem::MAX_DEPTH_NM;
+use crate::field::{Field, FieldError};
 use crate::physics::{ClearAperture, RadialGrid};
 
 /// The contiguous range of grid rows inside `aperture` (the grid is ascending).
@@ -55,49 +56,37 @@ impl MeasuredProfileError {
     }
 }
 
-/// A measured profile (`radius_mm` strictly increasing, same length as `depth_nm`, at least 2
-/// points, depths within ±[`MAX_DEPTH_NM`]), checked once.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MeasuredProfile {
+/// A measured profile as a field: `radius_mm` strictly increasing, same length as `depth_nm`,
+/// at least 2 points, depths within ±[`MAX_DEPTH_NM`]; checked once.
+pub fn measured_profile(
     radius_mm: Vec<f64>,
     depth_nm: Vec<f64>,
-}
-
-impl MeasuredProfile {
-    pub fn new(radius_mm: Vec<f64>, depth_nm: Vec<f64>) -> Result<Self, MeasuredProfileError> {
-        if radius_mm.len() < 2 {
-            return Err(MeasuredProfileError::TooFewPoints);
+) -> Result<Field, MeasuredProfileError> {
+    // Point by point, radius before depth, so the first fault in the request is the one named.
+    if radius_mm.len() < 2 {
+        return Err(MeasuredProfileError::TooFewPoints);
+    }
+    if depth_nm.len() != radius_mm.len() {
+        return Err(MeasuredProfileError::LengthMismatch {
+            depth: depth_nm.len(),
+            radius: radius_mm.len(),
+        });
+    }
+    for (i, (&r, &z)) in radius_mm.iter().zip(&depth_nm).enumerate() {
+        if !r.is_finite() || r < 0.0 {
+            return Err(MeasuredProfileError::BadRadius { index: i });
         }
-        if depth_nm.len() != radius_mm.len() {
-            return Err(MeasuredProfileError::LengthMismatch {
-                depth: depth_nm.len(),
-                radius: radius_mm.len(),
+        if i > 0 && r <= radius_mm[i - 1] {
+            return Err(MeasuredProfileError::NotIncreasing { index: i });
+        }
+        if !(-MAX_DEPTH_NM..=MAX_DEPTH_NM).contains(&z) {
+            return Err(MeasuredProfileError::BadDepth {
+                index: i,
+                max: MAX_DEPTH_NM,
             });
         }
-        for (i, (&r, &z)) in radius_mm.iter().zip(&depth_nm).enumerate() {
-            if !r.is_finite() || r < 0.0 {
-                return Err(MeasuredProfileError::BadRadius { index: i });
-            }
-            if i > 0 && r <= radius_mm[i - 1] {
-                return Err(MeasuredProfileError::NotIncreasing { index: i });
-            }
-            if !(-MAX_DEPTH_NM..=MAX_DEPTH_NM).contains(&z) {
-                return Err(MeasuredProfileError::BadDepth {
-                    index: i,
-                    max: MAX_DEPTH_NM,
-                });
-            }
-        }
-        Ok(MeasuredProfile {
-            radius_mm,
-            depth_nm,
-        })
     }
-
-    /// Linear interpolation at each of `radii_mm`, which must lie within the profile's span.
-    pub fn resample(&self, radii_mm: &[f64]) -> Result<Vec<f64>, MeasuredProfileError> {
-        resample_checked(&self.radius_mm, &self.depth_nm, radii_mm)
-    }
+    Ok(Field::radial(radius_mm, depth_nm)?)
 }
 
 /// Linear interpolation of the measured profile (`radius_mm` strictly increasing, same length
@@ -108,38 +97,39 @@ pub fn resample_profile(
     depth_nm: &[f64],
     radii_mm: &[f64],
 ) -> Result<Vec<f64>, MeasuredProfileError> {
-    MeasuredProfile::new(radius_mm.to_vec(), depth_nm.to_vec())?.resample(radii_mm)
+    Ok(measured_profile(radius_mm.to_vec(), depth_nm.to_vec())?.resample(radii_mm)?)
 }
 
-fn resample_checked(
-    radius_mm: &[f64],
-    depth_nm: &[f64],
-    radii_mm: &[f64],
-) -> Result<Vec<f64>, MeasuredProfileError> {
-    let (lo, hi) = (radius_mm[0], radius_mm[radius_mm.len() - 1]);
-    if let (Some(&first), Some(&last)) = (radii_mm.first(), radii_mm.last()) {
-        if first < lo || last > hi {
-            return Err(MeasuredProfileError::NotCovering {
+impl From<FieldError> for MeasuredProfileError {
+    /// The field's checks in the profile's words (its arrays are `radius_mm` and `depth_nm`).
+    fn from(e: FieldError) -> Self {
+        match e {
+            FieldError::TooFewPoints | FieldError::NoAngles => MeasuredProfileError::TooFewPoints,
+            FieldError::LengthMismatch { values, samples } => {
+                MeasuredProfileError::LengthMismatch {
+                    depth: values,
+                    radius: samples,
+                }
+            }
+            FieldError::BadRadius { index } => MeasuredProfileError::BadRadius { index },
+            FieldError::NotIncreasing { index } => MeasuredProfileError::NotIncreasing { index },
+            FieldError::BadValue { index } => MeasuredProfileError::BadDepth {
+                index,
+                max: MAX_DEPTH_NM,
+            },
+            FieldError::NotCovering {
                 lo,
                 hi,
                 first,
                 last,
-            });
+            } => MeasuredProfileError::NotCovering {
+                lo,
+                hi,
+                first,
+                last,
+            },
         }
     }
-    Ok(radii_mm
-        .iter()
-        .map(|&r| {
-            // Index of the segment [radius_mm[k], radius_mm[k+1]] holding r.
-            let k = radius_mm
-                .partition_point(|&x| x <= r)
-                .clamp(1, radius_mm.len() - 1)
-                - 1;
-            let (r0, r1) = (radius_mm[k], radius_mm[k + 1]);
-            let w = (r - r0) / (r1 - r0);
-            depth_nm[k] + w * (depth_nm[k + 1] - depth_nm[k])
-        })
-        .collect())
 }
 
 #[cfg(test)]

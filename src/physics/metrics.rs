@@ -1,7 +1,9 @@
 //! Uniformity of a removal profile over the clear aperture.
 //!
 //! Over the radial samples r_i that lie in the aperture [inner, outer] (each sample counts once;
-//! on an evenly spaced grid this is the average along the radius, not an area average):
+//! on an evenly spaced grid this is the average along the radius, not an area average — the
+//! figures the API has always reported; [`UniformityMetrics::weighted`] takes explicit weights,
+//! such as a field's area weights, [`crate::field`]):
 //!
 //! ```text
 //! mean = Σ z_i / n      min, max over the samples      pv = max − min
@@ -12,6 +14,7 @@
 //! removed in the aperture (mean = 0).
 
 use super::grid::{ClearAperture, RadialGrid};
+use crate::field::Figures;
 
 /// Uniformity figures of a removal profile over a clear aperture, nm.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,26 +46,23 @@ impl UniformityMetrics {
         Self::of_samples(&inside)
     }
 
-    /// Figures over the given depths (at least one).
+    /// Figures over the given depths (at least one), each counting once.
     pub fn of_samples(depths_nm: &[f64]) -> Self {
-        assert!(!depths_nm.is_empty(), "metrics need at least one sample");
-        let n = depths_nm.len() as f64;
-        let mean = depths_nm.iter().sum::<f64>() / n;
-        let (min, max) = depths_nm
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &z| {
-                (lo.min(z), hi.max(z))
-            });
-        let rms = (depths_nm.iter().map(|z| (z - mean).powi(2)).sum::<f64>() / n).sqrt();
-        let pv = max - min;
+        Self::weighted(depths_nm, &vec![1.0; depths_nm.len()])
+    }
+
+    /// Figures over the given depths with `weights` (one each, ≥ 0, at least one above 0):
+    /// [`crate::field::Figures`], e.g. with a field's area weights ([`crate::field::Weighting`]).
+    pub fn weighted(depths_nm: &[f64], weights: &[f64]) -> Self {
+        let f = Figures::weighted(depths_nm, weights).expect("metrics need a weighted sample");
         UniformityMetrics {
-            mean_nm: mean,
-            min_nm: min,
-            max_nm: max,
-            pv_nm: pv,
-            rms_nm: rms,
-            nonuniformity: (mean != 0.0).then(|| pv / mean),
-            samples: depths_nm.len(),
+            mean_nm: f.mean,
+            min_nm: f.min,
+            max_nm: f.max,
+            pv_nm: f.pv,
+            rms_nm: f.rms,
+            nonuniformity: (f.mean != 0.0).then(|| f.pv / f.mean),
+            samples: f.samples,
         }
     }
 }

@@ -12,6 +12,7 @@ use std::ops::Range;
 
 use super::warnings::{active_constraints, unit_warnings, ACTIVE_USE, TARGET_MISS_FRACTION};
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
+use crate::field::Field;
 use crate::machine::{
     cell_travel, Approach, Axis, Drive, InvalidLimit, LimitKind, MachineChoice, MachineLimits,
     Program, ProgramError, Tool, Violation,
@@ -20,8 +21,8 @@ use crate::optimize::kinematics::AxisPath;
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
-    optimize as solve, Constraints, ConstraintsSpec, DwellBasis, DwellProblem, Formulation,
-    MeasuredProfile, Objective, OptimizeError, Solution,
+    measured_profile, optimize as solve, Constraints, ConstraintsSpec, DwellBasis, DwellProblem,
+    Formulation, MeasuredProfileError, Objective, OptimizeError, Solution,
 };
 use crate::physics::{check_positions, UniformityMetrics};
 use crate::study::Recommendation;
@@ -33,10 +34,7 @@ pub enum Target {
     /// A uniform depth, nm, in [0, 1e9] (checked by [`Target::uniform`]).
     Uniform { depth_nm: f64 },
     /// A measured error profile, optionally with a free uniform layer p ≥ 0 on top.
-    Profile {
-        profile: MeasuredProfile,
-        free_piston: bool,
-    },
+    Profile { profile: Field, free_piston: bool },
 }
 
 /// The target as given: exactly one of a uniform depth and a measured profile.
@@ -75,7 +73,7 @@ impl Target {
                 Ok(Target::Uniform { depth_nm })
             }
             (None, Some(profile)) => Ok(Target::Profile {
-                profile: MeasuredProfile::new(profile.radius_mm, profile.depth_nm)
+                profile: measured_profile(profile.radius_mm, profile.depth_nm)
                     .map_err(OptimizeError::from)?,
                 free_piston: spec.free_piston.unwrap_or(false),
             }),
@@ -209,7 +207,7 @@ impl OptimizeCommand {
             } => (
                 profile
                     .resample(&setting.grid().radii_mm()[rows.clone()])
-                    .map_err(OptimizeError::from)?,
+                    .map_err(|e| OptimizeError::from(MeasuredProfileError::from(e)))?,
                 free_piston,
             ),
         };
