@@ -21,6 +21,8 @@ use tokio::sync::OnceCell;
 
 use crate::usecases::records::{RecordsError, Stamp};
 
+mod blobs;
+pub use blobs::blob_name;
 mod records;
 
 /// The schema, in order: (version, description, SQL). Append only: a released migration never
@@ -46,6 +48,7 @@ const MIGRATIONS: &[(i64, &str, &str)] = &[
         "computed by",
         include_str!("../../migrations/0004_computed_by.sql"),
     ),
+    (5, "blobs", include_str!("../../migrations/0005_blobs.sql")),
 ];
 
 /// Which code writes the records: the crate's version, the build's git revision (build.rs)
@@ -309,7 +312,7 @@ mod tests {
         let store = Store::open(&options).await.unwrap();
         assert!(path.exists());
         assert_eq!(store.backend(), Backend::Sqlite);
-        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3, 4]);
+        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3, 4, 5]);
         assert!(store.is_reachable().await);
         let (mode,): (String,) = sqlx::query_as("PRAGMA journal_mode")
             .fetch_one(&store.pool)
@@ -327,7 +330,7 @@ mod tests {
         assert!(orphan.is_err(), "{orphan:?}");
         store.close().await;
         let again = Store::open(&options).await.unwrap();
-        assert_eq!(again.applied_versions().await.unwrap(), vec![1, 2, 3, 4]);
+        assert_eq!(again.applied_versions().await.unwrap(), vec![1, 2, 3, 4, 5]);
         again.close().await;
         remove(&path);
     }
@@ -359,7 +362,7 @@ mod tests {
             pool.close().await;
         }
         let store = Store::open(&options).await.unwrap();
-        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3, 4]);
+        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3, 4, 5]);
         let old = store.profile("old").await.unwrap().unwrap();
         assert_eq!(old.stamp.created_by, "mes");
         assert_eq!(
