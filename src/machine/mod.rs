@@ -41,7 +41,7 @@ pub mod limits;
 pub mod pose;
 pub mod program;
 
-pub use crate::physics::motion::{cell_boundaries_mm, move_share as cell_share};
+pub use crate::physics::motion::cell_boundaries_mm;
 pub use gcode::{
     FeedMode, GcodeFormat, GcodeFormatError, GcodeFormatSpec, SpindleWords, SpindleWordsSpec,
 };

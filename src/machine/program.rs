@@ -7,7 +7,7 @@
 
 use super::limits::{Axis, AxisLimits, LimitKind};
 use super::pose::{Pose, Tool};
-use crate::physics::motion::{cell_boundaries_mm, move_share};
+use crate::physics::motion::{acceleration, cell_boundaries_mm, move_share};
 use crate::surface::Surface;
 
 /// What a block does.
@@ -78,7 +78,7 @@ impl AxisMotion {
         let acceleration_per_s2: Vec<f64> = (0..=n)
             .map(|k| {
                 let dv = (velocity(k + 1) - velocity(k)) / 60.0;
-                dv / (0.5 * (duration(k) + duration(k + 1)))
+                acceleration(dv, duration(k), duration(k + 1))
             })
             .collect();
         let peak = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));

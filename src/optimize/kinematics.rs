@@ -36,7 +36,8 @@
 //! program's own arithmetic never puts a plan over its limit.
 
 use super::problem::{Bound, Constraint};
-use crate::machine::{cell_share, Axis, LimitKind};
+use crate::machine::{Axis, LimitKind};
+use crate::physics::motion::{acceleration, move_share};
 
 /// One axis of the machine as the plan drives it.
 #[derive(Debug, Clone, PartialEq)]
@@ -104,7 +105,7 @@ pub fn floors(axes: &[AxisPath], feed: Option<PathFeed>, n: usize, min_dwell_s: 
         for (j, path) in feed.cell_path_mm.iter().enumerate() {
             raise(
                 j,
-                path / (cell_share(j, n) * v),
+                path / (move_share(j, n) * v),
                 Bound::Constraint(Constraint::MaxFeed),
             );
         }
@@ -113,7 +114,7 @@ pub fn floors(axes: &[AxisPath], feed: Option<PathFeed>, n: usize, min_dwell_s: 
         if let Some(v) = axis.max_velocity_per_s {
             let v = v * (1.0 - MARGIN);
             for (j, c) in axis.cell_travel.iter().enumerate() {
-                raise(j, c.abs() / (cell_share(j, n) * v), axis.velocity_bound());
+                raise(j, c.abs() / (move_share(j, n) * v), axis.velocity_bound());
             }
         }
         if let (Some(a), Some(first), Some(last)) = (
@@ -160,15 +161,20 @@ pub fn peak_acceleration_ratio(axis: &AxisPath, dwell_s: &[f64]) -> f64 {
         return 0.0;
     }
     let v: Vec<f64> = (0..n)
-        .map(|j| velocity(c[j], cell_share(j, n), dwell_s[j]))
+        .map(|j| velocity(c[j], move_share(j, n), dwell_s[j]))
         .collect();
+    // From rest through the half-dwell stop into the first move (both t_0/2), and back.
+    let (first, last) = (0.5 * dwell_s[0], 0.5 * dwell_s[n - 1]);
     let ends = [
-        v[0].abs() / (0.5 * dwell_s[0]),
-        v[n - 1].abs() / (0.5 * dwell_s[n - 1]),
+        acceleration(v[0].abs(), first, first),
+        acceleration(v[n - 1].abs(), last, last),
     ];
     let between = (0..n - 1).map(|j| {
-        let span = 0.5 * (cell_share(j, n) * dwell_s[j] + cell_share(j + 1, n) * dwell_s[j + 1]);
-        (v[j + 1] - v[j]).abs() / span
+        acceleration(
+            (v[j + 1] - v[j]).abs(),
+            move_share(j, n) * dwell_s[j],
+            move_share(j + 1, n) * dwell_s[j + 1],
+        )
     });
     ends.into_iter()
         .chain(between)
@@ -188,7 +194,7 @@ pub fn constant_dwell_for_acceleration(axes: &[AxisPath], n: usize) -> f64 {
         let a = a * (1.0 - MARGIN);
         let c = &axis.cell_travel;
         for j in 0..c.len().saturating_sub(1) {
-            let (w0, w1) = (cell_share(j, n), cell_share(j + 1, n));
+            let (w0, w1) = (move_share(j, n), move_share(j + 1, n));
             let jump = (c[j + 1] / w1 - c[j] / w0).abs();
             t = t.max((2.0 * jump / (a * (w0 + w1))).sqrt());
         }
@@ -218,7 +224,7 @@ pub fn acceleration_rows(axes: &[AxisPath], x0: &[f64], tau: f64) -> Vec<Acceler
         let scale = 0.5 * a * (1.0 - MARGIN) * tau * tau;
         let c = &axis.cell_travel;
         for j in 0..c.len().saturating_sub(1) {
-            let (w0, w1) = (cell_share(j, n), cell_share(j + 1, n));
+            let (w0, w1) = (move_share(j, n), move_share(j + 1, n));
             for sign in [1.0, -1.0] {
                 // σ·(c_{j+1}/(w_{j+1}·t_{j+1}) − c_j/(w_j·t_j)), times τ: γ/x per position.
                 let terms = [(j + 1, sign * c[j + 1] / w1), (j, -sign * c[j] / w0)];
@@ -342,11 +348,11 @@ mod tests {
     fn between_ratio(axis: &AxisPath, t: &[f64]) -> f64 {
         let n = t.len();
         let c = &axis.cell_travel;
-        let v: Vec<f64> = (0..n).map(|j| c[j] / (cell_share(j, n) * t[j])).collect();
+        let v: Vec<f64> = (0..n).map(|j| c[j] / (move_share(j, n) * t[j])).collect();
         (0..n - 1)
             .map(|j| {
                 (v[j + 1] - v[j]).abs()
-                    / (0.5 * (cell_share(j, n) * t[j] + cell_share(j + 1, n) * t[j + 1]))
+                    / (0.5 * (move_share(j, n) * t[j] + move_share(j + 1, n) * t[j + 1]))
             })
             .fold(0.0, f64::max)
             / axis.max_acceleration_per_s2.unwrap()

@@ -60,6 +60,22 @@ pub fn stop_share(j: usize, n: usize) -> f64 {
     1.0 - move_share(j, n)
 }
 
+/// The acceleration model of every axis: its velocity is constant within a segment (a block
+/// of a program, a cell of a plan) and changes between consecutive segments over the time
+/// between their midpoints, so a change `dv` between segments lasting `before` and `after`
+/// (a dwell's velocity is 0; at rest before the first and after the last, a segment of 0 s)
+/// takes
+///
+/// ```text
+/// a = dv / ((d_before + d_after) / 2)
+/// ```
+///
+/// The program reports it ([`crate::machine`]) and the optimizer keeps it within the limits
+/// (`optimize::kinematics`).
+pub fn acceleration(dv: f64, before_s: f64, after_s: f64) -> f64 {
+    dv / (0.5 * (before_s + after_s))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
