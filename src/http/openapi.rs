@@ -27,22 +27,6 @@ use crate::contract;
         health::healthz,
         health::readyz,
         metrics::handler,
-        records::profiles::create,
-        records::profiles::list,
-        records::profiles::show,
-        records::profiles::calibrate,
-        records::profiles::calibration,
-        records::parts::create,
-        records::parts::list,
-        records::parts::show,
-        records::parts::measure,
-        records::parts::measurement,
-        records::cycles::plan,
-        records::cycles::show_plan,
-        records::cycles::program,
-        records::cycles::run,
-        records::cycles::show_run,
-        records::cycles::history,
     ),
     components(schemas(
         Problem,
@@ -71,6 +55,8 @@ struct ApiDoc;
 /// for every computing endpoint.
 pub fn spec() -> utoipa::openapi::OpenApi {
     let mut doc = ApiDoc::openapi();
+    // The record operations, declared with their routes (records::routes).
+    doc.merge(records::paths());
     let mut schemas = Vec::new();
     for endpoint in &ENDPOINTS {
         let operation = (endpoint.operation)(&mut schemas);

@@ -24,11 +24,12 @@ use axum::extract::FromRequestParts;
 use axum::http::request::Parts;
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
-use axum::routing::{get, post};
 use axum::Router;
 use serde::Serialize;
 use serde_json::Value;
 use sha2::{Digest, Sha256};
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
 
 use super::auth::{KeyName, KeyRole};
 use super::calibration::CalibrationEndpoint;
@@ -46,29 +47,34 @@ use crate::usecases::records::{Record, RecordsError, Replay};
 
 pub use docs::schemas;
 
+/// The record operations: each route and its OpenAPI path declared once, by its handler's
+/// `#[utoipa::path]` (utoipa-axum reads the path and method from it).
+fn operations() -> OpenApiRouter<AppState> {
+    OpenApiRouter::new()
+        .routes(routes!(profiles::create, profiles::list))
+        .routes(routes!(profiles::show))
+        .routes(routes!(profiles::calibrate))
+        .routes(routes!(profiles::calibration))
+        .routes(routes!(parts::create, parts::list))
+        .routes(routes!(parts::show))
+        .routes(routes!(parts::measure))
+        .routes(routes!(parts::measurement))
+        .routes(routes!(cycles::plan))
+        .routes(routes!(cycles::show_plan))
+        .routes(routes!(cycles::program))
+        .routes(routes!(cycles::run))
+        .routes(routes!(cycles::show_run))
+        .routes(routes!(cycles::history))
+}
+
 /// The record routes.
 pub fn routes() -> Router<AppState> {
-    Router::new()
-        .route(
-            "/v1/process-profiles",
-            post(profiles::create).get(profiles::list),
-        )
-        .route("/v1/process-profiles/{name}", get(profiles::show))
-        .route(
-            "/v1/process-profiles/{name}/calibrations",
-            post(profiles::calibrate),
-        )
-        .route("/v1/calibrations/{id}", get(profiles::calibration))
-        .route("/v1/parts", post(parts::create).get(parts::list))
-        .route("/v1/parts/{id}", get(parts::show))
-        .route("/v1/parts/{id}/measurements", post(parts::measure))
-        .route("/v1/measurements/{id}", get(parts::measurement))
-        .route("/v1/parts/{id}/plans", post(cycles::plan))
-        .route("/v1/plans/{id}", get(cycles::show_plan))
-        .route("/v1/plans/{id}/program", post(cycles::program))
-        .route("/v1/parts/{id}/runs", post(cycles::run))
-        .route("/v1/runs/{id}", get(cycles::show_run))
-        .route("/v1/parts/{id}/history", get(cycles::history))
+    operations().split_for_parts().0
+}
+
+/// The record operations' OpenAPI paths (and the schemas they name).
+pub fn paths() -> utoipa::openapi::OpenApi {
+    operations().split_for_parts().1
 }
 
 impl From<RecordsError> for ApiError {
