@@ -1,6 +1,6 @@
 //! The build's git revision, for the records' `computed_by` (which code wrote them):
-//! `PRESTON_GIT_REVISION`, the commit's first 12 hex digits, or `unknown` outside a git
-//! checkout (a source archive). Uncommitted changes are not marked: watching the work tree
+//! `PRESTON_GIT_REVISION`, the commit's first 12 hex digits (or the revision given in that
+//! environment variable, as the container build does), or `unknown` outside a git checkout. Uncommitted changes are not marked: watching the work tree
 //! would rebuild the crate on every `git status`.
 
 use std::process::Command;
@@ -13,8 +13,13 @@ fn git(args: &[&str]) -> Option<String> {
 }
 
 fn main() {
-    let revision =
-        git(&["rev-parse", "--short=12", "HEAD"]).unwrap_or_else(|| "unknown".to_string());
+    // A build without the repository (a container image's) is told the revision instead.
+    println!("cargo:rerun-if-env-changed=PRESTON_GIT_REVISION");
+    let revision = std::env::var("PRESTON_GIT_REVISION")
+        .ok()
+        .filter(|r| !r.is_empty())
+        .or_else(|| git(&["rev-parse", "--short=12", "HEAD"]))
+        .unwrap_or_else(|| "unknown".to_string());
     println!("cargo:rustc-env=PRESTON_GIT_REVISION={revision}");
     // A new commit or checkout moves HEAD or the branch it names.
     for path in [".git/HEAD", ".git/packed-refs"] {
