@@ -32,7 +32,7 @@ pub struct KeyRole(pub Role);
 
 /// Why a request was not authenticated (the problem's detail; never says which keys exist).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Refusal {
+pub enum KeyRefusal {
     Missing,
     Malformed,
     Unknown,
@@ -47,7 +47,7 @@ pub async fn authenticate(State(state): State<AppState>, request: Request, next:
         return next.run(request).await;
     }
     let presented = match request.headers().get(axum::http::header::AUTHORIZATION) {
-        None => Err(Refusal::Missing),
+        None => Err(KeyRefusal::Missing),
         Some(value) => value
             .to_str()
             .ok()
@@ -57,13 +57,13 @@ pub async fn authenticate(State(state): State<AppState>, request: Request, next:
                 (scheme.eq_ignore_ascii_case("bearer") && !token.is_empty())
                     .then(|| token.to_string())
             })
-            .ok_or(Refusal::Malformed),
+            .ok_or(KeyRefusal::Malformed),
     };
     let name = presented.and_then(|key| {
         auth.keys()
             .identify(&key)
             .map(|(name, role)| (Arc::<str>::from(name), role))
-            .ok_or(Refusal::Unknown)
+            .ok_or(KeyRefusal::Unknown)
     });
     match name {
         Ok((name, role)) => {
@@ -81,17 +81,17 @@ pub async fn authenticate(State(state): State<AppState>, request: Request, next:
 
 impl ApiError {
     /// A guarded path without a known API key (RFC 6750: no credentials, the bare challenge).
-    pub fn unauthorized(reason: Refusal) -> Self {
+    pub fn unauthorized(reason: KeyRefusal) -> Self {
         let (detail, challenge) = match reason {
-            Refusal::Missing => (
+            KeyRefusal::Missing => (
                 "this path needs an API key: send `Authorization: Bearer <key>`",
                 "Bearer realm=\"preston\"",
             ),
-            Refusal::Malformed => (
+            KeyRefusal::Malformed => (
                 "the Authorization header must be `Bearer <key>` with a non-empty key",
                 "Bearer realm=\"preston\", error=\"invalid_request\"",
             ),
-            Refusal::Unknown => (
+            KeyRefusal::Unknown => (
                 "the API key is not valid",
                 "Bearer realm=\"preston\", error=\"invalid_token\"",
             ),

@@ -80,7 +80,7 @@ pub async fn load_run(store: &Store, id: &str) -> Result<RunRecord, LedgerError>
 }
 
 /// A plan's machine program, as a `/v1/program` request.
-pub struct ProgramRequest {
+pub struct PlanProgram {
     pub request: Document,
     /// What the program's header names: the plan and its part.
     pub provenance: String,
@@ -92,7 +92,7 @@ pub async fn program_request(
     store: &Store,
     id: &str,
     body: Document,
-) -> Result<ProgramRequest, LedgerError> {
+) -> Result<PlanProgram, LedgerError> {
     let plan = load_plan(store, id).await?;
     let part = parts::load(store, &plan.part).await?;
     let profile = profiles::load(store, &part.process_profile).await?;
@@ -108,7 +108,7 @@ pub async fn program_request(
     plan_setting(&mut request, &plan_request, &profile)?;
     let answer: PlanAnswer = read(&document(&plan.result)?, "a plan")?;
     request.insert("dwell".into(), answer.dwell);
-    Ok(ProgramRequest {
+    Ok(PlanProgram {
         request,
         provenance: format!(
             "plan {} of part {}, part id {}",

@@ -75,7 +75,7 @@ pub enum Computation {
 
 /// Whose setting (process, surface, tool, clear aperture) is checked.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Setting {
+pub enum SettingOwner {
     /// A process profile's, as created.
     Profile,
     /// A part's: its profile's current process at the part's `workpiece_radius_mm`.
@@ -100,7 +100,7 @@ pub trait Compute: Sync {
     fn refuses(problem: &Self::Problem) -> bool;
 
     /// Checks a setting as every compute endpoint would, without computing.
-    fn check_setting(&self, setting: &Document, of: Setting) -> Result<(), Self::Problem>;
+    fn check_setting(&self, setting: &Document, of: SettingOwner) -> Result<(), Self::Problem>;
 }
 
 /// A stored document (JSON text this layer wrote).

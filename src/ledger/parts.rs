@@ -9,7 +9,8 @@ use super::answers::{read, MeasurementAnswer, PlanAnswer};
 use super::cycles::plan_setting;
 use super::profiles::{self, calibration_record};
 use super::{
-    document, fill, found, without, Computation, Compute, Document, LedgerError, Setting, Write,
+    document, fill, found, without, Computation, Compute, Document, LedgerError, SettingOwner,
+    Write,
 };
 use crate::store::Store;
 use crate::usecases::records::{
@@ -70,7 +71,7 @@ impl NewPart {
         })?;
         let current = profiles::current(store, &profile).await?;
         let body = Value::Object(self.body);
-        compute.check_setting(&on_part(current.process, &body), Setting::Part)?;
+        compute.check_setting(&on_part(current.process, &body), SettingOwner::Part)?;
         Ok(PartRecord {
             stamp: write.stamp(),
             name: self.name,
@@ -95,7 +96,7 @@ pub async fn load(store: &Store, id: &str) -> Result<PartRecord, LedgerError> {
 }
 
 /// A measurement, and the cycle it completes.
-pub struct Measured {
+pub struct MeasurementOutcome {
     pub measurement: MeasurementRecord,
     /// The run whose cycle it completes.
     pub completes_run: Option<String>,
@@ -107,7 +108,7 @@ pub struct Measured {
     pub fitted: Option<CalibrationRecord>,
 }
 
-impl Measured {
+impl MeasurementOutcome {
     /// The calibration the profile learned from the cycle, if it learned one.
     pub fn learned_calibration(&self) -> Option<&str> {
         self.fitted
@@ -132,7 +133,7 @@ pub async fn measure<C: Compute>(
     write: &Write<'_>,
     id: &str,
     body: Document,
-) -> Result<Measured, C::Problem> {
+) -> Result<MeasurementOutcome, C::Problem> {
     let store = write.store();
     let part = load(store, id).await?;
     let mut request = without(body, &[("surface", "the part")])?;
@@ -153,7 +154,7 @@ pub async fn measure<C: Compute>(
         result: result.to_string(),
     };
     let lesson = learn_from_cycle(compute, write, &part, &answer.profile).await?;
-    Ok(Measured {
+    Ok(MeasurementOutcome {
         measurement,
         completes_run: lesson.as_ref().map(|l| l.run.clone()),
         measured_before: lesson.as_ref().is_some_and(|l| l.measured_before),
@@ -236,7 +237,7 @@ async fn learn_from_cycle<C: Compute>(
 }
 
 /// A stored measurement, and the cycle it completed.
-pub async fn measurement(store: &Store, id: &str) -> Result<Measured, LedgerError> {
+pub async fn measurement(store: &Store, id: &str) -> Result<MeasurementOutcome, LedgerError> {
     let measurement = found(store.measurement(id).await?, "measurement", id)?;
     let part = load(store, &measurement.part).await?;
     let (measurements, plans, runs, calibrations) = (
@@ -248,7 +249,7 @@ pub async fn measurement(store: &Store, id: &str) -> Result<Measured, LedgerErro
     let cycle = cycles(&measurements, &plans, &runs, &calibrations)
         .into_iter()
         .find(|c| c.after.is_some_and(|m| m.stamp.id == id));
-    Ok(Measured {
+    Ok(MeasurementOutcome {
         completes_run: cycle.as_ref().map(|c| c.run.stamp.id.clone()),
         measured_before: cycle.as_ref().is_some_and(|c| c.before.is_some()),
         fitted: cycle.and_then(|c| c.learned).cloned(),

@@ -6,7 +6,8 @@ use super::answers::{read, CalibrationAnswer, ProcessRate};
 use serde_json::Value;
 
 use super::{
-    document, fill, found, without, Computation, Compute, Document, LedgerError, Setting, Write,
+    document, fill, found, without, Computation, Compute, Document, LedgerError, SettingOwner,
+    Write,
 };
 use crate::store::Store;
 use crate::usecases::records::{current_rate, CalibrationRecord, ProfileRecord, Records, Stamp};
@@ -36,7 +37,7 @@ impl NewProfile {
             )
             .into());
         }
-        compute.check_setting(&setting, Setting::Profile)?;
+        compute.check_setting(&setting, SettingOwner::Profile)?;
         Ok(NewProfile { name, setting })
     }
 

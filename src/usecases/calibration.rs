@@ -24,7 +24,7 @@ pub const NOISE_FACTOR: f64 = 3.0;
 
 /// What to fit, as asked (`None`: the default).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct FitSelection {
+pub struct ParameterSelection {
     /// Default true.
     pub preston_coefficient: Option<bool>,
     /// Default false.
@@ -41,7 +41,7 @@ pub struct CalibrationSpec {
     pub process: ProcessSpec,
     pub part: PartSpec,
     pub runs: Vec<RunSpec>,
-    pub fit: FitSelection,
+    pub fit: ParameterSelection,
     pub robust: Option<RobustLoss>,
     /// The measurements' expected noise per point, nm (default: estimated from each run's
     /// point-to-point differences).

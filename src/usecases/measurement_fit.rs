@@ -16,7 +16,7 @@ use crate::surface::{Surface, SurfaceError, SurfaceSpec};
 /// Which parameters to fit, as asked (`None`: the default for the surface, see
 /// [`FitParameters::default_for`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct FitSelection {
+pub struct AlignmentSelection {
     pub lateral_offset: Option<bool>,
     pub tilt: Option<bool>,
     pub piston: Option<bool>,
@@ -35,7 +35,7 @@ pub struct MeasurementFitSpec {
     pub probe_tip_radius_mm: Option<f64>,
     /// Default normal.
     pub compensation: Option<Compensation>,
-    pub fit: FitSelection,
+    pub fit: AlignmentSelection,
     /// Default none.
     pub robust: Option<RobustLoss>,
     /// Default: 201 samples over the radii the trace covers.

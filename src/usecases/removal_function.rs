@@ -41,7 +41,7 @@ impl RemovalFunctionCommand {
 
 /// One profile: the removal rate at each grid radius for a tool centred at `tool_position_mm`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Profile {
+pub struct RateProfile {
     pub tool_position_mm: f64,
     pub removal_rate_nm_per_min: Vec<f64>,
 }
@@ -54,7 +54,7 @@ pub struct RemovalFunction {
     /// Arc length from the vertex of each grid radius, mm; `None` on a plane.
     pub arc_length_mm: Option<Vec<f64>>,
     /// In the order of the command's positions.
-    pub profiles: Vec<Profile>,
+    pub profiles: Vec<RateProfile>,
     /// Likely unit mistakes in the process or the positions.
     pub warnings: Vec<Warning>,
 }
@@ -74,7 +74,7 @@ pub fn removal_function(command: RemovalFunctionCommand) -> RemovalFunction {
         .map(|&r1| {
             let mut rates = vec![0.0; radii.len()];
             kernel.fill_column(r1, radii, rings.as_deref(), &mut rates);
-            Profile {
+            RateProfile {
                 tool_position_mm: r1,
                 removal_rate_nm_per_min: rates.into_iter().map(|rate| 60.0 * rate).collect(),
             }

@@ -19,7 +19,9 @@ use preston::calibration::{
 use preston::http::dto::WarningDto;
 use preston::lsq::RobustLoss;
 use preston::physics::{PressureModel, Process, ProcessSpec};
-use preston::usecases::calibration::{self, CalibrationCommand, CalibrationSpec, FitSelection};
+use preston::usecases::calibration::{
+    self, CalibrationCommand, CalibrationSpec, ParameterSelection,
+};
 use serde_json::json;
 
 const K: f64 = 1.37e-13;
@@ -185,7 +187,7 @@ async fn kappa_from_rings_far_from_the_edge_is_named_not_guessed() {
             process: nominal.spec().clone(),
             part: Default::default(),
             runs,
-            fit: FitSelection {
+            fit: ParameterSelection {
                 preston_coefficient: Some(true),
                 tool_radius: Some(true),
                 pad_moment_share: Some(true),

@@ -19,7 +19,7 @@ use super::state::Services;
 use crate::calibration::{Measured, Motion, ProcessParameter, Profile, RunSpec};
 use crate::report::results;
 use crate::usecases::calibration::{
-    calibrate, CalibrationCommand, CalibrationResult, CalibrationSpec, FitSelection,
+    calibrate, CalibrationCommand, CalibrationResult, CalibrationSpec, ParameterSelection,
 };
 use crate::usecases::ComputeLimits;
 
@@ -301,7 +301,7 @@ measured point (run, radius, measured, predicted), `Accept: image/svg+xml` a cha
             process,
             part,
             runs,
-            fit: FitSelection {
+            fit: ParameterSelection {
                 preston_coefficient: fit.preston_coefficient,
                 tool_radius: fit.tool_radius,
                 pad_moment_share: fit.pad_moment_share,

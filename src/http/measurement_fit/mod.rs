@@ -20,7 +20,7 @@ use crate::metrology::{Compensation, Parameter, PointResidual, RobustLoss, NM_PE
 use crate::report::results;
 use crate::surface::SurfaceSpec;
 use crate::usecases::measurement_fit::{
-    measurement_fit, FitSelection, MeasurementFit, MeasurementFitCommand, MeasurementFitSpec,
+    measurement_fit, AlignmentSelection, MeasurementFit, MeasurementFitCommand, MeasurementFitSpec,
 };
 use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec};
 use utoipa::openapi::path::Operation;
@@ -305,7 +305,7 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
                 CompensationDto::Normal => Compensation::Normal,
                 CompensationDto::Axial => Compensation::Axial,
             }),
-            fit: FitSelection {
+            fit: AlignmentSelection {
                 lateral_offset: fit.lateral_offset,
                 tilt: fit.tilt,
                 piston: fit.piston,

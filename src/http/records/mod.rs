@@ -41,7 +41,7 @@ use super::optimize::OptimizeEndpoint;
 use super::predict::PredictEndpoint;
 use super::state::AppState;
 use crate::keys::Role;
-use crate::ledger::{Computation, Compute, Document, LedgerError, Setting, Write};
+use crate::ledger::{Computation, Compute, Document, LedgerError, SettingOwner, Write};
 use crate::store::Store;
 use crate::usecases::records::{Record, RecordsError, Replay};
 
@@ -192,7 +192,7 @@ impl Compute for AppState {
         problem.kind.meta().2.is_client_error()
     }
 
-    fn check_setting(&self, setting: &Document, of: Setting) -> Result<(), ApiError> {
+    fn check_setting(&self, setting: &Document, of: SettingOwner) -> Result<(), ApiError> {
         let mut request = setting.clone();
         request.insert(
             "dwell".into(),
@@ -204,7 +204,9 @@ impl Compute for AppState {
             .map(|_| ())
             .map_err(|e| match (of, e.field.as_deref()) {
                 // A part's workpiece radius is its own field.
-                (Setting::Part, Some("process.workpiece_radius_mm")) => e.at("workpiece_radius_mm"),
+                (SettingOwner::Part, Some("process.workpiece_radius_mm")) => {
+                    e.at("workpiece_radius_mm")
+                }
                 _ => e,
             })
     }

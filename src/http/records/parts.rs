@@ -16,7 +16,7 @@ use crate::http::error::ApiError;
 use crate::http::extract::ApiJson;
 use crate::http::state::AppState;
 use crate::ledger::document;
-use crate::ledger::parts::{self, Measured, NewPart};
+use crate::ledger::parts::{self, MeasurementOutcome, NewPart};
 use crate::usecases::records::{PartRecord, Record, Records};
 
 /// Most parts a page lists.
@@ -188,7 +188,7 @@ pub async fn measurement(
     fetched(&headers, &measurement_dto(&measured)?)
 }
 
-fn measurement_dto(measured: &Measured) -> Result<MeasurementDto, ApiError> {
+fn measurement_dto(measured: &MeasurementOutcome) -> Result<MeasurementDto, ApiError> {
     let record = &measured.measurement;
     Ok(MeasurementDto {
         id: record.stamp.id.clone(),
