@@ -26,7 +26,7 @@ use serde_json::{Map, Value};
 
 use crate::usecases::records::RecordsError;
 
-pub use write::Write;
+pub use write::{Answer, Write};
 
 /// A JSON object: a request body or a stored request.
 pub type Document = Map<String, Value>;

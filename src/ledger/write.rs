@@ -97,30 +97,30 @@ impl<'s> Write<'s> {
         new_stamp(&self.owner)
     }
 
-    /// Writes `records` (and the claim) in one transaction and answers 201 with `location`
-    /// and `body` once committed (or the first answer, when a retry with the same key won).
-    /// `taken` is the caller's words when a record has a unique name.
+    /// Writes `records` (and the claim, naming `record`, the record the answer shows) in one
+    /// transaction. [`Answer::Fresh`] once committed; [`Answer::Replay`] when a retry with the
+    /// same key won meanwhile. `taken` is the caller's words when a record has a unique name.
     pub async fn commit(
         self,
         records: &[Record],
         location: String,
-        body: String,
+        record: String,
         taken: Option<&str>,
-    ) -> Result<Replay, LedgerError> {
-        let answer = Replay {
-            status: 201,
-            location,
-            body,
-        };
+    ) -> Result<Answer, LedgerError> {
         let claim = self.claim.map(|(key, fingerprint)| Claim {
             owner: self.owner.clone(),
             key,
             fingerprint,
-            answer: answer.clone(),
+            answer: Replay {
+                status: 201,
+                location,
+                record,
+                body: String::new(),
+            },
         });
         match self.store.write(records, claim.as_ref()).await? {
-            Written::Committed => Ok(answer),
-            Written::Replayed(replay) => Ok(replay),
+            Written::Committed => Ok(Answer::Fresh),
+            Written::Replayed(replay) => Ok(Answer::Replay(replay)),
             Written::KeyReused => Err(key_reused()),
             // Only a unique name can be taken; ids are fresh UUIDv7s.
             Written::Taken => Err(match taken {
@@ -129,6 +129,15 @@ impl<'s> Write<'s> {
             }),
         }
     }
+}
+
+/// How a committed write is answered.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Answer {
+    /// The records were written: answer with them.
+    Fresh,
+    /// A retry under the same key had written them first: answer as it did.
+    Replay(Replay),
 }
 
 /// 422, as the IETF's Idempotency-Key draft says for a key reused with another payload.

@@ -49,6 +49,11 @@ const MIGRATIONS: &[(i64, &str, &str)] = &[
         include_str!("../../migrations/0004_computed_by.sql"),
     ),
     (5, "blobs", include_str!("../../migrations/0005_blobs.sql")),
+    (
+        6,
+        "idempotency records",
+        include_str!("../../migrations/0006_idempotency_records.sql"),
+    ),
 ];
 
 /// Which code writes the records: the crate's version, the build's git revision (build.rs)
@@ -312,7 +317,10 @@ mod tests {
         let store = Store::open(&options).await.unwrap();
         assert!(path.exists());
         assert_eq!(store.backend(), Backend::Sqlite);
-        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3, 4, 5]);
+        assert_eq!(
+            store.applied_versions().await.unwrap(),
+            vec![1, 2, 3, 4, 5, 6]
+        );
         assert!(store.is_reachable().await);
         let (mode,): (String,) = sqlx::query_as("PRAGMA journal_mode")
             .fetch_one(&store.pool)
@@ -330,7 +338,10 @@ mod tests {
         assert!(orphan.is_err(), "{orphan:?}");
         store.close().await;
         let again = Store::open(&options).await.unwrap();
-        assert_eq!(again.applied_versions().await.unwrap(), vec![1, 2, 3, 4, 5]);
+        assert_eq!(
+            again.applied_versions().await.unwrap(),
+            vec![1, 2, 3, 4, 5, 6]
+        );
         again.close().await;
         remove(&path);
     }
@@ -362,7 +373,10 @@ mod tests {
             pool.close().await;
         }
         let store = Store::open(&options).await.unwrap();
-        assert_eq!(store.applied_versions().await.unwrap(), vec![1, 2, 3, 4, 5]);
+        assert_eq!(
+            store.applied_versions().await.unwrap(),
+            vec![1, 2, 3, 4, 5, 6]
+        );
         let old = store.profile("old").await.unwrap().unwrap();
         assert_eq!(old.stamp.created_by, "mes");
         assert_eq!(

@@ -237,7 +237,7 @@ impl Store {
         if let Some(claim) = claim {
             let claimed = sqlx::query(
                 "INSERT INTO idempotency_keys (owner, key, fingerprint, status, location, body, \
-                 created_at) VALUES ($1, $2, $3, $4, $5, $6, $7)",
+                 record_id, created_at) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
             )
             .bind(&claim.owner)
             .bind(&claim.key)
@@ -245,6 +245,7 @@ impl Store {
             .bind(i64::from(claim.answer.status))
             .bind(&claim.answer.location)
             .bind(&claim.answer.body)
+            .bind(&claim.answer.record)
             .bind(now())
             .execute(&mut *tx)
             .await;
@@ -281,7 +282,7 @@ impl Store {
         key: &str,
     ) -> Result<Option<(String, Replay)>, sqlx::Error> {
         let row = sqlx::query(
-            "SELECT fingerprint, status, location, body FROM idempotency_keys \
+            "SELECT fingerprint, status, location, body, record_id FROM idempotency_keys \
              WHERE owner = $1 AND key = $2",
         )
         .bind(owner)
@@ -295,6 +296,7 @@ impl Store {
                 Replay {
                     status: u16::try_from(status).unwrap_or(500),
                     location: row.try_get("location")?,
+                    record: row.try_get("record_id")?,
                     body: row.try_get("body")?,
                 },
             ))

@@ -157,6 +157,10 @@ pub enum Record {
 pub struct Replay {
     pub status: u16,
     pub location: String,
+    /// The record the write created (its id): a replay renders it as the first answer did.
+    pub record: String,
+    /// The first answer's body, for a claim written before claims named their record (empty
+    /// since: nothing kept twice).
     pub body: String,
 }
 

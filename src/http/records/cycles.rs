@@ -68,13 +68,24 @@ pub async fn plan(
         &format!("POST /v1/parts/{id}/plans"),
         &Value::Object(body.clone()),
     )?;
+    let render = |plan: String| async move { plan_dto(&cycles::load_plan(store, &plan).await?) };
     if let Some(replay) = write.replay().await? {
-        return Ok(replayed(replay));
+        return replayed(replay, render).await;
     }
     let plan = cycles::plan(&state, &write, &id, body).await?;
     let dto = plan_dto(&plan)?;
     let location = format!("/v1/plans/{}", plan.stamp.id);
-    commit(write, &[Record::Plan(plan)], location, &dto, None).await
+    let record = plan.stamp.id.clone();
+    commit(
+        write,
+        &[Record::Plan(plan)],
+        location,
+        record,
+        &dto,
+        None,
+        render,
+    )
+    .await
 }
 
 #[utoipa::path(get, path = "/v1/plans/{id}", tag = "records", operation_id = "getPlan", summary = "A stored plan",
@@ -144,13 +155,24 @@ pub async fn run(
         &format!("POST /v1/parts/{id}/runs"),
         &body,
     )?;
+    let render = |run: String| async move { Ok(run_dto(&cycles::load_run(store, &run).await?)) };
     if let Some(replay) = write.replay().await? {
-        return Ok(replayed(replay));
+        return replayed(replay, render).await;
     }
     let run = run.record(&write, &id).await?;
     let dto = run_dto(&run);
     let location = format!("/v1/runs/{}", run.stamp.id);
-    commit(write, &[Record::Run(run)], location, &dto, None).await
+    let record = run.stamp.id.clone();
+    commit(
+        write,
+        &[Record::Run(run)],
+        location,
+        record,
+        &dto,
+        None,
+        render,
+    )
+    .await
 }
 
 #[utoipa::path(get, path = "/v1/runs/{id}", tag = "records", operation_id = "getRun", summary = "A stored run",

@@ -66,7 +66,7 @@ pub struct ProcessProfileDto {
     /// The API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
     /// Which code wrote it: the Preston version, the build's git revision and the records
-    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 5`; null for a record
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 6`; null for a record
     /// written before the records kept it.
     #[schema(required = true)]
     pub computed_by: Option<String>,
@@ -108,7 +108,7 @@ pub struct CalibrationRecordDto {
     /// The name of the API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
     /// Which code wrote it: the Preston version, the build's git revision and the records
-    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 5`; null for a record
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 6`; null for a record
     /// written before the records kept it.
     #[schema(required = true)]
     pub computed_by: Option<String>,
@@ -161,7 +161,7 @@ pub struct PartDto {
     /// The name of the API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
     /// Which code wrote it: the Preston version, the build's git revision and the records
-    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 5`; null for a record
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 6`; null for a record
     /// written before the records kept it.
     #[schema(required = true)]
     pub computed_by: Option<String>,
@@ -203,7 +203,7 @@ pub struct MeasurementDto {
     /// The name of the API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
     /// Which code wrote it: the Preston version, the build's git revision and the records
-    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 5`; null for a record
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 6`; null for a record
     /// written before the records kept it.
     #[schema(required = true)]
     pub computed_by: Option<String>,
@@ -231,7 +231,7 @@ pub struct PlanDto {
     /// The name of the API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
     /// Which code wrote it: the Preston version, the build's git revision and the records
-    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 5`; null for a record
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 6`; null for a record
     /// written before the records kept it.
     #[schema(required = true)]
     pub computed_by: Option<String>,
@@ -277,7 +277,7 @@ pub struct RunRecordDto {
     /// The name of the API key that wrote it (empty when the service runs without keys).
     pub created_by: String,
     /// Which code wrote it: the Preston version, the build's git revision and the records
-    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 5`; null for a record
+    /// schema, e.g. `preston 0.1.0 (git 0e2373b4f1c2), records schema 6`; null for a record
     /// written before the records kept it.
     #[schema(required = true)]
     pub computed_by: Option<String>,

@@ -41,7 +41,7 @@ use super::optimize::OptimizeEndpoint;
 use super::predict::PredictEndpoint;
 use super::state::AppState;
 use crate::keys::Role;
-use crate::ledger::{Computation, Compute, Document, LedgerError, SettingOwner, Write};
+use crate::ledger::{Answer, Computation, Compute, Document, LedgerError, SettingOwner, Write};
 use crate::store::Store;
 use crate::usecases::records::{Record, RecordsError, Replay};
 
@@ -139,18 +139,29 @@ fn begin<'s>(
     Ok(Write::begin(store, &caller.name, key, operation, body)?)
 }
 
-/// Commits a write whose answer is `body` at `location`, and answers as the write did.
-async fn commit(
+/// Commits a write whose answer is `dto`, the record `record` at `location`; when a retry under
+/// the same key won meanwhile, answers as that one did (`render`, as for [`replayed`]).
+async fn commit<T, F, Fut>(
     write: Write<'_>,
     records: &[Record],
     location: String,
-    body: &impl Serialize,
+    record: String,
+    dto: &T,
     taken: Option<&str>,
-) -> Result<Response, ApiError> {
-    let body = serde_json::to_string(body).map_err(|e| ApiError::internal(e.to_string()))?;
-    Ok(replayed(
-        write.commit(records, location, body, taken).await?,
-    ))
+    render: F,
+) -> Result<Response, ApiError>
+where
+    T: Serialize,
+    F: FnOnce(String) -> Fut,
+    Fut: std::future::Future<Output = Result<T, ApiError>>,
+{
+    match write
+        .commit(records, location.clone(), record, taken)
+        .await?
+    {
+        Answer::Fresh => Ok(answer(StatusCode::CREATED, &location, to_json(dto)?)),
+        Answer::Replay(replay) => replayed(replay, render).await,
+    }
 }
 
 impl From<LedgerError> for ApiError {
@@ -212,15 +223,32 @@ impl Compute for AppState {
     }
 }
 
-fn replayed(replay: Replay) -> Response {
+/// The first answer under an Idempotency-Key again: its status and Location, and its body —
+/// the record it created rendered as that answer showed it (`render` from the record's id;
+/// records are immutable), or the body an older claim kept.
+async fn replayed<T, F, Fut>(replay: Replay, render: F) -> Result<Response, ApiError>
+where
+    T: Serialize,
+    F: FnOnce(String) -> Fut,
+    Fut: std::future::Future<Output = Result<T, ApiError>>,
+{
     let status = StatusCode::from_u16(replay.status).unwrap_or(StatusCode::CREATED);
-    let mut response = (
-        status,
-        [(header::CONTENT_TYPE, "application/json")],
-        replay.body,
-    )
-        .into_response();
-    if let Ok(location) = HeaderValue::from_str(&replay.location) {
+    let body = if replay.body.is_empty() {
+        to_json(&render(replay.record).await?)?
+    } else {
+        replay.body
+    };
+    Ok(answer(status, &replay.location, body))
+}
+
+fn to_json(body: &impl Serialize) -> Result<String, ApiError> {
+    serde_json::to_string(body).map_err(|e| ApiError::internal(e.to_string()))
+}
+
+/// A write's answer: `status`, JSON `body`, `Location`.
+fn answer(status: StatusCode, location: &str, body: String) -> Response {
+    let mut response = (status, [(header::CONTENT_TYPE, "application/json")], body).into_response();
+    if let Ok(location) = HeaderValue::from_str(location) {
         response.headers_mut().insert(header::LOCATION, location);
     }
     response

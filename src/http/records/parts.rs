@@ -56,14 +56,17 @@ pub async fn create(
     let part = NewPart::new(request.name, request.process_profile, rest)?;
     let store = store(&state)?;
     let write = begin(store, &caller, &headers, "POST /v1/parts", &body)?;
+    let render = |part: String| async move { part_dto(&parts::load(store, &part).await?) };
     if let Some(replay) = write.replay().await? {
-        return Ok(replayed(replay));
+        return replayed(replay, render).await;
     }
     let taken = format!("a part named `{}` exists", part.name());
     let record = part.record(&state, &write).await?;
     let dto = part_dto(&record)?;
     let location = format!("/v1/parts/{}", record.stamp.id);
-    commit(write, &[Record::Part(record)], location, &dto, Some(&taken)).await
+    let id = record.stamp.id.clone();
+    let records = [Record::Part(record)];
+    commit(write, &records, location, id, &dto, Some(&taken), render).await
 }
 
 /// `GET /v1/parts` query.
@@ -163,15 +166,19 @@ pub async fn measure(
         &format!("POST /v1/parts/{id}/measurements"),
         &Value::Object(body.clone()),
     )?;
+    let render = |measurement: String| async move {
+        measurement_dto(&parts::measurement(store, &measurement).await?)
+    };
     if let Some(replay) = write.replay().await? {
-        return Ok(replayed(replay));
+        return replayed(replay, render).await;
     }
     let measured = parts::measure(&state, &write, &id, body).await?;
     let dto = measurement_dto(&measured)?;
     let location = format!("/v1/measurements/{}", dto.id);
+    let record = dto.id.clone();
     let mut records = vec![Record::Measurement(measured.measurement)];
     records.extend(measured.fitted.map(Record::Calibration));
-    commit(write, &records, location, &dto, None).await
+    commit(write, &records, location, record, &dto, None, render).await
 }
 
 #[utoipa::path(get, path = "/v1/measurements/{id}", tag = "records", operation_id = "getMeasurement", summary = "A stored measurement",

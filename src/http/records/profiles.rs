@@ -89,8 +89,11 @@ pub async fn create(
     let profile = NewProfile::new(&state, request.name, setting)?;
     let store = store(&state)?;
     let write = begin(store, &caller, &headers, "POST /v1/process-profiles", &body)?;
+    // The first answer shows the profile as created: no calibrations yet.
+    let render =
+        |name: String| async move { profile_dto(&profiles::load(store, &name).await?, &[], true) };
     if let Some(replay) = write.replay().await? {
-        return Ok(replayed(replay));
+        return replayed(replay, render).await;
     }
     let location = format!("/v1/process-profiles/{}", profile.name());
     let taken = format!(
@@ -99,14 +102,9 @@ pub async fn create(
     );
     let record = profile.record(write.stamp());
     let dto = profile_dto(&record, &[], true)?;
-    commit(
-        write,
-        &[Record::Profile(record)],
-        location,
-        &dto,
-        Some(&taken),
-    )
-    .await
+    let name = record.stamp.id.clone();
+    let records = [Record::Profile(record)];
+    commit(write, &records, location, name, &dto, Some(&taken), render).await
 }
 
 #[utoipa::path(get, path = "/v1/process-profiles", tag = "records", operation_id = "listProcessProfiles", summary = "List the process profiles",
@@ -160,13 +158,26 @@ pub async fn calibrate(
         &format!("POST /v1/process-profiles/{name}/calibrations"),
         &Value::Object(body.clone()),
     )?;
+    let render = |calibration: String| async move {
+        calibration_dto(&profiles::load_calibration(store, &calibration).await?)
+    };
     if let Some(replay) = write.replay().await? {
-        return Ok(replayed(replay));
+        return replayed(replay, render).await;
     }
     let record = profiles::calibrate(&state, &write, &name, body).await?;
     let dto = calibration_dto(&record)?;
     let location = format!("/v1/calibrations/{}", record.stamp.id);
-    commit(write, &[Record::Calibration(record)], location, &dto, None).await
+    let id = record.stamp.id.clone();
+    commit(
+        write,
+        &[Record::Calibration(record)],
+        location,
+        id,
+        &dto,
+        None,
+        render,
+    )
+    .await
 }
 
 #[utoipa::path(get, path = "/v1/calibrations/{id}", tag = "records", operation_id = "getCalibration", summary = "A stored calibration",
