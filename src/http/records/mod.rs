@@ -33,12 +33,12 @@ use utoipa_axum::routes;
 
 use super::auth::{KeyName, KeyRole};
 use super::calibration::CalibrationEndpoint;
+use super::dto::{setting_of, SettingRequest};
 use super::endpoint::Endpoint;
 use super::error::{ApiError, Kind};
 use super::extract;
 use super::measurement_fit::MeasurementFitEndpoint;
 use super::optimize::OptimizeEndpoint;
-use super::predict::PredictEndpoint;
 use super::state::AppState;
 use crate::keys::Role;
 use crate::ledger::{Answer, Computation, Compute, Document, LedgerError, SettingOwner, Write};
@@ -204,14 +204,10 @@ impl Compute for AppState {
     }
 
     fn check_setting(&self, setting: &Document, of: SettingOwner) -> Result<(), ApiError> {
-        let mut request = setting.clone();
-        request.insert(
-            "dwell".into(),
-            serde_json::json!({"positions_mm": [0.0], "dwell_s": [1.0]}),
-        );
-        let bytes = serde_json::to_vec(&request).map_err(|e| ApiError::internal(e.to_string()))?;
-        let checked = PredictEndpoint::parse(extract::parse_json(&bytes)?, &self.compute);
-        checked
+        let bytes = serde_json::to_vec(setting).map_err(|e| ApiError::internal(e.to_string()))?;
+        let request: SettingRequest = extract::parse_json(&bytes)?;
+        setting_of!(request)
+            .parse(&self.compute)
             .map(|_| ())
             .map_err(|e| match (of, e.field.as_deref()) {
                 // A part's workpiece radius is its own field.
