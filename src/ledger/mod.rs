@@ -10,8 +10,9 @@
 //! record supplies may not be sent too ([`without`]).
 //!
 //! A write is one transaction ([`Write::commit`]) holding its records and, when the caller
-//! sent an Idempotency-Key, the claim on it with the answer, so a retry gets the first answer
-//! and never a second record.
+//! sent an Idempotency-Key, the claim on it (status, Location and the record's id), so a
+//! retry gets the first answer — the record rendered again as it showed it — and never a
+//! second record.
 
 mod answers;
 pub mod cycles;

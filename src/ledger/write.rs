@@ -14,6 +14,9 @@ pub struct Write<'s> {
     store: &'s Store,
     owner: String,
     claim: Option<(String, String)>,
+    /// The fingerprint a claim written before fingerprints were canonical has for the same
+    /// request (the body as sent), so a retry across that upgrade still finds its first answer.
+    sent_fingerprint: String,
 }
 
 /// `value` as JSON text with every object's members sorted by name (recursively), so that
@@ -37,6 +40,13 @@ pub fn canonical(value: &Value) -> String {
     }
 }
 
+fn sha256_hex(text: &str) -> String {
+    Sha256::digest(text.as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
 /// The field a malformed or reused key is reported at.
 const KEY: &str = "Idempotency-Key";
 
@@ -53,6 +63,7 @@ impl<'s> Write<'s> {
         body: &Value,
     ) -> Result<Write<'s>, LedgerError> {
         let request = format!("{operation}\n{}", canonical(body));
+        let sent_fingerprint = sha256_hex(&format!("{operation}\n{body}"));
         let claim = match key {
             None => None,
             Some(key) => {
@@ -62,17 +73,17 @@ impl<'s> Write<'s> {
                         "an Idempotency-Key is 1 to 255 visible ASCII characters (a UUID will do)",
                     ));
                 }
-                let fingerprint: String = Sha256::digest(request.as_bytes())
-                    .iter()
-                    .map(|b| format!("{b:02x}"))
-                    .collect();
-                Some((String::from_utf8_lossy(key).into_owned(), fingerprint))
+                Some((
+                    String::from_utf8_lossy(key).into_owned(),
+                    sha256_hex(&request),
+                ))
             }
         };
         Ok(Write {
             store,
             owner: owner.to_string(),
             claim,
+            sent_fingerprint,
         })
     }
 
@@ -83,7 +94,9 @@ impl<'s> Write<'s> {
         };
         match self.store.claimed(&self.owner, key).await? {
             None => Ok(None),
-            Some((first, replay)) if &first == fingerprint => Ok(Some(replay)),
+            Some((first, replay)) if &first == fingerprint || first == self.sent_fingerprint => {
+                Ok(Some(replay))
+            }
             Some(_) => Err(key_reused()),
         }
     }

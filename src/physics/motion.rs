@@ -63,8 +63,8 @@ pub fn stop_share(j: usize, n: usize) -> f64 {
 /// The acceleration model of every axis: its velocity is constant within a segment (a block
 /// of a program, a cell of a plan) and changes between consecutive segments over the time
 /// between their midpoints, so a change `dv` between segments lasting `before` and `after`
-/// (a dwell's velocity is 0; at rest before the first and after the last, a segment of 0 s)
-/// takes
+/// (a stop's velocity is 0: a plan's first move starts from its half-dwell stop, t_0/2 each;
+/// a program is at rest before its first block and after its last, segments of 0 s) takes
 ///
 /// ```text
 /// a = dv / ((d_before + d_after) / 2)
