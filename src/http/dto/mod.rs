@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::error::ApiError;
-use super::extract::{object, optional_count, optional_object};
+use super::extract::optional_count;
 use crate::physics::UniformityMetrics;
 use crate::physics::{
     ClearAperture, Orientation, Part, PressureModel, PressureModelKind, ProcessSpec,
@@ -194,23 +194,6 @@ pub fn part_spec(surface: Option<&SurfaceDto>, tool: Option<&ToolDto>) -> PartSp
         pivot_length_mm: tool.and_then(|t| t.pivot_length_mm),
         orientation: tool.and_then(|t| t.orientation).map(Orientation::from),
     }
-}
-
-/// A setting alone, as a record keeps it (a process profile's, a part's): the members every
-/// computing request on a process shares, and nothing else.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SettingRequest {
-    #[serde(deserialize_with = "object")]
-    pub process: ProcessDto,
-    #[serde(default, deserialize_with = "optional_object")]
-    pub surface: Option<SurfaceDto>,
-    #[serde(default, deserialize_with = "optional_object")]
-    pub tool: Option<ToolDto>,
-    #[serde(default, deserialize_with = "optional_object")]
-    pub radial_grid: Option<RadialGridDto>,
-    #[serde(default, deserialize_with = "optional_object")]
-    pub clear_aperture: Option<ClearApertureDto>,
 }
 
 /// The members every computing request on a process shares.

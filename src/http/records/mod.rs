@@ -33,12 +33,13 @@ use utoipa_axum::routes;
 
 use super::auth::{KeyName, KeyRole};
 use super::calibration::CalibrationEndpoint;
-use super::dto::{setting_of, SettingRequest};
+use super::dto::setting_of;
 use super::endpoint::Endpoint;
 use super::error::{ApiError, Kind};
 use super::extract;
 use super::measurement_fit::MeasurementFitEndpoint;
 use super::optimize::OptimizeEndpoint;
+use super::recommend::RecommendRequest;
 use super::state::AppState;
 use crate::keys::Role;
 use crate::ledger::{Answer, Computation, Compute, Document, LedgerError, SettingOwner, Write};
@@ -204,8 +205,10 @@ impl Compute for AppState {
     }
 
     fn check_setting(&self, setting: &Document, of: SettingOwner) -> Result<(), ApiError> {
+        // A setting (process, surface, tool, grid, aperture) is a recommendation request
+        // without its options: read as one, and checked by the setting parser alone.
         let bytes = serde_json::to_vec(setting).map_err(|e| ApiError::internal(e.to_string()))?;
-        let request: SettingRequest = extract::parse_json(&bytes)?;
+        let request: RecommendRequest = extract::parse_json(&bytes)?;
         setting_of!(request)
             .parse(&self.compute)
             .map(|_| ())
