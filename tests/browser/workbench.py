@@ -331,6 +331,9 @@ def main_flow(binary, screenshots):
         shown = page.text_of('[data-summary="parts"]')
         check("SN-BROWSER-1" in shown and "Cycles 1" in shown.replace("\n", " "),
               f"the part and its cycle summarised ({shown[:100]!r}…)")
+        # The part was measured again unchanged: a cycle that removed nothing, said as such.
+        check("not determined: removed nothing measurable" in shown and "NaN" not in shown,
+              f"a cycle that taught nothing is said so, with no NaN ({shown!r})")
         page.one('[data-use="parts"] button').click()
         page.wait("the next plan", lambda: "Next plan" in page.text_of('[data-summary="parts"]'))
         page.screenshot(screenshots, "parts")

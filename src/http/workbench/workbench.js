@@ -741,10 +741,16 @@
     draw(view, 'rate', {
       title: `${profile.name}: Preston coefficient per calibration`,
       xLabel: 'calibration (oldest first)', yLabel: 'K (1e-13 m²/N)',
+      // A cycle's calibration has a run_id; it is learned only when significant (the others
+      // are kept as the cycle's evidence and teach nothing).
       series: [
-        { name: 'ring tests', markers: true, points: calibrations.map((c, i) => [i + 1, c.preston_coefficient_m2_per_n * 1e13]).filter((_, i) => !calibrations[i].learned) },
-        { name: 'learned from production', markers: true, points: calibrations.map((c, i) => [i + 1, c.preston_coefficient_m2_per_n * 1e13]).filter((_, i) => calibrations[i].learned) },
-      ].filter((line) => line.points.length > 0),
+        ['ring tests', (c) => !c.run_id],
+        ['learned from production', (c) => c.learned],
+        ['not learned (removed nothing measurable)', (c) => c.run_id && !c.learned],
+      ].map(([name, kind]) => ({
+        name, markers: true,
+        points: calibrations.map((c, i) => [i + 1, c.preston_coefficient_m2_per_n * 1e13]).filter((_, i) => kind(calibrations[i])),
+      })).filter((line) => line.points.length > 0),
       hline: { y: history.next_process.preston_coefficient_m2_per_n * 1e13, label: 'K the next plan uses' },
       fromZero: false,
     });
@@ -755,7 +761,15 @@
       ['K for the next plan (1e-13 m²/N)', `${label(history.next_process.preston_coefficient_m2_per_n * 1e13)} (${profile.preston_coefficient_source})`],
     ];
     if (last && last.convergence_ratio !== null) items.push(['Last convergence (RMS before / after)', label(last.convergence_ratio)]);
-    if (last && last.removal_ratio) items.push(['Last removal ratio (actual / predicted)', `${label(last.removal_ratio.value)} ± ${label(last.removal_ratio.standard_error ?? NaN)}`]);
+    if (last && (last.warnings || []).some((w) => w.code === 'removal_not_significant')) {
+      // The cycle taught nothing: its ratio (if any fitted) is noise, not a removal rate.
+      items.push(['Last removal ratio (actual / predicted)', 'not determined: removed nothing measurable']);
+    } else if (last && last.removal_ratio) {
+      const se = last.removal_ratio.standard_error;
+      items.push(['Last removal ratio (actual / predicted)', se === null || se === undefined
+        ? `${label(last.removal_ratio.value)} (no standard error)`
+        : `${label(last.removal_ratio.value)} ± ${label(se)}`]);
+    }
     summary(view, 'parts', items);
     const next = h('button', { type: 'button' }, 'Plan the next cycle');
     next.addEventListener('click', async () => {
