@@ -74,18 +74,8 @@ pub async fn plan(
     }
     let plan = cycles::plan(&state, &write, &id, body).await?;
     let dto = plan_dto(&plan)?;
-    let location = format!("/v1/plans/{}", plan.stamp.id);
-    let record = plan.stamp.id.clone();
-    commit(
-        write,
-        &[Record::Plan(plan)],
-        location,
-        record,
-        &dto,
-        None,
-        render,
-    )
-    .await
+    let id = ("/v1/plans", plan.stamp.id.clone());
+    commit(write, &[Record::Plan(plan)], id, &dto, None, render).await
 }
 
 #[utoipa::path(get, path = "/v1/plans/{id}", tag = "records", operation_id = "getPlan", summary = "A stored plan",
@@ -161,18 +151,8 @@ pub async fn run(
     }
     let run = run.record(&write, &id).await?;
     let dto = run_dto(&run);
-    let location = format!("/v1/runs/{}", run.stamp.id);
-    let record = run.stamp.id.clone();
-    commit(
-        write,
-        &[Record::Run(run)],
-        location,
-        record,
-        &dto,
-        None,
-        render,
-    )
-    .await
+    let id = ("/v1/runs", run.stamp.id.clone());
+    commit(write, &[Record::Run(run)], id, &dto, None, render).await
 }
 
 #[utoipa::path(get, path = "/v1/runs/{id}", tag = "records", operation_id = "getRun", summary = "A stored run",

@@ -140,13 +140,17 @@ fn begin<'s>(
     Ok(Write::begin(store, &caller.name, key, operation, body)?)
 }
 
-/// Commits a write whose answer is `dto`, the record `record` at `location`; when a retry under
-/// the same key won meanwhile, answers as that one did (`render`, as for [`replayed`]).
+/// The record collections whose path two operations share (create and list).
+const PARTS: &str = "/v1/parts";
+const PROCESS_PROFILES: &str = "/v1/process-profiles";
+
+/// Commits a write whose answer is `dto`, the record `id` of `collection` (its Location is
+/// `collection/id`); when a retry under the same key won meanwhile, answers as that one did
+/// (`render`, as for [`replayed`]).
 async fn commit<T, F, Fut>(
     write: Write<'_>,
     records: &[Record],
-    location: String,
-    record: String,
+    (collection, id): (&str, String),
     dto: &T,
     taken: Option<&str>,
     render: F,
@@ -156,10 +160,8 @@ where
     F: FnOnce(String) -> Fut,
     Fut: std::future::Future<Output = Result<T, ApiError>>,
 {
-    match write
-        .commit(records, location.clone(), record, taken)
-        .await?
-    {
+    let location = format!("{collection}/{id}");
+    match write.commit(records, location.clone(), id, taken).await? {
         Answer::Fresh => Ok(answer(StatusCode::CREATED, &location, to_json(dto)?)),
         Answer::Replay(replay) => replayed(replay, render).await,
     }

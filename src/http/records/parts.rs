@@ -9,7 +9,7 @@ use serde_json::{Map, Value};
 
 use super::docs::{PartMeasurementRequest, RecordReadProblems, RecordWriteProblems};
 use super::dto::{MeasurementDto, PartDto, PartListDto, PartRequest};
-use super::{begin, commit, computed_by, fetched, replayed, store, Writer};
+use super::{begin, commit, computed_by, fetched, replayed, store, Writer, PARTS};
 use crate::http::csv_body::{CsvForm, CsvOrJson};
 use crate::http::dto::WarningDto;
 use crate::http::error::ApiError;
@@ -37,7 +37,7 @@ pub(super) fn part_dto(part: &PartRecord) -> Result<PartDto, ApiError> {
     })
 }
 
-#[utoipa::path(post, path = "/v1/parts", tag = "records", operation_id = "createPart", summary = "Create a part",
+#[utoipa::path(post, path = PARTS, tag = "records", operation_id = "createPart", summary = "Create a part",
     params(("Idempotency-Key" = Option<String>, Header, description = "1–255 visible ASCII characters; a retry with the same key and request gets the first answer")), request_body = PartRequest,
     responses((status = 201, description = "Written (or the first answer to this Idempotency-Key)", body = PartDto,
         headers(("Location" = String, description = "The new record"))), RecordWriteProblems))]
@@ -63,10 +63,9 @@ pub async fn create(
     let taken = format!("a part named `{}` exists", part.name());
     let record = part.record(&state, &write).await?;
     let dto = part_dto(&record)?;
-    let location = format!("/v1/parts/{}", record.stamp.id);
-    let id = record.stamp.id.clone();
+    let id = (PARTS, record.stamp.id.clone());
     let records = [Record::Part(record)];
-    commit(write, &records, location, id, &dto, Some(&taken), render).await
+    commit(write, &records, id, &dto, Some(&taken), render).await
 }
 
 /// `GET /v1/parts` query.
@@ -83,7 +82,7 @@ pub struct PartQuery {
     pub name: Option<String>,
 }
 
-#[utoipa::path(get, path = "/v1/parts", tag = "records", operation_id = "listParts", summary = "List parts, a page at a time",
+#[utoipa::path(get, path = PARTS, tag = "records", operation_id = "listParts", summary = "List parts, a page at a time",
     params(PartQuery), responses((status = 200, description = "The record", body = PartListDto,
         headers(("ETag" = String, description = "Strong validator: send as If-None-Match"))),
         (status = 304, description = "Not modified (If-None-Match matched)"), RecordReadProblems))]
@@ -174,11 +173,10 @@ pub async fn measure(
     }
     let measured = parts::measure(&state, &write, &id, body).await?;
     let dto = measurement_dto(&measured)?;
-    let location = format!("/v1/measurements/{}", dto.id);
-    let record = dto.id.clone();
+    let record = ("/v1/measurements", dto.id.clone());
     let mut records = vec![Record::Measurement(measured.measurement)];
     records.extend(measured.fitted.map(Record::Calibration));
-    commit(write, &records, location, record, &dto, None, render).await
+    commit(write, &records, record, &dto, None, render).await
 }
 
 #[utoipa::path(get, path = "/v1/measurements/{id}", tag = "records", operation_id = "getMeasurement", summary = "A stored measurement",

@@ -10,7 +10,7 @@ use super::dto::{
     CalibrationRecordDto, ProcessProfileDto, ProcessProfileListDto, ProcessProfileRequest,
     RateSourceDto,
 };
-use super::{begin, commit, computed_by, fetched, replayed, store, Writer};
+use super::{begin, commit, computed_by, fetched, replayed, store, Writer, PROCESS_PROFILES};
 use crate::http::error::ApiError;
 use crate::http::extract::ApiJson;
 use crate::http::state::AppState;
@@ -72,7 +72,7 @@ fn profile_dto(
     })
 }
 
-#[utoipa::path(post, path = "/v1/process-profiles", tag = "records", operation_id = "createProcessProfile", summary = "Create a process profile",
+#[utoipa::path(post, path = PROCESS_PROFILES, tag = "records", operation_id = "createProcessProfile", summary = "Create a process profile",
     params(("Idempotency-Key" = Option<String>, Header, description = "1–255 visible ASCII characters; a retry with the same key and request gets the first answer")), request_body = ProcessProfileRequest,
     responses((status = 201, description = "Written (or the first answer to this Idempotency-Key)", body = ProcessProfileDto,
         headers(("Location" = String, description = "The new record"))), RecordWriteProblems))]
@@ -95,19 +95,18 @@ pub async fn create(
     if let Some(replay) = write.replay().await? {
         return replayed(replay, render).await;
     }
-    let location = format!("/v1/process-profiles/{}", profile.name());
     let taken = format!(
         "a process profile named `{}` exists (profiles are immutable: choose a new name)",
         profile.name()
     );
     let record = profile.record(write.stamp());
     let dto = profile_dto(&record, &[], true)?;
-    let name = record.stamp.id.clone();
+    let id = (PROCESS_PROFILES, record.stamp.id.clone());
     let records = [Record::Profile(record)];
-    commit(write, &records, location, name, &dto, Some(&taken), render).await
+    commit(write, &records, id, &dto, Some(&taken), render).await
 }
 
-#[utoipa::path(get, path = "/v1/process-profiles", tag = "records", operation_id = "listProcessProfiles", summary = "List the process profiles",
+#[utoipa::path(get, path = PROCESS_PROFILES, tag = "records", operation_id = "listProcessProfiles", summary = "List the process profiles",
     responses((status = 200, description = "The record", body = ProcessProfileListDto,
         headers(("ETag" = String, description = "Strong validator: send as If-None-Match"))),
         (status = 304, description = "Not modified (If-None-Match matched)"), RecordReadProblems))]
@@ -166,12 +165,10 @@ pub async fn calibrate(
     }
     let record = profiles::calibrate(&state, &write, &name, body).await?;
     let dto = calibration_dto(&record)?;
-    let location = format!("/v1/calibrations/{}", record.stamp.id);
-    let id = record.stamp.id.clone();
+    let id = ("/v1/calibrations", record.stamp.id.clone());
     commit(
         write,
         &[Record::Calibration(record)],
-        location,
         id,
         &dto,
         None,
