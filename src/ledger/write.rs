@@ -2,10 +2,9 @@
 //! the write's own transaction.
 
 use serde_json::Value;
-use sha2::{Digest, Sha256};
 
 use super::LedgerError;
-use crate::store::{new_stamp, Store};
+use crate::store::{new_stamp, sha256_hex, Store};
 use crate::usecases::records::{Claim, Record, Records, Replay, Stamp, Written};
 
 /// A write in progress: the store, the writer (the API key's name) and the Idempotency-Key
@@ -40,13 +39,6 @@ pub fn canonical(value: &Value) -> String {
     }
 }
 
-fn sha256_hex(text: &str) -> String {
-    Sha256::digest(text.as_bytes())
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
-}
-
 /// The field a malformed or reused key is reported at.
 const KEY: &str = "Idempotency-Key";
 
@@ -63,7 +55,7 @@ impl<'s> Write<'s> {
         body: &Value,
     ) -> Result<Write<'s>, LedgerError> {
         let request = format!("{operation}\n{}", canonical(body));
-        let sent_fingerprint = sha256_hex(&format!("{operation}\n{body}"));
+        let sent_fingerprint = sha256_hex(format!("{operation}\n{body}").as_bytes());
         let claim = match key {
             None => None,
             Some(key) => {
@@ -75,7 +67,7 @@ impl<'s> Write<'s> {
                 }
                 Some((
                     String::from_utf8_lossy(key).into_owned(),
-                    sha256_hex(&request),
+                    sha256_hex(request.as_bytes()),
                 ))
             }
         };

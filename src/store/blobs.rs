@@ -9,8 +9,8 @@ use sqlx::Row;
 use super::{now, Store};
 use crate::usecases::records::RecordsError;
 
-/// The hex SHA-256 of `bytes`: a blob's name.
-pub fn blob_name(bytes: &[u8]) -> String {
+/// The hex SHA-256 of `bytes`: a blob's name (and an Idempotency-Key's fingerprint).
+pub fn sha256_hex(bytes: &[u8]) -> String {
     Sha256::digest(bytes)
         .iter()
         .map(|b| format!("{b:02x}"))
@@ -21,7 +21,7 @@ impl Store {
     /// Keeps `bytes` (once: a blob already kept is left as it is) and returns its name.
     pub async fn put_blob(&self, bytes: &[u8]) -> Result<String, RecordsError> {
         self.ready().await?;
-        let name = blob_name(bytes);
+        let name = sha256_hex(bytes);
         let size = i64::try_from(bytes.len())
             .map_err(|_| RecordsError::Unavailable("a blob beyond 2^63 bytes".into()))?;
         sqlx::query(

@@ -22,7 +22,7 @@ use tokio::sync::OnceCell;
 use crate::usecases::records::{RecordsError, Stamp};
 
 mod blobs;
-pub use blobs::blob_name;
+pub use blobs::sha256_hex;
 mod records;
 
 /// The schema, in order: (version, description, SQL). Append only: a released migration never

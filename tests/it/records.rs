@@ -163,10 +163,8 @@ fn initial_error(r: f64) -> f64 {
     180.0 * u * u - 135.0 * u.powi(4) + 36.0 * (3.0 * u).cos()
 }
 
-/// The Must-show cycle on one backend: profile → part → measurement → plan → program → run →
-/// an after-measurement in which the part lost 90 % of the predicted removal → history with
-/// removal_ratio 0.90 ± 0.02 and the convergence ratio → the next plan at the learned rate.
-async fn full_cycle(url: &str) {
+/// A store at `url`, the service on it, and a new profile (its name) with a new part.
+async fn new_part(url: &str) -> (Store, Router, String, Value) {
     let store = open(url).await;
     let app = app(store.clone(), AppState::new(ServiceLimits::default()));
     let token = unique();
@@ -178,6 +176,14 @@ async fn full_cycle(url: &str) {
         &part_body(&format!("SN-{token}"), &profile),
     )
     .await;
+    (store, app, profile, part)
+}
+
+/// The Must-show cycle on one backend: profile → part → measurement → plan → program → run →
+/// an after-measurement in which the part lost 90 % of the predicted removal → history with
+/// removal_ratio 0.90 ± 0.02 and the convergence ratio → the next plan at the learned rate.
+async fn full_cycle(url: &str) {
+    let (store, app, profile, part) = new_part(url).await;
     let part_id = part["id"].as_str().unwrap();
 
     let before = created(
@@ -394,17 +400,7 @@ fn from_now(minutes: u64) -> String {
 /// measurement completes the cycle, which teaches nothing and warns nothing, and its POST and
 /// GET say the same.
 async fn cycle_without_a_measurement_before(url: &str) {
-    let store = open(url).await;
-    let app = app(store.clone(), AppState::new(ServiceLimits::default()));
-    let token = unique();
-    let profile = format!("shop-{token}");
-    created(&app, "/v1/process-profiles", &profile_body(&profile)).await;
-    let part = created(
-        &app,
-        "/v1/parts",
-        &part_body(&format!("SN-{token}"), &profile),
-    )
-    .await;
+    let (store, app, _, part) = new_part(url).await;
     let part_id = part["id"].as_str().unwrap();
     let mut body = plan_body();
     body["target"] = json!({"uniform_depth_nm": 50});
