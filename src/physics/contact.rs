@@ -114,8 +114,15 @@ pub fn half_angle_off_axis(r: f64, r1: f64, rt: f64) -> (f64, f64) {
 #[inline(always)]
 fn normalised(sin2: f64, cos2: f64) -> (f64, f64) {
     // sin2 + cos2 = 4·r·r1 > 0 whenever neither is clamped; if one is, the other is positive.
-    let per_norm = 1.0 / (sin2 + cos2);
-    ((sin2 * per_norm).sqrt(), (cos2 * per_norm).sqrt())
+    // Below the least normal number (r1 ~ 1e-308 mm) its reciprocal overflows: scale both up
+    // first (by 1 otherwise: the same bits, and a select, so the loop still vectorises).
+    let sum = sin2 + cos2;
+    let scale = if sum < f64::MIN_POSITIVE { 1e200 } else { 1.0 };
+    let per_norm = 1.0 / (sum * scale);
+    (
+        (sin2 * scale * per_norm).sqrt(),
+        (cos2 * scale * per_norm).sqrt(),
+    )
 }
 
 #[cfg(test)]

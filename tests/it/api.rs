@@ -769,6 +769,27 @@ async fn counts_take_whole_numbers_written_with_a_fraction() {
 /// equal-dwell feed overflow to a null in a 200.
 #[tokio::test]
 async fn extreme_but_valid_recommendations_answer() {
+    // A tool position at the least normal number on a 1 µm part: the contact's normalisation
+    // overflowed there and a rate came back null (schemathesis).
+    let reply = post_json(
+        &app(),
+        "/v1/removal-function",
+        json!({"process": {"tool_radius_mm": 0.001, "tool_rpm": 0.001,
+                           "workpiece_radius_mm": 0.001, "workpiece_rpm": -100000.0},
+               "tool_positions_mm": [2.2250738585072014e-308]})
+        .to_string(),
+    )
+    .await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let rates = reply.json()["profiles"][0]["removal_rate_nm_per_min"].clone();
+    assert!(
+        rates
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|r| r.as_f64().is_some_and(f64::is_finite)),
+        "{rates}"
+    );
     let tiny_pad = json!({"tool_radius_mm": 0.001, "tool_rpm": 0.001, "workpiece_rpm": -100000.0, "workpiece_radius_mm": 9143.786284385247});
     let reply = post_json(
         &app(),
