@@ -4,7 +4,7 @@
 //! κ = 0.6) with 0.4 nm of deterministic pseudo-noise, measured every 0.25 mm within 12 mm of
 //! each ring: 291 points, 6 parameters.
 
-use preston::calibration::{Calibration, Freedom, Measured, Motion, Profile, RunSpec};
+use preston::calibration::{Calibration, Freedom, Measured, Profile, RunSpec, TrialSpec};
 use preston::lsq::RobustLoss;
 use preston::physics::{removal_rate_nm_per_min, PressureModel, Process, ProcessSpec};
 
@@ -49,7 +49,7 @@ fn runs() -> Vec<RunSpec> {
                 .map(|&r| minutes * removal_rate_nm_per_min(&truth, r, r1) + 2.0 + noise())
                 .collect();
             RunSpec {
-                motion: Motion::Ring {
+                trial: TrialSpec::Ring {
                     position_mm: r1,
                     duration_s: 60.0 * minutes,
                 },

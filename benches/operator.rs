@@ -7,7 +7,7 @@
 //! Carlson's integrals alone (`carlson_triples`): the lanes every flat rate goes through.
 
 use preston::physics::{
-    Orientation, Part, PressureModel, Process, ProcessSpec, RemovalKernel, RemovalOperator,
+    Motion, Orientation, Part, PressureModel, Process, ProcessSpec, RemovalKernel, RemovalOperator,
 };
 use preston::surface::{PolynomialTerm, Surface, SurfaceSpec};
 
@@ -52,14 +52,16 @@ fn linspace(n: usize) -> Vec<f64> {
 fn eta_plus_0_05(bencher: divan::Bencher, n: usize) {
     let k = kernel(-10.0, 200.0);
     let grid = linspace(n);
-    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &grid));
+    let motion = Motion::radial(grid.clone());
+    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &motion));
 }
 
 #[divan::bench(args = [1001, 2001])]
 fn eta_minus_1(bencher: divan::Bencher, n: usize) {
     let k = kernel(150.0, 150.0);
     let grid = linspace(n);
-    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &grid));
+    let motion = Motion::radial(grid.clone());
+    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &motion));
 }
 
 fn part(spec: SurfaceSpec) -> Part {
@@ -73,7 +75,8 @@ fn part(spec: SurfaceSpec) -> Part {
 fn curved(bencher: divan::Bencher, n: usize, surface: SurfaceSpec) {
     let k = kernel_on(-10.0, 200.0, part(surface));
     let grid = linspace(n);
-    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &grid));
+    let motion = Motion::radial(grid.clone());
+    bencher.bench(|| RemovalOperator::assemble(&k, &grid, &motion));
 }
 
 #[divan::bench(args = [1001])]
@@ -113,8 +116,8 @@ fn asphere_eta_plus_0_05(bencher: divan::Bencher, n: usize) {
 fn edge(bencher: divan::Bencher, n: usize, model: PressureModel) {
     let k = kernel_with(-10.0, 200.0, Part::flat(), model);
     let radii = linspace(n);
-    let positions: Vec<f64> = linspace(n).iter().map(|r| r * 49.9 / 50.0).collect();
-    bencher.bench(|| RemovalOperator::assemble(&k, &radii, &positions));
+    let motion = Motion::radial(linspace(n).iter().map(|r| r * 49.9 / 50.0).collect());
+    bencher.bench(|| RemovalOperator::assemble(&k, &radii, &motion));
 }
 
 #[divan::bench(args = [1001])]

@@ -7,7 +7,7 @@
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{optimize, Constraints, DwellBasis, DwellProblem, Formulation, Objective};
 use preston::physics::{
-    ClearAperture, Part, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel,
+    ClearAperture, Motion, Part, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel,
     RemovalOperator,
 };
 
@@ -17,7 +17,7 @@ fn main() {
 
 struct Case {
     operator: RemovalOperator,
-    positions: Vec<f64>,
+    motion: Motion,
     rows: std::ops::Range<usize>,
     target: Vec<f64>,
 }
@@ -35,15 +35,15 @@ fn paper_case(n: usize) -> Case {
     })
     .unwrap();
     let grid = RadialGrid::new(&process, 0.0, 50.0, n).unwrap();
-    let positions = grid.radii_mm().to_vec();
+    let motion = Motion::radial(grid.radii_mm().to_vec());
     let aperture = ClearAperture::new(&process, 0.0, 40.0).unwrap();
     let operator =
-        RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &positions);
+        RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &motion);
     let rows = aperture_rows(&grid, &aperture);
     let target = vec![100.0; rows.len()];
     Case {
         operator,
-        positions,
+        motion,
         rows,
         target,
     }
@@ -83,7 +83,7 @@ fn run(bencher: divan::Bencher, n: usize, formulation: Formulation, basis: Dwell
     bencher.bench(|| {
         let problem = DwellProblem {
             operator: &case.operator,
-            positions_mm: &case.positions,
+            motion: &case.motion,
             tool_radius_mm: 10.0,
             rows: case.rows.clone(),
             target_nm: &case.target,

@@ -110,9 +110,9 @@ impl Freedom {
     }
 }
 
-/// What ran.
+/// What ran, as given.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Motion {
+pub enum TrialSpec {
     /// The tool parked at `position_mm` for `duration_s`.
     Ring { position_mm: f64, duration_s: f64 },
     /// A dwell schedule.
@@ -120,6 +120,13 @@ pub enum Motion {
         positions_mm: Vec<f64>,
         dwell_s: Vec<f64>,
     },
+}
+
+/// What ran, checked: a ring, or a dwell schedule (its motion built once).
+#[derive(Debug, Clone, PartialEq)]
+enum Trial {
+    Ring { position_mm: f64, duration_s: f64 },
+    Plan(DwellSchedule),
 }
 
 /// A measured radial profile: radii (mm, strictly increasing, ≥ 0) and depths (nm).
@@ -143,7 +150,7 @@ pub enum Measured {
 /// One run as asked.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunSpec {
-    pub motion: Motion,
+    pub trial: TrialSpec,
     pub measured: Measured,
     /// Only the points within it count (default: all).
     pub aperture: Option<(f64, f64)>,
@@ -267,10 +274,10 @@ pub enum Domain {
     OutOfReach { position_mm: f64 },
 }
 
-/// One run, checked: its motion, and the measured removal at its radii.
+/// One run, checked: what ran, and the measured removal at its radii.
 #[derive(Debug, Clone)]
 struct Run {
-    motion: Motion,
+    trial: Trial,
     radius_mm: Vec<f64>,
     removal_nm: Vec<f64>,
     /// The piston's shape at each radius: cos θ(r) for before/after profiles, else 1.
@@ -494,8 +501,8 @@ impl Calibration {
 
 impl Run {
     fn predict(&self, process: &Process, kernel: &RemovalKernel) -> Result<Vec<f64>, Domain> {
-        match &self.motion {
-            Motion::Ring {
+        match &self.trial {
+            Trial::Ring {
                 position_mm,
                 duration_s,
             } => {
@@ -509,14 +516,18 @@ impl Run {
                 kernel.fill_column(*position_mm, &self.radius_mm, rings.as_deref(), &mut rate);
                 Ok(rate.into_iter().map(|r| r * duration_s).collect())
             }
-            Motion::Dwell {
-                positions_mm,
-                dwell_s,
-            } => {
-                if let Some(&far) = positions_mm.iter().find(|&&x| !process.holds_position(x)) {
+            Trial::Plan(schedule) => {
+                let motion = schedule.motion();
+                // The nominal process held these positions; a fitted one may reach less far.
+                if let Some(&far) = motion
+                    .radii_mm()
+                    .iter()
+                    .find(|&&x| !process.holds_position(x))
+                {
                     return Err(Domain::OutOfReach { position_mm: far });
                 }
-                Ok(RemovalOperator::assemble(kernel, &self.radius_mm, positions_mm).apply(dwell_s))
+                Ok(RemovalOperator::assemble(kernel, &self.radius_mm, motion)
+                    .apply(schedule.dwell_s()))
             }
         }
     }
@@ -889,28 +900,30 @@ fn removal_between(before: &Profile, after: &Profile) -> Profile {
 }
 
 fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
-    match &spec.motion {
-        Motion::Ring {
+    let trial = match spec.trial {
+        TrialSpec::Ring {
             position_mm,
             duration_s,
         } => {
-            crate::physics::check_positions(process, "position_mm", &[*position_mm], false)
+            crate::physics::check_positions(process, "position_mm", &[position_mm], false)
                 .map_err(RunError::Position)?;
-            if !(duration_s.is_finite() && *duration_s > 0.0 && *duration_s <= MAX_RING_DURATION_S)
-            {
+            if !(duration_s.is_finite() && duration_s > 0.0 && duration_s <= MAX_RING_DURATION_S) {
                 return Err(RunError::Duration {
                     max_s: MAX_RING_DURATION_S,
                 });
             }
+            Trial::Ring {
+                position_mm,
+                duration_s,
+            }
         }
-        Motion::Dwell {
+        TrialSpec::Dwell {
             positions_mm,
             dwell_s,
-        } => {
-            DwellSchedule::new(process, positions_mm.clone(), dwell_s.clone())
-                .map_err(RunError::Position)?;
-        }
-    }
+        } => Trial::Plan(
+            DwellSchedule::new(process, positions_mm, dwell_s).map_err(RunError::Position)?,
+        ),
+    };
     let edge = process.workpiece_radius_mm();
     let axial_zero = matches!(spec.measured, Measured::BeforeAfter { .. });
     let measured = match spec.measured {
@@ -950,7 +963,7 @@ fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
         .map(|&r| if axial_zero { surface.normal(r).1 } else { 1.0 })
         .collect();
     Ok(Run {
-        motion: spec.motion,
+        trial,
         radius_mm,
         removal_nm,
         piston_shape,

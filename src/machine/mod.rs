@@ -41,7 +41,6 @@ pub mod limits;
 pub mod pose;
 pub mod program;
 
-pub use crate::physics::motion::cell_boundaries_mm;
 pub use gcode::{
     FeedMode, GcodeFormat, GcodeFormatError, GcodeFormatSpec, SpindleWords, SpindleWordsSpec,
 };

@@ -7,7 +7,7 @@
 
 use super::limits::{Axis, AxisLimits, LimitKind};
 use super::pose::{Pose, Tool};
-use crate::physics::motion::{acceleration, cell_boundaries_mm, move_share};
+use crate::physics::motion::{acceleration, Motion, Segment};
 use crate::surface::Surface;
 
 /// What a block does.
@@ -158,7 +158,8 @@ pub struct Skipped {
 pub struct Program {
     start: Pose,
     blocks: Vec<Block>,
-    motion: [AxisMotion; 3],
+    /// Each axis's motion, in the order of [`Axis::ALL`].
+    axes: [AxisMotion; 3],
     /// Positions of the plan left out at each end because their dwell is 0.
     pub skipped: Skipped,
     /// Time of the dwell and move blocks: the plan's total, s.
@@ -171,12 +172,12 @@ pub struct Program {
 }
 
 impl Program {
-    /// The program of a plan (positions strictly increasing, within the surface's domain,
-    /// dwell ≥ 0; the caller checks these).
-    pub fn new(
+    /// The program that runs `motion` with `dwell_s` at its stations (dwell ≥ 0, one per
+    /// station, within the surface's domain; the caller checks these): its segments as blocks.
+    pub fn from_motion(
         surface: &Surface,
         tool: &Tool,
-        positions_mm: &[f64],
+        motion: &Motion,
         dwell_s: &[f64],
         approach: Approach,
     ) -> Result<Program, ProgramError> {
@@ -188,10 +189,9 @@ impl Program {
         if let Some(index) = (first..=last).find(|&j| dwell_s[j] == 0.0) {
             return Err(ProgramError::ZeroInteriorDwell { index });
         }
-        // The plan's own cells (physics::motion): zero-dwell cells at either end are crossed
-        // in no time, so the program starts at the first cell with dwell and ends after the
-        // last one, where their stops are only the plan's own two ends.
-        let n = positions_mm.len();
+        // Zero-dwell cells at either end are crossed in no time, so the program starts at the
+        // first cell with dwell and ends after the last one: the segments of the stations with
+        // dwell (a stop belongs to one of the plan's own two ends).
         let t = dwell_s;
         let block = |kind, position_mm: f64, duration_s| Block {
             kind,
@@ -200,27 +200,20 @@ impl Program {
             end: tool.pose(surface, position_mm),
             duration_s,
         };
-        let mut blocks = Vec::with_capacity(last - first + 5);
-        let origin = if n == 1 {
-            blocks.push(block(BlockKind::Dwell, positions_mm[0], t[0]));
-            positions_mm[0]
-        } else {
-            let bounds = cell_boundaries_mm(positions_mm);
-            if first == 0 {
-                blocks.push(block(BlockKind::Dwell, positions_mm[0], 0.5 * t[0]));
-            }
-            for j in first..=last {
-                blocks.push(block(
-                    BlockKind::Move,
-                    bounds[j + 1],
-                    move_share(j, n) * t[j],
-                ));
-            }
-            if last == n - 1 {
-                blocks.push(block(BlockKind::Dwell, positions_mm[n - 1], 0.5 * t[n - 1]));
-            }
-            bounds[first]
-        };
+        let segments: Vec<Segment> = motion
+            .segments()
+            .into_iter()
+            .filter(|segment| (first..=last).contains(&segment.station()))
+            .collect();
+        let origin = segments[0].ends_mm().0;
+        let mut blocks = Vec::with_capacity(segments.len() + 2);
+        for segment in &segments {
+            let duration_s = segment.share() * t[segment.station()];
+            blocks.push(match *segment {
+                Segment::Stop { at_mm, .. } => block(BlockKind::Dwell, at_mm, duration_s),
+                Segment::Move { to_mm, .. } => block(BlockKind::Move, to_mm, duration_s),
+            });
+        }
         let polishing_time_s = t[first..=last].iter().sum();
         let first_pose = tool.pose(surface, origin);
         let mut start = first_pose;
@@ -238,7 +231,7 @@ impl Program {
             blocks.push(retract);
         }
         let durations: Vec<f64> = blocks.iter().map(|b| b.duration_s).collect();
-        let motion = [0, 1, 2].map(|axis| {
+        let axes = [0, 1, 2].map(|axis| {
             let positions: Vec<f64> = std::iter::once(start.axes()[axis])
                 .chain(blocks.iter().map(|b| b.end.axes()[axis]))
                 .collect();
@@ -249,10 +242,10 @@ impl Program {
             start,
             program_time_s: durations.iter().sum(),
             blocks,
-            motion,
+            axes,
             skipped: Skipped {
                 leading: first,
-                trailing: positions_mm.len() - 1 - last,
+                trailing: motion.len() - 1 - last,
             },
             polishing_time_s,
             max_path_deviation_mm,
@@ -269,7 +262,7 @@ impl Program {
     }
 
     pub fn motion(&self, axis: Axis) -> &AxisMotion {
-        &self.motion[axis_index(axis)]
+        &self.axes[axis_index(axis)]
     }
 
     /// A move's feed as G94 states it: the X–Z path length over the duration, mm/min, or
@@ -340,14 +333,15 @@ fn xz_path_mm(from: Pose, to: Pose) -> f64 {
     (to.x_mm - from.x_mm).hypot(to.z_mm - from.z_mm)
 }
 
-/// How far each axis (X, Z in mm; B in deg) moves across each position's cell: the poses at
-/// [`cell_boundaries_mm`] differenced, exactly as the program's move blocks are. Empty for a
-/// single position (it has no move).
-pub fn cell_travel(surface: &Surface, tool: &Tool, positions_mm: &[f64]) -> [Vec<f64>; 3] {
-    if positions_mm.len() < 2 {
+/// How far each axis (X, Z in mm; B in deg) moves across each station's cell of `motion`: the
+/// poses at its cell bounds differenced, exactly as the program's move blocks are. Empty for
+/// a single station (it has no move).
+pub fn cell_travel(surface: &Surface, tool: &Tool, motion: &Motion) -> [Vec<f64>; 3] {
+    if motion.len() < 2 {
         return [Vec::new(), Vec::new(), Vec::new()];
     }
-    let poses: Vec<[f64; 3]> = cell_boundaries_mm(positions_mm)
+    let poses: Vec<[f64; 3]> = motion
+        .cell_bounds_mm()
         .iter()
         .map(|&r| tool.pose(surface, r).axes())
         .collect();
@@ -410,7 +404,8 @@ mod tests {
             clearance_mm,
             feed_mm_per_min: 60.0,
         };
-        Program::new(&Surface::plane(), &tool, &positions, dwell, approach)
+        let motion = Motion::radial(positions);
+        Program::from_motion(&Surface::plane(), &tool, &motion, dwell, approach)
     }
 
     #[test]

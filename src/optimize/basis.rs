@@ -68,12 +68,12 @@ impl Basis {
         }
     }
 
-    /// The basis `choice` asks for, on strictly increasing `positions_mm`.
-    pub fn new(positions_mm: &[f64], tool_radius_mm: f64, choice: DwellBasis) -> Self {
-        let n = positions_mm.len();
+    /// The basis `choice` asks for, on the strictly increasing station radii `radii_mm`.
+    pub fn new(radii_mm: &[f64], tool_radius_mm: f64, choice: DwellBasis) -> Self {
+        let n = radii_mm.len();
         match choice {
             DwellBasis::Positions => Basis::positions(n),
-            DwellBasis::Auto => Basis::spline(positions_mm, tool_radius_mm)
+            DwellBasis::Auto => Basis::spline(radii_mm, tool_radius_mm)
                 .filter(|b| 2 * b.size <= n)
                 .unwrap_or_else(|| Basis::positions(n)),
         }
@@ -81,9 +81,9 @@ impl Basis {
 
     /// The cubic spline basis on knots spaced about [`KNOT_SPACING_PER_TOOL_RADIUS`]·r_t;
     /// `None` for fewer than two positions.
-    pub fn spline(positions_mm: &[f64], tool_radius_mm: f64) -> Option<Self> {
-        let (&a, &b) = (positions_mm.first()?, positions_mm.last()?);
-        if positions_mm.len() < 2 || b <= a {
+    pub fn spline(radii_mm: &[f64], tool_radius_mm: f64) -> Option<Self> {
+        let (&a, &b) = (radii_mm.first()?, radii_mm.last()?);
+        if radii_mm.len() < 2 || b <= a {
             return None;
         }
         let target = KNOT_SPACING_PER_TOOL_RADIUS * tool_radius_mm;
@@ -94,8 +94,8 @@ impl Basis {
             step: (b - a) / spans as f64,
             spans,
         };
-        let mut terms = Vec::with_capacity(4 * positions_mm.len());
-        for &r in positions_mm {
+        let mut terms = Vec::with_capacity(4 * radii_mm.len());
+        for &r in radii_mm {
             let (span, weights) = knots.basis(r);
             terms.extend((0..4).map(|i| (span + i, weights[i])));
         }

@@ -37,7 +37,7 @@
 
 use super::problem::{Bound, Constraint};
 use crate::machine::{Axis, LimitKind};
-use crate::physics::motion::{acceleration, move_share};
+use crate::physics::motion::{acceleration, Motion};
 
 /// One axis of the machine as the plan drives it.
 #[derive(Debug, Clone, PartialEq)]
@@ -87,7 +87,13 @@ pub struct PathFeed<'a> {
 /// Per-position floors: `min_dwell_s`, the feed limit (the path across cell j at
 /// `cell_path_mm[j]`/(w_j·t_j) ≤ v), the velocity limits and the end accelerations, each kept
 /// with [`MARGIN`].
-pub fn floors(axes: &[AxisPath], feed: Option<PathFeed>, n: usize, min_dwell_s: f64) -> Vec<Floor> {
+pub fn floors(
+    axes: &[AxisPath],
+    feed: Option<PathFeed>,
+    motion: &Motion,
+    min_dwell_s: f64,
+) -> Vec<Floor> {
+    let n = motion.len();
     let mut floors = vec![
         Floor {
             dwell_s: min_dwell_s,
@@ -105,7 +111,7 @@ pub fn floors(axes: &[AxisPath], feed: Option<PathFeed>, n: usize, min_dwell_s: 
         for (j, path) in feed.cell_path_mm.iter().enumerate() {
             raise(
                 j,
-                path / (move_share(j, n) * v),
+                path / (motion.move_share(j) * v),
                 Bound::Constraint(Constraint::MaxFeed),
             );
         }
@@ -114,7 +120,11 @@ pub fn floors(axes: &[AxisPath], feed: Option<PathFeed>, n: usize, min_dwell_s: 
         if let Some(v) = axis.max_velocity_per_s {
             let v = v * (1.0 - MARGIN);
             for (j, c) in axis.cell_travel.iter().enumerate() {
-                raise(j, c.abs() / (move_share(j, n) * v), axis.velocity_bound());
+                raise(
+                    j,
+                    c.abs() / (motion.move_share(j) * v),
+                    axis.velocity_bound(),
+                );
             }
         }
         if let (Some(a), Some(first), Some(last)) = (
@@ -151,7 +161,7 @@ fn velocity(c: f64, share: f64, t: f64) -> f64 {
 
 /// The largest |acceleration| of an axis over its limit for a plan (0 without a limit):
 /// between cells and from and to rest at the ends, as the program computes it.
-pub fn peak_acceleration_ratio(axis: &AxisPath, dwell_s: &[f64]) -> f64 {
+pub fn peak_acceleration_ratio(axis: &AxisPath, motion: &Motion, dwell_s: &[f64]) -> f64 {
     let Some(a_max) = axis.max_acceleration_per_s2 else {
         return 0.0;
     };
@@ -161,7 +171,7 @@ pub fn peak_acceleration_ratio(axis: &AxisPath, dwell_s: &[f64]) -> f64 {
         return 0.0;
     }
     let v: Vec<f64> = (0..n)
-        .map(|j| velocity(c[j], move_share(j, n), dwell_s[j]))
+        .map(|j| velocity(c[j], motion.move_share(j), dwell_s[j]))
         .collect();
     // From rest through the half-dwell stop into the first move (both t_0/2), and back.
     let (first, last) = (0.5 * dwell_s[0], 0.5 * dwell_s[n - 1]);
@@ -172,8 +182,8 @@ pub fn peak_acceleration_ratio(axis: &AxisPath, dwell_s: &[f64]) -> f64 {
     let between = (0..n - 1).map(|j| {
         acceleration(
             (v[j + 1] - v[j]).abs(),
-            move_share(j, n) * dwell_s[j],
-            move_share(j + 1, n) * dwell_s[j + 1],
+            motion.move_share(j) * dwell_s[j],
+            motion.move_share(j + 1) * dwell_s[j + 1],
         )
     });
     ends.into_iter()
@@ -185,7 +195,7 @@ pub fn peak_acceleration_ratio(axis: &AxisPath, dwell_s: &[f64]) -> f64 {
 
 /// The constant dwell (s) at which every axis keeps its acceleration limits between cells
 /// (with [`MARGIN`]): σ·(c_{j+1}/w_{j+1} − c_j/w_j)/T ≤ a·T·(w_j + w_{j+1})/2.
-pub fn constant_dwell_for_acceleration(axes: &[AxisPath], n: usize) -> f64 {
+pub fn constant_dwell_for_acceleration(axes: &[AxisPath], motion: &Motion) -> f64 {
     let mut t = 0.0_f64;
     for axis in axes {
         let Some(a) = axis.max_acceleration_per_s2 else {
@@ -194,7 +204,7 @@ pub fn constant_dwell_for_acceleration(axes: &[AxisPath], n: usize) -> f64 {
         let a = a * (1.0 - MARGIN);
         let c = &axis.cell_travel;
         for j in 0..c.len().saturating_sub(1) {
-            let (w0, w1) = (move_share(j, n), move_share(j + 1, n));
+            let (w0, w1) = (motion.move_share(j), motion.move_share(j + 1));
             let jump = (c[j + 1] / w1 - c[j] / w0).abs();
             t = t.max((2.0 * jump / (a * (w0 + w1))).sqrt());
         }
@@ -214,8 +224,12 @@ pub struct AccelerationRow {
 /// The between-cell acceleration rows of every axis, made convex around `x0` (scaled dwell,
 /// every entry that enters a row positive) as described in the module docs. Each row is
 /// divided by a·τ²/2 so its dwell coefficients are of order one.
-pub fn acceleration_rows(axes: &[AxisPath], x0: &[f64], tau: f64) -> Vec<AccelerationRow> {
-    let n = x0.len();
+pub fn acceleration_rows(
+    axes: &[AxisPath],
+    motion: &Motion,
+    x0: &[f64],
+    tau: f64,
+) -> Vec<AccelerationRow> {
     let mut rows = Vec::new();
     for axis in axes {
         let Some(a) = axis.max_acceleration_per_s2 else {
@@ -224,7 +238,7 @@ pub fn acceleration_rows(axes: &[AxisPath], x0: &[f64], tau: f64) -> Vec<Acceler
         let scale = 0.5 * a * (1.0 - MARGIN) * tau * tau;
         let c = &axis.cell_travel;
         for j in 0..c.len().saturating_sub(1) {
-            let (w0, w1) = (move_share(j, n), move_share(j + 1, n));
+            let (w0, w1) = (motion.move_share(j), motion.move_share(j + 1));
             for sign in [1.0, -1.0] {
                 // σ·(c_{j+1}/(w_{j+1}·t_{j+1}) − c_j/(w_j·t_j)), times τ: γ/x per position.
                 let terms = [(j + 1, sign * c[j + 1] / w1), (j, -sign * c[j] / w0)];
@@ -257,6 +271,11 @@ pub fn acceleration_rows(axes: &[AxisPath], x0: &[f64], tau: f64) -> Vec<Acceler
 mod tests {
     use super::*;
 
+    /// n stations 1 mm apart (the shares depend only on n).
+    fn stations(n: usize) -> Motion {
+        Motion::radial((0..n).map(|j| j as f64).collect())
+    }
+
     fn axis(cell_travel: Vec<f64>, v: Option<f64>, a: Option<f64>) -> AxisPath {
         AxisPath {
             axis: Axis::X,
@@ -270,7 +289,7 @@ mod tests {
     fn floors_keep_velocity_and_end_accelerations() {
         // Cells 0.5, 1, 1, 0.5 mm (positions 1 mm apart); 2 mm/s; 1 mm/s².
         let x = axis(vec![0.5, 1.0, 1.0, 0.5], Some(2.0), Some(1.0));
-        let f = floors(std::slice::from_ref(&x), None, 4, 0.1);
+        let f = floors(std::slice::from_ref(&x), None, &stations(4), 0.1);
         let m = 1.0 / (1.0 - MARGIN);
         // Ends: velocity 0.5/(½·2) = 0.5 s; acceleration 2·√0.5 = 1.414 s.
         assert!((f[0].dwell_s - 2.0 * (0.5 * m).sqrt()).abs() < 1e-12);
@@ -279,7 +298,7 @@ mod tests {
         assert_eq!(f[1].bound, x.velocity_bound());
         // At the floors the program's end acceleration is at the limit (less the margin).
         let t = [f[0].dwell_s, 1.0, 1.0, f[3].dwell_s];
-        let r = peak_acceleration_ratio(&x, &t);
+        let r = peak_acceleration_ratio(&x, &stations(t.len()), &t);
         assert!((r - (1.0 - MARGIN)).abs() < 1e-12, "{r}");
     }
 
@@ -292,9 +311,12 @@ mod tests {
         let expected = [0.5_f64, 2.0, 0.1, 0.75 / 2.25]
             .into_iter()
             .fold(0.0, f64::max);
-        assert_eq!(peak_acceleration_ratio(&x, &t), expected);
         assert_eq!(
-            peak_acceleration_ratio(&axis(vec![], None, None), &[1.0]),
+            peak_acceleration_ratio(&x, &stations(t.len()), &t),
+            expected
+        );
+        assert_eq!(
+            peak_acceleration_ratio(&axis(vec![], None, None), &stations(1), &[1.0]),
             0.0
         );
     }
@@ -316,7 +338,7 @@ mod tests {
         for _ in 0..20_000 {
             let x0: Vec<f64> = (0..5).map(|_| 0.2 + 3.0 * uniform()).collect();
             let xs: Vec<f64> = (0..5).map(|_| 0.05 + 4.0 * uniform()).collect();
-            let rows = acceleration_rows(std::slice::from_ref(&x), &x0, tau);
+            let rows = acceleration_rows(std::slice::from_ref(&x), &stations(5), &x0, tau);
             let holds = rows.iter().all(|r| {
                 let lhs: f64 = r.x.iter().map(|&(k, v)| v * xs[k]).sum::<f64>()
                     + r.u.iter().map(|&(k, v)| v / xs[k]).sum::<f64>();
@@ -347,12 +369,15 @@ mod tests {
     /// The between-cell part of [`peak_acceleration_ratio`].
     fn between_ratio(axis: &AxisPath, t: &[f64]) -> f64 {
         let n = t.len();
+        let motion = stations(n);
         let c = &axis.cell_travel;
-        let v: Vec<f64> = (0..n).map(|j| c[j] / (move_share(j, n) * t[j])).collect();
+        let v: Vec<f64> = (0..n)
+            .map(|j| c[j] / (motion.move_share(j) * t[j]))
+            .collect();
         (0..n - 1)
             .map(|j| {
                 (v[j + 1] - v[j]).abs()
-                    / (0.5 * (move_share(j, n) * t[j] + move_share(j + 1, n) * t[j + 1]))
+                    / (0.5 * (motion.move_share(j) * t[j] + motion.move_share(j + 1) * t[j + 1]))
             })
             .fold(0.0, f64::max)
             / axis.max_acceleration_per_s2.unwrap()
@@ -361,7 +386,7 @@ mod tests {
     #[test]
     fn the_constant_start_keeps_the_between_cell_rows() {
         let x = axis(vec![0.3, 0.9, -0.4, 1.2, 0.2], None, Some(0.7));
-        let t = constant_dwell_for_acceleration(std::slice::from_ref(&x), 5);
+        let t = constant_dwell_for_acceleration(std::slice::from_ref(&x), &stations(5));
         let r = between_ratio(&x, &[t; 5]);
         assert!(r <= 1.0 - MARGIN + 1e-12 && r > 0.99, "{r}");
     }

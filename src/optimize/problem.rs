@@ -336,6 +336,7 @@ impl From<Constraint> for Bound {
 mod tests {
     use super::super::kinematics::{floors, PathFeed};
     use super::*;
+    use crate::physics::Motion;
 
     #[test]
     fn each_bad_value_names_its_field() {
@@ -415,7 +416,12 @@ mod tests {
             cell_path_mm: &[0.2, 1.0, 0.5],
             max_feed_mm_per_min: 30.0,
         };
-        let floors = floors(&[], Some(feed), 3, c.min_dwell_s);
+        let floors = floors(
+            &[],
+            Some(feed),
+            &Motion::radial(vec![0.0, 1.0, 2.0]),
+            c.min_dwell_s,
+        );
         assert_eq!(c.violation(&[2.1, 2.1, 2.1], &floors, 1.0), None);
         let broken = |d: [f64; 3]| c.violation(&d, &floors, 1.0).map(|v| v.bound.describe());
         assert_eq!(broken([0.5, 4.0, 4.0]).as_deref(), Some("min_dwell_s"));

@@ -28,7 +28,7 @@ use super::solver::{
 /// costs microseconds, and a few coarse positions can fit a target almost exactly (J ~ 1e-6,
 /// where the coarse gap would leave J ~1e-5 relative).
 const SMALL_QP_VARIABLES: usize = 64;
-use crate::physics::RemovalOperator;
+use crate::physics::{Motion, RemovalOperator};
 
 /// How the least-squares fit reaches Clarabel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -47,8 +47,9 @@ pub enum Formulation {
 #[derive(Debug, Clone)]
 pub struct DwellProblem<'a> {
     pub operator: &'a RemovalOperator,
-    /// Candidate tool positions, mm, strictly increasing (one per operator column).
-    pub positions_mm: &'a [f64],
+    /// The motion the plan stands for: its stations are the candidate tool positions (one
+    /// per operator column).
+    pub motion: &'a Motion,
     pub tool_radius_mm: f64,
     /// Operator rows inside the clear aperture.
     pub rows: Range<usize>,
@@ -76,7 +77,7 @@ impl DwellProblem<'_> {
     /// ([`super::kinematics::floors`]).
     pub fn floors(&self) -> Vec<Floor> {
         let c = &self.constraints;
-        let n = self.positions_mm.len();
+        let n = self.motion.len();
         assert!(
             c.max_feed_mm_per_min.is_none() || self.cell_path_mm.len() == n || n == 1,
             "a feed limit needs the path across each cell"
@@ -85,7 +86,7 @@ impl DwellProblem<'_> {
             cell_path_mm: self.cell_path_mm,
             max_feed_mm_per_min,
         });
-        floors(self.axes, feed, n, c.min_dwell_s)
+        floors(self.axes, feed, self.motion, c.min_dwell_s)
     }
 }
 
@@ -216,8 +217,8 @@ struct Scales {
 
 /// D2: the second divided differences on the positions, one row (3 coefficients, 1/mm²) per
 /// interior position.
-fn second_differences(positions_mm: &[f64]) -> Vec<[f64; 3]> {
-    positions_mm
+fn second_differences(radii_mm: &[f64]) -> Vec<[f64; 3]> {
+    radii_mm
         .windows(3)
         .map(|w| {
             let (h0, h1) = (w[1] - w[0], w[2] - w[1]);
@@ -232,8 +233,8 @@ fn second_differences(positions_mm: &[f64]) -> Vec<[f64; 3]> {
 
 /// The upper band of w·(D2·S)ᵀ(D2·S) on the variables: `band[k][d]` is entry (k − d, k).
 /// On the positions (S = I) the band is three wide.
-fn smoothing_band(positions_mm: &[f64], basis: &Basis, weight: f64) -> Vec<Vec<f64>> {
-    let forms: Vec<Vec<(usize, f64)>> = second_differences(positions_mm)
+fn smoothing_band(radii_mm: &[f64], basis: &Basis, weight: f64) -> Vec<Vec<f64>> {
+    let forms: Vec<Vec<(usize, f64)>> = second_differences(radii_mm)
         .iter()
         .enumerate()
         .map(|(r, c)| basis.form(&[(r, c[0]), (r + 1, c[1]), (r + 2, c[2])]))
@@ -269,7 +270,7 @@ impl<'a> Variables<'a> {
     fn new(problem: &DwellProblem, operator: &Band<'a>, basis: Basis, s: &Scales) -> Self {
         let mut vars = Variables {
             band: operator.through(&basis),
-            smooth: smoothing_band(problem.positions_mm, &basis, s.smoothing),
+            smooth: smoothing_band(problem.motion.radii_mm(), &basis, s.smoothing),
             basis,
             normal: None,
         };
@@ -312,7 +313,7 @@ fn objective_value(problem: &DwellProblem, band: &Band, s: &Scales, t: &[f64], p
         .sum::<f64>()
         / (2.0 * s.m);
     let x: Vec<f64> = t.iter().map(|v| v / s.dwell_s).collect();
-    let smooth: f64 = second_differences(problem.positions_mm)
+    let smooth: f64 = second_differences(problem.motion.radii_mm())
         .iter()
         .zip(x.windows(3))
         .map(|(c, w)| (c[0] * w[0] + c[1] * w[1] + c[2] * w[2]).powi(2))
@@ -565,7 +566,7 @@ fn assemble(
         };
     };
     // One cone variable per position a row needs it for, numbered after the others.
-    let accel = acceleration_rows(problem.axes, x0, s.dwell_s);
+    let accel = acceleration_rows(problem.axes, problem.motion, x0, s.dwell_s);
     let mut u_index = vec![None; basis.positions_len()];
     for row in &accel {
         for &(j, _) in &row.u {
@@ -763,9 +764,9 @@ fn attempt(
     })
 }
 
-fn keeps_acceleration(axes: &[AxisPath], dwell_s: &[f64]) -> bool {
+fn keeps_acceleration(axes: &[AxisPath], motion: &Motion, dwell_s: &[f64]) -> bool {
     axes.iter()
-        .all(|a| peak_acceleration_ratio(a, dwell_s) <= 1.0 - 0.5 * MARGIN)
+        .all(|a| peak_acceleration_ratio(a, motion, dwell_s) <= 1.0 - 0.5 * MARGIN)
 }
 
 /// The plan within the machine's acceleration limits between cells, by the convex–concave
@@ -778,13 +779,13 @@ fn within_acceleration(
     floors: &[Floor],
     budget: &Budget,
 ) -> Result<Attempt, OptimizeError> {
-    let n = problem.positions_mm.len();
+    let n = problem.motion.len();
     let c = &problem.constraints;
     let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
-    let start_s = floors_s
-        .iter()
-        .copied()
-        .fold(constant_dwell_for_acceleration(problem.axes, n), f64::max);
+    let start_s = floors_s.iter().copied().fold(
+        constant_dwell_for_acceleration(problem.axes, problem.motion),
+        f64::max,
+    );
     let fields: Vec<Bound> = problem
         .axes
         .iter()
@@ -839,7 +840,7 @@ fn within_acceleration(
         let kept = problem
             .axes
             .iter()
-            .all(|a| peak_acceleration_ratio(a, &next.dwell_s) <= 1.0)
+            .all(|a| peak_acceleration_ratio(a, problem.motion, &next.dwell_s) <= 1.0)
             && problem
                 .constraints
                 .violation(&next.dwell_s, floors, scales.dwell_s)
@@ -880,7 +881,7 @@ fn constant_fallback(
     start_s: f64,
 ) -> Attempt {
     let rows = &problem.rows;
-    let n = problem.positions_mm.len();
+    let n = problem.motion.len();
     // u: the removal of one second at every position, on the aperture's rows.
     let mut unit = vec![0.0; rows.len()];
     for j in 0..n {
@@ -960,7 +961,7 @@ fn check_plan(
     if let Some((axis, ratio)) = problem
         .axes
         .iter()
-        .map(|a| (a, peak_acceleration_ratio(a, &plan.dwell_s)))
+        .map(|a| (a, peak_acceleration_ratio(a, problem.motion, &plan.dwell_s)))
         .find(|&(_, ratio)| ratio > 1.0)
     {
         return Err(OptimizeError::Numerical {
@@ -986,7 +987,9 @@ fn plan_in(
     let vars = Variables::new(problem, operator, basis, scales);
     let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
     let mut plan = attempt(problem, operator, &vars, scales, &floors_s, None, budget)?;
-    if limits_acceleration(problem.axes) && !keeps_acceleration(problem.axes, &plan.dwell_s) {
+    if limits_acceleration(problem.axes)
+        && !keeps_acceleration(problem.axes, problem.motion, &plan.dwell_s)
+    {
         let first = (plan.iterations, plan.solve_time_s);
         plan = within_acceleration(problem, operator, &vars, scales, floors, budget)?;
         plan.iterations += first.0;
@@ -1003,7 +1006,7 @@ fn plan_in(
 /// `time_limit_s`.
 pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
     let budget = Budget::start(problem.time_limit_s);
-    let n = problem.positions_mm.len();
+    let n = problem.motion.len();
     assert_eq!(
         n,
         problem.operator.cols(),
@@ -1045,7 +1048,7 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
         },
     };
 
-    let basis = Basis::new(problem.positions_mm, rt, problem.basis);
+    let basis = Basis::new(problem.motion.radii_mm(), rt, problem.basis);
     let checked = |basis: Basis| {
         let plan = plan_in(problem, &band, basis, &scales, &floors, &budget)?;
         check_plan(problem, &floors, &scales, &plan).map(|()| plan)

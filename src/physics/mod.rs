@@ -22,6 +22,7 @@ mod wide;
 pub use curved::{Orientation, Part};
 pub use grid::{check_radius, ClearAperture, GridError, RadialGrid, Reach};
 pub use metrics::UniformityMetrics;
+pub use motion::{Motion, Segment, Turning};
 pub use operator::{Layout, PassReading, RemovalOperator};
 pub use pressure::{PressureModel, PressureModelKind};
 pub use process::{Eta, Process, ProcessError, ProcessSpec};

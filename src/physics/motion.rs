@@ -26,38 +26,171 @@
 //! map of the dwell, whose columns are exact integrals ([`super::path`],
 //! [`super::operator`]). A constant feed v from a to b is the same integral without cells:
 //! ΔZ(r) = (60/v)·∫_a^b R(r; ρ(s)) ds.
+//!
+//! # The motion as a value
+//!
+//! [`Motion`] holds this once per request: the stations (the positions, each a point of the
+//! part), their cells, the [`Segment`]s (stops and moves, each spending a share of one
+//! station's dwell) and how C turns ([`Turning`]: today at the part's constant speed, so
+//! the removal is axisymmetric and the 1-D model above is exact). The operator reads its
+//! cells and shares ([`super::operator`]), the machine program runs its segments
+//! (`machine::Program::from_motion`), and the optimizer's kinematics read the axes' travel
+//! across its cells (`optimize::kinematics`); none of them derives the cells again.
 
-/// Where each position's cell begins and ends: r_0, the midpoints m_0 … m_{n−2}, r_{n−1}
-/// (n + 1 entries for n ≥ 2 positions; the single position of a one-position plan).
-pub fn cell_boundaries_mm(positions_mm: &[f64]) -> Vec<f64> {
-    let n = positions_mm.len();
-    if n < 2 {
-        return positions_mm.to_vec();
-    }
-    let mut ends = Vec::with_capacity(n + 1);
-    ends.push(positions_mm[0]);
-    ends.extend(positions_mm.windows(2).map(|w| 0.5 * (w[0] + w[1])));
-    ends.push(positions_mm[n - 1]);
-    ends
+/// How the part turns on C while the tool moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Turning {
+    /// At the process's part speed throughout (C as a spindle): every angle is swept alike, so
+    /// the removal is axisymmetric and a station's angle does not enter it.
+    Constant,
 }
 
-/// w_j: the share of position j's dwell spent moving across its cell (½ at either end of a
-/// plan of n ≥ 2 positions, 1 inside, 0 for a single position).
-pub fn move_share(j: usize, n: usize) -> f64 {
-    if n < 2 {
-        0.0
-    } else if j == 0 || j == n - 1 {
-        0.5
-    } else {
-        1.0
+/// One piece of a motion: a stop at a station, or a constant-speed move across its cell.
+/// Its duration is `share` of the station's dwell.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Segment {
+    /// The pad centre stands at `at_mm`, station `station`'s radius.
+    Stop {
+        station: usize,
+        at_mm: f64,
+        share: f64,
+    },
+    /// The pad centre crosses station `station`'s cell from `from_mm` to `to_mm` at constant
+    /// speed along the surface.
+    Move {
+        station: usize,
+        from_mm: f64,
+        to_mm: f64,
+        share: f64,
+    },
+}
+
+impl Segment {
+    /// The station whose dwell this segment spends.
+    pub fn station(&self) -> usize {
+        match *self {
+            Segment::Stop { station, .. } | Segment::Move { station, .. } => station,
+        }
+    }
+
+    /// The share of that station's dwell it takes.
+    pub fn share(&self) -> f64 {
+        match *self {
+            Segment::Stop { share, .. } | Segment::Move { share, .. } => share,
+        }
+    }
+
+    /// Where the pad centre is at the segment's start and end, mm.
+    pub fn ends_mm(&self) -> (f64, f64) {
+        match *self {
+            Segment::Stop { at_mm, .. } => (at_mm, at_mm),
+            Segment::Move { from_mm, to_mm, .. } => (from_mm, to_mm),
+        }
     }
 }
 
-/// σ_j: the share of position j's dwell spent standing at it (½ at either end of a plan of
-/// n ≥ 2 positions, 0 inside, 1 for a single position).
-pub fn stop_share(j: usize, n: usize) -> f64 {
-    // Every second of t_j is either spent moving across the cell or standing at r_j.
-    1.0 - move_share(j, n)
+/// The motion of a plan: its stations (radii r_j of the pad centre, mm, strictly increasing),
+/// their cells, the stops and moves the dwell is spent in (module docs), and how C turns.
+/// Linear in the dwell: the same motion stands for every dwell at its stations, so a request
+/// builds it once and the operator, the program and the optimizer's kinematics all read it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Motion {
+    radii_mm: Vec<f64>,
+    /// r_0, the midpoints m_0 … m_{n−2}, r_{n−1} (n + 1 entries for n ≥ 2 stations; the
+    /// single station of a one-station plan).
+    bounds_mm: Vec<f64>,
+    turning: Turning,
+}
+
+impl Motion {
+    /// The motion through radial stations `radii_mm` (finite and strictly increasing: the
+    /// caller checks, [`super::check_positions`]) with C turning at a constant speed.
+    pub fn radial(radii_mm: Vec<f64>) -> Motion {
+        debug_assert!(radii_mm.windows(2).all(|w| w[0] < w[1]));
+        let n = radii_mm.len();
+        let bounds_mm = if n < 2 {
+            radii_mm.clone()
+        } else {
+            let mut ends = Vec::with_capacity(n + 1);
+            ends.push(radii_mm[0]);
+            ends.extend(radii_mm.windows(2).map(|w| 0.5 * (w[0] + w[1])));
+            ends.push(radii_mm[n - 1]);
+            ends
+        };
+        Motion {
+            radii_mm,
+            bounds_mm,
+            turning: Turning::Constant,
+        }
+    }
+
+    /// The number of stations.
+    pub fn len(&self) -> usize {
+        self.radii_mm.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.radii_mm.is_empty()
+    }
+
+    /// The stations' radii r_j, mm.
+    pub fn radii_mm(&self) -> &[f64] {
+        &self.radii_mm
+    }
+
+    /// Where each station's cell begins and ends: r_0, the midpoints, r_{n−1} (one entry for
+    /// a single station).
+    pub fn cell_bounds_mm(&self) -> &[f64] {
+        &self.bounds_mm
+    }
+
+    pub fn turning(&self) -> Turning {
+        self.turning
+    }
+
+    /// w_j: the share of station j's dwell spent moving across its cell (½ at either end of a
+    /// plan of n ≥ 2 stations, 1 inside, 0 for a single station).
+    pub fn move_share(&self, j: usize) -> f64 {
+        let n = self.len();
+        if n < 2 {
+            0.0
+        } else if j == 0 || j == n - 1 {
+            0.5
+        } else {
+            1.0
+        }
+    }
+
+    /// σ_j: the share of station j's dwell spent standing at it (½ at either end of a plan of
+    /// n ≥ 2 stations, 0 inside, 1 for a single station).
+    pub fn stop_share(&self, j: usize) -> f64 {
+        // Every second of t_j is either spent moving across the cell or standing at r_j.
+        1.0 - self.move_share(j)
+    }
+
+    /// The segments in the order the tool runs them: a single station's stop; or the stop at
+    /// r_0, the move across each cell, the stop at r_{n−1}.
+    pub fn segments(&self) -> Vec<Segment> {
+        let n = self.len();
+        let stop = |station: usize| Segment::Stop {
+            station,
+            at_mm: self.radii_mm[station],
+            share: self.stop_share(station),
+        };
+        if n < 2 {
+            return (0..n).map(stop).collect();
+        }
+        let moves = (0..n).map(|j| Segment::Move {
+            station: j,
+            from_mm: self.bounds_mm[j],
+            to_mm: self.bounds_mm[j + 1],
+            share: self.move_share(j),
+        });
+        std::iter::once(stop(0))
+            .chain(moves)
+            .chain(std::iter::once(stop(n - 1)))
+            .collect()
+    }
 }
 
 /// The acceleration model of every axis: its velocity is constant within a segment (a block
@@ -83,15 +216,29 @@ mod tests {
     #[test]
     fn the_shares_account_for_every_second() {
         for n in 1..6 {
+            let motion = Motion::radial((0..n).map(|j| j as f64).collect());
             for j in 0..n {
-                let (w, s) = (move_share(j, n), stop_share(j, n));
+                let (w, s) = (motion.move_share(j), motion.stop_share(j));
                 assert_eq!(w + s, 1.0);
                 assert!(w >= 0.0 && s >= 0.0);
             }
+            // Every station's dwell is spent exactly once over the segments.
+            let mut spent = vec![0.0; n];
+            for segment in motion.segments() {
+                spent[segment.station()] += segment.share();
+            }
+            assert!(spent.iter().all(|&s| s == 1.0), "{spent:?}");
         }
-        assert_eq!((move_share(0, 1), stop_share(0, 1)), (0.0, 1.0));
-        assert_eq!((move_share(0, 3), stop_share(0, 3)), (0.5, 0.5));
-        assert_eq!((move_share(1, 3), stop_share(1, 3)), (1.0, 0.0));
-        assert_eq!(cell_boundaries_mm(&[0.0, 1.0, 3.0]), [0.0, 0.5, 2.0, 3.0]);
+        let one = Motion::radial(vec![2.0]);
+        assert_eq!((one.move_share(0), one.stop_share(0)), (0.0, 1.0));
+        let three = Motion::radial(vec![0.0, 1.0, 3.0]);
+        assert_eq!((three.move_share(0), three.stop_share(0)), (0.5, 0.5));
+        assert_eq!((three.move_share(1), three.stop_share(1)), (1.0, 0.0));
+        assert_eq!(three.cell_bounds_mm(), [0.0, 0.5, 2.0, 3.0]);
+        let ends: Vec<_> = three.segments().iter().map(Segment::ends_mm).collect();
+        assert_eq!(
+            ends,
+            [(0.0, 0.0), (0.0, 0.5), (0.5, 2.0), (2.0, 3.0), (3.0, 3.0)]
+        );
     }
 }

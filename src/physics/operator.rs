@@ -33,7 +33,7 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use super::motion::{cell_boundaries_mm, move_share, stop_share};
+use super::motion::Motion;
 use super::path::PARALLEL_MIN_PATHS;
 use super::removal::{RemovalKernel, RunningIntegral};
 use super::schedule::ConstantFeed;
@@ -82,20 +82,19 @@ fn split_at_offsets<'a>(mut values: &'a mut [f64], ends: &[usize]) -> Vec<&'a mu
 /// The plan's cells as every row reads them: their boundaries b_j, and w_j/L_j per column
 /// (the move share over the cell's arc length, so a row's entries take a product each, not a
 /// division). Made once per assembly, however many runs of rows it is assembled in.
-struct Cells {
-    bounds: Vec<f64>,
+struct Cells<'m> {
+    bounds: &'m [f64],
     per_arc: Vec<f64>,
 }
 
-impl Cells {
-    fn new(kernel: &RemovalKernel, positions_mm: &[f64]) -> Self {
-        let n = positions_mm.len();
-        let bounds = cell_boundaries_mm(positions_mm);
+impl<'m> Cells<'m> {
+    fn new(kernel: &RemovalKernel, motion: &'m Motion) -> Self {
+        let bounds = motion.cell_bounds_mm();
         let arcs: Vec<f64> = bounds.iter().map(|&b| kernel.arc_length_mm(b)).collect();
         let per_arc = arcs
             .windows(2)
             .enumerate()
-            .map(|(j, w)| move_share(j, n) / (w[1] - w[0]))
+            .map(|(j, w)| motion.move_share(j) / (w[1] - w[0]))
             .collect();
         Cells { bounds, per_arc }
     }
@@ -155,11 +154,11 @@ impl PartialEq for RemovalOperator {
 }
 
 impl RemovalOperator {
-    /// M for `radii_mm` (ascending) and the plan's `positions_mm` (strictly increasing, within
+    /// M for `radii_mm` (ascending) and the plan's `motion` (its stations within
     /// the process's reach).
     /// By row; the columns are laid out when first asked for.
-    pub fn assemble(kernel: &RemovalKernel, radii_mm: &[f64], positions_mm: &[f64]) -> Self {
-        Self::assemble_with_pass(kernel, radii_mm, positions_mm, None, Layout::Rows).0
+    pub fn assemble(kernel: &RemovalKernel, radii_mm: &[f64], motion: &Motion) -> Self {
+        Self::assemble_with_pass(kernel, radii_mm, motion, None, Layout::Rows).0
     }
 
     /// M, and with `pass` what that constant feed removes at its rows, read from the rows'
@@ -168,29 +167,28 @@ impl RemovalOperator {
     pub fn assemble_with_pass(
         kernel: &RemovalKernel,
         radii_mm: &[f64],
-        positions_mm: &[f64],
+        motion: &Motion,
         pass: Option<&PassReading>,
         layout: Layout,
     ) -> (Self, Option<Vec<f64>>) {
-        let cells = Cells::new(kernel, positions_mm);
-        Self::assemble_on(kernel, radii_mm, positions_mm, &cells, pass, layout)
+        let cells = Cells::new(kernel, motion);
+        Self::assemble_on(kernel, radii_mm, motion, &cells, pass, layout)
     }
 
     /// [`Self::assemble_with_pass`] on the plan's `cells`, made once by the caller.
     fn assemble_on(
         kernel: &RemovalKernel,
         radii_mm: &[f64],
-        positions_mm: &[f64],
-        cells: &Cells,
+        motion: &Motion,
+        cells: &Cells<'_>,
         pass: Option<&PassReading>,
         layout: Layout,
     ) -> (Self, Option<Vec<f64>>) {
         let pass = pass.filter(|_| kernel.path_ignores_end());
         debug_assert!(radii_mm.windows(2).all(|w| w[0] <= w[1]));
-        debug_assert!(positions_mm.windows(2).all(|w| w[0] < w[1]));
-        let n = positions_mm.len();
+        let n = motion.len();
         let Cells { bounds, per_arc } = cells;
-        let (first_row, col_ptr) = column_runs(kernel, radii_mm, positions_mm, bounds);
+        let (first_row, col_ptr) = column_runs(kernel, radii_mm, motion);
         let entries = *col_ptr.last().unwrap();
         // Each row's columns: those whose rows contain it (a contiguous run, since both ends
         // of the columns' row runs grow with j).
@@ -219,7 +217,7 @@ impl RemovalOperator {
                 return in_pass.map_or(0.0, alone);
             }
             if n == 1 {
-                out[0] = kernel.rate_nm_per_s(r, positions_mm[0]);
+                out[0] = kernel.rate_nm_per_s(r, motion.radii_mm()[0]);
                 return in_pass.map_or(0.0, alone);
             }
             let path = kernel.path_integral(r, bounds[n]);
@@ -234,7 +232,8 @@ impl RemovalOperator {
             }
             for j in [0, n - 1] {
                 if (j_lo..j_hi).contains(&j) {
-                    out[j - j_lo] += stop_share(j, n) * kernel.rate_nm_per_s(r, positions_mm[j]);
+                    out[j - j_lo] +=
+                        motion.stop_share(j) * kernel.rate_nm_per_s(r, motion.radii_mm()[j]);
                 }
             }
             passed
@@ -287,18 +286,18 @@ impl RemovalOperator {
     pub fn assemble_while<R: Send>(
         kernel: &RemovalKernel,
         radii_mm: &[f64],
-        positions_mm: &[f64],
+        motion: &Motion,
         pass: Option<&PassReading>,
         first: Range<usize>,
         during: impl FnOnce(&RemovalOperator, Range<usize>) -> R + Send,
     ) -> (Self, Option<Vec<f64>>, R) {
         if radii_mm.len() - first.len() < PARALLEL_MIN_PATHS {
             let (whole, passed) =
-                Self::assemble_with_pass(kernel, radii_mm, positions_mm, pass, Layout::Columns);
+                Self::assemble_with_pass(kernel, radii_mm, motion, pass, Layout::Columns);
             let result = during(&whole, first);
             return (whole, passed, result);
         }
-        let cells = Cells::new(kernel, positions_mm);
+        let cells = Cells::new(kernel, motion);
         let part = |rows: Range<usize>| {
             // The pass's rows among these, counted from the first of them.
             let pass = pass.map(|p| PassReading {
@@ -308,7 +307,7 @@ impl RemovalOperator {
             });
             let radii = &radii_mm[rows];
             let layout = Layout::Rows;
-            Self::assemble_on(kernel, radii, positions_mm, &cells, pass.as_ref(), layout)
+            Self::assemble_on(kernel, radii, motion, &cells, pass.as_ref(), layout)
         };
         let (inner, inner_passed) = part(first.clone());
         // Laid out here, across threads, before `during` reads them on one.
@@ -319,7 +318,7 @@ impl RemovalOperator {
                 let (below, below_passed) = part(0..first.start);
                 let (above, above_passed) = part(first.end..radii_mm.len());
                 let parts = [&below, &inner, &above];
-                let whole = Self::stacked(kernel, radii_mm, positions_mm, &cells, parts);
+                let whole = Self::stacked(kernel, radii_mm, motion, parts);
                 let passed = [below_passed, inner_passed, above_passed]
                     .into_iter()
                     .collect::<Option<Vec<Vec<f64>>>>()
@@ -335,11 +334,10 @@ impl RemovalOperator {
     fn stacked(
         kernel: &RemovalKernel,
         radii_mm: &[f64],
-        positions_mm: &[f64],
-        cells: &Cells,
+        motion: &Motion,
         parts: [&RemovalOperator; 3],
     ) -> Self {
-        let (first_row, col_ptr) = column_runs(kernel, radii_mm, positions_mm, &cells.bounds);
+        let (first_row, col_ptr) = column_runs(kernel, radii_mm, motion);
         let mut rows = Rows {
             first_col: Vec::with_capacity(radii_mm.len()),
             row_ptr: Vec::with_capacity(radii_mm.len() + 1),
@@ -509,17 +507,17 @@ fn columns_from_rows(rows: &Rows, first_row: &[usize], col_ptr: &[usize]) -> Vec
 fn column_runs(
     kernel: &RemovalKernel,
     radii_mm: &[f64],
-    positions_mm: &[f64],
-    bounds: &[f64],
+    motion: &Motion,
 ) -> (Vec<usize>, Vec<usize>) {
-    let n = positions_mm.len();
+    let n = motion.len();
+    let bounds = motion.cell_bounds_mm();
     let rt = kernel.tool_radius_mm();
     let mut first_row = Vec::with_capacity(n);
     let mut col_ptr = Vec::with_capacity(n + 1);
     col_ptr.push(0);
     for j in 0..n {
         let (a, b) = if n == 1 {
-            (positions_mm[0], positions_mm[0])
+            (motion.radii_mm()[0], motion.radii_mm()[0])
         } else {
             (bounds[j], bounds[j + 1])
         };
@@ -556,6 +554,10 @@ mod tests {
         RemovalKernel::new(&Process::new(paper_spec(w, t)).unwrap())
     }
 
+    fn motion(positions_mm: &[f64]) -> Motion {
+        Motion::radial(positions_mm.to_vec())
+    }
+
     fn linspace(a: f64, b: f64, n: usize) -> Vec<f64> {
         (0..n)
             .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
@@ -569,7 +571,7 @@ mod tests {
         let radii = linspace(0.0, 50.0, 101);
         // Uneven spacing, a position on the axis and one at tangency with a grid radius.
         let positions = [0.0, 10.0, 12.5, 30.0, 47.3, 55.0, 60.0];
-        let op = RemovalOperator::assemble(&k, &radii, &positions);
+        let op = RemovalOperator::assemble(&k, &radii, &motion(&positions));
         let dense = op.to_dense();
         let bounds = [0.0, 5.0, 11.25, 21.25, 38.65, 51.15, 57.5, 60.0];
         for (i, &r) in radii.iter().enumerate() {
@@ -589,7 +591,7 @@ mod tests {
         }
         assert!(op.stored_entries() < radii.len() * positions.len());
         // A single position is a stop: the removal function itself.
-        let single = RemovalOperator::assemble(&k, &radii, &[12.5]).to_dense();
+        let single = RemovalOperator::assemble(&k, &radii, &motion(&[12.5])).to_dense();
         for (i, &r) in radii.iter().enumerate() {
             assert_eq!(single[i][0], k.rate_nm_per_s(r, 12.5));
         }
@@ -600,7 +602,7 @@ mod tests {
         let k = kernel(150.0, 150.0);
         let radii = linspace(0.0, 50.0, 61);
         let positions = linspace(0.0, 60.0, 37);
-        let op = RemovalOperator::assemble(&k, &radii, &positions);
+        let op = RemovalOperator::assemble(&k, &radii, &motion(&positions));
         let dense = op.to_dense();
         let t: Vec<f64> = (0..37).map(|j| 1.0 + (j as f64 * 0.7).sin()).collect();
         let y: Vec<f64> = (0..61).map(|i| (i as f64 * 0.3).cos()).collect();
@@ -627,7 +629,7 @@ mod tests {
             // Positions beyond the pad's reach of every radius leave their columns empty.
             let mut positions = linspace(0.0, 50.0, cols);
             positions.push(75.0);
-            let op = RemovalOperator::assemble(&k, &radii, &positions);
+            let op = RemovalOperator::assemble(&k, &radii, &motion(&positions));
             assert!(op.stored_entries() >= PARALLEL_MIN_ENTRIES || rows < 100);
             let dense = op.to_dense();
             let mut seen = 0;
@@ -648,9 +650,14 @@ mod tests {
             assert!(op.column(cols).1.is_empty());
             // Assembled by column: the rows made from the columns are the rows, and M·t and
             // Mᵀ·y are the same bits from either layout.
-            let by_column =
-                RemovalOperator::assemble_with_pass(&k, &radii, &positions, None, Layout::Columns)
-                    .0;
+            let by_column = RemovalOperator::assemble_with_pass(
+                &k,
+                &radii,
+                &motion(&positions),
+                None,
+                Layout::Columns,
+            )
+            .0;
             assert!(by_column.rows.is_none());
             let t: Vec<f64> = (0..op.cols()).map(|j| 1.0 + (j as f64).sin()).collect();
             let y: Vec<f64> = (0..rows).map(|i| (i as f64 * 0.3).cos()).collect();
@@ -673,7 +680,7 @@ mod tests {
         let k = kernel(-10.0, 200.0);
         let radii = linspace(0.0, 50.0, 201);
         let positions = linspace(0.0, 50.0, 151);
-        let one = RemovalOperator::assemble(&k, &radii, &positions);
+        let one = RemovalOperator::assemble(&k, &radii, &motion(&positions));
         let dense = one.to_dense();
         let bits = |rows: &[Vec<f64>]| -> Vec<Vec<u64>> {
             rows.iter()
@@ -685,7 +692,7 @@ mod tests {
             let (whole, passed, seen) = RemovalOperator::assemble_while(
                 &k,
                 &radii,
-                &positions,
+                &motion(&positions),
                 None,
                 first.clone(),
                 |operator, rows| {
@@ -718,8 +725,9 @@ mod tests {
         let k = kernel(-10.0, 200.0);
         let radii = linspace(0.0, 50.0, 401);
         let positions = linspace(0.0, 50.0, 401);
-        let op = RemovalOperator::assemble(&k, &radii, &positions).to_dense();
-        let few = RemovalOperator::assemble(&k, &radii[..PARALLEL_MIN_PATHS - 1], &positions);
+        let op = RemovalOperator::assemble(&k, &radii, &motion(&positions)).to_dense();
+        let few =
+            RemovalOperator::assemble(&k, &radii[..PARALLEL_MIN_PATHS - 1], &motion(&positions));
         assert_eq!(few.to_dense()[..], op[..PARALLEL_MIN_PATHS - 1]);
     }
 }

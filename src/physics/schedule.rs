@@ -1,8 +1,8 @@
 //! Dwell schedules and constant feeds, and what they remove.
 //!
 //! A [`DwellSchedule`] is a list of tool positions r1_j (mm, strictly increasing) with the time
-//! t_j (s) the tool spends in each one's cell; what it removes is the removal of the motion
-//! it stands for ([`super::motion`], through [`RemovalOperator`]).
+//! t_j (s) the tool spends in each one's cell; what it removes is the removal of the
+//! [`Motion`] it stands for (built once, when the schedule is), through [`RemovalOperator`].
 //!
 //! A [`ConstantFeed`] is the tool travelling along the surface from a to b at feed v (mm/min
 //! of arc), i.e. with dwell density τ = 60/v s per mm of arc. It needs no cells: it removes
@@ -11,6 +11,7 @@
 use rayon::prelude::*;
 
 use super::grid::RadialGrid;
+use super::motion::Motion;
 use super::operator::RemovalOperator;
 use super::path::PARALLEL_MIN_PATHS;
 use super::process::Process;
@@ -142,7 +143,7 @@ pub fn check_positions(
 /// Tool positions (mm, strictly increasing, within reach) with dwell times (s, ≥ 0).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DwellSchedule {
-    positions_mm: Vec<f64>,
+    motion: Motion,
     dwell_s: Vec<f64>,
 }
 
@@ -177,13 +178,17 @@ impl DwellSchedule {
             }
         }
         Ok(DwellSchedule {
-            positions_mm,
+            motion: Motion::radial(positions_mm),
             dwell_s,
         })
     }
 
+    /// The motion the plan stands for (built once, here).
+    pub fn motion(&self) -> &Motion {
+        &self.motion
+    }
     pub fn positions_mm(&self) -> &[f64] {
-        &self.positions_mm
+        self.motion.radii_mm()
     }
     pub fn dwell_s(&self) -> &[f64] {
         &self.dwell_s
@@ -195,7 +200,7 @@ impl DwellSchedule {
     /// Cumulative removal in nm at every radius of `grid`.
     pub fn removal_nm(&self, process: &Process, grid: &RadialGrid) -> Vec<f64> {
         let kernel = RemovalKernel::new(process);
-        RemovalOperator::assemble(&kernel, grid.radii_mm(), &self.positions_mm).apply(&self.dwell_s)
+        RemovalOperator::assemble(&kernel, grid.radii_mm(), &self.motion).apply(&self.dwell_s)
     }
 }
 

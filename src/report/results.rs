@@ -154,7 +154,7 @@ pub fn eta_sweep_svg(s: &EtaSweep) -> String {
 pub fn plan_csv(p: &OptimizedPlan) -> String {
     table::csv(
         &header(&["position_mm", "dwell_s"]),
-        &[&p.positions_mm, &p.solution.dwell_s],
+        &[p.motion.radii_mm(), &p.solution.dwell_s],
     )
 }
 
@@ -171,7 +171,7 @@ pub fn plan_svg(p: &OptimizedPlan) -> String {
         y_label: "dwell (s)".to_string(),
         series: vec![Series {
             name: "dwell at each position".to_string(),
-            points: points(&p.positions_mm, &p.solution.dwell_s),
+            points: points(p.motion.radii_mm(), &p.solution.dwell_s),
         }],
         band: band(p.setting.aperture()),
         secondary: Some((
@@ -179,7 +179,8 @@ pub fn plan_svg(p: &OptimizedPlan) -> String {
             Series {
                 name: "feed across each cell".to_string(),
                 points: p
-                    .positions_mm
+                    .motion
+                    .radii_mm()
                     .iter()
                     .zip(feeds)
                     .map(|(&x, v)| (x, v.unwrap_or(f64::NAN)))

@@ -7,8 +7,8 @@ use super::setting::{process_on_part, SettingError};
 use super::warnings::process_warnings;
 use super::{PartSpec, Warning};
 use crate::calibration::{
-    Calibrated, Calibration, CalibrationError, FitFailure, Freedom, Motion, ProcessParameter,
-    RunSpec,
+    Calibrated, Calibration, CalibrationError, FitFailure, Freedom, ProcessParameter, RunSpec,
+    TrialSpec,
 };
 use crate::lsq::RobustLoss;
 use crate::physics::ProcessSpec;
@@ -91,7 +91,7 @@ impl CalibrationCommand {
         let points: usize = spec.runs.iter().map(measured_points).sum();
         limits.check_trace_points(points).map_err(E::Points)?;
         for (run, spec) in spec.runs.iter().enumerate() {
-            if let Motion::Dwell { positions_mm, .. } = &spec.motion {
+            if let TrialSpec::Dwell { positions_mm, .. } = &spec.trial {
                 limits
                     .check_operator(measured_points(spec), positions_mm.len())
                     .map_err(|error| E::Positions { run, error })?;

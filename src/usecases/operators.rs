@@ -19,7 +19,9 @@ use std::ops::Range;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
-use crate::physics::{Layout, PassReading, Process, RemovalKernel, RemovalOperator};
+use crate::physics::{
+    Layout, Motion, PassReading, Process, RemovalKernel, RemovalOperator, Turning,
+};
 
 /// Default memory budget of the cache, bytes.
 pub const DEFAULT_OPERATOR_CACHE_BYTES: usize = 64 * 1024 * 1024;
@@ -71,11 +73,14 @@ impl Default for OperatorCache {
     }
 }
 
-/// Every bit the operator of `process` on `radii_mm` × `positions_mm` depends on.
-fn key(process: &Process, radii_mm: &[f64], positions_mm: &[f64]) -> Vec<u64> {
+/// Every bit the operator of `process` from `motion` to `radii_mm` depends on.
+fn key(process: &Process, radii_mm: &[f64], motion: &Motion) -> Vec<u64> {
+    // The stations are the motion: with C turning at a constant speed they fix the cells.
+    let Turning::Constant = motion.turning();
+    let stations_mm = motion.radii_mm();
     let s = process.spec();
     let surface = s.part.surface.key_bits();
-    let mut key = Vec::with_capacity(12 + surface.len() + radii_mm.len() + positions_mm.len());
+    let mut key = Vec::with_capacity(12 + surface.len() + radii_mm.len() + stations_mm.len());
     key.extend(
         [
             s.workpiece_radius_mm,
@@ -90,11 +95,11 @@ fn key(process: &Process, radii_mm: &[f64], positions_mm: &[f64]) -> Vec<u64> {
     key.extend([
         s.part.orientation as u64,
         radii_mm.len() as u64,
-        positions_mm.len() as u64,
+        stations_mm.len() as u64,
     ]);
     key.extend(s.pressure_model.key_bits());
     key.extend(surface);
-    key.extend(radii_mm.iter().chain(positions_mm).map(|v| v.to_bits()));
+    key.extend(radii_mm.iter().chain(stations_mm).map(|v| v.to_bits()));
     key
 }
 
@@ -110,16 +115,15 @@ impl OperatorCache {
         }
     }
 
-    /// The operator of `process` from `positions_mm` to `radii_mm`, assembled (outside the
+    /// The operator of `process` from `motion` to `radii_mm`, assembled (outside the
     /// lock, by row) when not held.
     pub fn operator(
         &self,
         process: &Process,
         radii_mm: &[f64],
-        positions_mm: &[f64],
+        motion: &Motion,
     ) -> Arc<RemovalOperator> {
-        self.operator_with_pass(process, radii_mm, positions_mm, None)
-            .0
+        self.operator_with_pass(process, radii_mm, motion, None).0
     }
 
     /// [`Self::operator`], and when it is assembled now, what `pass` removes at its rows as
@@ -129,17 +133,17 @@ impl OperatorCache {
         &self,
         process: &Process,
         radii_mm: &[f64],
-        positions_mm: &[f64],
+        motion: &Motion,
         pass: Option<&PassReading>,
     ) -> (Arc<RemovalOperator>, Option<Vec<f64>>) {
-        let key = key(process, radii_mm, positions_mm);
+        let key = key(process, radii_mm, motion);
         if let Some(held) = self.lookup(&key) {
             return (held, None);
         }
         let (operator, passed) = RemovalOperator::assemble_with_pass(
             &RemovalKernel::new(process),
             radii_mm,
-            positions_mm,
+            motion,
             pass,
             Layout::Rows,
         );
@@ -154,12 +158,12 @@ impl OperatorCache {
         &self,
         process: &Process,
         radii_mm: &[f64],
-        positions_mm: &[f64],
+        motion: &Motion,
         pass: Option<&PassReading>,
         first: Range<usize>,
         during: impl FnOnce(&RemovalOperator, Range<usize>) -> R + Send,
     ) -> (Arc<RemovalOperator>, Option<Vec<f64>>, R) {
-        let key = key(process, radii_mm, positions_mm);
+        let key = key(process, radii_mm, motion);
         if let Some(held) = self.lookup(&key) {
             let result = during(&held, first);
             return (held, None, result);
@@ -167,7 +171,7 @@ impl OperatorCache {
         let (operator, passed, result) = RemovalOperator::assemble_while(
             &RemovalKernel::new(process),
             radii_mm,
-            positions_mm,
+            motion,
             pass,
             first,
             during,
@@ -258,12 +262,16 @@ mod tests {
         (0..n).map(|j| 50.0 * j as f64 / (n - 1) as f64).collect()
     }
 
+    fn stations(n: usize) -> Motion {
+        Motion::radial(even(n))
+    }
+
     /// A hit is the operator a fresh assembly gives, bit for bit; any input that changes M
     /// misses; the budget holds, the least recently used going first.
     #[test]
     fn hits_are_exact_misses_follow_every_input_and_the_budget_holds() {
         let process = Process::new(paper_spec(-10.0, 200.0)).unwrap();
-        let (radii, positions) = (even(201), even(101));
+        let (radii, positions) = (even(201), stations(101));
         let cache = OperatorCache::new(usize::MAX);
         let first = cache.operator(&process, &radii, &positions);
         let again = cache.operator(&process, &radii, &positions);
@@ -277,8 +285,9 @@ mod tests {
             ..paper_spec(-10.0, 200.0)
         })
         .unwrap();
-        let mut moved = positions.clone();
+        let mut moved = positions.radii_mm().to_vec();
         moved[50] += 1e-9;
+        let moved = Motion::radial(moved);
         for (p, r, x) in [
             (&other, &radii, &positions),
             (&process, &even(202), &positions),

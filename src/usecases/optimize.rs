@@ -24,7 +24,7 @@ use crate::optimize::{
     measured_profile, optimize as solve, Constraints, ConstraintsSpec, DwellBasis, DwellProblem,
     Formulation, MeasuredProfileError, Objective, OptimizeError, Solution,
 };
-use crate::physics::{check_positions, UniformityMetrics};
+use crate::physics::{check_positions, Motion, UniformityMetrics};
 use crate::study::Recommendation;
 use crate::surface::{Surface, SurfaceError};
 
@@ -132,7 +132,8 @@ pub struct OptimizeCommand {
     /// the default machine's.
     choice: MachineChoice,
     setting: Setting,
-    positions_mm: Vec<f64>,
+    /// The plan's motion through the candidate positions (built once, here).
+    motion: Motion,
     rows: Range<usize>,
     target_nm: Vec<f64>,
     free_piston: bool,
@@ -147,7 +148,7 @@ impl OptimizeCommand {
     /// What looks wrong in the input though it is valid (unit mistakes), for hints on
     /// solver failures as well as for the plan's warnings.
     pub fn input_warnings(&self) -> Vec<Warning> {
-        let mut warnings = unit_warnings(self.setting.process(), &self.positions_mm);
+        let mut warnings = unit_warnings(self.setting.process(), self.motion.radii_mm());
         if self.choice.is_unlimited() {
             warnings.push(Warning::MachineUnlimited);
         }
@@ -219,7 +220,7 @@ impl OptimizeCommand {
             },
             choice: machine,
             setting,
-            positions_mm,
+            motion: Motion::radial(positions_mm),
             rows,
             target_nm,
             free_piston,
@@ -253,18 +254,18 @@ impl OptimizeCommand {
     /// leave the surface, or put an axis outside its travel or a spindle over its speed (which
     /// no dwell can change).
     fn with_machine(mut self, machine: Machine) -> Result<Self, MachineFitError> {
-        let positions = &self.positions_mm;
-        let last = positions.len() - 1;
+        let motion = &self.motion;
+        let last = motion.len() - 1;
         machine
             .surface
-            .check_defined_to(positions[last])
+            .check_defined_to(motion.radii_mm()[last])
             .map_err(|error| MachineFitError::PositionOffSurface { index: last, error })?;
         // Travel and spindle speed do not depend on the dwell: check them on unit dwell.
-        let program = Program::new(
+        let program = Program::from_motion(
             &machine.surface,
             &machine.tool,
-            positions,
-            &vec![1.0; positions.len()],
+            motion,
+            &vec![1.0; motion.len()],
             NO_APPROACH,
         )
         .expect("positive dwell everywhere gives a program");
@@ -289,9 +290,9 @@ const NO_APPROACH: Approach = Approach {
     feed_mm_per_min: 1.0,
 };
 
-/// The machine's axes as the plan at `positions_mm` drives them.
-fn axis_paths(machine: &Machine, positions_mm: &[f64]) -> Vec<AxisPath> {
-    let travel = cell_travel(&machine.surface, &machine.tool, positions_mm);
+/// The machine's axes as `motion` drives them.
+fn axis_paths(machine: &Machine, motion: &Motion) -> Vec<AxisPath> {
+    let travel = cell_travel(&machine.surface, &machine.tool, motion);
     Axis::ALL
         .iter()
         .zip(travel)
@@ -325,14 +326,14 @@ fn cell_path_mm(axes: &[AxisPath]) -> Vec<f64> {
 /// has none (no dwell at all, or an interior zero dwell, which also gives a warning).
 fn program_of(
     machine: &Machine,
-    positions_mm: &[f64],
+    motion: &Motion,
     dwell_s: &[f64],
     warnings: &mut Vec<Warning>,
 ) -> Option<Program> {
-    match Program::new(
+    match Program::from_motion(
         &machine.surface,
         &machine.tool,
-        positions_mm,
+        motion,
         dwell_s,
         NO_APPROACH,
     ) {
@@ -399,7 +400,8 @@ fn machine_warnings(
 #[derive(Debug, Clone, PartialEq)]
 pub struct OptimizedPlan {
     pub setting: Setting,
-    pub positions_mm: Vec<f64>,
+    /// The plan's motion (its stations: the candidate positions).
+    pub motion: Motion,
     /// Dwell, piston, solver account and objective value.
     pub solution: Solution,
     /// The weights used.
@@ -449,7 +451,7 @@ pub fn optimize(
     let OptimizeCommand {
         machine,
         setting,
-        positions_mm,
+        motion,
         rows,
         target_nm,
         free_piston,
@@ -461,20 +463,20 @@ pub fn optimize(
     } = command;
     // The recommendation's pass at these speeds is read beside a newly assembled operator.
     let pass = Recommender::pass_to_read(&setting);
-    let axes = axis_paths(&machine, &positions_mm);
+    let axes = axis_paths(&machine, &motion);
     let cell_path_mm = cell_path_mm(&axes);
     // The solver reads the aperture's rows alone; a new operator's others are assembled
     // while it runs.
     let (operator, passed, solution) = operators.operator_while(
         setting.process(),
         setting.grid().radii_mm(),
-        &positions_mm,
+        &motion,
         pass.as_ref(),
         rows.clone(),
         |operator, rows| {
             solve(&DwellProblem {
                 operator,
-                positions_mm: &positions_mm,
+                motion: &motion,
                 tool_radius_mm: setting.process().tool_radius_mm(),
                 rows,
                 target_nm: &target_nm,
@@ -490,7 +492,7 @@ pub fn optimize(
         },
     );
     let solution = solution?;
-    let program = program_of(&machine, &positions_mm, &solution.dwell_s, &mut warnings);
+    let program = program_of(&machine, &motion, &solution.dwell_s, &mut warnings);
     if let Some(program) = &program {
         warnings.extend(machine_warnings(
             &machine,
@@ -538,7 +540,7 @@ pub fn optimize(
         recommendation: recommender.for_plan(&setting, mean_target, passed, &machine.limits),
         total_time_s: solution.dwell_s.iter().sum(),
         setting,
-        positions_mm,
+        motion,
         objective,
         program,
         machine_limits: machine.limits,

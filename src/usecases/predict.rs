@@ -100,12 +100,8 @@ pub fn predict(
     let pass = Recommender::pass_to_read(&setting);
     let (removal_nm, total_time_s, warnings, passed) = match &travel {
         Travel::Dwell(schedule) => {
-            let (operator, passed) = operators.operator_with_pass(
-                process,
-                radii,
-                schedule.positions_mm(),
-                pass.as_ref(),
-            );
+            let (operator, passed) =
+                operators.operator_with_pass(process, radii, schedule.motion(), pass.as_ref());
             (
                 operator.apply(schedule.dwell_s()),
                 schedule.total_time_s(),

@@ -207,10 +207,10 @@ pub fn program(command: ProgramCommand) -> Result<MachineProgram, ProgramFailure
         clearance_mm: command.clearance_mm,
         feed_mm_per_min: approach_feed(&command),
     };
-    let program = Program::new(
+    let program = Program::from_motion(
         &command.process.part().surface,
         &command.tool,
-        command.schedule.positions_mm(),
+        command.schedule.motion(),
         command.schedule.dwell_s(),
         approach,
     )

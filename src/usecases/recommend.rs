@@ -306,7 +306,7 @@ mod tests {
     use super::*;
     use crate::physics::process::tests::paper_spec;
     use crate::physics::{
-        ClearAperture, Layout, Orientation, Part, PressureModel, ProcessSpec, RadialGrid,
+        ClearAperture, Layout, Motion, Orientation, Part, PressureModel, ProcessSpec, RadialGrid,
         RemovalKernel, RemovalOperator,
     };
     use crate::surface::{Surface, SurfaceSpec};
@@ -356,16 +356,17 @@ mod tests {
                 .removal_read_nm(&process, &grid.radii_mm()[reading.rows.clone()]);
             // Positions over the whole pass; over its first part only, so that the outer rows
             // have no columns (their pass is read from a path made for it alone); one stop.
-            let plans: [Vec<f64>; 3] = [
+            let plans = [
                 (0..=90).map(|j| 0.5 * j as f64).collect(),
                 (0..=40).map(|j| 0.5 * j as f64).collect(),
                 vec![12.5],
-            ];
-            for positions in plans {
+            ]
+            .map(Motion::radial);
+            for motion in plans {
                 let (_, passed) = RemovalOperator::assemble_with_pass(
                     &RemovalKernel::new(&process),
                     grid.radii_mm(),
-                    &positions,
+                    &motion,
                     Some(&reading),
                     Layout::Rows,
                 );
@@ -385,7 +386,7 @@ mod tests {
                     let (_, staged, ()) = RemovalOperator::assemble_while(
                         &RemovalKernel::new(&process),
                         grid.radii_mm(),
-                        &positions,
+                        &motion,
                         Some(&reading),
                         first.clone(),
                         |_, _| (),

@@ -210,10 +210,10 @@ pub fn process_warnings(process: &Process) -> Vec<Warning> {
 
 /// The unit checks on a process ([`process_warnings`]) and, when its radii look right, on the
 /// tool positions (all below 1 mm on a workpiece of 10 mm or more).
-pub(super) fn unit_warnings(process: &Process, positions_mm: &[f64]) -> Vec<Warning> {
+pub(super) fn unit_warnings(process: &Process, reached_mm: &[f64]) -> Vec<Warning> {
     let mut warnings = process_warnings(process);
     let workpiece_radius_mm = process.workpiece_radius_mm();
-    let max_position_mm = positions_mm.iter().copied().fold(0.0_f64, f64::max);
+    let max_position_mm = reached_mm.iter().copied().fold(0.0_f64, f64::max);
     if workpiece_radius_mm >= 10.0 && max_position_mm < 1.0 {
         warnings.push(Warning::PositionsLookLikeMetres {
             max_position_mm,

@@ -14,7 +14,7 @@ use crate::common::http::{app, post_json, post_with};
 use crate::common::{numbers, paper_spec};
 use crate::edge_pressure::reference_rate;
 use preston::calibration::{
-    Calibrated, Calibration, Freedom, Measured, Motion, ProcessParameter, Profile, RunSpec,
+    Calibrated, Calibration, Freedom, Measured, ProcessParameter, Profile, RunSpec, TrialSpec,
 };
 use preston::http::dto::WarningDto;
 use preston::lsq::RobustLoss;
@@ -74,7 +74,7 @@ fn runs(grooves: &[(Vec<f64>, Vec<f64>)], seed: u64) -> Vec<RunSpec> {
         .zip(RINGS)
         .zip(PISTONS)
         .map(|(((radii, depth), (r1, minutes)), piston)| RunSpec {
-            motion: Motion::Ring {
+            trial: TrialSpec::Ring {
                 position_mm: r1,
                 duration_s: 60.0 * minutes,
             },

@@ -6,6 +6,7 @@ use preston::machine::{
     gcode, Approach, BlockKind, GcodeFormat, GcodeFormatSpec, Orientation, Program,
     SpindleWordsSpec, Tool,
 };
+use preston::physics::Motion;
 use preston::physics::{DwellSchedule, RadialGrid, RemovalKernel};
 use preston::surface::{PolynomialTerm, Surface, SurfaceSpec};
 
@@ -121,7 +122,14 @@ fn gcode_reads_back_through_an_independent_parser() {
         clearance_mm: 5.0,
         feed_mm_per_min: 100.0,
     };
-    let program = Program::new(&surface, &tool, &positions, &dwell, approach).unwrap();
+    let program = Program::from_motion(
+        &surface,
+        &tool,
+        &Motion::radial(positions.clone()),
+        &dwell,
+        approach,
+    )
+    .unwrap();
     // The parser reads words as letter + number, so the tool spindle gets plain M words here.
     let format = GcodeFormat::new(GcodeFormatSpec {
         tool_spindle: SpindleWordsSpec {
@@ -198,7 +206,14 @@ fn removal_gap(spacing_mm: f64) -> f64 {
         clearance_mm: 0.0,
         feed_mm_per_min: 1.0,
     };
-    let program = Program::new(&Surface::plane(), &tool, &positions, &dwell, approach).unwrap();
+    let program = Program::from_motion(
+        &Surface::plane(),
+        &tool,
+        &Motion::radial(positions.clone()),
+        &dwell,
+        approach,
+    )
+    .unwrap();
     let grid = RadialGrid::new(&process, 0.0, 50.0, 201).unwrap();
     let planned = DwellSchedule::new(&process, positions.clone(), dwell.clone())
         .unwrap()

@@ -3,6 +3,7 @@
 //! conflicting fields named, never answered with a plan that breaks them.
 
 use crate::common;
+use preston::physics::Motion;
 
 use common::paper_process;
 use preston::optimize::target::aperture_rows;
@@ -14,7 +15,7 @@ use preston::physics::{ClearAperture, RadialGrid, RemovalKernel, RemovalOperator
 
 struct Setup {
     operator: RemovalOperator,
-    positions: Vec<f64>,
+    motion: Motion,
     /// Width of each position's cell (the tool's path across it on a plane).
     cells: Vec<f64>,
     rows: std::ops::Range<usize>,
@@ -25,15 +26,16 @@ fn setup(workpiece_rpm: f64, tool_rpm: f64, n: usize) -> Setup {
     let process = paper_process(workpiece_rpm, tool_rpm);
     let grid = RadialGrid::new(&process, 0.0, 50.0, 2 * n + 1).unwrap();
     let positions: Vec<f64> = (0..n).map(|j| 50.0 * j as f64 / (n - 1) as f64).collect();
+    let motion = Motion::radial(positions.clone());
     let aperture = ClearAperture::new(&process, 0.0, 40.0).unwrap();
     let operator =
-        RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &positions);
+        RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &motion);
     let rows = aperture_rows(&grid, &aperture);
     let target = vec![100.0; rows.len()];
     Setup {
         operator,
         cells: cell_widths(&positions),
-        positions,
+        motion,
         rows,
         target,
     }
@@ -63,7 +65,7 @@ fn run(s: &Setup, constraints: ConstraintsSpec) -> Result<Vec<f64>, OptimizeErro
     let constraints = Constraints::new(constraints)?;
     optimize(&DwellProblem {
         operator: &s.operator,
-        positions_mm: &s.positions,
+        motion: &s.motion,
         tool_radius_mm: 10.0,
         rows: s.rows.clone(),
         target_nm: &s.target,
@@ -134,7 +136,7 @@ fn random_constraint_sets_give_plans_that_keep_them() {
         };
         // Up to 85 positions keep a variable each; from 86 on the dwell is a 43-function spline.
         let s = setup(w, tool, rng.usize(30..240));
-        let n = s.positions.len();
+        let n = s.motion.len();
         // Equal dwell that removes about 100 nm sets the scale of the limits.
         let unit = {
             let z = s.operator.apply(&vec![1.0; n]);
@@ -156,7 +158,7 @@ fn random_constraint_sets_give_plans_that_keep_them() {
         match run(&s, c) {
             Ok(t) => {
                 plans += 1;
-                let v = worst_violation(&c, &s.positions, &t);
+                let v = worst_violation(&c, s.motion.radii_mm(), &t);
                 assert!(v <= 1e-9, "case {case}: violation {v:e} with {c:?}");
             }
             Err(OptimizeError::Infeasible { fields, .. }) => {

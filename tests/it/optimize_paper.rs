@@ -4,6 +4,7 @@
 //! [0, 40] mm, uniform 100 nm unless said.
 
 use crate::common;
+use preston::physics::Motion;
 
 use common::{paper_process, read_fixture};
 use preston::config::ServiceLimits;
@@ -19,20 +20,20 @@ use preston::physics::{
 struct Case {
     grid: RadialGrid,
     aperture: ClearAperture,
-    positions: Vec<f64>,
+    motion: Motion,
     operator: RemovalOperator,
 }
 
 fn case(process: &Process) -> Case {
     let grid = RadialGrid::new(process, 0.0, 50.0, 501).unwrap();
-    let positions = grid.radii_mm().to_vec();
+    let motion = Motion::radial(grid.radii_mm().to_vec());
     let aperture = ClearAperture::new(process, 0.0, 40.0).unwrap();
     let operator =
-        RemovalOperator::assemble(&RemovalKernel::new(process), grid.radii_mm(), &positions);
+        RemovalOperator::assemble(&RemovalKernel::new(process), grid.radii_mm(), &motion);
     Case {
         grid,
         aperture,
-        positions,
+        motion,
         operator,
     }
 }
@@ -55,7 +56,7 @@ fn solve_as(
     let target = vec![100.0; rows.len()];
     optimize(&DwellProblem {
         operator: &c.operator,
-        positions_mm: &c.positions,
+        motion: &c.motion,
         tool_radius_mm: 10.0,
         rows,
         target_nm: &target,
@@ -78,7 +79,8 @@ fn metrics(c: &Case, dwell: &[f64]) -> UniformityMetrics {
 /// Mean dwell over the positions in [a, b] mm.
 fn mean_dwell(c: &Case, dwell: &[f64], a: f64, b: f64) -> f64 {
     let inside: Vec<f64> = c
-        .positions
+        .motion
+        .radii_mm()
         .iter()
         .zip(dwell)
         .filter(|(&r, _)| (a..=b).contains(&r))
@@ -90,7 +92,7 @@ fn mean_dwell(c: &Case, dwell: &[f64], a: f64, b: f64) -> f64 {
 #[test]
 fn experiment_1_is_made_uniform_and_the_central_pit_is_removed() {
     let c = case(&paper_process(-10.0, 200.0));
-    let equal = metrics(&c, &vec![1.0; c.positions.len()]);
+    let equal = metrics(&c, &vec![1.0; c.motion.len()]);
     let plan = solve(&c, Objective::default());
     let m = metrics(&c, &plan.dwell_s);
     let nonuniformity = m.nonuniformity.unwrap();
@@ -149,7 +151,7 @@ fn a_uniform_layer_with_no_bound_binding_is_the_fits_own_minimum() {
 #[test]
 fn at_eta_minus_one_the_plan_is_uniform_and_no_slower_than_equal_dwell() {
     let c = case(&paper_process(150.0, 150.0));
-    let n = c.positions.len();
+    let n = c.motion.len();
     let equal = metrics(&c, &vec![1.0; n]);
     let plan = solve(&c, Objective::default());
     let m = metrics(&c, &plan.dwell_s);

@@ -11,6 +11,7 @@ use preston::optimize::target::aperture_rows;
 use preston::optimize::{
     optimize, Constraints, ConstraintsSpec, DwellBasis, DwellProblem, Formulation, Objective,
 };
+use preston::physics::Motion;
 use preston::physics::{
     ClearAperture, Part, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel,
     RemovalOperator,
@@ -418,8 +419,11 @@ fn random_problem(
     let outer = rm * (0.6 + 0.4 * rng.f64());
     let aperture = ClearAperture::new(&process, inner, outer).unwrap();
     let rows = aperture_rows(&grid, &aperture);
-    let operator =
-        RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &positions);
+    let operator = RemovalOperator::assemble(
+        &RemovalKernel::new(&process),
+        grid.radii_mm(),
+        &Motion::radial(positions.clone()),
+    );
     let dense = operator.to_dense();
     let m: Vec<Vec<f64>> = dense[rows.clone()].to_vec();
     assert!(!m.is_empty());
@@ -484,15 +488,13 @@ fn objective_matches_an_active_set_reference_on_random_problems() {
         let process = Process::new(spec).unwrap();
         let rm = process.workpiece_radius_mm();
         let grid = RadialGrid::new(&process, 0.0, rm, samples).unwrap();
-        let operator = RemovalOperator::assemble(
-            &RemovalKernel::new(&process),
-            grid.radii_mm(),
-            &dense.positions,
-        );
+        let motion = Motion::radial(dense.positions.clone());
+        let operator =
+            RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &motion);
         let n = dense.positions.len();
         let problem = DwellProblem {
             operator: &operator,
-            positions_mm: &dense.positions,
+            motion: &motion,
             tool_radius_mm: process.tool_radius_mm(),
             rows,
             target_nm: &dense.target,
@@ -599,18 +601,16 @@ fn spline_objective_matches_an_active_set_reference_on_random_problems() {
         let (spec, dense, constraints, samples, rows) = random_problem(&mut rng, true);
         let process = Process::new(spec).unwrap();
         let grid = RadialGrid::new(&process, 0.0, process.workpiece_radius_mm(), samples).unwrap();
-        let operator = RemovalOperator::assemble(
-            &RemovalKernel::new(&process),
-            grid.radii_mm(),
-            &dense.positions,
-        );
+        let motion = Motion::radial(dense.positions.clone());
+        let operator =
+            RemovalOperator::assemble(&RemovalKernel::new(&process), grid.radii_mm(), &motion);
         let n = dense.positions.len();
         let s = spline_rows(&dense.positions, dense.tool_radius);
         let k = s[0].len();
         assert!(2 * k <= n, "case {cases}: {k} functions for {n} positions");
         let problem = DwellProblem {
             operator: &operator,
-            positions_mm: &dense.positions,
+            motion: &motion,
             tool_radius_mm: process.tool_radius_mm(),
             rows,
             target_nm: &dense.target,

@@ -16,7 +16,7 @@ use super::error::ApiError;
 use super::extract::{object, optional_object};
 use super::measurement_fit::RobustDto;
 use super::state::Services;
-use crate::calibration::{Measured, Motion, ProcessParameter, Profile, RunSpec};
+use crate::calibration::{Measured, ProcessParameter, Profile, RunSpec, TrialSpec};
 use crate::report::results;
 use crate::usecases::calibration::{
     calibrate, CalibrationCommand, CalibrationResult, CalibrationSpec, ParameterSelection,
@@ -210,12 +210,12 @@ fn profile(dto: RadialProfileDto) -> Profile {
 /// A run as the core takes it; exactly one motion and one measurement.
 fn run_spec(index: usize, run: RunDto) -> Result<RunSpec, ApiError> {
     let at = |member: &str| format!("runs[{index}].{member}");
-    let motion = match (run.ring, run.dwell) {
-        (Some(ring), None) => Motion::Ring {
+    let trial = match (run.ring, run.dwell) {
+        (Some(ring), None) => TrialSpec::Ring {
             position_mm: ring.position_mm,
             duration_s: ring.duration_s,
         },
-        (None, Some(dwell)) => Motion::Dwell {
+        (None, Some(dwell)) => TrialSpec::Dwell {
             positions_mm: dwell.positions_mm,
             dwell_s: dwell.dwell_s,
         },
@@ -240,7 +240,7 @@ fn run_spec(index: usize, run: RunDto) -> Result<RunSpec, ApiError> {
         }
     };
     Ok(RunSpec {
-        motion,
+        trial,
         measured,
         aperture: run.clear_aperture.map(|a| {
             (

@@ -305,13 +305,13 @@ impl From<OptimizedPlan> for OptimizeResponse {
                 .collect(),
             eta: p.setting.process().eta().value(),
             total_time_s: p.total_time_s,
-            position_arc_length_mm: p.setting.process().arc_lengths_mm(&p.positions_mm),
+            position_arc_length_mm: p.setting.process().arc_lengths_mm(p.motion.radii_mm()),
             arc_length_mm: p
                 .setting
                 .process()
                 .arc_lengths_mm(p.setting.grid().radii_mm()),
             dwell: DwellDto {
-                positions_mm: p.positions_mm,
+                positions_mm: p.motion.radii_mm().to_vec(),
                 dwell_s: s.dwell_s.clone(),
             },
             feed_mm_per_min,
