@@ -4,7 +4,8 @@
 //! κ = 0.6) with 0.4 nm of deterministic pseudo-noise, measured every 0.25 mm within 12 mm of
 //! each ring: 291 points, 6 parameters.
 
-use preston::calibration::{Calibration, Freedom, Measured, Profile, RunSpec, TrialSpec};
+use preston::calibration::{Calibration, Freedom, Measured, RunSpec, TrialSpec};
+use preston::field::DepthProfile;
 use preston::lsq::RobustLoss;
 use preston::physics::{removal_rate_nm_per_min, PressureModel, Process, ProcessSpec};
 
@@ -53,7 +54,7 @@ fn runs() -> Vec<RunSpec> {
                     position_mm: r1,
                     duration_s: 60.0 * minutes,
                 },
-                measured: Measured::Removal(Profile {
+                measured: Measured::Removal(DepthProfile {
                     radius_mm,
                     depth_nm,
                 }),

@@ -25,6 +25,14 @@
 //! **Interpolation** between radial samples is linear: at r in [r_k, r_{k+1}],
 //! z = z_k + t·(z_{k+1} − z_k) with t = (r − r_k)/(r_{k+1} − r_k); none outside [r_0, r_{n−1}].
 
+/// A radial depth profile as given (unchecked): radii, mm, and the depth at each, nm. It
+/// becomes a [`Field`] where it is checked ([`Field::radial`]), in its user's words.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DepthProfile {
+    pub radius_mm: Vec<f64>,
+    pub depth_nm: Vec<f64>,
+}
+
 /// Where a field's samples lie.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Domain {

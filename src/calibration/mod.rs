@@ -32,7 +32,7 @@
 //! it at all) is held at its nominal value and reported without a standard error; the caller
 //! says why. Standard errors are √ of the diagonal of σ²·(JᵀWJ)⁻¹, σ² = S/(n − p).
 
-use crate::field::Field;
+use crate::field::{DepthProfile, Field};
 use faer::Mat;
 
 use crate::lsq::{self, Fit, LsqError, Model, RobustLoss};
@@ -129,22 +129,18 @@ enum Trial {
     Plan(DwellSchedule),
 }
 
-/// A measured radial profile: radii (mm, strictly increasing, ≥ 0) and depths (nm).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Profile {
-    pub radius_mm: Vec<f64>,
-    pub depth_nm: Vec<f64>,
-}
-
 /// What a run removed, as measured.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Measured {
     /// Material removed (nm, positive).
-    Removal(Profile),
+    Removal(DepthProfile),
     /// The form error before and after (material to remove, as the measurement fit reports
     /// it): removal = before − after, on the before's radii within the after's span (the
     /// after linearly interpolated).
-    BeforeAfter { before: Profile, after: Profile },
+    BeforeAfter {
+        before: DepthProfile,
+        after: DepthProfile,
+    },
 }
 
 /// One run as asked.
@@ -837,9 +833,9 @@ impl Model for CalibrationModel<'_> {
     }
 }
 
-fn check_profile(role: ProfileRole, profile: &Profile, edge_mm: f64) -> Result<(), RunError> {
+fn check_profile(role: ProfileRole, profile: &DepthProfile, edge_mm: f64) -> Result<(), RunError> {
     let fail = |error| RunError::Profile { role, error };
-    let Profile {
+    let DepthProfile {
         radius_mm,
         depth_nm,
     } = profile;
@@ -881,7 +877,7 @@ fn check_profile(role: ProfileRole, profile: &Profile, edge_mm: f64) -> Result<(
 
 /// The measured removal at the before's radii within the after's span (the after linearly
 /// interpolated: [`Field::at`]; a single after point is its own span).
-fn removal_between(before: &Profile, after: &Profile) -> Profile {
+fn removal_between(before: &DepthProfile, after: &DepthProfile) -> DepthProfile {
     let field = Field::radial(after.radius_mm.clone(), after.depth_nm.clone()).ok();
     let at = |r: f64| match &field {
         Some(field) => field.at(r),
@@ -893,7 +889,7 @@ fn removal_between(before: &Profile, after: &Profile) -> Profile {
         .zip(&before.depth_nm)
         .filter_map(|(&r, &b)| at(r).map(|a| (r, b - a)))
         .unzip();
-    Profile {
+    DepthProfile {
         radius_mm,
         depth_nm,
     }

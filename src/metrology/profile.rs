@@ -13,6 +13,7 @@
 //! (weight > 0) whose contact radius lies in the clear aperture, from the axial residual.
 
 use super::fit::PointResidual;
+use crate::field::DepthProfile;
 use crate::physics::{ClearAperture, RadialGrid};
 
 /// The signed extent of the kept points' contact radii, mm.
@@ -63,9 +64,8 @@ impl Coverage {
 /// The form error on a radial grid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RadialProfile {
-    pub radius_mm: Vec<f64>,
     /// Along the normal, nm; > 0 = material to remove.
-    pub depth_nm: Vec<f64>,
+    pub depth: DepthProfile,
     /// RMS of E(+ρ) − E(−ρ) where the trace covers both sides (at two samples or more), nm.
     pub asymmetry_rms_nm: Option<f64>,
 }
@@ -195,8 +195,10 @@ pub fn radial_profile(
         (differences.iter().map(|d| d * d).sum::<f64>() / differences.len() as f64).sqrt()
     });
     Ok(RadialProfile {
-        radius_mm: radii.to_vec(),
-        depth_nm,
+        depth: DepthProfile {
+            radius_mm: radii.to_vec(),
+            depth_nm,
+        },
         asymmetry_rms_nm,
     })
 }

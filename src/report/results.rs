@@ -240,7 +240,7 @@ pub fn measurement_fit_svg(m: &MeasurementFit) -> String {
         .collect();
     series.push(Series {
         name: "form error (both sides averaged)".to_string(),
-        points: points(&m.profile.radius_mm, &m.profile.depth_nm),
+        points: points(&m.profile.depth.radius_mm, &m.profile.depth.depth_nm),
     });
     chart::render(&Chart {
         title: format!(

@@ -12,7 +12,7 @@ use std::ops::Range;
 
 use super::warnings::{active_constraints, unit_warnings, ACTIVE_USE, TARGET_MISS_FRACTION};
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
-use crate::field::Field;
+use crate::field::{DepthProfile, Field};
 use crate::machine::{
     cell_travel, Approach, Axis, Drive, InvalidLimit, LimitKind, MachineChoice, MachineLimits,
     Program, ProgramError, Tool, Violation,
@@ -41,16 +41,9 @@ pub enum Target {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TargetSpec {
     pub uniform_depth_nm: Option<f64>,
-    pub profile: Option<ProfileSpec>,
+    pub profile: Option<DepthProfile>,
     /// With a profile: also remove the least uniform layer that fits best (default false).
     pub free_piston: Option<bool>,
-}
-
-/// A measured radial profile of the depth to remove.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ProfileSpec {
-    pub radius_mm: Vec<f64>,
-    pub depth_nm: Vec<f64>,
 }
 
 impl Target {

@@ -14,8 +14,9 @@ use crate::common::http::{app, post_json, post_with};
 use crate::common::{numbers, paper_spec};
 use crate::edge_pressure::reference_rate;
 use preston::calibration::{
-    Calibrated, Calibration, Freedom, Measured, ProcessParameter, Profile, RunSpec, TrialSpec,
+    Calibrated, Calibration, Freedom, Measured, ProcessParameter, RunSpec, TrialSpec,
 };
+use preston::field::DepthProfile;
 use preston::http::dto::WarningDto;
 use preston::lsq::RobustLoss;
 use preston::physics::{PressureModel, Process, ProcessSpec};
@@ -78,7 +79,7 @@ fn runs(grooves: &[(Vec<f64>, Vec<f64>)], seed: u64) -> Vec<RunSpec> {
                 position_mm: r1,
                 duration_s: 60.0 * minutes,
             },
-            measured: Measured::Removal(Profile {
+            measured: Measured::Removal(DepthProfile {
                 radius_mm: radii.clone(),
                 depth_nm: depth
                     .iter()

@@ -311,13 +311,13 @@ fn a_noisy_trace_agrees_with_a_reference_fit_and_recovers_the_form_error() {
     let profile = radial_profile(&out.points, &grid).unwrap();
     let mut worst = 0f64;
     let mut sum2 = 0.0;
-    for (&rho, &depth) in profile.radius_mm.iter().zip(&profile.depth_nm) {
+    for (&rho, &depth) in profile.depth.radius_mm.iter().zip(&profile.depth.depth_nm) {
         let cos = 1.0 / s.slope(rho).hypot(1.0);
         let expected = 1e6 * (planted_form_mm(rho) - absorbed * cos);
         worst = worst.max((depth - expected).abs());
         sum2 += (depth - expected).powi(2);
     }
-    let rms = (sum2 / profile.depth_nm.len() as f64).sqrt();
+    let rms = (sum2 / profile.depth.depth_nm.len() as f64).sqrt();
     eprintln!("profile vs planted: rms {rms:.3} nm, worst {worst:.3} nm (noise {noise_nm} nm)");
     // ~12 points under each side's kernel, both sides averaged: the noise left is ~σ/5.
     assert!(rms <= 0.5 * noise_nm && worst <= 1.5 * noise_nm);

@@ -16,7 +16,8 @@ use super::error::ApiError;
 use super::extract::{object, optional_object};
 use super::measurement_fit::RobustDto;
 use super::state::Services;
-use crate::calibration::{Measured, ProcessParameter, Profile, RunSpec, TrialSpec};
+use crate::calibration::{Measured, ProcessParameter, RunSpec, TrialSpec};
+use crate::field::DepthProfile;
 use crate::report::results;
 use crate::usecases::calibration::{
     calibrate, CalibrationCommand, CalibrationResult, CalibrationSpec, ParameterSelection,
@@ -200,8 +201,8 @@ pub struct CalibrationResponse {
 /// `POST /v1/calibration`.
 pub struct CalibrationEndpoint;
 
-fn profile(dto: RadialProfileDto) -> Profile {
-    Profile {
+fn profile(dto: RadialProfileDto) -> DepthProfile {
+    DepthProfile {
         radius_mm: dto.radius_mm,
         depth_nm: dto.depth_nm,
     }

@@ -327,8 +327,8 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
         let column = |f: fn(&PointResidual) -> f64| -> Vec<f64> { points.iter().map(f).collect() };
         let se = m.outcome.standard_errors;
         let profile = FormProfileDto {
-            radius_mm: m.profile.radius_mm.clone(),
-            depth_nm: m.profile.depth_nm.clone(),
+            radius_mm: m.profile.depth.radius_mm.clone(),
+            depth_nm: m.profile.depth.depth_nm.clone(),
         };
         MeasurementFitResponse {
             alignment: AlignmentDto {

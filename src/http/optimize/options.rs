@@ -5,8 +5,9 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::super::extract::optional_object;
+use crate::field::DepthProfile;
 use crate::optimize::{ConstraintsSpec, Objective};
-use crate::usecases::optimize::{ProfileSpec, TargetSpec};
+use crate::usecases::optimize::TargetSpec;
 
 /// The target: exactly one of `uniform_depth_nm` and `profile`.
 #[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
@@ -115,7 +116,7 @@ impl From<TargetDto> for TargetSpec {
     fn from(t: TargetDto) -> Self {
         TargetSpec {
             uniform_depth_nm: t.uniform_depth_nm,
-            profile: t.profile.map(|p| ProfileSpec {
+            profile: t.profile.map(|p| DepthProfile {
                 radius_mm: p.radius_mm,
                 depth_nm: p.depth_nm,
             }),
