@@ -1,11 +1,11 @@
 //! The dwell optimizer on the paper's experiment 1 (workpiece −10, tool 200 r/min, r_m 50,
 //! r_t 10): uniform 100 nm over [0, 40] mm, positions and radial samples evenly spaced on
 //! [0, 50] mm. Operator assembly is outside the timed part; the QP build and the Clarabel
-//! solve are inside. Both dwell bases and both formulations are measured (see
+//! solve are inside. Both dwell bases are measured (see
 //! `preston::optimize`).
 
 use preston::optimize::target::aperture_rows;
-use preston::optimize::{optimize, Constraints, DwellBasis, DwellProblem, Formulation, Objective};
+use preston::optimize::{optimize, Constraints, DwellBasis, DwellProblem, Objective};
 use preston::physics::{
     ClearAperture, Motion, Part, PressureModel, Process, ProcessSpec, RadialGrid, RemovalKernel,
     RemovalOperator,
@@ -52,33 +52,16 @@ fn paper_case(n: usize) -> Case {
 /// The default: the dwell as a spline (43 functions here) when positions are fine.
 #[divan::bench(args = [501, 1001, 2001], sample_count = 20)]
 fn spline(bencher: divan::Bencher, n: usize) {
-    run(bencher, n, Formulation::NormalEquations, DwellBasis::Auto);
+    run(bencher, n, DwellBasis::Auto);
 }
 
-/// The spline in the residual formulation.
-#[divan::bench(args = [501, 2001], sample_count = 20)]
-fn spline_residual(bencher: divan::Bencher, n: usize) {
-    run(bencher, n, Formulation::Residual, DwellBasis::Auto);
-}
-
-/// A variable per position, normal equations (the optimizer before the spline basis).
+/// A variable per position (the optimizer before the spline basis).
 #[divan::bench(args = [501, 1001], sample_count = 10)]
 fn positions(bencher: divan::Bencher, n: usize) {
-    run(
-        bencher,
-        n,
-        Formulation::NormalEquations,
-        DwellBasis::Positions,
-    );
+    run(bencher, n, DwellBasis::Positions);
 }
 
-/// A variable per position, residual formulation.
-#[divan::bench(args = [501, 1001], sample_count = 10)]
-fn positions_residual(bencher: divan::Bencher, n: usize) {
-    run(bencher, n, Formulation::Residual, DwellBasis::Positions);
-}
-
-fn run(bencher: divan::Bencher, n: usize, formulation: Formulation, basis: DwellBasis) {
+fn run(bencher: divan::Bencher, n: usize, basis: DwellBasis) {
     let case = paper_case(n);
     bencher.bench(|| {
         let problem = DwellProblem {
@@ -91,7 +74,6 @@ fn run(bencher: divan::Bencher, n: usize, formulation: Formulation, basis: Dwell
             constraints: Constraints::default(),
             objective: Objective::default(),
             time_limit_s: 60.0,
-            formulation,
             basis,
             axes: &[],
             cell_path_mm: &[],

@@ -52,16 +52,17 @@ def schema_valid_data_never_mismatches_the_schema(ctx, response, case):
 # --- Stateful phase: record bodies the service can use -------------------------------------
 #
 # The record operations chain (profile -> part -> measurement -> plan -> run) and their OpenAPI
-# links follow only a 201. A generated body almost never makes one: a part must name a profile
-# that exists, a measurement must fit the part's surface, a run must name a plan of its part, and
-# JSON Schema cannot say any of that, so the stateful phase covered 6 of 70 links. In the stateful
-# phase only, for schema-valid (positive) cases only, and for about 7 cases in 10 (the rest keep
-# the generated body, so generated data still reaches these operations), the body is replaced by
-# one built from the README's worked cycle (fixtures/), with a fresh unique name, naming records
-# this run created (seen in `after_call`). The path parameters (what the link supplies) are never
-# touched. No check is weakened: a substituted body is kept only if schemathesis itself still
-# judges it schema-valid (else the generated body is put back), so every check still applies to
-# it, `schema_valid_data_never_mismatches_the_schema` included, as it would to generated data.
+# links follow only a 201. A generated body almost never gets one: a part must name a profile
+# that exists, a measurement must fit the part's surface, a run must name a plan of its part (JSON
+# Schema cannot say any of that), so the stateful phase covered 6 of 70 links. In the stateful
+# phase only, and only for schema-valid (positive) cases, about 7 bodies in 10 of these
+# operations are replaced by one built from the README's worked cycle (fixtures/), naming records
+# this run created (seen in `after_call`) and a fresh unique name; the rest keep the generated
+# body, so generated data still reaches them (its unique `name` made unique, see _renamed_body).
+# The path parameters (what a link supplies) are never touched. No check is weakened: a body is
+# replaced only if schemathesis itself still judges the case schema-valid afterwards (else the
+# generated one is put back), so every check applies to it as to generated positive data,
+# `schema_valid_data_never_mismatches_the_schema` included.
 
 import copy
 import itertools
@@ -69,6 +70,7 @@ import threading
 import time
 from pathlib import Path
 
+import requests
 from hypothesis import strategies as st
 from schemathesis.core.parameters import ParameterLocation
 from schemathesis.generation.meta import TestPhase
@@ -89,11 +91,11 @@ _PROCESS = _RINGS["process"]
 _SURFACE = _FIT["surface"]
 _APERTURE = _FIT["clear_aperture"]
 _RADIUS_MM = _PROCESS["workpiece_radius_mm"]
-_POSITIONS_MM = [i / 2 for i in range(91)]  # 0 to 45 mm, inside the 40 mm aperture's reach
+_POSITIONS_MM = [i / 2 for i in range(91)]  # 0 to 45 mm, as in the README
 
 
 def _measurement(fit):
-    # A part measurement is a /v1/measurement/fit request without surface; the aperture is the part's.
+    # A part's measurement is a /v1/measurement/fit request without surface; the aperture is the part's.
     return {k: v for k, v in fit.items() if k not in ("surface", "clear_aperture")}
 
 
@@ -101,16 +103,16 @@ _MEASUREMENT_BEFORE = _measurement(_FIT)
 _MEASUREMENT_AFTER = _measurement(_FIT_AFTER)
 _PROFILE_CALIBRATION = {k: v for k, v in _RINGS.items() if k != "process"}
 
-# What this run created with usable data, learned from the 201s (any phase). A list, not a set,
-# so the choice below is reproducible for a seed.
+# What this run created with usable data, learned from the 201s. Lists, so choices are ordered.
 _lock = threading.Lock()
-_profiles = []  # profile names whose process is _PROCESS
-_parts = []  # ids of parts on such a profile with the asphere, radius and aperture above
+_profiles = []  # names of profiles whose process is _PROCESS
+_parts = []  # ids of parts on such a profile with _SURFACE, _RADIUS_MM and _APERTURE
 _measured = set()  # parts with a measurement
 _ran = set()  # parts with a run
 _plans = {}  # part id -> its plan ids
 _serial = itertools.count(1)
-_run_tag = f"{int(time.time()):x}"  # names stay unique if the database is reused
+_run_tag = f"{int(time.time()):x}"  # names stay unique if the records store is reused
+_seeded = False
 
 
 def _unique(prefix):
@@ -121,7 +123,31 @@ def _profile_body(case):
     return {"name": _unique("st-profile"), "process": copy.deepcopy(_PROCESS)}
 
 
+def _seed_profile(case):
+    """The first part needs a profile: create one (as the README does) if none was seen yet.
+
+    Otherwise the first scenarios' parts are a 422 and later ones with the same steps a 201, and
+    Hypothesis, replaying such a prefix, ends the phase early ("inconsistent data generation").
+    """
+    global _seeded
+    with _lock:
+        if _profiles or _seeded:
+            return
+        _seeded = True
+    body = _profile_body(case)
+    try:
+        response = requests.post(
+            case.operation.schema.get_base_url() + "/v1/process-profiles", json=body, timeout=30
+        )
+    except requests.RequestException:
+        return
+    if response.status_code == 201:
+        with _lock:
+            _profiles.append(body["name"])
+
+
 def _part_body(case):
+    _seed_profile(case)
     with _lock:
         if not _profiles:
             return None
@@ -136,14 +162,14 @@ def _part_body(case):
 
 
 def _measurement_body(case):
-    part = case.path_parameters.get("id")
     if case.media_type != "application/json":
         return None  # the text/csv form keeps its generated body
+    part = case.path_parameters.get("id")
     with _lock:
         if part not in _parts:
             return None
         ran = part in _ran
-    # After a run the part is measured again: that completes the cycle (history, learned K).
+    # Measured again after a run, the part completes a cycle (history, a learned K).
     return copy.deepcopy(_MEASUREMENT_AFTER if ran else _MEASUREMENT_BEFORE)
 
 
@@ -155,7 +181,7 @@ def _plan_body(case):
         measured = part in _measured
     body = {"positions_mm": list(_POSITIONS_MM)}
     if not measured:
-        # Nothing measured yet: the plan needs a target of its own.
+        # With nothing measured the plan needs a target of its own.
         body["target"] = {"uniform_depth_nm": 100.0}
     return body
 
@@ -167,8 +193,7 @@ def _run_body(case):
         if not plans:
             return None
         plan = plans[-1]
-    # RFC 3339 UTC; a run may not start before its plan was made (5 minutes' slack), and it
-    # takes the README's 4 h 18 min.
+    # RFC 3339 UTC, starting now (after its plan was made), taking the README's 4 h 18 min.
     start = int(time.time())
     stamp = lambda t: time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(t))  # noqa: E731
     return {"plan_id": plan, "started_at": stamp(start), "finished_at": stamp(start + 15480), "machine": "cell 3"}
@@ -182,8 +207,7 @@ def _profile_calibration_body(case):
 
 
 def _program_body(case):
-    # Every option defaulted: the plan's process, surface and dwell on the default machine.
-    return {}
+    return {}  # every option defaulted: the plan's process, surface and dwell, the default machine
 
 
 _BODIES = {
@@ -195,15 +219,33 @@ _BODIES = {
     ("POST", "/v1/process-profiles/{name}/calibrations"): _profile_calibration_body,
     ("POST", "/v1/plans/{id}/program"): _program_body,
 }
-# Out of 10 draws, how many substitute (the rest keep the generated body).
+# Out of 10 cases, how many get a body above (the rest keep the generated one).
 _SUBSTITUTE_OUT_OF_10 = 7
+# Operations whose `name` is unique, with its longest length.
+_NAME_MAX_LENGTH = {("POST", "/v1/process-profiles"): 64, ("POST", "/v1/parts"): 200}
+
+
+def _renamed_body(case):
+    """The generated body with its name made unique (a suffix of [A-Za-z0-9.-], within the length).
+
+    A Hypothesis scenario that reuses an earlier one's steps sends the same generated name again:
+    a 201 the first time, a 409 the second, so the scenario takes another course and Hypothesis
+    ends the phase ("inconsistent data generation"). The 409 itself is tested in the other phases.
+    """
+    body = case.body
+    if not isinstance(body, dict) or not isinstance(body.get("name"), str):
+        return None
+    suffix = "." + _unique("g")
+    limit = _NAME_MAX_LENGTH[_operation_key(case.operation)]
+    return {**body, "name": body["name"][: limit - len(suffix)] + suffix}
 
 
 def _operation_key(operation):
     return operation.method.upper(), operation.path
 
 
-def _substituted(case, build):
+def _with_body(case, build):
+    """`case` with the body `build` gives, if there is one and the case stays schema-valid."""
     body = build(case)
     if body is None:
         return case
@@ -212,14 +254,14 @@ def _substituted(case, build):
     if case.operation.path == "/v1/parts/{id}/measurements" and case.query:
         # Its query parameters configure a text/csv body; with a JSON body they are a 422.
         case.query = {}
-    meta = case.meta  # revalidates the replaced body against the schema
+    meta = case.meta  # revalidates the changed parts against the schema
     body_info = meta.components.get(ParameterLocation.BODY) if meta is not None else None
     if body_info is None or not body_info.mode.is_positive or meta.generation.mode != GenerationMode.POSITIVE:
-        case.body, case.query = original, original_query  # not schema-valid after all: keep the generated data
-        case.meta  # noqa: B018 (revalidate back)
+        case.body, case.query = original, original_query  # keep the generated data
+        case.meta  # noqa: B018 (revalidated back)
         return case
-    # A repeated generated Idempotency-Key with this new body would be a 422 (same key, another
-    # request); keep the header, made unique (still 1-255 visible ASCII).
+    # The same Idempotency-Key with another request is a 422, and a scenario replayed by
+    # Hypothesis sends the same generated key again: keep the header, made unique.
     for name in list(case.headers or {}):
         if name.lower() == "idempotency-key":
             case.headers[name] = f"{str(case.headers[name])[:200]}.{_unique('st')}"
@@ -228,7 +270,8 @@ def _substituted(case, build):
 
 @schemathesis.hook
 def flatmap_case(context, case):
-    build = _BODIES.get(_operation_key(context.operation)) if context.operation is not None else None
+    key = _operation_key(context.operation) if context.operation is not None else None
+    build = _BODIES.get(key)
     meta = case.meta
     if (
         build is None
@@ -237,15 +280,20 @@ def flatmap_case(context, case):
         or meta.generation.mode != GenerationMode.POSITIVE
     ):
         return st.just(case)
+    rename = _renamed_body if key in _NAME_MAX_LENGTH else None
+
+    def choose(n):
+        if n < _SUBSTITUTE_OUT_OF_10:
+            return _with_body(case, build)
+        return _with_body(case, rename) if rename is not None else case
+
     # A Hypothesis draw (not `random`), so the mix is reproducible for a seed.
-    return st.integers(min_value=0, max_value=9).map(
-        lambda n: _substituted(case, build) if n < _SUBSTITUTE_OUT_OF_10 else case
-    )
+    return st.integers(min_value=0, max_value=9).map(choose)
 
 
 @schemathesis.hook
 def after_call(context, case, response):
-    """Remember records created with usable data, for the bodies above."""
+    """Remember the records created with usable data, for the bodies above."""
     if response.status_code != 201 or context.operation is None:
         return
     key = _operation_key(context.operation)

@@ -87,9 +87,8 @@
 //!
 //! The QP goes to Clarabel (interior point, sparse LDLᵀ) as dense normal equations: the
 //! Hessian (MS)ᵀMS/m_Ω is banded (functions more than 2·r_t apart never share a sample), built
-//! from the operator's column bands in parallel. The residual formulation (M·S·c − e = d as
-//! equality rows, ½‖e‖² on extra variables) was measured against it and is slower: see
-//! `benches/optimize.rs`.
+//! from the operator's column bands in parallel. (A residual formulation, M·S·c − e = d as
+//! equality rows with ½‖e‖² on extra variables, was measured slower and is gone.)
 
 pub mod basis;
 pub mod feasibility;
@@ -103,5 +102,5 @@ pub use basis::DwellBasis;
 pub use problem::{
     Bound, Breach, Constraint, Constraints, ConstraintsSpec, Objective, OptimizeError, Weight,
 };
-pub use qp::{optimize, DwellProblem, Formulation, Solution, SolveStatus};
+pub use qp::{optimize, DwellProblem, Solution, SolveStatus};
 pub use target::{measured_profile, resample_profile, MeasuredProfileError};

@@ -1,5 +1,5 @@
-//! The dwell QP (see [`super`] for the mathematics) assembled for Clarabel in one of two
-//! formulations, solved, and its answer mapped back to seconds and checked.
+//! The dwell QP (see [`super`] for the mathematics) assembled for Clarabel in the normal
+//! equations, solved, and its answer mapped back to seconds and checked.
 
 use std::borrow::Cow;
 use std::ops::Range;
@@ -30,17 +30,6 @@ use super::solver::{
 const SMALL_QP_VARIABLES: usize = 64;
 use crate::physics::{Motion, RemovalOperator};
 
-/// How the least-squares fit reaches Clarabel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Formulation {
-    /// Hessian MᵀM/m_Ω (banded, dense within the band) on the dwell variables only.
-    #[default]
-    NormalEquations,
-    /// Residual variables e = M·x − d tied by equality rows; the Hessian is diagonal plus
-    /// the smoothing band, and M enters the constraint matrix as its band.
-    Residual,
-}
-
 /// One dwell optimization: the operator over the radial grid (or over the clear aperture's
 /// radii alone), the rows of the clear aperture in it, the target there, and what the plan
 /// must respect.
@@ -61,7 +50,6 @@ pub struct DwellProblem<'a> {
     pub objective: Objective,
     /// Solver wall-clock budget, s.
     pub time_limit_s: f64,
-    pub formulation: Formulation,
     /// How the QP represents the dwell ([`super::basis`]).
     pub basis: DwellBasis,
     /// The machine's axes as the plan drives them (empty: no machine limits).
@@ -231,8 +219,30 @@ fn second_differences(radii_mm: &[f64]) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// The upper band of w·(D2·S)ᵀ(D2·S) on the variables: `band[k][d]` is entry (k − d, k).
-/// On the positions (S = I) the band is three wide.
+/// The smoothing term's Hessian w·(D2·S)ᵀ(D2·S) on the variables, by its upper band:
+/// `band[k][d]` is entry (k − d, k). On the positions (S = I) the band is three wide.
+struct Smoothing {
+    band: Vec<Vec<f64>>,
+}
+
+impl Smoothing {
+    fn new(radii_mm: &[f64], basis: &Basis, weight: f64) -> Self {
+        Smoothing {
+            band: smoothing_band(radii_mm, basis, weight),
+        }
+    }
+
+    /// Entry (j, k), j ≤ k.
+    fn entry(&self, j: usize, k: usize) -> f64 {
+        self.band[k].get(k - j).copied().unwrap_or(0.0)
+    }
+
+    /// How far above the diagonal the term reaches.
+    fn width(&self) -> usize {
+        self.band.first().map_or(0, |c| c.len() - 1)
+    }
+}
+
 fn smoothing_band(radii_mm: &[f64], basis: &Basis, weight: f64) -> Vec<Vec<f64>> {
     let forms: Vec<Vec<(usize, f64)>> = second_differences(radii_mm)
         .iter()
@@ -255,48 +265,29 @@ fn smoothing_band(radii_mm: &[f64], basis: &Basis, weight: f64) -> Vec<Vec<f64>>
     band
 }
 
-/// The QP's variables: the basis of the dwell, the operator's columns through it (M·S), and
-/// the smoothing term on them.
-struct Variables<'a> {
+/// The QP's variables: the basis of the dwell, and the objective on them.
+struct Variables {
     basis: Basis,
-    band: Band<'a>,
-    smooth: Vec<Vec<f64>>,
-    /// The objective on them in the normal equations (that formulation only), made once for
-    /// every solve on these variables.
-    normal: Option<NormalObjective>,
+    /// The objective on them in the normal equations (from the operator's columns through
+    /// the basis, M·S, and the smoothing term), made once for every solve on these variables.
+    normal: NormalObjective,
 }
 
-impl<'a> Variables<'a> {
-    fn new(problem: &DwellProblem, operator: &Band<'a>, basis: Basis, s: &Scales) -> Self {
-        let mut vars = Variables {
-            band: operator.through(&basis),
-            smooth: smoothing_band(problem.motion.radii_mm(), &basis, s.smoothing),
-            basis,
-            normal: None,
-        };
-        if problem.formulation == Formulation::NormalEquations {
-            vars.normal = Some(NormalObjective::new(problem, &vars, s));
-        }
-        vars
+impl Variables {
+    fn new(problem: &DwellProblem, operator: &Band, basis: Basis, s: &Scales) -> Self {
+        let band = operator.through(&basis);
+        let smooth = Smoothing::new(problem.motion.radii_mm(), &basis, s.smoothing);
+        let normal = NormalObjective::new(problem, &basis, &band, &smooth, s);
+        Variables { basis, normal }
     }
 
     fn size(&self) -> usize {
         self.basis.size()
     }
-
-    /// The smoothing Hessian's entry (j, k), j ≤ k.
-    fn smoothing(&self, j: usize, k: usize) -> f64 {
-        self.smooth[k].get(k - j).copied().unwrap_or(0.0)
-    }
-
-    /// How far above the diagonal the smoothing term reaches.
-    fn smoothing_width(&self) -> usize {
-        self.smooth.first().map_or(0, |c| c.len() - 1)
-    }
 }
 
-/// Evaluates J at dwell `t` (s) and piston `p` (nm): the reported objective, the same for
-/// both formulations.
+/// Evaluates J at dwell `t` (s) and piston `p` (nm): the reported objective, from the
+/// documented formula rather than the QP's scaled terms.
 fn objective_value(problem: &DwellProblem, band: &Band, s: &Scales, t: &[f64], p: f64) -> f64 {
     let rows = &problem.rows;
     let mut removal = vec![0.0; rows.len()];
@@ -325,12 +316,16 @@ fn objective_value(problem: &DwellProblem, band: &Band, s: &Scales, t: &[f64], p
 }
 
 /// Upper triangle of the normal-equations Hessian on (c, p̃).
-fn normal_hessian(problem: &DwellProblem, vars: &Variables, s: &Scales) -> CscMatrix<f64> {
-    let band = &vars.band;
-    let n = vars.size();
+fn normal_hessian(
+    problem: &DwellProblem,
+    band: &Band,
+    smooth: &Smoothing,
+    s: &Scales,
+) -> CscMatrix<f64> {
+    let n = band.start.len();
     let nv = n + usize::from(problem.free_piston);
     let fit = 1.0 / (s.m * s.rate * s.rate);
-    let width = vars.smoothing_width();
+    let width = smooth.width();
     let columns: Vec<Vec<(usize, f64)>> = (0..n)
         .into_par_iter()
         .with_min_len(16)
@@ -343,7 +338,7 @@ fn normal_hessian(problem: &DwellProblem, vars: &Variables, s: &Scales) -> CscMa
             };
             let from = overlap_from.min(k.saturating_sub(width));
             (from..=k)
-                .map(|j| (j, fit * band.dot(j, k) + vars.smoothing(j, k)))
+                .map(|j| (j, fit * band.dot(j, k) + smooth.entry(j, k)))
                 .filter(|&(_, v)| v != 0.0)
                 .collect()
         })
@@ -414,8 +409,7 @@ struct NormalObjective {
 
 /// The objective's linear term for the total time: μ·Σ_j x_j/n_positions =
 /// Σ_k c_k·(μ/n_positions)·Σ_j S_jk.
-fn time_term(problem: &DwellProblem, vars: &Variables, s: &Scales) -> Vec<f64> {
-    let basis = &vars.basis;
+fn time_term(problem: &DwellProblem, basis: &Basis, s: &Scales) -> Vec<f64> {
     basis.transpose_apply(&vec![
         problem.objective.time_weight / s.n;
         basis.positions_len()
@@ -428,19 +422,24 @@ fn scaled_target(problem: &DwellProblem, s: &Scales) -> Vec<f64> {
 }
 
 impl NormalObjective {
-    fn new(problem: &DwellProblem, vars: &Variables, s: &Scales) -> Self {
-        let band = &vars.band;
+    fn new(
+        problem: &DwellProblem,
+        basis: &Basis,
+        band: &Band,
+        smooth: &Smoothing,
+        s: &Scales,
+    ) -> Self {
         let g = scaled_target(problem, s);
-        let time = time_term(problem, vars, s);
+        let time = time_term(problem, basis, s);
         let lin = 1.0 / (s.m * s.rate);
-        let mut q: Vec<f64> = (0..vars.size())
+        let mut q: Vec<f64> = (0..basis.size())
             .map(|k| time[k] - lin * band.dot_rows(k, &g, problem.rows.start))
             .collect();
         if problem.free_piston {
             q.push(g.iter().sum::<f64>() / s.m);
         }
         NormalObjective {
-            p: normal_hessian(problem, vars, s),
+            p: normal_hessian(problem, band, smooth, s),
             q,
         }
     }
@@ -474,7 +473,7 @@ impl NormalObjective {
     }
 }
 
-/// The QP for Clarabel on the variables (c, [e], [p̃], [u]). `floors_s`: each position's least
+/// The QP for Clarabel on the variables (c, [p̃], [u]): the fit in the normal equations. `floors_s`: each position's least
 /// dwell. With `around` (a scaled plan that keeps the machine's acceleration limits), the
 /// between-cell acceleration rows made convex around it are added, with their cone variables
 /// u_j ≥ 1/x_j after the others ([`super::kinematics`]). Rows on the dwell at the positions
@@ -486,75 +485,17 @@ fn assemble(
     position_rows: Rows,
     around: Option<&[f64]>,
 ) -> ClarabelQp {
-    let band = &vars.band;
     let basis = &vars.basis;
-    let n = vars.size();
-    let m = problem.rows.len();
-    let piston = usize::from(problem.free_piston);
     let (_, gap) = tolerances(vars);
-    let position_rows = position_rows.through(basis);
-    // (P's columns, q, rows, how many of the rows are equalities at the top)
-    let (mut p, mut q, mut rows, equalities) = match problem.formulation {
-        Formulation::NormalEquations => {
-            let normal = vars.normal.as_ref().expect("made with the variables");
-            (normal.p.clone(), normal.q.clone(), position_rows, 0)
-        }
-        Formulation::Residual => {
-            // Variables (c, e, [p̃]); rows: M·S·c/ā − e − p̃ = g (zero cone), then inequalities.
-            let nv = n + m + piston;
-            let width = vars.smoothing_width();
-            let mut p = CscBuilder::new(nv);
-            for k in 0..n {
-                p.push_column(
-                    (k.saturating_sub(width)..=k)
-                        .map(|j| (j, vars.smoothing(j, k)))
-                        .filter(|&(_, v)| v != 0.0),
-                );
-            }
-            for i in 0..m {
-                p.push_column([(n + i, 1.0 / s.m)]);
-            }
-            if problem.free_piston {
-                p.push_column([]);
-            }
-            let mut q = time_term(problem, vars, s);
-            q.resize(nv, 0.0);
-
-            let mut rows = Rows::default();
-            for k in 0..n {
-                for (i, &v) in band.values[k].iter().enumerate() {
-                    rows.rows.push(band.start[k] - problem.rows.start + i);
-                    rows.cols.push(k);
-                    rows.values.push(v / s.rate);
-                }
-            }
-            for i in 0..m {
-                rows.rows.push(i);
-                rows.cols.push(n + i);
-                rows.values.push(-1.0);
-                if problem.free_piston {
-                    rows.rows.push(i);
-                    rows.cols.push(nv - 1);
-                    rows.values.push(-1.0);
-                }
-            }
-            rows.rhs = scaled_target(problem, s);
-            rows.append(position_rows);
-            (p.build(), q, rows, m)
-        }
-    };
+    let mut rows = position_rows.through(basis);
+    let (mut p, mut q) = (vars.normal.p.clone(), vars.normal.q.clone());
     let mut nv = q.len();
     if problem.free_piston {
         rows.push(&[(nv - 1, -1.0)], 0.0);
     }
     let mut cones = Vec::new();
-    if equalities > 0 {
-        cones.push(SupportedConeT::ZeroConeT(equalities));
-    }
     let Some(x0) = around else {
-        cones.push(SupportedConeT::NonnegativeConeT(
-            rows.rhs.len() - equalities,
-        ));
+        cones.push(SupportedConeT::NonnegativeConeT(rows.rhs.len()));
         let (a, b) = rows.into_csc(nv);
         return ClarabelQp {
             gap,
@@ -585,9 +526,7 @@ fn assemble(
         );
         rows.push(&entries, row.rhs);
     }
-    cones.push(SupportedConeT::NonnegativeConeT(
-        rows.rhs.len() - equalities,
-    ));
+    cones.push(SupportedConeT::NonnegativeConeT(rows.rhs.len()));
     // (x_j + u_j, u_j − x_j, 2) in the second-order cone ⟺ x_j·u_j ≥ 1, x_j + u_j ≥ 0.
     for (j, u) in u_index.iter().enumerate() {
         if let Some(u) = *u {
@@ -684,9 +623,7 @@ fn attempt(
     // Where the fit's own minimum keeps every row, no row binds: it is the QP's optimum (the
     // KKT conditions hold with zero multipliers), exactly, without an interior point. A
     // uniform layer usually asks for dwell well inside its bounds.
-    let unconstrained = vars
-        .normal
-        .as_ref()
+    let unconstrained = Some(&vars.normal)
         .filter(|_| around.is_none())
         .and_then(NormalObjective::unconstrained_minimum)
         .filter(|v| {
@@ -740,13 +677,7 @@ fn attempt(
         &vars.basis.dwell(&v[..n]),
         scales.dwell_s,
     );
-    let piston_index = match problem.formulation {
-        Formulation::NormalEquations => n,
-        Formulation::Residual => n + problem.rows.len(),
-    };
-    let piston_nm = problem
-        .free_piston
-        .then(|| v[piston_index].max(0.0) * scales.depth_nm);
+    let piston_nm = problem.free_piston.then(|| v[n].max(0.0) * scales.depth_nm);
     let objective = objective_value(
         problem,
         operator,

@@ -115,15 +115,6 @@ impl Rows {
         self.rhs.push(rhs);
     }
 
-    /// Appends `other`'s rows below these.
-    pub(super) fn append(&mut self, other: Rows) {
-        let offset = self.rhs.len();
-        self.rows.extend(other.rows.iter().map(|r| r + offset));
-        self.cols.extend(other.cols);
-        self.values.extend(other.values);
-        self.rhs.extend(other.rhs);
-    }
-
     /// These rows on the dwell at the positions (the first variables) as rows on `basis`'s
     /// variables (the same row indices; repeated entries are summed when assembled).
     pub(super) fn through(self, basis: &Basis) -> Rows {

@@ -22,7 +22,7 @@ use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
     measured_profile, optimize as solve, Constraints, ConstraintsSpec, DwellBasis, DwellProblem,
-    Formulation, MeasuredProfileError, Objective, OptimizeError, Solution,
+    MeasuredProfileError, Objective, OptimizeError, Solution,
 };
 use crate::physics::{check_positions, Motion, UniformityMetrics};
 use crate::study::Recommendation;
@@ -477,7 +477,6 @@ pub fn optimize(
                 constraints,
                 objective,
                 time_limit_s,
-                formulation: Formulation::default(),
                 basis: DwellBasis::default(),
                 axes: &axes,
                 cell_path_mm: &cell_path_mm,

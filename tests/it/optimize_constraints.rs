@@ -8,8 +8,7 @@ use preston::physics::Motion;
 use common::paper_process;
 use preston::optimize::target::aperture_rows;
 use preston::optimize::{
-    optimize, Constraints, ConstraintsSpec, DwellBasis, DwellProblem, Formulation, Objective,
-    OptimizeError,
+    optimize, Constraints, ConstraintsSpec, DwellBasis, DwellProblem, Objective, OptimizeError,
 };
 use preston::physics::{ClearAperture, RadialGrid, RemovalKernel, RemovalOperator};
 
@@ -73,7 +72,6 @@ fn run(s: &Setup, constraints: ConstraintsSpec) -> Result<Vec<f64>, OptimizeErro
         constraints,
         objective: Objective::default(),
         time_limit_s: 30.0,
-        formulation: Formulation::NormalEquations,
         basis: DwellBasis::Auto,
         axes: &[],
         cell_path_mm: &s.cells,

@@ -10,9 +10,7 @@ use common::{paper_process, read_fixture};
 use preston::config::ServiceLimits;
 use preston::http::compute_json;
 use preston::optimize::target::aperture_rows;
-use preston::optimize::{
-    optimize, Constraints, DwellBasis, DwellProblem, Formulation, Objective, Solution,
-};
+use preston::optimize::{optimize, Constraints, DwellBasis, DwellProblem, Objective, Solution};
 use preston::physics::{
     ClearAperture, Process, RadialGrid, RemovalKernel, RemovalOperator, UniformityMetrics,
 };
@@ -43,15 +41,6 @@ fn solve(c: &Case, objective: Objective) -> Solution {
 }
 
 fn solve_in(c: &Case, objective: Objective, basis: DwellBasis) -> Solution {
-    solve_as(c, objective, basis, Formulation::NormalEquations)
-}
-
-fn solve_as(
-    c: &Case,
-    objective: Objective,
-    basis: DwellBasis,
-    formulation: Formulation,
-) -> Solution {
     let rows = aperture_rows(&c.grid, &c.aperture);
     let target = vec![100.0; rows.len()];
     optimize(&DwellProblem {
@@ -64,7 +53,6 @@ fn solve_as(
         constraints: Constraints::default(),
         objective,
         time_limit_s: 60.0,
-        formulation,
         basis,
         axes: &[],
         cell_path_mm: &[],
@@ -117,31 +105,6 @@ fn experiment_1_is_made_uniform_and_the_central_pit_is_removed() {
     assert!(inner.windows(2).all(|w| w[1] >= w[0] - 1e-9 * middle));
     // The mean depth is on target to within the time term's documented bias.
     assert!((m.mean_nm - 100.0).abs() < 1e-3, "{}", m.mean_nm);
-}
-
-/// No bound binds on experiment 1's uniform layer (the dwell stays above zero everywhere), so
-/// the plan is the fit's own minimum, solved directly: no interior-point iteration, and its J
-/// no higher than the interior point's (the residual formulation, always solved by Clarabel)
-/// and equal to it within that solver's duality gap (1e-12 absolute on J ≈ 4e-6).
-#[test]
-fn a_uniform_layer_with_no_bound_binding_is_the_fits_own_minimum() {
-    let c = case(&paper_process(-10.0, 200.0));
-    let direct = solve(&c, Objective::default());
-    assert_eq!(direct.iterations, 0);
-    let interior = solve_as(
-        &c,
-        Objective::default(),
-        DwellBasis::Auto,
-        Formulation::Residual,
-    );
-    assert!(interior.iterations > 0);
-    println!(
-        "J direct {:.12e}, interior point {:.12e} ({} iterations)",
-        direct.objective, interior.objective, interior.iterations
-    );
-    assert!(direct.objective <= interior.objective * (1.0 + 1e-12));
-    assert!(interior.objective - direct.objective <= 1e-11);
-    assert!(direct.dwell_s.iter().all(|&t| t > 0.0));
 }
 
 /// At η = −1 equal dwell is exactly uniform (the motion's removal, docs/MODEL.md), so the
