@@ -91,16 +91,24 @@
 //! equality rows with ½‖e‖² on extra variables, was measured slower and is gone.)
 
 pub mod basis;
+mod ccp;
+mod checks;
+pub mod dwell;
 pub mod feasibility;
 pub mod kinematics;
+pub mod operator;
 pub mod problem;
 pub mod qp;
+mod scaling;
 pub mod solver;
 pub mod target;
 
 pub use basis::DwellBasis;
+pub use dwell::{DwellProblem, Solution};
+pub use operator::DwellOperator;
 pub use problem::{
     Bound, Breach, Constraint, Constraints, ConstraintsSpec, Objective, OptimizeError, Weight,
 };
-pub use qp::{optimize, DwellProblem, Solution, SolveStatus};
+pub use qp::optimize;
+pub use solver::SolveStatus;
 pub use target::{measured_profile, resample_profile, MeasuredProfileError};

@@ -1,8 +1,6 @@
 //! The dwell QP (see [`super`] for the mathematics) assembled for Clarabel in the normal
 //! equations, solved, and its answer mapped back to seconds and checked.
 
-use std::borrow::Cow;
-use std::ops::Range;
 use std::time::Instant;
 
 use clarabel::algebra::CscMatrix;
@@ -11,14 +9,16 @@ use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 use rayon::prelude::*;
 
-use super::basis::{Basis, DwellBasis};
+use super::basis::Basis;
+use super::ccp::{keeps_acceleration, within_acceleration};
+use super::checks::{check_plan, polish, Attempt};
+use super::dwell::{DwellProblem, Solution};
 use super::feasibility;
-use super::kinematics::{
-    acceleration_rows, constant_dwell_for_acceleration, floors, limits_acceleration,
-    peak_acceleration_ratio, AxisPath, Floor, PathFeed, CCP_TOLERANCE, MARGIN, MAX_CCP_ITERATIONS,
-};
-use super::problem::{Bound, Constraint, Constraints, Objective, OptimizeError};
-pub use super::solver::SolveStatus;
+use super::kinematics::{acceleration_rows, limits_acceleration, Floor};
+use super::operator::Band;
+use super::problem::{Objective, OptimizeError};
+use super::scaling::{objective_value, second_differences, Scales};
+use super::solver::SolveStatus;
 use super::solver::{
     constraint_rows, run_clarabel, Budget, ClarabelQp, CscBuilder, Rows, GAP_TOLERANCE,
     SPLINE_GAP_TOLERANCE, SPLINE_ROW_MARGIN,
@@ -28,196 +28,6 @@ use super::solver::{
 /// costs microseconds, and a few coarse positions can fit a target almost exactly (J ~ 1e-6,
 /// where the coarse gap would leave J ~1e-5 relative).
 const SMALL_QP_VARIABLES: usize = 64;
-use crate::physics::{Motion, RemovalOperator};
-
-/// One dwell optimization: the operator over the radial grid (or over the clear aperture's
-/// radii alone), the rows of the clear aperture in it, the target there, and what the plan
-/// must respect.
-#[derive(Debug, Clone)]
-pub struct DwellProblem<'a> {
-    pub operator: &'a RemovalOperator,
-    /// The motion the plan stands for: its stations are the candidate tool positions (one
-    /// per operator column).
-    pub motion: &'a Motion,
-    pub tool_radius_mm: f64,
-    /// Operator rows inside the clear aperture.
-    pub rows: Range<usize>,
-    /// Target depth at each row of `rows`, nm.
-    pub target_nm: &'a [f64],
-    /// Add a free uniform layer p ≥ 0 to the target.
-    pub free_piston: bool,
-    pub constraints: Constraints,
-    pub objective: Objective,
-    /// Solver wall-clock budget, s.
-    pub time_limit_s: f64,
-    /// How the QP represents the dwell ([`super::basis`]).
-    pub basis: DwellBasis,
-    /// The machine's axes as the plan drives them (empty: no machine limits).
-    pub axes: &'a [AxisPath],
-    /// Length of the tool's path across each position's cell as the program moves it, mm (the
-    /// X–Z path of the B pivot; the cell's width on a plane with a vertical tool), one per
-    /// position: what `max_feed_mm_per_min` limits. Empty for one position.
-    pub cell_path_mm: &'a [f64],
-}
-
-impl DwellProblem<'_> {
-    /// Each position's least dwell: `min_dwell_s`, raised by the feed limit and the machine's
-    /// ([`super::kinematics::floors`]).
-    pub fn floors(&self) -> Vec<Floor> {
-        let c = &self.constraints;
-        let n = self.motion.len();
-        assert!(
-            c.max_feed_mm_per_min.is_none() || self.cell_path_mm.len() == n || n == 1,
-            "a feed limit needs the path across each cell"
-        );
-        let feed = c.max_feed_mm_per_min.map(|max_feed_mm_per_min| PathFeed {
-            cell_path_mm: self.cell_path_mm,
-            max_feed_mm_per_min,
-        });
-        floors(self.axes, feed, self.motion, c.min_dwell_s)
-    }
-}
-
-/// An optimized plan with the solver's account of it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Solution {
-    pub dwell_s: Vec<f64>,
-    /// The free piston chosen, nm (`None` when not asked for).
-    pub piston_nm: Option<f64>,
-    pub status: SolveStatus,
-    pub iterations: u32,
-    pub solve_time_s: f64,
-    /// J at the returned plan (dimensionless, see the module docs).
-    pub objective: f64,
-}
-
-/// Columns cut to the aperture rows: column j covers rows start[j]..end[j] (absolute) with
-/// values[j]; both bounds are non-decreasing in j because positions increase. The operator's
-/// own columns are borrowed; those of M·S (one per basis function) are computed.
-struct Band<'a> {
-    start: Vec<usize>,
-    end: Vec<usize>,
-    values: Vec<Cow<'a, [f64]>>,
-}
-
-impl<'a> Band<'a> {
-    fn new(op: &'a RemovalOperator, rows: &Range<usize>) -> Self {
-        let n = op.cols();
-        let (mut start, mut end, mut values) = (
-            Vec::with_capacity(n),
-            Vec::with_capacity(n),
-            Vec::with_capacity(n),
-        );
-        for j in 0..n {
-            let (first, column) = op.column(j);
-            // Clamped into the aperture rows; an empty column gets start = end.
-            let lo = first.clamp(rows.start, rows.end);
-            let hi = (first + column.len()).clamp(rows.start, rows.end);
-            start.push(lo);
-            end.push(hi.max(lo));
-            values.push(Cow::Borrowed(if hi > lo {
-                &column[lo - first..hi - first]
-            } else {
-                &[]
-            }));
-        }
-        Band { start, end, values }
-    }
-
-    /// The columns of M·S: column k is Σ_j S_jk·M_j over the positions B_k reaches.
-    fn through(&self, basis: &Basis) -> Band<'a> {
-        if basis.is_positions() {
-            return Band {
-                start: self.start.clone(),
-                end: self.end.clone(),
-                values: self.values.clone(),
-            };
-        }
-        let columns: Vec<(usize, usize, Cow<'a, [f64]>)> = (0..basis.size())
-            .into_par_iter()
-            .map(|k| {
-                let reach = basis.support(k);
-                let lo = self.start[reach.start];
-                let hi = self.end[reach.end - 1].max(lo);
-                let mut column = vec![0.0; hi - lo];
-                for j in reach {
-                    let Some((_, w)) = basis.terms(j).find(|&(v, _)| v == k) else {
-                        continue;
-                    };
-                    let from = self.start[j] - lo;
-                    for (o, m) in column[from..].iter_mut().zip(self.values[j].iter()) {
-                        *o += w * m;
-                    }
-                }
-                (lo, hi, Cow::Owned(column))
-            })
-            .collect();
-        let mut band = Band {
-            start: Vec::with_capacity(columns.len()),
-            end: Vec::with_capacity(columns.len()),
-            values: Vec::with_capacity(columns.len()),
-        };
-        for (lo, hi, column) in columns {
-            band.start.push(lo);
-            band.end.push(hi);
-            band.values.push(column);
-        }
-        band
-    }
-
-    fn dot(&self, j: usize, k: usize) -> f64 {
-        let lo = self.start[j].max(self.start[k]);
-        let hi = self.end[j].min(self.end[k]);
-        if hi <= lo {
-            return 0.0;
-        }
-        let a = &self.values[j][lo - self.start[j]..hi - self.start[j]];
-        let b = &self.values[k][lo - self.start[k]..hi - self.start[k]];
-        a.iter().zip(b).map(|(x, y)| x * y).sum()
-    }
-
-    fn column_sum(&self, j: usize) -> f64 {
-        self.values[j].iter().sum()
-    }
-
-    /// Σ_i M_ij·y_i with y indexed from the first aperture row.
-    fn dot_rows(&self, j: usize, y: &[f64], row0: usize) -> f64 {
-        let from = self.start[j] - row0;
-        self.values[j]
-            .iter()
-            .zip(&y[from..])
-            .map(|(m, v)| m * v)
-            .sum()
-    }
-}
-
-/// Depth and dwell scales and the scaled weights.
-struct Scales {
-    m: f64,
-    n: f64,
-    /// ā, nm/s.
-    rate: f64,
-    depth_nm: f64,
-    dwell_s: f64,
-    /// λ·r_t⁴/(n − 2): the smoothing weight on Σ (x'')².
-    smoothing: f64,
-}
-
-/// D2: the second divided differences on the positions, one row (3 coefficients, 1/mm²) per
-/// interior position.
-fn second_differences(radii_mm: &[f64]) -> Vec<[f64; 3]> {
-    radii_mm
-        .windows(3)
-        .map(|w| {
-            let (h0, h1) = (w[1] - w[0], w[2] - w[1]);
-            [
-                2.0 / (h0 * (h0 + h1)),
-                -2.0 / (h0 * h1),
-                2.0 / (h1 * (h0 + h1)),
-            ]
-        })
-        .collect()
-}
 
 /// The smoothing term's Hessian w·(D2·S)ᵀ(D2·S) on the variables, by its upper band:
 /// `band[k][d]` is entry (k − d, k). On the positions (S = I) the band is three wide.
@@ -284,35 +94,6 @@ impl Variables {
     fn size(&self) -> usize {
         self.basis.size()
     }
-}
-
-/// Evaluates J at dwell `t` (s) and piston `p` (nm): the reported objective, from the
-/// documented formula rather than the QP's scaled terms.
-fn objective_value(problem: &DwellProblem, band: &Band, s: &Scales, t: &[f64], p: f64) -> f64 {
-    let rows = &problem.rows;
-    let mut removal = vec![0.0; rows.len()];
-    for (j, &tj) in t.iter().enumerate() {
-        let from = band.start[j] - rows.start;
-        for (o, m) in removal[from..].iter_mut().zip(band.values[j].iter()) {
-            *o += m * tj;
-        }
-    }
-    let fit: f64 = removal
-        .iter()
-        .zip(problem.target_nm)
-        .map(|(z, d)| ((z - d - p) / s.depth_nm).powi(2))
-        .sum::<f64>()
-        / (2.0 * s.m);
-    let x: Vec<f64> = t.iter().map(|v| v / s.dwell_s).collect();
-    let smooth: f64 = second_differences(problem.motion.radii_mm())
-        .iter()
-        .zip(x.windows(3))
-        .map(|(c, w)| (c[0] * w[0] + c[1] * w[1] + c[2] * w[2]).powi(2))
-        .sum::<f64>()
-        * s.smoothing
-        / 2.0;
-    let time = problem.objective.time_weight * x.iter().sum::<f64>() / s.n;
-    fit + smooth + time
 }
 
 /// Upper triangle of the normal-equations Hessian on (c, p̃).
@@ -561,41 +342,6 @@ fn extend_columns(p: CscMatrix<f64>, size: usize) -> CscMatrix<f64> {
     CscMatrix::new(size, size, colptr, p.rowval, p.nzval)
 }
 
-/// The interior-point answer in seconds, with the dwell bounds made exact and, if the total
-/// time is over by the solver's rounding (it sums n small errors), the dwell above each floor
-/// shrunk in proportion, which keeps the bounds and the dwell-change rows.
-fn polish(c: &Constraints, floors_s: &[f64], x: &[f64], tau: f64) -> Vec<f64> {
-    let mut t: Vec<f64> = x
-        .iter()
-        .zip(floors_s)
-        .map(|(x, &lo)| {
-            let t = (x * tau).max(lo);
-            c.max_dwell_s.map_or(t, |hi| t.min(hi))
-        })
-        .collect();
-    if let Some(total) = c.max_total_time_s {
-        let sum: f64 = t.iter().sum();
-        let floor: f64 = floors_s.iter().sum();
-        if sum > total && sum > floor {
-            let k = ((total - floor) / (sum - floor)).max(0.0);
-            for (tj, lo) in t.iter_mut().zip(floors_s) {
-                *tj = lo + (*tj - lo) * k;
-            }
-        }
-    }
-    t
-}
-
-/// One solve of the QP (around a plan for the acceleration rows, or without them), polished.
-struct Attempt {
-    dwell_s: Vec<f64>,
-    piston_nm: Option<f64>,
-    status: SolveStatus,
-    iterations: u32,
-    solve_time_s: f64,
-    objective: f64,
-}
-
 fn attempt(
     problem: &DwellProblem,
     operator: &Band,
@@ -695,216 +441,6 @@ fn attempt(
     })
 }
 
-fn keeps_acceleration(axes: &[AxisPath], motion: &Motion, dwell_s: &[f64]) -> bool {
-    axes.iter()
-        .all(|a| peak_acceleration_ratio(a, motion, dwell_s) <= 1.0 - 0.5 * MARGIN)
-}
-
-/// The plan within the machine's acceleration limits between cells, by the convex–concave
-/// procedure of [`super::kinematics`] from the constant dwell that keeps every row.
-fn within_acceleration(
-    problem: &DwellProblem,
-    operator: &Band,
-    vars: &Variables,
-    scales: &Scales,
-    floors: &[Floor],
-    budget: &Budget,
-) -> Result<Attempt, OptimizeError> {
-    let n = problem.motion.len();
-    let c = &problem.constraints;
-    let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
-    let start_s = floors_s.iter().copied().fold(
-        constant_dwell_for_acceleration(problem.axes, problem.motion),
-        f64::max,
-    );
-    let fields: Vec<Bound> = problem
-        .axes
-        .iter()
-        .filter(|a| a.max_acceleration_per_s2.is_some())
-        .map(|a| a.acceleration_bound())
-        .collect();
-    let refuse = |bound: Constraint, detail: String| {
-        let mut all = fields.clone();
-        all.push(Bound::Constraint(bound));
-        Err(OptimizeError::Infeasible {
-            fields: all,
-            detail,
-        })
-    };
-    if let Some(hi) = c.max_dwell_s.filter(|&hi| start_s > hi) {
-        return refuse(
-            Constraint::MaxDwell,
-            format!("within the machine's acceleration limits the optimizer starts from a constant dwell of {start_s} s per position, more than max_dwell_s ({hi} s)"),
-        );
-    }
-    if let Some(total) = c.max_total_time_s.filter(|&t| start_s * n as f64 > t) {
-        return refuse(
-            Constraint::MaxTotalTime,
-            format!(
-                "within the machine's acceleration limits the optimizer starts from a constant dwell of {start_s} s per position, {} s in total, more than max_total_time_s ({total} s)",
-                start_s * n as f64
-            ),
-        );
-    }
-    let tau = scales.dwell_s;
-    // Start from the constant dwell that fits best among those keeping every row: of the
-    // target's scale, so the first linearisation is well conditioned (the least constant
-    // dwell may be 1e5 times shorter than the plan's, and its tangents as steep).
-    let start = constant_fallback(problem, operator, scales, start_s);
-    let mut around: Vec<f64> = start.dwell_s.iter().map(|t| t / tau).collect();
-    let mut best: Option<Attempt> = None;
-    let (mut iterations, mut solve_time_s) = (0, 0.0);
-    for _ in 0..MAX_CCP_ITERATIONS {
-        let next = attempt(
-            problem,
-            operator,
-            vars,
-            scales,
-            &floors_s,
-            Some(&around),
-            budget,
-        )?;
-        iterations += next.iterations;
-        solve_time_s += next.solve_time_s;
-        // Every exact iterate keeps the limits; one that does not is the solver's inaccuracy
-        // (an almost-solved, badly conditioned round): the last iterate that kept them stands.
-        let kept = problem
-            .axes
-            .iter()
-            .all(|a| peak_acceleration_ratio(a, problem.motion, &next.dwell_s) <= 1.0)
-            && problem
-                .constraints
-                .violation(&next.dwell_s, floors, scales.dwell_s)
-                .is_none();
-        if !kept {
-            best.get_or_insert(start);
-            break;
-        }
-        let settled = best
-            .as_ref()
-            .is_some_and(|b| b.objective - next.objective <= CCP_TOLERANCE * b.objective.abs());
-        // Each iterate keeps the limits; a solver's rounding may cost a little objective.
-        around = next.dwell_s.iter().map(|t| t / tau).collect();
-        if best.as_ref().is_none_or(|b| next.objective <= b.objective) {
-            best = Some(next);
-        }
-        if settled {
-            break;
-        }
-    }
-    let mut best = best.expect("at least one iteration");
-    best.iterations = iterations;
-    best.solve_time_s = solve_time_s;
-    Ok(best)
-}
-
-/// The constant dwell t (with the piston p ≥ 0 when free) that fits the target best in least
-/// squares, but no less than `start_s`, the constant dwell that keeps every row: a constant
-/// dwell keeps the acceleration rows the more the longer it is (velocities fall as 1/t, the
-/// allowed change grows as t), sits on no dwell change, and stays within `max_dwell_s` and
-/// `max_total_time_s`/n (checked above `start_s` before). The convex–concave procedure starts
-/// from it, and it stands when no round improves on it within the limits (reported as almost
-/// solved: within every limit, not the optimum).
-fn constant_fallback(
-    problem: &DwellProblem,
-    band: &Band,
-    scales: &Scales,
-    start_s: f64,
-) -> Attempt {
-    let rows = &problem.rows;
-    let n = problem.motion.len();
-    // u: the removal of one second at every position, on the aperture's rows.
-    let mut unit = vec![0.0; rows.len()];
-    for j in 0..n {
-        let from = band.start[j] - rows.start;
-        for (o, m) in unit[from..].iter_mut().zip(band.values[j].iter()) {
-            *o += m;
-        }
-    }
-    let (mut su, mut suu, mut sd, mut sud) = (0.0, 0.0, 0.0, 0.0);
-    for (&u, &d) in unit.iter().zip(problem.target_nm) {
-        (su, suu, sd, sud) = (su + u, suu + u * u, sd + d, sud + u * d);
-    }
-    let m = unit.len() as f64;
-    // min Σ (t·u − d − p)²: with p free, the normal equations t·Σu² − p·Σu = Σud,
-    // −t·Σu + p·m = −Σd; p < 0 (or no piston) leaves t = Σud/Σu².
-    let alone = if suu > 0.0 { sud / suu } else { 0.0 };
-    let t = if problem.free_piston {
-        let det = suu * m - su * su;
-        let t = (sud * m - su * sd) / det;
-        let p = (t * su - sd) / m;
-        if det > 0.0 && p > 0.0 && t.is_finite() {
-            t
-        } else {
-            alone
-        }
-    } else {
-        alone
-    };
-    let mut t = t.max(start_s);
-    let c = &problem.constraints;
-    if let Some(hi) = c.max_dwell_s {
-        t = t.min(hi);
-    }
-    if let Some(total) = c.max_total_time_s {
-        t = t.min(total / n as f64);
-    }
-    let t = t.max(start_s);
-    // The best piston for the dwell kept (p ≥ 0).
-    let p = if problem.free_piston {
-        ((t * su - sd) / m).max(0.0)
-    } else {
-        0.0
-    };
-    let dwell_s = vec![t; n];
-    Attempt {
-        objective: objective_value(problem, band, scales, &dwell_s, p),
-        piston_nm: problem.free_piston.then_some(p),
-        dwell_s,
-        status: SolveStatus::AlmostSolved,
-        iterations: 0,
-        solve_time_s: 0.0,
-    }
-}
-
-/// Refuses a plan that breaks a constraint or the machine's acceleration limits by more than
-/// the tolerance (a solver's inaccuracy: the QP keeps them all).
-fn check_plan(
-    problem: &DwellProblem,
-    floors: &[Floor],
-    scales: &Scales,
-    plan: &Attempt,
-) -> Result<(), OptimizeError> {
-    let status = plan.status;
-    if let Some(breach) = problem
-        .constraints
-        .violation(&plan.dwell_s, floors, scales.dwell_s)
-    {
-        return Err(OptimizeError::Numerical {
-            status: format!(
-                "{status:?}, but the plan breaks {} at index {} by {:e} s",
-                breach.bound.describe(),
-                breach.index,
-                breach.excess_s
-            ),
-        });
-    }
-    if let Some((axis, ratio)) = problem
-        .axes
-        .iter()
-        .map(|a| (a, peak_acceleration_ratio(a, problem.motion, &plan.dwell_s)))
-        .find(|&(_, ratio)| ratio > 1.0)
-    {
-        return Err(OptimizeError::Numerical {
-            status: format!(
-                "{status:?}, but the plan exceeds {} by a factor {ratio}",
-                axis.acceleration_bound().describe()
-            ),
-        });
-    }
-    Ok(())
-}
-
 /// The plan with the dwell in `basis`: the QP, then, if the machine's acceleration limits
 /// between cells are not kept, the convex–concave procedure.
 fn plan_in(
@@ -922,7 +458,17 @@ fn plan_in(
         && !keeps_acceleration(problem.axes, problem.motion, &plan.dwell_s)
     {
         let first = (plan.iterations, plan.solve_time_s);
-        plan = within_acceleration(problem, operator, &vars, scales, floors, budget)?;
+        plan = within_acceleration(problem, operator, scales, floors, |around| {
+            attempt(
+                problem,
+                operator,
+                &vars,
+                scales,
+                &floors_s,
+                Some(around),
+                budget,
+            )
+        })?;
         plan.iterations += first.0;
         plan.solve_time_s += first.1;
     }
@@ -958,26 +504,8 @@ pub fn optimize(problem: &DwellProblem) -> Result<Solution, OptimizeError> {
     feasibility::check(c, &floors, &budget)?;
 
     let band = Band::new(problem.operator, &problem.rows);
-    let m = problem.rows.len() as f64;
-    let rate = (0..n).map(|j| band.column_sum(j)).sum::<f64>() / m;
-    if rate.is_nan() || rate <= 0.0 {
-        return Err(OptimizeError::NoRemovalInAperture);
-    }
-    let rms = (problem.target_nm.iter().map(|d| d * d).sum::<f64>() / m).sqrt();
-    let depth_nm = if rms > 0.0 { rms } else { 1.0 };
+    let scales = Scales::of(problem, &band)?;
     let rt = problem.tool_radius_mm;
-    let scales = Scales {
-        m,
-        n: n as f64,
-        rate,
-        depth_nm,
-        dwell_s: depth_nm / rate,
-        smoothing: if n > 2 {
-            problem.objective.smoothing * rt.powi(4) / (n - 2) as f64
-        } else {
-            0.0
-        },
-    };
 
     let basis = Basis::new(problem.motion.radii_mm(), rt, problem.basis);
     let checked = |basis: Basis| {
