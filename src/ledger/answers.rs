@@ -52,6 +52,19 @@ pub(super) struct Estimate {
     pub standard_error: Option<f64>,
 }
 
+/// What a part's stored body gives a request's process: its workpiece radius (the number as
+/// written: an integer stays one).
+#[derive(Debug, Deserialize)]
+pub(super) struct PartRadius {
+    pub workpiece_radius_mm: serde_json::Number,
+}
+
+/// A plan request's clear aperture, when it names one.
+#[derive(Debug, Deserialize)]
+pub(super) struct PlanAperture {
+    pub clear_aperture: Option<Value>,
+}
+
 /// A process document's Preston coefficient (profiles store it filled in).
 #[derive(Debug, Deserialize)]
 pub(super) struct ProcessRate {

@@ -38,7 +38,7 @@ pub async fn plan<C: Compute>(
             ("surface", "the part"),
         ],
     )?;
-    for (field, value) in on_part(current.process, &document(&part.body)?) {
+    for (field, value) in on_part(current.process, &document(&part.body)?)? {
         if absent(&request, &field) {
             request.insert(field, value);
         }
@@ -260,7 +260,7 @@ pub async fn history(store: &Store, id: &str) -> Result<History, LedgerError> {
     let profile = profiles::load(store, &part.process_profile).await?;
     let calibrations = store.calibrations(&part.process_profile).await?;
     let current = current_process(&profile, &calibrations)?;
-    let next_process = on_part(current.process, &document(&part.body)?)
+    let next_process = on_part(current.process, &document(&part.body)?)?
         .remove("process")
         .unwrap_or_default();
     Ok(History {

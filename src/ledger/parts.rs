@@ -5,7 +5,7 @@
 
 use serde_json::{json, Value};
 
-use super::answers::{read, MeasurementAnswer, PlanAnswer};
+use super::answers::{read, MeasurementAnswer, PartRadius, PlanAnswer, PlanAperture};
 use super::cycles::plan_setting;
 use super::profiles::{self, calibration_record};
 use super::{
@@ -71,7 +71,7 @@ impl NewPart {
         })?;
         let current = profiles::current(store, &profile).await?;
         let body = Value::Object(self.body);
-        compute.check_setting(&on_part(current.process, &body), SettingOwner::Part)?;
+        compute.check_setting(&on_part(current.process, &body)?, SettingOwner::Part)?;
         Ok(PartRecord {
             stamp: write.stamp(),
             name: self.name,
@@ -83,12 +83,15 @@ impl NewPart {
 
 /// A request's setting on a part: the process at the part's workpiece radius, the part's
 /// surface and clear aperture (`part` is the part's stored body).
-pub fn on_part(mut process: Value, part: &Value) -> Document {
-    process["workpiece_radius_mm"] = part["workpiece_radius_mm"].clone();
+pub fn on_part(mut process: Value, part: &Value) -> Result<Document, LedgerError> {
+    let radius = read::<PartRadius>(part, "a part")?.workpiece_radius_mm;
+    if let Some(process) = process.as_object_mut() {
+        process.insert("workpiece_radius_mm".into(), Value::Number(radius));
+    }
     let mut setting = Document::new();
     setting.insert("process".into(), process);
     fill(&mut setting, part, &["surface", "clear_aperture"]);
-    setting
+    Ok(setting)
 }
 
 pub async fn load(store: &Store, id: &str) -> Result<PartRecord, LedgerError> {
@@ -208,8 +211,8 @@ async fn learn_from_cycle<C: Compute>(
         "before": read::<MeasurementAnswer>(&document(&before.result)?, "a measurement")?.profile,
         "after": after,
     });
-    if let Some(aperture) = plan_request.get("clear_aperture") {
-        run_fit["clear_aperture"] = aperture.clone();
+    if let Some(aperture) = read::<PlanAperture>(&plan_request, "a plan request")?.clear_aperture {
+        run_fit["clear_aperture"] = aperture;
     }
     let mut request = Document::new();
     plan_setting(&mut request, &plan_request, &profile)?;

@@ -22,15 +22,24 @@ use crate::usecases::records::{PartRecord, Record, Records};
 /// Most parts a page lists.
 pub const MAX_PAGE: usize = 100;
 
+/// What a part's stored body holds (its request, as written).
+#[derive(serde::Deserialize)]
+struct StoredPart {
+    surface: Option<Value>,
+    workpiece_radius_mm: f64,
+    clear_aperture: Option<Value>,
+}
+
 pub(super) fn part_dto(part: &PartRecord) -> Result<PartDto, ApiError> {
-    let body = document(&part.body)?;
+    let body: StoredPart = serde_json::from_value(document(&part.body)?)
+        .map_err(|e| ApiError::internal(format!("a stored part: {e}")))?;
     Ok(PartDto {
         id: part.stamp.id.clone(),
         name: part.name.clone(),
         process_profile: part.process_profile.clone(),
-        surface: body.get("surface").cloned(),
-        workpiece_radius_mm: body["workpiece_radius_mm"].as_f64().unwrap_or(f64::NAN),
-        clear_aperture: body.get("clear_aperture").cloned(),
+        surface: body.surface,
+        workpiece_radius_mm: body.workpiece_radius_mm,
+        clear_aperture: body.clear_aperture,
         created_at: part.stamp.created_at.clone(),
         created_by: part.stamp.created_by.clone(),
         computed_by: computed_by(&part.stamp),
