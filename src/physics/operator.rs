@@ -23,10 +23,10 @@
 //! only the clear aperture's rows: a new operator's other rows are assembled while it solves
 //! ([`RemovalOperator::assemble_while`]), and stacked with them after.
 //!
-//! A row's running integral F_i also gives, for nothing, what a constant feed over [a, b]
-//! removes at r_i: τ·(F_i(b) − F_i(a)) ([`PassReading`]; the recommendation's equal-dwell pass
-//! at the user's speeds). It is read from the same F a pass computed alone reads
-//! ([`ConstantFeed::removal_read_nm`]), so both give the same bits.
+//! A row's running integral F_i can also give, for nothing, another figure read from it: the
+//! caller's [`RowReading`] (what a constant feed over [a, b] removes at r_i, τ·(F_i(b) −
+//! F_i(a)), for the recommendation's equal-dwell pass: `schedule::PassReading`). The operator
+//! hands it each row's F and knows nothing of what it reads.
 
 use std::ops::Range;
 use std::sync::OnceLock;
@@ -36,33 +36,39 @@ use rayon::prelude::*;
 use super::motion::Motion;
 use super::path::PARALLEL_MIN_PATHS;
 use super::removal::{RemovalKernel, RunningIntegral};
-use super::schedule::ConstantFeed;
 
 /// A single position's operator (a stop: one rate per row) is computed in parallel from this
 /// many entries; below it threads cost more than they save. Otherwise every row is a path
 /// integral, and [`PARALLEL_MIN_PATHS`] rows go parallel.
 const PARALLEL_MIN_ENTRIES: usize = 20_000;
 
-/// Columns laid out together from the rows (see `assemble_with_pass`).
+/// Columns laid out together from the rows (see `assemble_reading`).
 const GATHER_BLOCK: usize = 16;
 
-/// A constant feed read beside an operator: what it removes at the operator's rows `rows`
-/// (a range of its radii), as [`ConstantFeed::removal_read_nm`] computes it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PassReading {
-    pub feed: ConstantFeed,
-    pub rows: Range<usize>,
+/// A figure read from each of the rows `rows()` (a range of an operator's radii) while the
+/// operator is assembled, from the row's running integral F (its rows build them anyway).
+pub trait RowReading: Sync {
+    fn rows(&self) -> Range<usize>;
+    /// The figure at radius `r`: from the row's `path` when it built one, else computed alone
+    /// (it must then give the bits the path would).
+    fn read(&self, kernel: &RemovalKernel, r: f64, path: Option<&RunningIntegral>) -> f64;
 }
 
-impl PassReading {
-    /// F(stop) − F(start) read from a row's running integral `path`.
-    fn difference(&self, path: &RunningIntegral) -> f64 {
-        path.between(self.feed.start_mm(), self.feed.stop_mm())
-    }
+/// A reading of the rows of a part of an operator: `inner`'s rows among `part`, counted from
+/// its first.
+struct PartReading<'a> {
+    inner: &'a dyn RowReading,
+    part: Range<usize>,
+}
 
-    /// The removal, nm, of an integral F(stop) − F(start).
-    fn removal(&self, difference: f64) -> f64 {
-        self.feed.dwell_density_s_per_mm() * difference
+impl RowReading for PartReading<'_> {
+    fn rows(&self) -> Range<usize> {
+        let (rows, part) = (self.inner.rows(), &self.part);
+        rows.start.clamp(part.start, part.end) - part.start
+            ..rows.end.clamp(part.start, part.end) - part.start
+    }
+    fn read(&self, kernel: &RemovalKernel, r: f64, path: Option<&RunningIntegral>) -> f64 {
+        self.inner.read(kernel, r, path)
     }
 }
 
@@ -158,33 +164,34 @@ impl RemovalOperator {
     /// the process's reach).
     /// By row; the columns are laid out when first asked for.
     pub fn assemble(kernel: &RemovalKernel, radii_mm: &[f64], motion: &Motion) -> Self {
-        Self::assemble_with_pass(kernel, radii_mm, motion, None, Layout::Rows).0
+        Self::assemble_reading(kernel, radii_mm, motion, None, Layout::Rows).0
     }
 
-    /// M, and with `pass` what that constant feed removes at its rows, read from the rows'
-    /// own running integrals ([`PassReading`]): `None` for the pass when the kernel's running
+    /// M, and with `reading` its figure at its rows, read from the rows' own running
+    /// integrals ([`RowReading`]): `None` for the reading when the kernel's running
     /// integrals depend on where the path ends ([`RemovalKernel::path_ignores_end`]).
-    pub fn assemble_with_pass(
+    pub fn assemble_reading(
         kernel: &RemovalKernel,
         radii_mm: &[f64],
         motion: &Motion,
-        pass: Option<&PassReading>,
+        reading: Option<&dyn RowReading>,
         layout: Layout,
     ) -> (Self, Option<Vec<f64>>) {
         let cells = Cells::new(kernel, motion);
-        Self::assemble_on(kernel, radii_mm, motion, &cells, pass, layout)
+        Self::assemble_on(kernel, radii_mm, motion, &cells, reading, layout)
     }
 
-    /// [`Self::assemble_with_pass`] on the plan's `cells`, made once by the caller.
+    /// [`Self::assemble_reading`] on the plan's `cells`, made once by the caller.
     fn assemble_on(
         kernel: &RemovalKernel,
         radii_mm: &[f64],
         motion: &Motion,
         cells: &Cells<'_>,
-        pass: Option<&PassReading>,
+        reading: Option<&dyn RowReading>,
         layout: Layout,
     ) -> (Self, Option<Vec<f64>>) {
-        let pass = pass.filter(|_| kernel.path_ignores_end());
+        // The rows' paths end where the plan does: read only where that does not matter.
+        let reading = reading.filter(|_| kernel.path_ignores_end());
         debug_assert!(radii_mm.windows(2).all(|w| w[0] <= w[1]));
         let n = motion.len();
         let Cells { bounds, per_arc } = cells;
@@ -201,27 +208,25 @@ impl RemovalOperator {
         for span in &spans {
             row_ptr.push(row_ptr.last().unwrap() + span.len());
         }
-        // Row i's entries, written in its own slice of one block; what the pass removes there.
+        // Row i's entries, written in its own slice of one block; what is read there.
         let row = |(i, out): (usize, &mut [f64])| -> f64 {
             let Range {
                 start: j_lo,
                 end: j_hi,
             } = spans[i];
             let r = radii_mm[i];
-            let in_pass = pass.filter(|p| p.rows.contains(&i));
-            // A row with no path of its own reads the pass from a path made alone (the same F).
-            let alone = |p: &PassReading| {
-                p.removal(kernel.path_difference(r, p.feed.start_mm(), p.feed.stop_mm()))
-            };
+            let reading = reading.filter(|p| p.rows().contains(&i));
+            // A row with no path of its own has it read alone.
+            let alone = |p: &dyn RowReading| p.read(kernel, r, None);
             if j_lo == j_hi {
-                return in_pass.map_or(0.0, alone);
+                return reading.map_or(0.0, alone);
             }
             if n == 1 {
                 out[0] = kernel.rate_nm_per_s(r, motion.radii_mm()[0]);
-                return in_pass.map_or(0.0, alone);
+                return reading.map_or(0.0, alone);
             }
             let path = kernel.path_integral(r, bounds[n]);
-            let passed = in_pass.map_or(0.0, |p| p.removal(p.difference(&path)));
+            let read = reading.map_or(0.0, |p| p.read(kernel, r, Some(&path)));
             // F at the cells' starts, and at the last cell's end; then each cell's entry in its
             // place (cell j reads ends j and j + 1 before entry j overwrites end j).
             path.at_ascending(&bounds[j_lo..j_hi], out);
@@ -236,22 +241,22 @@ impl RemovalOperator {
                         motion.stop_share(j) * kernel.rate_nm_per_s(r, motion.radii_mm()[j]);
                 }
             }
-            passed
+            read
         };
-        // A stop's rows are single rates, unless they also read a pass (a path each).
-        let parallel = if n == 1 && pass.is_none() {
+        // A stop's rows are single rates, unless they are also read (a path each).
+        let parallel = if n == 1 && reading.is_none() {
             entries >= PARALLEL_MIN_ENTRIES
         } else {
             radii_mm.len() >= PARALLEL_MIN_PATHS
         };
         let mut values = vec![0.0; entries];
         let slices = split_at_offsets(&mut values, &row_ptr[1..]);
-        let passed_by_row: Vec<f64> = if parallel {
+        let read_by_row: Vec<f64> = if parallel {
             slices.into_par_iter().enumerate().map(row).collect()
         } else {
             slices.into_iter().enumerate().map(row).collect()
         };
-        let passed = pass.map(|p| passed_by_row[p.rows.clone()].to_vec());
+        let read = reading.map(|p| read_by_row[p.rows()].to_vec());
         let rows = Rows {
             first_col: spans.iter().map(|span| span.start).collect(),
             row_ptr,
@@ -271,10 +276,10 @@ impl RemovalOperator {
             rows,
             columns,
         };
-        (operator, passed)
+        (operator, read)
     }
 
-    /// [`Self::assemble_with_pass`] for a caller that first needs only the rows `first` (an
+    /// [`Self::assemble_reading`] for a caller that first needs only the rows `first` (an
     /// optimizer reads only the clear aperture's), and `during(operator, rows)` run on an
     /// operator holding them, `rows` being where they are in it. When there are at least
     /// [`PARALLEL_MIN_PATHS`] other rows, it is done in two stages: the rows `first` are
@@ -287,46 +292,45 @@ impl RemovalOperator {
         kernel: &RemovalKernel,
         radii_mm: &[f64],
         motion: &Motion,
-        pass: Option<&PassReading>,
+        reading: Option<&dyn RowReading>,
         first: Range<usize>,
         during: impl FnOnce(&RemovalOperator, Range<usize>) -> R + Send,
     ) -> (Self, Option<Vec<f64>>, R) {
         if radii_mm.len() - first.len() < PARALLEL_MIN_PATHS {
-            let (whole, passed) =
-                Self::assemble_with_pass(kernel, radii_mm, motion, pass, Layout::Columns);
+            let (whole, read) =
+                Self::assemble_reading(kernel, radii_mm, motion, reading, Layout::Columns);
             let result = during(&whole, first);
-            return (whole, passed, result);
+            return (whole, read, result);
         }
         let cells = Cells::new(kernel, motion);
         let part = |rows: Range<usize>| {
-            // The pass's rows among these, counted from the first of them.
-            let pass = pass.map(|p| PassReading {
-                feed: p.feed,
-                rows: p.rows.start.clamp(rows.start, rows.end) - rows.start
-                    ..p.rows.end.clamp(rows.start, rows.end) - rows.start,
+            let reading = reading.map(|inner| PartReading {
+                inner,
+                part: rows.clone(),
             });
+            let reading = reading.as_ref().map(|p| p as &dyn RowReading);
             let radii = &radii_mm[rows];
             let layout = Layout::Rows;
-            Self::assemble_on(kernel, radii, motion, &cells, pass.as_ref(), layout)
+            Self::assemble_on(kernel, radii, motion, &cells, reading, layout)
         };
-        let (inner, inner_passed) = part(first.clone());
+        let (inner, inner_read) = part(first.clone());
         // Laid out here, across threads, before `during` reads them on one.
         inner.column_view();
-        let (result, (whole, passed)) = rayon::join(
+        let (result, (whole, read)) = rayon::join(
             || during(&inner, 0..inner.rows()),
             || {
-                let (below, below_passed) = part(0..first.start);
-                let (above, above_passed) = part(first.end..radii_mm.len());
+                let (below, below_read) = part(0..first.start);
+                let (above, above_read) = part(first.end..radii_mm.len());
                 let parts = [&below, &inner, &above];
                 let whole = Self::stacked(kernel, radii_mm, motion, parts);
-                let passed = [below_passed, inner_passed, above_passed]
+                let read = [below_read, inner_read, above_read]
                     .into_iter()
                     .collect::<Option<Vec<Vec<f64>>>>()
                     .map(|parts| parts.concat());
-                (whole, passed)
+                (whole, read)
             },
         );
-        (whole, passed, result)
+        (whole, read, result)
     }
 
     /// The operator on `radii_mm` whose rows are those of `parts` (each held by row, on
@@ -650,7 +654,7 @@ mod tests {
             assert!(op.column(cols).1.is_empty());
             // Assembled by column: the rows made from the columns are the rows, and M·t and
             // Mᵀ·y are the same bits from either layout.
-            let by_column = RemovalOperator::assemble_with_pass(
+            let by_column = RemovalOperator::assemble_reading(
                 &k,
                 &radii,
                 &motion(&positions),

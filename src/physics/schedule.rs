@@ -8,14 +8,16 @@
 //! of arc), i.e. with dwell density τ = 60/v s per mm of arc. It needs no cells: it removes
 //! ΔZ(r) = τ·∫_a^b R(r; ρ(s)) ds, the running integral of [`super::path`] read at both ends.
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 
 use super::grid::RadialGrid;
 use super::motion::Motion;
-use super::operator::RemovalOperator;
+use super::operator::{RemovalOperator, RowReading};
 use super::path::PARALLEL_MIN_PATHS;
 use super::process::Process;
-use super::removal::RemovalKernel;
+use super::removal::{RemovalKernel, RunningIntegral};
 
 /// Why a dwell schedule or feed path was refused. `field` and `index` locate the input.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -300,7 +302,7 @@ impl ConstantFeed {
 
     /// [`Self::removal_nm`] read from each radius's running integral, F(stop) − F(start)
     /// ([`RemovalKernel::path_difference`]): the reading an operator's rows make of their
-    /// own, so a pass computed beside an operator ([`super::operator::PassReading`]) gives
+    /// own, so a pass computed beside an operator ([`PassReading`]) gives
     /// these very bits.
     pub fn removal_read_nm(&self, process: &Process, radii_mm: &[f64]) -> Vec<f64> {
         let kernel = RemovalKernel::new(process);
@@ -323,6 +325,30 @@ impl ConstantFeed {
             }
             tau * kernel.path_total(r, self.start_mm, self.stop_mm)
         })
+    }
+}
+
+/// A constant feed read beside an operator ([`RowReading`]): what it removes at the operator's
+/// rows `rows` (a range of its radii), from each row's running integral as
+/// [`ConstantFeed::removal_read_nm`] reads it alone, so both give the same bits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PassReading {
+    pub feed: ConstantFeed,
+    pub rows: Range<usize>,
+}
+
+impl RowReading for PassReading {
+    fn rows(&self) -> Range<usize> {
+        self.rows.clone()
+    }
+
+    fn read(&self, kernel: &RemovalKernel, r: f64, path: Option<&RunningIntegral>) -> f64 {
+        let (a, b) = (self.feed.start_mm(), self.feed.stop_mm());
+        let difference = match path {
+            Some(path) => path.between(a, b),
+            None => kernel.path_difference(r, a, b),
+        };
+        self.feed.dwell_density_s_per_mm() * difference
     }
 }
 

@@ -20,7 +20,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use crate::physics::{
-    Layout, Motion, PassReading, Process, RemovalKernel, RemovalOperator, Turning,
+    Layout, Motion, Process, RemovalKernel, RemovalOperator, RowReading, Turning,
 };
 
 /// Default memory budget of the cache, bytes.
@@ -123,34 +123,34 @@ impl OperatorCache {
         radii_mm: &[f64],
         motion: &Motion,
     ) -> Arc<RemovalOperator> {
-        self.operator_with_pass(process, radii_mm, motion, None).0
+        self.operator_reading(process, radii_mm, motion, None).0
     }
 
-    /// [`Self::operator`], and when it is assembled now, what `pass` removes at its rows as
-    /// the operator's rows read it ([`RemovalOperator::assemble_with_pass`]); `None` for the
-    /// pass when the operator was held (or the rows could not read it).
-    pub fn operator_with_pass(
+    /// [`Self::operator`], and when it is assembled now, `reading`'s figure at its rows as the
+    /// operator's rows read it ([`RemovalOperator::assemble_reading`]); `None` for the
+    /// reading when the operator was held (or the rows could not read it).
+    pub fn operator_reading(
         &self,
         process: &Process,
         radii_mm: &[f64],
         motion: &Motion,
-        pass: Option<&PassReading>,
+        reading: Option<&dyn RowReading>,
     ) -> (Arc<RemovalOperator>, Option<Vec<f64>>) {
         let key = key(process, radii_mm, motion);
         if let Some(held) = self.lookup(&key) {
             return (held, None);
         }
-        let (operator, passed) = RemovalOperator::assemble_with_pass(
+        let (operator, read) = RemovalOperator::assemble_reading(
             &RemovalKernel::new(process),
             radii_mm,
             motion,
-            pass,
+            reading,
             Layout::Rows,
         );
-        (self.keep(key, operator), passed)
+        (self.keep(key, operator), read)
     }
 
-    /// [`Self::operator_with_pass`] for a caller that first needs only the rows `first`, with
+    /// [`Self::operator_reading`] for a caller that first needs only the rows `first`, with
     /// `during(operator, rows)` run on an operator holding them (`rows`: where they are in
     /// it): the held operator, or when it is assembled now, the rows `first` alone while the
     /// others are assembled beside it ([`RemovalOperator::assemble_while`]).
@@ -159,7 +159,7 @@ impl OperatorCache {
         process: &Process,
         radii_mm: &[f64],
         motion: &Motion,
-        pass: Option<&PassReading>,
+        reading: Option<&dyn RowReading>,
         first: Range<usize>,
         during: impl FnOnce(&RemovalOperator, Range<usize>) -> R + Send,
     ) -> (Arc<RemovalOperator>, Option<Vec<f64>>, R) {
@@ -168,15 +168,15 @@ impl OperatorCache {
             let result = during(&held, first);
             return (held, None, result);
         }
-        let (operator, passed, result) = RemovalOperator::assemble_while(
+        let (operator, read, result) = RemovalOperator::assemble_while(
             &RemovalKernel::new(process),
             radii_mm,
             motion,
-            pass,
+            reading,
             first,
             during,
         );
-        (self.keep(key, operator), passed, result)
+        (self.keep(key, operator), read, result)
     }
 
     /// The operator held under `key`, counted as a hit (or the miss counted).

@@ -24,7 +24,7 @@ use crate::optimize::{
     measured_profile, optimize as solve, Constraints, ConstraintsSpec, DwellBasis, DwellProblem,
     MeasuredProfileError, Objective, OptimizeError, Solution,
 };
-use crate::physics::{check_positions, Motion, UniformityMetrics};
+use crate::physics::{check_positions, Motion, RowReading, UniformityMetrics};
 use crate::study::Recommendation;
 use crate::surface::{Surface, SurfaceError};
 
@@ -464,7 +464,7 @@ pub fn optimize(
         setting.process(),
         setting.grid().radii_mm(),
         &motion,
-        pass.as_ref(),
+        pass.as_ref().map(|p| p as &dyn RowReading),
         rows.clone(),
         |operator, rows| {
             solve(&DwellProblem {

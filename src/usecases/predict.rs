@@ -4,7 +4,7 @@
 use super::warnings::unit_warnings;
 use super::{ComputeLimits, Input, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::machine::MachineChoice;
-use crate::physics::{ConstantFeed, DwellSchedule, UniformityMetrics};
+use crate::physics::{ConstantFeed, DwellSchedule, RowReading, UniformityMetrics};
 use crate::study::Recommendation;
 
 /// What the tool does: a dwell plan, or one constant feed along the surface.
@@ -100,8 +100,12 @@ pub fn predict(
     let pass = Recommender::pass_to_read(&setting);
     let (removal_nm, total_time_s, warnings, passed) = match &travel {
         Travel::Dwell(schedule) => {
-            let (operator, passed) =
-                operators.operator_with_pass(process, radii, schedule.motion(), pass.as_ref());
+            let (operator, passed) = operators.operator_reading(
+                process,
+                radii,
+                schedule.motion(),
+                pass.as_ref().map(|p| p as &dyn RowReading),
+            );
             (
                 operator.apply(schedule.dwell_s()),
                 schedule.total_time_s(),

@@ -307,7 +307,7 @@ mod tests {
     use crate::physics::process::tests::paper_spec;
     use crate::physics::{
         ClearAperture, Layout, Motion, Orientation, Part, PressureModel, ProcessSpec, RadialGrid,
-        RemovalKernel, RemovalOperator,
+        RemovalKernel, RemovalOperator, RowReading,
     };
     use crate::surface::{Surface, SurfaceSpec};
 
@@ -363,11 +363,11 @@ mod tests {
             ]
             .map(Motion::radial);
             for motion in plans {
-                let (_, passed) = RemovalOperator::assemble_with_pass(
+                let (_, passed) = RemovalOperator::assemble_reading(
                     &RemovalKernel::new(&process),
                     grid.radii_mm(),
                     &motion,
-                    Some(&reading),
+                    Some(&reading as &dyn RowReading),
                     Layout::Rows,
                 );
                 if matches!(spec.pressure_model, PressureModel::Linear { .. }) {
@@ -387,7 +387,7 @@ mod tests {
                         &RemovalKernel::new(&process),
                         grid.radii_mm(),
                         &motion,
-                        Some(&reading),
+                        Some(&reading as &dyn RowReading),
                         first.clone(),
                         |_, _| (),
                     );
