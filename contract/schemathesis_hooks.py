@@ -268,7 +268,11 @@ def _with_body(case, build):
     return case
 
 
-@schemathesis.hook
+# Registered for these operations only: every other operation's strategy stays as it was.
+_RECORD_POSTS = sorted(path for _, path in _BODIES)
+
+
+@schemathesis.hook.apply_to(method="POST", path=_RECORD_POSTS)
 def flatmap_case(context, case):
     key = _operation_key(context.operation) if context.operation is not None else None
     build = _BODIES.get(key)
@@ -291,7 +295,7 @@ def flatmap_case(context, case):
     return st.integers(min_value=0, max_value=9).map(choose)
 
 
-@schemathesis.hook
+@schemathesis.hook.apply_to(method="POST", path=_RECORD_POSTS)
 def after_call(context, case, response):
     """Remember the records created with usable data, for the bodies above."""
     if response.status_code != 201 or context.operation is None:

@@ -244,6 +244,17 @@ pub struct History {
 }
 
 impl History {
+    /// The ids of every record the history is made of (the part, its measurements, plans
+    /// and runs, its profile's calibrations), in that order.
+    pub fn record_ids(&self) -> Vec<&str> {
+        let stamps = std::iter::once(&self.part.stamp)
+            .chain(self.measurements.iter().map(|m| &m.stamp))
+            .chain(self.plans.iter().map(|p| &p.stamp))
+            .chain(self.runs.iter().map(|r| &r.stamp))
+            .chain(self.calibrations.iter().map(|c| &c.stamp));
+        stamps.map(|s| s.id.as_str()).collect()
+    }
+
     /// The part's cycles, in the order they ran.
     pub fn cycles(&self) -> Vec<Cycle<'_>> {
         cycles(

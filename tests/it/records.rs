@@ -402,10 +402,29 @@ fn from_now(minutes: u64) -> String {
 async fn cycle_without_a_measurement_before(url: &str) {
     let (store, app, _, part) = new_part(url).await;
     let part_id = part["id"].as_str().unwrap();
+    // A view's ETag names the records it renders: the history's changes when a plan joins
+    // it, holds while nothing does, and the old tag no longer gets a 304.
+    let history_path = format!("/v1/parts/{part_id}/history");
+    let etag = |reply: &Reply| reply.headers["etag"].to_str().unwrap().to_string();
+    let empty = etag(&get(&app, &history_path).await);
     let mut body = plan_body();
     body["target"] = json!({"uniform_depth_nm": 50});
     let plan = created(&app, &format!("/v1/parts/{part_id}/plans"), &body).await;
     assert!(plan["measurement_id"].is_null());
+    let planned = etag(&get(&app, &history_path).await);
+    assert_ne!(planned, empty);
+    assert_eq!(etag(&get(&app, &history_path).await), planned);
+    let status = |tag: String| {
+        let app = app.clone();
+        let path = history_path.clone();
+        async move {
+            get_with(&app, &path, &[("if-none-match", &tag)])
+                .await
+                .status
+        }
+    };
+    assert_eq!(status(empty).await, 200);
+    assert_eq!(status(planned).await, 304);
     created(
         &app,
         &format!("/v1/parts/{part_id}/runs"),

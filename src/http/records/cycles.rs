@@ -8,7 +8,7 @@ use serde_json::{Map, Value};
 use super::docs::{PartPlanRequest, PlanProgramRequest, RecordReadProblems, RecordWriteProblems};
 use super::dto::{CycleDto, HistoryDto, PlanDto, RatioDto, RunRecordDto, RunRequest};
 use super::parts::part_dto;
-use super::{begin, commit, computed_by, fetched, replayed, store, Writer};
+use super::{begin, commit, computed_by, fetched, replayed, store, tag, Writer};
 use crate::http::dto::WarningDto;
 use crate::http::endpoint::{offered, render, Endpoint};
 use crate::http::error::ApiError;
@@ -89,7 +89,7 @@ pub async fn show_plan(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let plan = cycles::load_plan(store(&state)?, &id).await?;
-    fetched(&headers, &plan_dto(&plan)?)
+    fetched(&headers, tag([plan.stamp.id.as_str()]), || plan_dto(&plan))
 }
 
 #[utoipa::path(post, path = "/v1/plans/{id}/program", tag = "records", operation_id = "createPlanProgram", summary = "The plan's machine program (computed from the record, not stored)",
@@ -166,7 +166,7 @@ pub async fn show_run(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let run = cycles::load_run(store(&state)?, &id).await?;
-    fetched(&headers, &run_dto(&run))
+    fetched(&headers, tag([run.stamp.id.as_str()]), || Ok(run_dto(&run)))
 }
 
 fn cycle_dto(cycle: &Cycle<'_>) -> CycleDto {
@@ -203,12 +203,11 @@ pub async fn history(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let history = cycles::history(store(&state)?, &id).await?;
-    fetched(
-        &headers,
-        &HistoryDto {
+    fetched(&headers, tag(history.record_ids()), || {
+        Ok(HistoryDto {
             part: part_dto(&history.part)?,
             cycles: history.cycles().iter().map(cycle_dto).collect(),
             next_process: history.next_process.clone(),
-        },
-    )
+        })
+    })
 }

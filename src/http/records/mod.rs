@@ -7,7 +7,7 @@
 //! and is answered 201 with `Location` only after it committed; a POST may carry an
 //! `Idempotency-Key` (1–255 visible ASCII characters): the first answer is kept with the
 //! records in the same transaction, a retry gets it again (never a duplicate), and the same key
-//! with another request is a 422 (as the IETF draft says); GETs carry a strong `ETag` (and answer 304 to a matching
+//! with another request is a 422 (as the IETF draft says); GETs carry a strong `ETag` made from the ids of the records they render and the build (and answer 304 to a matching
 //! `If-None-Match`); timestamps are RFC 3339 UTC; every record keeps the name of the API key
 //! that wrote it; a read-only key (`:read` in the keys file) gets 403 on every record write.
 //! Without a reachable store the record endpoints answer 503; compute endpoints never wait on it.
@@ -27,7 +27,6 @@ use axum::response::{IntoResponse, Response};
 use axum::Router;
 use serde::Serialize;
 use serde_json::Value;
-use sha2::{Digest, Sha256};
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
@@ -255,12 +254,26 @@ fn answer(status: StatusCode, location: &str, body: String) -> Response {
     response
 }
 
-/// A GET's JSON body with a strong ETag (a digest of the body), or 304 when the client has it.
-fn fetched(headers: &HeaderMap, body: &impl Serialize) -> Result<Response, ApiError> {
-    let body = serde_json::to_string(body).map_err(|e| ApiError::internal(e.to_string()))?;
-    let digest = Sha256::digest(body.as_bytes());
-    let tag: String = digest[..16].iter().map(|b| format!("{b:02x}")).collect();
-    let etag = format!("\"{tag}\"");
+/// A strong validator for what this build renders from the records `ids` (and any other
+/// text that shapes the view, such as a page's cursor): records are never updated, so an id
+/// names content fixed at write, and the build (`store::computed_by`) names the rendering.
+/// Nothing of the body is serialized or hashed to make it.
+fn tag<'a>(ids: impl IntoIterator<Item = &'a str>) -> String {
+    let mut text = crate::store::computed_by();
+    for id in ids {
+        text.push('\n');
+        text.push_str(id);
+    }
+    format!("\"{}\"", &crate::store::sha256_hex(text.as_bytes())[..32])
+}
+
+/// A GET's JSON body `body()` with its strong ETag `etag` ([`tag`]), or 304 without rendering
+/// it when the client has it.
+fn fetched<T: Serialize>(
+    headers: &HeaderMap,
+    etag: String,
+    body: impl FnOnce() -> Result<T, ApiError>,
+) -> Result<Response, ApiError> {
     let matches = headers
         .get(header::IF_NONE_MATCH)
         .and_then(|v| v.to_str().ok())
@@ -269,6 +282,7 @@ fn fetched(headers: &HeaderMap, body: &impl Serialize) -> Result<Response, ApiEr
     if matches {
         return Ok((StatusCode::NOT_MODIFIED, [(header::ETAG, etag)]).into_response());
     }
+    let body = serde_json::to_string(&body()?).map_err(|e| ApiError::internal(e.to_string()))?;
     Ok((
         [
             (

@@ -9,7 +9,7 @@ use serde_json::{Map, Value};
 
 use super::docs::{PartMeasurementRequest, RecordReadProblems, RecordWriteProblems};
 use super::dto::{MeasurementDto, PartDto, PartListDto, PartRequest};
-use super::{begin, commit, computed_by, fetched, replayed, store, Writer, PARTS};
+use super::{begin, commit, computed_by, fetched, replayed, store, tag, Writer, PARTS};
 use crate::http::csv_body::{CsvForm, CsvOrJson};
 use crate::http::dto::WarningDto;
 use crate::http::error::ApiError;
@@ -110,14 +110,14 @@ pub async fn list(
     let page = store(&state)?
         .parts(query.cursor.as_deref(), limit, query.name.as_deref())
         .await?;
-    let items = page.items.iter().map(part_dto).collect::<Result<_, _>>()?;
-    fetched(
-        &headers,
-        &PartListDto {
-            items,
-            next_cursor: page.next_cursor,
-        },
-    )
+    let ids = page.items.iter().map(|p| p.stamp.id.as_str());
+    let etag = tag(ids.chain([page.next_cursor.as_deref().unwrap_or("")]));
+    fetched(&headers, etag, || {
+        Ok(PartListDto {
+            items: page.items.iter().map(part_dto).collect::<Result<_, _>>()?,
+            next_cursor: page.next_cursor.clone(),
+        })
+    })
 }
 
 #[utoipa::path(get, path = "/v1/parts/{id}", tag = "records", operation_id = "getPart", summary = "A part",
@@ -131,7 +131,7 @@ pub async fn show(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let part = parts::load(store(&state)?, &id).await?;
-    fetched(&headers, &part_dto(&part)?)
+    fetched(&headers, tag([part.stamp.id.as_str()]), || part_dto(&part))
 }
 
 /// A measurement request (JSON, or text/csv with the query) before the part fills it in.
@@ -199,7 +199,17 @@ pub async fn measurement(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let measured = parts::measurement(store(&state)?, &id).await?;
-    fetched(&headers, &measurement_dto(&measured)?)
+    let etag = tag([
+        measured.measurement.stamp.id.as_str(),
+        measured.completes_run.as_deref().unwrap_or(""),
+        if measured.measured_before {
+            "before"
+        } else {
+            ""
+        },
+        measured.fitted.as_ref().map_or("", |c| c.stamp.id.as_str()),
+    ]);
+    fetched(&headers, etag, || measurement_dto(&measured))
 }
 
 fn measurement_dto(measured: &MeasurementOutcome) -> Result<MeasurementDto, ApiError> {

@@ -10,7 +10,7 @@ use super::dto::{
     CalibrationRecordDto, ProcessProfileDto, ProcessProfileListDto, ProcessProfileRequest,
     RateSourceDto,
 };
-use super::{begin, commit, computed_by, fetched, replayed, store, Writer, PROCESS_PROFILES};
+use super::{begin, commit, computed_by, fetched, replayed, store, tag, Writer, PROCESS_PROFILES};
 use crate::http::error::ApiError;
 use crate::http::extract::ApiJson;
 use crate::http::state::AppState;
@@ -113,12 +113,21 @@ pub async fn create(
 /// `GET /v1/process-profiles`
 pub async fn list(State(state): State<AppState>, headers: HeaderMap) -> Result<Response, ApiError> {
     let store = store(&state)?;
-    let mut items = Vec::new();
+    let mut profiles = Vec::new();
     for profile in store.profiles().await? {
         let calibrations = store.calibrations(&profile.stamp.id).await?;
-        items.push(profile_dto(&profile, &calibrations, false)?);
+        profiles.push((profile, calibrations));
     }
-    fetched(&headers, &ProcessProfileListDto { items })
+    let etag = tag(profiles.iter().flat_map(|(p, calibrations)| {
+        std::iter::once(p.stamp.id.as_str()).chain(calibrations.iter().map(|c| c.stamp.id.as_str()))
+    }));
+    fetched(&headers, etag, || {
+        let items = profiles
+            .iter()
+            .map(|(p, calibrations)| profile_dto(p, calibrations, false))
+            .collect::<Result<_, _>>()?;
+        Ok(ProcessProfileListDto { items })
+    })
 }
 
 #[utoipa::path(get, path = "/v1/process-profiles/{name}", tag = "records", operation_id = "getProcessProfile", summary = "A process profile with its calibrations, newest first",
@@ -134,7 +143,11 @@ pub async fn show(
     let store = store(&state)?;
     let profile = profiles::load(store, &name).await?;
     let calibrations = store.calibrations(&name).await?;
-    fetched(&headers, &profile_dto(&profile, &calibrations, true)?)
+    let ids = calibrations.iter().map(|c| c.stamp.id.as_str());
+    let etag = tag(std::iter::once(profile.stamp.id.as_str()).chain(ids));
+    fetched(&headers, etag, || {
+        profile_dto(&profile, &calibrations, true)
+    })
 }
 
 #[utoipa::path(post, path = "/v1/process-profiles/{name}/calibrations", tag = "records", operation_id = "calibrateProcessProfile", summary = "Calibrate a process profile: the fit becomes its current process",
@@ -188,5 +201,7 @@ pub async fn calibration(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let record = profiles::load_calibration(store(&state)?, &id).await?;
-    fetched(&headers, &calibration_dto(&record)?)
+    fetched(&headers, tag([record.stamp.id.as_str()]), || {
+        calibration_dto(&record)
+    })
 }
