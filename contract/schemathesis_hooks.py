@@ -249,22 +249,24 @@ def _with_body(case, build):
     body = build(case)
     if body is None:
         return case
-    original, original_query = case.body, case.query
+    original = case.body, case.query, case.headers
     case.body = body
     if case.operation.path == "/v1/parts/{id}/measurements" and case.query:
         # Its query parameters configure a text/csv body; with a JSON body they are a 422.
         case.query = {}
+    if case.headers:
+        # The same Idempotency-Key with another request is a 422, and a scenario replayed by
+        # Hypothesis sends the same generated key again: keep the header, made unique.
+        headers = case.headers.copy()
+        for name in list(headers):
+            if name.lower() == "idempotency-key":
+                headers[name] = f"{str(headers[name])[:200]}.{_unique('st')}"
+        case.headers = headers
     meta = case.meta  # revalidates the changed parts against the schema
     body_info = meta.components.get(ParameterLocation.BODY) if meta is not None else None
     if body_info is None or not body_info.mode.is_positive or meta.generation.mode != GenerationMode.POSITIVE:
-        case.body, case.query = original, original_query  # keep the generated data
+        case.body, case.query, case.headers = original  # keep the generated data
         case.meta  # noqa: B018 (revalidated back)
-        return case
-    # The same Idempotency-Key with another request is a 422, and a scenario replayed by
-    # Hypothesis sends the same generated key again: keep the header, made unique.
-    for name in list(case.headers or {}):
-        if name.lower() == "idempotency-key":
-            case.headers[name] = f"{str(case.headers[name])[:200]}.{_unique('st')}"
     return case
 
 

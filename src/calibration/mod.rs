@@ -263,7 +263,7 @@ fn names(parameters: &[String]) -> String {
 
 /// Why the model cannot be evaluated at a trial point (the fit then steps back).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum Domain {
+pub enum OutsideModel {
     #[error(transparent)]
     Process(#[from] ProcessError),
     #[error("a run's tool position {position_mm} mm is beyond the process's reach")]
@@ -478,7 +478,7 @@ impl Calibration {
 
     /// Each run's removal predicted at the nominal K with r_t and κ from `values`
     /// ([ρ, r_t, κ]; ρ unused), nm.
-    fn predictions(&self, values: &[f64; 3]) -> Result<Vec<Vec<f64>>, Domain> {
+    fn predictions(&self, values: &[f64; 3]) -> Result<Vec<Vec<f64>>, OutsideModel> {
         let mut spec: ProcessSpec = self.nominal.spec().clone();
         spec.tool_radius_mm = values[1];
         if let PressureModel::Linear { .. } = spec.pressure_model {
@@ -496,14 +496,14 @@ impl Calibration {
 }
 
 impl Run {
-    fn predict(&self, process: &Process, kernel: &RemovalKernel) -> Result<Vec<f64>, Domain> {
+    fn predict(&self, process: &Process, kernel: &RemovalKernel) -> Result<Vec<f64>, OutsideModel> {
         match &self.trial {
             Trial::Ring {
                 position_mm,
                 duration_s,
             } => {
                 if !process.holds_position(*position_mm) {
-                    return Err(Domain::OutOfReach {
+                    return Err(OutsideModel::OutOfReach {
                         position_mm: *position_mm,
                     });
                 }
@@ -520,7 +520,7 @@ impl Run {
                     .iter()
                     .find(|&&x| !process.holds_position(x))
                 {
-                    return Err(Domain::OutOfReach { position_mm: far });
+                    return Err(OutsideModel::OutOfReach { position_mm: far });
                 }
                 Ok(RemovalOperator::assemble(kernel, &self.radius_mm, motion)
                     .apply(schedule.dwell_s()))
@@ -603,7 +603,7 @@ impl CalibrationModel<'_> {
         values: &[f64; 3],
         here: &[f64],
         parameter: ProcessParameter,
-    ) -> Result<Vec<f64>, Domain> {
+    ) -> Result<Vec<f64>, OutsideModel> {
         let j = parameter as usize;
         let (h, (lower, upper)) = (parameter.step(values), parameter.bounds());
         let at = |offset: f64| {
@@ -641,7 +641,7 @@ impl CalibrationModel<'_> {
             .collect())
     }
 
-    fn failure(&self, error: LsqError<Domain>) -> FitFailure {
+    fn failure(&self, error: LsqError<OutsideModel>) -> FitFailure {
         match error {
             LsqError::Model(e) => FitFailure::Domain(e.to_string()),
             LsqError::NotConverged { steps } => FitFailure::NotConverged { steps },
@@ -776,18 +776,18 @@ fn rms(values: &[f64]) -> f64 {
 }
 
 impl Model for CalibrationModel<'_> {
-    type Error = Domain;
+    type Error = OutsideModel;
 
     fn parameters(&self) -> usize {
         self.slots.len()
     }
 
-    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, Domain> {
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, OutsideModel> {
         let g = self.calibration.predictions(&self.process_values(p))?;
         Ok(self.residuals_from(p, &g))
     }
 
-    fn jacobian(&self, p: &[f64], _residuals: &[f64]) -> Result<Mat<f64>, Domain> {
+    fn jacobian(&self, p: &[f64], _residuals: &[f64]) -> Result<Mat<f64>, OutsideModel> {
         let values = self.process_values(p);
         let g: Vec<f64> = self
             .calibration

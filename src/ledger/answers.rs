@@ -43,11 +43,11 @@ pub(super) struct CalibrationAnswer {
 
 #[derive(Debug, Deserialize)]
 pub(super) struct CalibratedParameters {
-    pub preston_coefficient_m2_per_n: Estimate,
+    pub preston_coefficient_m2_per_n: ValueAndError,
 }
 
 #[derive(Debug, Deserialize)]
-pub(super) struct Estimate {
+pub(super) struct ValueAndError {
     pub value: f64,
     pub standard_error: Option<f64>,
 }

@@ -296,11 +296,11 @@ pub struct Ratio {
 pub fn removal_ratio(cycle: &Cycle<'_>) -> Option<Ratio> {
     // Read alone, the rest of the answer skipped unparsed (a history reads a hundred of them).
     #[derive(serde::Deserialize)]
-    struct Answer {
+    struct RatioAnswer {
         removal_rate_ratio: f64,
     }
     let learned = cycle.learned?;
-    let value = serde_json::from_str::<Answer>(&learned.result)
+    let value = serde_json::from_str::<RatioAnswer>(&learned.result)
         .ok()?
         .removal_rate_ratio;
     Some(Ratio {

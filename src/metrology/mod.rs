@@ -106,7 +106,7 @@ pub enum TraceError {
     LengthMismatch { x: usize, z: usize },
     /// (Larger coordinates are no probe's, and their squares overflow the fit's residual.)
     #[error("must be a finite number within ±{MAX_COORDINATE_MM} mm")]
-    NonFinite { axis: Axis, index: usize },
+    NonFinite { axis: TraceAxis, index: usize },
     #[error(
         "{points} points cannot determine {parameters} parameters: a fit needs at least {} \
          (one more than the parameters, so the residual has a degree of freedom)",
@@ -126,7 +126,7 @@ pub enum TraceError {
 
 /// A trace coordinate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Axis {
+pub enum TraceAxis {
     X,
     Z,
 }
@@ -157,7 +157,7 @@ impl FitProblem {
                 z: z_mm.len(),
             });
         }
-        for (axis, values) in [(Axis::X, &x_mm), (Axis::Z, &z_mm)] {
+        for (axis, values) in [(TraceAxis::X, &x_mm), (TraceAxis::Z, &z_mm)] {
             if let Some(index) = values
                 .iter()
                 .position(|v| !(v.is_finite() && v.abs() <= MAX_COORDINATE_MM))

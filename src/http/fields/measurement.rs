@@ -3,7 +3,7 @@
 
 use super::super::error::{ApiError, Kind};
 use super::surface_error;
-use crate::metrology::{Axis, FitError, Parameter, ProbeError, TraceError};
+use crate::metrology::{FitError, Parameter, ProbeError, TraceAxis, TraceError};
 use crate::usecases::measurement_fit::{MeasurementError, MeasurementInputError};
 
 /// The request's name for a fitted parameter (a member of `fit`).
@@ -57,7 +57,11 @@ impl From<MeasurementInputError> for ApiError {
                     ApiError::invalid("profile.z_mm", e.to_string())
                 }
                 TraceError::NonFinite { axis, index } => {
-                    let axis = if *axis == Axis::X { "x_mm" } else { "z_mm" };
+                    let axis = if *axis == TraceAxis::X {
+                        "x_mm"
+                    } else {
+                        "z_mm"
+                    };
                     ApiError::invalid(format!("profile.{axis}[{index}]"), e.to_string())
                 }
                 TraceError::TooFewPoints { .. } => ApiError::invalid("profile.x_mm", e.to_string()),
