@@ -249,7 +249,7 @@ pub enum FitFailure {
     #[error("the runs cannot tell apart {}", names(parameters))]
     Undetermined { parameters: Vec<String> },
     #[error("the fit left the model's domain: {0}")]
-    Domain(String),
+    OutsideModel(String),
     #[error(
         "the best fit removes no material (K = {ratio:.3} × nominal): the measured removal runs \
          opposite to the model's — are before and after swapped, or heights given as removal?"
@@ -643,7 +643,7 @@ impl CalibrationModel<'_> {
 
     fn failure(&self, error: LsqError<OutsideModel>) -> FitFailure {
         match error {
-            LsqError::Model(e) => FitFailure::Domain(e.to_string()),
+            LsqError::Model(e) => FitFailure::OutsideModel(e.to_string()),
             LsqError::NotConverged { steps } => FitFailure::NotConverged { steps },
             LsqError::WeightsUnsettled { reweightings } => {
                 FitFailure::WeightsUnsettled { reweightings }
@@ -670,7 +670,7 @@ impl CalibrationModel<'_> {
         let values = self.process_values(&fit.parameters);
         let g = calibration
             .predictions(&values)
-            .map_err(|e| FitFailure::Domain(e.to_string()))?;
+            .map_err(|e| FitFailure::OutsideModel(e.to_string()))?;
         let model = self.model_values(&fit.parameters, &g);
         let t = lsq::t_quantile_95(fit.degrees_of_freedom);
         // A residual this small is no measurement's: the runs are the model exactly (a
@@ -751,7 +751,7 @@ impl CalibrationModel<'_> {
         if values[0] <= 0.0 {
             return Err(FitFailure::NoRemoval { ratio: values[0] });
         }
-        let process = Process::new(spec).map_err(|e| FitFailure::Domain(e.to_string()))?;
+        let process = Process::new(spec).map_err(|e| FitFailure::OutsideModel(e.to_string()))?;
         Ok(Calibrated {
             process,
             estimates,

@@ -46,6 +46,26 @@ pub struct AppState {
     pub(super) swagger: Arc<Config<'static>>,
     /// The workbench page with its first answers, made on the first request for it.
     pub(super) workbench_page: Arc<tokio::sync::OnceCell<Arc<str>>>,
+    /// Which build renders the records ([`build_identity`]): part of every record ETag.
+    pub(super) build: Arc<str>,
+}
+
+/// The build as the record ETags name it: the crate version, git revision and records schema,
+/// and the running executable's length and modification time, which differ between builds
+/// even of one revision (uncommitted changes). Without the executable's metadata, a value of
+/// this process alone: tags then change at a restart, never go stale.
+fn build_identity() -> String {
+    let executable = std::env::current_exe().and_then(std::fs::metadata);
+    let stamp = executable.ok().and_then(|m| {
+        let modified = m
+            .modified()
+            .ok()?
+            .duration_since(std::time::UNIX_EPOCH)
+            .ok()?;
+        Some(format!("{} bytes, {} ns", m.len(), modified.as_nanos()))
+    });
+    let stamp = stamp.unwrap_or_else(|| format!("process {}", uuid::Uuid::now_v7()));
+    format!("{}; {stamp}", crate::store::computed_by())
 }
 
 impl AppState {
@@ -84,6 +104,7 @@ impl AppState {
                     .validator_url("none"),
             ),
             workbench_page: Arc::default(),
+            build: build_identity().into(),
         }
     }
 

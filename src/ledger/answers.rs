@@ -59,10 +59,16 @@ pub(super) struct PartRadius {
     pub workpiece_radius_mm: serde_json::Number,
 }
 
-/// A plan request's clear aperture, when it names one.
+/// A plan request's clear aperture, when it names one (`Some(null)` when it names null).
 #[derive(Debug, Deserialize)]
 pub(super) struct PlanAperture {
+    #[serde(default, deserialize_with = "present")]
     pub clear_aperture: Option<Value>,
+}
+
+/// A member that is there, null or not (an absent one is `None` by its default).
+fn present<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Value>, D::Error> {
+    Value::deserialize(d).map(Some)
 }
 
 /// A process document's Preston coefficient (profiles store it filled in).

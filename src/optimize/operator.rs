@@ -1,11 +1,11 @@
 //! What the dwell solvers need of a removal operator M (nm of removal per second of dwell at
 //! each station, row i a sample, column j a station): M·t, Mᵀ·y, and column j where holding it
 //! is cheap ([`DwellOperator`]). The banded radial operator ([`RemovalOperator`]) is one; an
-//! operator without cheap columns still serves, its columns made as M·e_j.
+//! operator without cheap columns still serves, its columns made as M·e_j (whole: dense, so
+//! correct for any operator and slow for a large one).
 //!
-//! [`Band`] is what the QP reads of one: each column cut to the clear aperture's rows (one
-//! contiguous run, since the operator is banded, or trimmed to its non-zeros), and those of
-//! M·S for a basis S of the dwell.
+//! `Band` is what the QP reads of one: each column cut to the clear aperture's rows (one
+//! contiguous run, since the operator is banded), and those of M·S for a basis S of the dwell.
 
 use std::borrow::Cow;
 use std::ops::Range;
@@ -207,13 +207,11 @@ mod tests {
         let (a, b) = (Band::new(&held, &rows), Band::new(&opaque, &rows));
         for j in 0..motion.len() {
             let (x, y) = (&a.values[j], &b.values[j]);
-            // Held columns keep their run's zeros at either end; made ones are trimmed.
-            let offset = b.start[j] - a.start[j];
-            assert_eq!(&x[offset..offset + y.len()], &y[..], "column {j}");
-            assert!(x[..offset]
-                .iter()
-                .chain(&x[offset + y.len()..])
-                .all(|&v| v == 0.0));
+            // Made columns span every aperture row; held ones their run within it.
+            let offset = a.start[j] - b.start[j];
+            assert_eq!(&y[offset..offset + x.len()], &x[..], "column {j}");
+            let outside = y[..offset].iter().chain(&y[offset + x.len()..]);
+            assert!(outside.copied().all(|v| v == 0.0));
         }
         let basis = Basis::spline(motion.radii_mm(), 10.0).unwrap();
         let (sa, sb) = (a.through(&basis), b.through(&basis));

@@ -89,7 +89,11 @@ pub async fn show_plan(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let plan = cycles::load_plan(store(&state)?, &id).await?;
-    fetched(&headers, tag([plan.stamp.id.as_str()]), || plan_dto(&plan))
+    fetched(
+        &headers,
+        tag(&state, "plan", [plan.stamp.id.as_str()]),
+        || plan_dto(&plan),
+    )
 }
 
 #[utoipa::path(post, path = "/v1/plans/{id}/program", tag = "records", operation_id = "createPlanProgram", summary = "The plan's machine program (computed from the record, not stored)",
@@ -166,7 +170,11 @@ pub async fn show_run(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let run = cycles::load_run(store(&state)?, &id).await?;
-    fetched(&headers, tag([run.stamp.id.as_str()]), || Ok(run_dto(&run)))
+    fetched(
+        &headers,
+        tag(&state, "run", [run.stamp.id.as_str()]),
+        || Ok(run_dto(&run)),
+    )
 }
 
 fn cycle_dto(cycle: &Cycle<'_>) -> CycleDto {
@@ -203,11 +211,15 @@ pub async fn history(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let history = cycles::history(store(&state)?, &id).await?;
-    fetched(&headers, tag(history.record_ids()), || {
-        Ok(HistoryDto {
-            part: part_dto(&history.part)?,
-            cycles: history.cycles().iter().map(cycle_dto).collect(),
-            next_process: history.next_process.clone(),
-        })
-    })
+    fetched(
+        &headers,
+        tag(&state, "history", history.record_ids()),
+        || {
+            Ok(HistoryDto {
+                part: part_dto(&history.part)?,
+                cycles: history.cycles().iter().map(cycle_dto).collect(),
+                next_process: history.next_process.clone(),
+            })
+        },
+    )
 }

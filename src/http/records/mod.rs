@@ -254,12 +254,12 @@ fn answer(status: StatusCode, location: &str, body: String) -> Response {
     response
 }
 
-/// A strong validator for what this build renders from the records `ids` (and any other
-/// text that shapes the view, such as a page's cursor): records are never updated, so an id
-/// names content fixed at write, and the build (`store::computed_by`) names the rendering.
-/// Nothing of the body is serialized or hashed to make it.
-fn tag<'a>(ids: impl IntoIterator<Item = &'a str>) -> String {
-    let mut text = crate::store::computed_by();
+/// A strong validator for the view `view` (the route, so two views never share a tag) that
+/// this build renders from the records `ids` (and any other text that shapes it, such as a
+/// page's cursor): records are never updated, so an id names content fixed at write, and the
+/// build ([`AppState`]'s) names the rendering. Nothing of the body is serialized or hashed.
+fn tag<'a>(state: &AppState, view: &str, ids: impl IntoIterator<Item = &'a str>) -> String {
+    let mut text = format!("{}\n{view}", state.build);
     for id in ids {
         text.push('\n');
         text.push_str(id);

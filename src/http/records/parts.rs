@@ -111,7 +111,11 @@ pub async fn list(
         .parts(query.cursor.as_deref(), limit, query.name.as_deref())
         .await?;
     let ids = page.items.iter().map(|p| p.stamp.id.as_str());
-    let etag = tag(ids.chain([page.next_cursor.as_deref().unwrap_or("")]));
+    let etag = tag(
+        &state,
+        "parts",
+        ids.chain([page.next_cursor.as_deref().unwrap_or("")]),
+    );
     fetched(&headers, etag, || {
         Ok(PartListDto {
             items: page.items.iter().map(part_dto).collect::<Result<_, _>>()?,
@@ -131,7 +135,11 @@ pub async fn show(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let part = parts::load(store(&state)?, &id).await?;
-    fetched(&headers, tag([part.stamp.id.as_str()]), || part_dto(&part))
+    fetched(
+        &headers,
+        tag(&state, "part", [part.stamp.id.as_str()]),
+        || part_dto(&part),
+    )
 }
 
 /// A measurement request (JSON, or text/csv with the query) before the part fills it in.
@@ -199,16 +207,20 @@ pub async fn measurement(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let measured = parts::measurement(store(&state)?, &id).await?;
-    let etag = tag([
-        measured.measurement.stamp.id.as_str(),
-        measured.completes_run.as_deref().unwrap_or(""),
-        if measured.measured_before {
-            "before"
-        } else {
-            ""
-        },
-        measured.fitted.as_ref().map_or("", |c| c.stamp.id.as_str()),
-    ]);
+    let etag = tag(
+        &state,
+        "measurement",
+        [
+            measured.measurement.stamp.id.as_str(),
+            measured.completes_run.as_deref().unwrap_or(""),
+            if measured.measured_before {
+                "before"
+            } else {
+                ""
+            },
+            measured.fitted.as_ref().map_or("", |c| c.stamp.id.as_str()),
+        ],
+    );
     fetched(&headers, etag, || measurement_dto(&measured))
 }
 

@@ -35,12 +35,21 @@ pub(super) fn calibration_dto(
     })
 }
 
+/// What a profile's stored body holds (its request, as written).
+#[derive(serde::Deserialize)]
+struct StoredProfile {
+    process: Value,
+    surface: Option<Value>,
+    tool: Option<Value>,
+}
+
 fn profile_dto(
     profile: &ProfileRecord,
     calibrations: &[CalibrationRecord],
     listed: bool,
 ) -> Result<ProcessProfileDto, ApiError> {
-    let body = document(&profile.body)?;
+    let body: StoredProfile = serde_json::from_value(document(&profile.body)?)
+        .map_err(|e| ApiError::internal(format!("a stored process profile: {e}")))?;
     let current = current_process(profile, calibrations)?;
     let calibrations = if listed {
         Some(
@@ -55,9 +64,9 @@ fn profile_dto(
     };
     Ok(ProcessProfileDto {
         name: profile.stamp.id.clone(),
-        process: body["process"].clone(),
-        surface: body.get("surface").cloned(),
-        tool: body.get("tool").cloned(),
+        process: body.process,
+        surface: body.surface,
+        tool: body.tool,
         preston_coefficient_source: match current.source {
             RateSource::Profile => RateSourceDto::Profile,
             RateSource::Calibration => RateSourceDto::Calibration,
@@ -118,9 +127,14 @@ pub async fn list(State(state): State<AppState>, headers: HeaderMap) -> Result<R
         let calibrations = store.calibrations(&profile.stamp.id).await?;
         profiles.push((profile, calibrations));
     }
-    let etag = tag(profiles.iter().flat_map(|(p, calibrations)| {
-        std::iter::once(p.stamp.id.as_str()).chain(calibrations.iter().map(|c| c.stamp.id.as_str()))
-    }));
+    let etag = tag(
+        &state,
+        "profiles",
+        profiles.iter().flat_map(|(p, calibrations)| {
+            std::iter::once(p.stamp.id.as_str())
+                .chain(calibrations.iter().map(|c| c.stamp.id.as_str()))
+        }),
+    );
     fetched(&headers, etag, || {
         let items = profiles
             .iter()
@@ -144,7 +158,11 @@ pub async fn show(
     let profile = profiles::load(store, &name).await?;
     let calibrations = store.calibrations(&name).await?;
     let ids = calibrations.iter().map(|c| c.stamp.id.as_str());
-    let etag = tag(std::iter::once(profile.stamp.id.as_str()).chain(ids));
+    let etag = tag(
+        &state,
+        "profile",
+        std::iter::once(profile.stamp.id.as_str()).chain(ids),
+    );
     fetched(&headers, etag, || {
         profile_dto(&profile, &calibrations, true)
     })
@@ -201,7 +219,9 @@ pub async fn calibration(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     let record = profiles::load_calibration(store(&state)?, &id).await?;
-    fetched(&headers, tag([record.stamp.id.as_str()]), || {
-        calibration_dto(&record)
-    })
+    fetched(
+        &headers,
+        tag(&state, "calibration", [record.stamp.id.as_str()]),
+        || calibration_dto(&record),
+    )
 }
