@@ -4,13 +4,15 @@
     scripts/side_by_side.py BASE_BINARY [NEW_BINARY]
 
 Both services run on loopback at once (their own SQLite files under /tmp). Each figure is the
-median of four interleaved rounds' medians of 15 requests: predict 201 x 201 (the paper's
+median of ROUNDS interleaved rounds' medians of REQUESTS requests (environment; 4 and 15 by
+default): predict 201 x 201 (the paper's
 experiment 1, 10 s at each position) and optimize 501 (uniform 100 nm over [0, 40] mm,
 `machine: "unlimited"` as the peer benchmark). Cold: a new process per request (the workpiece
 speed moved by 1e-9 relative), so nothing is cached; cached: the same request repeated.
 """
 import http.client
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -71,11 +73,12 @@ def main():
         for kind, n in (("predict", 201), ("optimize", 501)):
             for cold in (True, False):
                 rounds = {"before": [], "after": []}
-                for r in range(4):
+                for r in range(int(os.environ.get("ROUNDS", "4"))):
                     order = ("before", "after") if r % 2 == 0 else ("after", "before")
                     for name in order:
                         k += 1000
-                        rounds[name].append(median_ms(ports[name], kind, n, cold, 15, k))
+                        requests = int(os.environ.get("REQUESTS", "15"))
+                        rounds[name].append(median_ms(ports[name], kind, n, cold, requests, k))
                 b, a = statistics.median(rounds["before"]), statistics.median(rounds["after"])
                 size = f"{n} × {n}" if kind == "predict" else str(n)
                 print(f"| {kind} {size}, {'cold' if cold else 'cached'} | {b:.3f} ms "
