@@ -19,6 +19,7 @@ pub mod keys;
 pub mod ledger;
 pub mod lsq;
 pub mod machine;
+pub mod maps;
 pub mod memory;
 pub mod metrology;
 pub mod optimize;

@@ -1,0 +1,243 @@
+//! Interferometer maps: the MetroPro reader on the real Fizeau map shipped in prysm's
+//! repository, against an independent reader written here from the file format (docs of
+//! `preston::maps::metropro`), and on synthetic files of every header format written by an
+//! independent generator, good and broken.
+
+use preston::maps::metropro::{read, MetroProError};
+
+const SAMPLE: &str = "fixtures/maps/valid_zygo_dat_file.dat";
+const MAX_PIXELS: usize = 4_000_000;
+
+fn sample() -> Vec<u8> {
+    std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(SAMPLE)).unwrap()
+}
+
+/// The independent reader: the phase map as (width, height, heights in nm or NaN), read
+/// field by field with slices, the scale in the order the MetroPro manual writes it.
+fn reference(bytes: &[u8]) -> (usize, usize, Vec<f64>) {
+    let be16 = |at: usize| u16::from_be_bytes(bytes[at..at + 2].try_into().unwrap()) as usize;
+    let be32 = |at: usize| u32::from_be_bytes(bytes[at..at + 4].try_into().unwrap());
+    let float = |at: usize| f32::from_be_bytes(bytes[at..at + 4].try_into().unwrap()) as f64;
+    let header = be32(6) as usize;
+    let intensity = be32(60) as usize;
+    let (w, h) = (be16(68), be16(70));
+    let r = [4096.0, 32768.0, 131072.0][be16(218)];
+    let (s, wl, o) = (float(164), float(168), float(176));
+    let heights = (0..w * h)
+        .map(|k| {
+            let at = header + intensity + 4 * k;
+            let raw = i32::from_be_bytes(bytes[at..at + 4].try_into().unwrap());
+            if raw >= 2_147_483_640 {
+                f64::NAN
+            } else {
+                // (raw · S · O · W / R) in m, to nm.
+                (raw as f64 * s * o * wl / r) * 1e9
+            }
+        })
+        .collect();
+    (w, h, heights)
+}
+
+fn pv_rms(values: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
+    let (lo, hi) = values
+        .clone()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    let n = values.clone().count() as f64;
+    let mean = values.clone().sum::<f64>() / n;
+    let rms = (values.map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+    (hi - lo, rms)
+}
+
+/// The real map: its size, pitch and wavelength as its header states them, the same valid
+/// pixels, and PV and RMS (about the mean, every valid pixel alike) within 1e-9 relative of
+/// the independent reader (both sum the same doubles; only the scale's order differs).
+#[test]
+fn the_fizeau_sample_reads_as_the_independent_reader_does() {
+    let bytes = sample();
+    let map = read(&bytes, MAX_PIXELS).unwrap();
+    let (w, h, heights) = reference(&bytes);
+    assert_eq!((map.width(), map.height()), (w, h));
+    assert_eq!((w, h), (425, 432));
+    assert!((map.pixel_mm().unwrap() - 0.117_924_2).abs() < 1e-7);
+    assert!((map.wavelength_nm().unwrap() - 632.8).abs() < 1e-4);
+    let valid: Vec<f64> = heights.iter().copied().filter(|v| !v.is_nan()).collect();
+    assert_eq!(map.valid_pixels(), valid.len());
+    for (ours, theirs) in map.heights_nm().iter().zip(&heights) {
+        assert_eq!(ours.is_none(), theirs.is_nan());
+    }
+    let (pv, rms) = pv_rms(map.heights_nm().iter().flatten().copied());
+    let (pv_ref, rms_ref) = pv_rms(valid.iter().copied());
+    println!(
+        "sample: {} valid pixels of {}, PV {pv:.6} nm, RMS {rms:.6} nm",
+        valid.len(),
+        w * h
+    );
+    assert!((pv - pv_ref).abs() <= 1e-9 * pv_ref);
+    assert!((rms - rms_ref).abs() <= 1e-9 * rms_ref);
+    // Row 0 is the top row as stored.
+    assert_eq!(map.at(0, 0), map.heights_nm()[0]);
+    assert_eq!(map.at(w, 0), None);
+}
+
+/// The independent generator: a MetroPro file of header format `format` (1, 2 or 3) with an
+/// intensity frame, phase resolution code `code`, and the raw phase values `raw` (w × h).
+fn synthetic(format: u16, code: u16, w: u16, h: u16, raw: &[i32]) -> Vec<u8> {
+    let header = if format == 3 { 4096 } else { 834 };
+    let (iw, ih) = (3_u16, 2_u16);
+    let mut bytes = vec![0_u8; header];
+    let put = |bytes: &mut Vec<u8>, at: usize, field: &[u8]| {
+        bytes[at..at + field.len()].copy_from_slice(field)
+    };
+    put(
+        &mut bytes,
+        0,
+        &(0x881B_036E + u32::from(format)).to_be_bytes(),
+    );
+    put(&mut bytes, 4, &format.to_be_bytes());
+    put(&mut bytes, 6, &(header as u32).to_be_bytes());
+    put(&mut bytes, 52, &iw.to_be_bytes());
+    put(&mut bytes, 54, &ih.to_be_bytes());
+    put(&mut bytes, 56, &1_u16.to_be_bytes());
+    put(
+        &mut bytes,
+        60,
+        &(2 * u32::from(iw) * u32::from(ih)).to_be_bytes(),
+    );
+    put(&mut bytes, 68, &w.to_be_bytes());
+    put(&mut bytes, 70, &h.to_be_bytes());
+    put(
+        &mut bytes,
+        72,
+        &(4 * u32::from(w) * u32::from(h)).to_be_bytes(),
+    );
+    put(&mut bytes, 164, &0.5_f32.to_be_bytes());
+    put(&mut bytes, 168, &632.8e-9_f32.to_be_bytes());
+    put(&mut bytes, 176, &1.25_f32.to_be_bytes());
+    put(&mut bytes, 184, &0.25e-3_f32.to_be_bytes());
+    put(&mut bytes, 218, &code.to_be_bytes());
+    bytes.extend((0..u32::from(iw) * u32::from(ih)).flat_map(|v| (v as u16 * 7).to_be_bytes()));
+    bytes.extend(raw.iter().flat_map(|v| v.to_be_bytes()));
+    bytes
+}
+
+/// Every header format and phase resolution: each planted raw value comes back as its height
+/// (to 1e-15 relative: the same product, possibly in another order), no-data as missing, rows
+/// in the order written.
+#[test]
+fn synthetic_files_of_every_format_and_resolution_read_back() {
+    let (w, h) = (4_u16, 3_u16);
+    let raw: Vec<i32> = vec![
+        0,
+        1,
+        -1,
+        4096, //
+        2_147_483_640,
+        123_456,
+        -654_321,
+        i32::MAX, //
+        2_147_483_639,
+        -2_147_483_648,
+        17,
+        2_147_483_641,
+    ];
+    for format in 1..=3 {
+        for (code, r) in [(0_u16, 4096.0), (1, 32768.0), (2, 131_072.0)] {
+            let map = read(&synthetic(format, code, w, h, &raw), MAX_PIXELS).unwrap();
+            assert_eq!((map.width(), map.height()), (4, 3));
+            // The header holds the pitch as an f32 in m: 2^-24 relative.
+            assert!((map.pixel_mm().unwrap() - 0.25).abs() < 0.25 * 6e-8);
+            let scale = 0.5 * 1.25 * f64::from(632.8e-9_f32) / r * 1e9;
+            for (k, &v) in raw.iter().enumerate() {
+                let got = map.at(k % 4, k / 4);
+                if v >= 2_147_483_640 {
+                    assert_eq!(got, None, "format {format} code {code} pixel {k}");
+                } else {
+                    let want = f64::from(v) * scale;
+                    let got = got.unwrap();
+                    assert!((got - want).abs() <= 1e-15 * want.abs(), "{got} vs {want}");
+                }
+            }
+        }
+    }
+}
+
+/// Broken files are refused with what is wrong, before anything is allocated for the sizes
+/// they declare.
+#[test]
+fn broken_files_are_refused_naming_what_is_wrong() {
+    let raw = vec![5; 6];
+    let good = synthetic(1, 1, 3, 2, &raw);
+    assert!(read(&good, MAX_PIXELS).is_ok());
+    let err = |bytes: &[u8]| read(bytes, MAX_PIXELS).unwrap_err();
+
+    assert!(matches!(err(&good[..3]), MetroProError::TooShort { .. }));
+    assert!(matches!(
+        err(&good[..500]),
+        MetroProError::TooShort { needed: 834, .. }
+    ));
+    let mut png = good.clone();
+    png[..4].copy_from_slice(b"\x89PNG");
+    let e = err(&png);
+    assert!(
+        e.to_string().contains("not a Zygo MetroPro .dat file"),
+        "{e}"
+    );
+    // Truncated by one byte.
+    let e = err(&good[..good.len() - 1]);
+    assert!(matches!(e, MetroProError::Truncated { .. }), "{e}");
+    // The magic of format 3 with format 1's header size.
+    let mut mixed = good.clone();
+    mixed[..4].copy_from_slice(&0x881B_0371_u32.to_be_bytes());
+    mixed.resize(5000, 0);
+    assert!(matches!(err(&mixed), MetroProError::Header { .. }));
+    // Sizes that disagree, or beyond the limit: a tiny file declaring 30000 × 30000 pixels.
+    let mut huge = good.clone();
+    huge[68..70].copy_from_slice(&30_000_u16.to_be_bytes());
+    huge[70..72].copy_from_slice(&30_000_u16.to_be_bytes());
+    assert!(matches!(
+        err(&huge),
+        MetroProError::ByteCount { what: "phase", .. }
+    ));
+    huge[72..76].copy_from_slice(&(4 * 30_000_u32 * 30_000).to_be_bytes());
+    let e = err(&huge);
+    assert!(
+        matches!(
+            e,
+            MetroProError::TooLarge {
+                pixels: 900_000_000,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    let e = read(&huge, usize::MAX).unwrap_err();
+    assert!(matches!(e, MetroProError::Truncated { .. }), "{e}");
+    let mut frames = good.clone();
+    frames[56..58].copy_from_slice(&2_u16.to_be_bytes());
+    assert!(matches!(
+        err(&frames),
+        MetroProError::ByteCount {
+            what: "intensity",
+            ..
+        }
+    ));
+    let mut code = good.clone();
+    code[218..220].copy_from_slice(&7_u16.to_be_bytes());
+    assert_eq!(err(&code), MetroProError::PhaseResolution { code: 7 });
+    let mut scale = good.clone();
+    scale[164..168].copy_from_slice(&f32::NAN.to_be_bytes());
+    assert!(matches!(
+        err(&scale),
+        MetroProError::Scale {
+            field: "scale factor",
+            ..
+        }
+    ));
+    let empty = synthetic(2, 1, 3, 2, &[2_147_483_647; 6]);
+    assert_eq!(err(&empty), MetroProError::NoData);
+    let mut none = good.clone();
+    none[68..70].copy_from_slice(&0_u16.to_be_bytes());
+    assert_eq!(err(&none), MetroProError::NoPhase);
+}
