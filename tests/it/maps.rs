@@ -241,3 +241,95 @@ fn broken_files_are_refused_naming_what_is_wrong() {
     none[68..70].copy_from_slice(&0_u16.to_be_bytes());
     assert_eq!(err(&none), MetroProError::NoPhase);
 }
+
+/// Peak resident memory of this process so far, KiB (Linux's VmHWM).
+fn peak_rss_kib() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// A million mutated files: bytes flipped, header fields overwritten with boundary and random
+/// values, truncated and extended, from synthetic files of every format and from the real
+/// sample's header. The reader never panics, and what it accepts it holds in at most 4 bytes
+/// of heights per byte of the file (16 per pixel, a pixel being 4 bytes of the file): its only
+/// allocation is bounded by the input, whatever the header declares.
+#[test]
+fn a_million_mutated_files_never_panic_nor_allocate_beyond_the_input() {
+    let mut rng = fastrand::Rng::with_seed(48_49);
+    let real = sample();
+    // The real header with a small phase map (its intensity frame dropped).
+    let mut real_small = real[..834].to_vec();
+    real_small[52..56].copy_from_slice(&[0, 0, 0, 0]);
+    real_small[60..64].copy_from_slice(&0_u32.to_be_bytes());
+    real_small[68..72].copy_from_slice(&[0, 8, 0, 8]);
+    real_small[72..76].copy_from_slice(&256_u32.to_be_bytes());
+    real_small.extend(real[834 + 614_400..][..256].iter());
+    let seeds: Vec<Vec<u8>> = vec![
+        synthetic(1, 1, 3, 2, &[5, -7, 2_147_483_640, 9, 11, 0]),
+        synthetic(2, 0, 5, 4, &[1; 20]),
+        synthetic(3, 2, 2, 2, &[i32::MIN, i32::MAX, 0, 3]),
+        real_small,
+    ];
+    let fields = [0, 4, 6, 52, 54, 56, 60, 68, 70, 72, 164, 168, 176, 184, 218];
+    let (mut accepted, mut refused) = (0_u32, 0_u32);
+    const MUTATIONS: u32 = 1_000_000;
+    for _ in 0..MUTATIONS {
+        let mut bytes = seeds[rng.usize(..seeds.len())].clone();
+        for _ in 0..rng.usize(1..=4) {
+            match rng.u8(..5) {
+                0 => {
+                    let at = rng.usize(..bytes.len());
+                    bytes[at] ^= 1 << rng.u8(..8);
+                }
+                1 => {
+                    let at = fields[rng.usize(..fields.len())];
+                    if at >= bytes.len() {
+                        continue;
+                    }
+                    let value: [u8; 4] = match rng.u8(..4) {
+                        0 => [0; 4],
+                        1 => [0xFF; 4],
+                        2 => [0x7F, 0xFF, 0xFF, 0xF8],
+                        _ => rng.u32(..).to_be_bytes(),
+                    };
+                    let end = (at + 4).min(bytes.len());
+                    let span = end - at;
+                    bytes[at..end].copy_from_slice(&value[..span]);
+                }
+                2 => bytes.truncate(rng.usize(..=bytes.len())),
+                3 => bytes.extend((0..rng.usize(..64)).map(|_| rng.u8(..))),
+                _ => {
+                    let at = rng.usize(..bytes.len().max(1));
+                    if at < bytes.len() {
+                        bytes[at] = rng.u8(..);
+                    }
+                }
+            }
+            if bytes.is_empty() {
+                break;
+            }
+        }
+        match read(&bytes, MAX_PIXELS) {
+            Ok(map) => {
+                accepted += 1;
+                let held = std::mem::size_of_val(map.heights_nm());
+                assert!(
+                    held <= 4 * bytes.len(),
+                    "{held} bytes of heights from {}",
+                    bytes.len()
+                );
+            }
+            Err(_) => refused += 1,
+        }
+    }
+    assert_eq!(accepted + refused, MUTATIONS);
+    assert!(
+        accepted > 10_000 && refused > 10_000,
+        "{accepted} / {refused}"
+    );
+    println!(
+        "{MUTATIONS} mutated files: {accepted} read, {refused} refused, no panic; peak RSS {} KiB",
+        peak_rss_kib().map_or("unknown".into(), |k| k.to_string())
+    );
+}
