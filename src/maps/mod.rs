@@ -11,7 +11,9 @@
 //! allocated: a file of n bytes never makes a reader allocate more than a small multiple of n.
 //!
 //! - [`metropro`]: Zygo MetroPro `.dat` (binary).
+//! - [`grid`]: a plain text grid with a `#` header (Preston's own, documented there).
 
+pub mod grid;
 pub mod metropro;
 
 /// Heights on a grid of pixels (module docs).

@@ -333,3 +333,127 @@ fn a_million_mutated_files_never_panic_nor_allocate_beyond_the_input() {
         peak_rss_kib().map_or("unknown".into(), |k| k.to_string())
     );
 }
+
+/// The map as a text grid (`preston::maps::grid`), every height in Rust's shortest
+/// round-trip form, missing pixels as empty cells or `NaN`.
+fn as_text_grid(map: &preston::maps::HeightMap) -> String {
+    let mut text = format!(
+        "# written by the tests\n# pixel_mm: {}\n# unit: nm\n",
+        map.pixel_mm().unwrap()
+    );
+    for row in map.heights_nm().chunks(map.width()) {
+        let cells: Vec<String> = row
+            .iter()
+            .enumerate()
+            .map(|(k, h)| match h {
+                Some(h) => h.to_string(),
+                None if k % 2 == 0 => String::new(),
+                None => "NaN".to_string(),
+            })
+            .collect();
+        text.push_str(&cells.join(","));
+        text.push('\n');
+    }
+    text
+}
+
+/// The real map written as a text grid reads back with the same heights, bit for bit, and
+/// the same missing pixels and pitch; in µm and in waves it gives the same heights to 1e-15.
+#[test]
+fn the_sample_as_a_text_grid_reads_back_identically() {
+    use preston::maps::grid;
+    let map = read(&sample(), MAX_PIXELS).unwrap();
+    let text = as_text_grid(&map);
+    let again = grid::read(text.as_bytes(), MAX_PIXELS).unwrap();
+    assert_eq!((again.width(), again.height()), (map.width(), map.height()));
+    assert_eq!(again.pixel_mm(), map.pixel_mm());
+    assert_eq!(again.heights_nm(), map.heights_nm());
+
+    let micrometres = text
+        .replace("# unit: nm", "# unit: um\n# missing: -")
+        .lines()
+        .map(|line| {
+            if line.starts_with('#') {
+                return line.to_string();
+            }
+            let cells: Vec<String> = line
+                .split(',')
+                .map(|c| match c.parse::<f64>() {
+                    Ok(v) => (v / 1e3).to_string(),
+                    Err(_) => "-".to_string(),
+                })
+                .collect();
+            cells.join(";")
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let um = grid::read(micrometres.as_bytes(), MAX_PIXELS).unwrap();
+    for (a, b) in um.heights_nm().iter().zip(map.heights_nm()) {
+        match (a, b) {
+            (Some(a), Some(b)) => assert!((a - b).abs() <= 1e-15 * b.abs().max(1.0)),
+            _ => assert_eq!(a.is_none(), b.is_none()),
+        }
+    }
+    let waves = grid::read(
+        b"# unit: waves\n# wavelength_nm: 632.8\n0.5 -0.25\n\n1 nan\n",
+        MAX_PIXELS,
+    )
+    .unwrap();
+    assert_eq!(
+        waves.heights_nm(),
+        [Some(316.4), Some(-158.2), Some(632.8), None]
+    );
+    assert_eq!(waves.pixel_mm(), None);
+}
+
+#[test]
+fn broken_text_grids_are_refused_naming_the_line() {
+    use preston::maps::grid::{read, TextGridError};
+    let err = |text: &str| read(text.as_bytes(), 100).unwrap_err();
+    assert_eq!(
+        err("1,2,3\n4,5\n"),
+        TextGridError::Ragged {
+            line: 2,
+            got: 2,
+            expected: 3
+        }
+    );
+    assert_eq!(
+        err("# pixel: 0.1\n1\n"),
+        TextGridError::UnknownKey {
+            line: 1,
+            key: "pixel".into()
+        }
+    );
+    assert!(matches!(
+        err("# pixel_mm: -1\n1\n"),
+        TextGridError::NotPositive { line: 1, .. }
+    ));
+    assert!(matches!(
+        err("# unit: inch\n1\n"),
+        TextGridError::Unit { line: 1, .. }
+    ));
+    assert_eq!(err("# unit: waves\n1\n"), TextGridError::NoWavelength);
+    assert_eq!(
+        err("1,2\n3,inf\n"),
+        TextGridError::NotANumber {
+            line: 2,
+            column: 2,
+            cell: "inf".into()
+        }
+    );
+    assert_eq!(err("# only a header\n"), TextGridError::Empty);
+    assert_eq!(err(",\nNaN,\n"), TextGridError::NoData);
+    assert_eq!(err(&"1 ".repeat(101)), TextGridError::TooLarge { max: 100 });
+    assert_eq!(read(b"\xff\xfe1", 100).unwrap_err(), TextGridError::NotText);
+    // A comment may hold a colon after words; a decimal comma is not a decimal point.
+    assert!(read(b"# measured on 2026-11-27 at 10:00\n1;2\n", 100).is_ok());
+    assert!(matches!(
+        err("1,5;2,5\n"),
+        TextGridError::NotANumber {
+            line: 1,
+            column: 1,
+            ..
+        }
+    ));
+}
