@@ -65,4 +65,59 @@ impl HeightMap {
     pub fn valid_pixels(&self) -> usize {
         self.heights_nm.iter().flatten().count()
     }
+
+    /// The valid pixels as (column, row, height in nm).
+    fn valid(&self) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+        self.heights_nm
+            .iter()
+            .enumerate()
+            .filter_map(|(k, h)| h.map(|h| ((k % self.width) as f64, (k / self.width) as f64, h)))
+    }
+
+    /// The map less its piston and tilt: the plane a + b·x + c·y fitted to the valid pixels
+    /// by least squares (x, y their column and row; centred on their means, so the fit's
+    /// normal equations split into the mean and a 2 × 2 system), subtracted from each.
+    /// Without a tilt to fit (the valid pixels on one line or one point), only the piston.
+    pub fn without_piston_and_tilt(&self) -> HeightMap {
+        let n = self.valid_pixels() as f64;
+        let (mx, my, mz) = self.valid().fold((0.0, 0.0, 0.0), |(a, b, c), (x, y, z)| {
+            (a + x / n, b + y / n, c + z / n)
+        });
+        let (mut sxx, mut sxy, mut syy, mut sxz, mut syz) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for (x, y, z) in self.valid() {
+            let (dx, dy, dz) = (x - mx, y - my, z - mz);
+            (sxx, sxy, syy) = (sxx + dx * dx, sxy + dx * dy, syy + dy * dy);
+            (sxz, syz) = (sxz + dx * dz, syz + dy * dz);
+        }
+        let det = sxx * syy - sxy * sxy;
+        let (b, c) = if det > 1e-12 * (sxx * syy).max(f64::MIN_POSITIVE) {
+            ((syy * sxz - sxy * syz) / det, (sxx * syz - sxy * sxz) / det)
+        } else {
+            (0.0, 0.0)
+        };
+        let heights_nm = self
+            .heights_nm
+            .iter()
+            .enumerate()
+            .map(|(k, h)| {
+                let (x, y) = ((k % self.width) as f64, (k / self.width) as f64);
+                h.map(|z| z - mz - b * (x - mx) - c * (y - my))
+            })
+            .collect();
+        HeightMap {
+            heights_nm,
+            ..self.clone()
+        }
+    }
+
+    /// Peak-to-valley and RMS (about zero) of the valid pixels, nm, every pixel alike.
+    pub fn pv_rms_nm(&self) -> (f64, f64) {
+        let (mut lo, mut hi, mut sum2, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0);
+        for (_, _, z) in self.valid() {
+            (lo, hi) = (lo.min(z), hi.max(z));
+            sum2 += z * z;
+            n += 1.0;
+        }
+        (hi - lo, (sum2 / n).sqrt())
+    }
 }
