@@ -16,6 +16,8 @@
 pub mod grid;
 pub mod metropro;
 
+use crate::field::Figures;
+
 /// Heights on a grid of pixels (module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct HeightMap {
@@ -110,14 +112,15 @@ impl HeightMap {
         }
     }
 
-    /// Peak-to-valley and RMS (about zero) of the valid pixels, nm, every pixel alike.
-    pub fn pv_rms_nm(&self) -> (f64, f64) {
-        let (mut lo, mut hi, mut sum2, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0);
-        for (_, _, z) in self.valid() {
-            (lo, hi) = (lo.min(z), hi.max(z));
-            sum2 += z * z;
-            n += 1.0;
-        }
-        (hi - lo, (sum2 / n).sqrt())
+    /// The figures of the valid pixels, every pixel alike (PV, RMS about the mean, …): a
+    /// missing pixel weighs 0. `None` when no pixel holds a height.
+    pub fn figures(&self) -> Option<Figures> {
+        let values: Vec<f64> = self.heights_nm.iter().map(|h| h.unwrap_or(0.0)).collect();
+        let weights: Vec<f64> = self
+            .heights_nm
+            .iter()
+            .map(|h| if h.is_some() { 1.0 } else { 0.0 })
+            .collect();
+        Figures::weighted(&values, &weights)
     }
 }

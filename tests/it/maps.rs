@@ -518,7 +518,8 @@ fn piston_and_tilt_come_off_as_an_independent_least_squares_plane() {
     let rms_ref = (residual.iter().map(|r| r * r).sum::<f64>() / residual.len() as f64).sqrt();
 
     let map = read(&bytes, MAX_PIXELS).unwrap().without_piston_and_tilt();
-    let (pv, rms) = map.pv_rms_nm();
+    let figures = map.figures().unwrap();
+    let (pv, rms) = (figures.pv, figures.rms);
     println!("sample less piston and tilt: PV {pv:.6} nm, RMS {rms:.6} nm (tilt {b:.3e}, {c:.3e} nm/pixel)");
     assert!((pv - (hi - lo)).abs() <= 1e-9 * (hi - lo));
     assert!((rms - rms_ref).abs() <= 1e-9 * rms_ref);
