@@ -74,6 +74,8 @@ pub enum FieldError {
     BadValue { index: usize },
     #[error("a polar grid needs at least one angle")]
     NoAngles,
+    #[error("a polar grid has no single value per radius to interpolate")]
+    NotRadial,
     #[error("the field spans [{lo}, {hi}] mm but the radii asked for span [{first}, {last}] mm")]
     NotCovering {
         lo: f64,
@@ -161,16 +163,14 @@ impl Field {
         let Domain::Radial { radius_mm } = &self.domain else {
             return None;
         };
-        let (lo, hi) = (radius_mm[0], radius_mm[radius_mm.len() - 1]);
-        if !(lo..=hi).contains(&r) {
-            return None;
-        }
-        Some(interpolate(radius_mm, &self.values, r))
+        interpolate_within(radius_mm, &self.values, r)
     }
 
     /// The radial field at each of `radii_mm` (ascending, within its span).
     pub fn resample(&self, radii_mm: &[f64]) -> Result<Vec<f64>, FieldError> {
-        let radius_mm = self.radius_mm();
+        let Domain::Radial { radius_mm } = &self.domain else {
+            return Err(FieldError::NotRadial);
+        };
         let (lo, hi) = (radius_mm[0], radius_mm[radius_mm.len() - 1]);
         if let (Some(&first), Some(&last)) = (radii_mm.first(), radii_mm.last()) {
             if first < lo || last > hi {
@@ -210,6 +210,20 @@ impl Field {
 }
 
 /// Linear interpolation of `values` on ascending `radius_mm` at `r` within their span.
+/// The one interpolator on radial samples as slices (`radius_mm` strictly increasing, one
+/// value each): the value at `r` within their span, `None` outside it (a single sample spans
+/// its own radius).
+pub fn interpolate_within(radius_mm: &[f64], values: &[f64], r: f64) -> Option<f64> {
+    let (&lo, &hi) = (radius_mm.first()?, radius_mm.last()?);
+    if !(lo..=hi).contains(&r) {
+        return None;
+    }
+    if radius_mm.len() == 1 {
+        return Some(values[0]);
+    }
+    Some(interpolate(radius_mm, values, r))
+}
+
 fn interpolate(radius_mm: &[f64], values: &[f64], r: f64) -> f64 {
     // The segment [radius_mm[k], radius_mm[k+1]] holding r.
     let k = radius_mm
@@ -250,27 +264,39 @@ impl Figures {
     /// The figures of `values` with `weights` (one each, ≥ 0); `None` when no weight is above 0.
     pub fn weighted(values: &[f64], weights: &[f64]) -> Option<Figures> {
         assert_eq!(values.len(), weights.len());
-        let counted = || values.iter().zip(weights).filter(|(_, &w)| w > 0.0);
-        let total: f64 = counted().map(|(_, &w)| w).sum();
+        Self::of(values.iter().copied().zip(weights.iter().copied()))
+    }
+
+    /// The figures of `values`, each counting once; `None` when there are none.
+    pub fn unweighted(values: &[f64]) -> Option<Figures> {
+        Self::of(values.iter().map(|&z| (z, 1.0)))
+    }
+
+    /// The figures of (value, weight) pairs: the sums in one pass, the RMS about the mean in a
+    /// second.
+    fn of(pairs: impl Iterator<Item = (f64, f64)> + Clone) -> Option<Figures> {
+        let counted = pairs.filter(|&(_, w)| w > 0.0);
+        // -0.0: the neutral element `Iterator::sum` starts from, so an all −0 sum stays −0.
+        let (mut total, mut sum, mut min, mut max, mut samples) =
+            (-0.0, -0.0, f64::INFINITY, f64::NEG_INFINITY, 0);
+        for (z, w) in counted.clone() {
+            total += w;
+            sum += w * z;
+            (min, max) = (min.min(z), max.max(z));
+            samples += 1;
+        }
         if total <= 0.0 {
             return None;
         }
-        let mean = counted().map(|(&z, &w)| w * z).sum::<f64>() / total;
-        let (min, max) = counted().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (&z, _)| {
-            (lo.min(z), hi.max(z))
-        });
-        let rms = (counted()
-            .map(|(&z, &w)| w * (z - mean).powi(2))
-            .sum::<f64>()
-            / total)
-            .sqrt();
+        let mean = sum / total;
+        let rms = (counted.map(|(z, w)| w * (z - mean).powi(2)).sum::<f64>() / total).sqrt();
         Some(Figures {
             mean,
             min,
             max,
             pv: max - min,
             rms,
-            samples: counted().count(),
+            samples,
         })
     }
 }

@@ -32,7 +32,7 @@
 //! it at all) is held at its nominal value and reported without a standard error; the caller
 //! says why. Standard errors are √ of the diagonal of σ²·(JᵀWJ)⁻¹, σ² = S/(n − p).
 
-use crate::field::{DepthProfile, Field};
+use crate::field::{interpolate_within, DepthProfile};
 use faer::Mat;
 
 use crate::lsq::{self, Fit, LsqError, Model, RobustLoss};
@@ -876,13 +876,9 @@ fn check_profile(role: ProfileRole, profile: &DepthProfile, edge_mm: f64) -> Res
 }
 
 /// The measured removal at the before's radii within the after's span (the after linearly
-/// interpolated: [`Field::at`]; a single after point is its own span).
+/// interpolated: [`interpolate_within`]; a single after point is its own span).
 fn removal_between(before: &DepthProfile, after: &DepthProfile) -> DepthProfile {
-    let field = Field::radial(after.radius_mm.clone(), after.depth_nm.clone()).ok();
-    let at = |r: f64| match &field {
-        Some(field) => field.at(r),
-        None => (after.radius_mm == [r]).then(|| after.depth_nm[0]),
-    };
+    let at = |r: f64| interpolate_within(&after.radius_mm, &after.depth_nm, r);
     let (radius_mm, depth_nm) = before
         .radius_mm
         .iter()

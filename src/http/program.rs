@@ -2,7 +2,6 @@
 //! against the machine's limits; JSON blocks, `text/x-gcode` or `text/csv`.
 
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 use utoipa::ToSchema;
 
 use super::dto::{
@@ -259,10 +258,7 @@ seconds), `text/csv` the block table.",
 
     fn parse(req: ProgramRequest, limits: &ComputeLimits) -> Result<ProgramCommand, ApiError> {
         let canonical = serde_json::to_vec(&req).map_err(|e| ApiError::internal(e.to_string()))?;
-        let digest: String = Sha256::digest(&canonical)
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect();
+        let digest = crate::store::sha256_hex(&canonical);
         let approach = req.approach.clone().unwrap_or_default();
         let spec = ProgramSpec {
             process: req.process.spec()?,

@@ -12,7 +12,13 @@ use crate::usecases::records::{Claim, Record, Records, Replay, Stamp, Written};
 pub struct Write<'s> {
     store: &'s Store,
     owner: String,
-    claim: Option<(String, String)>,
+    claim: Option<KeyClaim>,
+}
+
+/// An Idempotency-Key and the request's fingerprints.
+struct KeyClaim {
+    key: String,
+    fingerprint: String,
     /// The fingerprint a claim written before fingerprints were canonical has for the same
     /// request (the body as sent), so a retry across that upgrade still finds its first answer.
     sent_fingerprint: String,
@@ -54,8 +60,7 @@ impl<'s> Write<'s> {
         operation: &str,
         body: &Value,
     ) -> Result<Write<'s>, LedgerError> {
-        let request = format!("{operation}\n{}", canonical(body));
-        let sent_fingerprint = sha256_hex(format!("{operation}\n{body}").as_bytes());
+        // Fingerprints only for a write with a key: a measurement body may be large.
         let claim = match key {
             None => None,
             Some(key) => {
@@ -65,28 +70,30 @@ impl<'s> Write<'s> {
                         "an Idempotency-Key is 1 to 255 visible ASCII characters (a UUID will do)",
                     ));
                 }
-                Some((
-                    String::from_utf8_lossy(key).into_owned(),
-                    sha256_hex(request.as_bytes()),
-                ))
+                Some(KeyClaim {
+                    key: String::from_utf8_lossy(key).into_owned(),
+                    fingerprint: sha256_hex(format!("{operation}\n{}", canonical(body)).as_bytes()),
+                    sent_fingerprint: sha256_hex(format!("{operation}\n{body}").as_bytes()),
+                })
             }
         };
         Ok(Write {
             store,
             owner: owner.to_string(),
             claim,
-            sent_fingerprint,
         })
     }
 
     /// The first answer under this key, when there is one (asked before any work is done).
     pub async fn replay(&self) -> Result<Option<Replay>, LedgerError> {
-        let Some((key, fingerprint)) = &self.claim else {
+        let Some(claim) = &self.claim else {
             return Ok(None);
         };
-        match self.store.claimed(&self.owner, key).await? {
+        match self.store.claimed(&self.owner, &claim.key).await? {
             None => Ok(None),
-            Some((first, replay)) if &first == fingerprint || first == self.sent_fingerprint => {
+            Some((first, replay))
+                if first == claim.fingerprint || first == claim.sent_fingerprint =>
+            {
                 Ok(Some(replay))
             }
             Some(_) => Err(key_reused()),
@@ -112,10 +119,10 @@ impl<'s> Write<'s> {
         record: String,
         taken: Option<&str>,
     ) -> Result<Answer, LedgerError> {
-        let claim = self.claim.map(|(key, fingerprint)| Claim {
+        let claim = self.claim.map(|claim| Claim {
             owner: self.owner.clone(),
-            key,
-            fingerprint,
+            key: claim.key,
+            fingerprint: claim.fingerprint,
             answer: Replay {
                 status: 201,
                 location,

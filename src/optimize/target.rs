@@ -104,7 +104,10 @@ impl From<FieldError> for MeasuredProfileError {
     /// The field's checks in the profile's words (its arrays are `radius_mm` and `depth_nm`).
     fn from(e: FieldError) -> Self {
         match e {
-            FieldError::TooFewPoints | FieldError::NoAngles => MeasuredProfileError::TooFewPoints,
+            // A measured profile is a radial field: the polar variants cannot occur.
+            FieldError::TooFewPoints | FieldError::NoAngles | FieldError::NotRadial => {
+                MeasuredProfileError::TooFewPoints
+            }
             FieldError::LengthMismatch { values, samples } => {
                 MeasuredProfileError::LengthMismatch {
                     depth: values,

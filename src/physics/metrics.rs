@@ -48,13 +48,17 @@ impl UniformityMetrics {
 
     /// Figures over the given depths (at least one), each counting once.
     pub fn of_samples(depths_nm: &[f64]) -> Self {
-        Self::weighted(depths_nm, &vec![1.0; depths_nm.len()])
+        Self::from_figures(Figures::unweighted(depths_nm))
     }
 
     /// Figures over the given depths with `weights` (one each, ≥ 0, at least one above 0):
     /// [`crate::field::Figures`], e.g. with a field's area weights ([`crate::field::Weighting`]).
     pub fn weighted(depths_nm: &[f64], weights: &[f64]) -> Self {
-        let f = Figures::weighted(depths_nm, weights).expect("metrics need a weighted sample");
+        Self::from_figures(Figures::weighted(depths_nm, weights))
+    }
+
+    fn from_figures(figures: Option<Figures>) -> Self {
+        let f = figures.expect("metrics need a weighted sample");
         UniformityMetrics {
             mean_nm: f.mean,
             min_nm: f.min,
