@@ -52,11 +52,21 @@ pub(super) struct ValueAndError {
     pub standard_error: Option<f64>,
 }
 
-/// What a part's stored body gives a request's process: its workpiece radius (the number as
-/// written: an integer stays one).
+/// A part's stored body (its request as written): the workpiece radius keeps its number as
+/// written (an integer stays one).
 #[derive(Debug, Deserialize)]
-pub(super) struct PartRadius {
+pub struct PartBody {
+    pub surface: Option<Value>,
     pub workpiece_radius_mm: serde_json::Number,
+    pub clear_aperture: Option<Value>,
+}
+
+/// A process profile's stored body (its request as written).
+#[derive(Debug, Deserialize)]
+pub struct ProfileBody {
+    pub process: Value,
+    pub surface: Option<Value>,
+    pub tool: Option<Value>,
 }
 
 /// A plan request's clear aperture, when it names one (`Some(null)` when it names null).

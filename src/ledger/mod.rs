@@ -16,6 +16,8 @@
 
 mod answers;
 pub mod cycles;
+
+pub use answers::{PartBody, ProfileBody};
 pub mod parts;
 pub mod profiles;
 mod write;
@@ -107,6 +109,11 @@ pub trait Compute: Sync {
 /// A stored document (JSON text this layer wrote).
 pub fn document(text: &str) -> Result<Value, LedgerError> {
     serde_json::from_str(text).map_err(|e| LedgerError::Broken(format!("a stored record: {e}")))
+}
+
+/// A stored document (a record's body as written) read as `T`; `what` names it in the error.
+pub fn stored<T: serde::de::DeserializeOwned>(text: &str, what: &str) -> Result<T, LedgerError> {
+    answers::read(&document(text)?, what)
 }
 
 /// A record the request names, or 404.

@@ -5,7 +5,7 @@
 
 use serde_json::{json, Value};
 
-use super::answers::{read, MeasurementAnswer, PartRadius, PlanAnswer, PlanAperture};
+use super::answers::{read, MeasurementAnswer, PartBody, PlanAnswer, PlanAperture};
 use super::cycles::plan_setting;
 use super::profiles::{self, calibration_record};
 use super::{
@@ -84,7 +84,7 @@ impl NewPart {
 /// A request's setting on a part: the process at the part's workpiece radius, the part's
 /// surface and clear aperture (`part` is the part's stored body).
 pub fn on_part(mut process: Value, part: &Value) -> Result<Document, LedgerError> {
-    let radius = read::<PartRadius>(part, "a part")?.workpiece_radius_mm;
+    let radius = read::<PartBody>(part, "a part")?.workpiece_radius_mm;
     if let Some(process) = process.as_object_mut() {
         process.insert("workpiece_radius_mm".into(), Value::Number(radius));
     }

@@ -2,7 +2,7 @@
 //! calibration's, with the Preston coefficient learned from production since: the rule is
 //! `usecases::records::current_rate`).
 
-use super::answers::{read, CalibrationAnswer, ProcessRate};
+use super::answers::{read, CalibrationAnswer, ProcessRate, ProfileBody};
 use serde_json::Value;
 
 use super::{
@@ -81,11 +81,7 @@ pub fn current_process(
     profile: &ProfileRecord,
     calibrations: &[CalibrationRecord],
 ) -> Result<CurrentProcess, LedgerError> {
-    #[derive(serde::Deserialize)]
-    struct Body {
-        process: Value,
-    }
-    let own = read::<Body>(&document(&profile.body)?, "a process profile")?.process;
+    let own = read::<ProfileBody>(&document(&profile.body)?, "a process profile")?.process;
     let own_k =
         read::<ProcessRate>(&own, "a process profile's process")?.preston_coefficient_m2_per_n;
     let rate = current_rate(calibrations, own_k);

@@ -15,30 +15,27 @@ use crate::http::dto::WarningDto;
 use crate::http::error::ApiError;
 use crate::http::extract::ApiJson;
 use crate::http::state::AppState;
-use crate::ledger::document;
 use crate::ledger::parts::{self, MeasurementOutcome, NewPart};
+use crate::ledger::{self, document, PartBody};
 use crate::usecases::records::{PartRecord, Record, Records};
 
 /// Most parts a page lists.
 pub const MAX_PAGE: usize = 100;
 
-/// What a part's stored body holds (its request, as written).
-#[derive(serde::Deserialize)]
-struct StoredPart {
-    surface: Option<Value>,
-    workpiece_radius_mm: f64,
-    clear_aperture: Option<Value>,
-}
-
 pub(super) fn part_dto(part: &PartRecord) -> Result<PartDto, ApiError> {
-    let body: StoredPart = serde_json::from_value(document(&part.body)?)
-        .map_err(|e| ApiError::internal(format!("a stored part: {e}")))?;
+    let body: PartBody = ledger::stored(&part.body, "a stored part")?;
+    let workpiece_radius_mm = body.workpiece_radius_mm.as_f64().ok_or_else(|| {
+        ApiError::internal(format!(
+            "a stored part's radius {}",
+            body.workpiece_radius_mm
+        ))
+    })?;
     Ok(PartDto {
         id: part.stamp.id.clone(),
         name: part.name.clone(),
         process_profile: part.process_profile.clone(),
         surface: body.surface,
-        workpiece_radius_mm: body.workpiece_radius_mm,
+        workpiece_radius_mm,
         clear_aperture: body.clear_aperture,
         created_at: part.stamp.created_at.clone(),
         created_by: part.stamp.created_by.clone(),

@@ -14,8 +14,8 @@ use super::{begin, commit, computed_by, fetched, replayed, store, tag, Writer, P
 use crate::http::error::ApiError;
 use crate::http::extract::ApiJson;
 use crate::http::state::AppState;
-use crate::ledger::document;
 use crate::ledger::profiles::{self, current_process, NewProfile, RateSource};
+use crate::ledger::{self, document, ProfileBody};
 use crate::usecases::records::{CalibrationRecord, ProfileRecord, Record, Records};
 
 pub(super) fn calibration_dto(
@@ -35,21 +35,12 @@ pub(super) fn calibration_dto(
     })
 }
 
-/// What a profile's stored body holds (its request, as written).
-#[derive(serde::Deserialize)]
-struct StoredProfile {
-    process: Value,
-    surface: Option<Value>,
-    tool: Option<Value>,
-}
-
 fn profile_dto(
     profile: &ProfileRecord,
     calibrations: &[CalibrationRecord],
     listed: bool,
 ) -> Result<ProcessProfileDto, ApiError> {
-    let body: StoredProfile = serde_json::from_value(document(&profile.body)?)
-        .map_err(|e| ApiError::internal(format!("a stored process profile: {e}")))?;
+    let body: ProfileBody = ledger::stored(&profile.body, "a stored process profile")?;
     let current = current_process(profile, calibrations)?;
     let calibrations = if listed {
         Some(
