@@ -30,7 +30,7 @@ impl Store {
         )
         .bind(&name)
         .bind(size)
-        .bind(bytes.to_vec())
+        .bind(bytes)
         .bind(now())
         .execute(&self.pool)
         .await
