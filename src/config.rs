@@ -87,6 +87,12 @@ pub struct ServeArgs {
     /// Most candidate positions in one optimization (422 beyond).
     #[arg(long, env = "PRESTON_MAX_OPTIMIZE_POSITIONS", default_value_t = ServiceLimits::default().max_optimize_positions)]
     pub max_optimize_positions: usize,
+    /// Largest interferometer map file in bytes, on the map endpoints (413 beyond).
+    #[arg(long, env = "PRESTON_MAX_MAP_BYTES", default_value_t = ServiceLimits::default().max_map_bytes)]
+    pub max_map_bytes: usize,
+    /// Most pixels in one interferometer map (422 beyond).
+    #[arg(long, env = "PRESTON_MAX_MAP_PIXELS", default_value_t = ServiceLimits::default().max_map_pixels)]
+    pub max_map_pixels: usize,
     /// Longest a dwell optimization may run in the solver, in milliseconds.
     #[arg(long, env = "PRESTON_SOLVER_TIME_LIMIT_MS", default_value_t = 10_000)]
     pub solver_time_limit_ms: u64,
@@ -169,6 +175,10 @@ pub struct ServiceLimits {
     pub max_optimize_positions: usize,
     /// Longest a dwell optimization may run in the solver; a request may ask for less.
     pub solver_time_limit: Duration,
+    /// Largest map file, bytes, on the map endpoints (413 beyond).
+    pub max_map_bytes: usize,
+    /// Most pixels in one map (422 beyond).
+    pub max_map_pixels: usize,
     /// Computations running at once; more wait for a slot. One more than the CPUs by default:
     /// between one computation's end and the next one's start on a core lie the hand-offs
     /// between threads (the result to the runtime, the next queued request to its lane), and
@@ -198,6 +208,8 @@ impl Default for ServiceLimits {
             max_operator_entries: compute.max_operator_entries,
             max_optimize_positions: compute.max_optimize_positions,
             solver_time_limit: compute.solver_time_limit,
+            max_map_bytes: 64 * MIB,
+            max_map_pixels: compute.max_map_pixels,
             max_concurrent_computations: std::thread::available_parallelism()
                 .map(|n| n.get())
                 .unwrap_or(2)
@@ -220,6 +232,7 @@ impl ServiceLimits {
             max_operator_entries: self.max_operator_entries,
             max_optimize_positions: self.max_optimize_positions,
             solver_time_limit: self.solver_time_limit,
+            max_map_pixels: self.max_map_pixels,
             ..ComputeLimits::default()
         }
     }
@@ -274,6 +287,8 @@ impl ServeArgs {
             max_operator_entries: self.max_operator_entries,
             max_optimize_positions: self.max_optimize_positions,
             solver_time_limit: Duration::from_millis(self.solver_time_limit_ms.max(1)),
+            max_map_bytes: self.max_map_bytes,
+            max_map_pixels: self.max_map_pixels,
             max_concurrent_computations: self
                 .max_concurrent_computations
                 .unwrap_or(defaults.max_concurrent_computations)

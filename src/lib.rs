@@ -28,6 +28,7 @@ pub mod ratelimit;
 pub mod report;
 pub mod server;
 pub mod slots;
+pub mod spline;
 pub mod store;
 pub mod study;
 pub mod surface;

@@ -56,24 +56,7 @@ impl<S: Send + Sync, R: CsvForm> FromRequest<S> for CsvOrJson<R> {
             return extract::json_body(req, state).await.map(CsvOrJson);
         }
         let bytes = extract::read_body(req, state).await?;
-        let mut body = Map::new();
-        for (name, value) in query {
-            if !R::QUERY_FIELDS.contains(&name.as_str()) {
-                return Err(ApiError::new(
-                    Kind::SchemaMismatch,
-                    format!(
-                        "unknown query parameter `{name}`, expected one of {}",
-                        R::QUERY_FIELDS.join(", ")
-                    ),
-                )
-                .at(name));
-            }
-            // A JSON value, or a bare word for an enum name.
-            let value = serde_json::from_str(&value).unwrap_or(Value::String(value));
-            if body.insert(name.clone(), value).is_some() {
-                return Err(ApiError::invalid(name, "given twice"));
-            }
-        }
+        let mut body = query_object(query, R::QUERY_FIELDS)?;
         if let Some(name) = R::REQUIRED_QUERY_FIELDS
             .iter()
             .find(|name| !body.contains_key(**name))
@@ -87,6 +70,33 @@ impl<S: Send + Sync, R: CsvForm> FromRequest<S> for CsvOrJson<R> {
         let text = serde_json::to_vec(&body).map_err(|e| ApiError::internal(e.to_string()))?;
         extract::parse_json(&text).map(CsvOrJson)
     }
+}
+
+/// The query's parameters as the members of a JSON body: each value JSON, or a bare word for
+/// an enum name; only `fields` may appear, each once.
+pub fn query_object(
+    query: Vec<(String, String)>,
+    fields: &[&str],
+) -> Result<Map<String, Value>, ApiError> {
+    let mut body = Map::new();
+    for (name, value) in query {
+        if !fields.contains(&name.as_str()) {
+            return Err(ApiError::new(
+                Kind::SchemaMismatch,
+                format!(
+                    "unknown query parameter `{name}`, expected one of {}",
+                    fields.join(", ")
+                ),
+            )
+            .at(name));
+        }
+        // A JSON value, or a bare word for an enum name.
+        let value = serde_json::from_str(&value).unwrap_or(Value::String(value));
+        if body.insert(name.clone(), value).is_some() {
+            return Err(ApiError::invalid(name, "given twice"));
+        }
+    }
+    Ok(body)
 }
 
 fn is_csv(headers: &HeaderMap) -> bool {

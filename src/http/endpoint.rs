@@ -73,6 +73,8 @@ pub trait Endpoint: 'static {
     const SVG: Option<fn(&Self::Output) -> String> = None;
     /// `Accept: text/x-gcode`, when offered.
     const GCODE: Option<fn(&Self::Output) -> String> = None;
+    /// The body may be an instrument's file: the map body limit applies, not the JSON one.
+    const LARGE_BODY: bool = false;
 
     /// The request as the use case's command: every check, no computation.
     fn parse(request: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError>;

@@ -211,6 +211,16 @@ impl ApiError {
         self
     }
 
+    /// The same problem inside `prefix`: its field `a.b` becomes `prefix.a.b` (the body's
+    /// own problems name `prefix`).
+    pub fn under(mut self, prefix: &str) -> Self {
+        self.field = Some(match self.field.as_deref() {
+            None | Some("body") | Some(".") => prefix.to_string(),
+            Some(field) => format!("{prefix}.{field}"),
+        });
+        self
+    }
+
     pub fn invalid(field: impl Into<String>, detail: impl Into<String>) -> Self {
         ApiError::new(Kind::InvalidInput, detail).at(field)
     }

@@ -19,6 +19,7 @@ pub mod eta_sweep;
 pub mod extract;
 pub mod fields;
 pub mod health;
+pub mod maps;
 pub mod measurement_fit;
 pub mod metrics;
 pub mod openapi;

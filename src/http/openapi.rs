@@ -43,6 +43,7 @@ use crate::contract;
         (name = "optimize", description = "Dwell optimization"),
         (name = "recommend", description = "η = −1 recommendation and η studies"),
         (name = "metrology", description = "On-machine measurement: fit a probe trace to the design"),
+        (name = "maps", description = "Interferometer maps: read the instrument's files, analyse them as metrologists do"),
         (name = "machine", description = "Machine programs: axis motion within limits, G-code"),
         (name = "calibration", description = "Calibration: the removal rate, pad radius and moment share fitted to measured removal"),
         (name = "records", description = "Records: process profiles and their calibrations, parts, measurements, plans, runs and each part's correction cycles"),

@@ -20,8 +20,8 @@ use super::extract::BodyLimit;
 use super::state::{AppState, Services};
 use super::{auth, ratelimit};
 use super::{
-    calibration, docs, eta_sweep, health, measurement_fit, metrics, optimize, predict, program,
-    recommend, records, removal_function, workbench,
+    calibration, docs, eta_sweep, health, maps, measurement_fit, metrics, optimize, predict,
+    program, recommend, records, removal_function, workbench,
 };
 use crate::config::ServiceLimits;
 use crate::usecases::ComputeLimits;
@@ -36,6 +36,8 @@ pub struct EndpointEntry {
     /// A request body (a fixture): the OpenAPI example.
     pub example: &'static str,
     route: fn() -> MethodRouter<AppState>,
+    /// Takes map files: the map body limit applies.
+    large_body: bool,
     compute: ComputeFn,
     /// The OpenAPI operation, adding the schemas it refers to.
     pub operation: OperationFn,
@@ -53,13 +55,14 @@ const fn entry<E: Endpoint>() -> EndpointEntry {
         name: E::NAME,
         example: E::EXAMPLE,
         route: || post(handler::<E>),
+        large_body: E::LARGE_BODY,
         compute: compute_json_of::<E>,
         operation: operation::<E>,
     }
 }
 
 /// Every computing endpoint, in the order the documentation lists them.
-pub static ENDPOINTS: [EndpointEntry; 8] = [
+pub static ENDPOINTS: [EndpointEntry; 9] = [
     entry::<removal_function::RemovalFunctionEndpoint>(),
     entry::<predict::PredictEndpoint>(),
     entry::<optimize::OptimizeEndpoint>(),
@@ -68,6 +71,7 @@ pub static ENDPOINTS: [EndpointEntry; 8] = [
     entry::<measurement_fit::MeasurementFitEndpoint>(),
     entry::<program::ProgramEndpoint>(),
     entry::<calibration::CalibrationEndpoint>(),
+    entry::<maps::MapAnalysisEndpoint>(),
 ];
 
 /// The offline twin of the API: the exact JSON body `POST /v1/<endpoint>` would return.
@@ -131,8 +135,18 @@ pub fn cors_layer(origins: &[String]) -> Option<CorsLayer> {
 pub fn router(state: AppState, cors: Option<CorsLayer>) -> Router {
     let body_limit = state.limits.max_body_bytes;
     let request_id = HeaderName::from_static(metrics::REQUEST_ID);
+    let map_limit = state.limits.max_map_bytes;
     let computing = ENDPOINTS.iter().fold(Router::new(), |router, e| {
-        router.route(&e.path(), (e.route)())
+        let route: MethodRouter<AppState> = (e.route)();
+        // The innermost limit is the one that holds: a map file's, on the map endpoints.
+        let route = if e.large_body {
+            route
+                .layer::<_, std::convert::Infallible>(DefaultBodyLimit::max(map_limit))
+                .layer::<_, std::convert::Infallible>(Extension(BodyLimit(map_limit)))
+        } else {
+            route
+        };
+        router.route(&e.path(), route)
     });
     let router = computing
         .merge(records::routes())

@@ -10,6 +10,7 @@
 //!  60 u32 intensity bytes 68 u16 phase width       70 u16 phase height    72 u32 phase bytes
 //! 164 f32 scale factor S 168 f32 wavelength W (m) 176 f32 obliquity O   184 f32 pixel (m; 0: none)
 //! 218 u16 phase resolution code: 0 → R = 4096, 1 → 32768, 2 → 131072
+//! 232 u16 data sign: 0 as measured, 1 inverted (the heights' sign flips)
 //! ```
 //!
 //! After the header come the intensity frames (u16 each, width × height × frames) and then the
@@ -31,6 +32,11 @@ const MAGIC: [u32; 3] = [0x881B_036F, 0x881B_0370, 0x881B_0371];
 const HEADER_BYTES: [usize; 3] = [834, 834, 4096];
 /// Raw phase values from this one up mean no data.
 const NO_DATA: i32 = 2_147_483_640;
+
+/// Whether the bytes start with a MetroPro magic number.
+pub fn detect(bytes: &[u8]) -> bool {
+    bytes.len() >= 4 && MAGIC.contains(&u32_at(bytes, 0))
+}
 
 /// Why a file is not a MetroPro map Preston can read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -75,6 +81,8 @@ pub enum MetroProError {
     PhaseResolution { code: u16 },
     #[error("the header's {field} is {value}: it must be a positive number")]
     Scale { field: &'static str, value: f32 },
+    #[error("unknown data sign {code} (MetroPro writes 0, as measured, or 1, inverted)")]
+    DataSign { code: u16 },
     #[error("every pixel of the phase map is missing (no data)")]
     NoData,
 }
@@ -191,7 +199,12 @@ pub fn read(bytes: &[u8], max_pixels: usize) -> Result<HeightMap, MetroProError>
     let scale = positive("scale factor", 164)?;
     let wavelength_m = positive("wavelength", 168)?;
     let obliquity = positive("obliquity factor", 176)?;
-    let nm_per_count = scale * obliquity * wavelength_m / resolution * 1e9;
+    let sign = match u16_at(bytes, 232) {
+        0 => 1.0,
+        1 => -1.0,
+        code => return Err(MetroProError::DataSign { code }),
+    };
+    let nm_per_count = sign * scale * obliquity * wavelength_m / resolution * 1e9;
     let start = header + intensity_bytes;
     let heights_nm: Vec<Option<f64>> = bytes[start..start + phase_bytes]
         .chunks_exact(4)

@@ -11,12 +11,111 @@
 //! allocated: a file of n bytes never makes a reader allocate more than a small multiple of n.
 //!
 //! - [`metropro`]: Zygo MetroPro `.dat` (binary).
+//! - [`zygo_text`]: Zygo's ASCII and XYZ exports.
+//! - [`codev`]: Code V interferogram grids (`.int`).
 //! - [`grid`]: a plain text grid with a `#` header (Preston's own, documented there).
+//!
+//! [`read`] tells them apart by their first bytes.
+//!
+//! The analysis ([`analysis`]) aligns a map to the part and its clear aperture ([`aperture`]),
+//! fits Zernike terms ([`zernike`]), takes its PSD ([`psd`]) and its rotationally symmetric
+//! part ([`radial`]).
 
+pub mod analysis;
+pub mod aperture;
+pub mod codev;
 pub mod grid;
 pub mod metropro;
+pub mod psd;
+pub mod radial;
+pub mod zernike;
+pub mod zygo_text;
 
 use crate::field::Figures;
+
+/// The file formats [`read`] tells apart.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    MetroPro,
+    Datx,
+    ZygoText,
+    CodeV,
+    TextGrid,
+}
+
+impl Format {
+    /// The format the bytes start as: MetroPro's magic number, HDF5's signature (a `.datx`),
+    /// Zygo's text titles, a Code V header, else a text grid.
+    pub fn detect(bytes: &[u8]) -> Format {
+        if bytes.len() >= 4 && metropro::detect(bytes) {
+            Format::MetroPro
+        } else if bytes.starts_with(HDF5_SIGNATURE) {
+            Format::Datx
+        } else if zygo_text::detect(bytes) {
+            Format::ZygoText
+        } else if codev::detect(bytes) {
+            Format::CodeV
+        } else {
+            Format::TextGrid
+        }
+    }
+}
+
+/// The first eight bytes of every HDF5 file.
+const HDF5_SIGNATURE: &[u8] = b"\x89HDF\r\n\x1a\n";
+
+/// Why a file could not be read, by the format it was taken for.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReadError {
+    #[error("MetroPro .dat: {0}")]
+    MetroPro(#[from] metropro::MetroProError),
+    #[error(
+        "an HDF5 file (Zygo Mx .datx): this server does not read .datx yet; export the map from \
+         Mx as .dat, .xyz or .asc"
+    )]
+    Datx,
+    #[error("Zygo text export: {0}")]
+    ZygoText(#[from] zygo_text::ZygoTextError),
+    #[error("Code V grid: {0}")]
+    CodeV(#[from] codev::CodeVError),
+    #[error("text grid: {0}")]
+    TextGrid(#[from] grid::TextGridError),
+}
+
+/// Reads a map file in any format Preston knows, told apart by its first bytes; at most
+/// `max_pixels` pixels.
+pub fn read(bytes: &[u8], max_pixels: usize) -> Result<(Format, HeightMap), ReadError> {
+    let format = Format::detect(bytes);
+    let map = match format {
+        Format::MetroPro => metropro::read(bytes, max_pixels)?,
+        Format::Datx => return Err(ReadError::Datx),
+        Format::ZygoText => zygo_text::read(bytes, max_pixels)?,
+        Format::CodeV => codev::read(bytes, max_pixels)?,
+        Format::TextGrid => grid::read(bytes, max_pixels)?,
+    };
+    Ok((format, map))
+}
+
+/// Why heights given directly do not make a map.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MapError {
+    #[error("the map has no rows, or a row with no pixels")]
+    Empty,
+    #[error("row {row} has {got} pixels where the first has {expected}")]
+    Ragged {
+        row: usize,
+        expected: usize,
+        got: usize,
+    },
+    #[error("row {row}, column {column}: a height must be a finite number (null for no data)")]
+    NotFinite { row: usize, column: usize },
+    #[error("the map has {pixels} pixels, more than the {max} a map may have")]
+    TooLarge { pixels: usize, max: usize },
+    #[error("every pixel of the map is missing (no data)")]
+    NoData,
+    #[error("{field} must be a positive number")]
+    NotPositive { field: &'static str },
+}
 
 /// Heights on a grid of pixels (module docs).
 #[derive(Debug, Clone, PartialEq)]
@@ -29,6 +128,58 @@ pub struct HeightMap {
 }
 
 impl HeightMap {
+    /// A map from its rows (top first; `None` for no data), pixel pitch (mm) and measuring
+    /// wavelength (nm) when known; at most `max_pixels` pixels.
+    pub fn from_rows(
+        rows: Vec<Vec<Option<f64>>>,
+        pixel_mm: Option<f64>,
+        wavelength_nm: Option<f64>,
+        max_pixels: usize,
+    ) -> Result<HeightMap, MapError> {
+        let width = rows.first().map_or(0, Vec::len);
+        if width == 0 {
+            return Err(MapError::Empty);
+        }
+        let pixels = width.saturating_mul(rows.len());
+        if pixels > max_pixels {
+            return Err(MapError::TooLarge {
+                pixels,
+                max: max_pixels,
+            });
+        }
+        for (field, value) in [("pixel_mm", pixel_mm), ("wavelength_nm", wavelength_nm)] {
+            if value.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
+                return Err(MapError::NotPositive { field });
+            }
+        }
+        let mut heights_nm = Vec::with_capacity(pixels);
+        for (row, values) in rows.iter().enumerate() {
+            if values.len() != width {
+                return Err(MapError::Ragged {
+                    row,
+                    expected: width,
+                    got: values.len(),
+                });
+            }
+            for (column, h) in values.iter().enumerate() {
+                if h.is_some_and(|h| !h.is_finite()) {
+                    return Err(MapError::NotFinite { row, column });
+                }
+            }
+            heights_nm.extend_from_slice(values);
+        }
+        if heights_nm.iter().all(Option::is_none) {
+            return Err(MapError::NoData);
+        }
+        Ok(HeightMap {
+            width,
+            height: rows.len(),
+            heights_nm,
+            pixel_mm,
+            wavelength_nm,
+        })
+    }
+
     /// Pixels per row.
     pub fn width(&self) -> usize {
         self.width

@@ -29,6 +29,8 @@
 
 use std::ops::Range;
 
+use crate::spline::Knots;
+
 /// Knot spacing of the dwell's spline, as a fraction of the tool radius: fine enough that the
 /// spline fits what the pad can remove (measured on the paper's experiments: a finer spacing
 /// does not change the plan's uniformity), coarse enough to keep the QP small.
@@ -88,12 +90,7 @@ impl Basis {
         }
         let target = KNOT_SPACING_PER_TOOL_RADIUS * tool_radius_mm;
         let spans = ((b - a) / target).round().max(1.0) as usize;
-        let knots = Knots {
-            start: a,
-            end: b,
-            step: (b - a) / spans as f64,
-            spans,
-        };
+        let knots = Knots::new(a, b, spans);
         let mut terms = Vec::with_capacity(4 * radii_mm.len());
         for &r in radii_mm {
             let (span, weights) = knots.basis(r);
@@ -203,55 +200,6 @@ impl Basis {
     }
 }
 
-/// Clamped uniform knots: `spans` spans of `step` from `start`, each end knot four times.
-struct Knots {
-    start: f64,
-    end: f64,
-    step: f64,
-    spans: usize,
-}
-
-impl Knots {
-    /// Knot u_i of the clamped sequence (u_0 = … = u_3 = start, u_{spans+3} = … = end).
-    fn knot(&self, i: usize) -> f64 {
-        let i = i.clamp(3, self.spans + 3) - 3;
-        if i == self.spans {
-            self.end
-        } else {
-            self.start + self.step * i as f64
-        }
-    }
-
-    /// The span i holding `x` (the last span holds the end) and the four cubic B-splines
-    /// B_i … B_{i+3} at `x`, by the Cox–de Boor recurrence raised one degree at a time.
-    fn basis(&self, x: f64) -> (usize, [f64; 4]) {
-        let span = (((x - self.start) / self.step).floor().max(0.0) as usize).min(self.spans - 1);
-        // Knot index of the span's left end.
-        let mu = span + 3;
-        let mut n = [1.0, 0.0, 0.0, 0.0];
-        let mut left = [0.0; 4];
-        let mut right = [0.0; 4];
-        for d in 1..=3 {
-            left[d] = x - self.knot(mu + 1 - d);
-            right[d] = self.knot(mu + d) - x;
-            let mut saved = 0.0;
-            for r in 0..d {
-                let denominator = right[r + 1] + left[d - r];
-                let tmp = if denominator == 0.0 {
-                    0.0
-                } else {
-                    n[r] / denominator
-                };
-                n[r] = saved + right[r + 1] * tmp;
-                saved = left[d - r] * tmp;
-            }
-            n[d] = saved;
-        }
-        // Rounding at a span's end can leave −1e-17: the functions are non-negative.
-        (span, n.map(|v: f64| v.max(0.0)))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -268,12 +216,7 @@ mod tests {
         let positions: Vec<f64> = even(401, 50.0).iter().map(|r| r + 0.3).collect();
         let basis = Basis::spline(&positions, 10.0).unwrap();
         assert_eq!(basis.size(), 40 + 3);
-        let knots = Knots {
-            start: 0.3,
-            end: 50.3,
-            step: 50.0 / 40.0,
-            spans: 40,
-        };
+        let knots = Knots::new(0.3, 50.3, 40);
         let greville: Vec<f64> = (0..basis.size())
             .map(|k| (knots.knot(k + 1) + knots.knot(k + 2) + knots.knot(k + 3)) / 3.0)
             .collect();

@@ -9,6 +9,7 @@ use crate::optimize::SolveStatus;
 use crate::physics::ClearAperture;
 use crate::usecases::calibration::CalibrationResult;
 use crate::usecases::eta_sweep::EtaSweep;
+use crate::usecases::map_analysis::MapAnalysisResult;
 use crate::usecases::measurement_fit::MeasurementFit;
 use crate::usecases::optimize::OptimizedPlan;
 use crate::usecases::predict::Prediction;
@@ -191,6 +192,22 @@ pub fn plan_svg(p: &OptimizedPlan) -> String {
 }
 
 /// One row per probe point: the trace, its placement and its residuals (nm).
+/// The aperture's pixels: position in the part's C frame and height less the removed terms.
+pub fn map_pixels_csv(r: &MapAnalysisResult) -> String {
+    let pixels = &r.analysis.pixels;
+    let column = |f: fn(&crate::maps::analysis::Pixel) -> f64| -> Vec<f64> {
+        pixels.iter().map(f).collect()
+    };
+    table::csv(
+        &header(&["x_mm", "y_mm", "height_nm"]),
+        &[
+            &column(|p| p.x_mm),
+            &column(|p| p.y_mm),
+            &column(|p| p.height_nm),
+        ],
+    )
+}
+
 pub fn measurement_fit_csv(m: &MeasurementFit) -> String {
     let points = &m.outcome.points;
     let column = |f: &dyn Fn(&crate::metrology::PointResidual) -> f64| -> Vec<f64> {

@@ -23,6 +23,11 @@ pub struct ComputeLimits {
     pub max_trace_points: usize,
     /// Longest a dwell optimization may spend in the solver (feasibility LP and QP together).
     pub solver_time_limit: Duration,
+    /// Most pixels in one interferometer map.
+    pub max_map_pixels: usize,
+    /// Most work in one Zernike fit: the aperture's valid pixels × terms² (the Gram matrix's
+    /// multiply-adds; 5·10¹⁰ is about 5 s on 2 cores).
+    pub max_zernike_work: f64,
 }
 
 impl Default for ComputeLimits {
@@ -36,6 +41,8 @@ impl Default for ComputeLimits {
             max_etas: 201,
             max_trace_points: 100_000,
             solver_time_limit: Duration::from_secs(10),
+            max_map_pixels: 16_777_216,
+            max_zernike_work: 5e10,
         }
     }
 }

@@ -20,6 +20,7 @@
 pub mod calibration;
 pub mod eta_sweep;
 mod limits;
+pub mod map_analysis;
 pub mod measurement_fit;
 pub mod operators;
 pub mod optimize;

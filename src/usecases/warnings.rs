@@ -188,7 +188,17 @@ pub enum Warning {
         noise_nm: f64,
         expected: bool,
     },
+    /// A map's clear aperture has pixels without data beyond [`MAP_DROPOUT_FRACTION`].
+    #[error(
+        "{missing} of the clear aperture's {total} pixels hold no height ({:.1} %): the \
+         figures describe the others (dropouts, dust, or an aperture beyond the measured area)",
+        100.0 * *missing as f64 / *total as f64
+    )]
+    MapDropouts { missing: usize, total: usize },
 }
+
+/// A map whose clear aperture lacks more than this fraction of its pixels gets a warning.
+pub const MAP_DROPOUT_FRACTION: f64 = 0.02;
 
 /// The unit checks on a process: radii that look like metres, a pressure that looks like
 /// pascals. Every use case that takes a process runs them.

@@ -338,6 +338,30 @@ def main_flow(binary, screenshots):
         page.wait("the next plan", lambda: "Next plan" in page.text_of('[data-summary="parts"]'))
         page.screenshot(screenshots, "parts")
 
+        # Maps: the real Fizeau map (prysm's MetroPro sample) dropped in as its file: the heat
+        # map, the 37 Zernike bars, the PSD, the ISO figures and the radial profile, then the
+        # axisymmetric correction planned and programmed on the set-up (a plane, from the
+        # calibration above).
+        page.one("#tab-maps").click()
+        page.one("#map_file").send_keys(str(ROOT / "fixtures/maps/valid_zygo_dat_file.dat"))
+        page.run_and_wait("maps", lambda: page.one('section[data-view="maps"] button[type="submit"]').click())
+        heat = page.one('figure[data-chart="map-heat"] canvas')
+        painted = driver.execute_script(
+            "const c = arguments[0]; const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
+            " let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++; return n;", heat)
+        check(painted > 100_000, f"the heat map is painted ({painted} opaque pixels)")
+        check("PV" in heat.get_attribute("aria-label"), "the heat map is titled with PV and RMS")
+        bars = page.css('figure[data-chart="map-zernike"] rect[data-term]')
+        check(len(bars) == 37, f"37 Zernike bars ({len(bars)})")
+        check(page.chart_drawn("map-psd", 1), "the PSD drawn")
+        check(page.chart_drawn("map-profile", 1), "the radial profile drawn")
+        check(page.chart_drawn("map-correction", 2), "the correction plan drawn")
+        mapped = page.text_of('[data-summary="maps"]')
+        check("ISO 10110-5" in mapped and "RMSa" in mapped.replace("RMSt / RMSi / RMSa", "RMSa"),
+              f"the ISO figures reported ({mapped[:120]!r}…)")
+        page.wait("the map's correction program", lambda: page.css('[data-program="maps"] a[data-download="program"]'))
+        page.screenshot(screenshots, "maps")
+
         # A shared link reopens the study.
         page.one("#tab-optimize").click()
         page.set("target_depth_nm", 250)

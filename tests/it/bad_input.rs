@@ -49,9 +49,35 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let mf = "measurement_fit_asphere.json";
     let pg = "program_sphere.json";
     let ca = "calibration_rings.json";
+    let ma = "maps_analysis.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 32] = [
+    let cases: [(&str, &str, Value, &str, &str); 39] = [
+        (ma, "map", Value::Null, INVALID, "map"),
+        (ma, "map.heights_nm[1]", json!([1.0, 2.0]), INVALID, "map"),
+        (ma, "pixel_mm", json!(-0.1), INVALID, "pixel_mm"),
+        (
+            ma,
+            "clear_aperture",
+            json!({"shape": "circle", "radius_mm": 40.0}),
+            INVALID,
+            "clear_aperture",
+        ),
+        (
+            ma,
+            "clear_aperture",
+            json!({"shape": "annulus", "inner_radius_mm": 5.0, "outer_radius_mm": 4.0}),
+            INVALID,
+            "clear_aperture",
+        ),
+        (ma, "zernike.terms", json!(38), INVALID, "zernike.terms"),
+        (
+            ma,
+            "psd.bands",
+            json!([{"name": "x", "low_per_mm": 2.0, "high_per_mm": 1.0}]),
+            INVALID,
+            "psd.bands",
+        ),
         // No probe reports a kilometre; the squares of such coordinates overflow the fit
         // (schemathesis found a 200 with a null RMS).
         (

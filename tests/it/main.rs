@@ -19,6 +19,7 @@ mod edge_pressure;
 mod invariant;
 mod layers;
 mod machine;
+mod map_analysis;
 mod maps;
 mod metrology;
 mod motion;

@@ -8,13 +8,13 @@ use preston::maps::metropro::{read, MetroProError};
 const SAMPLE: &str = "fixtures/maps/valid_zygo_dat_file.dat";
 const MAX_PIXELS: usize = 4_000_000;
 
-fn sample() -> Vec<u8> {
+pub(super) fn sample() -> Vec<u8> {
     std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(SAMPLE)).unwrap()
 }
 
 /// The independent reader: the phase map as (width, height, heights in nm or NaN), read
 /// field by field with slices, the scale in the order the MetroPro manual writes it.
-fn reference(bytes: &[u8]) -> (usize, usize, Vec<f64>) {
+pub(super) fn reference(bytes: &[u8]) -> (usize, usize, Vec<f64>) {
     let be16 = |at: usize| u16::from_be_bytes(bytes[at..at + 2].try_into().unwrap()) as usize;
     let be32 = |at: usize| u32::from_be_bytes(bytes[at..at + 4].try_into().unwrap());
     let float = |at: usize| f32::from_be_bytes(bytes[at..at + 4].try_into().unwrap()) as f64;
@@ -83,7 +83,7 @@ fn the_fizeau_sample_reads_as_the_independent_reader_does() {
 
 /// The independent generator: a MetroPro file of header format `format` (1, 2 or 3) with an
 /// intensity frame, phase resolution code `code`, and the raw phase values `raw` (w × h).
-fn synthetic(format: u16, code: u16, w: u16, h: u16, raw: &[i32]) -> Vec<u8> {
+pub(super) fn synthetic(format: u16, code: u16, w: u16, h: u16, raw: &[i32]) -> Vec<u8> {
     let header = if format == 3 { 4096 } else { 834 };
     let (iw, ih) = (3_u16, 2_u16);
     let mut bytes = vec![0_u8; header];
@@ -545,5 +545,114 @@ fn piston_and_tilt_come_off_as_an_independent_least_squares_plane() {
     assert!(
         flat.heights_nm().iter().flatten().all(|h| h.abs() < 1e-9),
         "{flat:?}"
+    );
+}
+
+/// Half a million mutated text files, through the reader that tells formats apart (Zygo XYZ
+/// and ASCII, Code V, text grid; a MetroPro magic number or HDF5 signature may appear by
+/// mutation too): characters flipped, tokens replaced by boundary values, lines duplicated or
+/// dropped, truncated. No panic, and what is accepted holds at most 16 bytes of heights per
+/// byte of the file: a text pixel takes one byte at least (an empty grid cell is its
+/// separator), held as 16; the readers refuse a declared window larger than the file can list
+/// before allocating it.
+#[test]
+fn half_a_million_mutated_text_maps_never_panic_nor_allocate_beyond_the_input() {
+    let mut rng = fastrand::Rng::with_seed(49_49);
+    let xyz = "Zygo XYZ Data File - Format 1\n0 8 1 0 \"date\"\n0 0 0 0 0 0\n0 0 3 2\n\"\"\n\"\"\n\"\"\n\
+               0 0.5 6.328e-7 0 1 1 2.5e-4 0\n640 480 0 0 0 0 \"\"\n0 0 0 0 0 0 0 0 0 0\n1 1 20 2 0 0 0 0 0\n\
+               0 \"\"\n1 0\n\"\"\n#\n0 0 0.001\n1 0 No Data\n2 0 -0.002\n0 1 0.5\n1 1 0.25\n2 1 No Data\n#\n";
+    let ascii = xyz
+        .split("#\n")
+        .next()
+        .unwrap()
+        .replace("XYZ Data File - Format 1", "ASCII Data File - Format 2")
+        + "#\n1 2 3\n#\n5 -7 2147483647 9\n11 0\n#\n";
+    let codev =
+        "! comment\ntitle\nGRD 3 2 SUR WVL 0.6328 SSZ 65536 NDA -32768\n1 2 -32768\n4 5 6\n";
+    let grid = "# pixel_mm: 0.5\n# unit: um\n1,2,\n,4,5.5\n";
+    let seeds: Vec<Vec<u8>> = [xyz, ascii.as_str(), codev, grid]
+        .iter()
+        .map(|s| s.as_bytes().to_vec())
+        .collect();
+    let tokens: [&[u8]; 12] = [
+        b"65535",
+        b"0",
+        b"-1",
+        b"4294967296",
+        b"1e308",
+        b"nan",
+        b"inf",
+        b"No Data",
+        b"#",
+        b"\"",
+        b"99999999999999999999",
+        b"\n",
+    ];
+    let (mut accepted, mut refused) = (0_u32, 0_u32);
+    const MUTATIONS: u32 = 500_000;
+    for _ in 0..MUTATIONS {
+        let mut bytes = seeds[rng.usize(..seeds.len())].clone();
+        for _ in 0..rng.usize(1..=3) {
+            if bytes.is_empty() {
+                break;
+            }
+            let at = rng.usize(..bytes.len());
+            match rng.u8(..6) {
+                0 => bytes[at] ^= 1 << rng.u8(..8),
+                1 => {
+                    // Replace the token at `at` by a boundary value.
+                    let end = (at..bytes.len())
+                        .find(|&i| bytes[i].is_ascii_whitespace())
+                        .unwrap_or(bytes.len());
+                    let token = tokens[rng.usize(..tokens.len())];
+                    bytes.splice(at..end, token.iter().copied());
+                }
+                2 => bytes.truncate(at),
+                3 => {
+                    // Duplicate a line.
+                    let start = bytes[..at]
+                        .iter()
+                        .rposition(|&b| b == b'\n')
+                        .map_or(0, |i| i + 1);
+                    let end = (at..bytes.len())
+                        .find(|&i| bytes[i] == b'\n')
+                        .map_or(bytes.len(), |i| i + 1);
+                    let line = bytes[start..end].to_vec();
+                    bytes.splice(start..start, line);
+                }
+                4 => {
+                    // Drop a line.
+                    let start = bytes[..at]
+                        .iter()
+                        .rposition(|&b| b == b'\n')
+                        .map_or(0, |i| i + 1);
+                    let end = (at..bytes.len())
+                        .find(|&i| bytes[i] == b'\n')
+                        .map_or(bytes.len(), |i| i + 1);
+                    bytes.drain(start..end);
+                }
+                _ => bytes.insert(at, rng.u8(..)),
+            }
+        }
+        match preston::maps::read(&bytes, MAX_PIXELS) {
+            Ok((_, map)) => {
+                accepted += 1;
+                let held = std::mem::size_of_val(map.heights_nm());
+                assert!(
+                    held <= 16 * bytes.len().max(1),
+                    "{held} bytes of heights from {}",
+                    bytes.len()
+                );
+            }
+            Err(_) => refused += 1,
+        }
+    }
+    assert!(
+        accepted > 10_000 && refused > 10_000,
+        "{accepted} / {refused}"
+    );
+    println!(
+        "{MUTATIONS} mutated text maps: {accepted} read, {refused} refused, no panic; peak RSS {} KiB",
+        peak_rss_kib().map_or("unknown".into(), |k| k.to_string())
     );
 }

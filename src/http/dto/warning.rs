@@ -62,6 +62,9 @@ pub enum WarningCode {
     /// Calibration: the run in `field` leaves a residual more than 3× its measurement noise
     /// (`expected_noise_nm`, else the noise of its point-to-point differences).
     ResidualAboveNoise,
+    /// Map analysis: more than 2 % of the clear aperture's pixels hold no height; the figures
+    /// describe the others.
+    MapDropouts,
 }
 
 impl WarningDto {
@@ -122,6 +125,7 @@ impl WarningDto {
             Warning::ResidualAboveNoise { run, .. } => {
                 (WarningCode::ResidualAboveNoise, format!("runs[{run}]"))
             }
+            Warning::MapDropouts { .. } => (WarningCode::MapDropouts, "map".to_string()),
         };
         WarningDto {
             code,

@@ -3,6 +3,7 @@
 //! `dwell.positions_mm[3]`, `machine.x.max_velocity_mm_per_min`).
 
 mod calibration;
+mod maps;
 mod measurement;
 
 use super::error::{ApiError, Kind, LimitViolation};

@@ -6,7 +6,7 @@
 (() => {
   const SVG_NS = 'http://www.w3.org/2000/svg'; // a namespace name, never fetched
   const KEY_STORE = 'preston-api-key';
-  const VIEWS = ['predict', 'optimize', 'measure', 'calibrate', 'parts'];
+  const VIEWS = ['predict', 'optimize', 'measure', 'calibrate', 'parts', 'maps'];
   // The API's paths, each written once.
   const API = {
     program: '/v1/program',
@@ -17,6 +17,7 @@
     optimize: '/v1/optimize',
     measurementFit: '/v1/measurement/fit',
     calibration: '/v1/calibration',
+    mapAnalysis: '/v1/maps/analysis',
     parts: '/v1/parts',
     processProfiles: '/v1/process-profiles',
   };
@@ -51,7 +52,7 @@
     }
   }
 
-  const calls = { predict: [], optimize: [], measure: [], calibrate: [], parts: [] };
+  const calls = { predict: [], optimize: [], measure: [], calibrate: [], parts: [], maps: [] };
 
   function apiKey() {
     return sessionStorage.getItem(KEY_STORE) || '';
@@ -107,6 +108,17 @@
     return response;
   }
 
+  /** POSTs a file as the body (the map as the instrument wrote it), the other fields in the
+   * query; shown as curl with `--data-binary @file`. */
+  async function postFile(view, path, file, query, accept = 'application/json') {
+    const url = path + (query ? `?${new URLSearchParams(query)}` : '');
+    const headers = { 'Content-Type': 'application/octet-stream', Accept: accept };
+    if (apiKey()) headers.Authorization = `Bearer ${apiKey()}`;
+    if (accept === 'application/json') record(view, url, headers, undefined, file.name);
+    const response = await fetched(url, { method: 'POST', headers, body: file });
+    return accept === 'application/json' ? response.json() : response.text();
+  }
+
   /** GETs a record (JSON). */
   async function get(view, path) {
     const headers = { Accept: 'application/json' };
@@ -116,12 +128,13 @@
   }
 
   /** Shows each call as the curl command that repeats it (the key stays a variable). */
-  function record(view, url, headers, text) {
-    const method = text === undefined ? 'GET' : 'POST';
+  function record(view, url, headers, text, file) {
+    const method = text === undefined && file === undefined ? 'GET' : 'POST';
     const lines = [`curl -s${method === 'POST' ? ' -X POST' : ''} '${location.origin}${url}'`];
     for (const [k, v] of Object.entries(headers)) {
       lines.push(k === 'Authorization' ? `-H 'Authorization: Bearer $PRESTON_API_KEY'` : `-H '${k}: ${v}'`);
     }
+    if (file !== undefined) lines.push(`--data-binary '@${file.replace(/'/g, "'\\''")}'`);
     if (text !== undefined) {
       const shown = text.length > 4000 ? `${text.slice(0, 4000)}… (${text.length} bytes)` : text;
       lines.push(`--data-binary '${shown.replace(/'/g, "'\\''")}'`);
@@ -190,11 +203,12 @@
   }
 
   /** Tool positions 0, h, 2h, … up to the aperture's outer radius plus the tool radius. */
-  function positions(stepId) {
+  function positions(stepId, outer) {
     const step = value(stepId);
     // To the aperture's edge plus a tool radius, but on the part.
     const edge = Number(value('workpiece_radius_mm'));
-    const end = Math.min(Number(value('aperture_outer_mm') ?? edge) + Number(value('tool_radius_mm')), edge);
+    const aperture = outer ?? Number(value('aperture_outer_mm') ?? edge);
+    const end = Math.min(aperture + Number(value('tool_radius_mm')), edge);
     if (typeof step !== 'number' || !(step > 0)) {
       throw fieldProblem(stepId, 'The position step must be a positive number of mm.');
     }
@@ -555,11 +569,11 @@
   }
 
   /** Optimizes a plan for `target` within `constraints` (none when empty) and draws it. */
-  async function plan(view, chart, target, stepId, constraints = {}) {
+  async function plan(view, chart, target, stepId, constraints = {}, aperture = undefined) {
     const process = processInput();
     const surface = surfaceInput();
-    const clear_aperture = apertureInput();
-    const request = defined({ process, surface, clear_aperture, target, positions_mm: positions(stepId), ...machineInput() });
+    const clear_aperture = aperture ?? apertureInput();
+    const request = defined({ process, surface, clear_aperture, target, positions_mm: positions(stepId, aperture?.outer_mm), ...machineInput() });
     if (Object.keys(constraints).length) request.constraints = constraints;
     const o = await post(view, API.optimize, request);
     const a = o.clear_aperture;
@@ -789,7 +803,155 @@
     $('[data-use="parts"]').replaceChildren(next);
   }
 
-  const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure, calibrate: runCalibrate, parts: runParts };
+  // ---------------------------------------------------------------- maps
+
+  let mapFile;
+
+  /** A perceptual blue–green–yellow ramp (viridis' ends and middle), t in [0, 1]. */
+  function ramp(t) {
+    const stops = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
+    const x = Math.min(Math.max(t, 0), 1) * (stops.length - 1);
+    const i = Math.min(Math.floor(x), stops.length - 2);
+    const f = x - i;
+    return stops[i].map((c, k) => Math.round(c + f * (stops[i + 1][k] - c)));
+  }
+
+  /** The map's pixels (CSV x_mm, y_mm, height_nm) as a heat map: colour bar in nm, scale bar
+   * in mm, PV and RMS in the title; pixels without data stay transparent. */
+  function heatMap(csv, pixelMm, title) {
+    const rows = csv.trim().split('\n').slice(1).map((l) => l.split(',').map(Number));
+    // Extremes by a loop: spreading a map's pixels into Math.min overflows the stack.
+    const lo = [Infinity, Infinity, Infinity];
+    const hi = [-Infinity, -Infinity, -Infinity];
+    for (const r of rows) {
+      for (let k = 0; k < 3; k += 1) {
+        lo[k] = Math.min(lo[k], r[k]);
+        hi[k] = Math.max(hi[k], r[k]);
+      }
+    }
+    const [x0, y0, z0] = lo;
+    const [x1, y1, z1] = hi;
+    const w = Math.round((x1 - x0) / pixelMm) + 1;
+    const hgt = Math.round((y1 - y0) / pixelMm) + 1;
+    const scale = Math.max(1, Math.floor(420 / Math.max(w, hgt)));
+    const image = new ImageData(w, hgt);
+    for (const [x, y, z] of rows) {
+      const c = Math.round((x - x0) / pixelMm);
+      const r = Math.round((y1 - y) / pixelMm);
+      const [R, G, B] = ramp(z1 > z0 ? (z - z0) / (z1 - z0) : 0.5);
+      image.data.set([R, G, B, 255], 4 * (r * w + c));
+    }
+    const margin = { top: 34, left: 10, right: 90, bottom: 44 };
+    const canvas = h('canvas', {
+      class: 'heat', width: w * scale + margin.left + margin.right, height: hgt * scale + margin.top + margin.bottom,
+      role: 'img', 'aria-label': title,
+    });
+    const ctx = canvas.getContext('2d');
+    const tile = h('canvas', { width: w, height: hgt });
+    tile.getContext('2d').putImageData(image, 0, 0);
+    ctx.imageSmoothingEnabled = false;
+    ctx.drawImage(tile, margin.left, margin.top, w * scale, hgt * scale);
+    ctx.fillStyle = '#1d2430';
+    ctx.font = '13px system-ui, sans-serif';
+    ctx.fillText(title, margin.left, 20);
+    // Colour bar, nm.
+    const barX = margin.left + w * scale + 20;
+    for (let i = 0; i < hgt * scale; i += 1) {
+      const [R, G, B] = ramp(1 - i / (hgt * scale - 1));
+      ctx.fillStyle = `rgb(${R},${G},${B})`;
+      ctx.fillRect(barX, margin.top + i, 16, 1);
+    }
+    ctx.fillStyle = '#1d2430';
+    ctx.font = '11px system-ui, sans-serif';
+    ctx.fillText(`${label(z1)} nm`, barX + 20, margin.top + 10);
+    ctx.fillText(`${label(z0)} nm`, barX + 20, margin.top + hgt * scale);
+    // Scale bar: a round length near a quarter of the map's width.
+    const quarter = (w * pixelMm) / 4;
+    const length = [1, 2, 5, 10, 20, 50, 100, 200, 500].find((l) => l >= quarter / 2) ?? quarter;
+    const px = (length / pixelMm) * scale;
+    const yBar = margin.top + hgt * scale + 18;
+    ctx.fillRect(margin.left, yBar, px, 3);
+    ctx.fillText(`${length} mm`, margin.left + px + 6, yBar + 5);
+    return canvas;
+  }
+
+  /** Zernike coefficients as bars, one per term (index below). */
+  function zernikeBars(z) {
+    const W = 560;
+    const H = 260;
+    const m = { top: 20, left: 56, right: 10, bottom: 34 };
+    const values = z.terms.map((t) => t.coefficient_nm);
+    const top = Math.max(...values.map(Math.abs), 1e-12);
+    const root = svg('svg', { viewBox: `0 0 ${W} ${H}`, width: W, height: H, role: 'img', 'aria-label': 'Zernike coefficients' });
+    const y = (v) => m.top + ((top - v) / (2 * top)) * (H - m.top - m.bottom);
+    const band = (W - m.left - m.right) / values.length;
+    root.append(svg('line', { x1: m.left, x2: W - m.right, y1: y(0), y2: y(0), stroke: '#888' }));
+    z.terms.forEach((t, i) => {
+      const v = t.coefficient_nm;
+      const bar = svg('rect', {
+        x: m.left + i * band + 1, width: Math.max(band - 2, 1), y: Math.min(y(v), y(0)), height: Math.abs(y(v) - y(0)),
+        fill: COLOURS[0], 'data-term': t.index,
+      });
+      bar.append(svg('title', {}, `${z.ordering} ${t.index} ${t.name} (n ${t.n}, m ${t.m}): ${label(v)} nm`));
+      root.append(bar);
+      if (values.length <= 40 || i % 5 === 0) {
+        root.append(svg('text', { x: m.left + (i + 0.5) * band, y: H - m.bottom + 14, 'text-anchor': 'middle', 'font-size': 9 }, t.index));
+      }
+    });
+    root.append(svg('text', { x: 4, y: y(top) + 4, 'font-size': 10 }, `${label(top)} nm`));
+    root.append(svg('text', { x: 4, y: y(-top), 'font-size': 10 }, `${label(-top)} nm`));
+    root.append(svg('text', { x: W / 2, y: H - 4, 'text-anchor': 'middle', 'font-size': 11 }, `${z.ordering} index (${z.normalization})`));
+    return root;
+  }
+
+  async function runMaps() {
+    const view = 'maps';
+    if (!mapFile) throw fieldProblem('map_file', 'Choose or drop a map file first.');
+    const terms = value('map_terms');
+    const query = defined({
+      pixel_mm: value('map_pixel_mm'),
+      zernike: JSON.stringify(defined({ ordering: $('#map_ordering').value, terms })),
+      remove_power: $('#map_remove_power').checked ? 'true' : undefined,
+    });
+    const a = await postFile(view, API.mapAnalysis, mapFile, query);
+    const csv = await postFile(view, API.mapAnalysis, mapFile, query, 'text/csv');
+    const m = a.metrics;
+    $('figure[data-chart="map-heat"] .plot', section(view)).replaceChildren(
+      heatMap(csv, a.map.pixel_mm, `${mapFile.name}: PV ${label(m.pv_nm)} nm, RMS ${label(m.rms_nm)} nm`));
+    $('figure[data-chart="map-zernike"] .plot', section(view)).replaceChildren(zernikeBars(a.zernike));
+    draw(view, 'map-psd', {
+      title: `PSD (${a.psd.window} window)`,
+      xLabel: 'spatial frequency (1/mm)', yLabel: 'log₁₀ PSD (nm²·mm²)',
+      series: [{ name: 'azimuthal average', points: zip(a.psd.frequency_per_mm, a.psd.psd_nm2_mm2.map((p) => (p > 0 ? Math.log10(p) : NaN))) }],
+      fromZero: false,
+    });
+    const profile = a.radial_profile;
+    draw(view, 'map-profile', {
+      title: 'Rotationally symmetric part about the C axis',
+      xLabel: 'radius r (mm)', yLabel: 'material standing proud (nm)',
+      series: [{ name: 'radial profile', points: zip(profile.radius_mm, profile.depth_nm) }],
+      fromZero: false,
+    });
+    const iso = a.iso_10110;
+    const fr = (v) => label(Number(v.toFixed(3)));
+    const items = [
+      ['PV / RMS / PVr', `${label(m.pv_nm)} / ${label(m.rms_nm)} / ${label(m.pvr_nm)} nm`],
+      [`ISO 10110-5 at ${label(iso.fringe_wavelength_nm)} nm`, `3/${fr(iso.power_fringes)}(${fr(iso.irregularity_fringes)}/${fr(iso.rotationally_symmetric_irregularity_fringes)})`],
+      ['RMSt / RMSi / RMSa', `${label(iso.rms_t_nm)} / ${label(iso.rms_i_nm)} / ${label(iso.rms_a_nm)} nm`],
+      ['Left by a plan in radius alone', `RMS ${label(a.non_axisymmetric.rms_nm)} nm, PV ${label(a.non_axisymmetric.pv_nm)} nm`],
+      ['Map', `${a.map.width_px} × ${a.map.height_px} px of ${label(a.map.pixel_mm)} mm (${a.map.format}), ${a.clear_aperture.pixels} in the aperture`],
+      ['Part', `centre (${label(a.alignment.centre_x_px)}, ${label(a.alignment.centre_y_px)}) px, radius ${label(a.alignment.part_radius_mm)} mm${a.alignment.fitted ? ' (fitted)' : ''}`],
+      ...a.warnings.map((w) => ['Warning', w.message]),
+    ];
+    summary(view, 'maps', items);
+    const outer = profile.radius_mm[profile.radius_mm.length - 1];
+    const aperture = { inner_mm: Math.ceil(profile.radius_mm[0] * 1000) / 1000, outer_mm: Math.floor(outer * 1000) / 1000 };
+    const o = await plan(view, 'map-correction', a.correction_target, 'map_correction_step_mm', {}, aperture);
+    summary(view, 'maps', [...items, ...planSummary(o, false)]);
+    await program(view, o.dwell);
+  }
+
+  const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure, calibrate: runCalibrate, parts: runParts, maps: runMaps };
 
   /** One pass of a view: 'ok' or 'problem' (shown). */
   async function pass(view) {
@@ -914,7 +1076,7 @@
         // their data.
         const shown = section(view);
         const ranBefore = shown.dataset.setup !== undefined;
-        const waits = view === 'measure' || view === 'calibrate';
+        const waits = view === 'measure' || view === 'calibrate' || view === 'maps';
         if ((!waits || ranBefore) && shown.dataset.setup !== setupStamp()) run(view);
       });
       tab.addEventListener('keydown', (event) => {
@@ -946,8 +1108,23 @@
       const file = event.target.files[0];
       if (file) $('#rings_csv').value = await file.text();
     });
+    const drop = $('#map_drop');
+    $('#map_file').addEventListener('change', (event) => {
+      mapFile = event.target.files[0];
+    });
+    drop.addEventListener('dragover', (event) => {
+      event.preventDefault();
+      drop.classList.add('over');
+    });
+    drop.addEventListener('dragleave', () => drop.classList.remove('over'));
+    drop.addEventListener('drop', (event) => {
+      event.preventDefault();
+      drop.classList.remove('over');
+      mapFile = event.dataTransfer.files[0];
+      if (mapFile) run('maps');
+    });
     select(view);
-    if (view !== 'measure' && view !== 'calibrate') run(view);
+    if (view !== 'measure' && view !== 'calibrate' && view !== 'maps') run(view);
   }
 
   start();

@@ -202,6 +202,8 @@ pub fn endpoint_of(fixture: &str) -> &'static str {
         "/v1/program"
     } else if fixture.starts_with("calibration") {
         "/v1/calibration"
+    } else if fixture.starts_with("maps_analysis") {
+        "/v1/maps/analysis"
     } else {
         panic!("no endpoint for fixture {fixture}")
     }

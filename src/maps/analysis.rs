@@ -1,0 +1,465 @@
+//! A map analysed as a metrologist does: aligned to the part, cut to a clear aperture, less
+//! the terms the test does not judge, then its figures, Zernike terms, PSD, rotationally
+//! symmetric part and what a rotationally symmetric process cannot remove.
+//!
+//! With h the heights at the aperture's valid pixels (each pixel one unit of area):
+//!
+//! - **Removed terms**: piston and tilt (and power on request) are the least-squares fit of
+//!   Z(0,0), Z(1,±1) (and Z(2,0)) about the aperture's centre, peak-normalised on its
+//!   normalisation radius; what remains, h′, is what every figure below describes except the
+//!   ISO ones, which take the map less piston and tilt alone whatever was asked.
+//! - **Metrics**: PV and RMS (about the mean) of h′; PVr = PV of the Zernike fit + 3 × RMS of
+//!   its residual (Evans' robust PV, with the terms asked for).
+//! - **ISO 10110-5 / 14999-4**, from h_t = h less piston and tilt: power (sag error) = 2·c₄,
+//!   c₄ the coefficient of the peak-normalised defocus 2ρ² − 1 in the fit of piston, tilt and
+//!   defocus (the height of the edge above the centre; a paraboloid is the best-fit sphere to
+//!   far below a nanometre at these departures); irregularity h_i = h_t less that defocus, its
+//!   PV; its rotationally symmetric part s (`radial`, about the aperture's centre) and the
+//!   PV of s: rotationally symmetric irregularity. RMSt = RMS(h_t), RMSi = RMS(h_i),
+//!   RMSs = RMS(s), RMSa = RMS(h_i − s), with RMSi² = RMSs² + RMSa² exactly. In fringes: a
+//!   height over λ/2 (one fringe of a double-pass test), λ stated in the answer.
+//! - **Zernike fit** of h′ about the aperture's centre on its normalisation radius.
+//! - **PSD** of h′ (`psd`) with Sidick's window (a rectangle: Hann), and its band RMS.
+//! - **Radial profile**: the rotationally symmetric part of h′ about the part's centre (the C
+//!   axis), sampled every pixel pitch; e > 0 is material standing proud. **Non-axisymmetric**:
+//!   RMS and PV of h′ less it, what a plan in radius alone leaves.
+
+use super::aperture::{Alignment, Aperture};
+use super::psd::{self, Spectrum};
+use super::radial::{RadialFit, KNOT_SPACING_PX};
+use super::zernike::{Basis, Normalization, Ordering, Term, ZernikeError};
+use super::HeightMap;
+use crate::field::Figures;
+
+/// The ISO 10110 reference wavelength (the mercury e-line), nm: fringes when the map states none.
+pub const ISO_WAVELENGTH_NM: f64 = 546.07;
+
+/// What to analyse and how (checked: `usecases::map_analysis` builds it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AnalysisPlan {
+    pub alignment: Alignment,
+    /// Whether the centre and radius were fitted from the map (else given).
+    pub fitted: bool,
+    pub aperture: Aperture,
+    pub remove_power: bool,
+    pub zernike: Basis,
+    pub ordering: Ordering,
+    pub bands: Vec<Band>,
+    /// λ for the ISO figures in fringes, nm.
+    pub fringe_wavelength_nm: f64,
+}
+
+/// A band of spatial frequencies, per mm: low ≤ |f| < high.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Band {
+    pub name: String,
+    pub low_per_mm: f64,
+    pub high_per_mm: f64,
+}
+
+impl Band {
+    /// The documented defaults for an aperture of diameter D at pitch p: `figure` below
+    /// 10/D (periods longer than a tenth of the aperture), `mid_spatial` to 1/(10·p) (periods
+    /// down to ten pixels), `high` beyond, to 1/p (past the grid's corner √2/(2p), so every
+    /// frequency falls in one band).
+    pub fn defaults(diameter_mm: f64, pixel_mm: f64) -> Vec<Band> {
+        let low = 10.0 / diameter_mm;
+        let mid = (1.0 / (10.0 * pixel_mm)).max(low);
+        vec![
+            Band::new("figure", 0.0, low),
+            Band::new("mid_spatial", low, mid),
+            Band::new("high", mid, 1.0 / pixel_mm),
+        ]
+    }
+
+    fn new(name: &str, low_per_mm: f64, high_per_mm: f64) -> Band {
+        Band {
+            name: name.into(),
+            low_per_mm,
+            high_per_mm,
+        }
+    }
+}
+
+/// A pixel of the aperture: where it is and its height after the removed terms.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pixel {
+    pub column: usize,
+    pub row: usize,
+    /// Position in the part's C frame, mm.
+    pub x_mm: f64,
+    pub y_mm: f64,
+    pub height_nm: f64,
+}
+
+/// The coefficients of the removed terms.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Removed {
+    pub piston_nm: f64,
+    /// The plane's slope along x and y of the C frame, nm per mm.
+    pub tilt_x_nm_per_mm: f64,
+    pub tilt_y_nm_per_mm: f64,
+    /// Power removed (edge above centre), nm; `None` unless asked.
+    pub power_nm: Option<f64>,
+}
+
+/// PV, RMS and PVr of h′, nm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Metrics {
+    pub pv_nm: f64,
+    pub rms_nm: f64,
+    pub pvr_nm: f64,
+}
+
+/// The ISO 10110-5 / 14999-4 figures, nm (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IsoFigures {
+    pub power_nm: f64,
+    pub irregularity_nm: f64,
+    pub rotationally_symmetric_irregularity_nm: f64,
+    pub rms_t_nm: f64,
+    pub rms_i_nm: f64,
+    pub rms_s_nm: f64,
+    pub rms_a_nm: f64,
+    pub fringe_wavelength_nm: f64,
+}
+
+impl IsoFigures {
+    /// A height in fringes: over λ/2.
+    pub fn fringes(&self, nm: f64) -> f64 {
+        nm / (self.fringe_wavelength_nm / 2.0)
+    }
+}
+
+/// The Zernike fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ZernikeFit {
+    pub ordering: Ordering,
+    pub normalization: Normalization,
+    /// (index in the ordering, term, coefficient nm).
+    pub terms: Vec<(usize, Term, f64)>,
+    /// RMS of h′ less the fitted surface, nm.
+    pub residual_rms_nm: f64,
+    pub normalization_radius_mm: f64,
+    pub centre_mm: (f64, f64),
+}
+
+/// The PSD and its bands.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PsdAnswer {
+    pub window: Window,
+    /// (frequency per mm, PSD nm²·mm²), the azimuthal average.
+    pub azimuthal: Vec<(f64, f64)>,
+    /// Each band and its RMS, nm.
+    pub bands: Vec<(Band, f64)>,
+}
+
+/// The window the PSD was taken through.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Window {
+    Sidick,
+    Hann,
+}
+
+/// What a rotationally symmetric process leaves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NonAxisymmetric {
+    pub rms_nm: f64,
+    pub pv_nm: f64,
+}
+
+/// Everything the analysis found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapAnalysis {
+    pub plan: AnalysisPlan,
+    /// The aperture's valid pixels with h′.
+    pub pixels: Vec<Pixel>,
+    pub removed: Removed,
+    pub metrics: Metrics,
+    pub iso: IsoFigures,
+    pub zernike: ZernikeFit,
+    pub psd: PsdAnswer,
+    /// (radius mm, e nm), every pixel pitch over the aperture's radii about the part's centre.
+    pub radial_profile: Vec<(f64, f64)>,
+    pub non_axisymmetric: NonAxisymmetric,
+}
+
+/// Why an analysis has no answer (found by computing).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AnalysisError {
+    #[error(transparent)]
+    Zernike(#[from] ZernikeError),
+    #[error("the aperture's valid pixels span too few radii to tell a radial profile")]
+    NoRadialProfile,
+}
+
+/// How many pixels of the map lie in the aperture, with data or without.
+pub fn aperture_area_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Aperture) -> usize {
+    (0..map.height() * map.width())
+        .filter(|k| {
+            let (x, y) = alignment.to_part((k % map.width()) as f64, (k / map.width()) as f64);
+            aperture.contains(x, y)
+        })
+        .count()
+}
+
+/// The aperture's valid pixels, positioned in the part's frame, with their raw heights.
+pub fn aperture_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Aperture) -> Vec<Pixel> {
+    let mut pixels = Vec::new();
+    for row in 0..map.height() {
+        for column in 0..map.width() {
+            if let Some(h) = map.at(column, row) {
+                let (x, y) = alignment.to_part(column as f64, row as f64);
+                if aperture.contains(x, y) {
+                    pixels.push(Pixel {
+                        column,
+                        row,
+                        x_mm: x,
+                        y_mm: y,
+                        height_nm: h,
+                    });
+                }
+            }
+        }
+    }
+    pixels
+}
+
+/// The analysis (module docs) of `map` as `plan` says.
+pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, AnalysisError> {
+    let raw = aperture_pixels(map, &plan.alignment, &plan.aperture);
+    let (cx, cy) = plan.aperture.centre_mm();
+    let radius = plan.aperture.normalization_radius_mm();
+    let unit = |p: &Pixel| ((p.x_mm - cx) / radius, (p.y_mm - cy) / radius);
+
+    // Piston, tilt and defocus, peak-normalised: the removed terms and the ISO power.
+    let low = |count: usize| {
+        Basis::first(Ordering::Fringe, count, Normalization::Peak).expect("Fringe has 4 terms")
+    };
+    let points = |pixels: &[Pixel]| -> Vec<(f64, f64, f64)> {
+        pixels
+            .iter()
+            .map(|p| {
+                let (x, y) = unit(p);
+                (x, y, p.height_nm)
+            })
+            .collect()
+    };
+    let (tilt_basis, power_basis) = (low(3), low(4));
+    let raw_points = points(&raw);
+    let tilt = tilt_basis.fit(&raw_points)?;
+    let power = power_basis.fit(&raw_points)?;
+    let less = |basis: &Basis, c: &[f64]| -> Vec<Pixel> {
+        let mut scratch = Vec::new();
+        raw.iter()
+            .map(|p| {
+                let (x, y) = unit(p);
+                Pixel {
+                    height_nm: p.height_nm - basis.surface(c, x, y, &mut scratch),
+                    ..*p
+                }
+            })
+            .collect()
+    };
+    let tilted = less(&tilt_basis, &tilt);
+    let irregular = less(&power_basis, &power);
+    let (pixels, removed) = if plan.remove_power {
+        (
+            irregular.clone(),
+            Removed {
+                piston_nm: power[0] - power[3],
+                tilt_x_nm_per_mm: power[1] / radius,
+                tilt_y_nm_per_mm: power[2] / radius,
+                power_nm: Some(2.0 * power[3]),
+            },
+        )
+    } else {
+        (
+            tilted.clone(),
+            Removed {
+                piston_nm: tilt[0],
+                tilt_x_nm_per_mm: tilt[1] / radius,
+                tilt_y_nm_per_mm: tilt[2] / radius,
+                power_nm: None,
+            },
+        )
+    };
+
+    let pixel_mm = plan.alignment.pixel_mm;
+    let spacing = KNOT_SPACING_PX * pixel_mm;
+    let iso = {
+        let symmetric = RadialFit::fit(
+            &irregular
+                .iter()
+                .map(|p| ((p.x_mm - cx).hypot(p.y_mm - cy), p.height_nm))
+                .collect::<Vec<_>>(),
+            spacing,
+        )
+        .ok_or(AnalysisError::NoRadialProfile)?;
+        let s: Vec<f64> = irregular
+            .iter()
+            .map(|p| symmetric.at((p.x_mm - cx).hypot(p.y_mm - cy)))
+            .collect();
+        let irregularity = figures(irregular.iter().map(|p| p.height_nm));
+        let symmetric = figures(s.iter().copied());
+        let variant = figures(irregular.iter().zip(&s).map(|(p, s)| p.height_nm - s));
+        IsoFigures {
+            power_nm: 2.0 * power[3],
+            irregularity_nm: irregularity.pv,
+            rotationally_symmetric_irregularity_nm: symmetric.pv,
+            rms_t_nm: figures(tilted.iter().map(|p| p.height_nm)).rms,
+            rms_i_nm: irregularity.rms,
+            rms_s_nm: symmetric.rms,
+            rms_a_nm: variant.rms,
+            fringe_wavelength_nm: plan.fringe_wavelength_nm,
+        }
+    };
+
+    let coefficients = plan.zernike.fit(&points(&pixels))?;
+    let (fitted, residual) = {
+        let mut scratch = Vec::new();
+        let fitted: Vec<f64> = pixels
+            .iter()
+            .map(|p| {
+                let (x, y) = unit(p);
+                plan.zernike.surface(&coefficients, x, y, &mut scratch)
+            })
+            .collect();
+        let residual: Vec<f64> = pixels
+            .iter()
+            .zip(&fitted)
+            .map(|(p, f)| p.height_nm - f)
+            .collect();
+        (fitted, residual)
+    };
+    let residual_rms = quadratic_mean(&residual);
+    let figure = figures(pixels.iter().map(|p| p.height_nm));
+    let metrics = Metrics {
+        pv_nm: figure.pv,
+        rms_nm: figure.rms,
+        pvr_nm: figures(fitted.iter().copied()).pv + 3.0 * residual_rms,
+    };
+    let zernike = ZernikeFit {
+        ordering: plan.ordering,
+        normalization: plan.zernike.normalization(),
+        terms: plan
+            .zernike
+            .terms()
+            .iter()
+            .zip(&coefficients)
+            .map(|(t, c)| (plan.ordering.index(*t).unwrap_or(0), *t, *c))
+            .collect(),
+        residual_rms_nm: residual_rms,
+        normalization_radius_mm: radius,
+        centre_mm: (cx, cy),
+    };
+
+    let psd = spectrum(&plan, &pixels);
+
+    let about_axis = RadialFit::fit(
+        &pixels
+            .iter()
+            .map(|p| (p.x_mm.hypot(p.y_mm), p.height_nm))
+            .collect::<Vec<_>>(),
+        spacing,
+    )
+    .ok_or(AnalysisError::NoRadialProfile)?;
+    let (r_min, r_max) = about_axis.range_mm();
+    let samples = ((r_max - r_min) / pixel_mm).floor() as usize;
+    let mut radial_profile: Vec<(f64, f64)> = (0..=samples)
+        .map(|k| r_min + k as f64 * pixel_mm)
+        .chain((r_min + samples as f64 * pixel_mm < r_max).then_some(r_max))
+        .map(|r| (r, about_axis.at(r)))
+        .collect();
+    radial_profile.dedup_by(|a, b| a.0 == b.0);
+    let leftover = figures(
+        pixels
+            .iter()
+            .map(|p| p.height_nm - about_axis.at(p.x_mm.hypot(p.y_mm))),
+    );
+    let non_axisymmetric = NonAxisymmetric {
+        rms_nm: leftover.rms,
+        pv_nm: leftover.pv,
+    };
+
+    Ok(MapAnalysis {
+        plan,
+        pixels,
+        removed,
+        metrics,
+        iso,
+        zernike,
+        psd,
+        radial_profile,
+        non_axisymmetric,
+    })
+}
+
+/// The PSD of h′ over the aperture's box of pixels (module docs of `psd`).
+fn spectrum(plan: &AnalysisPlan, pixels: &[Pixel]) -> PsdAnswer {
+    let (c0, c1, r0, r1) = pixels
+        .iter()
+        .fold((usize::MAX, 0, usize::MAX, 0), |(a, b, c, d), p| {
+            (a.min(p.column), b.max(p.column), c.min(p.row), d.max(p.row))
+        });
+    let (columns, rows) = (c1 + 1 - c0, r1 + 1 - r0);
+    let (cx, cy) = plan.aperture.centre_mm();
+    let radius = plan.aperture.normalization_radius_mm();
+    let window_at = |p: &Pixel| match plan.aperture {
+        Aperture::Rectangle {
+            width_mm,
+            height_mm,
+            ..
+        } => psd::hann_window(
+            (p.x_mm - cx) / width_mm + 0.5,
+            (p.y_mm - cy) / height_mm + 0.5,
+        ),
+        _ => psd::sidick_window((p.x_mm - cx).hypot(p.y_mm - cy) / radius),
+    };
+    let mut values = vec![0.0; columns * rows];
+    let mut power = 0.0;
+    for p in pixels {
+        let w = window_at(p);
+        values[(p.row - r0) * columns + (p.column - c0)] = p.height_nm * w;
+        power += w * w;
+    }
+    let window = match plan.aperture {
+        Aperture::Rectangle { .. } => Window::Hann,
+        _ => Window::Sidick,
+    };
+    match Spectrum::new(&values, columns, rows, plan.alignment.pixel_mm, power) {
+        Some(s) => PsdAnswer {
+            window,
+            azimuthal: s.azimuthal(),
+            bands: plan
+                .bands
+                .iter()
+                .map(|b| (b.clone(), s.band_rms(b.low_per_mm, b.high_per_mm)))
+                .collect(),
+        },
+        None => PsdAnswer {
+            window,
+            azimuthal: Vec::new(),
+            bands: plan.bands.iter().map(|b| (b.clone(), 0.0)).collect(),
+        },
+    }
+}
+
+/// PV, RMS about the mean, … of values counting alike (an aperture is never empty: the fits
+/// before need more pixels than terms).
+fn figures(values: impl Iterator<Item = f64>) -> Figures {
+    let values: Vec<f64> = values.collect();
+    Figures::unweighted(&values).unwrap_or(Figures {
+        mean: 0.0,
+        min: 0.0,
+        max: 0.0,
+        pv: 0.0,
+        rms: 0.0,
+        samples: 0,
+    })
+}
+
+/// √(mean of squares).
+fn quadratic_mean(values: &[f64]) -> f64 {
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len().max(1) as f64).sqrt()
+}
