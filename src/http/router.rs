@@ -62,7 +62,7 @@ const fn entry<E: Endpoint>() -> EndpointEntry {
 }
 
 /// Every computing endpoint, in the order the documentation lists them.
-pub static ENDPOINTS: [EndpointEntry; 9] = [
+pub static ENDPOINTS: [EndpointEntry; 10] = [
     entry::<removal_function::RemovalFunctionEndpoint>(),
     entry::<predict::PredictEndpoint>(),
     entry::<optimize::OptimizeEndpoint>(),
@@ -72,6 +72,7 @@ pub static ENDPOINTS: [EndpointEntry; 9] = [
     entry::<program::ProgramEndpoint>(),
     entry::<calibration::CalibrationEndpoint>(),
     entry::<maps::MapAnalysisEndpoint>(),
+    entry::<maps::difference::MapDifferenceEndpoint>(),
 ];
 
 /// The offline twin of the API: the exact JSON body `POST /v1/<endpoint>` would return.

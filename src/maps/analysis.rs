@@ -364,14 +364,7 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
         spacing,
     )
     .ok_or(AnalysisError::NoRadialProfile)?;
-    let (r_min, r_max) = about_axis.range_mm();
-    let samples = ((r_max - r_min) / pixel_mm).floor() as usize;
-    let mut radial_profile: Vec<(f64, f64)> = (0..=samples)
-        .map(|k| r_min + k as f64 * pixel_mm)
-        .chain((r_min + samples as f64 * pixel_mm < r_max).then_some(r_max))
-        .map(|r| (r, about_axis.at(r)))
-        .collect();
-    radial_profile.dedup_by(|a, b| a.0 == b.0);
+    let radial_profile = sample_profile(&about_axis, pixel_mm);
     let leftover = figures(
         pixels
             .iter()
@@ -397,15 +390,34 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
 
 /// The PSD of h′ over the aperture's box of pixels (module docs of `psd`).
 fn spectrum(plan: &AnalysisPlan, pixels: &[Pixel]) -> PsdAnswer {
+    spectrum_of(&plan.aperture, plan.alignment.pixel_mm, &plan.bands, pixels)
+}
+
+/// The window an aperture's PSD is taken through: Hann on a rectangle, else Sidick's.
+pub fn window_for(aperture: &Aperture) -> Window {
+    match aperture {
+        Aperture::Rectangle { .. } => Window::Hann,
+        _ => Window::Sidick,
+    }
+}
+
+/// The PSD (its azimuthal average, the bands' RMS) of `pixels` (heights as they are) over
+/// the aperture's box of pixels.
+pub fn spectrum_of(
+    aperture: &Aperture,
+    pixel_mm: f64,
+    bands: &[Band],
+    pixels: &[Pixel],
+) -> PsdAnswer {
     let (c0, c1, r0, r1) = pixels
         .iter()
         .fold((usize::MAX, 0, usize::MAX, 0), |(a, b, c, d), p| {
             (a.min(p.column), b.max(p.column), c.min(p.row), d.max(p.row))
         });
     let (columns, rows) = (c1 + 1 - c0, r1 + 1 - r0);
-    let (cx, cy) = plan.aperture.centre_mm();
-    let radius = plan.aperture.normalization_radius_mm();
-    let window_at = |p: &Pixel| match plan.aperture {
+    let (cx, cy) = aperture.centre_mm();
+    let radius = aperture.normalization_radius_mm();
+    let window_at = |p: &Pixel| match *aperture {
         Aperture::Rectangle {
             width_mm,
             height_mm,
@@ -423,16 +435,12 @@ fn spectrum(plan: &AnalysisPlan, pixels: &[Pixel]) -> PsdAnswer {
         values[(p.row - r0) * columns + (p.column - c0)] = p.height_nm * w;
         power += w * w;
     }
-    let window = match plan.aperture {
-        Aperture::Rectangle { .. } => Window::Hann,
-        _ => Window::Sidick,
-    };
-    match Spectrum::new(&values, columns, rows, plan.alignment.pixel_mm, power) {
+    let window = window_for(aperture);
+    match Spectrum::new(&values, columns, rows, pixel_mm, power) {
         Some(s) => PsdAnswer {
             window,
             azimuthal: s.azimuthal(),
-            bands: plan
-                .bands
+            bands: bands
                 .iter()
                 .map(|b| (b.clone(), s.band_rms(b.low_per_mm, b.high_per_mm)))
                 .collect(),
@@ -440,14 +448,44 @@ fn spectrum(plan: &AnalysisPlan, pixels: &[Pixel]) -> PsdAnswer {
         None => PsdAnswer {
             window,
             azimuthal: Vec::new(),
-            bands: plan.bands.iter().map(|b| (b.clone(), 0.0)).collect(),
+            bands: bands.iter().map(|b| (b.clone(), 0.0)).collect(),
         },
     }
 }
 
+/// Piston, tilt x and tilt y (peak-normalised, in the aperture's unit coordinates) of the
+/// least-squares plane through `pixels`; zeros when they cannot carry a plane.
+pub fn plane_fit(pixels: &[Pixel], unit: &dyn Fn(&Pixel) -> (f64, f64)) -> [f64; 3] {
+    let basis = Basis::first(Ordering::Fringe, 3, Normalization::Peak).expect("Fringe has 3 terms");
+    let points: Vec<(f64, f64, f64)> = pixels
+        .iter()
+        .map(|p| {
+            let (x, y) = unit(p);
+            (x, y, p.height_nm)
+        })
+        .collect();
+    match basis.fit(&points) {
+        Ok(c) => [c[0], c[1], c[2]],
+        Err(_) => [0.0; 3],
+    }
+}
+
+/// A radial fit sampled every pixel pitch over its radii (and at its outer end).
+pub fn sample_profile(fit: &RadialFit, pixel_mm: f64) -> Vec<(f64, f64)> {
+    let (r_min, r_max) = fit.range_mm();
+    let samples = ((r_max - r_min) / pixel_mm).floor() as usize;
+    let mut profile: Vec<(f64, f64)> = (0..=samples)
+        .map(|k| r_min + k as f64 * pixel_mm)
+        .chain((r_min + samples as f64 * pixel_mm < r_max).then_some(r_max))
+        .map(|r| (r, fit.at(r)))
+        .collect();
+    profile.dedup_by(|a, b| a.0 == b.0);
+    profile
+}
+
 /// PV, RMS about the mean, … of values counting alike (an aperture is never empty: the fits
 /// before need more pixels than terms).
-fn figures(values: impl Iterator<Item = f64>) -> Figures {
+pub(super) fn figures(values: impl Iterator<Item = f64>) -> Figures {
     let values: Vec<f64> = values.collect();
     Figures::unweighted(&values).unwrap_or(Figures {
         mean: 0.0,

@@ -24,6 +24,7 @@
 pub mod analysis;
 pub mod aperture;
 pub mod codev;
+pub mod difference;
 pub mod grid;
 pub mod metropro;
 pub mod psd;

@@ -144,7 +144,12 @@ impl Spectrum {
             .filter(|(k, _)| *k >= low && *k < high)
             .map(|(_, d)| d)
             .sum();
-        (power * step * step).sqrt()
+        // Over an empty band the sum is −0: the RMS is 0.
+        if power > 0.0 {
+            (power * step * step).sqrt()
+        } else {
+            0.0
+        }
     }
 
     /// The highest frequency on the grid's axes (Nyquist), per mm.

@@ -10,6 +10,7 @@ use crate::physics::ClearAperture;
 use crate::usecases::calibration::CalibrationResult;
 use crate::usecases::eta_sweep::EtaSweep;
 use crate::usecases::map_analysis::MapAnalysisResult;
+use crate::usecases::map_difference::MapDifferenceResult;
 use crate::usecases::measurement_fit::MeasurementFit;
 use crate::usecases::optimize::OptimizedPlan;
 use crate::usecases::predict::Prediction;
@@ -194,12 +195,20 @@ pub fn plan_svg(p: &OptimizedPlan) -> String {
 /// One row per probe point: the trace, its placement and its residuals (nm).
 /// The aperture's pixels: position in the part's C frame and height less the removed terms.
 pub fn map_pixels_csv(r: &MapAnalysisResult) -> String {
-    let pixels = &r.analysis.pixels;
+    pixels_csv(&r.analysis.pixels, "height_nm")
+}
+
+/// The compared pixels: position in the part's C frame and the removal.
+pub fn map_removal_csv(r: &MapDifferenceResult) -> String {
+    pixels_csv(&r.difference.pixels, "removal_nm")
+}
+
+fn pixels_csv(pixels: &[crate::maps::analysis::Pixel], value: &str) -> String {
     let column = |f: fn(&crate::maps::analysis::Pixel) -> f64| -> Vec<f64> {
         pixels.iter().map(f).collect()
     };
     table::csv(
-        &header(&["x_mm", "y_mm", "height_nm"]),
+        &header(&["x_mm", "y_mm", value]),
         &[
             &column(|p| p.x_mm),
             &column(|p| p.y_mm),

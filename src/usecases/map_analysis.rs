@@ -131,7 +131,7 @@ pub struct MapAnalysisResult {
     pub warnings: Vec<Warning>,
 }
 
-fn positive(value: f64, input: MapInput, what: &str) -> Result<f64, MapInputError> {
+pub fn positive(value: f64, input: MapInput, what: &str) -> Result<f64, MapInputError> {
     if value.is_finite() && value > 0.0 {
         Ok(value)
     } else {
@@ -150,87 +150,18 @@ impl MapAnalysisCommand {
         limits: &ComputeLimits,
     ) -> Result<Self, MapInputError> {
         use MapInput as I;
-        let pixel_mm = match (spec.pixel_mm, map.pixel_mm()) {
-            (Some(p), _) => positive(p, I::PixelSize, "the pixel size")?,
-            (None, Some(p)) => p,
-            (None, None) => return Err(MapInputError::PixelSizeUnknown),
+        let placement = Placement {
+            pixel_mm: spec.pixel_mm,
+            centre_px: spec.centre_px,
+            part_radius_mm: spec.part_radius_mm,
+            rotation_deg: spec.rotation_deg,
+            mirror: spec.mirror,
         };
-        let rotation_deg = spec.rotation_deg.unwrap_or(0.0);
-        if !rotation_deg.is_finite() {
-            return Err(MapInputError::invalid(
-                I::Rotation,
-                "the rotation must be a finite angle in degrees",
-            ));
-        }
-        if let Some((c, r)) = spec.centre_px {
-            let inside = |v: f64, n: usize| v.is_finite() && v >= -0.5 && v <= n as f64 - 0.5;
-            if !inside(c, map.width()) || !inside(r, map.height()) {
-                return Err(MapInputError::invalid(
-                    I::Centre,
-                    format!(
-                        "the centre ({c}, {r}) is not on the {} × {} map (columns and rows from 0)",
-                        map.width(),
-                        map.height()
-                    ),
-                ));
-            }
-        }
-        if let Some(r) = spec.part_radius_mm {
-            positive(r, I::PartRadius, "the part's radius")?;
-        }
-        let fitted = spec.centre_px.is_none() || spec.part_radius_mm.is_none();
-        let (centre_px, part_radius_mm) = if fitted {
-            let (centre, radius_px) = boundary_circle(&map).ok_or(MapInputError::NoBoundary)?;
-            (
-                spec.centre_px.unwrap_or(centre),
-                spec.part_radius_mm.unwrap_or(radius_px * pixel_mm),
-            )
-        } else {
-            (
-                spec.centre_px.unwrap_or_default(),
-                spec.part_radius_mm.unwrap_or_default(),
-            )
-        };
-        let alignment = Alignment {
-            centre_px,
-            part_radius_mm,
-            rotation_deg,
-            mirror: spec.mirror.unwrap_or(false),
-            pixel_mm,
-        };
+        let (alignment, fitted) = placement.place(&map)?;
         let aperture = spec.aperture.unwrap_or(Aperture::Circle {
-            radius_mm: part_radius_mm,
+            radius_mm: alignment.part_radius_mm,
         });
-        check_aperture(&aperture)?;
-        // The aperture must lie on the map: every point of its outline within the pixels'
-        // extent (half a pixel beyond the outer centres, and one pixel of slack for rounding).
-        let (w, h) = (map.width() as f64, map.height() as f64);
-        if let Some((x, y)) = aperture.outline_mm().into_iter().find(|&(x, y)| {
-            let (c, r) = alignment.to_pixel(x, y);
-            !(c >= -1.5 && c <= w + 0.5 && r >= -1.5 && r <= h + 0.5)
-        }) {
-            return Err(MapInputError::invalid(
-                I::Aperture,
-                format!(
-                    "the clear aperture reaches ({x:.3}, {y:.3}) mm in the part's frame, off the \
-                     {} × {} map ({:.3} × {:.3} mm)",
-                    map.width(),
-                    map.height(),
-                    w * pixel_mm,
-                    h * pixel_mm
-                ),
-            ));
-        }
-        let inside = analysis::aperture_pixels(&map, &alignment, &aperture).len();
-        if inside < MIN_APERTURE_PIXELS {
-            return Err(MapInputError::invalid(
-                I::Aperture,
-                format!(
-                    "the clear aperture holds {inside} valid pixels; an analysis needs \
-                     {MIN_APERTURE_PIXELS} at least"
-                ),
-            ));
-        }
+        let inside = check_on_map(&map, &alignment, &aperture)?;
 
         let ordering = spec.ordering.unwrap_or(Ordering::Fringe);
         let count = spec.terms.unwrap_or(DEFAULT_TERMS);
@@ -267,7 +198,7 @@ impl MapAnalysisCommand {
         .expect("count within the ordering");
         let bands = match spec.bands {
             Some(bands) => check_bands(bands)?,
-            None => Band::defaults(2.0 * aperture.normalization_radius_mm(), pixel_mm),
+            None => Band::defaults(2.0 * aperture.normalization_radius_mm(), alignment.pixel_mm),
         };
         let fringe_wavelength_nm = match spec.fringe_wavelength_nm {
             Some(l) => positive(l, I::FringeWavelength, "the fringe wavelength")?,
@@ -293,6 +224,113 @@ impl MapAnalysisCommand {
     pub fn map(&self) -> &HeightMap {
         &self.map
     }
+}
+
+/// Where a map's part sits, as asked (`None`: from the file, or fitted).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Placement {
+    pub pixel_mm: Option<f64>,
+    pub centre_px: Option<(f64, f64)>,
+    pub part_radius_mm: Option<f64>,
+    pub rotation_deg: Option<f64>,
+    pub mirror: Option<bool>,
+}
+
+impl Placement {
+    /// The alignment: the pixel pitch given or the file's, the centre and radius given or
+    /// fitted to the map's boundary; and whether anything was fitted.
+    pub fn place(&self, map: &HeightMap) -> Result<(Alignment, bool), MapInputError> {
+        use MapInput as I;
+        let pixel_mm = match (self.pixel_mm, map.pixel_mm()) {
+            (Some(p), _) => positive(p, I::PixelSize, "the pixel size")?,
+            (None, Some(p)) => p,
+            (None, None) => return Err(MapInputError::PixelSizeUnknown),
+        };
+        let rotation_deg = self.rotation_deg.unwrap_or(0.0);
+        if !rotation_deg.is_finite() {
+            return Err(MapInputError::invalid(
+                I::Rotation,
+                "the rotation must be a finite angle in degrees",
+            ));
+        }
+        if let Some((c, r)) = self.centre_px {
+            let inside = |v: f64, n: usize| v.is_finite() && v >= -0.5 && v <= n as f64 - 0.5;
+            if !inside(c, map.width()) || !inside(r, map.height()) {
+                return Err(MapInputError::invalid(
+                    I::Centre,
+                    format!(
+                        "the centre ({c}, {r}) is not on the {} × {} map (columns and rows from 0)",
+                        map.width(),
+                        map.height()
+                    ),
+                ));
+            }
+        }
+        if let Some(r) = self.part_radius_mm {
+            positive(r, I::PartRadius, "the part's radius")?;
+        }
+        let fitted = self.centre_px.is_none() || self.part_radius_mm.is_none();
+        let (centre_px, part_radius_mm) = if fitted {
+            let (centre, radius_px) = boundary_circle(map).ok_or(MapInputError::NoBoundary)?;
+            (
+                self.centre_px.unwrap_or(centre),
+                self.part_radius_mm.unwrap_or(radius_px * pixel_mm),
+            )
+        } else {
+            (
+                self.centre_px.unwrap_or_default(),
+                self.part_radius_mm.unwrap_or_default(),
+            )
+        };
+        let alignment = Alignment {
+            centre_px,
+            part_radius_mm,
+            rotation_deg,
+            mirror: self.mirror.unwrap_or(false),
+            pixel_mm,
+        };
+        Ok((alignment, fitted))
+    }
+}
+
+/// Checks the aperture's dimensions and that it lies on the map (every point of its outline
+/// within the pixels' extent: half a pixel beyond the outer centres, and one pixel of slack
+/// for rounding) holding [`MIN_APERTURE_PIXELS`] valid pixels at least; their count.
+pub fn check_on_map(
+    map: &HeightMap,
+    alignment: &Alignment,
+    aperture: &Aperture,
+) -> Result<usize, MapInputError> {
+    use MapInput as I;
+    check_aperture(aperture)?;
+    let (w, h) = (map.width() as f64, map.height() as f64);
+    if let Some((x, y)) = aperture.outline_mm().into_iter().find(|&(x, y)| {
+        let (c, r) = alignment.to_pixel(x, y);
+        !(c >= -1.5 && c <= w + 0.5 && r >= -1.5 && r <= h + 0.5)
+    }) {
+        return Err(MapInputError::invalid(
+            I::Aperture,
+            format!(
+                "the clear aperture reaches ({x:.3}, {y:.3}) mm in the part's frame, off the \
+                 {} × {} map ({:.3} × {:.3} mm)",
+                map.width(),
+                map.height(),
+                w * alignment.pixel_mm,
+                h * alignment.pixel_mm
+            ),
+        ));
+    }
+    let inside = analysis::aperture_pixels(map, alignment, aperture).len();
+    if inside < MIN_APERTURE_PIXELS {
+        return Err(MapInputError::invalid(
+            I::Aperture,
+            format!(
+                "the clear aperture holds {inside} valid pixels; an analysis needs \
+                 {MIN_APERTURE_PIXELS} at least"
+            ),
+        ));
+    }
+    Ok(inside)
 }
 
 fn check_aperture(aperture: &Aperture) -> Result<(), MapInputError> {
@@ -335,7 +373,7 @@ fn check_aperture(aperture: &Aperture) -> Result<(), MapInputError> {
     }
 }
 
-fn check_bands(bands: Vec<Band>) -> Result<Vec<Band>, MapInputError> {
+pub fn check_bands(bands: Vec<Band>) -> Result<Vec<Band>, MapInputError> {
     let bad = |detail: String| Err(MapInputError::invalid(MapInput::Bands, detail));
     if bands.is_empty() || bands.len() > MAX_BANDS {
         return bad(format!("give 1 to {MAX_BANDS} bands, not {}", bands.len()));

@@ -21,6 +21,7 @@ pub mod calibration;
 pub mod eta_sweep;
 mod limits;
 pub mod map_analysis;
+pub mod map_difference;
 pub mod measurement_fit;
 pub mod operators;
 pub mod optimize;

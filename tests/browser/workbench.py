@@ -343,7 +343,9 @@ def main_flow(binary, screenshots):
         # axisymmetric correction planned and programmed on the set-up (a plane, from the
         # calibration above).
         page.one("#tab-maps").click()
-        page.one("#map_file").send_keys(str(ROOT / "fixtures/maps/valid_zygo_dat_file.dat"))
+        sample = str(ROOT / "fixtures/maps/valid_zygo_dat_file.dat")
+        page.one("#map_file").send_keys(sample)
+        page.one("#map_after_file").send_keys(sample)  # the same map after: nothing removed
         page.run_and_wait("maps", lambda: page.one('section[data-view="maps"] button[type="submit"]').click())
         heat = page.one('figure[data-chart="map-heat"] canvas')
         painted = driver.execute_script(
@@ -356,7 +358,9 @@ def main_flow(binary, screenshots):
         check(page.chart_drawn("map-psd", 1), "the PSD drawn")
         check(page.chart_drawn("map-profile", 1), "the radial profile drawn")
         check(page.chart_drawn("map-correction", 2), "the correction plan drawn")
+        check(page.chart_drawn("map-removal", 1), "the removal between the maps drawn")
         mapped = page.text_of('[data-summary="maps"]')
+        check("Removed (mean / PV)\n0 / 0 nm" in mapped, f"the same map twice removed nothing ({mapped[-200:]!r})")
         check("ISO 10110-5" in mapped and "RMSa" in mapped.replace("RMSt / RMSi / RMSa", "RMSa"),
               f"the ISO figures reported ({mapped[:120]!r}…)")
         page.wait("the map's correction program", lambda: page.css('[data-program="maps"] a[data-download="program"]'))

@@ -50,9 +50,25 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let pg = "program_sphere.json";
     let ca = "calibration_rings.json";
     let ma = "maps_analysis.json";
+    let md = "maps_difference.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 39] = [
+    let cases: [(&str, &str, Value, &str, &str); 42] = [
+        (md, "after", Value::Null, INVALID, "after"),
+        (
+            md,
+            "after_offset_px",
+            json!({"x_px": 400.0, "y_px": 0.0}),
+            INVALID,
+            "after_offset_px",
+        ),
+        (
+            md,
+            "before.heights_nm",
+            json!("rows"),
+            SCHEMA,
+            "before.heights_nm",
+        ),
         (ma, "map", Value::Null, INVALID, "map"),
         (ma, "map.heights_nm[1]", json!([1.0, 2.0]), INVALID, "map"),
         (ma, "pixel_mm", json!(-0.1), INVALID, "pixel_mm"),

@@ -2,7 +2,9 @@
 
 use super::super::error::{ApiError, Kind};
 use crate::maps::analysis::AnalysisError;
+use crate::maps::difference::DifferenceError;
 use crate::usecases::map_analysis::{MapInput, MapInputError};
+use crate::usecases::map_difference::DifferenceInputError;
 
 fn field(input: MapInput) -> &'static str {
     match input {
@@ -24,6 +26,38 @@ impl From<MapInputError> for ApiError {
             MapInputError::TooMuchWork { .. } => ApiError::limit(at, err.to_string()),
             _ => ApiError::invalid(at, err.to_string()),
         }
+    }
+}
+
+/// A difference's input errors: the before map's placement is the request's `alignment`,
+/// the after map's its `after_offset_px` (or `alignment` again); each map named by its field.
+impl From<DifferenceInputError> for ApiError {
+    fn from(err: DifferenceInputError) -> Self {
+        let (after, input) = err.input();
+        let at = match (&err, after, input) {
+            (DifferenceInputError::Offset | DifferenceInputError::OffsetOffMap(_), ..) => {
+                "after_offset_px"
+            }
+            // The after map's centre is fitted, or the before map's shifted: the map is at fault.
+            (_, true, MapInput::Centre) => "after",
+            (_, _, input) => field(input),
+        };
+        let message = if after {
+            format!("the after map: {err}")
+        } else {
+            err.to_string()
+        };
+        ApiError::invalid(at, message)
+    }
+}
+
+impl From<DifferenceError> for ApiError {
+    fn from(err: DifferenceError) -> Self {
+        let at = match err {
+            DifferenceError::TooLittleOverlap(_) => "after_offset_px",
+            DifferenceError::NoRadialProfile => "clear_aperture",
+        };
+        ApiError::invalid(at, err.to_string())
     }
 }
 

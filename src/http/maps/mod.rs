@@ -1,10 +1,10 @@
 //! `POST /v1/maps/analysis`: an interferometer map analysed as metrologists do.
 
 pub mod body;
+pub mod difference;
 
 use serde::{Deserialize, Serialize};
-use utoipa::openapi::path::{Operation, ParameterBuilder, ParameterIn};
-use utoipa::openapi::{ObjectBuilder, Required, Type};
+use utoipa::openapi::path::Operation;
 use utoipa::ToSchema;
 
 use self::body::{MapForm, MapOrJson, MapSource};
@@ -20,7 +20,7 @@ use crate::maps::zernike::{Normalization, Ordering};
 use crate::maps::Format;
 use crate::report::results;
 use crate::usecases::map_analysis::{
-    map_analysis, MapAnalysisCommand, MapAnalysisResult, MapAnalysisSpec, MapOrigin,
+    map_analysis, MapAnalysisCommand, MapAnalysisResult, MapAnalysisSpec, MapOrigin, Placement,
 };
 use crate::usecases::ComputeLimits;
 
@@ -68,6 +68,29 @@ pub enum MapApertureDto {
         centre_y_mm: f64,
         radius_mm: f64,
     },
+}
+
+impl MapAlignmentDto {
+    /// The placement it asks for, with the pixel pitch given beside it.
+    pub fn placement(self, pixel_mm: Option<f64>) -> Result<Placement, ApiError> {
+        let centre_px = match (self.centre_x_px, self.centre_y_px) {
+            (Some(x), Some(y)) => Some((x, y)),
+            (None, None) => None,
+            _ => {
+                return Err(ApiError::invalid(
+                    "alignment.centre_x_px",
+                    "give both centre_x_px and centre_y_px, or neither (fitted)",
+                ))
+            }
+        };
+        Ok(Placement {
+            pixel_mm,
+            centre_px,
+            part_radius_mm: self.part_radius_mm,
+            rotation_deg: self.rotation_deg,
+            mirror: self.mirror,
+        })
+    }
 }
 
 impl From<MapApertureDto> for Aperture {
@@ -227,6 +250,7 @@ pub struct MapAnalysisRequest {
 }
 
 impl MapForm for MapAnalysisRequest {
+    const FILES: &'static [&'static str] = &["map"];
     const QUERY_FIELDS: &'static [&'static str] = &[
         "pixel_mm",
         "alignment",
@@ -237,7 +261,7 @@ impl MapForm for MapAnalysisRequest {
         "fringe_wavelength_nm",
     ];
 
-    fn set_file(&mut self, bytes: axum::body::Bytes) {
+    fn set_file(&mut self, _: &str, bytes: axum::body::Bytes) {
         self.map = MapSource::File(bytes);
     }
 }
@@ -448,6 +472,45 @@ pub struct MapAnalysisResponse {
     pub warnings: Vec<WarningDto>,
 }
 
+/// How the response names where a map came from.
+pub fn origin_name(origin: MapOrigin) -> &'static str {
+    match origin {
+        MapOrigin::Heights => "json",
+        MapOrigin::File(Format::MetroPro) => "metropro_dat",
+        MapOrigin::File(Format::Datx) => "zygo_datx",
+        MapOrigin::File(Format::ZygoText) => "zygo_text",
+        MapOrigin::File(Format::CodeV) => "codev_int",
+        MapOrigin::File(Format::TextGrid) => "text_grid",
+    }
+}
+
+/// The bands asked for, as the core takes them.
+fn bands_of(psd: Option<PsdOptionsDto>) -> Option<Vec<Band>> {
+    psd.and_then(|p| p.bands).map(|bands| {
+        bands
+            .into_iter()
+            .map(|b| Band {
+                name: b.name,
+                low_per_mm: b.low_per_mm,
+                high_per_mm: b.high_per_mm,
+            })
+            .collect()
+    })
+}
+
+/// A band's RMS as the response gives it.
+fn band_rms(bands: &[(Band, f64)]) -> Vec<BandRmsDto> {
+    bands
+        .iter()
+        .map(|(b, rms)| BandRmsDto {
+            name: b.name.clone(),
+            low_per_mm: b.low_per_mm,
+            high_per_mm: b.high_per_mm,
+            rms_nm: *rms,
+        })
+        .collect()
+}
+
 /// `POST /v1/maps/analysis`.
 pub struct MapAnalysisEndpoint;
 
@@ -478,44 +541,23 @@ fields as query parameters (JSON values). `Accept: text/csv` returns x, y, heigh
     const CSV: Option<fn(&MapAnalysisResult) -> String> = Some(results::map_pixels_csv);
 
     fn document(operation: &mut Operation) {
-        let parameters = MapAnalysisRequest::QUERY_FIELDS
-            .iter()
-            .map(|name| {
-                ParameterBuilder::new()
-                    .name(*name)
-                    .parameter_in(ParameterIn::Query)
-                    .required(Required::False)
-                    .description(Some(
-                        "With a file body: the JSON field of the same name, as its JSON value \
-                         (enum names may be bare)",
-                    ))
-                    .schema(Some(ObjectBuilder::new().schema_type(Type::String)))
-                    .build()
-            })
-            .collect();
-        body::document(operation, parameters);
+        body::document(
+            operation,
+            MapAnalysisRequest::FILES,
+            MapAnalysisRequest::QUERY_FIELDS,
+        );
     }
 
     fn parse(req: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
-        let (map, origin) = req.map.read(limits.max_map_pixels)?;
-        let alignment = req.alignment.unwrap_or_default();
-        let centre_px = match (alignment.centre_x_px, alignment.centre_y_px) {
-            (Some(x), Some(y)) => Some((x, y)),
-            (None, None) => None,
-            _ => {
-                return Err(ApiError::invalid(
-                    "alignment.centre_x_px",
-                    "give both centre_x_px and centre_y_px, or neither (fitted)",
-                ))
-            }
-        };
+        let (map, origin) = req.map.read("map", limits.max_map_pixels)?;
+        let placement = req.alignment.unwrap_or_default().placement(req.pixel_mm)?;
         let zernike = req.zernike.unwrap_or_default();
         let spec = MapAnalysisSpec {
-            pixel_mm: req.pixel_mm,
-            centre_px,
-            part_radius_mm: alignment.part_radius_mm,
-            rotation_deg: alignment.rotation_deg,
-            mirror: alignment.mirror,
+            pixel_mm: placement.pixel_mm,
+            centre_px: placement.centre_px,
+            part_radius_mm: placement.part_radius_mm,
+            rotation_deg: placement.rotation_deg,
+            mirror: placement.mirror,
             aperture: req.clear_aperture.map(Aperture::from),
             remove_power: req.remove_power,
             ordering: zernike.ordering.map(|o| match o {
@@ -528,16 +570,7 @@ fields as query parameters (JSON values). `Accept: text/csv` returns x, y, heigh
                 NormalizationDto::Peak => Normalization::Peak,
             }),
             terms: zernike.terms,
-            bands: req.psd.and_then(|p| p.bands).map(|bands| {
-                bands
-                    .into_iter()
-                    .map(|b| Band {
-                        name: b.name,
-                        low_per_mm: b.low_per_mm,
-                        high_per_mm: b.high_per_mm,
-                    })
-                    .collect()
-            }),
+            bands: bands_of(req.psd),
             fringe_wavelength_nm: req.fringe_wavelength_nm,
         };
         Ok(MapAnalysisCommand::new(map, origin, spec, limits)?)
@@ -554,14 +587,7 @@ fields as query parameters (JSON values). `Accept: text/csv` returns x, y, heigh
         let (radius_mm, depth_nm): (Vec<f64>, Vec<f64>) = a.radial_profile.iter().copied().unzip();
         MapAnalysisResponse {
             map: MapInfoDto {
-                format: match r.origin {
-                    MapOrigin::Heights => "json",
-                    MapOrigin::File(Format::MetroPro) => "metropro_dat",
-                    MapOrigin::File(Format::Datx) => "zygo_datx",
-                    MapOrigin::File(Format::ZygoText) => "zygo_text",
-                    MapOrigin::File(Format::CodeV) => "codev_int",
-                    MapOrigin::File(Format::TextGrid) => "text_grid",
-                },
+                format: origin_name(r.origin),
                 width_px: r.width,
                 height_px: r.height,
                 valid_pixels: r.valid_pixels,
@@ -640,17 +666,7 @@ fields as query parameters (JSON values). `Accept: text/csv` returns x, y, heigh
                 },
                 frequency_per_mm: a.psd.azimuthal.iter().map(|p| p.0).collect(),
                 psd_nm2_mm2: a.psd.azimuthal.iter().map(|p| p.1).collect(),
-                bands: a
-                    .psd
-                    .bands
-                    .iter()
-                    .map(|(b, rms)| BandRmsDto {
-                        name: b.name.clone(),
-                        low_per_mm: b.low_per_mm,
-                        high_per_mm: b.high_per_mm,
-                        rms_nm: *rms,
-                    })
-                    .collect(),
+                bands: band_rms(&a.psd.bands),
             },
             correction_target: TargetDto {
                 uniform_depth_nm: None,

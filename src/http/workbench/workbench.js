@@ -18,6 +18,7 @@
     measurementFit: '/v1/measurement/fit',
     calibration: '/v1/calibration',
     mapAnalysis: '/v1/maps/analysis',
+    mapDifference: '/v1/maps/difference',
     parts: '/v1/parts',
     processProfiles: '/v1/process-profiles',
   };
@@ -806,6 +807,21 @@
   // ---------------------------------------------------------------- maps
 
   let mapFile;
+  let afterFile;
+
+  /** POSTs two map files as multipart/form-data (parts `before` and `after`). */
+  async function postFiles(view, path, files, query) {
+    const url = path + (query ? `?${new URLSearchParams(query)}` : '');
+    const headers = { Accept: 'application/json' };
+    if (apiKey()) headers.Authorization = `Bearer ${apiKey()}`;
+    const form = new FormData();
+    for (const [name, file] of Object.entries(files)) form.append(name, file, file.name);
+    const lines = [`curl -s -X POST '${location.origin}${url}'`,
+      ...Object.entries(files).map(([name, file]) => `-F '${name}=@${file.name.replace(/'/g, "'\\''")}'`)];
+    calls[view].push(lines.join(' \\\n  '));
+    $('details.api pre', section(view)).textContent = calls[view].join('\n\n');
+    return (await fetched(url, { method: 'POST', headers, body: form })).json();
+  }
 
   /** A perceptual blue–green–yellow ramp (viridis' ends and middle), t in [0, 1]. */
   function ramp(t) {
@@ -944,6 +960,26 @@
       ...a.warnings.map((w) => ['Warning', w.message]),
     ];
     summary(view, 'maps', items);
+    const removalFigure = $('figure[data-chart="map-removal"]', section(view));
+    removalFigure.hidden = !afterFile;
+    if (afterFile) {
+      const d = await postFiles(view, API.mapDifference, { before: mapFile, after: afterFile },
+        defined({ pixel_mm: query.pixel_mm }));
+      const e = d.removal;
+      items.push(
+        ['Removed (mean / PV)', `${label(e.mean_nm)} / ${label(e.pv_nm)} nm`],
+        ['Removal nonuniformity', e.nonuniformity === null ? 'n/a' : pct(e.nonuniformity)],
+        ['RMS before → after', `${label(d.before.rms_nm)} → ${label(d.after.rms_nm)} nm`],
+        ...d.before.bands.map((b, i) => [`${b.name.replace('_', '-')} band RMS`, `${label(b.rms_nm)} → ${label(d.after.bands[i].rms_nm)} nm`]),
+      );
+      draw(view, 'map-removal', {
+        title: 'What the run removed',
+        xLabel: 'radius r (mm)', yLabel: 'removal (nm)',
+        series: [{ name: 'radial removal', points: zip(d.radial_removal.radius_mm, d.radial_removal.depth_nm) }],
+        fromZero: false,
+      });
+      summary(view, 'maps', items);
+    }
     const outer = profile.radius_mm[profile.radius_mm.length - 1];
     const aperture = { inner_mm: Math.ceil(profile.radius_mm[0] * 1000) / 1000, outer_mm: Math.floor(outer * 1000) / 1000 };
     const o = await plan(view, 'map-correction', a.correction_target, 'map_correction_step_mm', {}, aperture);
@@ -1111,6 +1147,9 @@
     const drop = $('#map_drop');
     $('#map_file').addEventListener('change', (event) => {
       mapFile = event.target.files[0];
+    });
+    $('#map_after_file').addEventListener('change', (event) => {
+      afterFile = event.target.files[0];
     });
     drop.addEventListener('dragover', (event) => {
       event.preventDefault();

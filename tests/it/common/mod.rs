@@ -204,6 +204,8 @@ pub fn endpoint_of(fixture: &str) -> &'static str {
         "/v1/calibration"
     } else if fixture.starts_with("maps_analysis") {
         "/v1/maps/analysis"
+    } else if fixture.starts_with("maps_difference") {
+        "/v1/maps/difference"
     } else {
         panic!("no endpoint for fixture {fixture}")
     }
