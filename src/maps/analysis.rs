@@ -203,6 +203,25 @@ pub fn aperture_area_pixels(map: &HeightMap, alignment: &Alignment, aperture: &A
         .count()
 }
 
+/// √(x² + y²): at the scale of a part (mm) nothing overflows, and it is several times quicker
+/// than `hypot`.
+pub(super) fn radius_of(x: f64, y: f64) -> f64 {
+    (x * x + y * y).sqrt()
+}
+
+/// The runs of consecutive pixels in one row: lines in the part's frame.
+fn rows_of(pixels: &[Pixel]) -> Vec<std::ops::Range<usize>> {
+    let mut lines = Vec::new();
+    let mut start = 0;
+    for i in 1..=pixels.len() {
+        if i == pixels.len() || pixels[i].row != pixels[start].row {
+            lines.push(start..i);
+            start = i;
+        }
+    }
+    lines
+}
+
 /// The aperture's valid pixels, positioned in the part's frame, with their raw heights.
 pub fn aperture_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Aperture) -> Vec<Pixel> {
     let mut pixels = Vec::new();
@@ -232,37 +251,65 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
     let radius = plan.aperture.normalization_radius_mm();
     let unit = |p: &Pixel| ((p.x_mm - cx) / radius, (p.y_mm - cy) / radius);
 
-    // Piston, tilt and defocus, peak-normalised: the removed terms and the ISO power.
-    let low = |count: usize| {
-        Basis::first(Ordering::Fringe, count, Normalization::Peak).expect("Fringe has 4 terms")
-    };
-    let points = |pixels: &[Pixel]| -> Vec<(f64, f64, f64)> {
-        pixels
-            .iter()
-            .map(|p| {
-                let (x, y) = unit(p);
-                (x, y, p.height_nm)
+    // One set of normal equations serves every fit: over the removal terms (piston, tilt,
+    // defocus) and the terms asked for, on the pixels' rows (`zernike`, lines).
+    let points: Vec<(f64, f64, f64)> = raw
+        .iter()
+        .map(|p| {
+            let (x, y) = unit(p);
+            (x, y, p.height_nm)
+        })
+        .collect();
+    let lines = rows_of(&raw);
+    let removal = [
+        Term { n: 0, m: 0 },
+        Term { n: 1, m: 1 },
+        Term { n: 1, m: -1 },
+        Term { n: 2, m: 0 },
+    ];
+    let mut terms = removal.to_vec();
+    let asked: Vec<usize> = plan
+        .zernike
+        .terms()
+        .iter()
+        .map(|t| {
+            terms.iter().position(|u| u == t).unwrap_or_else(|| {
+                terms.push(*t);
+                terms.len() - 1
             })
+        })
+        .collect();
+    let basis = Basis::new(terms, plan.zernike.normalization());
+    let normal = basis.normal_equations(&points, &lines);
+    let tilt_scaled = normal.solve(&[0, 1, 2], &normal.right[..3])?;
+    let power_scaled = normal.solve(&[0, 1, 2, 3], &normal.right[..4])?;
+    // As peak-normalised coefficients: 1, x, y and 2ρ² − 1.
+    let peak = |c: &[f64]| -> Vec<f64> {
+        c.iter()
+            .enumerate()
+            .map(|(k, v)| v * basis.scale(k))
             .collect()
     };
-    let (tilt_basis, power_basis) = (low(3), low(4));
-    let raw_points = points(&raw);
-    let tilt = tilt_basis.fit(&raw_points)?;
-    let power = power_basis.fit(&raw_points)?;
-    let less = |basis: &Basis, c: &[f64]| -> Vec<Pixel> {
-        let mut scratch = Vec::new();
+    let (tilt, power) = (peak(&tilt_scaled), peak(&power_scaled));
+    let plane = |p: &(f64, f64, f64), c: &[f64]| c[0] + c[1] * p.0 + c[2] * p.1;
+    let sphere =
+        |p: &(f64, f64, f64)| plane(p, &power) + power[3] * (2.0 * (p.0 * p.0 + p.1 * p.1) - 1.0);
+    let less = |f: &dyn Fn(&(f64, f64, f64)) -> f64| -> Vec<Pixel> {
         raw.iter()
-            .map(|p| {
-                let (x, y) = unit(p);
-                Pixel {
-                    height_nm: p.height_nm - basis.surface(c, x, y, &mut scratch),
-                    ..*p
-                }
+            .zip(&points)
+            .map(|(p, q)| Pixel {
+                height_nm: p.height_nm - f(q),
+                ..*p
             })
             .collect()
     };
-    let tilted = less(&tilt_basis, &tilt);
-    let irregular = less(&power_basis, &power);
+    let tilted = less(&|q| plane(q, &tilt));
+    let irregular = less(&sphere);
+    let (removed_scaled, removed_terms): (&[f64], &[usize]) = if plan.remove_power {
+        (&power_scaled, &[0, 1, 2, 3])
+    } else {
+        (&tilt_scaled, &[0, 1, 2])
+    };
     let (pixels, removed) = if plan.remove_power {
         (
             irregular.clone(),
@@ -284,6 +331,19 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
             },
         )
     };
+    // The terms asked for, fitted to the map less the removed terms: Aᵀh′ = Aᵀh − G·a.
+    let right: Vec<f64> = asked
+        .iter()
+        .map(|&i| {
+            normal.right[i]
+                - removed_terms
+                    .iter()
+                    .zip(removed_scaled)
+                    .map(|(&k, a)| normal.gram[(i, k)] * a)
+                    .sum::<f64>()
+        })
+        .collect();
+    let coefficients = normal.solve(&asked, &right)?;
 
     let pixel_mm = plan.alignment.pixel_mm;
     let spacing = KNOT_SPACING_PX * pixel_mm;
@@ -291,14 +351,14 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
         let symmetric = RadialFit::fit(
             &irregular
                 .iter()
-                .map(|p| ((p.x_mm - cx).hypot(p.y_mm - cy), p.height_nm))
+                .map(|p| (radius_of(p.x_mm - cx, p.y_mm - cy), p.height_nm))
                 .collect::<Vec<_>>(),
             spacing,
         )
         .ok_or(AnalysisError::NoRadialProfile)?;
         let s: Vec<f64> = irregular
             .iter()
-            .map(|p| symmetric.at((p.x_mm - cx).hypot(p.y_mm - cy)))
+            .map(|p| symmetric.at(radius_of(p.x_mm - cx, p.y_mm - cy)))
             .collect();
         let irregularity = figures(irregular.iter().map(|p| p.height_nm));
         let symmetric = figures(s.iter().copied());
@@ -315,23 +375,16 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
         }
     };
 
-    let coefficients = plan.zernike.fit(&points(&pixels))?;
-    let (fitted, residual) = {
-        let mut scratch = Vec::new();
-        let fitted: Vec<f64> = pixels
-            .iter()
-            .map(|p| {
-                let (x, y) = unit(p);
-                plan.zernike.surface(&coefficients, x, y, &mut scratch)
-            })
-            .collect();
-        let residual: Vec<f64> = pixels
-            .iter()
-            .zip(&fitted)
-            .map(|(p, f)| p.height_nm - f)
-            .collect();
-        (fitted, residual)
-    };
+    let mut all = vec![0.0; basis.terms().len()];
+    for (&i, c) in asked.iter().zip(&coefficients) {
+        all[i] = *c;
+    }
+    let fitted = basis.surface(&all, &points, &lines);
+    let residual: Vec<f64> = pixels
+        .iter()
+        .zip(&fitted)
+        .map(|(p, f)| p.height_nm - f)
+        .collect();
     let residual_rms = quadratic_mean(&residual);
     let figure = figures(pixels.iter().map(|p| p.height_nm));
     let metrics = Metrics {
@@ -359,7 +412,7 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
     let about_axis = RadialFit::fit(
         &pixels
             .iter()
-            .map(|p| (p.x_mm.hypot(p.y_mm), p.height_nm))
+            .map(|p| (radius_of(p.x_mm, p.y_mm), p.height_nm))
             .collect::<Vec<_>>(),
         spacing,
     )
@@ -368,7 +421,7 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
     let leftover = figures(
         pixels
             .iter()
-            .map(|p| p.height_nm - about_axis.at(p.x_mm.hypot(p.y_mm))),
+            .map(|p| p.height_nm - about_axis.at(radius_of(p.x_mm, p.y_mm))),
     );
     let non_axisymmetric = NonAxisymmetric {
         rms_nm: leftover.rms,
@@ -426,7 +479,7 @@ pub fn spectrum_of(
             (p.x_mm - cx) / width_mm + 0.5,
             (p.y_mm - cy) / height_mm + 0.5,
         ),
-        _ => psd::sidick_window((p.x_mm - cx).hypot(p.y_mm - cy) / radius),
+        _ => psd::sidick_window(radius_of(p.x_mm - cx, p.y_mm - cy) / radius),
     };
     let mut values = vec![0.0; columns * rows];
     let mut power = 0.0;

@@ -196,7 +196,7 @@ pub fn difference(
     let profile = RadialFit::fit(
         &removal
             .iter()
-            .map(|p| (p.x_mm.hypot(p.y_mm), p.height_nm))
+            .map(|p| (super::analysis::radius_of(p.x_mm, p.y_mm), p.height_nm))
             .collect::<Vec<_>>(),
         KNOT_SPACING_PX * pixel_mm,
     )

@@ -111,10 +111,10 @@ impl Spectrum {
                 k as f64 - n as f64
             }
         };
-        self.density
-            .iter()
-            .enumerate()
-            .map(move |(i, d)| (signed(i / n).hypot(signed(i % n)), *d))
+        self.density.iter().enumerate().map(move |(i, d)| {
+            let (a, b) = (signed(i / n), signed(i % n));
+            ((a * a + b * b).sqrt(), *d)
+        })
     }
 
     /// The azimuthal average: (f_k per mm, PSD nm²·mm²) for k = 1 … N/2.

@@ -13,7 +13,7 @@
 //! The normal equations are banded (four functions reach each pixel): accumulated pixel by
 //! pixel and solved by a banded Cholesky factorisation, O(pixels + knots).
 
-use crate::spline::Knots;
+use crate::spline::{Knots, Tabulated};
 
 /// Knot spacing, pixels: a zone two pixels wide is resolved, and every span holds pixels
 /// (about a dozen inside the first span about the centre).
@@ -22,7 +22,7 @@ pub const KNOT_SPACING_PX: f64 = 2.0;
 /// A fitted radial profile f(r) on [r_min, r_max], mm.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RadialFit {
-    knots: Knots,
+    knots: Tabulated,
     coefficients: Vec<f64>,
     r_min: f64,
     r_max: f64,
@@ -44,7 +44,7 @@ impl RadialFit {
         // A span about the centre reaches r = 0, where s = r² is flat: start there.
         let start = if r_min < spacing_mm { 0.0 } else { r_min };
         let spans = (((r_max - start) / spacing_mm).round() as usize).max(1);
-        let knots = Knots::squared(start, r_max, spans);
+        let knots = Knots::squared(start, r_max, spans).tabulated();
         let k = knots.functions();
         // Band of the normal matrix: band[i][d] = G[i][i + d], d = 0 … 3.
         let mut band = vec![[0.0; 4]; k];
