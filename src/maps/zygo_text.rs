@@ -37,8 +37,11 @@ pub enum ZygoTextError {
     NotText,
     #[error("the first line is not `Zygo ASCII Data File …` or `Zygo XYZ Data File …`")]
     Title,
-    #[error("the header ends at line {line}: it has 14 lines before the `#`")]
-    ShortHeader { line: usize },
+    #[error(
+        "the header has {lines} lines after the title where Zygo writes 13 before the `#` that \
+         ends it"
+    )]
+    ShortHeader { lines: usize },
     #[error("header line {line}, field {field}: `{value}` is not {what}")]
     Field {
         line: usize,
@@ -93,7 +96,9 @@ pub fn read(bytes: &[u8], max_pixels: usize) -> Result<HeightMap, ZygoTextError>
     for (n, line) in lines.by_ref() {
         if line == "#" {
             if header.len() < 13 {
-                return Err(ZygoTextError::ShortHeader { line: n });
+                return Err(ZygoTextError::ShortHeader {
+                    lines: header.len(),
+                });
             }
             break;
         }
@@ -101,7 +106,7 @@ pub fn read(bytes: &[u8], max_pixels: usize) -> Result<HeightMap, ZygoTextError>
     }
     if header.len() < 13 {
         return Err(ZygoTextError::ShortHeader {
-            line: header.len() + 1,
+            lines: header.len(),
         });
     }
     let number = |line: usize, field: usize, what: &'static str| -> Result<f64, ZygoTextError> {
