@@ -125,6 +125,30 @@ async function calibration(name: string): Promise<void> {
   check(name, data.runs.length === body.runs.length, "one fit per run");
 }
 
+async function mapAnalysis(name: string): Promise<void> {
+  const body = read<Schemas["MapAnalysisRequest"]>(name);
+  const { data, error } = await client.POST("/v1/maps/analysis", { body });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const iso: Schemas["IsoDto"] = data.iso_10110;
+  // RMSi² = RMSs² + RMSa²: the rotationally symmetric part is a projection.
+  const split = Math.hypot(iso.rms_s_nm, iso.rms_a_nm);
+  check(name, Math.abs(split - iso.rms_i_nm) <= 1e-9 * iso.rms_i_nm, "RMSi² = RMSs² + RMSa²");
+  check(name, data.zernike.terms.length === (body.zernike?.terms ?? 37), "one coefficient per term");
+  const target: Schemas["TargetDto"] = data.correction_target;
+  check(name, target.profile?.radius_mm.length === data.radial_profile.radius_mm.length, "target");
+}
+
+async function mapDifference(name: string): Promise<void> {
+  const body = read<Schemas["MapDifferenceRequest"]>(name);
+  const { data, error } = await client.POST("/v1/maps/difference", { body });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const nonuniformity: number | null = data.removal.nonuniformity;
+  check(name, nonuniformity !== null && data.removal.mean_nm > 0, "a removal with a mean");
+  check(name, data.radial_removal.radius_mm.length === data.radial_removal.depth_nm.length, "profile");
+}
+
 // An error comes back typed as the problem it is.
 async function problem(): Promise<void> {
   const body = read<Schemas["PredictRequest"]>("predict_paper_exp2.json");
@@ -144,6 +168,8 @@ const runners: [string, (name: string) => Promise<void>][] = [
   ["measurement_fit_", measurementFit],
   ["program_", program],
   ["calibration_", calibration],
+  ["maps_analysis", mapAnalysis],
+  ["maps_difference", mapDifference],
 ];
 let calls = 0;
 for (const name of readdirSync(fixtures).filter((f) => f.endsWith(".json")).sort()) {

@@ -17,6 +17,7 @@ sys.path.insert(0, client_dir)
 from preston_client import Client  # noqa: E402
 from preston_client.api.calibration import calibrate  # noqa: E402
 from preston_client.api.machine import generate_program  # noqa: E402
+from preston_client.api.maps import analyse_map, difference_maps  # noqa: E402
 from preston_client.api.metrology import fit_measurement  # noqa: E402
 from preston_client.api.optimize import optimize_dwell  # noqa: E402
 from preston_client.api.recommend import recommend_speeds, sweep_eta  # noqa: E402
@@ -41,6 +42,12 @@ OPERATIONS = {
     ),
     "program_": (generate_program, models.ProgramRequest, models.ProgramResponse),
     "calibration_": (calibrate, models.CalibrationRequest, models.CalibrationResponse),
+    "maps_analysis": (analyse_map, models.MapAnalysisRequest, models.MapAnalysisResponse),
+    "maps_difference": (
+        difference_maps,
+        models.MapDifferenceRequest,
+        models.MapDifferenceResponse,
+    ),
 }
 
 root = pathlib.Path(__file__).resolve().parent.parent

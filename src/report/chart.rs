@@ -221,3 +221,84 @@ mod tick_tests {
         assert_eq!(super::tick(2.5e-7), "2.5e-7");
     }
 }
+
+/// A bar chart: one bar per labelled value, from 0.
+pub struct Bars {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    /// (label under the bar, value).
+    pub bars: Vec<(String, f64)>,
+}
+
+/// The bar chart as an SVG document.
+pub fn render_bars(chart: &Bars) -> String {
+    let mut svg = String::new();
+    if let Err(e) = draw_bars(chart, &mut svg) {
+        tracing::error!(error = %e, "chart rendering failed");
+        svg = format!(
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{WIDTH}\" height=\"{HEIGHT}\"><text x=\"10\" y=\"20\">chart unavailable</text></svg>\n"
+        );
+    }
+    svg
+}
+
+fn draw_bars(chart: &Bars, svg: &mut String) -> Result<(), Box<dyn std::error::Error>> {
+    let n = chart.bars.len().max(1);
+    let (y0, y1) = extent(chart.bars.iter().map(|b| b.1), true);
+    let root = SVGBackend::with_string(svg, (WIDTH, HEIGHT)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut ctx = ChartBuilder::on(&root)
+        .caption(&chart.title, ("sans-serif", 22))
+        .margin(14)
+        .x_label_area_size(48)
+        .y_label_area_size(78)
+        .build_cartesian_2d(0.0..n as f64, y0..y1)?;
+    // Every bar labelled when they fit, else every fifth.
+    let every = if n <= 40 { 1 } else { 5 };
+    let labels: Vec<String> = chart.bars.iter().map(|b| b.0.clone()).collect();
+    ctx.configure_mesh()
+        .x_desc(chart.x_label.as_str())
+        .y_desc(chart.y_label.as_str())
+        .x_labels(n.div_ceil(every))
+        .x_label_formatter(&|v| {
+            let i = (*v - 0.5).round();
+            if i >= 0.0 && (i as usize) < labels.len() && (i as usize) % every == 0 {
+                labels[i as usize].clone()
+            } else {
+                String::new()
+            }
+        })
+        .y_label_formatter(&|v| tick(*v))
+        .axis_desc_style(("sans-serif", 16))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()?;
+    ctx.draw_series(chart.bars.iter().enumerate().map(|(i, (_, v))| {
+        let v = if v.is_finite() { *v } else { 0.0 };
+        Rectangle::new(
+            [(i as f64 + 0.1, 0.0), (i as f64 + 0.9, v)],
+            COLOURS[0].filled(),
+        )
+    }))?;
+    root.present()?;
+    Ok(())
+}
+
+/// SVG documents one above the other in one document.
+pub fn stack(documents: &[String]) -> String {
+    let mut out = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{WIDTH}\" height=\"{}\">\n",
+        HEIGHT as usize * documents.len()
+    );
+    for (k, doc) in documents.iter().enumerate() {
+        let body = doc.trim_start_matches(|c| c != '<');
+        let body = body.strip_prefix("<?xml").map_or(body, |rest| {
+            rest.split_once("?>")
+                .map_or(rest, |(_, after)| after.trim_start())
+        });
+        out.push_str(&body.replacen("<svg ", &format!("<svg y=\"{}\" ", HEIGHT as usize * k), 1));
+        out.push('\n');
+    }
+    out.push_str("</svg>\n");
+    out
+}

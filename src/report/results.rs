@@ -203,6 +203,46 @@ pub fn map_removal_csv(r: &MapDifferenceResult) -> String {
     pixels_csv(&r.difference.pixels, "removal_nm")
 }
 
+/// The Zernike coefficients as bars above the PSD's azimuthal average (log₁₀).
+pub fn map_analysis_svg(r: &MapAnalysisResult) -> String {
+    let a = &r.analysis;
+    let bars = chart::render_bars(&chart::Bars {
+        title: format!(
+            "Zernike fit ({:?}, {:?}): residual {:.3} nm RMS; map {:.1} nm PV, {:.2} nm RMS",
+            a.zernike.ordering,
+            a.zernike.normalization,
+            a.zernike.residual_rms_nm,
+            a.metrics.pv_nm,
+            a.metrics.rms_nm
+        ),
+        x_label: "term (index in the ordering)".to_string(),
+        y_label: "coefficient (nm)".to_string(),
+        bars: a
+            .zernike
+            .terms
+            .iter()
+            .map(|(index, _, c)| (index.to_string(), *c))
+            .collect(),
+    });
+    let psd = chart::render(&Chart {
+        title: "PSD, azimuthal average".to_string(),
+        x_label: "spatial frequency (1/mm)".to_string(),
+        y_label: "log10 PSD (nm²·mm²)".to_string(),
+        series: vec![Series {
+            name: "azimuthal average".to_string(),
+            points: a
+                .psd
+                .azimuthal
+                .iter()
+                .map(|&(f, p)| (f, if p > 0.0 { p.log10() } else { f64::NAN }))
+                .collect(),
+        }],
+        band: None,
+        secondary: None,
+    });
+    chart::stack(&[bars, psd])
+}
+
 fn pixels_csv(pixels: &[crate::maps::analysis::Pixel], value: &str) -> String {
     let column = |f: fn(&crate::maps::analysis::Pixel) -> f64| -> Vec<f64> {
         pixels.iter().map(f).collect()

@@ -877,3 +877,58 @@ fn urlencode(text: &str) -> String {
         })
         .collect()
 }
+
+/// `Accept: image/svg+xml`: one well-formed document, a bar per Zernike term (each bar's
+/// height in proportion to its coefficient) above the PSD's curve.
+#[tokio::test]
+async fn the_analysis_draws_its_zernike_bars_and_psd() {
+    let body = include_str!("../../fixtures/maps_analysis.json");
+    let app = app();
+    let json = post_json(&app, PATH, body).await.json();
+    let reply = post_with(
+        &app,
+        PATH,
+        body,
+        &[
+            ("content-type", "application/json"),
+            ("accept", "image/svg+xml"),
+        ],
+    )
+    .await;
+    assert_eq!(reply.status, 200);
+    assert_eq!(reply.content_type, "image/svg+xml");
+    let text = reply.text();
+    let doc = roxmltree::Document::parse(&text).expect("well-formed SVG");
+    let bars: Vec<roxmltree::Node> = doc
+        .descendants()
+        .filter(|n| {
+            n.has_tag_name("rect")
+                && n.attribute("fill")
+                    .is_some_and(|f| f.eq_ignore_ascii_case("#1F77B4"))
+        })
+        .collect();
+    let terms = json["zernike"]["terms"].as_array().unwrap();
+    assert_eq!(bars.len(), terms.len());
+    let heights: Vec<f64> = bars
+        .iter()
+        .map(|b| b.attribute("height").unwrap().parse::<f64>().unwrap())
+        .collect();
+    let (k, largest) = terms
+        .iter()
+        .enumerate()
+        .map(|(k, t)| (k, number(t, "coefficient_nm").abs()))
+        .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+    for (t, h) in terms.iter().zip(&heights) {
+        let ratio = number(t, "coefficient_nm").abs() / largest;
+        // Pixels are whole: within a pixel and a half of proportion.
+        assert!(
+            (h - ratio * heights[k]).abs() <= 1.5,
+            "{h} vs {}",
+            ratio * heights[k]
+        );
+    }
+    assert!(
+        doc.descendants().any(|n| n.has_tag_name("polyline")),
+        "the PSD is drawn"
+    );
+}

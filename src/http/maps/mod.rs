@@ -530,8 +530,9 @@ profile about the C axis with a ready `/v1/optimize` target; and what a plan in 
 leaves (`non_axisymmetric`). The body is JSON with `map` as rows of heights, or the \
 instrument's file itself (`application/octet-stream`, `text/plain` or `text/csv`: MetroPro \
 .dat, Zygo ASCII or XYZ, Code V .int, Preston's text grid, or the JSON map) with the other \
-fields as query parameters (JSON values). `Accept: text/csv` returns x, y, height per pixel.",
-        ok: "The analysis; as CSV, the aperture's pixels (x_mm, y_mm, height_nm)",
+fields as query parameters (JSON values). `Accept: text/csv` returns x, y, height per pixel; `image/svg+xml` the Zernike bars above \
+the PSD.",
+        ok: "The analysis; as CSV, the aperture's pixels (x_mm, y_mm, height_nm); as SVG, the Zernike bars and the PSD",
     };
     type Request = MapAnalysisRequest;
     type Body = MapOrJson<MapAnalysisRequest>;
@@ -539,6 +540,7 @@ fields as query parameters (JSON values). `Accept: text/csv` returns x, y, heigh
     type Output = MapAnalysisResult;
     type Response = MapAnalysisResponse;
     const CSV: Option<fn(&MapAnalysisResult) -> String> = Some(results::map_pixels_csv);
+    const SVG: Option<fn(&MapAnalysisResult) -> String> = Some(results::map_analysis_svg);
 
     fn document(operation: &mut Operation) {
         body::document(
