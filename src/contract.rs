@@ -22,15 +22,18 @@ pub fn finish(doc: &mut Value) {
             target = &mut target[key];
         }
     }
-    // The surface variants are closed objects (serde denies unknown fields), and a zero
-    // radius is a plane, which has its own kind.
-    let variants = doc["components"]["schemas"]["SurfaceDto"]["oneOf"]
-        .as_array_mut()
-        .expect("SurfaceDto is a oneOf");
-    for variant in variants {
-        variant["additionalProperties"] = json!(false);
-        if let Some(radius) = variant["properties"].get_mut("radius_of_curvature_mm") {
-            radius["not"] = json!({"const": 0});
+    // The surface's and a map aperture's variants are closed objects (serde denies unknown
+    // fields; utoipa says so for structs, not for an enum's variants), and a zero radius is a
+    // plane, which has its own kind.
+    for tagged in ["SurfaceDto", "MapApertureDto"] {
+        let variants = doc["components"]["schemas"][tagged]["oneOf"]
+            .as_array_mut()
+            .expect("a tagged enum is a oneOf");
+        for variant in variants {
+            variant["additionalProperties"] = json!(false);
+            if let Some(radius) = variant["properties"].get_mut("radius_of_curvature_mm") {
+                radius["not"] = json!({"const": 0});
+            }
         }
     }
     query_mirrors_body(doc);
