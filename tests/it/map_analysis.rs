@@ -932,3 +932,25 @@ async fn the_analysis_draws_its_zernike_bars_and_psd() {
         "the PSD is drawn"
     );
 }
+
+/// Maps have their own body limit: a 1.35 MB MetroPro file passes under a 2 MiB map limit
+/// while the JSON endpoints keep theirs (1 KiB here), and a map beyond its limit is a 413.
+#[tokio::test]
+async fn maps_have_their_own_body_limit() {
+    use preston::config::ServiceLimits;
+    let limits = |map: usize| ServiceLimits {
+        max_body_bytes: 1024,
+        max_map_bytes: map,
+        ..ServiceLimits::default()
+    };
+    let file = [("content-type", "application/octet-stream")];
+    let roomy = super::common::http::app_with(limits(2 << 20));
+    let reply = post_with(&roomy, PATH, sample(), &file).await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let predict = include_str!("../../fixtures/predict_paper_exp2.json");
+    assert_eq!(post_json(&roomy, "/v1/predict", predict).await.status, 413);
+    let tight = super::common::http::app_with(limits(1 << 20));
+    let reply = post_with(&tight, PATH, sample(), &file).await;
+    assert_eq!(reply.status, 413, "{}", reply.text());
+    assert_eq!(reply.json()["status"], 413);
+}
