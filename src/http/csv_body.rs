@@ -4,7 +4,6 @@
 //! ([`CsvForm::merge_csv`]); the result is parsed as the JSON body would be.
 
 use axum::extract::{FromRequest, Query, Request};
-use axum::http::{header, HeaderMap};
 use serde::de::DeserializeOwned;
 use serde_json::{Map, Value};
 use utoipa::openapi::path::{Operation, Parameter};
@@ -43,7 +42,7 @@ impl<S: Send + Sync, R: CsvForm> FromRequest<S> for CsvOrJson<R> {
             .map(|Query(q)| q)
             .map_err(|e| ApiError::invalid("query", e.body_text()))?;
         extract::check_content_type(req.headers(), &[CSV])?;
-        if !is_csv(req.headers()) {
+        if !extract::has_media(req.headers(), &[CSV]) {
             if let Some((name, _)) = query.first() {
                 return Err(ApiError::invalid(
                     name.clone(),
@@ -97,14 +96,6 @@ pub fn query_object(
         }
     }
     Ok(body)
-}
-
-fn is_csv(headers: &HeaderMap) -> bool {
-    headers
-        .get(header::CONTENT_TYPE)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.split(';').next())
-        .is_some_and(|essence| essence.trim().eq_ignore_ascii_case(CSV))
 }
 
 /// Documents the `text/csv` form of an operation: the body's second media type (with

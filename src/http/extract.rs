@@ -333,6 +333,15 @@ pub async fn read_body<S: Send + Sync>(req: Request, state: &S) -> Result<Bytes,
 #[derive(Debug, Clone, Copy)]
 pub struct BodyLimit(pub usize);
 
+/// Whether the request's content type is one of `media` (its essence, case-insensitive).
+pub fn has_media(headers: &HeaderMap, media: &[&str]) -> bool {
+    headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.split(';').next())
+        .is_some_and(|essence| media.iter().any(|t| essence.trim().eq_ignore_ascii_case(t)))
+}
+
 /// Refuses a body that is neither JSON nor one of `also` (further media types the endpoint
 /// takes). A form-encoded body passes, to be told it is not JSON.
 pub fn check_content_type(headers: &HeaderMap, also: &[&str]) -> Result<(), ApiError> {

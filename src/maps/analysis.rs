@@ -174,6 +174,8 @@ pub struct MapAnalysis {
     pub plan: AnalysisPlan,
     /// The aperture's valid pixels with h′.
     pub pixels: Vec<Pixel>,
+    /// Pixels in the aperture, with data or without.
+    pub area_pixels: usize,
     pub removed: Removed,
     pub metrics: Metrics,
     pub iso: IsoFigures,
@@ -191,16 +193,6 @@ pub enum AnalysisError {
     Zernike(#[from] ZernikeError),
     #[error("the aperture's valid pixels span too few radii to tell a radial profile")]
     NoRadialProfile,
-}
-
-/// How many pixels of the map lie in the aperture, with data or without.
-pub fn aperture_area_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Aperture) -> usize {
-    (0..map.height() * map.width())
-        .filter(|k| {
-            let (x, y) = alignment.to_part((k % map.width()) as f64, (k / map.width()) as f64);
-            aperture.contains(x, y)
-        })
-        .count()
 }
 
 /// √(x² + y²): at the scale of a part (mm) nothing overflows, and it is several times quicker
@@ -222,31 +214,48 @@ fn rows_of(pixels: &[Pixel]) -> Vec<std::ops::Range<usize>> {
     lines
 }
 
-/// The aperture's valid pixels, positioned in the part's frame, with their raw heights.
-pub fn aperture_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Aperture) -> Vec<Pixel> {
+/// The map's pixels in an aperture, in one pass: the valid ones, positioned in the part's
+/// frame with their raw heights, and how many lie there with data or without.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Census {
+    pub pixels: Vec<Pixel>,
+    pub area_pixels: usize,
+}
+
+/// The aperture's pixels (see [`Census`]).
+pub fn aperture_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Aperture) -> Census {
     let mut pixels = Vec::new();
+    let mut area_pixels = 0;
     for row in 0..map.height() {
         for column in 0..map.width() {
+            let (x, y) = alignment.to_part(column as f64, row as f64);
+            if !aperture.contains(x, y) {
+                continue;
+            }
+            area_pixels += 1;
             if let Some(h) = map.at(column, row) {
-                let (x, y) = alignment.to_part(column as f64, row as f64);
-                if aperture.contains(x, y) {
-                    pixels.push(Pixel {
-                        column,
-                        row,
-                        x_mm: x,
-                        y_mm: y,
-                        height_nm: h,
-                    });
-                }
+                pixels.push(Pixel {
+                    column,
+                    row,
+                    x_mm: x,
+                    y_mm: y,
+                    height_nm: h,
+                });
             }
         }
     }
-    pixels
+    Census {
+        pixels,
+        area_pixels,
+    }
 }
 
 /// The analysis (module docs) of `map` as `plan` says.
 pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, AnalysisError> {
-    let raw = aperture_pixels(map, &plan.alignment, &plan.aperture);
+    let Census {
+        pixels: raw,
+        area_pixels,
+    } = aperture_pixels(map, &plan.alignment, &plan.aperture);
     let (cx, cy) = plan.aperture.centre_mm();
     let radius = plan.aperture.normalization_radius_mm();
     let unit = |p: &Pixel| ((p.x_mm - cx) / radius, (p.y_mm - cy) / radius);
@@ -431,6 +440,7 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
     Ok(MapAnalysis {
         plan,
         pixels,
+        area_pixels,
         removed,
         metrics,
         iso,

@@ -18,11 +18,10 @@
 //! - **radial removal**: e's rotationally symmetric part about the part's centre (`radial`),
 //!   sampled every pixel pitch, as a calibration run's `removal` takes it.
 
-use super::analysis::{plane_fit, spectrum_of, Band, Pixel, Window};
+use super::analysis::{figures, plane_fit, spectrum_of, Band, Pixel, Window};
 use super::aperture::{Alignment, Aperture};
 use super::radial::{RadialFit, KNOT_SPACING_PX};
 use super::HeightMap;
-use crate::field::Figures;
 
 /// What to compare and how (checked: `usecases::map_difference` builds it).
 #[derive(Debug, Clone, PartialEq)]
@@ -62,6 +61,8 @@ pub struct MapDifference {
     pub pixels: Vec<Pixel>,
     /// Pixels of the aperture with a before height that the after map does not cover.
     pub uncovered: usize,
+    /// Pixels in the aperture on the before map, with data or without.
+    pub area_pixels: usize,
     pub removal: RemovalFigures,
     pub before: FigureAnswer,
     pub after: FigureAnswer,
@@ -116,7 +117,8 @@ pub fn difference(
     after: &HeightMap,
     plan: DifferencePlan,
 ) -> Result<MapDifference, DifferenceError> {
-    let candidates = super::analysis::aperture_pixels(before, &plan.before, &plan.aperture);
+    let census = super::analysis::aperture_pixels(before, &plan.before, &plan.aperture);
+    let candidates = census.pixels;
     let mut pairs: Vec<(Pixel, f64)> = Vec::with_capacity(candidates.len());
     for p in &candidates {
         if let Some(h) = interpolate(after, &plan.after, p.x_mm, p.y_mm) {
@@ -207,14 +209,11 @@ pub fn difference(
         plan,
         pixels: removal,
         uncovered,
+        area_pixels: census.area_pixels,
         removal: removal_figures,
         before: before_figure,
         after: after_figure,
         window,
         radial_removal,
     })
-}
-
-fn figures(values: impl Iterator<Item = f64>) -> Figures {
-    super::analysis::figures(values)
 }

@@ -1,7 +1,7 @@
 //! Analyse an interferometer map: align it to the part, cut the clear aperture, report its
 //! figures (`maps::analysis`).
 
-use super::warnings::MAP_DROPOUT_FRACTION;
+use super::warnings::map_dropouts;
 use super::{ComputeLimits, Warning};
 use crate::maps::analysis::{
     self, AnalysisError, AnalysisPlan, Band, MapAnalysis, ISO_WAVELENGTH_NM,
@@ -320,7 +320,9 @@ pub fn check_on_map(
             ),
         ));
     }
-    let inside = analysis::aperture_pixels(map, alignment, aperture).len();
+    let inside = analysis::aperture_pixels(map, alignment, aperture)
+        .pixels
+        .len();
     if inside < MIN_APERTURE_PIXELS {
         return Err(MapInputError::invalid(
             I::Aperture,
@@ -395,15 +397,8 @@ pub fn check_bands(bands: Vec<Band>) -> Result<Vec<Band>, MapInputError> {
 /// The analysis.
 pub fn map_analysis(command: MapAnalysisCommand) -> Result<MapAnalysisResult, AnalysisError> {
     let map = &command.map;
-    let total =
-        analysis::aperture_area_pixels(map, &command.plan.alignment, &command.plan.aperture);
     let analysis = analysis::analyse(map, command.plan)?;
-    let missing = total - analysis.pixels.len();
-    let warnings = if missing as f64 > MAP_DROPOUT_FRACTION * total as f64 {
-        vec![Warning::MapDropouts { missing, total }]
-    } else {
-        Vec::new()
-    };
+    let warnings = map_dropouts(analysis.pixels.len(), analysis.area_pixels);
     Ok(MapAnalysisResult {
         origin: command.origin,
         width: map.width(),

@@ -3,7 +3,7 @@
 use super::map_analysis::{
     check_bands, check_on_map, MapInput, MapInputError, MapOrigin, Placement,
 };
-use super::warnings::MAP_DROPOUT_FRACTION;
+use super::warnings::map_dropouts;
 use super::{ComputeLimits, Warning};
 use crate::maps::analysis::Band;
 use crate::maps::aperture::{Alignment, Aperture};
@@ -141,18 +141,8 @@ impl DifferenceInputError {
 pub fn map_difference(
     command: MapDifferenceCommand,
 ) -> Result<MapDifferenceResult, DifferenceError> {
-    let total = crate::maps::analysis::aperture_area_pixels(
-        &command.before,
-        &command.plan.before,
-        &command.plan.aperture,
-    );
     let difference = difference::difference(&command.before, &command.after, command.plan)?;
-    let missing = total - difference.pixels.len();
-    let warnings = if missing as f64 > MAP_DROPOUT_FRACTION * total as f64 {
-        vec![Warning::MapDropouts { missing, total }]
-    } else {
-        Vec::new()
-    };
+    let warnings = map_dropouts(difference.pixels.len(), difference.area_pixels);
     Ok(MapDifferenceResult {
         origins: command.origins,
         difference,

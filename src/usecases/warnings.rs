@@ -200,6 +200,17 @@ pub enum Warning {
 /// A map whose clear aperture lacks more than this fraction of its pixels gets a warning.
 pub const MAP_DROPOUT_FRACTION: f64 = 0.02;
 
+/// [`Warning::MapDropouts`] when `used` of an aperture's `total` pixels leave more than
+/// [`MAP_DROPOUT_FRACTION`] without data.
+pub fn map_dropouts(used: usize, total: usize) -> Vec<Warning> {
+    let missing = total.saturating_sub(used);
+    if missing as f64 > MAP_DROPOUT_FRACTION * total as f64 {
+        vec![Warning::MapDropouts { missing, total }]
+    } else {
+        Vec::new()
+    }
+}
+
 /// The unit checks on a process: radii that look like metres, a pressure that looks like
 /// pascals. Every use case that takes a process runs them.
 pub fn process_warnings(process: &Process) -> Vec<Warning> {

@@ -5,7 +5,6 @@
 
 use axum::body::Bytes;
 use axum::extract::{FromRequest, Multipart, Query, Request};
-use axum::http::{header, HeaderMap};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer, Serialize};
 use utoipa::openapi::path::{Operation, Parameter, ParameterBuilder, ParameterIn};
@@ -126,7 +125,7 @@ impl<S: Send + Sync, R: MapForm> FromRequest<S> for MapOrJson<R> {
         let multipart = R::FILES.len() > 1;
         let media: &[&str] = if multipart { &[MULTIPART] } else { &FILE_TYPES };
         extract::check_content_type(req.headers(), media)?;
-        if !has_media(req.headers(), media) {
+        if !extract::has_media(req.headers(), media) {
             if let Some((name, _)) = query.first() {
                 return Err(ApiError::invalid(
                     name.clone(),
@@ -187,14 +186,6 @@ impl<S: Send + Sync, R: MapForm> FromRequest<S> for MapOrJson<R> {
         }
         Ok(MapOrJson(request))
     }
-}
-
-fn has_media(headers: &HeaderMap, media: &[&str]) -> bool {
-    headers
-        .get(header::CONTENT_TYPE)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.split(';').next())
-        .is_some_and(|essence| media.iter().any(|t| essence.trim().eq_ignore_ascii_case(t)))
 }
 
 /// Documents the file forms of an operation: the body's other media types and the query
