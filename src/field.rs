@@ -301,6 +301,78 @@ impl Figures {
     }
 }
 
+/// Figures gathered one value at a time, in one pass: count, min, max and the sums of
+/// d = z − c and d² about a shift c (the first value, or any close to the mean), so that
+/// mean = c + Σd/n and rms² = Σd²/n − (Σd/n)² lose nothing to cancellation unless the mean
+/// lies many RMS from c. Tallies of parts of the values merge (they must share c).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tally {
+    shift: f64,
+    count: usize,
+    sum: f64,
+    squares: f64,
+    min: f64,
+    max: f64,
+}
+
+impl Tally {
+    /// An empty tally about `shift`.
+    pub fn new(shift: f64) -> Tally {
+        Tally {
+            shift,
+            count: 0,
+            sum: 0.0,
+            squares: 0.0,
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+        }
+    }
+
+    #[inline]
+    pub fn push(&mut self, z: f64) {
+        let d = z - self.shift;
+        self.count += 1;
+        self.sum += d;
+        self.squares += d * d;
+        self.min = self.min.min(z);
+        self.max = self.max.max(z);
+    }
+
+    /// Adds another part's tally (about the same shift).
+    pub fn merge(&mut self, other: &Tally) {
+        debug_assert_eq!(self.shift.to_bits(), other.shift.to_bits());
+        self.count += other.count;
+        self.sum += other.sum;
+        self.squares += other.squares;
+        self.min = self.min.min(other.min);
+        self.max = self.max.max(other.max);
+    }
+
+    /// The figures (all 0 for an empty tally).
+    pub fn figures(&self) -> Figures {
+        if self.count == 0 {
+            return Figures {
+                mean: 0.0,
+                min: 0.0,
+                max: 0.0,
+                pv: 0.0,
+                rms: 0.0,
+                samples: 0,
+            };
+        }
+        let n = self.count as f64;
+        let offset = self.sum / n;
+        Figures {
+            mean: self.shift + offset,
+            min: self.min,
+            max: self.max,
+            pv: self.max - self.min,
+            rms: (self.squares / n - offset * offset).max(0.0).sqrt(),
+            samples: self.count,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -104,6 +104,8 @@ pub struct Tabulated {
     knots: Knots,
     /// Per span, per function, the coefficients of τ⁰ … τ³.
     cubics: Vec<[[f64; 4]; 4]>,
+    /// Per span, its first knot u_i and its width u_{i+1} − u_i.
+    spans: Vec<(f64, f64)>,
 }
 
 impl Knots {
@@ -135,6 +137,12 @@ impl Knots {
         Tabulated {
             knots: *self,
             cubics,
+            spans: (0..self.spans)
+                .map(|span| {
+                    let a = self.knot(span + 3);
+                    (a, self.knot(span + 4) - a)
+                })
+                .collect(),
         }
     }
 }
@@ -144,9 +152,30 @@ impl Tabulated {
     pub fn basis(&self, x: f64) -> (usize, [f64; 4]) {
         let k = &self.knots;
         let r = if k.squared { x.max(0.0).sqrt() } else { x };
-        let span = (((r - k.start) / k.step).floor().max(0.0) as usize).min(k.spans - 1);
-        let (a, b) = (k.knot(span + 3), k.knot(span + 4));
-        let t = (x - a) / (b - a);
+        self.on_span(self.span_of(r), x)
+    }
+
+    /// [`Self::basis`] at s = r² on squared knots, from r ≥ 0 itself: no square root to find
+    /// the span.
+    #[inline]
+    pub fn basis_at_radius(&self, r: f64) -> (usize, [f64; 4]) {
+        debug_assert!(self.knots.squared);
+        self.on_span(self.span_of(r), r * r)
+    }
+
+    /// The span holding r (uniform knots in r), clamped to the spans.
+    #[inline]
+    fn span_of(&self, r: f64) -> usize {
+        let k = &self.knots;
+        // `as` truncates, which is the floor of a non-negative number (and a libm call less).
+        (((r - k.start) / k.step).max(0.0) as usize).min(k.spans - 1)
+    }
+
+    /// The four functions of `span` at x.
+    #[inline]
+    fn on_span(&self, span: usize, x: f64) -> (usize, [f64; 4]) {
+        let (a, width) = self.spans[span];
+        let t = (x - a) / width;
         let c = &self.cubics[span];
         let at = |f: usize| c[f][0] + t * (c[f][1] + t * (c[f][2] + t * c[f][3]));
         (span, [at(0), at(1), at(2), at(3)].map(|v: f64| v.max(0.0)))

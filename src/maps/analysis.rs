@@ -29,7 +29,8 @@ use super::psd::{self, Spectrum};
 use super::radial::{RadialFit, KNOT_SPACING_PX};
 use super::zernike::{Basis, Normalization, Ordering, Term, ZernikeError};
 use super::HeightMap;
-use crate::field::Figures;
+use crate::field::{Figures, Tally};
+use rayon::prelude::*;
 
 /// The ISO 10110 reference wavelength (the mercury e-line), nm: fringes when the map states none.
 pub const ISO_WAVELENGTH_NM: f64 = 546.07;
@@ -224,29 +225,51 @@ pub struct Census {
 
 /// The aperture's pixels (see [`Census`]).
 pub fn aperture_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Aperture) -> Census {
-    let mut pixels = Vec::new();
+    let mut pixels = Vec::with_capacity(map.valid_pixels());
     let mut area_pixels = 0;
-    for row in 0..map.height() {
-        for column in 0..map.width() {
-            let (x, y) = alignment.to_part(column as f64, row as f64);
-            if !aperture.contains(x, y) {
-                continue;
-            }
-            area_pixels += 1;
-            if let Some(h) = map.at(column, row) {
-                pixels.push(Pixel {
-                    column,
-                    row,
-                    x_mm: x,
-                    y_mm: y,
-                    height_nm: h,
-                });
-            }
+    walk_aperture(map, alignment, aperture, |column, row, (x_mm, y_mm), h| {
+        area_pixels += 1;
+        if let Some(height_nm) = h {
+            pixels.push(Pixel {
+                column,
+                row,
+                x_mm,
+                y_mm,
+                height_nm,
+            });
         }
-    }
+    });
     Census {
         pixels,
         area_pixels,
+    }
+}
+
+/// How many valid pixels lie in the aperture (the `pixels` of [`aperture_pixels`] alone).
+pub fn count_aperture_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Aperture) -> usize {
+    let mut count = 0;
+    walk_aperture(map, alignment, aperture, |_, _, _, h| {
+        count += usize::from(h.is_some())
+    });
+    count
+}
+
+/// Visits the map's pixels in the aperture in storage order: column, row, position in the
+/// part's frame (mm) and height.
+fn walk_aperture(
+    map: &HeightMap,
+    alignment: &Alignment,
+    aperture: &Aperture,
+    mut visit: impl FnMut(usize, usize, (f64, f64), Option<f64>),
+) {
+    let frame = alignment.frame();
+    for (row, heights) in map.heights_nm().chunks(map.width()).enumerate() {
+        for (column, h) in heights.iter().enumerate() {
+            let (x, y) = frame.to_part(column as f64, row as f64);
+            if aperture.contains(x, y) {
+                visit(column, row, (x, y), *h);
+            }
+        }
     }
 }
 
@@ -289,7 +312,8 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
         })
         .collect();
     let basis = Basis::new(terms, plan.zernike.normalization());
-    let normal = basis.normal_equations(&points, &lines);
+    let layout = basis.layout(&points, &lines);
+    let normal = basis.normal_equations(&layout);
     let tilt_scaled = normal.solve(&[0, 1, 2], &normal.right[..3])?;
     let power_scaled = normal.solve(&[0, 1, 2, 3], &normal.right[..4])?;
     // As peak-normalised coefficients: 1, x, y and 2ρ² − 1.
@@ -303,25 +327,17 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
     let plane = |p: &(f64, f64, f64), c: &[f64]| c[0] + c[1] * p.0 + c[2] * p.1;
     let sphere =
         |p: &(f64, f64, f64)| plane(p, &power) + power[3] * (2.0 * (p.0 * p.0 + p.1 * p.1) - 1.0);
-    let less = |f: &dyn Fn(&(f64, f64, f64)) -> f64| -> Vec<Pixel> {
-        raw.iter()
-            .zip(&points)
-            .map(|(p, q)| Pixel {
-                height_nm: p.height_nm - f(q),
-                ..*p
-            })
-            .collect()
-    };
-    let tilted = less(&|q| plane(q, &tilt));
-    let irregular = less(&sphere);
+    // h_t (less piston and tilt) and h_i (less the sphere too) at each pixel; h′ is one of them.
+    let tilted: Vec<f64> = points.iter().map(|q| q.2 - plane(q, &tilt)).collect();
+    let irregular: Vec<f64> = points.iter().map(|q| q.2 - sphere(q)).collect();
     let (removed_scaled, removed_terms): (&[f64], &[usize]) = if plan.remove_power {
         (&power_scaled, &[0, 1, 2, 3])
     } else {
         (&tilt_scaled, &[0, 1, 2])
     };
-    let (pixels, removed) = if plan.remove_power {
+    let (heights, removed) = if plan.remove_power {
         (
-            irregular.clone(),
+            &irregular,
             Removed {
                 piston_nm: power[0] - power[3],
                 tilt_x_nm_per_mm: power[1] / radius,
@@ -331,7 +347,7 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
         )
     } else {
         (
-            tilted.clone(),
+            &tilted,
             Removed {
                 piston_nm: tilt[0],
                 tilt_x_nm_per_mm: tilt[1] / radius,
@@ -340,6 +356,10 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
             },
         )
     };
+    let mut pixels = raw;
+    for (p, h) in pixels.iter_mut().zip(heights) {
+        p.height_nm = *h;
+    }
     // The terms asked for, fitted to the map less the removed terms: Aᵀh′ = Aᵀh − G·a.
     let right: Vec<f64> = asked
         .iter()
@@ -354,52 +374,89 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
         .collect();
     let coefficients = normal.solve(&asked, &right)?;
 
+    // The rotationally symmetric parts: of h_i about the aperture's centre (ISO's s), of h′
+    // about the C axis (the radial profile); one basis a pixel when the centres coincide.
     let pixel_mm = plan.alignment.pixel_mm;
     let spacing = KNOT_SPACING_PX * pixel_mm;
-    let iso = {
-        let symmetric = RadialFit::fit(
-            &irregular
-                .iter()
-                .map(|p| (radius_of(p.x_mm - cx, p.y_mm - cy), p.height_nm))
-                .collect::<Vec<_>>(),
-            spacing,
-        )
-        .ok_or(AnalysisError::NoRadialProfile)?;
-        let s: Vec<f64> = irregular
+    let axis_radii: Vec<f64> = pixels.iter().map(|p| radius_of(p.x_mm, p.y_mm)).collect();
+    let centred = cx == 0.0 && cy == 0.0;
+    let aperture_radii: Vec<f64> = if centred {
+        Vec::new()
+    } else {
+        pixels
             .iter()
-            .map(|p| symmetric.at(radius_of(p.x_mm - cx, p.y_mm - cy)))
-            .collect();
-        let irregularity = figures(irregular.iter().map(|p| p.height_nm));
-        let symmetric = figures(s.iter().copied());
-        let variant = figures(irregular.iter().zip(&s).map(|(p, s)| p.height_nm - s));
-        IsoFigures {
-            power_nm: 2.0 * power[3],
-            irregularity_nm: irregularity.pv,
-            rotationally_symmetric_irregularity_nm: symmetric.pv,
-            rms_t_nm: figures(tilted.iter().map(|p| p.height_nm)).rms,
-            rms_i_nm: irregularity.rms,
-            rms_s_nm: symmetric.rms,
-            rms_a_nm: variant.rms,
-            fringe_wavelength_nm: plan.fringe_wavelength_nm,
-        }
+            .map(|p| radius_of(p.x_mm - cx, p.y_mm - cy))
+            .collect()
+    };
+    let (symmetric, about_axis) = if centred {
+        let mut fits = RadialFit::fit_each(&axis_radii, &[&irregular, heights], spacing)
+            .ok_or(AnalysisError::NoRadialProfile)?;
+        let about_axis = fits.pop().ok_or(AnalysisError::NoRadialProfile)?;
+        (
+            fits.pop().ok_or(AnalysisError::NoRadialProfile)?,
+            about_axis,
+        )
+    } else {
+        let one = |radii: &[f64], values: &[f64]| {
+            RadialFit::fit_each(radii, &[values], spacing)
+                .and_then(|mut f| f.pop())
+                .ok_or(AnalysisError::NoRadialProfile)
+        };
+        (
+            one(&aperture_radii, &irregular)?,
+            one(&axis_radii, heights)?,
+        )
+    };
+    // One pass over the pixels: s (ISO) and h′ less its profile (what a radial plan leaves),
+    // with the figures of h_t, h_i, s, h_i − s and that.
+    let [tilted_f, irregular_f, s_f, variant_f, leftover_f] = tally_each(pixels.len(), |i| {
+        let b = about_axis.basis(axis_radii[i]);
+        let s = if centred {
+            symmetric.at_basis(&b)
+        } else {
+            symmetric.at(aperture_radii[i])
+        };
+        [
+            tilted[i],
+            irregular[i],
+            s,
+            irregular[i] - s,
+            heights[i] - about_axis.at_basis(&b),
+        ]
+    });
+    let iso = IsoFigures {
+        power_nm: 2.0 * power[3],
+        irregularity_nm: irregular_f.pv,
+        rotationally_symmetric_irregularity_nm: s_f.pv,
+        rms_t_nm: tilted_f.rms,
+        rms_i_nm: irregular_f.rms,
+        rms_s_nm: s_f.rms,
+        rms_a_nm: variant_f.rms,
+        fringe_wavelength_nm: plan.fringe_wavelength_nm,
+    };
+    let radial_profile = sample_profile(&about_axis, pixel_mm);
+    let non_axisymmetric = NonAxisymmetric {
+        rms_nm: leftover_f.rms,
+        pv_nm: leftover_f.pv,
     };
 
     let mut all = vec![0.0; basis.terms().len()];
     for (&i, c) in asked.iter().zip(&coefficients) {
         all[i] = *c;
     }
-    let fitted = basis.surface(&all, &points, &lines);
-    let residual: Vec<f64> = pixels
-        .iter()
-        .zip(&fitted)
-        .map(|(p, f)| p.height_nm - f)
-        .collect();
-    let residual_rms = quadratic_mean(&residual);
-    let figure = figures(pixels.iter().map(|p| p.height_nm));
+    let fitted = basis.surface(&all, &layout);
+    let [fitted_f, residual_f] = tally_each(fitted.len(), |i| [fitted[i], heights[i] - fitted[i]]);
+    // The residual's RMS about 0 (its mean is 0 to rounding when piston is among the terms).
+    let residual_rms = residual_f.rms.hypot(residual_f.mean);
+    let figure = if plan.remove_power {
+        irregular_f
+    } else {
+        tilted_f
+    };
     let metrics = Metrics {
         pv_nm: figure.pv,
         rms_nm: figure.rms,
-        pvr_nm: figures(fitted.iter().copied()).pv + 3.0 * residual_rms,
+        pvr_nm: fitted_f.pv + 3.0 * residual_rms,
     };
     let zernike = ZernikeFit {
         ordering: plan.ordering,
@@ -417,25 +474,6 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
     };
 
     let psd = spectrum(&plan, &pixels);
-
-    let about_axis = RadialFit::fit(
-        &pixels
-            .iter()
-            .map(|p| (radius_of(p.x_mm, p.y_mm), p.height_nm))
-            .collect::<Vec<_>>(),
-        spacing,
-    )
-    .ok_or(AnalysisError::NoRadialProfile)?;
-    let radial_profile = sample_profile(&about_axis, pixel_mm);
-    let leftover = figures(
-        pixels
-            .iter()
-            .map(|p| p.height_nm - about_axis.at(radius_of(p.x_mm, p.y_mm))),
-    );
-    let non_axisymmetric = NonAxisymmetric {
-        rms_nm: leftover.rms,
-        pv_nm: leftover.pv,
-    };
 
     Ok(MapAnalysis {
         plan,
@@ -500,14 +538,18 @@ pub fn spectrum_of(
     }
     let window = window_for(aperture);
     match Spectrum::new(&values, columns, rows, pixel_mm, power) {
-        Some(s) => PsdAnswer {
-            window,
-            azimuthal: s.azimuthal(),
-            bands: bands
+        Some(s) => {
+            let limits: Vec<(f64, f64)> = bands
                 .iter()
-                .map(|b| (b.clone(), s.band_rms(b.low_per_mm, b.high_per_mm)))
-                .collect(),
-        },
+                .map(|b| (b.low_per_mm, b.high_per_mm))
+                .collect();
+            let summary = s.summary(&limits);
+            PsdAnswer {
+                window,
+                azimuthal: summary.azimuthal,
+                bands: bands.iter().cloned().zip(summary.band_rms).collect(),
+            }
+        }
         None => PsdAnswer {
             window,
             azimuthal: Vec::new(),
@@ -546,21 +588,38 @@ pub fn sample_profile(fit: &RadialFit, pixel_mm: f64) -> Vec<(f64, f64)> {
     profile
 }
 
-/// PV, RMS about the mean, … of values counting alike (an aperture is never empty: the fits
-/// before need more pixels than terms).
-pub(super) fn figures(values: impl Iterator<Item = f64>) -> Figures {
-    let values: Vec<f64> = values.collect();
-    Figures::unweighted(&values).unwrap_or(Figures {
-        mean: 0.0,
-        min: 0.0,
-        max: 0.0,
-        pv: 0.0,
-        rms: 0.0,
-        samples: 0,
-    })
-}
-
-/// √(mean of squares).
-fn quadratic_mean(values: &[f64]) -> f64 {
-    (values.iter().map(|v| v * v).sum::<f64>() / values.len().max(1) as f64).sqrt()
+/// The figures of each of the K values `value(i)` gives, i < n, in one parallel pass that
+/// stores nothing ([`Tally`]).
+pub(super) fn tally_each<const K: usize>(
+    n: usize,
+    value: impl Fn(usize) -> [f64; K] + Sync,
+) -> [Figures; K] {
+    const CHUNK: usize = 16_384;
+    if n == 0 {
+        return [Tally::new(0.0).figures(); K];
+    }
+    let shifts = value(0);
+    let fresh = || shifts.map(Tally::new);
+    let starts: Vec<usize> = (0..n).step_by(CHUNK).collect();
+    let tallies = starts
+        .par_iter()
+        .map(|&start| {
+            let mut tallies = fresh();
+            for i in start..(start + CHUNK).min(n) {
+                for (t, v) in tallies.iter_mut().zip(value(i)) {
+                    t.push(v);
+                }
+            }
+            tallies
+        })
+        // Added in order, whatever the threads: the same answer to the last bit.
+        .collect::<Vec<_>>()
+        .into_iter()
+        .fold(fresh(), |mut a, b| {
+            for (a, b) in a.iter_mut().zip(&b) {
+                a.merge(b);
+            }
+            a
+        });
+    tallies.map(|t| t.figures())
 }

@@ -148,13 +148,17 @@ pub struct Alignment {
 impl Alignment {
     /// The centre of pixel (column, row) in the part's C frame, mm.
     pub fn to_part(&self, column: f64, row: f64) -> (f64, f64) {
-        let mut x = (column - self.centre_px.0) * self.pixel_mm;
-        let y = (self.centre_px.1 - row) * self.pixel_mm;
-        if self.mirror {
-            x = -x;
+        self.frame().to_part(column, row)
+    }
+
+    /// [`Self::to_part`] for many pixels: the rotation's sine and cosine found once.
+    pub fn frame(&self) -> Frame {
+        let (sin, cos) = self.rotation_deg.to_radians().sin_cos();
+        Frame {
+            alignment: *self,
+            sin,
+            cos,
         }
-        let (s, c) = self.rotation_deg.to_radians().sin_cos();
-        (c * x - s * y, s * x + c * y)
     }
 
     /// The (column, row) of a point of the part's frame (the inverse of [`Self::to_part`]).
@@ -171,23 +175,54 @@ impl Alignment {
     }
 }
 
+/// An [`Alignment`] with its rotation's sine and cosine.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    alignment: Alignment,
+    sin: f64,
+    cos: f64,
+}
+
+impl Frame {
+    /// As [`Alignment::to_part`].
+    pub fn to_part(&self, column: f64, row: f64) -> (f64, f64) {
+        let a = &self.alignment;
+        let mut x = (column - a.centre_px.0) * a.pixel_mm;
+        let y = (a.centre_px.1 - row) * a.pixel_mm;
+        if a.mirror {
+            x = -x;
+        }
+        (self.cos * x - self.sin * y, self.sin * x + self.cos * y)
+    }
+}
+
 /// The circle through the valid pixels' outer boundary (module docs): centre (column, row)
 /// and radius, pixels. `None` when fewer than three boundary pixels or no circle fits.
 pub fn boundary_circle(map: &HeightMap) -> Option<((f64, f64), f64)> {
-    let (w, h) = (map.width(), map.height());
+    let w = map.width();
+    // One pass in storage order: each row's first and last valid pixel, and each column's
+    // first and last valid row so far.
     let mut points = Vec::new();
-    for row in 0..h {
-        let valid = |c: &usize| map.at(*c, row).is_some();
-        if let (Some(first), Some(last)) = ((0..w).find(valid), (0..w).rev().find(valid)) {
+    let mut columns: Vec<Option<(usize, usize)>> = vec![None; w];
+    for (row, heights) in map.heights_nm().chunks(w).enumerate() {
+        let mut ends: Option<(usize, usize)> = None;
+        for (column, h) in heights.iter().enumerate() {
+            if h.is_none() {
+                continue;
+            }
+            ends = Some(ends.map_or((column, column), |(first, _)| (first, column)));
+            let span = &mut columns[column];
+            *span = Some(span.map_or((row, row), |(first, _)| (first, row)));
+        }
+        if let Some((first, last)) = ends {
             points.push((first as f64, row as f64));
             if last != first {
                 points.push((last as f64, row as f64));
             }
         }
     }
-    for column in 0..w {
-        let valid = |r: &usize| map.at(column, *r).is_some();
-        if let (Some(first), Some(last)) = ((0..h).find(valid), (0..h).rev().find(valid)) {
+    for (column, span) in columns.iter().enumerate() {
+        if let Some((first, last)) = *span {
             points.push((column as f64, first as f64));
             if last != first {
                 points.push((column as f64, last as f64));

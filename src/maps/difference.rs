@@ -18,7 +18,7 @@
 //! - **radial removal**: e's rotationally symmetric part about the part's centre (`radial`),
 //!   sampled every pixel pitch, as a calibration run's `removal` takes it.
 
-use super::analysis::{figures, plane_fit, spectrum_of, Band, Pixel, Window};
+use super::analysis::{plane_fit, spectrum_of, tally_each, Band, Pixel, Window};
 use super::aperture::{Alignment, Aperture};
 use super::radial::{RadialFit, KNOT_SPACING_PX};
 use super::HeightMap;
@@ -167,7 +167,7 @@ pub fn difference(
             ..*b
         })
         .collect();
-    let e = figures(removal.iter().map(|p| p.height_nm));
+    let [e] = tally_each(removal.len(), |i| [removal[i].height_nm]);
     let removal_figures = RemovalFigures {
         mean_nm: e.mean,
         pv_nm: e.pv,
@@ -186,7 +186,7 @@ pub fn difference(
                 }
             })
             .collect();
-        let f = figures(flat.iter().map(|p| p.height_nm));
+        let [f] = tally_each(flat.len(), |i| [flat[i].height_nm]);
         FigureAnswer {
             pv_nm: f.pv,
             rms_nm: f.rms,

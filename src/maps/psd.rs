@@ -50,8 +50,18 @@ pub fn hann_window(u: f64, v: f64) -> f64 {
 pub struct Spectrum {
     size: usize,
     pixel_mm: f64,
-    /// PSD on the N × N frequency grid, row-major, unshifted (index 0 = zero frequency).
-    density: Vec<f64>,
+    /// PSD at (k_y, k_x) for k_x = 0 … N/2 (the other half mirrors it: the heights are real,
+    /// so F(−k) = F(k)*), stored by k_x, each a column of N values of k_y, unshifted.
+    half: Vec<f64>,
+}
+
+/// What a spectrum says: its azimuthal average and the bands' RMS.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// (f_k per mm, PSD nm²·mm²) for k = 1 … N/2.
+    pub azimuthal: Vec<(f64, f64)>,
+    /// RMS (nm) of each band asked for, in order.
+    pub band_rms: Vec<f64>,
 }
 
 impl Spectrum {
@@ -68,31 +78,39 @@ impl Spectrum {
             return None;
         }
         let size = columns.max(rows).div_ceil(2) * 2;
-        let mut data = vec![Complex::new(0.0, 0.0); size * size];
-        for (r, row) in values.chunks(columns).enumerate() {
-            for (c, v) in row.iter().enumerate() {
-                data[r * size + c] = Complex::new(*v, 0.0);
-            }
-        }
+        let width = size / 2 + 1;
+        // Rows: the real transform of each row that holds data (the rows of zeros below
+        // transform to zeros), keeping k_x = 0 … N/2.
+        let forward = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(size);
+        let mut transformed = vec![Complex::new(0.0, 0.0); rows * width];
+        transformed
+            .par_chunks_mut(width)
+            .zip(values.par_chunks(columns))
+            .for_each(|(out, row)| {
+                let mut input = vec![0.0; size];
+                input[..columns].copy_from_slice(row);
+                forward
+                    .process(&mut input, out)
+                    .expect("the buffers are the plan's lengths");
+            });
+        // Columns: each k_x's column of N values of k_y, transformed in place.
         let fft = FftPlanner::new().plan_fft_forward(size);
-        data.par_chunks_mut(size).for_each(|row| fft.process(row));
-        // Columns: transpose, transform the rows, and leave it transposed (|F|² at (kx, ky)
-        // is read back through the symmetry of the grid below).
-        let mut transposed = vec![Complex::new(0.0, 0.0); size * size];
-        for r in 0..size {
-            for c in 0..size {
-                transposed[c * size + r] = data[r * size + c];
-            }
-        }
-        transposed
-            .par_chunks_mut(size)
-            .for_each(|row| fft.process(row));
         let scale = pixel_mm * pixel_mm / window_power;
-        let density = transposed.iter().map(|z| z.norm_sqr() * scale).collect();
+        let mut half = vec![0.0; width * size];
+        half.par_chunks_mut(size).enumerate().for_each(|(kx, out)| {
+            let mut column = vec![Complex::new(0.0, 0.0); size];
+            for (r, c) in column.iter_mut().take(rows).enumerate() {
+                *c = transformed[r * width + kx];
+            }
+            fft.process(&mut column);
+            for (o, z) in out.iter_mut().zip(&column) {
+                *o = z.norm_sqr() * scale;
+            }
+        });
         Some(Spectrum {
             size,
             pixel_mm,
-            density,
+            half,
         })
     }
 
@@ -101,55 +119,60 @@ impl Spectrum {
         1.0 / (self.size as f64 * self.pixel_mm)
     }
 
-    /// |f| / Δf at each grid point, with its PSD.
-    fn points(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+    /// The azimuthal average and the RMS of each band (low, high) per mm, low ≤ |f| < high
+    /// (module docs), in one pass over the stored half: a column 0 < k_x < N/2 stands for
+    /// itself and its mirror.
+    pub fn summary(&self, bands: &[(f64, f64)]) -> Summary {
         let n = self.size;
-        let signed = move |k: usize| {
-            if k <= n / 2 {
-                k as f64
-            } else {
-                k as f64 - n as f64
-            }
-        };
-        self.density.iter().enumerate().map(move |(i, d)| {
-            let (a, b) = (signed(i / n), signed(i % n));
-            ((a * a + b * b).sqrt(), *d)
-        })
-    }
-
-    /// The azimuthal average: (f_k per mm, PSD nm²·mm²) for k = 1 … N/2.
-    pub fn azimuthal(&self) -> Vec<(f64, f64)> {
-        let half = self.size / 2;
+        let half = n / 2;
+        let step = self.step_per_mm();
+        let limits: Vec<(f64, f64)> = bands.iter().map(|(l, h)| (l / step, h / step)).collect();
         let mut sum = vec![0.0; half + 1];
-        let mut count = vec![0usize; half + 1];
-        for (k, d) in self.points() {
-            let k = k.round() as usize;
-            if k <= half {
-                sum[k] += d;
-                count[k] += 1;
+        let mut count = vec![0.0; half + 1];
+        let mut power = vec![-0.0; bands.len()];
+        for (kx, column) in self.half.chunks(n).enumerate() {
+            let weight = if kx == 0 || kx == half { 1.0 } else { 2.0 };
+            let b = kx as f64;
+            for (ky, d) in column.iter().enumerate() {
+                let a = if ky <= half {
+                    ky as f64
+                } else {
+                    ky as f64 - n as f64
+                };
+                let k = (a * a + b * b).sqrt();
+                let bin = k.round() as usize;
+                if bin <= half {
+                    sum[bin] += weight * d;
+                    count[bin] += weight;
+                }
+                for (p, (low, high)) in power.iter_mut().zip(&limits) {
+                    if k >= *low && k < *high {
+                        *p += weight * d;
+                    }
+                }
             }
         }
-        let step = self.step_per_mm();
-        (1..=half)
-            .map(|k| (k as f64 * step, sum[k] / count[k].max(1) as f64))
-            .collect()
+        Summary {
+            azimuthal: (1..=half)
+                .map(|k| (k as f64 * step, sum[k] / count[k].max(1.0)))
+                .collect(),
+            // Over an empty band the sum is −0: the RMS is 0.
+            band_rms: power
+                .iter()
+                .map(|&p| {
+                    if p > 0.0 {
+                        (p * step * step).sqrt()
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+        }
     }
 
     /// The RMS (nm) of the band f_low ≤ |f| < f_high, per mm.
     pub fn band_rms(&self, low_per_mm: f64, high_per_mm: f64) -> f64 {
-        let step = self.step_per_mm();
-        let (low, high) = (low_per_mm / step, high_per_mm / step);
-        let power: f64 = self
-            .points()
-            .filter(|(k, _)| *k >= low && *k < high)
-            .map(|(_, d)| d)
-            .sum();
-        // Over an empty band the sum is −0: the RMS is 0.
-        if power > 0.0 {
-            (power * step * step).sqrt()
-        } else {
-            0.0
-        }
+        self.summary(&[(low_per_mm, high_per_mm)]).band_rms[0]
     }
 
     /// The highest frequency on the grid's axes (Nyquist), per mm.

@@ -13,7 +13,12 @@
 //! The normal equations are banded (four functions reach each pixel): accumulated pixel by
 //! pixel and solved by a banded Cholesky factorisation, O(pixels + knots).
 
+use rayon::prelude::*;
+
 use crate::spline::{Knots, Tabulated};
+
+/// Points per parallel task: enough that a task's private normal matrix costs little.
+const CHUNK: usize = 16_384;
 
 /// Knot spacing, pixels: a zone two pixels wide is resolved, and every span holds pixels
 /// (about a dozen inside the first span about the centre).
@@ -28,17 +33,36 @@ pub struct RadialFit {
     r_max: f64,
 }
 
+/// The four B-splines that reach one radius (span and values), for every fit from one
+/// [`RadialFit::fit_each`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RadialBasis {
+    span: usize,
+    values: [f64; 4],
+}
+
 impl RadialFit {
     /// The least-squares spline through `points` (radius mm, value), with knots about
     /// `spacing_mm` apart over the points' radii. `None` when the points do not determine
     /// it (fewer than four, or all at one radius).
     pub fn fit(points: &[(f64, f64)], spacing_mm: f64) -> Option<RadialFit> {
-        let (r_min, r_max) = points
+        let (radii, values): (Vec<f64>, Vec<f64>) = points.iter().copied().unzip();
+        Self::fit_each(&radii, &[&values], spacing_mm)?.pop()
+    }
+
+    /// One fit (as [`Self::fit`]) for each of `values` over the same `radii_mm`: the same
+    /// knots and normal matrix, the basis found once a point. `None` as for [`Self::fit`].
+    pub fn fit_each(
+        radii_mm: &[f64],
+        values: &[&[f64]],
+        spacing_mm: f64,
+    ) -> Option<Vec<RadialFit>> {
+        let (r_min, r_max) = radii_mm
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (r, _)| {
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
                 (a.min(*r), b.max(*r))
             });
-        if points.len() < 4 || r_max <= r_min || spacing_mm <= 0.0 {
+        if radii_mm.len() < 4 || r_max <= r_min || spacing_mm <= 0.0 {
             return None;
         }
         // A span about the centre reaches r = 0, where s = r² is flat: start there.
@@ -47,37 +71,79 @@ impl RadialFit {
         let knots = Knots::squared(start, r_max, spans).tabulated();
         let k = knots.functions();
         // Band of the normal matrix: band[i][d] = G[i][i + d], d = 0 … 3.
-        let mut band = vec![[0.0; 4]; k];
-        let mut right = vec![0.0; k];
-        for &(r, z) in points {
-            let (span, b) = knots.basis(r * r);
-            for p in 0..4 {
-                right[span + p] += b[p] * z;
-                for q in p..4 {
-                    band[span + p][q - p] += b[p] * b[q];
+        // Accumulated over chunks of points in parallel, then added.
+        let zero = || (vec![[0.0; 4]; k], vec![vec![0.0; k]; values.len()]);
+        let (mut band, rights) = radii_mm
+            .par_chunks(CHUNK)
+            .enumerate()
+            .map(|(c, radii)| {
+                let (mut band, mut rights) = zero();
+                for (i, &r) in (c * CHUNK..).zip(radii) {
+                    let (span, b) = knots.basis_at_radius(r);
+                    for p in 0..4 {
+                        for q in p..4 {
+                            band[span + p][q - p] += b[p] * b[q];
+                        }
+                    }
+                    for (right, z) in rights.iter_mut().zip(values) {
+                        for p in 0..4 {
+                            right[span + p] += b[p] * z[i];
+                        }
+                    }
                 }
-            }
-        }
+                (band, rights)
+            })
+            // Added in order, whatever the threads: the same answer to the last bit.
+            .collect::<Vec<_>>()
+            .into_iter()
+            .fold(zero(), |(mut band, mut rights), (band2, rights2)| {
+                for (a, b) in band.iter_mut().zip(&band2) {
+                    for d in 0..4 {
+                        a[d] += b[d];
+                    }
+                }
+                for (a, b) in rights.iter_mut().zip(&rights2) {
+                    a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+                }
+                (band, rights)
+            });
         // A function no pixel reaches (a span without pixels) is held at its neighbours'
         // level by a ridge far below rounding of the others.
         let scale = band.iter().map(|b| b[0]).fold(0.0, f64::max);
         for b in &mut band {
             b[0] += 1e-14 * scale;
         }
-        let coefficients = solve_banded(&band, &right)?;
-        Some(RadialFit {
-            knots,
-            coefficients,
-            r_min: start,
-            r_max,
-        })
+        rights
+            .iter()
+            .map(|right| {
+                Some(RadialFit {
+                    knots: knots.clone(),
+                    coefficients: solve_banded(&band, right)?,
+                    r_min: start,
+                    r_max,
+                })
+            })
+            .collect()
     }
 
     /// f(r), mm → the fitted value; beyond the spline's radii, the value at the nearer end.
     pub fn at(&self, r: f64) -> f64 {
+        self.at_basis(&self.basis(r))
+    }
+
+    /// The B-splines at radius r (clamped as [`Self::at`] does).
+    pub fn basis(&self, r: f64) -> RadialBasis {
         let r = r.clamp(self.r_min, self.r_max);
-        let (span, b) = self.knots.basis(r * r);
-        (0..4).map(|p| b[p] * self.coefficients[span + p]).sum()
+        let (span, values) = self.knots.basis_at_radius(r);
+        RadialBasis { span, values }
+    }
+
+    /// f at the radius `basis` was found for, by this fit or one from the same
+    /// [`Self::fit_each`].
+    pub fn at_basis(&self, basis: &RadialBasis) -> f64 {
+        (0..4)
+            .map(|p| basis.values[p] * self.coefficients[basis.span + p])
+            .sum()
     }
 
     /// The radii the spline covers, mm: the data's, from 0 when the data come within a knot

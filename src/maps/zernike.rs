@@ -291,40 +291,55 @@ impl Basis {
     /// coordinates, z the value), in the order of [`Self::terms`].
     pub fn fit(&self, points: &[(f64, f64, f64)]) -> Result<Vec<f64>, ZernikeError> {
         let all: Vec<usize> = (0..self.terms.len()).collect();
-        let normal = self.normal_equations(points, &[]);
+        let normal = self.normal_equations(&self.layout(points, &[]));
         normal.solve(&all, &normal.right.clone())
     }
 
-    /// The normal equations of the terms over `points` (x, y in unit-disc coordinates, z the
-    /// value). `lines` (ranges of `points`, possibly none) name runs of collinear points, a
-    /// row of pixels each: on a line every term is a polynomial of degree ≤ n in the position
-    /// along it, so its Gram and right-hand side come from its Chebyshev coefficients (module
-    /// docs); other points contribute their rows of terms directly.
-    pub fn normal_equations(
-        &self,
-        points: &[(f64, f64, f64)],
-        lines: &[Range<usize>],
-    ) -> NormalEquations {
-        let j = self.terms.len();
-        let nodes = self.degree() + 1;
-        // Points on no line, as lines of one point each, in blocks.
-        let mut covered = vec![false; points.len()];
+    /// `points` (x, y in unit-disc coordinates, z the value) laid out for
+    /// [`Self::normal_equations`] and [`Self::surface`]. `lines` (ranges of `points`, in
+    /// order, possibly none) name runs of collinear points, a row of pixels each: on a line
+    /// every term is a polynomial of degree ≤ n in the position along it, and its Chebyshev
+    /// coefficients W are found here, once (module docs); other points go in blocks.
+    pub fn layout<'a>(&self, points: &'a [(f64, f64, f64)], lines: &[Range<usize>]) -> Layout<'a> {
+        let nodes = Nodes::new(self.degree() + 1);
+        let mut pieces = Vec::with_capacity(lines.len() + 1);
+        let mut next = 0;
+        let mut loose = Vec::new();
         for line in lines {
-            covered[line.clone()].iter_mut().for_each(|c| *c = true);
+            debug_assert!(line.start >= next, "lines are in order and apart");
+            loose.extend(next..line.start);
+            next = line.end;
+            if line.len() >= LINE_FACTOR * nodes.count {
+                pieces.push(Piece::Line(line.clone(), None));
+            } else {
+                loose.extend(line.clone());
+            }
         }
-        let mut pieces: Vec<Piece> = lines
-            .iter()
-            .map(|l| {
-                if l.len() >= LINE_FACTOR * nodes {
-                    Piece::Line(l.clone())
-                } else {
-                    Piece::Points(l.clone().collect())
-                }
-            })
-            .collect();
-        let loose: Vec<usize> = (0..points.len()).filter(|&i| !covered[i]).collect();
+        loose.extend(next..points.len());
         pieces.extend(loose.chunks(BLOCK).map(|c| Piece::Points(c.to_vec())));
-        let (gram, right, zz) = pieces
+        pieces
+            .par_iter_mut()
+            .for_each_init(Vec::new, |scratch, piece| {
+                if let Piece::Line(range, basis) = piece {
+                    *basis = Some(LineBasis::new(
+                        self,
+                        &points[range.clone()],
+                        &nodes,
+                        scratch,
+                    ));
+                }
+            });
+        Layout { points, pieces }
+    }
+
+    /// The normal equations of the terms over the laid-out points: on a line its Gram and
+    /// right-hand side come from its Chebyshev coefficients (module docs); other points
+    /// contribute their rows of terms directly.
+    pub fn normal_equations(&self, layout: &Layout) -> NormalEquations {
+        let j = self.terms.len();
+        let points = layout.points;
+        let (gram, right, zz) = layout
+            .pieces
             .par_chunks(LINES_PER_TASK)
             .map(|chunk| {
                 let mut rows = Rows::new(j);
@@ -332,57 +347,55 @@ impl Basis {
                 let mut zz = 0.0;
                 let mut scratch = Vec::new();
                 let mut values = vec![0.0; j];
+                let mut direct = |indices: &mut dyn Iterator<Item = usize>,
+                                  rows: &mut Rows,
+                                  right: &mut [f64],
+                                  zz: &mut f64| {
+                    for i in indices {
+                        let (x, y, z) = points[i];
+                        self.evaluate(x, y, &mut values, &mut scratch);
+                        rows.push(&values);
+                        right.iter_mut().zip(&values).for_each(|(r, v)| *r += v * z);
+                        *zz += z * z;
+                    }
+                };
                 for piece in chunk {
                     match piece {
                         Piece::Points(indices) => {
-                            for &i in indices {
-                                let (x, y, z) = points[i];
-                                self.evaluate(x, y, &mut values, &mut scratch);
-                                rows.push(&values);
-                                right.iter_mut().zip(&values).for_each(|(r, v)| *r += v * z);
-                                zz += z * z;
-                            }
+                            direct(&mut indices.iter().copied(), &mut rows, &mut right, &mut zz)
                         }
-                        Piece::Line(range) => {
-                            let line =
-                                LineBasis::new(self, &points[range.clone()], nodes, &mut scratch);
+                        Piece::Line(range, line) => {
+                            let line = line.as_ref().expect("laid out with its basis");
                             let (t, m) = line.moments(&points[range.clone()]);
+                            let Some(l) = cholesky(&m, line.nodes) else {
+                                direct(&mut range.clone(), &mut rows, &mut right, &mut zz);
+                                continue;
+                            };
                             zz += points[range.clone()].iter().map(|p| p.2 * p.2).sum::<f64>();
-                            match cholesky(&m, nodes) {
-                                Some(l) => {
-                                    // YᵀY = Wᵀ·M·W with Y = Lᵀ·W.
-                                    for a in 0..nodes {
-                                        for (c, v) in values.iter_mut().enumerate() {
-                                            *v = (a..nodes)
-                                                .map(|b| l[b * nodes + a] * line.w[b * j + c])
-                                                .sum();
-                                        }
-                                        rows.push(&values);
-                                    }
-                                    for (c, r) in right.iter_mut().enumerate() {
-                                        *r += (0..nodes)
-                                            .map(|a| line.w[a * j + c] * t[a])
-                                            .sum::<f64>();
-                                    }
+                            let nodes = line.nodes;
+                            // YᵀY = Wᵀ·M·W with Y = Lᵀ·W.
+                            let mut y = vec![0.0; j];
+                            for a in 0..nodes {
+                                for (c, v) in y.iter_mut().enumerate() {
+                                    *v = (a..nodes)
+                                        .map(|b| l[b * nodes + a] * line.w[b * j + c])
+                                        .sum();
                                 }
-                                None => {
-                                    for &(x, y, z) in &points[range.clone()] {
-                                        self.evaluate(x, y, &mut values, &mut scratch);
-                                        rows.push(&values);
-                                        right
-                                            .iter_mut()
-                                            .zip(&values)
-                                            .for_each(|(r, v)| *r += v * z);
-                                    }
-                                }
+                                rows.push(&y);
+                            }
+                            for (c, r) in right.iter_mut().enumerate() {
+                                *r += (0..nodes).map(|a| line.w[a * j + c] * t[a]).sum::<f64>();
                             }
                         }
                     }
                 }
                 (rows.gram(), right, zz)
             })
-            .reduce(
-                || (Mat::<f64>::zeros(j, j), vec![0.0; j], 0.0),
+            // Added in order, whatever the threads: the same answer to the last bit.
+            .collect::<Vec<_>>()
+            .into_iter()
+            .fold(
+                (Mat::<f64>::zeros(j, j), vec![0.0; j], 0.0),
                 |(mut g, mut r, z), (g2, r2, z2)| {
                     g += &g2;
                     r.iter_mut().zip(&r2).for_each(|(a, b)| *a += b);
@@ -402,59 +415,64 @@ impl Basis {
         }
     }
 
-    /// Σ c_j Z_j at every point; `lines` as for [`Self::normal_equations`] (on a line the
-    /// sum is evaluated from its Chebyshev coefficients, by Clenshaw's recurrence).
-    pub fn surface(
-        &self,
-        coefficients: &[f64],
-        points: &[(f64, f64, f64)],
-        lines: &[Range<usize>],
-    ) -> Vec<f64> {
+    /// Σ c_j Z_j at every laid-out point (on a line, from its Chebyshev coefficients W·c by
+    /// Clenshaw's recurrence).
+    pub fn surface(&self, coefficients: &[f64], layout: &Layout) -> Vec<f64> {
         let j = self.terms.len();
-        let nodes = self.degree() + 1;
+        let points = layout.points;
+        let pieces: Vec<(&Piece, Vec<f64>)> = layout
+            .pieces
+            .par_iter()
+            .map(|piece| {
+                let values = match piece {
+                    Piece::Line(range, line) => {
+                        let line = line.as_ref().expect("laid out with its basis");
+                        let s: Vec<f64> = (0..line.nodes)
+                            .map(|a| (0..j).map(|c| line.w[a * j + c] * coefficients[c]).sum())
+                            .collect();
+                        let mut out = Vec::with_capacity(range.len());
+                        for chunk in points[range.clone()].chunks(LANES) {
+                            let t = std::array::from_fn(|l| {
+                                chunk.get(l).map_or(0.0, |p| line.parameter(p))
+                            });
+                            out.extend_from_slice(&clenshaw(&s, t)[..chunk.len()]);
+                        }
+                        out
+                    }
+                    Piece::Points(indices) => {
+                        let (mut values, mut scratch) = (vec![0.0; j], Vec::new());
+                        indices
+                            .iter()
+                            .map(|&i| {
+                                let (x, y, _) = points[i];
+                                self.evaluate(x, y, &mut values, &mut scratch);
+                                values.iter().zip(coefficients).map(|(v, c)| v * c).sum()
+                            })
+                            .collect()
+                    }
+                };
+                (piece, values)
+            })
+            .collect();
         let mut out = vec![f64::NAN; points.len()];
-        let mut pieces: Vec<Range<usize>> = Vec::new();
-        let mut next = 0;
-        for line in lines {
-            if line.start > next {
-                pieces.push(next..line.start);
-            }
-            pieces.push(line.clone());
-            next = line.end;
-        }
-        if next < points.len() {
-            pieces.push(next..points.len());
-        }
-        let line_set: std::collections::HashSet<(usize, usize)> =
-            lines.iter().map(|l| (l.start, l.end)).collect();
-        let mut slices: Vec<(&Range<usize>, &mut [f64])> = Vec::with_capacity(pieces.len());
-        let mut rest: &mut [f64] = &mut out;
-        for piece in &pieces {
-            let (head, tail) = rest.split_at_mut(piece.len());
-            slices.push((piece, head));
-            rest = tail;
-        }
-        slices.par_iter_mut().for_each(|(range, target)| {
-            let pts = &points[(*range).clone()];
-            let mut scratch = Vec::new();
-            if line_set.contains(&(range.start, range.end)) && pts.len() >= LINE_FACTOR * nodes {
-                let line = LineBasis::new(self, pts, nodes, &mut scratch);
-                let s: Vec<f64> = (0..nodes)
-                    .map(|a| (0..j).map(|c| line.w[a * j + c] * coefficients[c]).sum())
-                    .collect();
-                for (p, o) in pts.iter().zip(target.iter_mut()) {
-                    *o = clenshaw(&s, line.parameter(p));
-                }
-            } else {
-                let mut values = vec![0.0; j];
-                for (&(x, y, _), o) in pts.iter().zip(target.iter_mut()) {
-                    self.evaluate(x, y, &mut values, &mut scratch);
-                    *o = values.iter().zip(coefficients).map(|(v, c)| v * c).sum();
+        for (piece, values) in pieces {
+            match piece {
+                Piece::Line(range, _) => out[range.clone()].copy_from_slice(&values),
+                Piece::Points(indices) => {
+                    for (&i, v) in indices.iter().zip(values) {
+                        out[i] = v;
+                    }
                 }
             }
-        });
+        }
         out
     }
+}
+
+/// Points laid out by lines for the fit ([`Basis::layout`]).
+pub struct Layout<'a> {
+    points: &'a [(f64, f64, f64)],
+    pieces: Vec<Piece>,
 }
 
 /// A line of at least this many times (degree + 1) points takes the Chebyshev path: its
@@ -463,9 +481,10 @@ const LINE_FACTOR: usize = 2;
 /// Lines (or blocks of points) per parallel task.
 const LINES_PER_TASK: usize = 16;
 
-/// What one piece of the points contributes.
+/// What one piece of the points contributes: a line (with its Chebyshev coefficients, once
+/// laid out), or points taken one by one.
 enum Piece {
-    Line(Range<usize>),
+    Line(Range<usize>, Option<LineBasis>),
     Points(Vec<usize>),
 }
 
@@ -508,6 +527,30 @@ impl Rows {
     }
 }
 
+/// Chebyshev–Gauss nodes t_k = cos θ_k, θ_k = π(k + ½)/P, and the weights that turn values
+/// there into an interpolant's Chebyshev coefficients: w_a = Σ_k f(t_k)·weight[k·P + a] with
+/// weight = (2 − δ_a0)/P · cos(a θ_k), exact to degree P − 1. The same for every line.
+struct Nodes {
+    count: usize,
+    t: Vec<f64>,
+    weight: Vec<f64>,
+}
+
+impl Nodes {
+    fn new(count: usize) -> Nodes {
+        let theta = |k: usize| std::f64::consts::PI * (k as f64 + 0.5) / count as f64;
+        let t = (0..count).map(|k| theta(k).cos()).collect();
+        let weight = (0..count)
+            .flat_map(|k| {
+                (0..count).map(move |a| {
+                    (a as f64 * theta(k)).cos() * if a == 0 { 1.0 } else { 2.0 } / count as f64
+                })
+            })
+            .collect();
+        Nodes { count, t, weight }
+    }
+}
+
 /// The terms along one line of points: W (nodes × terms), the Chebyshev coefficients of each
 /// term in the position t ∈ [−1, 1] from the line's first point to its last.
 struct LineBasis {
@@ -521,33 +564,28 @@ impl LineBasis {
     fn new(
         basis: &Basis,
         points: &[(f64, f64, f64)],
-        nodes: usize,
+        nodes: &Nodes,
         scratch: &mut Vec<f64>,
     ) -> LineBasis {
         let (first, last) = (points[0], points[points.len() - 1]);
         let mid = ((first.0 + last.0) / 2.0, (first.1 + last.1) / 2.0);
         let half = ((last.0 - first.0) / 2.0, (last.1 - first.1) / 2.0);
         let j = basis.terms.len();
-        let mut w = vec![0.0; nodes * j];
+        let p = nodes.count;
+        let mut w = vec![0.0; p * j];
         let mut values = vec![0.0; j];
-        // Chebyshev–Gauss nodes t_k = cos θ_k, θ_k = π(k + ½)/P: the interpolant's
-        // coefficients are w_a = (2 − δ_a0)/P · Σ_k f(t_k)·cos(a θ_k), exact to degree P − 1.
-        for k in 0..nodes {
-            let theta = std::f64::consts::PI * (k as f64 + 0.5) / nodes as f64;
-            let t = theta.cos();
+        for (k, t) in nodes.t.iter().enumerate() {
             basis.evaluate(mid.0 + t * half.0, mid.1 + t * half.1, &mut values, scratch);
-            for a in 0..nodes {
-                let weight =
-                    (a as f64 * theta).cos() * if a == 0 { 1.0 } else { 2.0 } / nodes as f64;
-                for (c, v) in values.iter().enumerate() {
-                    w[a * j + c] += weight * v;
+            for (a, weight) in nodes.weight[k * p..(k + 1) * p].iter().enumerate() {
+                for (target, v) in w[a * j..(a + 1) * j].iter_mut().zip(&values) {
+                    *target += weight * v;
                 }
             }
         }
         LineBasis {
             mid,
             half,
-            nodes,
+            nodes: p,
             w,
         }
     }
@@ -560,44 +598,67 @@ impl LineBasis {
     }
 
     /// Σ T_a(t_i)·z_i and M = Σ T(t_i)·T(t_i)ᵀ (nodes × nodes, row-major) over the points.
+    /// T_a·T_b = (T_{a+b} + T_{|a−b|})/2, so M comes from the sums S_k = Σ T_k(t_i),
+    /// k < 2P − 1: 2P − 1 multiply-adds a point rather than P(P + 1)/2.
+    /// The recurrence T_{k+1} = 2t·T_k − T_{k−1} is a chain of dependent operations, so it
+    /// runs for [`LANES`] points side by side, each lane summing on its own.
     fn moments(&self, points: &[(f64, f64, f64)]) -> (Vec<f64>, Vec<f64>) {
         let p = self.nodes;
-        let mut t = vec![0.0; p];
-        let mut m = vec![0.0; p * p];
-        let mut chebyshev = vec![0.0; p];
-        for point in points {
-            let x = self.parameter(point);
-            chebyshev[0] = 1.0;
-            if p > 1 {
-                chebyshev[1] = x;
+        let q = 2 * p - 1;
+        let mut sums = vec![[0.0; LANES]; q];
+        let mut t = vec![[0.0; LANES]; p];
+        for chunk in points.chunks(LANES) {
+            // A short last chunk is padded with points of weight 0 (z = 0, counted 0 times).
+            let mut x = [0.0; LANES];
+            let mut z = [0.0; LANES];
+            let mut count = [0.0; LANES];
+            for (l, point) in chunk.iter().enumerate() {
+                (x[l], z[l], count[l]) = (self.parameter(point), point.2, 1.0);
             }
-            for a in 2..p {
-                chebyshev[a] = 2.0 * x * chebyshev[a - 1] - chebyshev[a - 2];
+            let (mut previous, mut current) = (count, x);
+            for l in 0..LANES {
+                current[l] *= count[l];
+                sums[0][l] += count[l];
+                t[0][l] += z[l];
             }
-            for a in 0..p {
-                t[a] += chebyshev[a] * point.2;
-                let ca = chebyshev[a];
-                for b in 0..=a {
-                    m[a * p + b] += ca * chebyshev[b];
+            for k in 1..q {
+                if k > 1 {
+                    let next: [f64; LANES] =
+                        std::array::from_fn(|l| 2.0 * x[l] * current[l] - previous[l]);
+                    (previous, current) = (current, next);
+                }
+                for l in 0..LANES {
+                    sums[k][l] += current[l];
+                }
+                if k < p {
+                    for l in 0..LANES {
+                        t[k][l] += current[l] * z[l];
+                    }
                 }
             }
         }
+        let total = |lanes: &[f64; LANES]| lanes.iter().sum::<f64>();
+        let sums: Vec<f64> = sums.iter().map(total).collect();
+        let mut m = vec![0.0; p * p];
         for a in 0..p {
-            for b in 0..a {
-                m[b * p + a] = m[a * p + b];
+            for b in 0..p {
+                m[a * p + b] = (sums[a + b] + sums[a.abs_diff(b)]) / 2.0;
             }
         }
-        (t, m)
+        (t.iter().map(total).collect(), m)
     }
 }
 
-/// Σ s_a T_a(t) by Clenshaw's recurrence.
-fn clenshaw(s: &[f64], t: f64) -> f64 {
-    let (mut b1, mut b2) = (0.0, 0.0);
+/// Points whose Chebyshev recurrences run side by side.
+const LANES: usize = 8;
+
+/// Σ s_a T_a(t) by Clenshaw's recurrence, at [`LANES`] points side by side.
+fn clenshaw(s: &[f64], t: [f64; LANES]) -> [f64; LANES] {
+    let (mut b1, mut b2) = ([0.0; LANES], [0.0; LANES]);
     for &c in s.iter().skip(1).rev() {
-        (b1, b2) = (2.0 * t * b1 - b2 + c, b1);
+        (b1, b2) = (std::array::from_fn(|l| 2.0 * t[l] * b1[l] - b2[l] + c), b1);
     }
-    s[0] + t * b1 - b2
+    std::array::from_fn(|l| s[0] + t[l] * b1[l] - b2[l])
 }
 
 /// The lower Cholesky factor of the n × n row-major `m`; `None` when a pivot falls below

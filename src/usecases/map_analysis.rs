@@ -320,9 +320,7 @@ pub fn check_on_map(
             ),
         ));
     }
-    let inside = analysis::aperture_pixels(map, alignment, aperture)
-        .pixels
-        .len();
+    let inside = analysis::count_aperture_pixels(map, alignment, aperture);
     if inside < MIN_APERTURE_PIXELS {
         return Err(MapInputError::invalid(
             I::Aperture,
