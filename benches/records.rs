@@ -92,6 +92,7 @@ async fn bench(url: &str) {
             request: "{}".into(),
             result: measurement.clone(),
             rms_nm: 10.0,
+            map_sha256: None,
         };
         let id = record.stamp.id.clone();
         let store = store.clone();

@@ -208,4 +208,29 @@ fn measurements_take_csv(doc: &mut Value) {
     if let Some(parameters) = measure["parameters"].as_array_mut() {
         parameters.extend(query);
     }
+    measurements_take_maps(doc);
+}
+
+/// A part's measurement also comes as an interferometer map's file: the map analysis's
+/// octet-stream body and its query parameters but `clear_aperture` (the part's).
+fn measurements_take_maps(doc: &mut Value) {
+    let analysis = &doc["paths"]["/v1/maps/analysis"]["post"];
+    let file = analysis["requestBody"]["content"]["application/octet-stream"].clone();
+    let query: Vec<Value> = analysis["parameters"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter(|p| p["in"] == "query" && p["name"] != "clear_aperture")
+        .cloned()
+        .collect();
+    let Some(measure) = doc
+        .pointer_mut("/paths/~1v1~1parts~1{id}~1measurements/post")
+        .filter(|_| !file.is_null())
+    else {
+        return;
+    };
+    measure["requestBody"]["content"]["application/octet-stream"] = file;
+    if let Some(parameters) = measure["parameters"].as_array_mut() {
+        parameters.extend(query);
+    }
 }

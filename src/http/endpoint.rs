@@ -182,12 +182,16 @@ pub(super) fn render<E: Endpoint>(format: Format, output: E::Output) -> Response
         Format::Gcode => E::GCODE
             .map(|f| f(body))
             .ok_or_else(|| ApiError::internal("G-code negotiated but not offered")),
+        Format::File => Err(ApiError::internal(
+            "a file negotiated: no compute endpoint offers one",
+        )),
     };
     let content_type = match format {
         Format::Json => "application/json",
         Format::Csv => "text/csv; charset=utf-8",
         Format::Svg => "image/svg+xml",
         Format::Gcode => "text/x-gcode; charset=utf-8",
+        Format::File => "application/octet-stream",
     };
     match text {
         Ok(text) => ([(header::CONTENT_TYPE, content_type)], text).into_response(),

@@ -376,6 +376,8 @@ pub enum Format {
     Csv,
     Svg,
     Gcode,
+    /// A file as it was sent.
+    File,
 }
 
 impl Format {
@@ -385,6 +387,7 @@ impl Format {
             Format::Csv => "text/csv",
             Format::Svg => "image/svg+xml",
             Format::Gcode => "text/x-gcode",
+            Format::File => "application/octet-stream",
         }
     }
 }

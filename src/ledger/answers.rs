@@ -26,12 +26,58 @@ pub(super) struct PlanAnswer {
     pub dwell: Value,
 }
 
-/// A `/v1/measurement/fit` answer: the form error, its radial profile and the correction.
+/// A measurement's answer: a probe trace's (`/v1/measurement/fit`: the form error, its radial
+/// profile and the correction) or a map's (`/v1/maps/analysis`: its metrics, its rotationally
+/// symmetric part and the correction of that).
 #[derive(Debug, Deserialize)]
-pub(super) struct MeasurementAnswer {
-    pub form_error: Rms,
-    pub profile: Value,
-    pub correction_target: Value,
+#[serde(untagged)]
+pub(super) enum MeasurementAnswer {
+    Trace {
+        form_error: Rms,
+        profile: Value,
+        correction_target: Value,
+    },
+    Map {
+        metrics: Rms,
+        radial_profile: Value,
+        correction_target: Value,
+    },
+}
+
+impl MeasurementAnswer {
+    /// The RMS of the form error (a map's after piston and tilt), nm.
+    pub fn rms_nm(&self) -> f64 {
+        match self {
+            MeasurementAnswer::Trace { form_error: r, .. }
+            | MeasurementAnswer::Map { metrics: r, .. } => r.rms_nm,
+        }
+    }
+
+    /// The radial profile of the form error ({radius_mm, depth_nm}, e > 0 proud).
+    pub fn profile(&self) -> &Value {
+        match self {
+            MeasurementAnswer::Trace { profile, .. } => profile,
+            MeasurementAnswer::Map { radial_profile, .. } => radial_profile,
+        }
+    }
+
+    /// The `target` of the `/v1/optimize` request that corrects it.
+    pub fn correction_target(&self) -> &Value {
+        match self {
+            MeasurementAnswer::Trace {
+                correction_target, ..
+            }
+            | MeasurementAnswer::Map {
+                correction_target, ..
+            } => correction_target,
+        }
+    }
+}
+
+/// A `/v1/maps/difference` answer: the radial removal, in a calibration run's `removal` form.
+#[derive(Debug, Deserialize)]
+pub(super) struct DifferenceAnswer {
+    pub radial_removal: Value,
 }
 
 /// A `/v1/calibration` answer: K with its standard error, and the calibrated process.

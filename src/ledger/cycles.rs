@@ -57,7 +57,7 @@ pub async fn plan<C: Compute>(
             &head.stamp.id,
         )?;
         let answer: MeasurementAnswer = read(&document(&measurement.result)?, "a measurement")?;
-        request.insert("target".into(), answer.correction_target);
+        request.insert("target".into(), answer.correction_target().clone());
     }
     let result = compute.compute(Computation::Optimize, &request).await?;
     let answer: PlanAnswer = read(&result, "an optimize answer")?;

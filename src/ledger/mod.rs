@@ -74,7 +74,15 @@ pub enum Computation {
     Calibration,
     /// A part's plan.
     Optimize,
+    /// A part's measurement by an interferometer map: the map analysed on the part.
+    MapAnalysis,
+    /// A cycle measured by maps before and after: the removal between them.
+    MapDifference,
 }
+
+/// A map file a computation reads: the request's member it fills (`map`, `before`, `after`)
+/// and the file's bytes as the instrument wrote them.
+pub type MapFile<'a> = (&'static str, &'a [u8]);
 
 /// Whose setting (process, surface, tool, clear aperture) is checked.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -96,6 +104,15 @@ pub trait Compute: Sync {
         &self,
         what: Computation,
         request: &Document,
+    ) -> impl Future<Output = Result<Value, Self::Problem>> + Send;
+
+    /// As [`Self::compute`], with map files beside the request (each member of `files` is
+    /// the request's member it fills).
+    fn compute_with_maps(
+        &self,
+        what: Computation,
+        request: &Document,
+        files: &[MapFile<'_>],
     ) -> impl Future<Output = Result<Value, Self::Problem>> + Send;
 
     /// Whether `problem` refuses the request itself (a 4xx: the input cannot be computed), as

@@ -5,12 +5,14 @@
 
 use serde_json::{json, Value};
 
-use super::answers::{read, MeasurementAnswer, PartBody, PlanAnswer, PlanAperture};
+use super::answers::{
+    read, DifferenceAnswer, MeasurementAnswer, PartBody, PlanAnswer, PlanAperture,
+};
 use super::cycles::plan_setting;
 use super::profiles::{self, calibration_record};
 use super::{
-    document, fill, found, without, Computation, Compute, Document, LedgerError, SettingOwner,
-    Write,
+    absent, document, fill, found, without, Computation, Compute, Document, LedgerError,
+    SettingOwner, Write,
 };
 use crate::store::Store;
 use crate::usecases::records::{
@@ -129,40 +131,101 @@ impl MeasurementOutcome {
     }
 }
 
-/// Fits a measurement of part `id`: `body` is a `/v1/measurement/fit` request without
-/// `surface` (the part's); `clear_aperture` defaults to the part's.
+/// What measured a part.
+pub enum Measured<'a> {
+    /// A probe trace: a `/v1/measurement/fit` request without `surface` (the part's);
+    /// `clear_aperture` defaults to the part's.
+    Trace(Document),
+    /// An interferometer map: the file as the instrument wrote it, and a `/v1/maps/analysis`
+    /// request without `map`; `clear_aperture` defaults to the part's (a circle, or an annulus
+    /// when it has an inner radius).
+    Map { request: Document, file: &'a [u8] },
+}
+
+/// Measures part `id`: the trace fitted, or the map analysed (its file kept as a blob before
+/// the record that names it), and the cycle it completes learned from.
 pub async fn measure<C: Compute>(
     compute: &C,
     write: &Write<'_>,
     id: &str,
-    body: Document,
+    measured: Measured<'_>,
 ) -> Result<MeasurementOutcome, C::Problem> {
     let store = write.store();
     let part = load(store, id).await?;
-    let mut request = without(body, &[("surface", "the part")])?;
-    fill(
-        &mut request,
-        &document(&part.body)?,
-        &["surface", "clear_aperture"],
-    );
-    let result = compute
-        .compute(Computation::MeasurementFit, &request)
-        .await?;
-    let answer: MeasurementAnswer = read(&result, "a measurement fit's answer")?;
+    let part_body = document(&part.body)?;
+    let (request, result, file) = match measured {
+        Measured::Trace(body) => {
+            let mut request = without(body, &[("surface", "the part")])?;
+            fill(&mut request, &part_body, &["surface", "clear_aperture"]);
+            let result = compute
+                .compute(Computation::MeasurementFit, &request)
+                .await?;
+            (request, result, None)
+        }
+        Measured::Map { request, file } => {
+            let mut request = without(request, &[("map", "the body: the map's file")])?;
+            if absent(&request, "clear_aperture") {
+                if let Some(aperture) = map_aperture(&part_body)? {
+                    request.insert("clear_aperture".into(), aperture);
+                }
+            }
+            let result = compute
+                .compute_with_maps(Computation::MapAnalysis, &request, &[("map", file)])
+                .await?;
+            (request, result, Some(file))
+        }
+    };
+    let answer: MeasurementAnswer = read(&result, "a measurement's answer")?;
+    let map_sha256 = match file {
+        Some(file) => Some(store.put_blob(file).await?),
+        None => None,
+    };
+    let after = After {
+        profile: answer.profile(),
+        map: file.map(|f| (f, &request)),
+    };
+    let lesson = learn_from_cycle(compute, write, &part, &after).await?;
     let measurement = MeasurementRecord {
         stamp: write.stamp(),
         part: id.to_string(),
-        rms_nm: answer.form_error.rms_nm,
-        request: Value::Object(request).to_string(),
+        rms_nm: answer.rms_nm(),
+        request: Value::Object(request.clone()).to_string(),
         result: result.to_string(),
+        map_sha256,
     };
-    let lesson = learn_from_cycle(compute, write, &part, &answer.profile).await?;
     Ok(MeasurementOutcome {
         measurement,
         completes_run: lesson.as_ref().map(|l| l.run.clone()),
         measured_before: lesson.as_ref().is_some_and(|l| l.measured_before),
         fitted: lesson.and_then(|l| l.fitted),
     })
+}
+
+/// A part's clear aperture (`{inner_mm, outer_mm}`, the outer radius by default the
+/// workpiece's) as a map's: a circle, or an annulus with an inner radius; none when the part
+/// names none (the map's fitted part then).
+fn map_aperture(part: &Value) -> Result<Option<Value>, LedgerError> {
+    let body = read::<PartBody>(part, "a part")?;
+    let Some(aperture) = body.clear_aperture else {
+        return Ok(None);
+    };
+    // The numbers as the part has them (an integer stays one).
+    let radius = |member: &str| aperture.get(member).filter(|v| v.is_number()).cloned();
+    let outer = radius("outer_mm").unwrap_or(Value::Number(body.workpiece_radius_mm));
+    let inner = radius("inner_mm").filter(|r| r.as_f64().is_some_and(|r| r > 0.0));
+    Ok(Some(match inner {
+        Some(inner) => {
+            json!({"shape": "annulus", "inner_radius_mm": inner, "outer_radius_mm": outer})
+        }
+        None => json!({"shape": "circle", "radius_mm": outer}),
+    }))
+}
+
+/// A new measurement as a cycle's after: its form-error profile, and for a map its file and
+/// analysis request.
+struct After<'a> {
+    profile: &'a Value,
+    map: Option<(&'a [u8], &'a Document)>,
 }
 
 /// What a new measurement's cycle taught.
@@ -172,16 +235,18 @@ struct Lesson {
     fitted: Option<CalibrationRecord>,
 }
 
-/// The cycle a new measurement (its form-error `profile`) completes, if any: its run, and the
-/// calibration fitted to its removal (kept whether or not it is significant: the profile
-/// learns only from those that are). A computation that could not run (the service
-/// overloaded) fails the write, to be retried; one that refuses the removal (no K > 0 fits
-/// it) leaves the cycle without a calibration.
+/// The cycle a new measurement completes, if any: its run, and the calibration fitted to its
+/// removal (kept whether or not it is significant: the profile learns only from those that
+/// are). The removal is the map difference's radial removal when maps measured the part before
+/// and after (registered by their fitted apertures), else before − after of the radial
+/// profiles. A computation that could not run (the service overloaded) fails the write, to be
+/// retried; one that refuses the removal (no K > 0 fits it) leaves the cycle without a
+/// calibration.
 async fn learn_from_cycle<C: Compute>(
     compute: &C,
     write: &Write<'_>,
     part: &PartRecord,
-    after: &Value,
+    after: &After<'_>,
 ) -> Result<Option<Lesson>, C::Problem> {
     let store = write.store();
     let id = &part.stamp.id;
@@ -208,9 +273,32 @@ async fn learn_from_cycle<C: Compute>(
     let profile = profiles::load(store, &part.process_profile).await?;
     let mut run_fit = json!({
         "dwell": read::<PlanAnswer>(&document(&plan.result)?, "a plan")?.dwell,
-        "before": read::<MeasurementAnswer>(&document(&before.result)?, "a measurement")?.profile,
-        "after": after,
     });
+    match (&before.map_sha256, after.map) {
+        (Some(sha256), Some((file, analysed))) => {
+            let before_file = store.blob(sha256).await?.ok_or_else(missing)?;
+            let mut request = Document::new();
+            fill(
+                &mut request,
+                &Value::Object(analysed.clone()),
+                &["pixel_mm", "clear_aperture", "psd"],
+            );
+            let difference = compute
+                .compute_with_maps(
+                    Computation::MapDifference,
+                    &request,
+                    &[("before", &before_file), ("after", file)],
+                )
+                .await?;
+            run_fit["removal"] =
+                read::<DifferenceAnswer>(&difference, "a map difference")?.radial_removal;
+        }
+        _ => {
+            let answer: MeasurementAnswer = read(&document(&before.result)?, "a measurement")?;
+            run_fit["before"] = answer.profile().clone();
+            run_fit["after"] = after.profile.clone();
+        }
+    }
     if let Some(aperture) = read::<PlanAperture>(&plan_request, "a plan request")?.clear_aperture {
         run_fit["clear_aperture"] = aperture;
     }
@@ -258,4 +346,14 @@ pub async fn measurement(store: &Store, id: &str) -> Result<MeasurementOutcome, 
         fitted: cycle.and_then(|c| c.learned).cloned(),
         measurement,
     })
+}
+
+/// Measurement `id`'s map file, as the instrument wrote it (404 for a probe trace's).
+pub async fn measurement_map(store: &Store, id: &str) -> Result<(String, Vec<u8>), LedgerError> {
+    let measurement = found(store.measurement(id).await?, "measurement", id)?;
+    let sha256 = found(measurement.map_sha256, "map of measurement", id)?;
+    let file = store.blob(&sha256).await?.ok_or_else(|| {
+        LedgerError::Broken(format!("measurement {id}'s map {sha256} is not kept"))
+    })?;
+    Ok((sha256, file))
 }

@@ -18,7 +18,38 @@
 //!   spaces; numbers take a decimal point (so `1,5;2,5` is refused, not read as 1 and 5).
 //! - A height is the number times the unit (waves: times the wavelength).
 
+use std::fmt::Write as _;
+
 use super::HeightMap;
+
+/// `map` in this format: its pitch and wavelength when known, heights in nm as Rust writes
+/// them (the shortest text that reads back to the same number), `NaN` where there is no data,
+/// cells separated by commas. [`read`] gives the same map back.
+pub fn write(map: &HeightMap) -> String {
+    let mut text = String::new();
+    if let Some(p) = map.pixel_mm() {
+        let _ = writeln!(text, "# pixel_mm: {p}");
+    }
+    if let Some(w) = map.wavelength_nm() {
+        let _ = writeln!(text, "# wavelength_nm: {w}");
+    }
+    text.push_str("# unit: nm\n");
+    for row in map.heights_nm().chunks(map.width()) {
+        for (i, h) in row.iter().enumerate() {
+            if i > 0 {
+                text.push(',');
+            }
+            match h {
+                Some(h) => {
+                    let _ = write!(text, "{h}");
+                }
+                None => text.push_str("NaN"),
+            }
+        }
+        text.push('\n');
+    }
+    text
+}
 
 /// Why a text grid cannot be read. Lines are counted from 1, header and comments included.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -54,6 +54,11 @@ const MIGRATIONS: &[(i64, &str, &str)] = &[
         "idempotency records",
         include_str!("../../migrations/0006_idempotency_records.sql"),
     ),
+    (
+        7,
+        "measurement maps",
+        include_str!("../../migrations/0007_measurement_maps.sql"),
+    ),
 ];
 
 /// Which code writes the records: the crate's version, the build's git revision (build.rs)
@@ -319,7 +324,7 @@ mod tests {
         assert_eq!(store.backend(), Backend::Sqlite);
         assert_eq!(
             store.applied_versions().await.unwrap(),
-            vec![1, 2, 3, 4, 5, 6]
+            vec![1, 2, 3, 4, 5, 6, 7]
         );
         assert!(store.is_reachable().await);
         let (mode,): (String,) = sqlx::query_as("PRAGMA journal_mode")
@@ -340,7 +345,7 @@ mod tests {
         let again = Store::open(&options).await.unwrap();
         assert_eq!(
             again.applied_versions().await.unwrap(),
-            vec![1, 2, 3, 4, 5, 6]
+            vec![1, 2, 3, 4, 5, 6, 7]
         );
         again.close().await;
         remove(&path);
@@ -375,7 +380,7 @@ mod tests {
         let store = Store::open(&options).await.unwrap();
         assert_eq!(
             store.applied_versions().await.unwrap(),
-            vec![1, 2, 3, 4, 5, 6]
+            vec![1, 2, 3, 4, 5, 6, 7]
         );
         let old = store.profile("old").await.unwrap().unwrap();
         assert_eq!(old.stamp.created_by, "mes");

@@ -65,6 +65,7 @@ fn measurement(row: AnyRow) -> Result<MeasurementRecord, sqlx::Error> {
         request: row.try_get("request")?,
         result: row.try_get("result")?,
         rms_nm: row.try_get("rms_nm")?,
+        map_sha256: row.try_get("map_sha256")?,
     })
 }
 
@@ -151,7 +152,7 @@ async fn insert(tx: &mut Transaction<'_, Any>, record: &Record) -> Result<(), sq
         .bind(&p.stamp.computed_by),
         Record::Measurement(m) => sqlx::query(
             "INSERT INTO measurements (id, part, request, result, rms_nm, created_at, \
-             created_by, computed_by) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+             created_by, computed_by, map_sha256) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
         )
         .bind(&m.stamp.id)
         .bind(&m.part)
@@ -160,7 +161,8 @@ async fn insert(tx: &mut Transaction<'_, Any>, record: &Record) -> Result<(), sq
         .bind(m.rms_nm)
         .bind(&m.stamp.created_at)
         .bind(&m.stamp.created_by)
-        .bind(&m.stamp.computed_by),
+        .bind(&m.stamp.computed_by)
+        .bind(&m.map_sha256),
         Record::Plan(p) => sqlx::query(
             "INSERT INTO plans (id, part, measurement, request, result, \
              predicted_rms_after_nm, created_at, created_by, computed_by) \

@@ -102,6 +102,8 @@ pub struct MeasurementRecord {
     pub request: String,
     pub result: String,
     pub rms_nm: f64,
+    /// A map's file, as the instrument wrote it: the blob's SHA-256 (none for a probe trace).
+    pub map_sha256: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq)]

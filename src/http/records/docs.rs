@@ -11,6 +11,7 @@ use super::dto::{
     ProcessProfileDto, ProcessProfileListDto, ProcessProfileRequest, RunRecordDto, RunRequest,
 };
 use crate::http::calibration::CalibrationRequest;
+use crate::http::maps::MapAnalysisRequest;
 use crate::http::measurement_fit::MeasurementFitRequest;
 use crate::http::optimize::OptimizeRequest;
 use crate::http::program::ProgramRequest;
@@ -49,7 +50,19 @@ less!(
     ["surface"],
     [],
     "A `/v1/measurement/fit` request without `surface` (the part's); `clear_aperture` \
-     defaults to the part's. Also as text/csv with the other fields as query parameters."
+     defaults to the part's. Also as text/csv with the other fields as query parameters; or \
+     an interferometer map's file as application/octet-stream (any format \
+     `/v1/maps/analysis` reads), with that endpoint's options but `clear_aperture` as query \
+     parameters: the map is analysed on the part's clear aperture (a circle, an annulus with \
+     an inner radius), its file kept byte for byte (`GET /v1/measurements/{id}/map`)."
+);
+less!(
+    PartMapMeasurementRequest,
+    MapAnalysisRequest,
+    ["map"],
+    [],
+    "A map measurement's `/v1/maps/analysis` request as run: its options, less the file \
+     (kept as a blob: `GET /v1/measurements/{id}/map`)."
 );
 less!(
     PartPlanRequest,
@@ -105,6 +118,7 @@ pub fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
     add::<HistoryDto>(schemas);
     add::<ProfileCalibrationRequest>(schemas);
     add::<PartMeasurementRequest>(schemas);
+    add::<PartMapMeasurementRequest>(schemas);
     add::<PartPlanRequest>(schemas);
     add::<PlanProgramRequest>(schemas);
 }

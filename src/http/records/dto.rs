@@ -176,6 +176,24 @@ pub struct PartListDto {
     pub next_cursor: Option<String>,
 }
 
+/// A measurement's request as run: a probe trace's fit, or a map's analysis (less the file).
+#[derive(ToSchema)]
+#[serde(untagged)]
+#[allow(dead_code)]
+pub enum MeasurementRequestAsRun {
+    Trace(MeasurementFitRequest),
+    Map(super::docs::PartMapMeasurementRequest),
+}
+
+/// A measurement's answer: a probe trace's fit, or a map's analysis.
+#[derive(ToSchema)]
+#[serde(untagged)]
+#[allow(dead_code)]
+pub enum MeasurementAnswer {
+    Trace(MeasurementFitResponse),
+    Map(crate::http::maps::MapAnalysisResponse),
+}
+
 /// A stored measurement: the fit as run and its answer.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
 pub struct MeasurementDto {
@@ -183,14 +201,19 @@ pub struct MeasurementDto {
     pub id: String,
     /// The part's id.
     pub part_id: String,
-    /// The form error's RMS over the clear aperture.
+    /// The form error's RMS over the clear aperture (a map's after piston and tilt, its
+    /// `metrics.rms_nm`).
     pub rms_nm: f64,
-    /// The request as run (with what the records supplied).
-    #[schema(value_type = MeasurementFitRequest)]
+    /// The request as run (with what the records supplied): a `/v1/measurement/fit` request,
+    /// or for a map the `/v1/maps/analysis` request less its file.
+    #[schema(value_type = MeasurementRequestAsRun)]
     pub request: Value,
     /// Its answer, as the endpoint returned it.
-    #[schema(value_type = MeasurementFitResponse)]
+    #[schema(value_type = MeasurementAnswer)]
     pub result: Value,
+    /// The map's file (its SHA-256) when an interferometer map measured the part:
+    /// `GET /v1/measurements/{id}/map` returns it byte for byte. Null for a probe trace.
+    pub map_sha256: Option<String>,
     /// The run this measurement completed (its cycle's after-measurement), if any.
     pub completes_run_id: Option<String>,
     /// The calibration learned from that cycle, if the removal determined one.

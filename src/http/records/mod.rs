@@ -36,12 +36,17 @@ use super::dto::setting_of;
 use super::endpoint::Endpoint;
 use super::error::{ApiError, Kind};
 use super::extract;
+use super::maps::body::MapForm;
+use super::maps::difference::MapDifferenceEndpoint;
+use super::maps::MapAnalysisEndpoint;
 use super::measurement_fit::MeasurementFitEndpoint;
 use super::optimize::OptimizeEndpoint;
 use super::recommend::RecommendRequest;
 use super::state::AppState;
 use crate::keys::Role;
-use crate::ledger::{Answer, Computation, Compute, Document, LedgerError, SettingOwner, Write};
+use crate::ledger::{
+    Answer, Computation, Compute, Document, LedgerError, MapFile, SettingOwner, Write,
+};
 use crate::store::Store;
 use crate::usecases::records::{Record, RecordsError, Replay};
 
@@ -59,6 +64,7 @@ fn operations() -> OpenApiRouter<AppState> {
         .routes(routes!(parts::show))
         .routes(routes!(parts::measure))
         .routes(routes!(parts::measurement))
+        .routes(routes!(parts::measurement_map))
         .routes(routes!(cycles::plan))
         .routes(routes!(cycles::show_plan))
         .routes(routes!(cycles::program))
@@ -194,11 +200,16 @@ impl Compute for AppState {
     type Problem = ApiError;
 
     async fn compute(&self, what: Computation, request: &Document) -> Result<Value, ApiError> {
-        match what {
-            Computation::MeasurementFit => compute::<MeasurementFitEndpoint>(self, request).await,
-            Computation::Calibration => compute::<CalibrationEndpoint>(self, request).await,
-            Computation::Optimize => compute::<OptimizeEndpoint>(self, request).await,
-        }
+        computation(self, what, request, &[]).await
+    }
+
+    async fn compute_with_maps(
+        &self,
+        what: Computation,
+        request: &Document,
+        files: &[MapFile<'_>],
+    ) -> Result<Value, ApiError> {
+        computation(self, what, request, files).await
     }
 
     fn refuses(problem: &ApiError) -> bool {
@@ -301,6 +312,46 @@ fn fetched<T: Serialize>(
 async fn compute<E: Endpoint>(state: &AppState, request: &Document) -> Result<Value, ApiError> {
     let bytes = serde_json::to_vec(request).map_err(|e| ApiError::internal(e.to_string()))?;
     let command = E::parse(extract::parse_json(&bytes)?, &state.compute)?;
+    let services = state.services.clone();
+    let output = state.run(move || E::run(command, &services)).await?;
+    serde_json::to_value(E::respond(output)).map_err(|e| ApiError::internal(e.to_string()))
+}
+
+/// Runs `what` on `request` with map `files` (none but for the map computations).
+async fn computation(
+    state: &AppState,
+    what: Computation,
+    request: &Document,
+    files: &[MapFile<'_>],
+) -> Result<Value, ApiError> {
+    match what {
+        Computation::MeasurementFit => compute::<MeasurementFitEndpoint>(state, request).await,
+        Computation::Calibration => compute::<CalibrationEndpoint>(state, request).await,
+        Computation::Optimize => compute::<OptimizeEndpoint>(state, request).await,
+        Computation::MapAnalysis => {
+            compute_maps::<MapAnalysisEndpoint>(state, request, files).await
+        }
+        Computation::MapDifference => {
+            compute_maps::<MapDifferenceEndpoint>(state, request, files).await
+        }
+    }
+}
+
+/// [`compute`] for an endpoint that reads map files: each file put in its request member.
+async fn compute_maps<E: Endpoint>(
+    state: &AppState,
+    request: &Document,
+    files: &[MapFile<'_>],
+) -> Result<Value, ApiError>
+where
+    E::Request: MapForm,
+{
+    let bytes = serde_json::to_vec(request).map_err(|e| ApiError::internal(e.to_string()))?;
+    let mut request: E::Request = extract::parse_json(&bytes)?;
+    for (member, file) in files {
+        request.set_file(member, axum::body::Bytes::copy_from_slice(file));
+    }
+    let command = E::parse(request, &state.compute)?;
     let services = state.services.clone();
     let output = state.run(move || E::run(command, &services)).await?;
     serde_json::to_value(E::respond(output)).map_err(|e| ApiError::internal(e.to_string()))

@@ -1,22 +1,26 @@
 //! Parts and their measurements (`ledger::parts`: a measurement that follows a run completes
 //! that run's cycle and may teach the profile its Preston coefficient).
 
-use axum::extract::{Path, Query, State};
-use axum::http::{HeaderMap, Uri};
-use axum::response::Response;
+use axum::extract::{FromRequest, Path, Query, Request, State};
+use axum::http::{header, HeaderMap, HeaderValue, StatusCode, Uri};
+use axum::response::{IntoResponse, Response};
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
 use super::docs::{PartMeasurementRequest, RecordReadProblems, RecordWriteProblems};
 use super::dto::{MeasurementDto, PartDto, PartListDto, PartRequest};
 use super::{begin, commit, computed_by, fetched, replayed, store, tag, Writer, PARTS};
-use crate::http::csv_body::{CsvForm, CsvOrJson};
+use crate::http::csv_body::{query_object, CsvForm, CsvOrJson};
 use crate::http::dto::WarningDto;
 use crate::http::error::ApiError;
 use crate::http::extract::ApiJson;
+use crate::http::extract::{self, Format};
+use crate::http::maps::body::MapSource;
 use crate::http::state::AppState;
-use crate::ledger::parts::{self, MeasurementOutcome, NewPart};
+use crate::ledger::parts::{self, Measured, MeasurementOutcome, NewPart};
 use crate::ledger::{self, document, PartBody};
+use crate::maps::grid;
+use crate::store::sha256_hex;
 use crate::usecases::records::{PartRecord, Record, Records};
 
 /// Most parts a page lists.
@@ -159,25 +163,46 @@ impl CsvForm for MeasurementBody {
     }
 }
 
-#[utoipa::path(post, path = "/v1/parts/{id}/measurements", tag = "records", operation_id = "createMeasurement", summary = "Fit and store a measurement of the part (JSON or text/csv)",
+#[utoipa::path(post, path = "/v1/parts/{id}/measurements", tag = "records", operation_id = "createMeasurement", summary = "Fit and store a measurement of the part: a probe trace (JSON or text/csv) or an interferometer map (its file as application/octet-stream, analysed on the part's clear aperture and kept byte for byte)",
     params(("id" = String, Path, description = "The part's id"), ("Idempotency-Key" = Option<String>, Header, description = "1–255 visible ASCII characters; a retry with the same key and request gets the first answer")), request_body = PartMeasurementRequest,
     responses((status = 201, description = "Written (or the first answer to this Idempotency-Key)", body = MeasurementDto,
         headers(("Location" = String, description = "The new record"))), RecordWriteProblems))]
-/// `POST /v1/parts/{id}/measurements`
+/// `POST /v1/parts/{id}/measurements`: a probe trace (JSON, or text/csv with the query), or
+/// an interferometer map's file as the body (application/octet-stream) with the map analysis's
+/// options as query parameters.
 pub async fn measure(
     State(state): State<AppState>,
     Path(id): Path<String>,
     caller: Writer,
     headers: HeaderMap,
-    CsvOrJson(MeasurementBody(body)): CsvOrJson<MeasurementBody>,
+    request: Request,
 ) -> Result<Response, ApiError> {
     let store = store(&state)?;
+    let (body, file) = if extract::has_media(&headers, &[MAP_FILE]) {
+        let query: Vec<(String, String)> = Query::try_from_uri(request.uri())
+            .map(|Query(q)| q)
+            .map_err(|e| ApiError::invalid("query", e.body_text()))?;
+        let options = query_object(query, MAP_QUERY_FIELDS)?;
+        let limit = state.limits.max_map_bytes;
+        let file = axum::body::to_bytes(request.into_body(), limit)
+            .await
+            .map_err(|_| ApiError::payload_too_large(limit))?;
+        (options, Some(file))
+    } else {
+        let CsvOrJson(MeasurementBody(body)) = CsvOrJson::from_request(request, &state).await?;
+        (body, None)
+    };
+    // A map's request is its options and its file (by its hash).
+    let mut identity = body.clone();
+    if let Some(file) = &file {
+        identity.insert("map_sha256".into(), sha256_hex(file).into());
+    }
     let write = begin(
         store,
         &caller,
         &headers,
         &format!("POST /v1/parts/{id}/measurements"),
-        &Value::Object(body.clone()),
+        &Value::Object(identity),
     )?;
     let render = |measurement: String| async move {
         measurement_dto(&parts::measurement(store, &measurement).await?)
@@ -185,13 +210,34 @@ pub async fn measure(
     if let Some(replay) = write.replay().await? {
         return replayed(replay, render).await;
     }
-    let measured = parts::measure(&state, &write, &id, body).await?;
+    let measured = match &file {
+        Some(file) => Measured::Map {
+            request: body,
+            file,
+        },
+        None => Measured::Trace(body),
+    };
+    let measured = parts::measure(&state, &write, &id, measured).await?;
     let dto = measurement_dto(&measured)?;
     let record = ("/v1/measurements", dto.id.clone());
     let mut records = vec![Record::Measurement(measured.measurement)];
     records.extend(measured.fitted.map(Record::Calibration));
     commit(write, &records, record, &dto, None, render).await
 }
+
+/// The media type of a map file sent to a part's measurements.
+const MAP_FILE: &str = "application/octet-stream";
+
+/// The map analysis's options a map measurement takes as query parameters (its clear
+/// aperture is the part's).
+const MAP_QUERY_FIELDS: &[&str] = &[
+    "pixel_mm",
+    "alignment",
+    "remove_power",
+    "zernike",
+    "psd",
+    "fringe_wavelength_nm",
+];
 
 #[utoipa::path(get, path = "/v1/measurements/{id}", tag = "records", operation_id = "getMeasurement", summary = "A stored measurement",
     params(("id" = String, Path, description = "The measurement's id")), responses((status = 200, description = "The record", body = MeasurementDto,
@@ -221,6 +267,52 @@ pub async fn measurement(
     fetched(&headers, etag, || measurement_dto(&measured))
 }
 
+#[utoipa::path(get, path = "/v1/measurements/{id}/map", tag = "records", operation_id = "getMeasurementMap", summary = "A map measurement's file, byte for byte as uploaded, or its heights as CSV",
+    params(("id" = String, Path, description = "The measurement's id")),
+    responses((status = 200, description = "The file exactly as uploaded (`Accept: application/octet-stream`, the default), or the map's heights as Preston's text grid (`Accept: text/csv`: `# pixel_mm`, `# wavelength_nm` and `# unit: nm` headers, a row of comma-separated heights per line, top row first, NaN where there is no data; `/v1/maps/analysis` reads it back)",
+        content((Vec<u8> = "application/octet-stream"), (String = "text/csv")),
+        headers(("ETag" = String, description = "Strong validator: send as If-None-Match"))),
+        (status = 304, description = "Not modified (If-None-Match matched)"),
+        (status = 406, description = "Not acceptable: the formats are application/octet-stream and text/csv", content_type = "application/problem+json", body = crate::http::error::Problem),
+        RecordReadProblems))]
+/// `GET /v1/measurements/{id}/map`
+pub async fn measurement_map(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+) -> Result<Response, ApiError> {
+    let format = extract::negotiate(&headers, &[Format::File, Format::Csv])?;
+    let (sha256, file) = parts::measurement_map(store(&state)?, &id).await?;
+    let etag = tag(&state, "map", [sha256.as_str(), format.media_type()]);
+    let matches = headers
+        .get(header::IF_NONE_MATCH)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.split(',').any(|t| t.trim() == etag || t.trim() == "*"));
+    let etag = HeaderValue::from_str(&etag).expect("hex in quotes is a header value");
+    if matches {
+        return Ok((StatusCode::NOT_MODIFIED, [(header::ETAG, etag)]).into_response());
+    }
+    let body = match format {
+        Format::Csv => {
+            let (map, _) =
+                MapSource::File(file.into()).read("map", state.compute.max_map_pixels)?;
+            grid::write(&map).into_bytes()
+        }
+        _ => file,
+    };
+    Ok((
+        [
+            (
+                header::CONTENT_TYPE,
+                HeaderValue::from_static(format.media_type()),
+            ),
+            (header::ETAG, etag),
+        ],
+        body,
+    )
+        .into_response())
+}
+
 fn measurement_dto(measured: &MeasurementOutcome) -> Result<MeasurementDto, ApiError> {
     let record = &measured.measurement;
     Ok(MeasurementDto {
@@ -229,6 +321,7 @@ fn measurement_dto(measured: &MeasurementOutcome) -> Result<MeasurementDto, ApiE
         rms_nm: record.rms_nm,
         request: document(&record.request)?,
         result: document(&record.result)?,
+        map_sha256: record.map_sha256.clone(),
         completes_run_id: measured.completes_run.clone(),
         learned_calibration_id: measured.learned_calibration().map(str::to_string),
         warnings: WarningDto::all(&measured.warnings()),
