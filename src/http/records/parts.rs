@@ -178,7 +178,29 @@ pub async fn measure(
     request: Request,
 ) -> Result<Response, ApiError> {
     let store = store(&state)?;
-    let (body, file) = if extract::has_media(&headers, &[MAP_FILE]) {
+    let is_map = extract::has_media(&headers, &[MAP_FILE]);
+    // The operation's query parameters are a trace's and a map's: each only with its body.
+    let (theirs, whose) = if is_map {
+        (
+            MeasurementBody::QUERY_FIELDS,
+            "a probe trace sent as text/csv",
+        )
+    } else {
+        (
+            MAP_QUERY_FIELDS,
+            "a map file sent as application/octet-stream",
+        )
+    };
+    let given: Vec<(String, String)> = Query::try_from_uri(request.uri())
+        .map(|Query(q)| q)
+        .unwrap_or_default();
+    if let Some((name, _)) = given.iter().find(|(n, _)| theirs.contains(&n.as_str())) {
+        return Err(ApiError::invalid(
+            name.clone(),
+            format!("`{name}` configures {whose}, not this body"),
+        ));
+    }
+    let (body, file) = if is_map {
         let query: Vec<(String, String)> = Query::try_from_uri(request.uri())
             .map(|Query(q)| q)
             .map_err(|e| ApiError::invalid("query", e.body_text()))?;
