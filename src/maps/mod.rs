@@ -11,6 +11,7 @@
 //! allocated: a file of n bytes never makes a reader allocate more than a small multiple of n.
 //!
 //! - [`metropro`]: Zygo MetroPro `.dat` (binary).
+//! - [`datx`]: Zygo Mx `.datx` (HDF5).
 //! - [`zygo_text`]: Zygo's ASCII and XYZ exports.
 //! - [`codev`]: Code V interferogram grids (`.int`).
 //! - [`grid`]: a plain text grid with a `#` header (Preston's own, documented there).
@@ -24,6 +25,7 @@
 pub mod analysis;
 pub mod aperture;
 pub mod codev;
+pub mod datx;
 pub mod difference;
 pub mod grid;
 pub mod metropro;
@@ -70,11 +72,8 @@ const HDF5_SIGNATURE: &[u8] = b"\x89HDF\r\n\x1a\n";
 pub enum ReadError {
     #[error("MetroPro .dat: {0}")]
     MetroPro(#[from] metropro::MetroProError),
-    #[error(
-        "an HDF5 file (Zygo Mx .datx): this server does not read .datx yet; export the map from \
-         Mx as .dat, .xyz or .asc"
-    )]
-    Datx,
+    #[error("Zygo Mx .datx: {0}")]
+    Datx(#[from] datx::DatxError),
     #[error("Zygo text export: {0}")]
     ZygoText(#[from] zygo_text::ZygoTextError),
     #[error("Code V grid: {0}")]
@@ -89,7 +88,7 @@ pub fn read(bytes: &[u8], max_pixels: usize) -> Result<(Format, HeightMap), Read
     let format = Format::detect(bytes);
     let map = match format {
         Format::MetroPro => metropro::read(bytes, max_pixels)?,
-        Format::Datx => return Err(ReadError::Datx),
+        Format::Datx => datx::read(bytes, max_pixels)?,
         Format::ZygoText => zygo_text::read(bytes, max_pixels)?,
         Format::CodeV => codev::read(bytes, max_pixels)?,
         Format::TextGrid => grid::read(bytes, max_pixels)?,
