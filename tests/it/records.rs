@@ -1183,6 +1183,16 @@ async fn map_cycles(url: &str) {
         assert_eq!(back.status, 200);
         assert_eq!(back.content_type, "application/octet-stream");
         assert_eq!(back.body, file.as_bytes(), "measurement {id}");
+        let etag = back.headers["etag"].to_str().unwrap();
+        let again = send(
+            &app,
+            axum::http::Request::get(format!("/v1/measurements/{id}/map"))
+                .header("if-none-match", etag)
+                .body(axum::body::Body::empty())
+                .unwrap(),
+        )
+        .await;
+        assert_eq!(again.status, 304);
         let csv = send(
             &app,
             axum::http::Request::get(format!("/v1/measurements/{id}/map"))

@@ -285,6 +285,18 @@ fn fetched<T: Serialize>(
     etag: String,
     body: impl FnOnce() -> Result<T, ApiError>,
 ) -> Result<Response, ApiError> {
+    fetched_as(headers, etag, "application/json", || {
+        serde_json::to_vec(&body()?).map_err(|e| ApiError::internal(e.to_string()))
+    })
+}
+
+/// [`fetched`] for a body of any `media_type`.
+fn fetched_as(
+    headers: &HeaderMap,
+    etag: String,
+    media_type: &'static str,
+    body: impl FnOnce() -> Result<Vec<u8>, ApiError>,
+) -> Result<Response, ApiError> {
     let matches = headers
         .get(header::IF_NONE_MATCH)
         .and_then(|v| v.to_str().ok())
@@ -293,16 +305,12 @@ fn fetched<T: Serialize>(
     if matches {
         return Ok((StatusCode::NOT_MODIFIED, [(header::ETAG, etag)]).into_response());
     }
-    let body = serde_json::to_string(&body()?).map_err(|e| ApiError::internal(e.to_string()))?;
     Ok((
         [
-            (
-                header::CONTENT_TYPE,
-                HeaderValue::from_static("application/json"),
-            ),
+            (header::CONTENT_TYPE, HeaderValue::from_static(media_type)),
             (header::ETAG, etag),
         ],
-        body,
+        body()?,
     )
         .into_response())
 }

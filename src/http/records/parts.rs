@@ -2,14 +2,14 @@
 //! that run's cycle and may teach the profile its Preston coefficient).
 
 use axum::extract::{FromRequest, Path, Query, Request, State};
-use axum::http::{header, HeaderMap, HeaderValue, StatusCode, Uri};
-use axum::response::{IntoResponse, Response};
+use axum::http::{HeaderMap, Uri};
+use axum::response::Response;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 
 use super::docs::{PartMeasurementRequest, RecordReadProblems, RecordWriteProblems};
 use super::dto::{MeasurementDto, PartDto, PartListDto, PartRequest};
-use super::{begin, commit, computed_by, fetched, replayed, store, tag, Writer, PARTS};
+use super::{begin, commit, computed_by, fetched, fetched_as, replayed, store, tag, Writer, PARTS};
 use crate::http::csv_body::{query_object, CsvForm, CsvOrJson};
 use crate::http::dto::WarningDto;
 use crate::http::error::ApiError;
@@ -306,33 +306,14 @@ pub async fn measurement_map(
     let format = extract::negotiate(&headers, &[Format::File, Format::Csv])?;
     let (sha256, file) = parts::measurement_map(store(&state)?, &id).await?;
     let etag = tag(&state, "map", [sha256.as_str(), format.media_type()]);
-    let matches = headers
-        .get(header::IF_NONE_MATCH)
-        .and_then(|v| v.to_str().ok())
-        .is_some_and(|v| v.split(',').any(|t| t.trim() == etag || t.trim() == "*"));
-    let etag = HeaderValue::from_str(&etag).expect("hex in quotes is a header value");
-    if matches {
-        return Ok((StatusCode::NOT_MODIFIED, [(header::ETAG, etag)]).into_response());
-    }
-    let body = match format {
+    fetched_as(&headers, etag, format.media_type(), || match format {
         Format::Csv => {
             let (map, _) =
                 MapSource::File(file.into()).read("map", state.compute.max_map_pixels)?;
-            grid::write(&map).into_bytes()
+            Ok(grid::write(&map).into_bytes())
         }
-        _ => file,
-    };
-    Ok((
-        [
-            (
-                header::CONTENT_TYPE,
-                HeaderValue::from_static(format.media_type()),
-            ),
-            (header::ETAG, etag),
-        ],
-        body,
-    )
-        .into_response())
+        _ => Ok(file),
+    })
 }
 
 fn measurement_dto(measured: &MeasurementOutcome) -> Result<MeasurementDto, ApiError> {
