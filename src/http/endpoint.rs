@@ -73,6 +73,8 @@ pub trait Endpoint: 'static {
     const SVG: Option<fn(&Self::Output) -> String> = None;
     /// `Accept: text/x-gcode`, when offered.
     const GCODE: Option<fn(&Self::Output) -> String> = None;
+    /// `Accept: image/png`, when offered (`report::heatmap`).
+    const PNG: Option<Picture<Self::Output>> = None;
     /// The body may be an instrument's file: the map body limit applies, not the JSON one.
     const LARGE_BODY: bool = false;
 
@@ -90,11 +92,15 @@ pub trait Endpoint: 'static {
     fn document(_operation: &mut Operation) {}
 }
 
+/// A renderer of an endpoint's result as image bytes.
+pub type Picture<T> = fn(&T) -> Vec<u8>;
+
 pub(super) fn offered<E: Endpoint>() -> Vec<Format> {
     let mut offered = vec![Format::Json];
     offered.extend(E::CSV.map(|_| Format::Csv));
     offered.extend(E::SVG.map(|_| Format::Svg));
     offered.extend(E::GCODE.map(|_| Format::Gcode));
+    offered.extend(E::PNG.map(|_| Format::Png));
     offered
 }
 
@@ -134,6 +140,13 @@ pub fn operation<E: Endpoint>(schemas: &mut Vec<(String, RefOr<Schema>)>) -> Ope
         |ok, format| {
             let content = match format {
                 Format::Json => Content::new(Some(Ref::from_schema_name(E::Response::name()))),
+                Format::Png => {
+                    Content::new(Some(ObjectBuilder::new().schema_type(Type::String).format(
+                        Some(utoipa::openapi::SchemaFormat::KnownFormat(
+                            utoipa::openapi::KnownFormat::Binary,
+                        )),
+                    )))
+                }
                 _ => text(),
             };
             ok.content(format.media_type(), content)
@@ -185,6 +198,12 @@ pub(super) fn render<E: Endpoint>(format: Format, output: E::Output) -> Response
         Format::File => Err(ApiError::internal(
             "a file negotiated: no compute endpoint offers one",
         )),
+        Format::Png => {
+            return match E::PNG {
+                Some(png) => ([(header::CONTENT_TYPE, "image/png")], png(body)).into_response(),
+                None => ApiError::internal("PNG negotiated but not offered").into_response(),
+            }
+        }
     };
     let content_type = match format {
         Format::Json => "application/json",
@@ -192,6 +211,7 @@ pub(super) fn render<E: Endpoint>(format: Format, output: E::Output) -> Response
         Format::Svg => "image/svg+xml",
         Format::Gcode => "text/x-gcode; charset=utf-8",
         Format::File => "application/octet-stream",
+        Format::Png => "image/png",
     };
     match text {
         Ok(text) => ([(header::CONTENT_TYPE, content_type)], text).into_response(),

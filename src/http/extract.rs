@@ -378,6 +378,7 @@ pub enum Format {
     Gcode,
     /// A file as it was sent.
     File,
+    Png,
 }
 
 impl Format {
@@ -388,6 +389,7 @@ impl Format {
             Format::Svg => "image/svg+xml",
             Format::Gcode => "text/x-gcode",
             Format::File => "application/octet-stream",
+            Format::Png => "image/png",
         }
     }
 }

@@ -954,3 +954,86 @@ async fn maps_have_their_own_body_limit() {
     assert_eq!(reply.status, 413, "{}", reply.text());
     assert_eq!(reply.json()["status"], 413);
 }
+
+/// `Accept: image/png`: the real sample's heat map, decoded. Its layout is the documented one
+/// (`report::heatmap`): the 432-pixel map at scale 1 with its corner at (4, 14); a pixel with
+/// no data is transparent; the pixels of the aperture's highest and lowest heights take the
+/// ramp's two ends; the title and the scale bar are drawn in black.
+#[tokio::test]
+async fn the_heat_map_is_a_png_of_the_heights() {
+    use preston::report::heatmap::{colour, MAP_ORIGIN};
+    let bytes = std::fs::read(crate::common::fixture_path("maps/valid_zygo_dat_file.dat")).unwrap();
+    let app = crate::common::http::app();
+    let ask = |accept: &'static str| analysed(&app, &bytes, accept);
+    let json = ask("application/json").await.json();
+    let reply = ask("image/png").await;
+    assert_eq!(reply.status, 200);
+    assert_eq!(reply.content_type, "image/png");
+    let mut reader = png::Decoder::new(std::io::Cursor::new(reply.body))
+        .read_info()
+        .unwrap();
+    let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut rgba).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgba);
+    let width = info.width as usize;
+    let at = |x: usize, y: usize| -> [u8; 4] {
+        let i = (y * width + x) * 4;
+        [rgba[i], rgba[i + 1], rgba[i + 2], rgba[i + 3]]
+    };
+    let (x0, y0) = MAP_ORIGIN;
+    // The sample's corner pixel (0, 0) holds no data.
+    assert_eq!(at(x0, y0)[3], 0, "transparent where there is no data");
+    // The CSV lists the aperture's pixels with their heights: find the extremes' pixels.
+    let csv = ask("text/csv").await.text();
+    let pitch = json["map"]["pixel_mm"].as_f64().unwrap();
+    let (cx, cy) = (
+        json["alignment"]["centre_x_px"].as_f64().unwrap(),
+        json["alignment"]["centre_y_px"].as_f64().unwrap(),
+    );
+    let mut rows: Vec<(f64, f64, f64)> = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
+            (v[0], v[1], v[2])
+        })
+        .collect();
+    rows.sort_by(|a, b| a.2.total_cmp(&b.2));
+    for ((x, y, _), end) in [(rows[0], 0.0), (rows[rows.len() - 1], 1.0)] {
+        let (column, row) = (
+            (cx + x / pitch).round() as usize,
+            (cy - y / pitch).round() as usize,
+        );
+        let [r, g, b] = colour(end);
+        assert_eq!(
+            at(x0 + column, y0 + row),
+            [r, g, b, 255],
+            "({column}, {row})"
+        );
+    }
+    let black = |y_range: std::ops::Range<usize>| {
+        y_range
+            .flat_map(|y| (0..width).map(move |x| (x, y)))
+            .filter(|&(x, y)| at(x, y) == [0, 0, 0, 255])
+            .count()
+    };
+    assert!(black(0..y0) > 100, "the title");
+    let below = y0 + json["map"]["height_px"].as_u64().unwrap() as usize;
+    assert!(
+        black(below..info.height as usize) > 100,
+        "the scale bar and its label"
+    );
+}
+
+async fn analysed(app: &axum::Router, bytes: &[u8], accept: &str) -> crate::common::http::Reply {
+    crate::common::http::post_with(
+        app,
+        "/v1/maps/analysis",
+        bytes.to_vec(),
+        &[
+            ("content-type", "application/octet-stream"),
+            ("accept", accept),
+        ],
+    )
+    .await
+}

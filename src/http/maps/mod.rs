@@ -9,7 +9,7 @@ use utoipa::ToSchema;
 
 use self::body::{MapForm, MapOrJson, MapSource};
 use super::dto::WarningDto;
-use super::endpoint::{Doc, Endpoint};
+use super::endpoint::{Doc, Endpoint, Picture};
 use super::error::ApiError;
 use super::extract::optional_object;
 use super::optimize::{MeasuredProfileDto, TargetDto};
@@ -531,8 +531,9 @@ leaves (`non_axisymmetric`). The body is JSON with `map` as rows of heights, or 
 instrument's file itself (`application/octet-stream`, `text/plain` or `text/csv`: MetroPro \
 .dat, Zygo ASCII or XYZ, Code V .int, Preston's text grid, or the JSON map) with the other \
 fields as query parameters (JSON values). `Accept: text/csv` returns x, y, height per pixel; `image/svg+xml` the Zernike bars above \
-the PSD.",
-        ok: "The analysis; as CSV, the aperture's pixels (x_mm, y_mm, height_nm); as SVG, the Zernike bars and the PSD",
+the PSD; `image/png` a heat map of the heights (PV and RMS in its title, a colour bar in nm, a \
+scale bar in mm, pixels without a height transparent).",
+        ok: "The analysis; as CSV, the aperture's pixels (x_mm, y_mm, height_nm); as SVG, the Zernike bars and the PSD; as PNG, the heat map",
     };
     type Request = MapAnalysisRequest;
     type Body = MapOrJson<MapAnalysisRequest>;
@@ -541,6 +542,7 @@ the PSD.",
     type Response = MapAnalysisResponse;
     const CSV: Option<fn(&MapAnalysisResult) -> String> = Some(results::map_pixels_csv);
     const SVG: Option<fn(&MapAnalysisResult) -> String> = Some(results::map_analysis_svg);
+    const PNG: Option<Picture<MapAnalysisResult>> = Some(crate::report::heatmap::map_png);
 
     fn document(operation: &mut Operation) {
         body::document(
