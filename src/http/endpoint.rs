@@ -183,27 +183,22 @@ pub fn compute_json<E: Endpoint>(
 /// The response body in the negotiated format (one the endpoint offers).
 pub(super) fn render<E: Endpoint>(format: Format, output: E::Output) -> Response {
     let body = &output;
-    let text = match format {
-        Format::Json => serde_json::to_string(&E::respond(output))
+    let offered = |text: Option<fn(&E::Output) -> String>, what: &str| {
+        text.map(|f| f(body).into_bytes())
+            .ok_or_else(|| ApiError::internal(format!("{what} negotiated but not offered")))
+    };
+    let bytes = match format {
+        Format::Json => serde_json::to_vec(&E::respond(output))
             .map_err(|e| ApiError::internal(format!("serialising a response: {e}"))),
-        Format::Csv => E::CSV
+        Format::Csv => offered(E::CSV, "CSV"),
+        Format::Svg => offered(E::SVG, "SVG"),
+        Format::Gcode => offered(E::GCODE, "G-code"),
+        Format::Png => E::PNG
             .map(|f| f(body))
-            .ok_or_else(|| ApiError::internal("CSV negotiated but not offered")),
-        Format::Svg => E::SVG
-            .map(|f| f(body))
-            .ok_or_else(|| ApiError::internal("SVG negotiated but not offered")),
-        Format::Gcode => E::GCODE
-            .map(|f| f(body))
-            .ok_or_else(|| ApiError::internal("G-code negotiated but not offered")),
+            .ok_or_else(|| ApiError::internal("PNG negotiated but not offered")),
         Format::File => Err(ApiError::internal(
             "a file negotiated: no compute endpoint offers one",
         )),
-        Format::Png => {
-            return match E::PNG {
-                Some(png) => ([(header::CONTENT_TYPE, "image/png")], png(body)).into_response(),
-                None => ApiError::internal("PNG negotiated but not offered").into_response(),
-            }
-        }
     };
     let content_type = match format {
         Format::Json => "application/json",
@@ -213,8 +208,8 @@ pub(super) fn render<E: Endpoint>(format: Format, output: E::Output) -> Response
         Format::File => "application/octet-stream",
         Format::Png => "image/png",
     };
-    match text {
-        Ok(text) => ([(header::CONTENT_TYPE, content_type)], text).into_response(),
+    match bytes {
+        Ok(bytes) => ([(header::CONTENT_TYPE, content_type)], bytes).into_response(),
         Err(e) => e.into_response(),
     }
 }

@@ -189,7 +189,7 @@ pub async fn measure<C: Compute>(
         stamp: write.stamp(),
         part: id.to_string(),
         rms_nm: answer.rms_nm(),
-        request: Value::Object(request.clone()).to_string(),
+        request: Value::Object(request).to_string(),
         result: result.to_string(),
         map_sha256,
     };

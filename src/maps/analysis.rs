@@ -285,13 +285,7 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
 
     // One set of normal equations serves every fit: over the removal terms (piston, tilt,
     // defocus) and the terms asked for, on the pixels' rows (`zernike`, lines).
-    let points: Vec<(f64, f64, f64)> = raw
-        .iter()
-        .map(|p| {
-            let (x, y) = unit(p);
-            (x, y, p.height_nm)
-        })
-        .collect();
+    let points = unit_points(&raw, &unit);
     let lines = rows_of(&raw);
     let removal = [
         Term { n: 0, m: 0 },
@@ -558,18 +552,23 @@ pub fn spectrum_of(
     }
 }
 
-/// Piston, tilt x and tilt y (peak-normalised, in the aperture's unit coordinates) of the
-/// least-squares plane through `pixels`; zeros when they cannot carry a plane.
-pub fn plane_fit(pixels: &[Pixel], unit: &dyn Fn(&Pixel) -> (f64, f64)) -> [f64; 3] {
-    let basis = Basis::first(Ordering::Fringe, 3, Normalization::Peak).expect("Fringe has 3 terms");
-    let points: Vec<(f64, f64, f64)> = pixels
+/// Each pixel as (x, y, height) with x, y in the aperture's unit coordinates (`unit`): what
+/// the Zernike fits take.
+fn unit_points(pixels: &[Pixel], unit: &dyn Fn(&Pixel) -> (f64, f64)) -> Vec<(f64, f64, f64)> {
+    pixels
         .iter()
         .map(|p| {
             let (x, y) = unit(p);
             (x, y, p.height_nm)
         })
-        .collect();
-    match basis.fit(&points) {
+        .collect()
+}
+
+/// Piston, tilt x and tilt y (peak-normalised, in the aperture's unit coordinates) of the
+/// least-squares plane through `pixels`; zeros when they cannot carry a plane.
+pub fn plane_fit(pixels: &[Pixel], unit: &dyn Fn(&Pixel) -> (f64, f64)) -> [f64; 3] {
+    let basis = Basis::first(Ordering::Fringe, 3, Normalization::Peak).expect("Fringe has 3 terms");
+    match basis.fit(&unit_points(pixels, unit)) {
         Ok(c) => [c[0], c[1], c[2]],
         Err(_) => [0.0; 3],
     }

@@ -193,7 +193,7 @@ pub async fn measure(
     };
     let given: Vec<(String, String)> = Query::try_from_uri(request.uri())
         .map(|Query(q)| q)
-        .unwrap_or_default();
+        .map_err(|e| ApiError::invalid("query", e.body_text()))?;
     if let Some((name, _)) = given.iter().find(|(n, _)| theirs.contains(&n.as_str())) {
         return Err(ApiError::invalid(
             name.clone(),
@@ -201,10 +201,7 @@ pub async fn measure(
         ));
     }
     let (body, file) = if is_map {
-        let query: Vec<(String, String)> = Query::try_from_uri(request.uri())
-            .map(|Query(q)| q)
-            .map_err(|e| ApiError::invalid("query", e.body_text()))?;
-        let options = query_object(query, MAP_QUERY_FIELDS)?;
+        let options = query_object(given, MAP_QUERY_FIELDS)?;
         let limit = state.limits.max_map_bytes;
         let file = axum::body::to_bytes(request.into_body(), limit)
             .await
