@@ -13,12 +13,17 @@ pixels). Each side does the same analysis, medians over the runs:
 A cold Preston figure is the first request of a fresh process; the others are the medians of
 the following requests (nothing is cached between them: a map analysis keeps no state).
 
-Usage: python scripts/peer_bench_maps.py --binary target/release/preston [--runs 5]
+With --bench (the divan binary of benches/maps.rs), Preston in-process as well: the file's
+bytes read and analysed by the library, as prysm's figure is a library call. Each run takes
+the median of 15 analyses in a fresh benchmark process, runs interleaved with prysm's.
+
+Usage: python scripts/peer_bench_maps.py --binary target/release/preston [--bench BIN] [--runs 5]
 (scripts/peer_bench_maps.sh makes the virtualenv, builds Preston and runs this.)
 """
 
 import argparse
 import http.client
+import re
 import socket
 import statistics
 import subprocess
@@ -50,6 +55,15 @@ def prysm_analysis():
     return coefficients, bands
 
 
+def in_process(bench):
+    """Median (s) of 15 analyses of the sample in one run of the divan benchmark binary."""
+    out = subprocess.run([bench, "--bench", "sample_file_read_and_analysed", "--sample-count", "15"],
+                         capture_output=True, text=True, check=True).stdout
+    line = next(l for l in out.splitlines() if "sample_file_read_and_analysed" in l)
+    value, unit = re.findall(r"([0-9.]+) (ns|µs|ms|s)\b", line)[2]  # fastest, slowest, median
+    return float(value) * {"ns": 1e-9, "µs": 1e-6, "ms": 1e-3, "s": 1.0}[unit]
+
+
 def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -69,14 +83,17 @@ def preston_request(port, body):
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--binary", required=True)
+    parser.add_argument("--bench")
     parser.add_argument("--runs", type=int, default=5)
     args = parser.parse_args()
     body = SAMPLE.read_bytes()
-    prysm_times = []
-    for _ in range(args.runs + 1):
+    prysm_times, library_times = [], []
+    for run in range(args.runs + 1):
         start = time.perf_counter()
         prysm_analysis()
         prysm_times.append(time.perf_counter() - start)
+        if args.bench and run > 0:
+            library_times.append(in_process(args.bench))
     prysm_times = prysm_times[1:]  # the first imports and warms numpy's caches
     port = free_port()
     service = subprocess.Popen([args.binary, "--listen", f"127.0.0.1:{port}"],
@@ -103,9 +120,14 @@ def main():
     print("| analysis of the 425 x 432 MetroPro sample | median (ms) |")
     print("|---|---|")
     print(f"| prysm 0.21.1 (read, piston/tilt, 37 Fringe terms, PSD, 3 bands) | {1e3 * p:.1f} |")
+    if library_times:
+        lib = statistics.median(library_times)
+        print(f"| Preston in-process (the same, plus ISO 10110, radial profile, non-axisymmetric) | {1e3 * lib:.1f} |")
     print(f"| Preston over HTTP, cold (first request of the process) | {1e3 * cold:.1f} |")
     print(f"| Preston over HTTP (same, plus ISO 10110, radial profile, non-axisymmetric) | {1e3 * q:.1f} |")
-    print(f"\nPreston is {p / q:.1f}x prysm's speed ({args.runs} runs each, medians).")
+    if library_times:
+        print(f"\nIn-process (library against library), Preston is {p / lib:.1f}x prysm's speed.")
+    print(f"Over HTTP, Preston is {p / q:.1f}x prysm's speed ({args.runs} runs each, medians).")
 
 
 if __name__ == "__main__":

@@ -247,11 +247,21 @@ pub fn aperture_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Apertu
 
 /// How many valid pixels lie in the aperture (the `pixels` of [`aperture_pixels`] alone).
 pub fn count_aperture_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Aperture) -> usize {
-    let mut count = 0;
-    walk_aperture(map, alignment, aperture, |_, _, _, h| {
-        count += usize::from(h.is_some())
-    });
-    count
+    let frame = alignment.frame();
+    map.heights_nm()
+        .par_chunks(map.width())
+        .enumerate()
+        .map(|(row, heights)| {
+            heights
+                .iter()
+                .enumerate()
+                .filter(|&(column, h)| {
+                    let (x, y) = frame.to_part(column as f64, row as f64);
+                    h.is_some() && aperture.contains(x, y)
+                })
+                .count()
+        })
+        .sum()
 }
 
 /// Visits the map's pixels in the aperture in storage order: column, row, position in the
@@ -322,8 +332,8 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
     let sphere =
         |p: &(f64, f64, f64)| plane(p, &power) + power[3] * (2.0 * (p.0 * p.0 + p.1 * p.1) - 1.0);
     // h_t (less piston and tilt) and h_i (less the sphere too) at each pixel; h′ is one of them.
-    let tilted: Vec<f64> = points.iter().map(|q| q.2 - plane(q, &tilt)).collect();
-    let irregular: Vec<f64> = points.iter().map(|q| q.2 - sphere(q)).collect();
+    let tilted: Vec<f64> = points.par_iter().map(|q| q.2 - plane(q, &tilt)).collect();
+    let irregular: Vec<f64> = points.par_iter().map(|q| q.2 - sphere(q)).collect();
     let (removed_scaled, removed_terms): (&[f64], &[usize]) = if plan.remove_power {
         (&power_scaled, &[0, 1, 2, 3])
     } else {
@@ -368,56 +378,33 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
         .collect();
     let coefficients = normal.solve(&asked, &right)?;
 
-    // The rotationally symmetric parts: of h_i about the aperture's centre (ISO's s), of h′
-    // about the C axis (the radial profile); one basis a pixel when the centres coincide.
-    let pixel_mm = plan.alignment.pixel_mm;
-    let spacing = KNOT_SPACING_PX * pixel_mm;
-    let axis_radii: Vec<f64> = pixels.iter().map(|p| radius_of(p.x_mm, p.y_mm)).collect();
-    let centred = cx == 0.0 && cy == 0.0;
-    let aperture_radii: Vec<f64> = if centred {
-        Vec::new()
-    } else {
-        pixels
-            .iter()
-            .map(|p| radius_of(p.x_mm - cx, p.y_mm - cy))
-            .collect()
-    };
-    let (symmetric, about_axis) = if centred {
-        let mut fits = RadialFit::fit_each(&axis_radii, &[&irregular, heights], spacing)
-            .ok_or(AnalysisError::NoRadialProfile)?;
-        let about_axis = fits.pop().ok_or(AnalysisError::NoRadialProfile)?;
-        (
-            fits.pop().ok_or(AnalysisError::NoRadialProfile)?,
-            about_axis,
-        )
-    } else {
-        let one = |radii: &[f64], values: &[f64]| {
-            RadialFit::fit_each(radii, &[values], spacing)
-                .and_then(|mut f| f.pop())
-                .ok_or(AnalysisError::NoRadialProfile)
-        };
-        (
-            one(&aperture_radii, &irregular)?,
-            one(&axis_radii, heights)?,
-        )
-    };
-    // One pass over the pixels: s (ISO) and h′ less its profile (what a radial plan leaves),
-    // with the figures of h_t, h_i, s, h_i − s and that.
-    let [tilted_f, irregular_f, s_f, variant_f, leftover_f] = tally_each(pixels.len(), |i| {
-        let b = about_axis.basis(axis_radii[i]);
-        let s = if centred {
-            symmetric.at_basis(&b)
-        } else {
-            symmetric.at(aperture_radii[i])
-        };
-        [
-            tilted[i],
-            irregular[i],
-            s,
-            irregular[i] - s,
-            heights[i] - about_axis.at_basis(&b),
-        ]
-    });
+    // Three independent parts of the answer, side by side: the PSD of h′, the rotationally
+    // symmetric parts and what the Zernike terms leave.
+    let (psd, (symmetric, fit)) = rayon::join(
+        || spectrum(&plan, &pixels),
+        || {
+            rayon::join(
+                || symmetric_parts(&plan, &pixels, &tilted, &irregular, heights),
+                || {
+                    let mut all = vec![0.0; basis.terms().len()];
+                    for (&i, c) in asked.iter().zip(&coefficients) {
+                        all[i] = *c;
+                    }
+                    let fitted = basis.surface(&all, &layout);
+                    tally_each(fitted.len(), |i| [fitted[i], heights[i] - fitted[i]])
+                },
+            )
+        },
+    );
+    let Symmetric {
+        tilted: tilted_f,
+        irregular: irregular_f,
+        s: s_f,
+        variant: variant_f,
+        leftover: leftover_f,
+        about_axis,
+    } = symmetric?;
+    let [fitted_f, residual_f] = fit;
     let iso = IsoFigures {
         power_nm: 2.0 * power[3],
         irregularity_nm: irregular_f.pv,
@@ -428,18 +415,11 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
         rms_a_nm: variant_f.rms,
         fringe_wavelength_nm: plan.fringe_wavelength_nm,
     };
-    let radial_profile = sample_profile(&about_axis, pixel_mm);
+    let radial_profile = sample_profile(&about_axis, plan.alignment.pixel_mm);
     let non_axisymmetric = NonAxisymmetric {
         rms_nm: leftover_f.rms,
         pv_nm: leftover_f.pv,
     };
-
-    let mut all = vec![0.0; basis.terms().len()];
-    for (&i, c) in asked.iter().zip(&coefficients) {
-        all[i] = *c;
-    }
-    let fitted = basis.surface(&all, &layout);
-    let [fitted_f, residual_f] = tally_each(fitted.len(), |i| [fitted[i], heights[i] - fitted[i]]);
     // The residual's RMS about 0 (its mean is 0 to rounding when piston is among the terms).
     let residual_rms = residual_f.rms.hypot(residual_f.mean);
     let figure = if plan.remove_power {
@@ -467,8 +447,6 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
         centre_mm: (cx, cy),
     };
 
-    let psd = spectrum(&plan, &pixels);
-
     Ok(MapAnalysis {
         plan,
         pixels,
@@ -480,6 +458,87 @@ pub fn analyse(map: &HeightMap, plan: AnalysisPlan) -> Result<MapAnalysis, Analy
         psd,
         radial_profile,
         non_axisymmetric,
+    })
+}
+
+/// The figures of h_t, h_i, s (ISO's rotationally symmetric part of h_i about the aperture's
+/// centre), h_i − s and h′ less its radial profile about the C axis (what a radial plan
+/// leaves), with that profile.
+struct Symmetric {
+    tilted: Figures,
+    irregular: Figures,
+    s: Figures,
+    variant: Figures,
+    leftover: Figures,
+    about_axis: RadialFit,
+}
+
+/// [`Symmetric`] of the pixels: the two radial fits (one basis a pixel when the aperture's
+/// centre is the axis), then one pass for the figures.
+fn symmetric_parts(
+    plan: &AnalysisPlan,
+    pixels: &[Pixel],
+    tilted: &[f64],
+    irregular: &[f64],
+    heights: &[f64],
+) -> Result<Symmetric, AnalysisError> {
+    let (cx, cy) = plan.aperture.centre_mm();
+    let spacing = KNOT_SPACING_PX * plan.alignment.pixel_mm;
+    let axis_radii: Vec<f64> = pixels
+        .par_iter()
+        .map(|p| radius_of(p.x_mm, p.y_mm))
+        .collect();
+    let centred = cx == 0.0 && cy == 0.0;
+    let aperture_radii: Vec<f64> = if centred {
+        Vec::new()
+    } else {
+        pixels
+            .par_iter()
+            .map(|p| radius_of(p.x_mm - cx, p.y_mm - cy))
+            .collect()
+    };
+    // The bases at the pixels' radii about the axis come from the fit, for the pass below.
+    let (symmetric, about_axis, bases) = if centred {
+        let (mut fits, bases) =
+            RadialFit::fit_each_with_bases(&axis_radii, &[irregular, heights], spacing)
+                .ok_or(AnalysisError::NoRadialProfile)?;
+        let about_axis = fits.pop().ok_or(AnalysisError::NoRadialProfile)?;
+        (
+            fits.pop().ok_or(AnalysisError::NoRadialProfile)?,
+            about_axis,
+            bases,
+        )
+    } else {
+        let symmetric = RadialFit::fit_each(&aperture_radii, &[irregular], spacing)
+            .and_then(|mut f| f.pop())
+            .ok_or(AnalysisError::NoRadialProfile)?;
+        let (mut fits, bases) = RadialFit::fit_each_with_bases(&axis_radii, &[heights], spacing)
+            .ok_or(AnalysisError::NoRadialProfile)?;
+        let about_axis = fits.pop().ok_or(AnalysisError::NoRadialProfile)?;
+        (symmetric, about_axis, bases)
+    };
+    let [tilted, irregular_f, s, variant, leftover] = tally_each(pixels.len(), |i| {
+        let b = &bases[i];
+        let s = if centred {
+            symmetric.at_basis(b)
+        } else {
+            symmetric.at(aperture_radii[i])
+        };
+        [
+            tilted[i],
+            irregular[i],
+            s,
+            irregular[i] - s,
+            heights[i] - about_axis.at_basis(b),
+        ]
+    });
+    Ok(Symmetric {
+        tilted,
+        irregular: irregular_f,
+        s,
+        variant,
+        leftover,
+        about_axis,
     })
 }
 
@@ -523,10 +582,10 @@ pub fn spectrum_of(
         ),
         _ => psd::sidick_window(radius_of(p.x_mm - cx, p.y_mm - cy) / radius),
     };
+    let windows: Vec<f64> = pixels.par_iter().map(window_at).collect();
     let mut values = vec![0.0; columns * rows];
     let mut power = 0.0;
-    for p in pixels {
-        let w = window_at(p);
+    for (p, w) in pixels.iter().zip(&windows) {
         values[(p.row - r0) * columns + (p.column - c0)] = p.height_nm * w;
         power += w * w;
     }
@@ -554,9 +613,12 @@ pub fn spectrum_of(
 
 /// Each pixel as (x, y, height) with x, y in the aperture's unit coordinates (`unit`): what
 /// the Zernike fits take.
-fn unit_points(pixels: &[Pixel], unit: &dyn Fn(&Pixel) -> (f64, f64)) -> Vec<(f64, f64, f64)> {
+fn unit_points(
+    pixels: &[Pixel],
+    unit: &(dyn Fn(&Pixel) -> (f64, f64) + Sync),
+) -> Vec<(f64, f64, f64)> {
     pixels
-        .iter()
+        .par_iter()
         .map(|p| {
             let (x, y) = unit(p);
             (x, y, p.height_nm)
@@ -566,7 +628,7 @@ fn unit_points(pixels: &[Pixel], unit: &dyn Fn(&Pixel) -> (f64, f64)) -> Vec<(f6
 
 /// Piston, tilt x and tilt y (peak-normalised, in the aperture's unit coordinates) of the
 /// least-squares plane through `pixels`; zeros when they cannot carry a plane.
-pub fn plane_fit(pixels: &[Pixel], unit: &dyn Fn(&Pixel) -> (f64, f64)) -> [f64; 3] {
+pub fn plane_fit(pixels: &[Pixel], unit: &(dyn Fn(&Pixel) -> (f64, f64) + Sync)) -> [f64; 3] {
     let basis = Basis::first(Ordering::Fringe, 3, Normalization::Peak).expect("Fringe has 3 terms");
     match basis.fit(&unit_points(pixels, unit)) {
         Ok(c) => [c[0], c[1], c[2]],

@@ -1,8 +1,9 @@
 //! The power spectral density of a map, its azimuthal average and band-limited RMS.
 //!
 //! The heights h (nm) over the aperture, 0 elsewhere, are multiplied by a window w and placed
-//! in an N × N array, N the larger side of the aperture's box of pixels (rounded up to an even
-//! size), pitch p (mm). With F its discrete Fourier transform,
+//! in an N × N array, N the larger side of the aperture's box of pixels rounded up to the
+//! next even size with no prime factor above 7 (where FFTs are quickest: 418 = 2·11·19 takes
+//! half as long again as 420 = 2²·3·5·7), pitch p (mm). With F its discrete Fourier transform,
 //!
 //! ```text
 //! PSD(f_x, f_y) = |F(h·w)|² · p² / Σw²      [nm²·mm²],   f on the grid k/(N·p) per mm,
@@ -64,6 +65,22 @@ pub struct Summary {
     pub band_rms: Vec<f64>,
 }
 
+/// The least even n ≥ `side` with no prime factor above 7.
+fn fft_size(side: usize) -> usize {
+    let smooth = |mut n: usize| {
+        for p in [2, 3, 5, 7] {
+            while n % p == 0 {
+                n /= p;
+            }
+        }
+        n == 1
+    };
+    (side.max(2).div_ceil(2)..)
+        .map(|half| 2 * half)
+        .find(|&n| smooth(n))
+        .expect("7-smooth numbers are unbounded")
+}
+
 impl Spectrum {
     /// The PSD of `values` (windowed heights, nm; `columns × rows`, row-major) at pitch
     /// `pixel_mm`; `window_power` = Σw² over the same pixels. `None` for an empty window.
@@ -77,7 +94,7 @@ impl Spectrum {
         if window_power <= 0.0 || columns == 0 || rows == 0 {
             return None;
         }
-        let size = columns.max(rows).div_ceil(2) * 2;
+        let size = fft_size(columns.max(rows));
         let width = size / 2 + 1;
         // Rows: the real transform of each row that holds data (the rows of zeros below
         // transform to zeros), keeping k_x = 0 … N/2.
@@ -140,7 +157,9 @@ impl Spectrum {
                     ky as f64 - n as f64
                 };
                 let k = (a * a + b * b).sqrt();
-                let bin = k.round() as usize;
+                // round() for k ≥ 0 (√ of an integer is never within rounding of a half),
+                // without a libm call an element.
+                let bin = (k + 0.5) as usize;
                 if bin <= half {
                     sum[bin] += weight * d;
                     count[bin] += weight;
@@ -184,6 +203,17 @@ impl Spectrum {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn transforms_are_sized_where_ffts_are_quick() {
+        // 418 = 2·11·19 and 416 = 2⁵·13 pad to 420 = 2²·3·5·7; 7-smooth even sides stay.
+        assert_eq!(fft_size(415), 420);
+        assert_eq!(fft_size(418), 420);
+        assert_eq!(fft_size(420), 420);
+        assert_eq!(fft_size(64), 64);
+        assert_eq!(fft_size(1), 2);
+        assert_eq!(fft_size(1001), 1008);
+    }
 
     /// Parseval: the whole band's RMS is the window-weighted RMS of the heights; a sinusoid's
     /// power sits at its frequency.

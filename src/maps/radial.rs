@@ -57,6 +57,34 @@ impl RadialFit {
         values: &[&[f64]],
         spacing_mm: f64,
     ) -> Option<Vec<RadialFit>> {
+        Self::fit_each_into(radii_mm, values, spacing_mm, &mut [])
+    }
+
+    /// [`Self::fit_each`], and the basis at each radius (what [`Self::basis`] gives there),
+    /// kept from the fit for the caller's evaluations.
+    pub fn fit_each_with_bases(
+        radii_mm: &[f64],
+        values: &[&[f64]],
+        spacing_mm: f64,
+    ) -> Option<(Vec<RadialFit>, Vec<RadialBasis>)> {
+        let mut bases = vec![
+            RadialBasis {
+                span: 0,
+                values: [0.0; 4]
+            };
+            radii_mm.len()
+        ];
+        let fits = Self::fit_each_into(radii_mm, values, spacing_mm, &mut bases)?;
+        Some((fits, bases))
+    }
+
+    /// The fits, and the bases into `bases` unless it is empty.
+    fn fit_each_into(
+        radii_mm: &[f64],
+        values: &[&[f64]],
+        spacing_mm: f64,
+        bases: &mut [RadialBasis],
+    ) -> Option<Vec<RadialFit>> {
         let (r_min, r_max) = radii_mm
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
@@ -73,13 +101,23 @@ impl RadialFit {
         // Band of the normal matrix: band[i][d] = G[i][i + d], d = 0 … 3.
         // Accumulated over chunks of points in parallel, then added.
         let zero = || (vec![[0.0; 4]; k], vec![vec![0.0; k]; values.len()]);
+        // Each chunk of radii with its chunk of `bases`, if kept.
+        let mut slots: Vec<Option<&mut [RadialBasis]>> = if bases.is_empty() {
+            (0..radii_mm.len().div_ceil(CHUNK)).map(|_| None).collect()
+        } else {
+            bases.chunks_mut(CHUNK).map(Some).collect()
+        };
         let (mut band, rights) = radii_mm
             .par_chunks(CHUNK)
+            .zip(slots.par_iter_mut())
             .enumerate()
-            .map(|(c, radii)| {
+            .map(|(c, (radii, kept))| {
                 let (mut band, mut rights) = zero();
                 for (i, &r) in (c * CHUNK..).zip(radii) {
                     let (span, b) = knots.basis_at_radius(r);
+                    if let Some(kept) = kept {
+                        kept[i - c * CHUNK] = RadialBasis { span, values: b };
+                    }
                     for p in 0..4 {
                         for q in p..4 {
                             band[span + p][q - p] += b[p] * b[q];

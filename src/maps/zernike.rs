@@ -377,18 +377,23 @@ impl Basis {
                             zz += points[range.clone()].iter().map(|p| p.2 * p.2).sum::<f64>();
                             let nodes = line.nodes;
                             // YᵀY = Wᵀ·M·W with Y = Lᵀ·W.
+                            // Row by row of W (contiguous), each sum in the order of b.
                             let mut y = vec![0.0; j];
                             for a in 0..nodes {
-                                for (c, v) in y.iter_mut().enumerate() {
-                                    *v = (a..nodes)
-                                        .map(|b| l[b * nodes + a] * line.w[b * j + c])
-                                        .sum();
+                                y.fill(0.0);
+                                for b in a..nodes {
+                                    let lba = l[b * nodes + a];
+                                    let w = &line.w[b * j..(b + 1) * j];
+                                    y.iter_mut().zip(w).for_each(|(v, w)| *v += lba * w);
                                 }
                                 rows.push(&y);
                             }
-                            for (c, r) in right.iter_mut().enumerate() {
-                                *r += (0..nodes).map(|a| line.w[a * j + c] * t[a]).sum::<f64>();
+                            let mut line_right = vec![0.0; j];
+                            for (a, ta) in t.iter().enumerate() {
+                                let w = &line.w[a * j..(a + 1) * j];
+                                line_right.iter_mut().zip(w).for_each(|(r, w)| *r += w * ta);
                             }
+                            right.iter_mut().zip(&line_right).for_each(|(r, v)| *r += v);
                         }
                     }
                 }
@@ -513,7 +518,7 @@ impl Rows {
     fn gram(&self) -> Mat<f64> {
         let j = self.columns;
         let n = self.data.len() / j.max(1);
-        let y = Mat::<f64>::from_fn(n, j, |r, c| self.data[r * j + c]);
+        let y = faer::MatRef::from_row_major_slice(&self.data, n, j);
         let mut g = Mat::<f64>::zeros(j, j);
         triangular::matmul(
             g.as_mut(),
@@ -521,7 +526,7 @@ impl Rows {
             Accum::Replace,
             y.transpose(),
             BlockStructure::Rectangular,
-            y.as_ref(),
+            y,
             BlockStructure::Rectangular,
             1.0,
             Par::Seq,
