@@ -3,6 +3,7 @@
 
     python3 scripts/make_datx_fixture.py fixtures/maps/synthetic.datx
     python3 scripts/make_datx_fixture.py fixtures/maps/synthetic_gzip.datx --gzip
+    python3 scripts/make_datx_fixture.py fixtures/maps/hollow.datx --hollow 4096 4096
 
 Run from the repository root with any Python 3.9+. The first run makes a venv at
 target/datx-venv with pinned h5py and numpy (h5py wheels carry their own libhdf5) and re-runs
@@ -140,10 +141,26 @@ def main(argv):
                    default="earliest", help="oldest HDF5 format the file may use")
     p.add_argument("--no-venv", action="store_true", help="use this interpreter as it is")
     p.add_argument("--no-verify", action="store_true", help="skip reading the file back")
+    p.add_argument("--hollow", type=int, nargs=2, metavar=("ROWS", "COLS"),
+                   help="instead: a surface of ROWS x COLS declared and never written (chunked, "
+                        "no chunk stored: a few kB that read as fill values), no sidecar")
     args = p.parse_args(argv)
     if not args.no_venv:
         ensure_venv(argv)
-    write(args)
+    if args.hollow:
+        write_hollow(args.out, *args.hollow)
+    else:
+        write(args)
+
+
+def write_hollow(out, rows, cols):
+    import h5py
+    import numpy as np
+
+    with h5py.File(out, "w", libver=("earliest", "latest")) as f:
+        ds = f.create_dataset("/Data/Surface/" + guid("surface"), shape=(rows, cols),
+                              dtype=np.float64, chunks=(256, 256))
+        ds.attrs.create("Unit", np.array([b"NanoMeters"]))
 
 
 def write(args):

@@ -147,7 +147,7 @@ const LINKS: &str = "
 /// The links, and the schemas utoipa leaves empty on the record operations' parameters (the
 /// Idempotency-Key header's exact one, and a path parameter's beside it).
 fn record_operations(doc: &mut Value) {
-    measurements_take_csv(doc);
+    measurements_take_bodies(doc);
     let Some(paths) = doc["paths"].as_object_mut() else {
         return;
     };
@@ -186,50 +186,38 @@ fn record_operations(doc: &mut Value) {
     }
 }
 
-/// A part's measurement also comes as the fit's `text/csv` form: that operation's CSV body and
-/// query parameters, less `surface` (the part's).
-fn measurements_take_csv(doc: &mut Value) {
-    let fit = &doc["paths"]["/v1/measurement/fit"]["post"];
-    let csv = fit["requestBody"]["content"]["text/csv"].clone();
-    let query: Vec<Value> = fit["parameters"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .filter(|p| p["in"] == "query" && p["name"] != "surface")
-        .cloned()
-        .collect();
-    let Some(measure) = doc
-        .pointer_mut("/paths/~1v1~1parts~1{id}~1measurements/post")
-        .filter(|_| !csv.is_null())
-    else {
-        return;
-    };
-    measure["requestBody"]["content"]["text/csv"] = csv;
-    if let Some(parameters) = measure["parameters"].as_array_mut() {
-        parameters.extend(query);
-    }
-    measurements_take_maps(doc);
+/// A part's measurement also comes as the fit's `text/csv` form (that operation's CSV body and
+/// query parameters, less `surface`: the part's) and as an interferometer map's file (the map
+/// analysis's octet-stream body and query parameters, less `clear_aperture`: the part's).
+fn measurements_take_bodies(doc: &mut Value) {
+    measurements_take(doc, "/v1/measurement/fit", "text/csv", "surface");
+    measurements_take(
+        doc,
+        "/v1/maps/analysis",
+        "application/octet-stream",
+        "clear_aperture",
+    );
 }
 
-/// A part's measurement also comes as an interferometer map's file: the map analysis's
-/// octet-stream body and its query parameters but `clear_aperture` (the part's).
-fn measurements_take_maps(doc: &mut Value) {
-    let analysis = &doc["paths"]["/v1/maps/analysis"]["post"];
-    let file = analysis["requestBody"]["content"]["application/octet-stream"].clone();
-    let query: Vec<Value> = analysis["parameters"]
+/// The part's measurement operation takes `source`'s `media` body and its query parameters
+/// but `excluded`.
+fn measurements_take(doc: &mut Value, source: &str, media: &str, excluded: &str) {
+    let operation = &doc["paths"][source]["post"];
+    let body = operation["requestBody"]["content"][media].clone();
+    let query: Vec<Value> = operation["parameters"]
         .as_array()
         .into_iter()
         .flatten()
-        .filter(|p| p["in"] == "query" && p["name"] != "clear_aperture")
+        .filter(|p| p["in"] == "query" && p["name"] != excluded)
         .cloned()
         .collect();
     let Some(measure) = doc
         .pointer_mut("/paths/~1v1~1parts~1{id}~1measurements/post")
-        .filter(|_| !file.is_null())
+        .filter(|_| !body.is_null())
     else {
         return;
     };
-    measure["requestBody"]["content"]["application/octet-stream"] = file;
+    measure["requestBody"]["content"][media] = body;
     if let Some(parameters) = measure["parameters"].as_array_mut() {
         parameters.extend(query);
     }

@@ -12,12 +12,20 @@
 //! - `X Converter`: a compound whose `Parameters` (a list of numbers) hold the lateral
 //!   resolution, m per pixel, at index 1; no pitch when it is absent or not positive.
 //!
-//! Every size is checked against the pixel limit before the heights are read; the values are
-//! read as the dataset stores them (64- or 32-bit floats, 32-bit integers).
+//! Every size is checked before the heights are read: against the pixel limit, and against
+//! what the file could carry: its values (4 bytes each at the least) cannot take more than
+//! [`DEFLATE_RATIO`] times the file's length, deflate's largest expansion, so a small file
+//! declaring a large surface (all fill values, or chunks that are not there) is refused before
+//! anything is allocated for it. The values are read as the dataset stores them (64- or
+//! 32-bit floats, 32-bit integers).
 
 use hdf5_reader::{Attribute, Dataset, Datatype, Hdf5File, VarLenKind};
 
 use super::{HeightMap, MapError};
+
+/// Deflate's largest expansion: a stored byte stands for at most 1032 (RFC 1951's longest
+/// match, 258 bytes, in the shortest code, about two bits).
+const DEFLATE_RATIO: usize = 1032;
 
 /// Why a `.datx` file cannot be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -32,6 +40,11 @@ pub enum DatxError {
     NotAMap(usize),
     #[error("the surface's {rows} × {columns} pixels are more than the {max} a map may have")]
     TooLarge { rows: u64, columns: u64, max: usize },
+    #[error(
+        "the surface declares {pixels} pixels, more than its {bytes}-byte file could hold \
+         (a damaged file, or one whose heights are not in it)"
+    )]
+    LargerThanFile { pixels: usize, bytes: usize },
     #[error("the surface holds {0}, not floating-point or 32-bit integer heights")]
     Values(String),
     #[error("the surface's attribute `{name}` {why}")]
@@ -60,6 +73,12 @@ pub fn read(bytes: &[u8], max_pixels: usize) -> Result<HeightMap, DatxError> {
             columns,
             max: max_pixels,
         })?;
+    if pixels.saturating_mul(4) > bytes.len().saturating_mul(DEFLATE_RATIO) {
+        return Err(DatxError::LargerThanFile {
+            pixels,
+            bytes: bytes.len(),
+        });
+    }
     let raw = values(&surface, pixels)?;
     let no_data = match surface.attribute("No Data") {
         Ok(a) => Some(number(&a, "No Data")?),

@@ -703,6 +703,28 @@ fn synthetic_datx_files_read_as_their_generator_wrote_them() {
     }
 }
 
+/// A 3.5 kB .datx declaring a 4096 × 4096 surface it never wrote (chunked, no chunk stored,
+/// `scripts/make_datx_fixture.py --hollow`): within the pixel limit, but 16.8 M values of at
+/// least 4 bytes cannot come out of 3.5 kB even at deflate's largest expansion (1032×), so it
+/// is refused before 134 MB are allocated for it, in words that say so.
+#[test]
+fn a_datx_declaring_more_than_its_file_holds_is_refused_before_allocating() {
+    let bytes = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/maps/hollow.datx"
+    ))
+    .unwrap();
+    assert!(bytes.len() < 4096);
+    let error = preston::maps::read(&bytes, 4096 * 4096)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("declares 16777216 pixels, more than its")
+            && error.contains("-byte file could hold"),
+        "{error}"
+    );
+}
+
 /// Mutated .datx files (bytes flipped or overwritten, truncated, extended) from both synthetic
 /// maps: the reader never panics, and a map it accepts holds at most 16 bytes a pixel of a
 /// surface whose size the pixel limit bounds before anything is read.
