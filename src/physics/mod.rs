@@ -11,6 +11,7 @@ pub mod metrics;
 pub mod motion;
 pub mod operator;
 pub mod path;
+pub mod polar;
 pub mod pressure;
 pub mod process;
 pub mod removal;

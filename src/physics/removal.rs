@@ -259,16 +259,25 @@ impl RemovalKernel {
             }
             return self.nominal_rate_nm_per_s(r_mm, r1_mm) * pressure.level;
         }
+        match self.pressed_arc(pressure, r_mm, r1_mm) {
+            Some(psi) => self.rate_on_arc(pressure, r_mm, r1_mm, psi),
+            None => 0.0,
+        }
+    }
+
+    /// The half-angle of the arc of the ring at `r_mm` under the pad at `r1_mm` where it
+    /// presses (short of the lift line); `None` without contact.
+    fn pressed_arc(&self, pressure: &PadPressure, r_mm: f64, r1_mm: f64) -> Option<HalfAngle> {
         let mut psi = half_angle(r_mm, r1_mm, self.tool_radius);
         if let Some(lift) = pressure.lift_line_mm() {
-            let Some(cut) = psi.cut_at(r1_mm + lift, r_mm) else {
-                return 0.0;
-            };
-            psi = cut;
+            psi = psi.cut_at(r1_mm + lift, r_mm)?;
         }
-        if !psi.is_contact() {
-            return 0.0;
-        }
+        psi.is_contact().then_some(psi)
+    }
+
+    /// [`Self::rate_under`] over the arc |θ| ≤ 2ψ of the ring (on a plane), `psi` within
+    /// [`Self::pressed_arc`].
+    fn rate_on_arc(&self, pressure: &PadPressure, r_mm: f64, r1_mm: f64, psi: HalfAngle) -> f64 {
         let b = self.omega2 * r1_mm;
         let arc = if self.translation {
             // V = |b| everywhere: ∫V dθ = θe·|b|, ∫cos θ·V dθ = sin θe·|b|.
@@ -281,6 +290,37 @@ impl RemovalKernel {
         };
         let level = pressure.level - pressure.slope_per_mm * r1_mm;
         (self.scale * (level * arc.speed + pressure.slope_per_mm * r_mm * arc.cos_speed)).max(0.0)
+    }
+
+    /// S(α) = ∫_0^α ρ(r, α′) dα′ (nm/s·rad) on a plane: the instantaneous rate ρ at the
+    /// point of the ring at `r_mm` whose angle from the direction of the pad centre (at
+    /// `r1_mm`) is α′, integrated from 0 to `alpha_rad` ∈ [−π, π]. ρ is even in α′ and 0
+    /// beyond the pressed arc, so S is odd and S(±π) = ±π·R(r; r1) ([`Self::rate_nm_per_s`]):
+    /// the revolution average is S(π)/π. [`super::polar`] builds the removal of a sweeping
+    /// pad from it. `None` on a curved part (its footprint is not modelled in 2-D yet).
+    pub fn swept_rate_integral(&self, r_mm: f64, r1_mm: f64, alpha_rad: f64) -> Option<f64> {
+        if self.curved.is_some() {
+            return None;
+        }
+        let pressure = self.pad_pressure(r1_mm);
+        if pressure.level == 0.0 && pressure.slope_per_mm == 0.0 {
+            return Some(0.0);
+        }
+        let Some(pressed) = self.pressed_arc(&pressure, r_mm, r1_mm) else {
+            return Some(0.0);
+        };
+        let (sin, cos) = (alpha_rad.abs().min(PI) / 2.0).sin_cos();
+        let psi = if sin < pressed.sin {
+            HalfAngle { sin, cos }
+        } else {
+            pressed
+        };
+        let one_side = if psi.is_contact() {
+            PI * self.rate_on_arc(&pressure, r_mm, r1_mm, psi)
+        } else {
+            0.0
+        };
+        Some(alpha_rad.signum() * one_side)
     }
 
     /// Removal rate at nominal pressure, nm/s; [`Self::rate_nm_per_s`] scales it by the

@@ -32,6 +32,8 @@ mod paper;
 mod plan_program;
 mod plausibility;
 mod plots;
+mod polar;
+mod polar_reference;
 mod problems;
 mod recommend;
 mod records;

@@ -1037,3 +1037,49 @@ async fn analysed(app: &axum::Router, bytes: &[u8], accept: &str) -> crate::comm
     )
     .await
 }
+
+/// JSON Schema's `integer` includes whole numbers written with a fraction (`12.0`): the
+/// term count takes them as the count, and one too many for the ordering is refused naming
+/// `zernike.terms`, not as a mismatch of the schema (found by schemathesis: `192.0`).
+#[tokio::test]
+async fn a_term_count_written_with_a_fraction_is_a_count() {
+    let app = app();
+    let rows: Vec<Vec<Option<f64>>> = (0..25)
+        .map(|r| {
+            (0..25)
+                .map(|c| {
+                    let (x, y) = ((c as f64 - 12.0) / 12.0, (r as f64 - 12.0) / 12.0);
+                    (x * x + y * y <= 1.0).then_some(10.0 * (x * x - y * y) + 3.0 * x)
+                })
+                .collect()
+        })
+        .collect();
+    let body = |terms: &str| {
+        format!(
+            r#"{{"map": {{"heights_nm": {}, "pixel_mm": 1.0}}, "zernike": {{"terms": {terms}}}}}"#,
+            serde_json::to_string(&rows).unwrap()
+        )
+    };
+    let whole = post_json(&app, "/v1/maps/analysis", body("12.0")).await;
+    assert_eq!(
+        whole.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&whole.body)
+    );
+    assert_eq!(
+        whole.json()["zernike"]["terms"].as_array().unwrap().len(),
+        12
+    );
+    let too_many = post_json(&app, "/v1/maps/analysis", body("192.0")).await;
+    assert_eq!(too_many.status, 422);
+    let problem = too_many.json();
+    assert_eq!(
+        problem["type"], "urn:preston:problem:invalid-input",
+        "{problem}"
+    );
+    assert_eq!(problem["field"], "zernike.terms", "{problem}");
+    let fraction = post_json(&app, "/v1/maps/analysis", body("12.5")).await;
+    assert_eq!(fraction.status, 422);
+    assert_eq!(fraction.json()["field"], "zernike.terms");
+}

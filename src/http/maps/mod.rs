@@ -11,7 +11,7 @@ use self::body::{MapForm, MapOrJson, MapSource};
 use super::dto::WarningDto;
 use super::endpoint::{Doc, Endpoint, Picture};
 use super::error::ApiError;
-use super::extract::optional_object;
+use super::extract::{optional_count, optional_object};
 use super::optimize::{MeasuredProfileDto, TargetDto};
 use super::state::Services;
 use crate::maps::analysis::{Band, Window};
@@ -196,6 +196,7 @@ pub struct ZernikeOptionsDto {
     /// The first this many terms of the ordering: 1 to 37 (Fringe) or 231 (Noll, ANSI, all
     /// terms through n = 20). Default 37.
     #[schema(minimum = 1, maximum = 231)]
+    #[serde(default, deserialize_with = "optional_count")]
     pub terms: Option<usize>,
 }
 

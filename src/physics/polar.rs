@@ -1,0 +1,140 @@
+//! The pad on a part turning on C, point by point: C (the part's spindle) as an axis whose
+//! speed is known at every instant, and the removal at each point of the part, not only at
+//! each radius.
+//!
+//! Lab frame, counter-clockwise positive seen from the pad: the part turns at Ω (rad/s, the
+//! process's `workpiece_rpm`), the pad spins at ω2 about its centre c. At a point p of the
+//! part the sliding speed is
+//!
+//! ```text
+//! V = |(ω2 − Ω)·p − ω2·c|        (2-D vectors in any common frame)
+//! ```
+//!
+//! the paper's eq. 5 with ω1 = −Ω: the pad's velocity ω2·J(p − c) less the part's Ω·J·p (J
+//! the quarter turn, which keeps lengths). In the part's frame the pad centre sits at
+//! c = r1·(cos φ, sin φ) with dφ/dt = −Ω (the part turning counter-clockwise carries the pad
+//! clockwise over it). A point p = r·(cos θ, sin θ) is at α = θ − φ from the direction of the
+//! pad centre, and there
+//!
+//! ```text
+//! V(α)² = (ω2 − Ω)²·r² + ω2²·r1² − 2·r·r1·ω2·(ω2 − Ω)·cos α,
+//! ρ(r, α; r1) = K·P·(p/P)·V(α)   on the pressed arc |α| ≤ θ0, 0 elsewhere,
+//! ```
+//!
+//! the instantaneous footprint ([`PolarPad::rate_at`]): the 1-D model's V, its contact arc and
+//! its pressure models (p/P = level + slope·(r·cos α − r1), short of a linear pad's lift line)
+//! unchanged, since they depend only on where the pad centre is.
+//!
+//! **A ring at constant Ω.** While the pad centre sweeps from φ_s for a time T the point sees
+//! α run from α_s = θ − φ_s to α_e = α_s + Ω·T, and dt = dα/Ω, so
+//!
+//! ```text
+//! depth(r, θ) = (S̃(α_e) − S̃(α_s)) / Ω,    S̃(α) = 2π·R·n + S(α − 2π·n),  n = round(α/2π),
+//! ```
+//!
+//! S(α) = ∫_0^α ρ dα′ on [−π, π] in closed form (Carlson's integrals over part of the arc,
+//! [`RemovalKernel::swept_rate_integral`]) and R(r; r1) = S(π)/π the revolution-averaged rate
+//! of the 1-D model. Whole turns add R·2π/|Ω| each: a ring of whole turns leaves today's
+//! R·T at every θ. And for any T the azimuthal mean of the depth is exactly R·T: averaged over
+//! θ, S̃(θ + c) − S̃(θ) is c/2π of a whole turn. A motion's azimuthal mean is therefore the
+//! 1-D prediction at the C speed of each instant; what is left around it is the ripple of
+//! where the rings begin and end.
+
+use std::f64::consts::{PI, TAU};
+
+use super::process::Process;
+use super::removal::RemovalKernel;
+
+/// Why a process has no 2-D footprint (yet).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum PolarError {
+    #[error(
+        "the footprint on a curved part is not modelled point by point yet: the part must be flat"
+    )]
+    CurvedPart,
+}
+
+/// The pad of a process at the process's C speed: its footprint, and the removal of a ring.
+#[derive(Debug, Clone)]
+pub struct PolarPad {
+    kernel: RemovalKernel,
+    /// Ω and ω2, rad/s, lab frame, counter-clockwise positive.
+    part_speed: f64,
+    tool_speed: f64,
+    /// K·P, nm/s per mm/s of sliding.
+    preston: f64,
+    tool_radius_mm: f64,
+    workpiece_radius_mm: f64,
+}
+
+impl PolarPad {
+    pub fn new(process: &Process) -> Result<PolarPad, PolarError> {
+        if !process.part().is_flat() {
+            return Err(PolarError::CurvedPart);
+        }
+        Ok(PolarPad {
+            kernel: RemovalKernel::new(process),
+            part_speed: -process.omega1_rad_per_s(),
+            tool_speed: process.omega2_rad_per_s(),
+            preston: process.preston_rate_scale(),
+            tool_radius_mm: process.tool_radius_mm(),
+            workpiece_radius_mm: process.workpiece_radius_mm(),
+        })
+    }
+
+    /// Ω, rad/s (counter-clockwise positive; never 0: a process's part turns).
+    pub fn part_speed_rad_per_s(&self) -> f64 {
+        self.part_speed
+    }
+
+    /// The footprint ρ (nm/s) at the part's point `point` (x, y mm, part frame) with the pad
+    /// centre at `centre` (module docs): 0 off the part, off the pad or beyond the lift line.
+    pub fn rate_at(&self, point: (f64, f64), centre: (f64, f64)) -> f64 {
+        let (x, y) = point;
+        let (cx, cy) = centre;
+        let (dx, dy) = (x - cx, y - cy);
+        let rt = self.tool_radius_mm;
+        if x * x + y * y > self.workpiece_radius_mm * self.workpiece_radius_mm
+            || dx * dx + dy * dy > rt * rt
+        {
+            return 0.0;
+        }
+        let r1 = cx.hypot(cy);
+        let pressure = self.kernel.pad_pressure(r1);
+        // The point's coordinate along the pad centre's direction (the 1-D model's x).
+        let along = if r1 > 0.0 {
+            (x * cx + y * cy) / r1
+        } else {
+            0.0
+        };
+        let factor = (pressure.level + pressure.slope_per_mm * (along - r1)).max(0.0);
+        let k = self.tool_speed - self.part_speed;
+        let (vx, vy) = (k * x - self.tool_speed * cx, k * y - self.tool_speed * cy);
+        self.preston * factor * vx.hypot(vy)
+    }
+
+    /// The depth (nm) at the point (r_mm, θ) of the part left by the pad centre at `r1_mm`
+    /// sweeping from the part-frame angle `start_rad` for `duration_s` at this pad's Ω (module
+    /// docs).
+    pub fn ring_depth_nm(
+        &self,
+        r_mm: f64,
+        theta_rad: f64,
+        r1_mm: f64,
+        start_rad: f64,
+        duration_s: f64,
+    ) -> f64 {
+        let start = theta_rad - start_rad;
+        let end = start + self.part_speed * duration_s;
+        let whole = self.kernel.rate_nm_per_s(r_mm, r1_mm);
+        let unwrapped = |alpha: f64| {
+            let turns = (alpha / TAU).round();
+            let partial = self
+                .kernel
+                .swept_rate_integral(r_mm, r1_mm, (alpha - turns * TAU).clamp(-PI, PI))
+                .expect("a polar pad is on a flat part");
+            TAU * whole * turns + partial
+        };
+        ((unwrapped(end) - unwrapped(start)) / self.part_speed).max(0.0)
+    }
+}
