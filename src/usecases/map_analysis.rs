@@ -16,6 +16,8 @@ pub const DEFAULT_TERMS: usize = 37;
 pub const MAX_BANDS: usize = 16;
 /// The fewest valid pixels an aperture must hold.
 pub const MIN_APERTURE_PIXELS: usize = 16;
+/// The widest a map may span, mm (100 m: beyond any part; it keeps squared radii finite).
+pub const MAX_MAP_EXTENT_MM: f64 = 1e5;
 
 /// An analysis as asked (`None`: the default).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -246,6 +248,18 @@ impl Placement {
             (None, Some(p)) => p,
             (None, None) => return Err(MapInputError::PixelSizeUnknown),
         };
+        let across_mm = map.width().max(map.height()) as f64 * pixel_mm;
+        if !(across_mm <= MAX_MAP_EXTENT_MM) {
+            return Err(MapInputError::invalid(
+                I::PixelSize,
+                format!(
+                    "a pixel of {pixel_mm} mm makes the {} × {} map {across_mm:e} mm across; \
+                     a map may span {MAX_MAP_EXTENT_MM} mm at most",
+                    map.width(),
+                    map.height()
+                ),
+            ));
+        }
         let rotation_deg = self.rotation_deg.unwrap_or(0.0);
         if !rotation_deg.is_finite() {
             return Err(MapInputError::invalid(

@@ -1083,3 +1083,44 @@ async fn a_term_count_written_with_a_fraction_is_a_count() {
     assert_eq!(fraction.status, 422);
     assert_eq!(fraction.json()["field"], "zernike.terms");
 }
+
+/// A pixel pitch that makes the map wider than any part (100 m) is refused naming
+/// `pixel_mm`, before squared radii overflow (found by schemathesis: 1.12e167 mm was a 500).
+#[tokio::test]
+async fn a_pixel_wider_than_any_part_is_refused() {
+    let app = app();
+    let rows: Vec<Vec<Option<f64>>> = (0..25)
+        .map(|r| {
+            (0..25)
+                .map(|c| {
+                    let (x, y) = ((c as f64 - 12.0) / 12.0, (r as f64 - 12.0) / 12.0);
+                    (x * x + y * y <= 1.0).then_some(10.0 * x * y)
+                })
+                .collect()
+        })
+        .collect();
+    let rows = serde_json::to_string(&rows).unwrap();
+    for pixel in ["1.1198504656359032e+167", "4001.0"] {
+        let body =
+            format!(r#"{{"map": {{"heights_nm": {rows}, "pixel_mm": 1.0}}, "pixel_mm": {pixel}}}"#);
+        let reply = post_json(&app, "/v1/maps/analysis", body).await;
+        assert_eq!(
+            reply.status,
+            422,
+            "{}",
+            String::from_utf8_lossy(&reply.body)
+        );
+        let problem = reply.json();
+        assert_eq!(problem["field"], "pixel_mm", "{problem}");
+        assert!(
+            problem["detail"]
+                .as_str()
+                .unwrap()
+                .contains("a map may span 100000 mm at most"),
+            "{problem}"
+        );
+    }
+    let fine =
+        format!(r#"{{"map": {{"heights_nm": {rows}, "pixel_mm": 1.0}}, "pixel_mm": 3999.0}}"#);
+    assert_eq!(post_json(&app, "/v1/maps/analysis", fine).await.status, 200);
+}

@@ -29,7 +29,7 @@ pub struct MapGridDto {
     /// null where there is no data.
     #[schema(min_items = 1, example = json!([[null, 1.5, null], [2.0, 0.0, -1.0], [null, 0.5, null]]))]
     pub heights_nm: Vec<Vec<Option<f64>>>,
-    /// Pixel pitch, mm (> 0).
+    /// Pixel pitch, mm (> 0, the map at most 100 m across).
     pub pixel_mm: Option<f64>,
     /// Measuring wavelength, nm (> 0).
     pub wavelength_nm: Option<f64>,

@@ -43,7 +43,8 @@ pub struct MapDifferenceRequest {
     #[serde(default)]
     #[schema(required = true)]
     pub after: MapSource,
-    /// Pixel pitch of both maps, mm (> 0). Default: the files'.
+    /// Pixel pitch of both maps, mm (> 0, each map at most 100 m across). Default: the
+    /// files'.
     pub pixel_mm: Option<f64>,
     /// Where the part sits on the before map (and, with a centre given and no offset, on the
     /// after map too). Default: each map's centre and radius fitted to its own boundary.

@@ -229,7 +229,8 @@ pub struct MapAnalysisRequest {
     #[serde(default)]
     #[schema(required = true)]
     pub map: MapSource,
-    /// Pixel pitch, mm (> 0). Default: the file's; required when it states none.
+    /// Pixel pitch, mm (> 0, the map at most 100 m across). Default: the file's; required
+    /// when it states none.
     pub pixel_mm: Option<f64>,
     /// Where the part sits. Default: fitted.
     #[serde(default, deserialize_with = "optional_object")]
