@@ -42,8 +42,14 @@
 
 use std::f64::consts::{PI, TAU};
 
+use super::kronrod::adaptive_gauss_kronrod;
 use super::process::Process;
 use super::removal::RemovalKernel;
+use super::roots::illinois;
+
+/// The tolerance of a spiral's quadrature, relative to the largest rate a point can see
+/// (times the duration: the depth's absolute error).
+const RELATIVE_TOLERANCE: f64 = 1e-11;
 
 /// Why a process has no 2-D footprint (yet).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -136,5 +142,99 @@ impl PolarPad {
             TAU * whole * turns + partial
         };
         ((unwrapped(end) - unwrapped(start)) / self.part_speed).max(0.0)
+    }
+    /// The depth (nm) at the point (r_mm, θ) of the part left by a spiral: the pad centre
+    /// moving from `r1_start_mm` to `r1_end_mm` at a constant radial speed while C turns at
+    /// this pad's Ω, from the part-frame angle `start_rad`, for `duration_s` (module docs).
+    ///
+    /// No closed form: the footprint is integrated along the time, exactly where it is
+    /// smooth. The pad's rim crosses the point where g(t) = r_t² − |p − c(t)|² = 0; g is
+    /// largest near each time the pad centre passes the point's angle and smallest half a turn
+    /// later, so [0, T] splits at those extremes (roots of g′ by the Illinois method) into
+    /// pieces where g is monotone, each holding at most one crossing (found the same way).
+    /// Where the point is under the pad the rate is integrated by adaptive Gauss–Kronrod to
+    /// `RELATIVE_TOLERANCE` of the largest rate a point can see; its kinks (the sliding
+    /// speed's zero, a linear pad's lift line) are left to the adaptive bisection.
+    pub fn spiral_depth_nm(
+        &self,
+        r_mm: f64,
+        theta_rad: f64,
+        (r1_start_mm, r1_end_mm): (f64, f64),
+        start_rad: f64,
+        duration_s: f64,
+    ) -> f64 {
+        if duration_s <= 0.0 || r_mm > self.workpiece_radius_mm {
+            return 0.0;
+        }
+        let omega = self.part_speed;
+        let feed = (r1_end_mm - r1_start_mm) / duration_s;
+        let point = (r_mm * theta_rad.cos(), r_mm * theta_rad.sin());
+        let r1 = |t: f64| r1_start_mm + feed * t;
+        let alpha = |t: f64| theta_rad - start_rad + omega * t;
+        let rt2 = self.tool_radius_mm * self.tool_radius_mm;
+        let reach =
+            |t: f64| rt2 - r_mm * r_mm - r1(t) * r1(t) + 2.0 * r_mm * r1(t) * alpha(t).cos();
+        let slope = |t: f64| {
+            let (s, c) = alpha(t).sin_cos();
+            -2.0 * r1(t) * feed + 2.0 * r_mm * feed * c - 2.0 * r_mm * r1(t) * omega * s
+        };
+        let rate = |t: f64| {
+            let phi = start_rad - omega * t;
+            self.rate_at(point, (r1(t) * phi.cos(), r1(t) * phi.sin()))
+        };
+        // The extremes of g: near each time α passes a multiple of π (a quarter turn either
+        // side brackets the root of g′ while the feed is slower than r·Ω, as any pass is).
+        let quarter = PI / 2.0 / omega.abs();
+        let first = ((alpha(0.0) / PI).min(alpha(duration_s) / PI)).floor() as i64;
+        let last = ((alpha(0.0) / PI).max(alpha(duration_s) / PI)).ceil() as i64;
+        let mut cuts = vec![0.0, duration_s];
+        for k in first..=last {
+            let passing = (k as f64 * PI - alpha(0.0)) / omega;
+            let (a, b) = (
+                (passing - quarter).max(0.0),
+                (passing + quarter).min(duration_s),
+            );
+            if a >= b {
+                continue;
+            }
+            let (sa, sb) = (slope(a), slope(b));
+            if sa * sb < 0.0 {
+                cuts.push(illinois(&slope, (a, sa), (b, sb), 1e-15 * duration_s, 0.0));
+            }
+        }
+        cuts.sort_by(f64::total_cmp);
+        // Each monotone piece: its crossing, if any, then the parts under the pad.
+        let largest = self.largest_rate(r_mm, r1_start_mm.max(r1_end_mm));
+        let density = RELATIVE_TOLERANCE * largest;
+        let mut depth = 0.0;
+        for piece in cuts.windows(2) {
+            let (a, b) = (piece[0], piece[1]);
+            if b <= a {
+                continue;
+            }
+            let (ga, gb) = (reach(a), reach(b));
+            let mut ends = vec![a];
+            if ga * gb < 0.0 {
+                ends.push(illinois(&reach, (a, ga), (b, gb), 1e-15 * duration_s, 0.0));
+            }
+            ends.push(b);
+            for part in ends.windows(2) {
+                let (lo, hi) = (part[0], part[1]);
+                if hi > lo && reach(0.5 * (lo + hi)) >= 0.0 {
+                    depth += adaptive_gauss_kronrod(&rate, lo, hi, density);
+                }
+            }
+        }
+        depth
+    }
+
+    /// An upper bound of the footprint's rate at radius `r_mm` with the pad centre within
+    /// `r1_max_mm` of the axis (nm/s): K·P times the largest pressure factor and sliding speed.
+    fn largest_rate(&self, r_mm: f64, r1_max_mm: f64) -> f64 {
+        let speed =
+            (self.tool_speed - self.part_speed).abs() * r_mm + self.tool_speed.abs() * r1_max_mm;
+        let pressure = self.kernel.pad_pressure(r1_max_mm);
+        let factor = pressure.level + pressure.slope_per_mm.abs() * 2.0 * self.tool_radius_mm;
+        self.preston * factor.max(1.0) * speed.max(f64::MIN_POSITIVE)
     }
 }

@@ -249,7 +249,7 @@ impl Placement {
             (None, None) => return Err(MapInputError::PixelSizeUnknown),
         };
         let across_mm = map.width().max(map.height()) as f64 * pixel_mm;
-        if !(across_mm <= MAX_MAP_EXTENT_MM) {
+        if across_mm.is_nan() || across_mm > MAX_MAP_EXTENT_MM {
             return Err(MapInputError::invalid(
                 I::PixelSize,
                 format!(

@@ -251,3 +251,70 @@ fn a_linear_pad_s_partial_ring_is_its_footprint_swept() {
     }
     assert!(checked > 10, "{checked} points touched");
 }
+
+/// Spirals at constant Ω — the pad moving in or out while C turns, over the centre and over
+/// the edge, both directions of C — agree with the time-stepped motion to 1e-6 of the peak
+/// depth (the reference at 1.2·10⁴ steps per C revolution, ~1e-7 of the peak).
+#[test]
+fn spirals_match_the_time_stepped_motion() {
+    let cases = [
+        // workpiece rpm, tool rpm, r1 from, r1 to, start angle, turns
+        (-37.0, 600.0, 2.0, 30.0, 0.4, 3.3),
+        (45.0, -300.0, 33.0, 8.0, -1.0, 2.6),
+        (20.0, 200.0, 14.0, 16.0, 2.0, 1.45),
+    ];
+    let points = points();
+    for (workpiece_rpm, tool_rpm, from, to, start, turns) in cases {
+        let pad = PolarPad::new(&process(workpiece_rpm, tool_rpm, PressureModel::Uniform)).unwrap();
+        let duration = turns * 60.0 / f64::abs(workpiece_rpm);
+        let setup = Setup {
+            part_radius_mm: 40.0,
+            pad_radius_mm: 10.0,
+            tool_rpm,
+            scale_nm_per_mm: scale(),
+            start_angle_rad: start,
+        };
+        let motion = [Segment::Spiral {
+            r1_start_mm: from,
+            r1_end_mm: to,
+            omega_rpm: workpiece_rpm,
+            duration_s: duration,
+        }];
+        let steps_per_second = 1.2e4 * f64::abs(workpiece_rpm) / 60.0;
+        let reference = depth_nm(&setup, &motion, &points, steps_per_second);
+        let peak = reference.iter().cloned().fold(0.0, f64::max);
+        assert!(peak > 0.0);
+        let worst = points
+            .iter()
+            .zip(&reference)
+            .map(|(&(x, y), want)| {
+                let got = pad.spiral_depth_nm(x.hypot(y), y.atan2(x), (from, to), start, duration);
+                (got - want).abs()
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            worst <= 1e-6 * peak,
+            "{workpiece_rpm} / {tool_rpm} rpm, {from} → {to} mm: {worst:e} nm against a peak of {peak} nm"
+        );
+    }
+}
+
+/// A spiral that does not move is a ring: the same depth to 1e-10 of the peak.
+#[test]
+fn a_spiral_standing_still_is_a_ring() {
+    let pad = PolarPad::new(&process(-15.0, 200.0, PressureModel::ConstantForce)).unwrap();
+    let duration = 1.7 * 60.0 / 15.0;
+    let points = points();
+    let rings: Vec<f64> = points
+        .iter()
+        .map(|&(x, y)| pad.ring_depth_nm(x.hypot(y), y.atan2(x), 31.0, 0.3, duration))
+        .collect();
+    let peak = rings.iter().cloned().fold(0.0, f64::max);
+    for (&(x, y), ring) in points.iter().zip(&rings) {
+        let spiral = pad.spiral_depth_nm(x.hypot(y), y.atan2(x), (31.0, 31.0), 0.3, duration);
+        assert!(
+            (spiral - ring).abs() <= 1e-10 * peak,
+            "({x}, {y}): {spiral} vs {ring}"
+        );
+    }
+}
