@@ -60,7 +60,8 @@ pub enum PolarError {
     CurvedPart,
 }
 
-/// The pad of a process at the process's C speed: its footprint, and the removal of a ring.
+/// The pad of a process at the process's C speed: its footprint, and the removal of a ring or a
+/// spiral.
 #[derive(Debug, Clone)]
 pub struct PolarPad {
     kernel: RemovalKernel,
