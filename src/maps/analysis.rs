@@ -24,7 +24,7 @@
 //!   axis), sampled every pixel pitch; e > 0 is material standing proud. **Non-axisymmetric**:
 //!   RMS and PV of h′ less it, what a plan in radius alone leaves.
 
-use super::aperture::{Alignment, Aperture};
+use super::aperture::{Alignment, Aperture, Frame};
 use super::psd::{self, Spectrum};
 use super::radial::{RadialFit, KNOT_SPACING_PX};
 use super::zernike::{Basis, Normalization, Ordering, Term, ZernikeError};
@@ -245,20 +245,16 @@ pub fn aperture_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Apertu
     }
 }
 
-/// How many valid pixels lie in the aperture (the `pixels` of [`aperture_pixels`] alone).
+/// How many valid pixels lie in the aperture (the `pixels` of [`aperture_pixels`] alone),
+/// counted by rows in parallel.
 pub fn count_aperture_pixels(map: &HeightMap, alignment: &Alignment, aperture: &Aperture) -> usize {
     let frame = alignment.frame();
     map.heights_nm()
         .par_chunks(map.width())
         .enumerate()
         .map(|(row, heights)| {
-            heights
-                .iter()
-                .enumerate()
-                .filter(|&(column, h)| {
-                    let (x, y) = frame.to_part(column as f64, row as f64);
-                    h.is_some() && aperture.contains(x, y)
-                })
+            row_in_aperture(&frame, aperture, row, heights)
+                .filter(|(_, _, h)| h.is_some())
                 .count()
         })
         .sum()
@@ -274,13 +270,24 @@ fn walk_aperture(
 ) {
     let frame = alignment.frame();
     for (row, heights) in map.heights_nm().chunks(map.width()).enumerate() {
-        for (column, h) in heights.iter().enumerate() {
-            let (x, y) = frame.to_part(column as f64, row as f64);
-            if aperture.contains(x, y) {
-                visit(column, row, (x, y), *h);
-            }
+        for (column, position, h) in row_in_aperture(&frame, aperture, row, heights) {
+            visit(column, row, position, h);
         }
     }
+}
+
+/// The pixels of one row (its `heights`) in the aperture: column, position in the part's
+/// frame (mm) and height.
+fn row_in_aperture<'a>(
+    frame: &'a Frame,
+    aperture: &'a Aperture,
+    row: usize,
+    heights: &'a [Option<f64>],
+) -> impl Iterator<Item = (usize, (f64, f64), Option<f64>)> + 'a {
+    heights.iter().enumerate().filter_map(move |(column, h)| {
+        let (x, y) = frame.to_part(column as f64, row as f64);
+        aperture.contains(x, y).then_some((column, (x, y), *h))
+    })
 }
 
 /// The analysis (module docs) of `map` as `plan` says.

@@ -1044,16 +1044,7 @@ async fn analysed(app: &axum::Router, bytes: &[u8], accept: &str) -> crate::comm
 #[tokio::test]
 async fn a_term_count_written_with_a_fraction_is_a_count() {
     let app = app();
-    let rows: Vec<Vec<Option<f64>>> = (0..25)
-        .map(|r| {
-            (0..25)
-                .map(|c| {
-                    let (x, y) = ((c as f64 - 12.0) / 12.0, (r as f64 - 12.0) / 12.0);
-                    (x * x + y * y <= 1.0).then_some(10.0 * (x * x - y * y) + 3.0 * x)
-                })
-                .collect()
-        })
-        .collect();
+    let rows = small_disc(|x, y| 10.0 * (x * x - y * y) + 3.0 * x);
     let body = |terms: &str| {
         format!(
             r#"{{"map": {{"heights_nm": {}, "pixel_mm": 1.0}}, "zernike": {{"terms": {terms}}}}}"#,
@@ -1089,16 +1080,7 @@ async fn a_term_count_written_with_a_fraction_is_a_count() {
 #[tokio::test]
 async fn a_pixel_wider_than_any_part_is_refused() {
     let app = app();
-    let rows: Vec<Vec<Option<f64>>> = (0..25)
-        .map(|r| {
-            (0..25)
-                .map(|c| {
-                    let (x, y) = ((c as f64 - 12.0) / 12.0, (r as f64 - 12.0) / 12.0);
-                    (x * x + y * y <= 1.0).then_some(10.0 * x * y)
-                })
-                .collect()
-        })
-        .collect();
+    let rows = small_disc(|x, y| 10.0 * x * y);
     let rows = serde_json::to_string(&rows).unwrap();
     for pixel in ["1.1198504656359032e+167", "4001.0"] {
         let body =
@@ -1123,4 +1105,18 @@ async fn a_pixel_wider_than_any_part_is_refused() {
     let fine =
         format!(r#"{{"map": {{"heights_nm": {rows}, "pixel_mm": 1.0}}, "pixel_mm": 3999.0}}"#);
     assert_eq!(post_json(&app, "/v1/maps/analysis", fine).await.status, 200);
+}
+
+/// `f` on a disc of 25 × 25 pixels (x, y in the disc's unit coordinates), no data outside.
+fn small_disc(f: impl Fn(f64, f64) -> f64) -> Vec<Vec<Option<f64>>> {
+    (0..25)
+        .map(|r| {
+            (0..25)
+                .map(|c| {
+                    let (x, y) = ((c as f64 - 12.0) / 12.0, (r as f64 - 12.0) / 12.0);
+                    (x * x + y * y <= 1.0).then(|| f(x, y))
+                })
+                .collect()
+        })
+        .collect()
 }

@@ -88,39 +88,54 @@ fn rings_at_constant_speed_match_the_time_stepped_motion() {
         (90.0, 90.0, 12.0, 0.0, 0.8),    // η = −1: pure translation
         (-15.0, 200.0, 35.0, 1.3, 2.25), // over the edge
     ];
-    let points = points();
     for (workpiece_rpm, tool_rpm, r1, start, turns) in cases {
         let pad = PolarPad::new(&process(workpiece_rpm, tool_rpm, PressureModel::Uniform)).unwrap();
         let duration = turns * 60.0 / f64::abs(workpiece_rpm);
-        let setup = Setup {
-            part_radius_mm: 40.0,
-            pad_radius_mm: 10.0,
-            tool_rpm,
-            scale_nm_per_mm: scale(),
-            start_angle_rad: start,
-        };
-        let motion = [Segment::Ring {
+        let segment = Segment::Ring {
             r1_mm: r1,
             omega_rpm: workpiece_rpm,
             duration_s: duration,
-        }];
-        let steps_per_second = 1.2e4 * f64::abs(workpiece_rpm) / 60.0;
-        let reference = depth_nm(&setup, &motion, &points, steps_per_second);
-        let peak = reference.iter().cloned().fold(0.0, f64::max);
-        assert!(peak > 0.0);
-        let worst = points
-            .iter()
-            .zip(&reference)
-            .map(|(&(x, y), want)| {
-                let got = pad.ring_depth_nm(x.hypot(y), y.atan2(x), r1, start, duration);
-                (got - want).abs()
-            })
-            .fold(0.0, f64::max);
+        };
+        let (worst, peak) = against_reference(tool_rpm, start, segment, |r, theta| {
+            pad.ring_depth_nm(r, theta, r1, start, duration)
+        });
         assert!(
             worst <= 1e-6 * peak,
             "{workpiece_rpm} / {tool_rpm} rpm, r1 {r1}: {worst:e} nm against a peak of {peak} nm"
         );
     }
+}
+
+/// The largest difference (nm) between `depth` (at r, θ) and the time-stepped reference's
+/// depth of `segment` (from the pad angle `start`) over [`points`], and the reference's peak;
+/// the reference at 1.2·10⁴ steps per C revolution (~1e-7 of the peak).
+fn against_reference(
+    tool_rpm: f64,
+    start: f64,
+    segment: Segment,
+    depth: impl Fn(f64, f64) -> f64,
+) -> (f64, f64) {
+    let omega_rpm = match segment {
+        Segment::Ring { omega_rpm, .. } | Segment::Spiral { omega_rpm, .. } => omega_rpm,
+        Segment::Modulated { mean_omega_rpm, .. } => mean_omega_rpm,
+    };
+    let setup = Setup {
+        part_radius_mm: 40.0,
+        pad_radius_mm: 10.0,
+        tool_rpm,
+        scale_nm_per_mm: scale(),
+        start_angle_rad: start,
+    };
+    let points = points();
+    let reference = depth_nm(&setup, &[segment], &points, 1.2e4 * omega_rpm.abs() / 60.0);
+    let peak = reference.iter().cloned().fold(0.0, f64::max);
+    assert!(peak > 0.0);
+    let worst = points
+        .iter()
+        .zip(&reference)
+        .map(|(&(x, y), want)| (depth(x.hypot(y), y.atan2(x)) - want).abs())
+        .fold(0.0, f64::max);
+    (worst, peak)
 }
 
 /// Whole turns at constant Ω leave the 1-D prediction at every angle: R(r; r1)·T from
@@ -263,35 +278,18 @@ fn spirals_match_the_time_stepped_motion() {
         (45.0, -300.0, 33.0, 8.0, -1.0, 2.6),
         (20.0, 200.0, 14.0, 16.0, 2.0, 1.45),
     ];
-    let points = points();
     for (workpiece_rpm, tool_rpm, from, to, start, turns) in cases {
         let pad = PolarPad::new(&process(workpiece_rpm, tool_rpm, PressureModel::Uniform)).unwrap();
         let duration = turns * 60.0 / f64::abs(workpiece_rpm);
-        let setup = Setup {
-            part_radius_mm: 40.0,
-            pad_radius_mm: 10.0,
-            tool_rpm,
-            scale_nm_per_mm: scale(),
-            start_angle_rad: start,
-        };
-        let motion = [Segment::Spiral {
+        let segment = Segment::Spiral {
             r1_start_mm: from,
             r1_end_mm: to,
             omega_rpm: workpiece_rpm,
             duration_s: duration,
-        }];
-        let steps_per_second = 1.2e4 * f64::abs(workpiece_rpm) / 60.0;
-        let reference = depth_nm(&setup, &motion, &points, steps_per_second);
-        let peak = reference.iter().cloned().fold(0.0, f64::max);
-        assert!(peak > 0.0);
-        let worst = points
-            .iter()
-            .zip(&reference)
-            .map(|(&(x, y), want)| {
-                let got = pad.spiral_depth_nm(x.hypot(y), y.atan2(x), (from, to), start, duration);
-                (got - want).abs()
-            })
-            .fold(0.0, f64::max);
+        };
+        let (worst, peak) = against_reference(tool_rpm, start, segment, |r, theta| {
+            pad.spiral_depth_nm(r, theta, (from, to), start, duration)
+        });
         assert!(
             worst <= 1e-6 * peak,
             "{workpiece_rpm} / {tool_rpm} rpm, {from} → {to} mm: {worst:e} nm against a peak of {peak} nm"
