@@ -23,7 +23,7 @@ mod wide;
 pub use curved::{Orientation, Part};
 pub use grid::{check_radius, ClearAperture, GridError, RadialGrid, Reach};
 pub use metrics::UniformityMetrics;
-pub use motion::{Motion, Segment, Turning};
+pub use motion::{Motion, SectorLaw, SectorLawError, Segment, Turning};
 pub use operator::{Layout, RemovalOperator, RowReading};
 pub use pressure::{PressureModel, PressureModelKind};
 pub use process::{Eta, Process, ProcessError, ProcessSpec};

@@ -31,18 +31,100 @@
 //!
 //! [`Motion`] holds this once per request: the stations (the positions, each a point of the
 //! part), their cells, the [`Segment`]s (stops and moves, each spending a share of one
-//! station's dwell) and how C turns ([`Turning`]: today at the part's constant speed, so
-//! the removal is axisymmetric and the 1-D model above is exact). The operator reads its
+//! station's dwell) and how C turns ([`Turning`]: at the part's constant speed, so the removal
+//! is axisymmetric and the 1-D model above is exact; or under a [`SectorLaw`], C's speed set
+//! per station and sector, whose removal is 2-D: `super::polar::executed_blocks`). The operator reads its
 //! cells and shares ([`super::operator`]), the machine program runs its segments
 //! (`machine::Program::from_motion`), and the optimizer's kinematics read the axes' travel
 //! across its cells (`optimize::kinematics`); none of them derives the cells again.
 
 /// How the part turns on C while the tool moves.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Turning {
     /// At the process's part speed throughout (C as a spindle): every angle is swept alike, so
     /// the removal is axisymmetric and a station's angle does not enter it.
     Constant,
+    /// C in position control, its speed set per station and per sector of the part
+    /// ([`SectorLaw`]): the dwell then varies with the angle as well as the radius.
+    Sectors(SectorLaw),
+}
+
+/// C's speed law: the part's circle divided into S equal sectors of the pad centre's angle φ
+/// in the part's frame (sector k holds φ mod 2π in [2πk/S, 2π(k + 1)/S)), and for each
+/// station a factor per sector: while station j's dwell is spent with the pad over sector k,
+/// the part turns at `factor(j, k)` times the process's speed. Factors are positive (C keeps
+/// its direction), so the part still turns through every sector; within a sector both C and X
+/// move at constant speed, which is what a program's blocks in inverse time (G93) execute.
+/// A law of factors 1 is C at constant speed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SectorLaw {
+    sectors: usize,
+    /// Station-major: factor(j, k) = factors[j·S + k].
+    factors: Vec<f64>,
+}
+
+/// Why a C speed law does not fit its motion.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SectorLawError {
+    #[error("a C speed law needs at least one sector")]
+    NoSectors,
+    #[error("{stations} stations of {sectors} sectors need {expected} speed factors, not {got}")]
+    Shape {
+        stations: usize,
+        sectors: usize,
+        expected: usize,
+        got: usize,
+    },
+    #[error("station {station}, sector {sector}: a C speed factor must be positive and finite, not {value}")]
+    Factor {
+        station: usize,
+        sector: usize,
+        value: f64,
+    },
+}
+
+impl SectorLaw {
+    /// The law of `factors` (station-major, `sectors` per station) for `stations` stations.
+    pub fn new(
+        stations: usize,
+        sectors: usize,
+        factors: Vec<f64>,
+    ) -> Result<SectorLaw, SectorLawError> {
+        if sectors == 0 {
+            return Err(SectorLawError::NoSectors);
+        }
+        if factors.len() != stations * sectors {
+            return Err(SectorLawError::Shape {
+                stations,
+                sectors,
+                expected: stations * sectors,
+                got: factors.len(),
+            });
+        }
+        if let Some(i) = factors.iter().position(|f| !(f.is_finite() && *f > 0.0)) {
+            return Err(SectorLawError::Factor {
+                station: i / sectors,
+                sector: i % sectors,
+                value: factors[i],
+            });
+        }
+        Ok(SectorLaw { sectors, factors })
+    }
+
+    /// S, the sectors per turn.
+    pub fn sectors(&self) -> usize {
+        self.sectors
+    }
+
+    /// The angle of one sector, rad.
+    pub fn sector_rad(&self) -> f64 {
+        std::f64::consts::TAU / self.sectors as f64
+    }
+
+    /// The part's speed over sector k during station j's dwell, as a multiple of the process's.
+    pub fn factor(&self, station: usize, sector: usize) -> f64 {
+        self.factors[station * self.sectors + sector]
+    }
 }
 
 /// One piece of a motion: a stop at a station, or a constant-speed move across its cell.
@@ -144,8 +226,25 @@ impl Motion {
         &self.bounds_mm
     }
 
-    pub fn turning(&self) -> Turning {
-        self.turning
+    pub fn turning(&self) -> &Turning {
+        &self.turning
+    }
+
+    /// This motion with C turning by `law` (one factor per sector for each of its stations).
+    pub fn with_sector_law(self, law: SectorLaw) -> Result<Motion, SectorLawError> {
+        let stations = law.factors.len() / law.sectors;
+        if stations != self.len() {
+            return Err(SectorLawError::Shape {
+                stations: self.len(),
+                sectors: law.sectors,
+                expected: self.len() * law.sectors,
+                got: law.factors.len(),
+            });
+        }
+        Ok(Motion {
+            turning: Turning::Sectors(law),
+            ..self
+        })
     }
 
     /// w_j: the share of station j's dwell spent moving across its cell (½ at either end of a

@@ -39,10 +39,21 @@
 //! θ, S̃(θ + c) − S̃(θ) is c/2π of a whole turn. A motion's azimuthal mean is therefore the
 //! 1-D prediction at the C speed of each instant; what is left around it is the ripple of
 //! where the rings begin and end.
+//!
+//! **A motion.** A plan's stops and moves (`Motion::segments`, X at constant speed in each)
+//! run with C at the process's Ω, or under a sector law at f·Ω over each sector of the pad
+//! centre's part-frame angle; cut where that angle crosses a sector's edge, the executed
+//! motion is a chain of [`Block`]s at constant speeds on both axes ([`executed_blocks`]), each
+//! a ring (closed form) or a piece of spiral (quadrature) at its own Ω, and the depth is their
+//! sum. Only ω2 − Ω in the sliding speed depends on Ω on a plane, so one pad per distinct
+//! speed serves ([`RemovalKernel::with_part_speed`]).
 
 use std::f64::consts::{PI, TAU};
 
+use rayon::prelude::*;
+
 use super::kronrod::adaptive_gauss_kronrod;
+use super::motion::{Motion, Turning};
 use super::process::Process;
 use super::removal::RemovalKernel;
 use super::roots::illinois;
@@ -92,6 +103,73 @@ impl PolarPad {
     /// Ω, rad/s (counter-clockwise positive; never 0: a process's part turns).
     pub fn part_speed_rad_per_s(&self) -> f64 {
         self.part_speed
+    }
+
+    /// The same pad with the part turning at `part_speed_rad_per_s` (non-zero).
+    pub fn turning_at(&self, part_speed_rad_per_s: f64) -> PolarPad {
+        PolarPad {
+            kernel: self
+                .kernel
+                .with_part_speed(part_speed_rad_per_s)
+                .expect("a polar pad is on a flat part"),
+            part_speed: part_speed_rad_per_s,
+            ..self.clone()
+        }
+    }
+
+    /// The depth (nm) `blocks` leave at each of `points` (x, y mm, part frame): each block a
+    /// ring or a spiral at its own C speed, summed in the blocks' order.
+    pub fn depth_nm(&self, blocks: &[Block], points: &[(f64, f64)]) -> Vec<f64> {
+        // One pad per distinct C speed.
+        let mut speeds: Vec<f64> = blocks.iter().map(|b| b.part_speed_rad_per_s).collect();
+        speeds.sort_by(f64::total_cmp);
+        speeds.dedup();
+        let pads: Vec<PolarPad> = speeds.iter().map(|&w| self.turning_at(w)).collect();
+        let pad_of: Vec<&PolarPad> = blocks
+            .iter()
+            .map(|b| {
+                let i = speeds
+                    .binary_search_by(|w| w.total_cmp(&b.part_speed_rad_per_s))
+                    .expect("every block's speed is listed");
+                &pads[i]
+            })
+            .collect();
+        let rt = self.tool_radius_mm;
+        points
+            .par_iter()
+            .map(|&(x, y)| {
+                let (r, theta) = (x.hypot(y), y.atan2(x));
+                blocks
+                    .iter()
+                    .zip(&pad_of)
+                    .filter(|(b, _)| {
+                        r >= b.from_mm.min(b.to_mm) - rt && r <= b.from_mm.max(b.to_mm) + rt
+                    })
+                    .map(|(b, pad)| pad.block_depth_nm(r, theta, b))
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// The depth (nm) at (r_mm, θ) of one block, at this pad's C speed (the block's own).
+    fn block_depth_nm(&self, r_mm: f64, theta_rad: f64, block: &Block) -> f64 {
+        if block.from_mm == block.to_mm {
+            self.ring_depth_nm(
+                r_mm,
+                theta_rad,
+                block.from_mm,
+                block.start_rad,
+                block.duration_s,
+            )
+        } else {
+            self.spiral_depth_nm(
+                r_mm,
+                theta_rad,
+                (block.from_mm, block.to_mm),
+                block.start_rad,
+                block.duration_s,
+            )
+        }
     }
 
     /// The footprint ρ (nm/s) at the part's point `point` (x, y mm, part frame) with the pad
@@ -238,4 +316,104 @@ impl PolarPad {
         let factor = pressure.level + pressure.slope_per_mm.abs() * 2.0 * self.tool_radius_mm;
         self.preston * factor.max(1.0) * speed.max(f64::MIN_POSITIVE)
     }
+}
+
+/// A piece of the executed motion at constant speed on both axes: the pad centre from the
+/// radius `from_mm` to `to_mm` (linear in time) and from the part-frame angle `start_rad`, for
+/// `duration_s`, with the part turning at `part_speed_rad_per_s` (so the pad centre's angle
+/// falls at that rate). A ring when `from_mm == to_mm`, else a piece of spiral.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Block {
+    /// The station whose dwell the block spends.
+    pub station: usize,
+    pub from_mm: f64,
+    pub to_mm: f64,
+    pub start_rad: f64,
+    pub duration_s: f64,
+    pub part_speed_rad_per_s: f64,
+}
+
+/// The blocks `motion` runs with `dwell_s` at its stations: its stops and moves in order
+/// (`Motion::segments`), X at constant speed within each; C at `part_speed_rad_per_s` (the
+/// process's Ω) throughout, or under a sector law at Ω times the factor of the sector the pad
+/// centre is over, each segment then cut where the pad centre crosses a sector's edge. The
+/// pad centre starts at the part-frame angle `start_rad`, and its angle is continuous from
+/// segment to segment (dφ/dt = −Ω); a segment of no dwell takes no time and no block.
+pub fn executed_blocks(
+    motion: &Motion,
+    dwell_s: &[f64],
+    part_speed_rad_per_s: f64,
+    start_rad: f64,
+) -> Vec<Block> {
+    debug_assert_eq!(dwell_s.len(), motion.len());
+    let omega = part_speed_rad_per_s;
+    let mut phi = start_rad;
+    let mut blocks = Vec::new();
+    for segment in motion.segments() {
+        let station = segment.station();
+        let duration = segment.share() * dwell_s[station];
+        if duration <= 0.0 {
+            continue;
+        }
+        let (from, to) = segment.ends_mm();
+        let at = |elapsed: f64| from + (to - from) * (elapsed / duration);
+        match motion.turning() {
+            Turning::Constant => {
+                blocks.push(Block {
+                    station,
+                    from_mm: from,
+                    to_mm: to,
+                    start_rad: phi,
+                    duration_s: duration,
+                    part_speed_rad_per_s: omega,
+                });
+                phi -= omega * duration;
+            }
+            Turning::Sectors(law) => {
+                let width = law.sector_rad();
+                let falling = omega > 0.0;
+                // The next sector edge the pad centre meets, as a multiple of the width, and
+                // the sector it is over until then.
+                let mut edge = if falling {
+                    (phi / width).ceil() as i64 - 1
+                } else {
+                    (phi / width).floor() as i64 + 1
+                };
+                let mut elapsed = 0.0;
+                while elapsed < duration {
+                    let sector = if falling { edge } else { edge - 1 }
+                        .rem_euclid(law.sectors() as i64) as usize;
+                    let speed = omega * law.factor(station, sector);
+                    let to_edge = (edge as f64 * width - phi).abs() / speed.abs();
+                    let time = to_edge.min(duration - elapsed);
+                    blocks.push(Block {
+                        station,
+                        from_mm: at(elapsed),
+                        to_mm: if time < to_edge {
+                            to
+                        } else {
+                            at(elapsed + time)
+                        },
+                        start_rad: phi,
+                        duration_s: time,
+                        part_speed_rad_per_s: speed,
+                    });
+                    if time < to_edge {
+                        phi -= speed * time;
+                        break;
+                    }
+                    phi = edge as f64 * width;
+                    edge += if falling { -1 } else { 1 };
+                    if elapsed + time == elapsed {
+                        // A sector too brief to count against the segment's time: the
+                        // caller bounds the blocks a plan may take, so this is never reached
+                        // by a checked plan; stop rather than spin.
+                        break;
+                    }
+                    elapsed += time;
+                }
+            }
+        }
+    }
+    blocks
 }

@@ -183,6 +183,23 @@ impl RemovalKernel {
         self.tool_radius
     }
 
+    /// The same pad with the part turning at `part_speed_rad_per_s` (Ω, lab frame,
+    /// counter-clockwise positive) instead of the process's speed: on a plane only the
+    /// sliding speed depends on Ω (the contact and the pressure depend on where the pad is),
+    /// so only ω1 + ω2 = ω2 − Ω changes. `None` on a curved part.
+    pub fn with_part_speed(&self, part_speed_rad_per_s: f64) -> Option<RemovalKernel> {
+        if self.curved.is_some() {
+            return None;
+        }
+        let omega_sum = self.omega2 - part_speed_rad_per_s;
+        Some(RemovalKernel {
+            omega_sum,
+            // η = −1 exactly: the relative motion under the pad is a pure translation.
+            translation: omega_sum == 0.0,
+            ..self.clone()
+        })
+    }
+
     /// Removal rate in nm/s at radius `r_mm` with the tool centre at `r1_mm` (both ≥ 0).
     pub fn rate_nm_per_s(&self, r_mm: f64, r1_mm: f64) -> f64 {
         self.rate_under(&self.pad_pressure(r1_mm), r_mm, r1_mm)

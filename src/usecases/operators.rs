@@ -76,7 +76,8 @@ impl Default for OperatorCache {
 /// Every bit the operator of `process` from `motion` to `radii_mm` depends on.
 fn key(process: &Process, radii_mm: &[f64], motion: &Motion) -> Vec<u64> {
     // The stations are the motion: with C turning at a constant speed they fix the cells.
-    let Turning::Constant = motion.turning();
+    // (The 1-D operator is C at constant speed; a C law's removal is 2-D, `physics::polar`.)
+    debug_assert_eq!(motion.turning(), &Turning::Constant);
     let stations_mm = motion.radii_mm();
     let s = process.spec();
     let surface = s.part.surface.key_bits();

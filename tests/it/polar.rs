@@ -5,8 +5,10 @@
 
 use std::f64::consts::TAU;
 
-use preston::physics::polar::PolarPad;
-use preston::physics::{Part, PressureModel, Process, ProcessSpec, RemovalKernel};
+use preston::physics::polar::{executed_blocks, Block, PolarPad};
+use preston::physics::{
+    Motion, Part, PressureModel, Process, ProcessSpec, RemovalKernel, RemovalOperator, SectorLaw,
+};
 
 use super::polar_reference::{depth_nm, Segment, Setup};
 
@@ -96,9 +98,12 @@ fn rings_at_constant_speed_match_the_time_stepped_motion() {
             omega_rpm: workpiece_rpm,
             duration_s: duration,
         };
-        let (worst, peak) = against_reference(tool_rpm, start, segment, |r, theta| {
-            pad.ring_depth_nm(r, theta, r1, start, duration)
-        });
+        let (worst, peak) = against_reference(
+            tool_rpm,
+            start,
+            &[segment],
+            at_each(|r, theta| pad.ring_depth_nm(r, theta, r1, start, duration)),
+        );
         assert!(
             worst <= 1e-6 * peak,
             "{workpiece_rpm} / {tool_rpm} rpm, r1 {r1}: {worst:e} nm against a peak of {peak} nm"
@@ -106,19 +111,28 @@ fn rings_at_constant_speed_match_the_time_stepped_motion() {
     }
 }
 
-/// The largest difference (nm) between `depth` (at r, θ) and the time-stepped reference's
-/// depth of `segment` (from the pad angle `start`) over [`points`], and the reference's peak;
-/// the reference at 1.2·10⁴ steps per C revolution (~1e-7 of the peak).
+/// The largest difference (nm) between the depths `depths` gives at [`points`] and the
+/// time-stepped reference's depth of `segments` (from the pad angle `start`) there, and the
+/// reference's peak; the reference at 1.6·10⁴ steps per C revolution at the fastest speed
+/// (~1e-7 of the peak).
 fn against_reference(
     tool_rpm: f64,
     start: f64,
-    segment: Segment,
-    depth: impl Fn(f64, f64) -> f64,
+    segments: &[Segment],
+    depths: impl Fn(&[(f64, f64)]) -> Vec<f64>,
 ) -> (f64, f64) {
-    let omega_rpm = match segment {
+    let fastest = |segment: &Segment| match *segment {
         Segment::Ring { omega_rpm, .. } | Segment::Spiral { omega_rpm, .. } => omega_rpm,
         Segment::Modulated { mean_omega_rpm, .. } => mean_omega_rpm,
+        // Steps counted at the fastest sector.
+        Segment::Sectors { ref omega_rpm, .. } => {
+            omega_rpm.iter().fold(0.0_f64, |m, w| m.max(w.abs()))
+        }
     };
+    let omega_rpm = segments
+        .iter()
+        .map(fastest)
+        .fold(0.0_f64, |m, w| m.max(w.abs()));
     let setup = Setup {
         part_radius_mm: 40.0,
         pad_radius_mm: 10.0,
@@ -127,15 +141,25 @@ fn against_reference(
         start_angle_rad: start,
     };
     let points = points();
-    let reference = depth_nm(&setup, &[segment], &points, 1.2e4 * omega_rpm.abs() / 60.0);
+    let reference = depth_nm(&setup, segments, &points, 1.6e4 * omega_rpm / 60.0);
     let peak = reference.iter().cloned().fold(0.0, f64::max);
     assert!(peak > 0.0);
-    let worst = points
+    let worst = depths(&points)
         .iter()
         .zip(&reference)
-        .map(|(&(x, y), want)| (depth(x.hypot(y), y.atan2(x)) - want).abs())
+        .map(|(got, want)| (got - want).abs())
         .fold(0.0, f64::max);
     (worst, peak)
+}
+
+/// `depth` (at r, θ) at each of `points` (x, y).
+fn at_each(depth: impl Fn(f64, f64) -> f64) -> impl Fn(&[(f64, f64)]) -> Vec<f64> {
+    move |points| {
+        points
+            .iter()
+            .map(|&(x, y)| depth(x.hypot(y), y.atan2(x)))
+            .collect()
+    }
 }
 
 /// Whole turns at constant Ω leave the 1-D prediction at every angle: R(r; r1)·T from
@@ -287,9 +311,12 @@ fn spirals_match_the_time_stepped_motion() {
             omega_rpm: workpiece_rpm,
             duration_s: duration,
         };
-        let (worst, peak) = against_reference(tool_rpm, start, segment, |r, theta| {
-            pad.spiral_depth_nm(r, theta, (from, to), start, duration)
-        });
+        let (worst, peak) = against_reference(
+            tool_rpm,
+            start,
+            &[segment],
+            at_each(|r, theta| pad.spiral_depth_nm(r, theta, (from, to), start, duration)),
+        );
         assert!(
             worst <= 1e-6 * peak,
             "{workpiece_rpm} / {tool_rpm} rpm, {from} → {to} mm: {worst:e} nm against a peak of {peak} nm"
@@ -313,6 +340,300 @@ fn a_spiral_standing_still_is_a_ring() {
         assert!(
             (spiral - ring).abs() <= 1e-10 * peak,
             "({x}, {y}): {spiral} vs {ring}"
+        );
+    }
+}
+
+/// The test's own adaptive Simpson rule on [a, b], to `tolerance` absolute (Richardson's
+/// correction on each accepted panel).
+fn simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, tolerance: f64) -> f64 {
+    fn panel(
+        f: &dyn Fn(f64) -> f64,
+        (a, fa): (f64, f64),
+        (m, fm): (f64, f64),
+        (b, fb): (f64, f64),
+        whole: f64,
+        tolerance: f64,
+        depth: u32,
+    ) -> f64 {
+        let (l, r) = (0.5 * (a + m), 0.5 * (m + b));
+        let (fl, fr) = (f(l), f(r));
+        let left = (m - a) / 6.0 * (fa + 4.0 * fl + fm);
+        let right = (b - m) / 6.0 * (fm + 4.0 * fr + fb);
+        let error = left + right - whole;
+        if depth == 0 || error.abs() <= 15.0 * tolerance {
+            return left + right + error / 15.0;
+        }
+        panel(
+            f,
+            (a, fa),
+            (l, fl),
+            (m, fm),
+            left,
+            tolerance / 2.0,
+            depth - 1,
+        ) + panel(
+            f,
+            (m, fm),
+            (r, fr),
+            (b, fb),
+            right,
+            tolerance / 2.0,
+            depth - 1,
+        )
+    }
+    let m = 0.5 * (a + b);
+    let (fa, fm, fb) = (f(a), f(m), f(b));
+    let whole = (b - a) / 6.0 * (fa + 4.0 * fm + fb);
+    panel(f, (a, fa), (m, fm), (b, fb), whole, tolerance, 40)
+}
+
+/// The 1-D rate R(r; r1) with the part turning at `factor` times the process's speed: a
+/// process of its own at that speed (nothing of the polar code).
+fn rate_at_factor(
+    workpiece_rpm: f64,
+    tool_rpm: f64,
+    model: PressureModel,
+    factor: f64,
+) -> RemovalKernel {
+    RemovalKernel::new(&process(workpiece_rpm * factor, tool_rpm, model))
+}
+
+/// Under a sector law a ring's sectors are swept at their own speeds. Each sector of the
+/// executed motion is one block of Δ/(Ω·f_k) seconds, in the order the falling (Ω > 0) or
+/// rising (Ω < 0) angle meets them; and the azimuthal mean of the depth is Σ t_k·R_{f_k·Ω}:
+/// the 1-D removal at each instant's C speed. Averaged over N angles, N a multiple of the
+/// sectors and the ring ending on a sector's edge, every block sweeps whole steps of the grid
+/// and the identity holds to rounding (1e-12), under every pressure model; the ring is not
+/// round.
+#[test]
+fn a_sector_law_s_ring_averages_to_the_one_dimensional_removal_at_each_speed() {
+    let factors = [1.0, 1.3, 0.7, 1.1, 0.9, 1.5, 0.6, 1.2];
+    let sectors = factors.len();
+    let width = TAU / sectors as f64;
+    for (workpiece_rpm, model) in [
+        (20.0, PressureModel::Uniform),
+        (-20.0, PressureModel::ConstantForce),
+        (
+            20.0,
+            PressureModel::Linear {
+                pad_moment_share: 0.6,
+            },
+        ),
+    ] {
+        let tool_rpm = 240.0;
+        let process = process(workpiece_rpm, tool_rpm, model);
+        let omega = workpiece_rpm * TAU / 60.0;
+        let r1 = 14.0;
+        // 13 sectors from the edge at 0: falling, sectors 7, 6, …; rising, 0, 1, ….
+        let visited: Vec<usize> = (0..13)
+            .map(|i| {
+                if omega > 0.0 {
+                    (sectors - 1 - i % sectors) % sectors
+                } else {
+                    i % sectors
+                }
+            })
+            .collect();
+        let times: Vec<f64> = visited
+            .iter()
+            .map(|&k| width / (omega.abs() * factors[k]))
+            .collect();
+        let dwell = times.iter().sum::<f64>();
+        let law = SectorLaw::new(1, sectors, factors.to_vec()).unwrap();
+        let motion = Motion::radial(vec![r1]).with_sector_law(law).unwrap();
+        let blocks = executed_blocks(&motion, &[dwell], omega, 0.0);
+        assert_eq!(blocks.len(), 13);
+        for (block, (&k, &t)) in blocks.iter().zip(visited.iter().zip(&times)) {
+            assert!(
+                (block.duration_s - t).abs() <= 1e-12 * t,
+                "{block:?} vs {t}"
+            );
+            assert_eq!(block.part_speed_rad_per_s, omega * factors[k]);
+            assert_eq!((block.from_mm, block.to_mm), (r1, r1));
+        }
+        let kernels: Vec<RemovalKernel> = factors
+            .iter()
+            .map(|&f| rate_at_factor(workpiece_rpm, tool_rpm, model, f))
+            .collect();
+        let pad = PolarPad::new(&process).unwrap();
+        let n = 8 * 360;
+        for r in [4.5, 9.5, 14.0, 21.0, 23.5] {
+            let circle: Vec<(f64, f64)> = (0..n)
+                .map(|i| {
+                    let t = i as f64 * TAU / n as f64;
+                    (r * t.cos(), r * t.sin())
+                })
+                .collect();
+            let depths = pad.depth_nm(&blocks, &circle);
+            let mean = depths.iter().sum::<f64>() / n as f64;
+            let want: f64 = visited
+                .iter()
+                .zip(&times)
+                .map(|(&k, t)| t * kernels[k].rate_nm_per_s(r, r1))
+                .sum();
+            assert!(
+                (mean - want).abs() <= 1e-12 * want,
+                "{model:?} {workpiece_rpm} rpm, r {r}: mean {mean} vs {want}"
+            );
+            let (lo, hi) = depths
+                .iter()
+                .fold((f64::INFINITY, 0.0_f64), |(a, b), d| (a.min(*d), b.max(*d)));
+            assert!(hi - lo > 0.05 * want, "r {r}: a ripple of {} nm", hi - lo);
+        }
+    }
+}
+
+/// A plan of four stations (stops at its ends, spirals across its cells): with C at constant
+/// speed the azimuthal mean of its 2-D depth is the 1-D prediction (`RemovalOperator`) to
+/// 1e-9 of the peak; under a sector law it is ∫ R_{Ω(t)}(r; r1(t)) dt over the executed
+/// blocks, the same bound. The means are taken by the test's adaptive Simpson rule over θ
+/// (the depth is only piecewise smooth in θ, kinked where blocks begin and end under the
+/// pad) and the time integrals by the same rule over each block.
+#[test]
+fn a_plan_s_azimuthal_mean_is_the_one_dimensional_removal_of_its_instants() {
+    let (workpiece_rpm, tool_rpm, model) = (30.0, -200.0, PressureModel::Uniform);
+    let process = process(workpiece_rpm, tool_rpm, model);
+    let omega = workpiece_rpm * TAU / 60.0;
+    let stations = vec![6.0, 11.0, 15.0, 22.0];
+    let dwell = [2.5, 3.0, 1.5, 2.0];
+    let pad = PolarPad::new(&process).unwrap();
+    let radii = [0.4, 5.5, 12.3, 19.0, 27.9];
+    let mean_of = |blocks: &[Block], r: f64, peak: f64| {
+        let depth = |theta: f64| pad.depth_nm(blocks, &[(r * theta.cos(), r * theta.sin())])[0];
+        simpson(&depth, 0.0, TAU, 1e-11 * peak * TAU) / TAU
+    };
+
+    let constant = Motion::radial(stations.clone());
+    let blocks = executed_blocks(&constant, &dwell, omega, 0.3);
+    let one_d =
+        RemovalOperator::assemble(&RemovalKernel::new(&process), &radii, &constant).apply(&dwell);
+    let peak = one_d.iter().cloned().fold(0.0, f64::max);
+    for (&r, want) in radii.iter().zip(&one_d) {
+        let mean = mean_of(&blocks, r, peak);
+        assert!(
+            (mean - want).abs() <= 1e-9 * peak,
+            "constant C, r {r}: mean {mean} vs the 1-D {want} (peak {peak})"
+        );
+    }
+
+    let factors = [0.8, 1.25, 1.0, 0.6, 1.4, 0.9];
+    let law = SectorLaw::new(
+        stations.len(),
+        factors.len(),
+        (0..stations.len())
+            .flat_map(|j| factors.iter().map(move |f| f * (1.0 + 0.1 * j as f64)))
+            .collect(),
+    )
+    .unwrap();
+    let modulated = constant.with_sector_law(law).unwrap();
+    let blocks = executed_blocks(&modulated, &dwell, omega, 0.3);
+    assert!(blocks.len() > 3 * factors.len(), "{} blocks", blocks.len());
+    let spent: f64 = blocks.iter().map(|b| b.duration_s).sum();
+    assert!((spent - dwell.iter().sum::<f64>()).abs() <= 1e-12 * spent);
+    for &r in &radii {
+        let want: f64 = blocks
+            .iter()
+            .map(|b| {
+                let kernel = rate_at_factor(
+                    workpiece_rpm,
+                    tool_rpm,
+                    model,
+                    b.part_speed_rad_per_s / omega,
+                );
+                let r1 = |t: f64| b.from_mm + (b.to_mm - b.from_mm) * t / b.duration_s;
+                simpson(
+                    &|t| kernel.rate_nm_per_s(r, r1(t)),
+                    0.0,
+                    b.duration_s,
+                    1e-13 * peak,
+                )
+            })
+            .sum();
+        let mean = mean_of(&blocks, r, peak);
+        assert!(
+            (mean - want).abs() <= 1e-9 * peak,
+            "sector law, r {r}: mean {mean} vs ∫R dt {want} (peak {peak})"
+        );
+    }
+}
+
+/// Plans under sector laws — a ring of partial turns, and four stations (stops at the ends,
+/// spirals across the cells) with one sector at η = −1 — against the time-stepped motion, its
+/// sectors split where the angle crosses their edges (the reference's own `Sectors`): 1e-6
+/// of the peak. The reference's segments are the plan's stops and moves, each at its
+/// station's speeds; the cutting into blocks is the code's alone.
+#[test]
+fn sector_laws_match_the_time_stepped_motion() {
+    struct Case {
+        workpiece_rpm: f64,
+        tool_rpm: f64,
+        stations: Vec<f64>,
+        dwell: Vec<f64>,
+        factors: Vec<f64>,
+        start: f64,
+    }
+    let cases = [
+        Case {
+            workpiece_rpm: 40.0,
+            tool_rpm: 500.0,
+            stations: vec![17.0],
+            dwell: vec![2.35],
+            factors: vec![1.0, 0.55, 1.6, 0.8, 1.2, 0.7],
+            start: 0.4,
+        },
+        Case {
+            workpiece_rpm: -45.0,
+            tool_rpm: -90.0, // the third sector at twice −45 rpm: η = −1 there
+            stations: vec![4.0, 10.0, 16.0, 23.0],
+            dwell: vec![1.2, 0.9, 1.7, 1.1],
+            factors: vec![1.0, 1.3, 2.0, 0.75, 0.9],
+            start: -1.0,
+        },
+    ];
+    for case in cases {
+        let process = process(case.workpiece_rpm, case.tool_rpm, PressureModel::Uniform);
+        let omega = case.workpiece_rpm * TAU / 60.0;
+        let n = case.stations.len();
+        let sectors = case.factors.len();
+        // Station j's speeds: the factors, scaled a little per station.
+        let factor = |j: usize, k: usize| case.factors[k] * (1.0 + 0.05 * j as f64);
+        let law = SectorLaw::new(
+            n,
+            sectors,
+            (0..n)
+                .flat_map(|j| (0..sectors).map(move |k| factor(j, k)))
+                .collect(),
+        )
+        .unwrap();
+        let motion = Motion::radial(case.stations.clone())
+            .with_sector_law(law)
+            .unwrap();
+        let segments: Vec<Segment> = motion
+            .segments()
+            .iter()
+            .filter(|s| s.share() * case.dwell[s.station()] > 0.0)
+            .map(|s| {
+                let (from, to) = s.ends_mm();
+                Segment::Sectors {
+                    r1_start_mm: from,
+                    r1_end_mm: to,
+                    omega_rpm: (0..sectors)
+                        .map(|k| case.workpiece_rpm * factor(s.station(), k))
+                        .collect(),
+                    duration_s: s.share() * case.dwell[s.station()],
+                }
+            })
+            .collect();
+        let blocks = executed_blocks(&motion, &case.dwell, omega, case.start);
+        let pad = PolarPad::new(&process).unwrap();
+        let (worst, peak) = against_reference(case.tool_rpm, case.start, &segments, |points| {
+            pad.depth_nm(&blocks, points)
+        });
+        assert!(
+            worst <= 1e-6 * peak,
+            "{} rpm, {n} stations: {worst:e} nm against a peak of {peak} nm",
+            case.workpiece_rpm
         );
     }
 }
