@@ -1,7 +1,8 @@
-//! A map analysis as a PNG heat map: the heights after the removed terms over the clear
-//! aperture, coloured from their minimum to their maximum, with PV and RMS in the title, a
-//! colour bar in nm and a scale bar in mm. Pixels without a height (no data, or outside the
-//! aperture) are transparent.
+//! A map as a PNG heat map: a map analysis's heights after the removed terms over the clear
+//! aperture (PV and RMS in the title, a colour bar in nm), or a pad's footprint (its rate,
+//! the position and the peak in the title, a colour bar in nm/min), coloured from their
+//! minimum to their maximum, with a scale bar in mm. Pixels without a value (no data, or
+//! outside the aperture) are transparent.
 //!
 //! Layout, in image pixels (8 × 8 bitmap text):
 //!
@@ -20,6 +21,7 @@
 use font8x8::UnicodeFonts;
 
 use crate::usecases::map_analysis::MapAnalysisResult;
+use crate::usecases::map_removal_function::MapRemovalFunction;
 
 /// The colour ramp's stops, from the minimum to the maximum.
 pub const RAMP: [[u8; 3]; 9] = [
@@ -126,19 +128,56 @@ pub fn magnification(width: usize, height: usize) -> (usize, usize) {
 /// The heat map (module docs) of an analysis, as PNG bytes.
 pub fn map_png(r: &MapAnalysisResult) -> Vec<u8> {
     let a = &r.analysis;
-    let (scale, step) = magnification(r.width, r.height);
-    let (map_w, map_h) = (
-        r.width.div_ceil(step) * scale,
-        r.height.div_ceil(step) * scale,
-    );
+    heat_png(
+        (r.width, r.height),
+        a.plan.alignment.pixel_mm,
+        || a.pixels.iter().map(|p| (p.column, p.row, p.height_nm)),
+        &format!(
+            "PV {:.2} nm  RMS {:.2} nm",
+            a.metrics.pv_nm, a.metrics.rms_nm
+        ),
+        "nm",
+    )
+}
+
+/// The heat map of a pad's footprint (its rate in nm/min over its grid), as PNG bytes.
+pub fn footprint_png(r: &MapRemovalFunction) -> Vec<u8> {
+    let f = &r.footprint;
+    let width = f.width();
+    heat_png(
+        (width, f.height()),
+        f.pixel_mm,
+        || {
+            f.rate_nm_per_min
+                .iter()
+                .enumerate()
+                .map(move |(i, &v)| (i % width, i / width, v))
+        },
+        &format!(
+            "r1 {} mm  peak {:.4} nm/min",
+            r.tool_position_mm,
+            f.peak_nm_per_min()
+        ),
+        "nm/min",
+    )
+}
+
+/// The heat map (module docs) of `cells` (column, row, value) on a grid of `size` pixels of
+/// `pixel_mm`, coloured from their minimum to their maximum; a cell not given is transparent.
+fn heat_png<I: Iterator<Item = (usize, usize, f64)>>(
+    (columns, rows): (usize, usize),
+    pixel_mm: f64,
+    cells: impl Fn() -> I,
+    title: &str,
+    unit: &str,
+) -> Vec<u8> {
+    let (scale, step) = magnification(columns, rows);
+    let (map_w, map_h) = (columns.div_ceil(step) * scale, rows.div_ceil(step) * scale);
     let (x0, y0) = MAP_ORIGIN;
-    let (low, high) = a
-        .pixels
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
-            (l.min(p.height_nm), h.max(p.height_nm))
-        });
-    let labels = [format!("{high:.1} nm"), format!("{low:.1} nm")];
+    let (low, high) = cells().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), (_, _, v)| {
+        (l.min(v), h.max(v))
+    });
+    let labels = [format!("{high:.1} {unit}"), format!("{low:.1} {unit}")];
     let label_w = 8 * labels.iter().map(|l| l.chars().count()).max().unwrap_or(0);
     let bar_x = x0 + map_w + 8;
     let width = (bar_x + 12 + 4 + label_w + 4).max(x0 + 8 * 34);
@@ -146,27 +185,20 @@ pub fn map_png(r: &MapAnalysisResult) -> Vec<u8> {
     let mut canvas = Canvas::new(width, height);
     canvas.fill(x0, y0, map_w, map_h, [0, 0, 0, 0]);
     let span = high - low;
-    for p in &a.pixels {
-        if p.column % step != 0 || p.row % step != 0 {
+    for (column, row, value) in cells() {
+        if column % step != 0 || row % step != 0 {
             continue;
         }
         let t = if span > 0.0 {
-            (p.height_nm - low) / span
+            (value - low) / span
         } else {
             0.5
         };
         let [red, green, blue] = colour(t);
-        let (x, y) = (x0 + p.column / step * scale, y0 + p.row / step * scale);
+        let (x, y) = (x0 + column / step * scale, y0 + row / step * scale);
         canvas.fill(x, y, scale, scale, [red, green, blue, 255]);
     }
-    canvas.text(
-        x0,
-        3,
-        &format!(
-            "PV {:.2} nm  RMS {:.2} nm",
-            a.metrics.pv_nm, a.metrics.rms_nm
-        ),
-    );
+    canvas.text(x0, 3, title);
     for y in 0..map_h {
         let t = 1.0 - y as f64 / (map_h - 1).max(1) as f64;
         let [red, green, blue] = colour(t);
@@ -174,7 +206,7 @@ pub fn map_png(r: &MapAnalysisResult) -> Vec<u8> {
     }
     canvas.text(bar_x + 16, y0, &labels[0]);
     canvas.text(bar_x + 16, (y0 + map_h).saturating_sub(8), &labels[1]);
-    let mm_per_px = a.plan.alignment.pixel_mm * step as f64 / scale as f64;
+    let mm_per_px = pixel_mm * step as f64 / scale as f64;
     let (length_mm, length_px) = scale_bar(map_w as f64 * mm_per_px / 4.0, mm_per_px);
     let bar_y = y0 + map_h + 6;
     canvas.fill(x0, bar_y, length_px, 3, [0, 0, 0, 255]);

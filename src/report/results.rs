@@ -11,6 +11,7 @@ use crate::usecases::calibration::CalibrationResult;
 use crate::usecases::eta_sweep::EtaSweep;
 use crate::usecases::map_analysis::MapAnalysisResult;
 use crate::usecases::map_difference::MapDifferenceResult;
+use crate::usecases::map_removal_function::MapRemovalFunction;
 use crate::usecases::measurement_fit::MeasurementFit;
 use crate::usecases::optimize::OptimizedPlan;
 use crate::usecases::predict::Prediction;
@@ -241,6 +242,21 @@ pub fn map_analysis_svg(r: &MapAnalysisResult) -> String {
         secondary: None,
     });
     chart::stack(&[bars, psd])
+}
+
+/// A pad's footprint, pixel by pixel from the top row: position in the part's frame and the
+/// instantaneous rate.
+pub fn footprint_csv(r: &MapRemovalFunction) -> String {
+    let f = &r.footprint;
+    let (x, y): (Vec<f64>, Vec<f64>) = f
+        .y_mm
+        .iter()
+        .flat_map(|&y| f.x_mm.iter().map(move |&x| (x, y)))
+        .unzip();
+    table::csv(
+        &header(&["x_mm", "y_mm", "removal_rate_nm_per_min"]),
+        &[&x, &y, &f.rate_nm_per_min],
+    )
 }
 
 fn pixels_csv(pixels: &[crate::maps::analysis::Pixel], value: &str) -> String {

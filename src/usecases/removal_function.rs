@@ -37,6 +37,11 @@ impl RemovalFunctionCommand {
             tool_positions_mm,
         })
     }
+
+    /// The process on its part.
+    pub fn process(&self) -> &Process {
+        &self.process
+    }
 }
 
 /// One profile: the removal rate at each grid radius for a tool centred at `tool_position_mm`.

@@ -51,9 +51,10 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let ca = "calibration_rings.json";
     let ma = "maps_analysis.json";
     let md = "maps_difference.json";
+    let mr = "maps_removal_function_paper_exp1.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 42] = [
+    let cases: [(&str, &str, Value, &str, &str); 46] = [
         (md, "after", Value::Null, INVALID, "after"),
         (
             md,
@@ -70,6 +71,28 @@ async fn each_endpoint_names_the_field_of_bad_input() {
             "before.heights_nm",
         ),
         (ma, "map", Value::Null, INVALID, "map"),
+        (
+            mr,
+            "tool_position_mm",
+            json!(-1.0),
+            INVALID,
+            "tool_position_mm",
+        ),
+        (mr, "pixel_mm", json!(-0.1), INVALID, "pixel_mm"),
+        (
+            mr,
+            "process.tool_rpm",
+            json!("fast"),
+            SCHEMA,
+            "process.tool_rpm",
+        ),
+        (
+            mr,
+            "surface",
+            json!({"kind": "sphere", "radius_of_curvature_mm": 120.0}),
+            INVALID,
+            "surface",
+        ),
         (ma, "map.heights_nm[1]", json!([1.0, 2.0]), INVALID, "map"),
         (ma, "pixel_mm", json!(-0.1), INVALID, "pixel_mm"),
         (

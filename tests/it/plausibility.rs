@@ -297,6 +297,7 @@ async fn unit_mistakes_in_the_process_warn_on_every_endpoint() {
                                 "depth_nm": [1, 3, 4, 3, 1]}}])
             }
             "/v1/studies/eta-sweep" => body["etas"] = json!([-1.0, -0.5]),
+            "/v1/maps/removal-function" => body["tool_position_mm"] = json!(0.02),
             _ => {}
         }
         let (status, response) = post(endpoint, &body).await;
@@ -312,7 +313,7 @@ async fn unit_mistakes_in_the_process_warn_on_every_endpoint() {
     }
     assert_eq!(
         metres.len(),
-        7,
+        8,
         "every endpoint that takes a process: {metres:?}"
     );
 }

@@ -10,6 +10,7 @@ use preston::physics::{
     Motion, Part, PressureModel, Process, ProcessSpec, RemovalKernel, RemovalOperator, SectorLaw,
 };
 
+use super::common::adaptive_integral;
 use super::polar_reference::{depth_nm, Segment, Setup};
 
 const K: f64 = 1e-13;
@@ -344,50 +345,6 @@ fn a_spiral_standing_still_is_a_ring() {
     }
 }
 
-/// The test's own adaptive Simpson rule on [a, b], to `tolerance` absolute (Richardson's
-/// correction on each accepted panel).
-fn simpson(f: &dyn Fn(f64) -> f64, a: f64, b: f64, tolerance: f64) -> f64 {
-    fn panel(
-        f: &dyn Fn(f64) -> f64,
-        (a, fa): (f64, f64),
-        (m, fm): (f64, f64),
-        (b, fb): (f64, f64),
-        whole: f64,
-        tolerance: f64,
-        depth: u32,
-    ) -> f64 {
-        let (l, r) = (0.5 * (a + m), 0.5 * (m + b));
-        let (fl, fr) = (f(l), f(r));
-        let left = (m - a) / 6.0 * (fa + 4.0 * fl + fm);
-        let right = (b - m) / 6.0 * (fm + 4.0 * fr + fb);
-        let error = left + right - whole;
-        if depth == 0 || error.abs() <= 15.0 * tolerance {
-            return left + right + error / 15.0;
-        }
-        panel(
-            f,
-            (a, fa),
-            (l, fl),
-            (m, fm),
-            left,
-            tolerance / 2.0,
-            depth - 1,
-        ) + panel(
-            f,
-            (m, fm),
-            (r, fr),
-            (b, fb),
-            right,
-            tolerance / 2.0,
-            depth - 1,
-        )
-    }
-    let m = 0.5 * (a + b);
-    let (fa, fm, fb) = (f(a), f(m), f(b));
-    let whole = (b - a) / 6.0 * (fa + 4.0 * fm + fb);
-    panel(f, (a, fa), (m, fm), (b, fb), whole, tolerance, 40)
-}
-
 /// The 1-D rate R(r; r1) with the part turning at `factor` times the process's speed: a
 /// process of its own at that speed (nothing of the polar code).
 fn rate_at_factor(
@@ -487,8 +444,8 @@ fn a_sector_law_s_ring_averages_to_the_one_dimensional_removal_at_each_speed() {
 /// A plan of four stations (stops at its ends, spirals across its cells): with C at constant
 /// speed the azimuthal mean of its 2-D depth is the 1-D prediction (`RemovalOperator`) to
 /// 1e-9 of the peak; under a sector law it is ∫ R_{Ω(t)}(r; r1(t)) dt over the executed
-/// blocks, the same bound. The means are taken by the test's adaptive Simpson rule over θ
-/// (the depth is only piecewise smooth in θ, kinked where blocks begin and end under the
+/// blocks, the same bound. The means are taken by the tests' adaptive Gauss–Kronrod rule over
+/// θ (the depth is only piecewise smooth in θ, kinked where blocks begin and end under the
 /// pad) and the time integrals by the same rule over each block.
 #[test]
 fn a_plan_s_azimuthal_mean_is_the_one_dimensional_removal_of_its_instants() {
@@ -501,7 +458,7 @@ fn a_plan_s_azimuthal_mean_is_the_one_dimensional_removal_of_its_instants() {
     let radii = [0.4, 5.5, 12.3, 19.0, 27.9];
     let mean_of = |blocks: &[Block], r: f64, peak: f64| {
         let depth = |theta: f64| pad.depth_nm(blocks, &[(r * theta.cos(), r * theta.sin())])[0];
-        simpson(&depth, 0.0, TAU, 1e-11 * peak * TAU) / TAU
+        adaptive_integral(&depth, 0.0, TAU, 1e-11 * peak * TAU) / TAU
     };
 
     let constant = Motion::radial(stations.clone());
@@ -542,7 +499,7 @@ fn a_plan_s_azimuthal_mean_is_the_one_dimensional_removal_of_its_instants() {
                     b.part_speed_rad_per_s / omega,
                 );
                 let r1 = |t: f64| b.from_mm + (b.to_mm - b.from_mm) * t / b.duration_s;
-                simpson(
+                adaptive_integral(
                     &|t| kernel.rate_nm_per_s(r, r1(t)),
                     0.0,
                     b.duration_s,

@@ -5,6 +5,7 @@ use crate::maps::analysis::AnalysisError;
 use crate::maps::difference::DifferenceError;
 use crate::usecases::map_analysis::{MapInput, MapInputError};
 use crate::usecases::map_difference::DifferenceInputError;
+use crate::usecases::map_removal_function::FootprintInputError;
 
 fn field(input: MapInput) -> &'static str {
     match input {
@@ -26,6 +27,23 @@ impl From<MapInputError> for ApiError {
             MapInputError::TooMuchWork { .. } => ApiError::limit(at, err.to_string()),
             _ => ApiError::invalid(at, err.to_string()),
         }
+    }
+}
+
+/// A map removal function's own inputs by their fields; the setting's as the radial one's.
+impl From<FootprintInputError> for ApiError {
+    fn from(err: FootprintInputError) -> Self {
+        let at = match &err {
+            FootprintInputError::Setting(setting) => return setting.clone().into(),
+            FootprintInputError::CurvedPart => "surface",
+            FootprintInputError::PositionNotFinite(_)
+            | FootprintInputError::PositionOutOfReach { .. } => "tool_position_mm",
+            FootprintInputError::Pixel(_) => "pixel_mm",
+            FootprintInputError::TooManyPixels { .. } => {
+                return ApiError::limit("pixel_mm", err.to_string())
+            }
+        };
+        ApiError::invalid(at, err.to_string())
     }
 }
 

@@ -2,6 +2,7 @@
 
 pub mod body;
 pub mod difference;
+pub mod removal_function;
 
 use serde::{Deserialize, Serialize};
 use utoipa::openapi::path::Operation;

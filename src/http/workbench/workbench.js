@@ -19,6 +19,7 @@
     calibration: '/v1/calibration',
     mapAnalysis: '/v1/maps/analysis',
     mapDifference: '/v1/maps/difference',
+    mapRemovalFunction: '/v1/maps/removal-function',
     parts: '/v1/parts',
     processProfiles: '/v1/process-profiles',
   };
@@ -539,6 +540,16 @@
       series: rf.profiles.map((p) => ({ name: `tool at ${p.tool_position_mm} mm`, points: zip(rf.radius_mm, p.removal_rate_nm_per_min) })),
     });
     downloads(view, 'removal-function', rf, repeat(view, API.removalFunction, rfRequest));
+    // The middle position's footprint at one instant: the 2-D model's own, on a plane.
+    const footprint = $('figure[data-chart="footprint"] .plot', section(view));
+    if (surface.kind === 'plane' && rfRequest.tool_positions_mm.length > 1) {
+      const fpRequest = { process, surface, tool_position_mm: rfRequest.tool_positions_mm[1], pixel_mm: process.tool_radius_mm / 50 };
+      const fpCsv = await post(view, API.mapRemovalFunction, fpRequest, { accept: 'text/csv' });
+      footprint.replaceChildren(
+        heatMap(fpCsv, fpRequest.pixel_mm, `pad at ${fpRequest.tool_position_mm} mm, one instant`, 'nm/min'));
+    } else {
+      footprint.replaceChildren(h('p', {}, 'The footprint is modelled point by point on a plane only.'));
+    }
     const eta = now.eta ?? (process.tool_rpm ? -process.workpiece_rpm / process.tool_rpm : NaN);
     draw(view, 'predict', {
       title: 'Predicted removal, equal dwell',
@@ -832,9 +843,9 @@
     return stops[i].map((c, k) => Math.round(c + f * (stops[i + 1][k] - c)));
   }
 
-  /** The map's pixels (CSV x_mm, y_mm, height_nm) as a heat map: colour bar in nm, scale bar
-   * in mm, PV and RMS in the title; pixels without data stay transparent. */
-  function heatMap(csv, pixelMm, title) {
+  /** A map's pixels (CSV x_mm, y_mm, value) as a heat map: colour bar in `unit`, scale bar
+   * in mm, the title above; pixels without data stay transparent. */
+  function heatMap(csv, pixelMm, title, unit = 'nm') {
     const rows = csv.trim().split('\n').slice(1).map((l) => l.split(',').map(Number));
     // Extremes by a loop: spreading a map's pixels into Math.min overflows the stack.
     const lo = [Infinity, Infinity, Infinity];
@@ -879,8 +890,8 @@
     }
     ctx.fillStyle = '#1d2430';
     ctx.font = '11px system-ui, sans-serif';
-    ctx.fillText(`${label(z1)} nm`, barX + 20, margin.top + 10);
-    ctx.fillText(`${label(z0)} nm`, barX + 20, margin.top + hgt * scale);
+    ctx.fillText(`${label(z1)} ${unit}`, barX + 20, margin.top + 10);
+    ctx.fillText(`${label(z0)} ${unit}`, barX + 20, margin.top + hgt * scale);
     // Scale bar: a round length near a quarter of the map's width.
     const quarter = (w * pixelMm) / 4;
     const length = [1, 2, 5, 10, 20, 50, 100, 200, 500].find((l) => l >= quarter / 2) ?? quarter;
