@@ -120,6 +120,36 @@ impl PolarPad {
     /// The depth (nm) `blocks` leave at each of `points` (x, y mm, part frame): each block a
     /// ring or a spiral at its own C speed, summed in the blocks' order.
     pub fn depth_nm(&self, blocks: &[Block], points: &[(f64, f64)]) -> Vec<f64> {
+        self.sum_in_reach(
+            blocks,
+            points,
+            |&(x, y)| x.hypot(y),
+            |pad, &(x, y), block| pad.block_depth_nm(x.hypot(y), y.atan2(x), block),
+        )
+    }
+
+    /// The azimuthal mean (nm) of the depth `blocks` leave at each radius of `radii_mm`: by the
+    /// identity of the module docs, Σ ∫ R_Ω(r; r1(t)) dt over the blocks, each at its own C
+    /// speed — a ring's T·R in closed form, a spiral's by adaptive Gauss–Kronrod in time to
+    /// the spiral's tolerance.
+    pub fn mean_depth_nm(&self, blocks: &[Block], radii_mm: &[f64]) -> Vec<f64> {
+        self.sum_in_reach(
+            blocks,
+            radii_mm,
+            |&r| r,
+            |pad, &r, block| pad.block_mean_depth_nm(r, block),
+        )
+    }
+
+    /// For each item (at the radius `radius` gives), the sum over the blocks within the pad's
+    /// reach of it of `each` (with the pad at the block's C speed), in the blocks' order.
+    fn sum_in_reach<T: Sync>(
+        &self,
+        blocks: &[Block],
+        items: &[T],
+        radius: impl Fn(&T) -> f64 + Sync,
+        each: impl Fn(&PolarPad, &T, &Block) -> f64 + Sync,
+    ) -> Vec<f64> {
         // One pad per distinct C speed.
         let mut speeds: Vec<f64> = blocks.iter().map(|b| b.part_speed_rad_per_s).collect();
         speeds.sort_by(f64::total_cmp);
@@ -135,20 +165,43 @@ impl PolarPad {
             })
             .collect();
         let rt = self.tool_radius_mm;
-        points
+        // A plan runs outward: its blocks' radii then never fall, and the blocks within a
+        // pad's reach of a point are one run of them, found by bisection.
+        let outward = blocks
+            .windows(2)
+            .all(|w| w[0].from_mm <= w[0].to_mm && w[0].to_mm <= w[1].from_mm)
+            && blocks.last().is_none_or(|b| b.from_mm <= b.to_mm);
+        items
             .par_iter()
-            .map(|&(x, y)| {
-                let (r, theta) = (x.hypot(y), y.atan2(x));
-                blocks
+            .map(|item| {
+                let r = radius(item);
+                let run = if outward {
+                    blocks.partition_point(|b| b.to_mm < r - rt)
+                        ..blocks.partition_point(|b| b.from_mm <= r + rt)
+                } else {
+                    0..blocks.len()
+                };
+                blocks[run.clone()]
                     .iter()
-                    .zip(&pad_of)
+                    .zip(&pad_of[run])
                     .filter(|(b, _)| {
                         r >= b.from_mm.min(b.to_mm) - rt && r <= b.from_mm.max(b.to_mm) + rt
                     })
-                    .map(|(b, pad)| pad.block_depth_nm(r, theta, b))
+                    .map(|(b, pad)| each(pad, item, b))
                     .sum()
             })
             .collect()
+    }
+
+    /// ∫ R(r; r1(t)) dt over one block at this pad's C speed (the block's own), nm.
+    fn block_mean_depth_nm(&self, r_mm: f64, block: &Block) -> f64 {
+        let rate = |r1: f64| self.kernel.rate_nm_per_s(r_mm, r1);
+        if block.from_mm == block.to_mm {
+            return block.duration_s * rate(block.from_mm);
+        }
+        let (t, from, to) = (block.duration_s, block.from_mm, block.to_mm);
+        let density = RELATIVE_TOLERANCE * self.largest_rate(r_mm, from.max(to));
+        adaptive_gauss_kronrod(&|s: f64| rate(from + (to - from) * s / t), 0.0, t, density)
     }
 
     /// The depth (nm) at (r_mm, θ) of one block, at this pad's C speed (the block's own).

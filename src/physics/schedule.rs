@@ -13,7 +13,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::grid::RadialGrid;
-use super::motion::Motion;
+use super::motion::{Motion, SectorLaw, SectorLawError};
 use super::operator::{RemovalOperator, RowReading};
 use super::path::PARALLEL_MIN_PATHS;
 use super::process::Process;
@@ -182,6 +182,14 @@ impl DwellSchedule {
         Ok(DwellSchedule {
             motion: Motion::radial(positions_mm),
             dwell_s,
+        })
+    }
+
+    /// The same plan with C turning by `law` (`Motion::with_sector_law`).
+    pub fn with_sector_law(self, law: SectorLaw) -> Result<DwellSchedule, SectorLawError> {
+        Ok(DwellSchedule {
+            motion: self.motion.with_sector_law(law)?,
+            dwell_s: self.dwell_s,
         })
     }
 

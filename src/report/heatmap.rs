@@ -21,6 +21,7 @@
 use font8x8::UnicodeFonts;
 
 use crate::usecases::map_analysis::MapAnalysisResult;
+use crate::usecases::map_predict::MapPrediction;
 use crate::usecases::map_removal_function::MapRemovalFunction;
 
 /// The colour ramp's stops, from the minimum to the maximum.
@@ -159,6 +160,26 @@ pub fn footprint_png(r: &MapRemovalFunction) -> Vec<u8> {
             f.peak_nm_per_min()
         ),
         "nm/min",
+    )
+}
+
+/// The heat map of a predicted removal map (the pixels on the part), as PNG bytes.
+pub fn removal_map_png(r: &MapPrediction) -> Vec<u8> {
+    let width = r.x_mm.len();
+    heat_png(
+        (width, r.y_mm.len()),
+        r.pixel_mm,
+        || {
+            r.removal_nm
+                .iter()
+                .enumerate()
+                .filter_map(move |(i, v)| v.map(|v| (i % width, i / width, v)))
+        },
+        &format!(
+            "mean {:.2} nm  PV {:.2} nm  RMS {:.2} nm",
+            r.metrics.mean, r.metrics.pv, r.metrics.rms
+        ),
+        "nm",
     )
 }
 

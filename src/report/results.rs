@@ -11,6 +11,7 @@ use crate::usecases::calibration::CalibrationResult;
 use crate::usecases::eta_sweep::EtaSweep;
 use crate::usecases::map_analysis::MapAnalysisResult;
 use crate::usecases::map_difference::MapDifferenceResult;
+use crate::usecases::map_predict::MapPrediction;
 use crate::usecases::map_removal_function::MapRemovalFunction;
 use crate::usecases::measurement_fit::MeasurementFit;
 use crate::usecases::optimize::OptimizedPlan;
@@ -257,6 +258,21 @@ pub fn footprint_csv(r: &MapRemovalFunction) -> String {
         &header(&["x_mm", "y_mm", "removal_rate_nm_per_min"]),
         &[&x, &y, &f.rate_nm_per_min],
     )
+}
+
+/// A predicted removal map, pixel by pixel from the top row, the pixels on the part only:
+/// position in the part's frame and the removal.
+pub fn removal_map_csv(r: &MapPrediction) -> String {
+    let width = r.x_mm.len();
+    let (mut x, mut y, mut z) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, value) in r.removal_nm.iter().enumerate() {
+        if let Some(v) = value {
+            x.push(r.x_mm[i % width]);
+            y.push(r.y_mm[i / width]);
+            z.push(*v);
+        }
+    }
+    table::csv(&header(&["x_mm", "y_mm", "removal_nm"]), &[&x, &y, &z])
 }
 
 fn pixels_csv(pixels: &[crate::maps::analysis::Pixel], value: &str) -> String {

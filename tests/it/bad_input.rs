@@ -52,9 +52,10 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let ma = "maps_analysis.json";
     let md = "maps_difference.json";
     let mr = "maps_removal_function_paper_exp1.json";
+    let mp = "maps_predict_sector_law.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 46] = [
+    let cases: [(&str, &str, Value, &str, &str); 49] = [
         (md, "after", Value::Null, INVALID, "after"),
         (
             md,
@@ -79,6 +80,27 @@ async fn each_endpoint_names_the_field_of_bad_input() {
             "tool_position_mm",
         ),
         (mr, "pixel_mm", json!(-0.1), INVALID, "pixel_mm"),
+        (
+            mp,
+            "dwell.dwell_s[2]",
+            json!(-1.0),
+            INVALID,
+            "dwell.dwell_s[2]",
+        ),
+        (
+            mp,
+            "c_law.speed_factors[1]",
+            json!([1.0, 1.3, 1.0, 0.0]),
+            INVALID,
+            "c_law.speed_factors[1][3]",
+        ),
+        (
+            mp,
+            "start_angle_deg",
+            json!("north"),
+            SCHEMA,
+            "start_angle_deg",
+        ),
         (
             mr,
             "process.tool_rpm",

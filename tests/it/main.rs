@@ -20,6 +20,7 @@ mod invariant;
 mod layers;
 mod machine;
 mod map_analysis;
+mod map_predict;
 mod map_removal_function;
 mod maps;
 mod metrology;

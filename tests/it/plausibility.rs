@@ -298,6 +298,9 @@ async fn unit_mistakes_in_the_process_warn_on_every_endpoint() {
             }
             "/v1/studies/eta-sweep" => body["etas"] = json!([-1.0, -0.5]),
             "/v1/maps/removal-function" => body["tool_position_mm"] = json!(0.02),
+            "/v1/maps/predict" => {
+                body["dwell"] = json!({"positions_mm": positions, "dwell_s": [1, 1, 1, 1, 1, 1]})
+            }
             _ => {}
         }
         let (status, response) = post(endpoint, &body).await;
@@ -313,7 +316,7 @@ async fn unit_mistakes_in_the_process_warn_on_every_endpoint() {
     }
     assert_eq!(
         metres.len(),
-        8,
+        9,
         "every endpoint that takes a process: {metres:?}"
     );
 }

@@ -3,8 +3,10 @@
 use super::super::error::{ApiError, Kind};
 use crate::maps::analysis::AnalysisError;
 use crate::maps::difference::DifferenceError;
+use crate::physics::SectorLawError;
 use crate::usecases::map_analysis::{MapInput, MapInputError};
 use crate::usecases::map_difference::DifferenceInputError;
+use crate::usecases::map_predict::MapPredictInputError;
 use crate::usecases::map_removal_function::FootprintInputError;
 
 fn field(input: MapInput) -> &'static str {
@@ -40,6 +42,33 @@ impl From<FootprintInputError> for ApiError {
             | FootprintInputError::PositionOutOfReach { .. } => "tool_position_mm",
             FootprintInputError::Pixel(_) => "pixel_mm",
             FootprintInputError::TooManyPixels { .. } => {
+                return ApiError::limit("pixel_mm", err.to_string())
+            }
+        };
+        ApiError::invalid(at, err.to_string())
+    }
+}
+
+/// A polar prediction's own inputs by their fields; the plan's and the setting's as
+/// `/v1/predict`'s.
+impl From<MapPredictInputError> for ApiError {
+    fn from(err: MapPredictInputError) -> Self {
+        use MapPredictInputError as E;
+        let at = match &err {
+            E::Setting(setting) => return setting.clone().into(),
+            E::CurvedPart => "surface".to_string(),
+            E::LawRows { .. } => "c_law.speed_factors".to_string(),
+            E::LawRow { station, .. } => format!("c_law.speed_factors[{station}]"),
+            E::Law(SectorLawError::NoSectors) => "c_law.sectors".to_string(),
+            E::Law(SectorLawError::Shape { .. }) => "c_law.speed_factors".to_string(),
+            E::Law(SectorLawError::Factor {
+                station, sector, ..
+            }) => {
+                format!("c_law.speed_factors[{station}][{sector}]")
+            }
+            E::StartAngle(_) => "start_angle_deg".to_string(),
+            E::Pixel(_) => "pixel_mm".to_string(),
+            E::TooManyPixels { .. } | E::TooMuchWork { .. } => {
                 return ApiError::limit("pixel_mm", err.to_string())
             }
         };

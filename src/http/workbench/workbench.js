@@ -20,6 +20,7 @@
     mapAnalysis: '/v1/maps/analysis',
     mapDifference: '/v1/maps/difference',
     mapRemovalFunction: '/v1/maps/removal-function',
+    mapPredict: '/v1/maps/predict',
     parts: '/v1/parts',
     processProfiles: '/v1/process-profiles',
   };
