@@ -149,6 +149,30 @@ async function mapDifference(name: string): Promise<void> {
   check(name, data.radial_removal.radius_mm.length === data.radial_removal.depth_nm.length, "profile");
 }
 
+async function mapRemovalFunction(name: string): Promise<void> {
+  const body = read<Schemas["MapRemovalFunctionRequest"]>(name);
+  const { data, error } = await client.POST("/v1/maps/removal-function", { body });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const footprint: Schemas["FootprintDto"] = data.footprint;
+  check(name, footprint.removal_rate_nm_per_min.length === footprint.y_mm.length, "a row per y");
+  const middle = footprint.x_mm[(footprint.x_mm.length - 1) / 2];
+  check(name, middle === body.tool_position_mm, "the middle column is the pad centre");
+  const average: number[] = data.revolution_average.removal_rate_nm_per_min;
+  check(name, average.length === data.revolution_average.radius_mm.length, "the average's profile");
+}
+
+async function mapPredict(name: string): Promise<void> {
+  const body = read<Schemas["MapPredictRequest"]>(name);
+  const { data, error } = await client.POST("/v1/maps/predict", { body });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const rows: (number | null)[][] = data.removal.removal_nm;
+  check(name, rows.length === data.removal.y_mm.length, "a row per y");
+  check(name, data.metrics.pixels > 0 && data.non_axisymmetric.rms_nm > 0, "a law's removal is not round");
+  check(name, data.total_time_s === body.dwell.dwell_s.reduce((a, b) => a + b, 0), "the plan's time");
+}
+
 // An error comes back typed as the problem it is.
 async function problem(): Promise<void> {
   const body = read<Schemas["PredictRequest"]>("predict_paper_exp2.json");
@@ -170,6 +194,8 @@ const runners: [string, (name: string) => Promise<void>][] = [
   ["calibration_", calibration],
   ["maps_analysis", mapAnalysis],
   ["maps_difference", mapDifference],
+  ["maps_removal_function", mapRemovalFunction],
+  ["maps_predict", mapPredict],
 ];
 let calls = 0;
 for (const name of readdirSync(fixtures).filter((f) => f.endsWith(".json")).sort()) {

@@ -17,7 +17,12 @@ sys.path.insert(0, client_dir)
 from preston_client import Client  # noqa: E402
 from preston_client.api.calibration import calibrate  # noqa: E402
 from preston_client.api.machine import generate_program  # noqa: E402
-from preston_client.api.maps import analyse_map, difference_maps  # noqa: E402
+from preston_client.api.maps import (  # noqa: E402
+    analyse_map,
+    compute_map_removal_function,
+    difference_maps,
+    predict_removal_map,
+)
 from preston_client.api.metrology import fit_measurement  # noqa: E402
 from preston_client.api.optimize import optimize_dwell  # noqa: E402
 from preston_client.api.recommend import recommend_speeds, sweep_eta  # noqa: E402
@@ -48,6 +53,12 @@ OPERATIONS = {
         models.MapDifferenceRequest,
         models.MapDifferenceResponse,
     ),
+    "maps_removal_function": (
+        compute_map_removal_function,
+        models.MapRemovalFunctionRequest,
+        models.MapRemovalFunctionResponse,
+    ),
+    "maps_predict": (predict_removal_map, models.MapPredictRequest, models.MapPredictResponse),
 }
 
 root = pathlib.Path(__file__).resolve().parent.parent
