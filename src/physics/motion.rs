@@ -63,11 +63,17 @@ pub struct SectorLaw {
     factors: Vec<f64>,
 }
 
+/// The most sectors a law may have: 100,000 (13 arc seconds each), far finer than C is
+/// commanded.
+pub const MAX_SECTORS: usize = 100_000;
+
 /// Why a C speed law does not fit its motion.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SectorLawError {
     #[error("a C speed law needs at least one sector")]
     NoSectors,
+    #[error("a C speed law of {0} sectors: at most {MAX_SECTORS}")]
+    TooManySectors(usize),
     #[error("{stations} stations of {sectors} sectors need {expected} speed factors, not {got}")]
     Shape {
         stations: usize,
@@ -90,9 +96,7 @@ impl SectorLaw {
         sectors: usize,
         factors: Vec<f64>,
     ) -> Result<SectorLaw, SectorLawError> {
-        if sectors == 0 {
-            return Err(SectorLawError::NoSectors);
-        }
+        Self::check_sectors(sectors)?;
         if factors.len() != stations * sectors {
             return Err(SectorLawError::Shape {
                 stations,
@@ -109,6 +113,15 @@ impl SectorLaw {
             });
         }
         Ok(SectorLaw { sectors, factors })
+    }
+
+    /// Whether a law may have `sectors` sectors: 1 to [`MAX_SECTORS`].
+    pub fn check_sectors(sectors: usize) -> Result<(), SectorLawError> {
+        match sectors {
+            0 => Err(SectorLawError::NoSectors),
+            s if s > MAX_SECTORS => Err(SectorLawError::TooManySectors(s)),
+            _ => Ok(()),
+        }
     }
 
     /// S, the sectors per turn.

@@ -142,6 +142,7 @@ impl MapPredictCommand {
         let schedule = match spec.c_law {
             None => schedule,
             Some(law) => {
+                SectorLaw::check_sectors(law.sectors).map_err(MapPredictInputError::Law)?;
                 if law.speed_factors.len() != stations {
                     return Err(MapPredictInputError::LawRows {
                         stations,

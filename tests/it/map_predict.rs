@@ -6,8 +6,9 @@
 use serde_json::{json, Value};
 
 use super::common::http::{app, post_json, post_with};
+use super::common::paper_spec;
 use super::polar_reference::{depth_nm, Segment, Setup};
-use preston::physics::{Part, PressureModel, Process, ProcessSpec, RemovalKernel};
+use preston::physics::{Process, ProcessSpec, RemovalKernel};
 
 const PATH: &str = "/v1/maps/predict";
 
@@ -201,13 +202,7 @@ async fn whole_turns_leave_the_one_dimensional_removal_at_every_pixel() {
     let kernel = RemovalKernel::new(
         &Process::new(ProcessSpec {
             workpiece_radius_mm: 40.0,
-            tool_radius_mm: 10.0,
-            workpiece_rpm,
-            tool_rpm,
-            preston_coefficient_m2_per_n: 1e-13,
-            pressure_kpa: 10.0,
-            pressure_model: PressureModel::Uniform,
-            part: Part::flat(),
+            ..paper_spec(workpiece_rpm, tool_rpm)
         })
         .unwrap(),
     );
@@ -329,6 +324,11 @@ async fn bad_input_names_its_field() {
         (
             "c_law",
             json!({"sectors": 0, "speed_factors": vec![Vec::<f64>::new(); stations]}),
+            "c_law.sectors",
+        ),
+        (
+            "c_law",
+            json!({"sectors": 100_001.0, "speed_factors": vec![[1.0]; stations]}),
             "c_law.sectors",
         ),
         (

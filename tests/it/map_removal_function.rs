@@ -6,9 +6,8 @@
 use serde_json::{json, Value};
 
 use super::common::http::{app, post_json, post_with};
-use super::common::{numbers, quadrature_rate_nm_per_min, read_fixture};
+use super::common::{numbers, paper_spec, quadrature_rate_nm_per_min, read_fixture};
 use super::polar_reference::sliding_speed_mm_s;
-use preston::physics::ProcessSpec;
 
 const PATH: &str = "/v1/maps/removal-function";
 
@@ -96,16 +95,8 @@ async fn the_revolution_average_is_the_radial_removal_function() {
         radial["profiles"][0]["removal_rate_nm_per_min"]
     );
     assert_eq!(answer["eta"], radial["eta"]);
-    let spec: ProcessSpec = preston::physics::ProcessSpec {
-        workpiece_radius_mm: 50.0,
-        tool_radius_mm: 10.0,
-        workpiece_rpm: -10.0,
-        tool_rpm: 200.0,
-        preston_coefficient_m2_per_n: 1e-13,
-        pressure_kpa: 10.0,
-        pressure_model: preston::physics::PressureModel::Uniform,
-        part: preston::physics::Part::flat(),
-    };
+    // The fixture's process: the paper's geometry at −10 / 200 r/min.
+    let spec = paper_spec(-10.0, 200.0);
     let rates = numbers(&average["removal_rate_nm_per_min"]);
     let peak = rates.iter().cloned().fold(0.0, f64::max);
     assert!(peak > 1.0, "{peak}");

@@ -59,7 +59,9 @@ impl From<MapPredictInputError> for ApiError {
             E::CurvedPart => "surface".to_string(),
             E::LawRows { .. } => "c_law.speed_factors".to_string(),
             E::LawRow { station, .. } => format!("c_law.speed_factors[{station}]"),
-            E::Law(SectorLawError::NoSectors) => "c_law.sectors".to_string(),
+            E::Law(SectorLawError::NoSectors | SectorLawError::TooManySectors(_)) => {
+                "c_law.sectors".to_string()
+            }
             E::Law(SectorLawError::Shape { .. }) => "c_law.speed_factors".to_string(),
             E::Law(SectorLawError::Factor {
                 station, sector, ..

@@ -10,7 +10,7 @@ use super::super::dto::{
 };
 use super::super::endpoint::{Doc, Endpoint, Picture};
 use super::super::error::ApiError;
-use super::super::extract::{object, optional_object, ApiJson};
+use super::super::extract::{count, object, optional_object, ApiJson};
 use super::super::state::Services;
 use super::removal_function::{KinematicsDto, MapMachineDto};
 use crate::field::Figures;
@@ -28,8 +28,9 @@ use crate::usecases::ComputeLimits;
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CLawDto {
-    /// Sectors per turn (≥ 1).
+    /// Sectors per turn (≥ 1; a whole number, written with a fraction or not).
     #[schema(minimum = 1, maximum = 100_000)]
+    #[serde(deserialize_with = "count")]
     pub sectors: usize,
     /// One row per station of `dwell.positions_mm`, each with `sectors` speed factors (> 0).
     pub speed_factors: Vec<Vec<f64>>,
