@@ -144,7 +144,13 @@ fn first_answers(limits: &ComputeLimits, services: &Services) -> String {
         recommended["process"]["tool_rpm"] = r["tool_rpm"].clone();
         let now = answer("predict", predict)?;
         let better = answer("predict", recommended)?;
-        Some(vec![removal, recommend, sweep, now, better])
+        // The middle position's footprint, its pixel the pad radius / 25.
+        let footprint = answer(
+            "maps/removal-function",
+            json!({"process": process, "surface": surface, "tool_position_mm": 20,
+                   "pixel_mm": 0.4}),
+        )?;
+        Some(vec![removal, recommend, sweep, now, better, footprint])
     };
     all()
         .and_then(|answers| serde_json::to_string(&answers).ok())

@@ -44,7 +44,8 @@ async fn the_page_carries_the_api_s_own_first_answers() {
             "/v1/recommend",
             "/v1/studies/eta-sweep",
             "/v1/predict",
-            "/v1/predict"
+            "/v1/predict",
+            "/v1/maps/removal-function"
         ]
     );
     for answer in &answers {

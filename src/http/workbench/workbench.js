@@ -544,10 +544,12 @@
     // The middle position's footprint at one instant: the 2-D model's own, on a plane.
     const footprint = $('figure[data-chart="footprint"] .plot', section(view));
     if (surface.kind === 'plane' && rfRequest.tool_positions_mm.length > 1) {
-      const fpRequest = { process, surface, tool_position_mm: rfRequest.tool_positions_mm[1], pixel_mm: process.tool_radius_mm / 50 };
-      const fpCsv = await post(view, API.mapRemovalFunction, fpRequest, { accept: 'text/csv' });
+      const fpRequest = { process, surface, tool_position_mm: rfRequest.tool_positions_mm[1], pixel_mm: process.tool_radius_mm / 25 };
+      const fp = (await post(view, API.mapRemovalFunction, fpRequest)).footprint;
+      // The map's rows as the CSV heatMap reads (x, y, value), header first.
+      const rows = fp.y_mm.flatMap((y, i) => fp.x_mm.map((x, j) => `${x},${y},${fp.removal_rate_nm_per_min[i][j]}`));
       footprint.replaceChildren(
-        heatMap(fpCsv, fpRequest.pixel_mm, `pad at ${fpRequest.tool_position_mm} mm, one instant`, 'nm/min'));
+        heatMap(['x_mm,y_mm,rate', ...rows].join('\n'), fp.pixel_mm, `pad at ${fpRequest.tool_position_mm} mm, one instant`, 'nm/min'));
     } else {
       footprint.replaceChildren(h('p', {}, 'The footprint is modelled point by point on a plane only.'));
     }
