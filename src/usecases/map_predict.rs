@@ -15,6 +15,7 @@
 //! ripple. The azimuthal mean is reported on a radial grid as well; with C at constant speed it
 //! is `/v1/predict`'s 1-D removal.
 
+use super::map_removal_function::square_axes;
 use super::setting::{ApertureSpec, GridSpec, PartSpec, Setting};
 use super::warnings::unit_warnings;
 use super::{ComputeLimits, Input, InputError, Warning};
@@ -262,10 +263,7 @@ pub fn map_predict(command: MapPredictCommand) -> MapPrediction {
     } = command;
     let process = setting.process();
     let radius = process.workpiece_radius_mm();
-    let offset = |i: usize| (i as f64 - half as f64) * pixel_mm;
-    let across = 2 * half + 1;
-    let x_mm: Vec<f64> = (0..across).map(offset).collect();
-    let y_mm: Vec<f64> = (0..across).map(|r| -offset(r)).collect();
+    let (x_mm, y_mm) = square_axes(0.0, half, pixel_mm);
     let points: Vec<(f64, f64)> = y_mm
         .iter()
         .flat_map(|&y| x_mm.iter().map(move |&x| (x, y)))

@@ -168,6 +168,17 @@ pub struct MapRemovalFunction {
     pub footprint: Footprint,
 }
 
+/// The axes of a square grid of 2·half + 1 pixels of `pixel_mm` centred on (centre_x_mm, 0):
+/// the columns' x left to right, the rows' y from the top.
+pub fn square_axes(centre_x_mm: f64, half: usize, pixel_mm: f64) -> (Vec<f64>, Vec<f64>) {
+    let offset = |i: usize| (i as f64 - half as f64) * pixel_mm;
+    let across = 2 * half + 1;
+    (
+        (0..across).map(|c| centre_x_mm + offset(c)).collect(),
+        (0..across).map(|r| -offset(r)).collect(),
+    )
+}
+
 pub fn map_removal_function(command: MapRemovalFunctionCommand) -> MapRemovalFunction {
     let MapRemovalFunctionCommand {
         profile,
@@ -176,10 +187,7 @@ pub fn map_removal_function(command: MapRemovalFunctionCommand) -> MapRemovalFun
         pixel_mm,
         half,
     } = command;
-    let offset = |i: usize| (i as f64 - half as f64) * pixel_mm;
-    let across = 2 * half + 1;
-    let x_mm: Vec<f64> = (0..across).map(|c| r1 + offset(c)).collect();
-    let y_mm: Vec<f64> = (0..across).map(|r| -offset(r)).collect();
+    let (x_mm, y_mm) = square_axes(r1, half, pixel_mm);
     let rate_nm_per_min = y_mm
         .iter()
         .flat_map(|&y| x_mm.iter().map(move |&x| (x, y)))
