@@ -77,6 +77,7 @@ fn run(bencher: divan::Bencher, n: usize, basis: DwellBasis) {
             basis,
             axes: &[],
             cell_path_mm: &[],
+            extra_floors: &[],
         };
         optimize(&problem).unwrap()
     });

@@ -62,7 +62,7 @@ const fn entry<E: Endpoint>() -> EndpointEntry {
 }
 
 /// Every computing endpoint, in the order the documentation lists them.
-pub static ENDPOINTS: [EndpointEntry; 12] = [
+pub static ENDPOINTS: [EndpointEntry; 13] = [
     entry::<removal_function::RemovalFunctionEndpoint>(),
     entry::<predict::PredictEndpoint>(),
     entry::<optimize::OptimizeEndpoint>(),
@@ -75,6 +75,7 @@ pub static ENDPOINTS: [EndpointEntry; 12] = [
     entry::<maps::difference::MapDifferenceEndpoint>(),
     entry::<maps::removal_function::MapRemovalFunctionEndpoint>(),
     entry::<maps::predict::MapPredictEndpoint>(),
+    entry::<maps::optimize::MapOptimizeEndpoint>(),
 ];
 
 /// The offline twin of the API: the exact JSON body `POST /v1/<endpoint>` would return.

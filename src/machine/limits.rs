@@ -20,6 +20,10 @@ pub enum Axis {
     Z,
     /// The tool's tilt in the meridian plane.
     B,
+    /// The part's spindle under position control (deg, counter-clockwise seen from the pad):
+    /// a program drives it only under a C speed law; otherwise it turns at the process's
+    /// speed, a spindle held by `workpiece_spindle`'s limit.
+    C,
 }
 
 impl Axis {
@@ -29,7 +33,7 @@ impl Axis {
     pub fn kind(self) -> AxisKind {
         match self {
             Axis::X | Axis::Z => AxisKind::Linear,
-            Axis::B => AxisKind::Rotary,
+            Axis::B | Axis::C => AxisKind::Rotary,
         }
     }
 
@@ -39,6 +43,7 @@ impl Axis {
             Axis::X => "x",
             Axis::Z => "z",
             Axis::B => "b",
+            Axis::C => "c",
         }
     }
 
@@ -140,6 +145,8 @@ pub struct MachineLimitsSpec {
     pub x: AxisLimits,
     pub z: AxisLimits,
     pub b: AxisLimits,
+    /// C under position control: its velocity and acceleration (travel does not apply).
+    pub c: AxisLimits,
     pub workpiece_max_rpm: Option<f64>,
     pub tool_max_rpm: Option<f64>,
 }
@@ -169,6 +176,14 @@ pub const DEFAULT_MACHINE: MachineLimitsSpec = MachineLimitsSpec {
         max: None,
         max_velocity_per_min: Some(9_000.0),
         max_acceleration_per_s2: Some(1_800.0),
+    },
+    // C as the work spindle under position control: its speed the spindle's (1,000 r/min),
+    // 10 r/s² of acceleration.
+    c: AxisLimits {
+        min: None,
+        max: None,
+        max_velocity_per_min: Some(360_000.0),
+        max_acceleration_per_s2: Some(3_600.0),
     },
     workpiece_max_rpm: Some(1_000.0),
     tool_max_rpm: Some(3_000.0),
@@ -213,6 +228,7 @@ impl MachineChoice {
                 x: given.x.or(DEFAULT_MACHINE.x),
                 z: given.z.or(DEFAULT_MACHINE.z),
                 b: given.b.or(DEFAULT_MACHINE.b),
+                c: given.c.or(DEFAULT_MACHINE.c),
                 workpiece_max_rpm: given
                     .workpiece_max_rpm
                     .or(DEFAULT_MACHINE.workpiece_max_rpm),
@@ -247,6 +263,7 @@ impl MachineChoice {
                     Drive::Axis(Axis::X) => axis(&given.x),
                     Drive::Axis(Axis::Z) => axis(&given.z),
                     Drive::Axis(Axis::B) => axis(&given.b),
+                    Drive::Axis(Axis::C) => axis(&given.c),
                     Drive::WorkpieceSpindle => given.workpiece_max_rpm,
                     Drive::ToolSpindle => given.tool_max_rpm,
                 };
@@ -271,6 +288,7 @@ pub struct MachineLimits {
     x: AxisLimits,
     z: AxisLimits,
     b: AxisLimits,
+    c: AxisLimits,
     workpiece_max_rpm: Option<f64>,
     tool_max_rpm: Option<f64>,
 }
@@ -292,6 +310,7 @@ impl MachineLimits {
             x: spec.x,
             z: spec.z,
             b: spec.b,
+            c: spec.c,
             workpiece_max_rpm: spec.workpiece_max_rpm,
             tool_max_rpm: spec.tool_max_rpm,
         };
@@ -310,6 +329,7 @@ impl MachineLimits {
             Axis::X => &self.x,
             Axis::Z => &self.z,
             Axis::B => &self.b,
+            Axis::C => &self.c,
         }
     }
 
@@ -319,7 +339,7 @@ impl MachineLimits {
             limit,
             message: format!("{} {message}", LimitKind::name(limit, drive)),
         };
-        for axis in Axis::ALL {
+        for axis in Axis::ALL.into_iter().chain([Axis::C]) {
             let a = self.axis(axis);
             let drive = Drive::from(axis);
             for (value, limit) in [(a.min, LimitKind::Min), (a.max, LimitKind::Max)] {

@@ -354,6 +354,9 @@ fn axis_index(axis: Axis) -> usize {
         Axis::X => 0,
         Axis::Z => 1,
         Axis::B => 2,
+        // A program's per-axis arrays hold the axes of `Axis::ALL`; C appears only under a
+        // speed law, in its own words of the program.
+        Axis::C => unreachable!("a program's per-axis arrays do not hold C"),
     }
 }
 

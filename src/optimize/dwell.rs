@@ -39,6 +39,9 @@ pub struct DwellProblem<'a> {
     /// X–Z path of the B pivot; the cell's width on a plane with a vertical tool), one per
     /// position: what `max_feed_mm_per_min` limits. Empty for one position.
     pub cell_path_mm: &'a [f64],
+    /// Floors the caller adds (a polar plan's C law, [`super::harmonics::law_floor`]): empty,
+    /// or one per position.
+    pub extra_floors: &'a [Floor],
 }
 
 impl DwellProblem<'_> {
@@ -55,7 +58,13 @@ impl DwellProblem<'_> {
             cell_path_mm: self.cell_path_mm,
             max_feed_mm_per_min,
         });
-        floors(self.axes, feed, self.motion, c.min_dwell_s)
+        let mut floors = floors(self.axes, feed, self.motion, c.min_dwell_s);
+        for (floor, extra) in floors.iter_mut().zip(self.extra_floors) {
+            if extra.dwell_s > floor.dwell_s {
+                *floor = *extra;
+            }
+        }
+        floors
     }
 }
 

@@ -95,6 +95,7 @@ mod ccp;
 mod checks;
 pub mod dwell;
 pub mod feasibility;
+pub mod harmonics;
 pub mod kinematics;
 pub mod operator;
 pub mod problem;

@@ -1,7 +1,7 @@
 //! The QP's scales, and J evaluated from its documented formula in them.
 //!
-//! Depths are measured in d̄ (the target's RMS over the aperture's m rows, 1 nm for a zero
-//! target) and dwell in τ = d̄/ā, ā being the mean removal rate of one second at every
+//! Depths are measured in d̄ (the target's RMS over the aperture's m rows, or what the
+//! caller's extra floors remove when that is more; 1 nm for a target below 1e-6 nm) and dwell in τ = d̄/ā, ā being the mean removal rate of one second at every
 //! position over those rows; so the scaled dwell x = t/τ and the scaled fit are of order one
 //! whatever the units ([`super`] states J).
 
@@ -32,7 +32,16 @@ impl Scales {
             return Err(OptimizeError::NoRemovalInAperture);
         }
         let rms = (problem.target_nm.iter().map(|d| d * d).sum::<f64>() / m).sqrt();
-        let depth_nm = if rms > 0.0 { rms } else { 1.0 };
+        // Floors a caller adds can ask for far more than the target (a polar plan's C law
+        // over a target whose mean is flat): the depth they remove then sets the scale.
+        let floored =
+            rate * problem.extra_floors.iter().map(|f| f.dwell_s).sum::<f64>() / n.max(1) as f64;
+        // Below a femtometre a target is rounding (a plane fitted and removed), not a depth.
+        let depth_nm = if rms.max(floored) > 1e-6 {
+            rms.max(floored)
+        } else {
+            1.0
+        };
         let rt = problem.tool_radius_mm;
         Ok(Scales {
             m,

@@ -213,6 +213,17 @@ const MAX_PANELS: usize = 2000;
 /// tolerance; it also bounds the stack of pending panels, kept on the call's own stack).
 const MAX_DEPTH: usize = 60;
 
+/// The 15-point Kronrod rule on [`lo`, `hi`]: (node, weight) pairs (16 lanes, one of weight 0),
+/// exact for polynomials of degree 22. For integrands that many functions share (a footprint's
+/// Fourier coefficients), where one set of nodes must serve them all.
+pub(super) fn kronrod_rule(lo: f64, hi: f64) -> impl Iterator<Item = (f64, f64)> {
+    let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+    NODES
+        .iter()
+        .zip(KRONROD)
+        .map(move |(x, w)| (centre + half * x, half * w))
+}
+
 /// ∫ g over [`a`, `b`] by adaptive bisection of Gauss–Kronrod (7, 15) panels (module docs):
 /// a panel's K₁₅ is accepted when QUADPACK's error estimate is within `density` times its
 /// width, else its 31-point value when that differs from K₁₅ by no more, or either at the

@@ -51,10 +51,12 @@ pub enum Turning {
 
 /// C's speed law: the part's circle divided into S equal sectors of the pad centre's angle φ
 /// in the part's frame (sector k holds φ mod 2π in [2πk/S, 2π(k + 1)/S)), and for each
-/// station a factor per sector: while station j's dwell is spent with the pad over sector k,
-/// the part turns at `factor(j, k)` times the process's speed. Factors are positive (C keeps
-/// its direction), so the part still turns through every sector; within a sector both C and X
-/// move at constant speed, which is what a program's blocks in inverse time (G93) execute.
+/// station a factor per sector: when the pad centre enters sector k while station j's dwell
+/// is being spent, the part turns at `factor(j, k)` times the process's speed until it leaves
+/// the sector (a station that begins within a sector takes over C's speed at the next edge).
+/// Factors are positive (C keeps its direction), so the part still turns through every
+/// sector; C's speed changes only at sector edges and X's only between stops and moves, each
+/// constant in between, which is what a program's blocks in inverse time (G93) execute.
 /// A law of factors 1 is C at constant speed.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SectorLaw {

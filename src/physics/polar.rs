@@ -52,7 +52,7 @@ use std::f64::consts::{PI, TAU};
 
 use rayon::prelude::*;
 
-use super::kronrod::adaptive_gauss_kronrod;
+use super::kronrod::{adaptive_gauss_kronrod, kronrod_rule};
 use super::motion::{Motion, Turning};
 use super::process::Process;
 use super::removal::RemovalKernel;
@@ -360,6 +360,71 @@ impl PolarPad {
         depth
     }
 
+    /// The footprint's angular spectrum at radius `r_mm` with the pad centre at `r1_mm`, for
+    /// m = 0 … `m_max` (module docs, "Harmonics"): the cosine coefficients
+    /// ĝ_m = (1/2π)·∫ρ(r, α)·cos(mα) dα of the footprint, and those of the modulation kernel
+    /// h = ρ − Ω·∂ρ/∂Ω. ĝ_0 is R(r; r1). By a 15-point Kronrod rule on equal panels of the
+    /// pressed half-arc [0, θ0] (ρ is even in α), each spanning at most 2 rad of m_max·α (a
+    /// third of a period): the rule's degree 22 then resolves every cos(mα); what limits the
+    /// accuracy is the sliding speed's kink and a linear pad's lift line inside the arc.
+    pub fn angular_spectrum(&self, r_mm: f64, r1_mm: f64, m_max: usize) -> (Vec<f64>, Vec<f64>) {
+        let mut rho = vec![0.0; m_max + 1];
+        let mut kernel = vec![0.0; m_max + 1];
+        let rt = self.tool_radius_mm;
+        // The pressed arc: |p − c| ≤ r_t, i.e. cos α ≥ (r² + r1² − r_t²)/(2·r·r1).
+        let half_arc = if r_mm * r1_mm > 0.0 {
+            let c = (r_mm * r_mm + r1_mm * r1_mm - rt * rt) / (2.0 * r_mm * r1_mm);
+            if c >= 1.0 {
+                return (rho, kernel);
+            }
+            c.max(-1.0).acos()
+        } else if r_mm.max(r1_mm) <= rt {
+            PI
+        } else {
+            return (rho, kernel);
+        };
+        let (omega, w2) = (self.part_speed, self.tool_speed);
+        let k = w2 - omega;
+        let pressure = self.kernel.pad_pressure(r1_mm);
+        let panels = ((m_max as f64 * half_arc / 2.0).ceil() as usize).max(4);
+        let width = half_arc / panels as f64;
+        let mut cosines = vec![0.0; m_max + 1];
+        for panel in 0..panels {
+            let lo = panel as f64 * width;
+            for (alpha, weight) in kronrod_rule(lo, lo + width) {
+                if weight == 0.0 {
+                    continue;
+                }
+                let c = alpha.cos();
+                let factor = (pressure.level + pressure.slope_per_mm * (r_mm * c - r1_mm)).max(0.0);
+                let v2 =
+                    k * k * r_mm * r_mm + w2 * w2 * r1_mm * r1_mm - 2.0 * r_mm * r1_mm * w2 * k * c;
+                let v = v2.max(0.0).sqrt();
+                // ∂V/∂Ω = (−(ω2 − Ω)·r² + r·r1·ω2·cos α)/V, 0 where V vanishes (a point).
+                let dv = if v > 0.0 {
+                    (-k * r_mm * r_mm + r_mm * r1_mm * w2 * c) / v
+                } else {
+                    0.0
+                };
+                let scale = self.preston * factor * weight / PI;
+                let (a, b) = (scale * v, scale * (v - omega * dv));
+                // cos(mα) by the recurrence cos((m+1)α) = 2·cos α·cos(mα) − cos((m−1)α).
+                cosines[0] = 1.0;
+                if m_max >= 1 {
+                    cosines[1] = c;
+                }
+                for m in 2..=m_max {
+                    cosines[m] = 2.0 * c * cosines[m - 1] - cosines[m - 2];
+                }
+                for m in 0..=m_max {
+                    rho[m] += a * cosines[m];
+                    kernel[m] += b * cosines[m];
+                }
+            }
+        }
+        (rho, kernel)
+    }
+
     /// An upper bound of the footprint's rate at radius `r_mm` with the pad centre within
     /// `r1_max_mm` of the axis (nm/s): K·P times the largest pressure factor and sliding speed.
     fn largest_rate(&self, r_mm: f64, r1_max_mm: f64) -> f64 {
@@ -389,7 +454,11 @@ pub struct Block {
 /// The blocks `motion` runs with `dwell_s` at its stations: its stops and moves in order
 /// (`Motion::segments`), X at constant speed within each; C at `part_speed_rad_per_s` (the
 /// process's Ω) throughout, or under a sector law at Ω times the factor of the sector the pad
-/// centre is over, each segment then cut where the pad centre crosses a sector's edge. The
+/// centre is over, each segment then cut where the pad centre crosses a sector's edge. C's
+/// speed changes only at a sector's edge: a sector takes the factor of the station whose
+/// segment is running when the pad centre enters it, and keeps it when the plan passes to
+/// the next station within the sector (so C's speed is constant over every whole sector,
+/// which is what its acceleration is planned on). The
 /// pad centre starts at the part-frame angle `start_rad`, and its angle is continuous from
 /// segment to segment (dφ/dt = −Ω); a segment of no dwell takes no time and no block.
 pub fn executed_blocks(
@@ -402,6 +471,8 @@ pub fn executed_blocks(
     let omega = part_speed_rad_per_s;
     let mut phi = start_rad;
     let mut blocks = Vec::new();
+    // The sector the pad centre is over (by the edge it meets next) and its factor.
+    let mut entered: Option<(i64, f64)> = None;
     for segment in motion.segments() {
         let station = segment.station();
         let duration = segment.share() * dwell_s[station];
@@ -436,7 +507,14 @@ pub fn executed_blocks(
                 while elapsed < duration {
                     let sector = if falling { edge } else { edge - 1 }
                         .rem_euclid(law.sectors() as i64) as usize;
-                    let speed = omega * law.factor(station, sector);
+                    // C's speed changes only at a sector's edge: a sector keeps the factor of
+                    // the station the plan was at when the pad centre entered it.
+                    let factor = match entered {
+                        Some((e, f)) if e == edge => f,
+                        _ => law.factor(station, sector),
+                    };
+                    entered = Some((edge, factor));
+                    let speed = omega * factor;
                     let to_edge = (edge as f64 * width - phi).abs() / speed.abs();
                     let time = to_edge.min(duration - elapsed);
                     blocks.push(Block {

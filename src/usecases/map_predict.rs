@@ -320,7 +320,7 @@ pub fn map_predict(command: MapPredictCommand) -> MapPrediction {
 }
 
 /// The figures of `values` in one pass.
-fn figures(values: impl Iterator<Item = f64>) -> Figures {
+pub(super) fn figures(values: impl Iterator<Item = f64>) -> Figures {
     let mut values = values.peekable();
     let mut tally = Tally::new(values.peek().copied().unwrap_or(0.0));
     values.for_each(|v| tally.push(v));

@@ -22,6 +22,7 @@ pub mod eta_sweep;
 mod limits;
 pub mod map_analysis;
 pub mod map_difference;
+pub mod map_optimize;
 pub mod map_predict;
 pub mod map_removal_function;
 pub mod measurement_fit;

@@ -17,7 +17,7 @@ use crate::machine::{
     cell_travel, Approach, Axis, Drive, InvalidLimit, LimitKind, MachineChoice, MachineLimits,
     Program, ProgramError, Tool, Violation,
 };
-use crate::optimize::kinematics::AxisPath;
+use crate::optimize::kinematics::{AxisPath, Floor};
 use crate::optimize::problem::MAX_DEPTH_NM;
 use crate::optimize::target::aperture_rows;
 use crate::optimize::{
@@ -135,6 +135,8 @@ pub struct OptimizeCommand {
     time_limit_s: f64,
     /// The most `time_limit_s` may be here (the limits' solver time), for hints.
     max_time_limit_s: f64,
+    /// Floors a caller adds to the dwell (a polar plan's C law), one per position or none.
+    extra_floors: Vec<Floor>,
 }
 
 impl OptimizeCommand {
@@ -151,6 +153,21 @@ impl OptimizeCommand {
     /// The most a request's solver time limit may be, s.
     pub fn max_time_limit_s(&self) -> f64 {
         self.max_time_limit_s
+    }
+
+    /// The plan's motion through the candidate positions.
+    pub fn motion(&self) -> &Motion {
+        &self.motion
+    }
+
+    /// The same optimization with each position's dwell at least `floors` (one per position):
+    /// what a polar plan's C law asks of the mean dwell.
+    pub fn with_floors(self, floors: Vec<Floor>) -> Self {
+        debug_assert_eq!(floors.len(), self.motion.len());
+        OptimizeCommand {
+            extra_floors: floors,
+            ..self
+        }
     }
 
     /// The command, every input checked: positions, target, constraints, weights, the time
@@ -221,6 +238,7 @@ impl OptimizeCommand {
             objective,
             time_limit_s,
             max_time_limit_s: max_s,
+            extra_floors: Vec::new(),
         };
         Ok(command.on_machine(machine)?)
     }
@@ -453,6 +471,7 @@ pub fn optimize(
         time_limit_s,
         max_time_limit_s: _,
         choice,
+        extra_floors,
     } = command;
     // The recommendation's pass at these speeds is read beside a newly assembled operator.
     let pass = Recommender::pass_to_read(&setting);
@@ -480,6 +499,7 @@ pub fn optimize(
                 basis: DwellBasis::default(),
                 axes: &axes,
                 cell_path_mm: &cell_path_mm,
+                extra_floors: &extra_floors,
             })
         },
     );

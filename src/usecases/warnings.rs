@@ -195,6 +195,20 @@ pub enum Warning {
         100.0 * *missing as f64 / *total as f64
     )]
     MapDropouts { missing: usize, total: usize },
+    /// A result map was computed at a coarser pixel than asked, to stay within the work
+    /// limit of one request.
+    #[error(
+        "the removal map was computed at {used_mm:.3} mm pixels, not the {asked_mm:.3} mm asked: \
+         the plan runs too many turns of C to compute every pixel within one request"
+    )]
+    MapCoarsened { asked_mm: f64, used_mm: f64 },
+    /// Harmonics of the target beyond what the plan corrects (`max_harmonic`) or what C
+    /// allows remain in the residual.
+    #[error(
+        "the target's harmonics above m = {max_harmonic} hold {rms_nm:.3} nm RMS that the plan \
+         leaves alone (raise max_harmonic, up to half the sectors)"
+    )]
+    HarmonicsLeft { max_harmonic: usize, rms_nm: f64 },
 }
 
 /// A map whose clear aperture lacks more than this fraction of its pixels gets a warning.

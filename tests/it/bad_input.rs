@@ -53,9 +53,10 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let md = "maps_difference.json";
     let mr = "maps_removal_function_paper_exp1.json";
     let mp = "maps_predict_sector_law.json";
+    let mo = "maps_optimize_astigmatism.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 49] = [
+    let cases: [(&str, &str, Value, &str, &str); 54] = [
         (md, "after", Value::Null, INVALID, "after"),
         (
             md,
@@ -72,6 +73,35 @@ async fn each_endpoint_names_the_field_of_bad_input() {
             "before.heights_nm",
         ),
         (ma, "map", Value::Null, INVALID, "map"),
+        (mo, "c_law.sectors", json!(4), INVALID, "c_law.sectors"),
+        (
+            mo,
+            "c_law.max_harmonic",
+            json!(18),
+            INVALID,
+            "c_law.max_harmonic",
+        ),
+        (
+            mo,
+            "machine.c.max_velocity_deg_per_min",
+            json!(1000),
+            INVALID,
+            "machine.c.max_velocity_deg_per_min",
+        ),
+        (
+            mo,
+            "removal_pixel_mm",
+            json!(0),
+            INVALID,
+            "removal_pixel_mm",
+        ),
+        (
+            mo,
+            "positions_mm[3]",
+            json!(0.5),
+            INVALID,
+            "positions_mm[3]",
+        ),
         (
             mr,
             "tool_position_mm",

@@ -16,6 +16,7 @@ mod curved_plans;
 mod curved_removal;
 mod deploy;
 mod edge_pressure;
+mod harmonics;
 mod invariant;
 mod layers;
 mod machine;

@@ -75,6 +75,7 @@ fn run(s: &Setup, constraints: ConstraintsSpec) -> Result<Vec<f64>, OptimizeErro
         basis: DwellBasis::Auto,
         axes: &[],
         cell_path_mm: &s.cells,
+        extra_floors: &[],
     })
     .map(|solution| solution.dwell_s)
 }

@@ -56,6 +56,7 @@ fn solve_in(c: &Case, objective: Objective, basis: DwellBasis) -> Solution {
         basis,
         axes: &[],
         cell_path_mm: &[],
+        extra_floors: &[],
     })
     .unwrap()
 }

@@ -508,6 +508,7 @@ fn objective_matches_an_active_set_reference_on_random_problems() {
             basis: DwellBasis::Auto,
             axes: &[],
             cell_path_mm: &[],
+            extra_floors: &[],
         };
         let solution = match optimize(&problem) {
             Ok(s) => s,
@@ -617,6 +618,7 @@ fn spline_objective_matches_an_active_set_reference_on_random_problems() {
             basis: DwellBasis::Auto,
             axes: &[],
             cell_path_mm: &[],
+            extra_floors: &[],
         };
         let ours = optimize(&problem).unwrap_or_else(|e| panic!("case {cases}: {e:?}"));
         let on_positions = optimize(&DwellProblem {
@@ -723,6 +725,7 @@ fn a_uniform_layer_with_no_bound_binding_is_the_fits_own_minimum() {
         basis: DwellBasis::Auto,
         axes: &[],
         cell_path_mm: &[],
+        extra_floors: &[],
     })
     .unwrap();
     assert_eq!(plan.iterations, 0);

@@ -301,6 +301,17 @@ async fn unit_mistakes_in_the_process_warn_on_every_endpoint() {
             "/v1/maps/predict" => {
                 body["dwell"] = json!({"positions_mm": positions, "dwell_s": [1, 1, 1, 1, 1, 1]})
             }
+            "/v1/maps/optimize" => {
+                // A tilted plane (all alignment, removed): the plan is the mean dwell alone.
+                let rows: Vec<Vec<f64>> = (0..11)
+                    .map(|i| (0..11).map(|j| (i + j) as f64).collect())
+                    .collect();
+                body["map"] = json!({"heights_nm": rows, "pixel_mm": 0.01});
+                body["alignment"] =
+                    json!({"centre_x_px": 5, "centre_y_px": 5, "part_radius_mm": 0.05});
+                body["positions_mm"] = positions;
+                body["removal_pixel_mm"] = json!(0.01);
+            }
             _ => {}
         }
         let (status, response) = post(endpoint, &body).await;
@@ -316,7 +327,7 @@ async fn unit_mistakes_in_the_process_warn_on_every_endpoint() {
     }
     assert_eq!(
         metres.len(),
-        9,
+        10,
         "every endpoint that takes a process: {metres:?}"
     );
 }

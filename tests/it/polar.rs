@@ -15,11 +15,12 @@ use super::polar_reference::{depth_nm, Segment, Setup};
 
 const K: f64 = 1e-13;
 const KPA: f64 = 10.0;
+const TOOL_RADIUS_MM: f64 = 10.0;
 
 fn process(workpiece_rpm: f64, tool_rpm: f64, pressure_model: PressureModel) -> Process {
     Process::new(ProcessSpec {
         workpiece_radius_mm: 40.0,
-        tool_radius_mm: 10.0,
+        tool_radius_mm: TOOL_RADIUS_MM,
         workpiece_rpm,
         tool_rpm,
         preston_coefficient_m2_per_n: K,
@@ -487,12 +488,26 @@ fn a_plan_s_azimuthal_mean_is_the_one_dimensional_removal_of_its_instants() {
                     b.part_speed_rad_per_s / omega,
                 );
                 let r1 = |t: f64| b.from_mm + (b.to_mm - b.from_mm) * t / b.duration_s;
-                adaptive_integral(
-                    &|t| kernel.rate_nm_per_s(r, r1(t)),
-                    0.0,
-                    b.duration_s,
-                    1e-13 * peak,
-                )
+                // R(r; r1) has a square-root edge where the pad's rim reaches r
+                // (|r1 − r| = r_t): the integral is split there.
+                let mut cuts = vec![0.0, b.duration_s];
+                for edge in [r + TOOL_RADIUS_MM, (r - TOOL_RADIUS_MM).abs()] {
+                    let t = (edge - b.from_mm) / (b.to_mm - b.from_mm) * b.duration_s;
+                    if t > 0.0 && t < b.duration_s {
+                        cuts.push(t);
+                    }
+                }
+                cuts.sort_by(f64::total_cmp);
+                cuts.windows(2)
+                    .map(|w| {
+                        adaptive_integral(
+                            &|t| kernel.rate_nm_per_s(r, r1(t)),
+                            w[0],
+                            w[1],
+                            1e-13 * peak,
+                        )
+                    })
+                    .sum::<f64>()
             })
             .sum();
         let mean = mean_of(&blocks, r, peak);

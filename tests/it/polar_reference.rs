@@ -74,6 +74,9 @@ pub enum Segment {
     ///   that applies afterwards is that of the sector φ moves INTO: with Ω > 0 (φ falling)
     ///   an edge φ = 2πj/S starts sector j − 1 (mod S); with Ω < 0 (φ rising) it starts
     ///   sector j. So a segment that starts exactly on an edge runs a whole sector first.
+    /// * C changes speed only at an edge: a `Sectors` segment that follows another and starts
+    ///   strictly inside a sector keeps the speed the previous one had there until the first
+    ///   edge (its own `omega_rpm` applies from then on).
     /// * Only edges where the speed actually changes are treated as breakpoints;
     ///   neighbouring sectors with bit-identical `omega_rpm` entries are merged. With all
     ///   entries equal the segment is therefore integrated exactly like `Spiral` (or `Ring`
@@ -162,7 +165,12 @@ struct SectorPiece {
 /// Breakpoints of a `Sectors` segment starting at angle `phi_start`, lasting `duration`,
 /// with sector speeds `omegas` [rad/s, all of one sign, non-zero]. Only edges where the
 /// speed changes start a new piece; pieces starting at t ≥ duration are not produced.
-fn sector_pieces(phi_start: f64, omegas: &[f64], duration: f64) -> Vec<SectorPiece> {
+fn sector_pieces(
+    phi_start: f64,
+    omegas: &[f64],
+    duration: f64,
+    carry: Option<f64>,
+) -> Vec<SectorPiece> {
     let s = omegas.len() as i64;
     let width = 2.0 * PI / s as f64;
     let idx = |j: i64| j.rem_euclid(s) as usize;
@@ -176,12 +184,19 @@ fn sector_pieces(phi_start: f64, omegas: &[f64], duration: f64) -> Vec<SectorPie
     } else {
         u.floor() as i64
     };
+    // Strictly inside a sector, the speed the previous segment had there carries on to the
+    // sector's edge (C changes speed only at edges); on an edge the new sector starts fresh.
+    let inside = u != u.round();
+    let first = match carry {
+        Some(w) if inside => w,
+        _ => omegas[idx(j)],
+    };
     let mut pieces = vec![SectorPiece {
         t0: 0.0,
         phi0: phi_start,
-        omega: omegas[idx(j)],
+        omega: first,
     }];
-    if omegas.iter().all(|&w| w == omegas[0]) {
+    if omegas.iter().all(|&w| w == first) {
         return pieces;
     }
     let step = if falling { -1 } else { 1 };
@@ -408,6 +423,8 @@ pub fn depth_nm(
         rp2: setup.pad_radius_mm * setup.pad_radius_mm,
     };
     let mut phi = setup.start_angle_rad;
+    // The speed of the sector the pad is over at the end of the last `Sectors` segment.
+    let mut carry: Option<f64> = None;
     for seg in motion {
         let dur = seg.duration_s();
         assert!(
@@ -435,18 +452,21 @@ pub fn depth_nm(
             duration_s,
         } = seg
         {
-            phi = sectors_segment(
+            let (end, last) = sectors_segment(
                 &mut field,
                 phi,
                 *r1_start_mm,
                 *r1_end_mm,
                 omega_rpm,
                 *duration_s,
-                n,
-                dt,
+                (n, dt),
+                carry,
             );
+            phi = end;
+            carry = Some(last);
             continue;
         }
+        carry = None;
         let mut phi_run = phi; // running φ for Modulated
         let modu = match *seg {
             Segment::Modulated {
@@ -534,8 +554,10 @@ pub fn depth_nm(
     field.acc.iter().map(|a| a * scale).collect()
 }
 
-/// Integrates one `Sectors` segment (n ≥ 1 steps of dt = T/n) starting at angle `phi`;
-/// returns φ at its end. Steps containing breakpoints are cut there (see `depth_nm`).
+/// Integrates one `Sectors` segment (n ≥ 1 steps of dt = T/n) starting at angle `phi`, the
+/// sector it starts within at `carry` (rad/s) when the previous segment left it so; returns
+/// φ at its end and the speed then. Steps containing breakpoints are cut there (see
+/// `depth_nm`).
 #[allow(clippy::too_many_arguments)]
 fn sectors_segment(
     field: &mut Field<'_>,
@@ -544,11 +566,11 @@ fn sectors_segment(
     r1_end_mm: f64,
     omega_rpm: &[f64],
     duration_s: f64,
-    n: usize,
-    dt: f64,
-) -> f64 {
+    (n, dt): (usize, f64),
+    carry: Option<f64>,
+) -> (f64, f64) {
     let omegas: Vec<f64> = omega_rpm.iter().map(|&w| rpm_to_rad_s(w)).collect();
-    let pieces = sector_pieces(phi, &omegas, duration_s);
+    let pieces = sector_pieces(phi, &omegas, duration_s, carry);
     // Same r1(t) law and arithmetic as `Spiral` (r = r1_start + rate·t).
     let rate = (r1_end_mm - r1_start_mm) / duration_s;
     let step_at = |pc: &SectorPiece, a: f64| Step::Linear {
@@ -588,7 +610,7 @@ fn sectors_segment(
     }
     // Pieces all start before T, so the last one is the one running at T.
     let last = *pieces.last().unwrap();
-    last.phi0 - last.omega * (duration_s - last.t0)
+    (last.phi0 - last.omega * (duration_s - last.t0), last.omega)
 }
 
 /// Mean of `depth_nm` over `samples` points (r cos(2πk/N), r sin(2πk/N)), k = 0..N−1.

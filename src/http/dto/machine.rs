@@ -253,6 +253,8 @@ impl From<&MachineDto> for MachineLimitsSpec {
             x: linear(&m.x),
             z: linear(&m.z),
             b,
+            // A 1-D plan turns C at the process's constant speed: the spindle's limit holds.
+            c: AxisLimits::default(),
             workpiece_max_rpm: m.workpiece_spindle.as_ref().and_then(|s| s.max_rpm),
             tool_max_rpm: m.tool_spindle.as_ref().and_then(|s| s.max_rpm),
         }

@@ -65,6 +65,11 @@ pub enum WarningCode {
     /// Map analysis: more than 2 % of the clear aperture's pixels hold no height; the figures
     /// describe the others.
     MapDropouts,
+    /// A result map was computed at a coarser pixel than asked (`pixel_mm`), to stay within
+    /// the work limit of one request.
+    MapCoarsened,
+    /// The target holds harmonics above the plan's `max_harmonic`, left in the residual.
+    HarmonicsLeft,
 }
 
 impl WarningDto {
@@ -126,6 +131,12 @@ impl WarningDto {
                 (WarningCode::ResidualAboveNoise, format!("runs[{run}]"))
             }
             Warning::MapDropouts { .. } => (WarningCode::MapDropouts, "map".to_string()),
+            Warning::MapCoarsened { .. } => {
+                (WarningCode::MapCoarsened, "removal_pixel_mm".to_string())
+            }
+            Warning::HarmonicsLeft { .. } => {
+                (WarningCode::HarmonicsLeft, "c_law.max_harmonic".to_string())
+            }
         };
         WarningDto {
             code,

@@ -6,6 +6,7 @@ use crate::maps::difference::DifferenceError;
 use crate::physics::SectorLawError;
 use crate::usecases::map_analysis::{MapInput, MapInputError};
 use crate::usecases::map_difference::DifferenceInputError;
+use crate::usecases::map_optimize::MapOptimizeInputError;
 use crate::usecases::map_predict::MapPredictInputError;
 use crate::usecases::map_removal_function::FootprintInputError;
 
@@ -118,5 +119,25 @@ impl From<AnalysisError> for ApiError {
             AnalysisError::NoRadialProfile => "clear_aperture",
         };
         ApiError::new(Kind::InvalidInput, err.to_string()).at(at)
+    }
+}
+
+/// A map correction's own inputs by their fields; the plan's and the setting's as
+/// `/v1/optimize`'s, the map's placement as the analysis's.
+impl From<MapOptimizeInputError> for ApiError {
+    fn from(err: MapOptimizeInputError) -> Self {
+        use MapOptimizeInputError as E;
+        let at = match &err {
+            E::Setting(setting) => return setting.clone().into(),
+            E::Map(map) => return map.clone().into(),
+            E::CurvedPart => "surface",
+            E::Sectors(_) => "c_law.sectors",
+            E::MaxHarmonic { .. } => "c_law.max_harmonic",
+            E::MaxModulation(_) => "c_law.max_modulation",
+            E::Pixel(_) => "removal_pixel_mm",
+            E::CTooSlow { .. } => "machine.c.max_velocity_deg_per_min",
+            E::MapTooSmall { .. } => "map",
+        };
+        ApiError::invalid(at, err.to_string())
     }
 }

@@ -2,6 +2,7 @@
 
 pub mod body;
 pub mod difference;
+pub mod optimize;
 pub mod predict;
 pub mod removal_function;
 

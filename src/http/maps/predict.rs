@@ -25,7 +25,7 @@ use crate::usecases::ComputeLimits;
 /// station's dwell is spent with the pad over sector k the part turns at that station's
 /// factor k times `process.workpiece_rpm` (> 0: C keeps its direction). Within a sector X and C
 /// move at constant speed, as blocks in inverse time do.
-#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CLawDto {
     /// Sectors per turn (≥ 1; a whole number, written with a fraction or not).

@@ -89,7 +89,7 @@ pub struct SolverOptionsDto {
 }
 
 impl ConstraintsDto {
-    pub(super) fn to_constraints(dto: Option<&ConstraintsDto>) -> ConstraintsSpec {
+    pub(crate) fn to_constraints(dto: Option<&ConstraintsDto>) -> ConstraintsSpec {
         let dto = dto.cloned().unwrap_or_default();
         ConstraintsSpec {
             min_dwell_s: dto.min_dwell_s.unwrap_or(0.0),
@@ -102,7 +102,7 @@ impl ConstraintsDto {
 }
 
 impl ObjectiveDto {
-    pub(super) fn to_objective(dto: Option<&ObjectiveDto>) -> Objective {
+    pub(crate) fn to_objective(dto: Option<&ObjectiveDto>) -> Objective {
         let dto = dto.cloned().unwrap_or_default();
         let default = Objective::default();
         Objective {

@@ -21,6 +21,7 @@
     mapDifference: '/v1/maps/difference',
     mapRemovalFunction: '/v1/maps/removal-function',
     mapPredict: '/v1/maps/predict',
+    mapOptimize: '/v1/maps/optimize',
     parts: '/v1/parts',
     processProfiles: '/v1/process-profiles',
   };

@@ -1,0 +1,377 @@
+//! `POST /v1/maps/optimize`: a measured map's correction on the paper's machine — a dwell plan
+//! in radius with C's speed modulated per sector, and the exact removal of what it executes.
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use super::super::dto::{
+    ApertureEcho, ClearApertureDto, DwellDto, LinearAxisDto, MachineChoiceDto, MachineDto,
+    ProcessDto, RadialGridDto, RotaryAxisDto, SpindleLimitDto, SurfaceDto, WarningDto,
+};
+use super::super::endpoint::{Doc, Endpoint};
+use super::super::error::ApiError;
+use super::super::extract::{object, optional_count, optional_object, ApiJson};
+use super::super::optimize::{ConstraintsDto, ObjectiveDto, SolverOptionsDto};
+use super::super::state::Services;
+use super::body::MapGridDto;
+use super::predict::{CLawDto, MapFiguresDto};
+use super::removal_function::KinematicsDto;
+use super::MapAlignmentDto;
+use crate::machine::{AxisLimits, MachineChoice, MachineLimitsSpec};
+use crate::maps::HeightMap;
+use crate::usecases::map_optimize::{
+    map_optimize, MapCorrection, MapOptimizeCommand, MapOptimizeSpec,
+};
+use crate::usecases::optimize::OptimizeSpec;
+use crate::usecases::ComputeLimits;
+
+/// C under position control: the part's spindle as an axis. Each limit optional (absent:
+/// the default machine's, 360,000 deg/min and 3,600 deg/s²).
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CAxisDto {
+    /// Largest |angular velocity|, deg/min (> 0; above the process's part speed).
+    #[schema(exclusive_minimum = 0.0)]
+    pub max_velocity_deg_per_min: Option<f64>,
+    /// Largest |angular acceleration|, deg/s² (> 0).
+    #[schema(exclusive_minimum = 0.0)]
+    pub max_acceleration_deg_per_s2: Option<f64>,
+}
+
+/// The paper's machine and its limits: X, Z and B as `/v1/optimize` takes them, and C. Each
+/// limit optional (absent: the default machine's).
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PolarMachineDto {
+    /// How the pad moves over the part; default `polar` (the only one yet).
+    #[serde(default)]
+    pub kinematics: KinematicsDto,
+    /// X, the radial axis (mm).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub x: Option<LinearAxisDto>,
+    /// Z, the axial axis (mm).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub z: Option<LinearAxisDto>,
+    /// B, the tool's tilt (deg).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub b: Option<RotaryAxisDto>,
+    /// C, the part's spindle under position control (deg).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub c: Option<CAxisDto>,
+    /// The workpiece spindle's speed limit.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub workpiece_spindle: Option<SpindleLimitDto>,
+    /// The tool spindle's speed limit.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub tool_spindle: Option<SpindleLimitDto>,
+}
+
+impl PolarMachineDto {
+    fn choice(&self) -> MachineChoice {
+        let axes = MachineDto {
+            x: self.x.clone(),
+            z: self.z.clone(),
+            b: self.b.clone(),
+            workpiece_spindle: self.workpiece_spindle.clone(),
+            tool_spindle: self.tool_spindle.clone(),
+        };
+        let mut spec = MachineLimitsSpec::from(&axes);
+        spec.c = self
+            .c
+            .as_ref()
+            .map_or(AxisLimits::default(), |c| AxisLimits {
+                min: None,
+                max: None,
+                max_velocity_per_min: c.max_velocity_deg_per_min,
+                max_acceleration_per_s2: c.max_acceleration_deg_per_s2,
+            });
+        MachineChoice::Given(spec)
+    }
+}
+
+/// How C's law is cut and how far it may go.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CLawOptionsDto {
+    /// Sectors per turn (8 to 3,600; a whole number); default 180 (2° each).
+    #[schema(minimum = 8, maximum = 3600)]
+    #[serde(default, deserialize_with = "optional_count")]
+    pub sectors: Option<usize>,
+    /// The highest angular harmonic corrected (1 to min(90, sectors/2 − 1)); default what the
+    /// pad resolves at the aperture's edge, ⌈π·outer/r_t⌉.
+    #[schema(minimum = 1, maximum = 90)]
+    #[serde(default, deserialize_with = "optional_count")]
+    pub max_harmonic: Option<usize>,
+    /// The most the time over a sector may differ from its station's mean, relative (in
+    /// (0, 0.9]); default 0.5: C between 2/3 and 2 times the process's speed.
+    #[schema(exclusive_minimum = 0.0, maximum = 0.9)]
+    pub max_modulation: Option<f64>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MapOptimizeRequest {
+    /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
+    #[serde(deserialize_with = "object")]
+    pub process: ProcessDto,
+    /// The part's surface; default a plane, and only a plane yet (a 422 names `surface`).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub surface: Option<SurfaceDto>,
+    /// The measured error: heights (nm, the surface above its design), as `/v1/maps/analysis`
+    /// takes them. The plan removes it, less its piston and tilt, plus the least uniform layer
+    /// that lets C's law reach it.
+    #[serde(deserialize_with = "object")]
+    pub map: MapGridDto,
+    /// The map's pixel pitch, mm (> 0); default the map's own `pixel_mm`.
+    pub pixel_mm: Option<f64>,
+    /// Where the part sits on the map; default fitted to the map's boundary.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub alignment: Option<MapAlignmentDto>,
+    /// Candidate stations of the pad centre, mm, strictly increasing (as `/v1/optimize`).
+    #[schema(min_items = 1)]
+    pub positions_mm: Vec<f64>,
+    /// Limits the mean dwell must keep; all optional (as `/v1/optimize`).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub constraints: Option<ConstraintsDto>,
+    /// Weights of the mean dwell's objective (as `/v1/optimize`).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub objective: Option<ObjectiveDto>,
+    /// The radii the map is sampled and fitted on; default 201 samples from 0 to the
+    /// workpiece radius.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub radial_grid: Option<RadialGridDto>,
+    /// Where the map is corrected and judged (an annulus about the axis); default the whole
+    /// part.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub clear_aperture: Option<ClearApertureDto>,
+    /// Solver settings of the mean dwell.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub solver: Option<SolverOptionsDto>,
+    /// The machine; default the default machine, polar.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub machine: Option<PolarMachineDto>,
+    /// C's law: sectors, harmonics, modulation; all optional.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub c_law: Option<CLawOptionsDto>,
+    /// The result maps' pixel, mm (> 0); default the part's diameter / 80. Coarsened (with a
+    /// warning) when the plan's turns make every pixel more work than one request allows.
+    #[schema(example = 1.0)]
+    pub removal_pixel_mm: Option<f64>,
+}
+
+/// The result's maps on one square grid centred on the axis (x right, y up, mm).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct CorrectionMapsDto {
+    /// The grid's pixel, mm.
+    pub pixel_mm: f64,
+    /// The columns' x, mm, left to right.
+    pub x_mm: Vec<f64>,
+    /// The rows' y, mm, top (largest) first.
+    pub y_mm: Vec<f64>,
+    /// The exact removal of the executed motion, nm; null off the part.
+    pub removal_nm: Vec<Vec<Option<f64>>>,
+    /// The target: the map (piston and tilt removed) plus the plan's piston, nm; null outside
+    /// the clear aperture or without data.
+    pub target_nm: Vec<Vec<Option<f64>>>,
+    /// removal − target, nm; null where the target is.
+    pub residual_nm: Vec<Vec<Option<f64>>>,
+}
+
+/// Figures before and after, over the clear aperture's pixels with data.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct CorrectionMetricsDto {
+    /// The map (piston and tilt removed), about its mean.
+    pub before: MapFiguresDto,
+    /// The residual, about its mean (a piston is free).
+    pub after: MapFiguresDto,
+    /// The map's rotationally variant part (less its mean over each ring one pixel wide).
+    pub non_axisymmetric_before: MapFiguresDto,
+    /// The residual's rotationally variant part.
+    pub non_axisymmetric_after: MapFiguresDto,
+}
+
+/// C's peaks over the executed motion (the program's acceleration model: a speed change over
+/// the mean of the two blocks' durations).
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct CPeaksDto {
+    /// Largest |speed|, deg/min.
+    pub velocity_deg_per_min: f64,
+    /// Largest |acceleration|, deg/s².
+    pub acceleration_deg_per_s2: f64,
+}
+
+/// One radius band of the harmonic budget.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct HarmonicBandDto {
+    /// The band's inner radius, mm.
+    pub from_mm: f64,
+    /// The band's outer radius, mm (a pad radius further, or the aperture's edge).
+    pub to_mm: f64,
+    /// For m = 1, 2, …: the largest amplitude of harmonic m (nm) the plan's mean dwell can
+    /// remove in the band, with the most modulation C allows at m (δ ≤ min{max_modulation,
+    /// 1 − Ω0/v_max, a_max/(m·Ω0²)}).
+    pub amplitude_nm: Vec<f64>,
+    /// For m = 1, 2, …: the map's amplitude of harmonic m, nm (its largest over the band).
+    pub target_amplitude_nm: Vec<f64>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct MapOptimizeResponse {
+    /// The machine's kinematics the plan is for.
+    pub kinematics: KinematicsDto,
+    /// The mean dwell per station (the 1-D plan C's law modulates): send it with `c_law` to
+    /// `/v1/maps/predict` to predict the plan again.
+    pub dwell: DwellDto,
+    /// C's speed law: per station, a factor per sector of the process's part speed.
+    pub c_law: CLawDto,
+    /// The dwell over the angle: per station, the time (s) the pad centre spends over each
+    /// sector.
+    pub sector_dwell_s: Vec<Vec<f64>>,
+    /// The highest harmonic corrected.
+    pub max_harmonic: usize,
+    /// The uniform layer removed beside the map, nm.
+    pub piston_nm: f64,
+    /// Removal, target and residual maps.
+    pub maps: CorrectionMapsDto,
+    /// Figures before and after.
+    pub metrics: CorrectionMetricsDto,
+    /// C's peak speed and acceleration.
+    pub c_peaks: CPeaksDto,
+    /// What each harmonic can reach, per radius band.
+    pub harmonic_budget: Vec<HarmonicBandDto>,
+    /// The clear aperture, mm.
+    pub clear_aperture: ApertureEcho,
+    /// The plan's total time, s.
+    pub total_time_s: f64,
+    /// How many constant-speed blocks the executed motion takes.
+    pub blocks: usize,
+    /// Every limit the plan sits on (≥ 99.9 %), a missed target, harmonics left; empty when
+    /// there is nothing to say.
+    pub warnings: Vec<WarningDto>,
+}
+
+/// `POST /v1/maps/optimize`.
+pub struct MapOptimizeEndpoint;
+
+impl Endpoint for MapOptimizeEndpoint {
+    const NAME: &'static str = "maps/optimize";
+    const EXAMPLE: &'static str = include_str!("../../../fixtures/maps_optimize_astigmatism.json");
+    const DOC: Doc = Doc {
+        operation_id: "optimizeMap",
+        tag: "maps",
+        summary: "Correct a measured map on the paper's machine: radial dwell and C's speed law.",
+        description: "The map (piston and tilt removed) is split into angular harmonics on the \
+radial grid. Each harmonic m ≥ 1 is a radial problem of its own (the process is rotationally \
+symmetric); its answer modulates the time the pad spends over each sector of the part, which C \
+executes by its speed. The modulation's needs (its bound, C's velocity and acceleration) are \
+floors on the mean dwell, solved as `/v1/optimize` solves a profile (the azimuthal mean, with a \
+free piston) within every limit. The result is judged by the exact removal of the executed \
+motion. Flat parts.",
+        ok: "The plan, C's law, the maps and their figures, the harmonic budget",
+    };
+    type Request = MapOptimizeRequest;
+    type Body = ApiJson<MapOptimizeRequest>;
+    type Command = MapOptimizeCommand;
+    type Output = MapCorrection;
+    type Response = MapOptimizeResponse;
+
+    fn parse(req: MapOptimizeRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
+        let machine = req.machine.clone().unwrap_or_default();
+        let KinematicsDto::Polar = machine.kinematics;
+        let setting = super::super::dto::SettingDtos {
+            process: &req.process,
+            surface: req.surface.as_ref(),
+            tool: None,
+            grid: req.radial_grid.as_ref(),
+            aperture: req.clear_aperture.as_ref(),
+        }
+        .parse(limits)?;
+        let map = HeightMap::from_rows(
+            req.map.heights_nm,
+            req.map.pixel_mm,
+            req.map.wavelength_nm,
+            limits.max_map_pixels,
+        )
+        .map_err(|e| ApiError::invalid("map", e.to_string()))?;
+        let placement = req.alignment.unwrap_or_default().placement(req.pixel_mm)?;
+        let law = req.c_law.unwrap_or_default();
+        let spec = MapOptimizeSpec {
+            optimize: OptimizeSpec {
+                positions_mm: req.positions_mm,
+                target: Default::default(),
+                constraints: ConstraintsDto::to_constraints(req.constraints.as_ref()),
+                objective: ObjectiveDto::to_objective(req.objective.as_ref()),
+                time_limit_s: req.solver.and_then(|s| s.time_limit_s),
+                machine: match &req.machine {
+                    None => MachineChoiceDto::choice(None),
+                    Some(m) => m.choice(),
+                },
+            },
+            placement,
+            sectors: law.sectors,
+            max_harmonic: law.max_harmonic,
+            max_modulation: law.max_modulation,
+            pixel_mm: req.removal_pixel_mm,
+        };
+        Ok(MapOptimizeCommand::new(setting, map, spec, limits)?)
+    }
+
+    fn run(command: Self::Command, services: &Services) -> Result<MapCorrection, ApiError> {
+        Ok(map_optimize(
+            command,
+            &services.recommender,
+            &services.operators,
+        )?)
+    }
+
+    fn respond(r: MapCorrection) -> MapOptimizeResponse {
+        let width = r.x_mm.len();
+        let rows = |v: Vec<Option<f64>>| v.chunks(width).map(<[_]>::to_vec).collect();
+        MapOptimizeResponse {
+            kinematics: KinematicsDto::Polar,
+            dwell: DwellDto {
+                positions_mm: r.plan.motion.radii_mm().to_vec(),
+                dwell_s: r.plan.solution.dwell_s.clone(),
+            },
+            c_law: CLawDto {
+                sectors: r.sectors,
+                speed_factors: r.speed_factors,
+            },
+            sector_dwell_s: r.sector_dwell_s,
+            max_harmonic: r.max_harmonic,
+            piston_nm: r.plan.solution.piston_nm.unwrap_or(0.0),
+            maps: CorrectionMapsDto {
+                pixel_mm: r.pixel_mm,
+                removal_nm: rows(r.removal_nm),
+                target_nm: rows(r.target_nm),
+                residual_nm: rows(r.residual_nm),
+                x_mm: r.x_mm,
+                y_mm: r.y_mm,
+            },
+            metrics: CorrectionMetricsDto {
+                before: (&r.before).into(),
+                after: (&r.after).into(),
+                non_axisymmetric_before: (&r.before_non_axisymmetric).into(),
+                non_axisymmetric_after: (&r.after_non_axisymmetric).into(),
+            },
+            c_peaks: CPeaksDto {
+                velocity_deg_per_min: r.c_peak_velocity_deg_per_min,
+                acceleration_deg_per_s2: r.c_peak_acceleration_deg_per_s2,
+            },
+            harmonic_budget: r
+                .harmonic_budget
+                .into_iter()
+                .map(|b| HarmonicBandDto {
+                    from_mm: b.from_mm,
+                    to_mm: b.to_mm,
+                    amplitude_nm: b.amplitude_nm,
+                    target_amplitude_nm: b.target_amplitude_nm,
+                })
+                .collect(),
+            clear_aperture: ApertureEcho::from(r.plan.setting.aperture()),
+            total_time_s: r.total_time_s,
+            blocks: r.blocks,
+            warnings: WarningDto::all(&r.warnings),
+        }
+    }
+}

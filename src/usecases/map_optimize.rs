@@ -1,0 +1,747 @@
+//! A measured map's correction on the paper's machine (`POST /v1/maps/optimize`, polar
+//! kinematics): a dwell plan in radius, C's speed modulated per sector along it, and the
+//! exact removal of the motion that executes them.
+//!
+//! The map is placed on the part (as the analysis places it) and its piston and tilt are
+//! removed (a least-squares plane over the clear aperture's valid pixels: alignment, not
+//! figure). On rings at the radial grid's radii inside the aperture it is sampled at N equally
+//! spaced angles (bilinear between the four nearest pixels, over those with data; a ring's
+//! missing samples take its mean), and split into harmonics (`optimize::harmonics`):
+//!
+//! 1. m ≥ 1: each harmonic's modulation y_m, one radial problem each;
+//! 2. its C law's floors on each station's dwell: the modulation bound, C's velocity and its
+//!    acceleration (`harmonics::law_floor`);
+//! 3. m = 0: the 1-D optimizer (`usecases::optimize`) on the azimuthal mean with a free
+//!    piston, its floors raised to those, within every 1-D limit (the total time, X, Z, B);
+//! 4. the law: speed factors per station and sector;
+//! 5. the exact removal of the executed motion (`physics::polar`) on a square map, the target
+//!    sampled at the same pixels, and their difference.
+//!
+//! The residual's figures are about its mean (a piston is free); its rotationally variant part
+//! is the residual less its mean over the pixels of each ring one pixel wide. The harmonic
+//! budget reports, per radius band and harmonic m, the largest amplitude (nm) the plan's mean
+//! dwell can put there: the footprint's harmonic of the dwell times the most modulation C
+//! allows at m (seed 000's eq. 4 for C: δ ≤ min{δ_max, 1 − Ω0/v_max, a_max/(m·Ω0²)}).
+
+use std::f64::consts::TAU;
+
+use super::map_analysis::{MapInputError, Placement};
+use super::map_predict::{figures, MAX_WORK};
+use super::map_removal_function::square_axes;
+use super::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan, TargetSpec};
+use super::{ComputeLimits, InputError, OperatorCache, Recommender, Setting, Warning};
+use crate::field::{DepthProfile, Figures};
+use crate::machine::{Axis, Drive, LimitKind, MachineChoice};
+use crate::maps::aperture::Alignment;
+use crate::maps::HeightMap;
+use crate::optimize::harmonics::{
+    law_floor, law_share, sector_modulation, speed_factors, CLimits, HarmonicOperator, Harmonics,
+    LawBound,
+};
+use crate::optimize::kinematics::Floor;
+use crate::optimize::problem::Bound;
+use crate::optimize::OptimizeError;
+use crate::physics::motion::acceleration;
+use crate::physics::polar::{executed_blocks, Block, PolarPad};
+use crate::physics::SectorLaw;
+
+/// Sectors per turn by default: 2° each.
+pub const DEFAULT_SECTORS: usize = 180;
+/// δ_max by default: the time over a sector within ±50 % of its mean (C's speed within
+/// 2/3 and 2 times the process's).
+pub const DEFAULT_MAX_MODULATION: f64 = 0.5;
+/// The most harmonics one plan corrects.
+pub const MAX_HARMONIC: usize = 90;
+/// Pixels across the part of the result's maps by default.
+pub const DEFAULT_PIXELS_ACROSS: usize = 81;
+
+/// A correction as asked, besides its setting.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MapOptimizeSpec {
+    /// The 1-D plan's positions, constraints, weights, time budget and machine (its `target`
+    /// is the map's and must be left empty).
+    pub optimize: OptimizeSpec,
+    /// Where the part sits on the map.
+    pub placement: Placement,
+    /// C's sectors per turn; default [`DEFAULT_SECTORS`].
+    pub sectors: Option<usize>,
+    /// The highest harmonic corrected; default what the pad resolves at the aperture's edge
+    /// (π·r/r_t), below S/2.
+    pub max_harmonic: Option<usize>,
+    /// δ_max; default [`DEFAULT_MAX_MODULATION`].
+    pub max_modulation: Option<f64>,
+    /// The result maps' pixel, mm; default the part's diameter / 80.
+    pub pixel_mm: Option<f64>,
+}
+
+/// Why a correction cannot be planned as asked.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MapOptimizeInputError {
+    #[error(transparent)]
+    Setting(#[from] InputError),
+    #[error("{0}")]
+    Map(MapInputError),
+    #[error(
+        "the correction on a curved part is not modelled point by point yet: the part must be \
+         flat (leave out surface, or give a plane)"
+    )]
+    CurvedPart,
+    #[error("sectors must be a whole number from 8 to 3600, not {0}")]
+    Sectors(usize),
+    #[error(
+        "max_harmonic must be a whole number from 1 to {max} (below half the sectors), not {got}"
+    )]
+    MaxHarmonic { got: usize, max: usize },
+    #[error("max_modulation must be a number in (0, 0.9], not {0}")]
+    MaxModulation(f64),
+    #[error("the pixel must be a positive number of mm, not {0}")]
+    Pixel(f64),
+    #[error(
+        "the part's speed ({omega_deg_per_min:.0} deg/min) is at or above C's \
+         max_velocity_deg_per_min ({limit:.0}): C cannot turn the part at the process's speed"
+    )]
+    CTooSlow { omega_deg_per_min: f64, limit: f64 },
+    #[error(
+        "the map covers {covered:.1} % of the clear aperture (radius {outer_mm} mm as placed); \
+         at least 50 % is needed"
+    )]
+    MapTooSmall { covered: f64, outer_mm: f64 },
+}
+
+/// A checked correction.
+#[derive(Debug, Clone)]
+pub struct MapOptimizeCommand {
+    plan: OptimizeCommand,
+    setting: Setting,
+    pad: PolarPad,
+    /// The target (tilt-free map) on rings at the aperture's grid radii, and its harmonics.
+    target: SampledMap,
+    harmonics: Harmonics,
+    sectors: usize,
+    c: CLimits,
+    /// The machine as the request named it (for warnings on the default machine's limits).
+    machine: MachineChoice,
+    pixel_mm: f64,
+}
+
+/// The map as the plan sees it: heights (nm) in the part's frame, piston and tilt removed.
+#[derive(Debug, Clone)]
+struct SampledMap {
+    map: HeightMap,
+    alignment: Alignment,
+    /// Piston (nm) and tilt (nm/mm in x and y) removed.
+    plane: [f64; 3],
+    /// The aperture's pixels' heights' RMS about the mean, and their non-axisymmetric RMS.
+    outer_mm: f64,
+    inner_mm: f64,
+}
+
+impl SampledMap {
+    /// The tilt-free height at (x, y) mm (part frame): bilinear over the neighbours with data;
+    /// `None` where none has.
+    fn at(&self, x: f64, y: f64) -> Option<f64> {
+        let (c, r) = self.alignment.to_pixel(x, y);
+        let (c0, r0) = (c.floor(), r.floor());
+        let (fx, fy) = (c - c0, r - r0);
+        let (mut sum, mut weight) = (0.0, 0.0);
+        for (dc, dr, w) in [
+            (0.0, 0.0, (1.0 - fx) * (1.0 - fy)),
+            (1.0, 0.0, fx * (1.0 - fy)),
+            (0.0, 1.0, (1.0 - fx) * fy),
+            (1.0, 1.0, fx * fy),
+        ] {
+            let (cc, rr) = (c0 + dc, r0 + dr);
+            if cc < 0.0 || rr < 0.0 || w <= 0.0 {
+                continue;
+            }
+            if let Some(h) = self.map.at(cc as usize, rr as usize) {
+                sum += w * h;
+                weight += w;
+            }
+        }
+        (weight > 0.0).then(|| sum / weight - self.plane[0] - self.plane[1] * x - self.plane[2] * y)
+    }
+}
+
+impl MapOptimizeCommand {
+    pub fn new(
+        setting: Setting,
+        map: HeightMap,
+        spec: MapOptimizeSpec,
+        limits: &ComputeLimits,
+    ) -> Result<Self, MapOptimizeInputError> {
+        use MapOptimizeInputError as E;
+        let process = setting.process();
+        let pad = PolarPad::new(process).map_err(|_| E::CurvedPart)?;
+        let sectors = spec.sectors.unwrap_or(DEFAULT_SECTORS);
+        if !(8..=3600).contains(&sectors) {
+            return Err(E::Sectors(sectors));
+        }
+        let aperture = *setting.aperture();
+        let (inner_mm, outer_mm) = (aperture.inner_mm(), aperture.outer_mm());
+        let rt = process.tool_radius_mm();
+        let highest = sectors / 2 - 1;
+        let max_harmonic = match spec.max_harmonic {
+            None => ((std::f64::consts::PI * outer_mm / rt).ceil() as usize)
+                .clamp(1, highest.min(MAX_HARMONIC)),
+            Some(m) if (1..=highest.min(MAX_HARMONIC)).contains(&m) => m,
+            Some(got) => {
+                return Err(E::MaxHarmonic {
+                    got,
+                    max: highest.min(MAX_HARMONIC),
+                })
+            }
+        };
+        let max_modulation = spec.max_modulation.unwrap_or(DEFAULT_MAX_MODULATION);
+        if !(max_modulation > 0.0 && max_modulation <= 0.9) {
+            return Err(E::MaxModulation(max_modulation));
+        }
+        let radius = process.workpiece_radius_mm();
+        let pixel_mm = match spec.pixel_mm {
+            None => 2.0 * radius / (DEFAULT_PIXELS_ACROSS - 1) as f64,
+            Some(p) if p.is_finite() && p > 0.0 => p,
+            Some(p) => return Err(E::Pixel(p)),
+        };
+        let machine = spec.optimize.machine;
+        let c_axis = machine
+            .limits()
+            .map(|l| *l.axis(Axis::C))
+            .unwrap_or_default();
+        let omega0 = pad.part_speed_rad_per_s().abs();
+        let c = CLimits {
+            max_velocity_rad_per_s: c_axis.max_velocity_per_min.map(|v| v.to_radians() / 60.0),
+            max_acceleration_rad_per_s2: c_axis.max_acceleration_per_s2.map(f64::to_radians),
+            max_modulation,
+        };
+        if let Some(v) = c.max_velocity_rad_per_s {
+            if omega0 >= v {
+                return Err(E::CTooSlow {
+                    omega_deg_per_min: omega0.to_degrees() * 60.0,
+                    limit: v.to_degrees() * 60.0,
+                });
+            }
+        }
+        // The map on the part.
+        let (alignment, _) = spec.placement.place(&map).map_err(E::Map)?;
+        let plane = tilt_plane(&map, &alignment, inner_mm, outer_mm);
+        let target = SampledMap {
+            map,
+            alignment,
+            plane,
+            outer_mm,
+            inner_mm,
+        };
+        // Rings at the grid's radii in the aperture, N angles each.
+        let radii: Vec<f64> = setting
+            .grid()
+            .radii_mm()
+            .iter()
+            .copied()
+            .filter(|&r| r >= inner_mm && r <= outer_mm)
+            .collect();
+        let n = 4 * max_harmonic + 8;
+        let (mut sampled, mut missing) = (0usize, 0usize);
+        let rings: Vec<Vec<f64>> = radii
+            .iter()
+            .map(|&r| {
+                let values: Vec<Option<f64>> = (0..n)
+                    .map(|k| {
+                        let (s, c) = (TAU * k as f64 / n as f64).sin_cos();
+                        target.at(r * c, r * s)
+                    })
+                    .collect();
+                let known: Vec<f64> = values.iter().flatten().copied().collect();
+                sampled += values.len();
+                missing += values.len() - known.len();
+                let mean = if known.is_empty() {
+                    0.0
+                } else {
+                    known.iter().sum::<f64>() / known.len() as f64
+                };
+                values.iter().map(|v| v.unwrap_or(mean)).collect()
+            })
+            .collect();
+        let covered = 100.0 * (1.0 - missing as f64 / sampled.max(1) as f64);
+        if covered < 50.0 {
+            return Err(E::MapTooSmall { covered, outer_mm });
+        }
+        let harmonics = Harmonics::of_rings(radii.clone(), &rings, max_harmonic);
+        let profile = DepthProfile {
+            radius_mm: radii.clone(),
+            depth_nm: harmonics.coefficients.iter().map(|c| c[0].0).collect(),
+        };
+        let plan = OptimizeCommand::new(
+            setting.clone(),
+            OptimizeSpec {
+                target: TargetSpec {
+                    uniform_depth_nm: None,
+                    profile: Some(profile),
+                    free_piston: Some(true),
+                },
+                ..spec.optimize
+            },
+            limits,
+        )?;
+        Ok(MapOptimizeCommand {
+            plan,
+            setting,
+            pad,
+            target,
+            harmonics,
+            sectors,
+            c,
+            machine,
+            pixel_mm,
+        })
+    }
+}
+
+/// Piston and tilt (nm, nm/mm) of the least-squares plane through the map's valid pixels in
+/// the annulus [inner, outer] about the part's centre.
+fn tilt_plane(map: &HeightMap, alignment: &Alignment, inner: f64, outer: f64) -> [f64; 3] {
+    let frame = alignment.frame();
+    let mut m = [[0.0; 3]; 3];
+    let mut v = [0.0; 3];
+    for row in 0..map.height() {
+        for column in 0..map.width() {
+            let Some(h) = map.at(column, row) else {
+                continue;
+            };
+            let (x, y) = frame.to_part(column as f64, row as f64);
+            let r = x.hypot(y);
+            if r < inner || r > outer {
+                continue;
+            }
+            let basis = [1.0, x, y];
+            for a in 0..3 {
+                v[a] += basis[a] * h;
+                for b in 0..3 {
+                    m[a][b] += basis[a] * basis[b];
+                }
+            }
+        }
+    }
+    solve3(m, v).unwrap_or([0.0; 3])
+}
+
+/// The 3 × 3 system m·x = v by Cramer's rule; `None` when singular.
+fn solve3(m: [[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |a: [[f64; 3]; 3]| {
+        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+    };
+    let d = det(m);
+    if d.abs() <= f64::EPSILON * m[0][0].abs().powi(3) || !d.is_finite() {
+        return None;
+    }
+    let mut x = [0.0; 3];
+    for (k, xk) in x.iter_mut().enumerate() {
+        let mut a = m;
+        for row in 0..3 {
+            a[row][k] = v[row];
+        }
+        *xk = det(a) / d;
+    }
+    Some(x)
+}
+
+/// One radius band's budget: for m = 1 … m_max, the largest amplitude (nm) of harmonic m the
+/// plan can remove there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BudgetBand {
+    pub from_mm: f64,
+    pub to_mm: f64,
+    pub amplitude_nm: Vec<f64>,
+    /// The target's own amplitude of each harmonic in the band (its largest over the band's radii).
+    pub target_amplitude_nm: Vec<f64>,
+}
+
+/// The corrected plan and what it does.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapCorrection {
+    /// The 1-D plan (the dwell per station, its program, its limits and warnings).
+    pub plan: OptimizedPlan,
+    pub sectors: usize,
+    pub max_harmonic: usize,
+    /// Speed factors [station][sector].
+    pub speed_factors: Vec<Vec<f64>>,
+    /// The time over each sector, s [station][sector].
+    pub sector_dwell_s: Vec<Vec<f64>>,
+    /// The result maps: pixel, axes, removal, target (with the plan's piston) and residual.
+    pub pixel_mm: f64,
+    pub x_mm: Vec<f64>,
+    pub y_mm: Vec<f64>,
+    pub removal_nm: Vec<Option<f64>>,
+    pub target_nm: Vec<Option<f64>>,
+    pub residual_nm: Vec<Option<f64>>,
+    /// The target (tilt removed) over the aperture, about its mean; and its non-axisymmetric part.
+    pub before: Figures,
+    pub before_non_axisymmetric: Figures,
+    /// The residual over the aperture, about its mean; and its non-axisymmetric part.
+    pub after: Figures,
+    pub after_non_axisymmetric: Figures,
+    /// C's peaks over the executed motion, deg/min and deg/s².
+    pub c_peak_velocity_deg_per_min: f64,
+    pub c_peak_acceleration_deg_per_s2: f64,
+    pub harmonic_budget: Vec<BudgetBand>,
+    pub total_time_s: f64,
+    pub blocks: usize,
+    pub warnings: Vec<Warning>,
+}
+
+/// Why a correction has no plan (found by solving).
+pub type MapOptimizeError = OptimizeError;
+
+pub fn map_optimize(
+    command: MapOptimizeCommand,
+    recommender: &Recommender,
+    operators: &OperatorCache,
+) -> Result<MapCorrection, MapOptimizeError> {
+    let MapOptimizeCommand {
+        plan,
+        setting,
+        pad,
+        target,
+        harmonics,
+        sectors,
+        c,
+        machine,
+        pixel_mm,
+    } = command;
+    let process = setting.process();
+    let rt = process.tool_radius_mm();
+    let motion = plan.motion().clone();
+    let m_max = harmonics.coefficients[0].len() - 1;
+    // 1. Each harmonic's modulation.
+    let operator = HarmonicOperator::new(&pad, &motion, &harmonics.radii_mm, m_max);
+    let omega0 = pad.part_speed_rad_per_s().abs();
+    let m_accel = c
+        .max_acceleration_rad_per_s2
+        .map_or(f64::INFINITY, |a| a / (c.max_modulation * omega0 * omega0));
+    // A ring's share of the area (the centre keeps a little weight).
+    let weights: Vec<f64> = harmonics.radii_mm.iter().map(|&r| r + 1e-3 * rt).collect();
+    let ones = vec![1.0; motion.len()];
+    let coefficients = operator.fit(&harmonics, &weights, &ones, motion.radii_mm(), rt, m_accel);
+    // 2. The law's floors.
+    let modulation = sector_modulation(&coefficients, motion.len(), sectors);
+    let floors: Vec<Floor> = modulation
+        .iter()
+        .map(|y| {
+            let (dwell_s, bound) =
+                law_floor(y, omega0, &c).expect("C's velocity was checked above Ω0");
+            Floor {
+                dwell_s,
+                bound: match bound {
+                    LawBound::Modulation => {
+                        Bound::Constraint(crate::optimize::problem::Constraint::MinDwell)
+                    }
+                    LawBound::Velocity => {
+                        Bound::Machine(Drive::Axis(Axis::C), LimitKind::MaxVelocity)
+                    }
+                    LawBound::Acceleration => {
+                        Bound::Machine(Drive::Axis(Axis::C), LimitKind::MaxAcceleration)
+                    }
+                },
+            }
+        })
+        .collect();
+    let mut scaled_stations = vec![false; motion.len()];
+    // 3. The mean.
+    let plan = optimize(plan.with_floors(floors), recommender, operators)?;
+    let dwell = &plan.solution.dwell_s;
+    // The modulation again, now as δ relative to the dwell found (smooth across the stations,
+    // so that C's speed changes little where the plan passes from one to the next), within the
+    // modulation bound.
+    let relative = operator.fit(&harmonics, &weights, dwell, motion.radii_mm(), rt, m_accel);
+    let mut modulation = sector_modulation(&relative, motion.len(), sectors);
+    for (j, (y, &t)) in modulation.iter_mut().zip(dwell).enumerate() {
+        for v in y.iter_mut() {
+            *v *= t;
+        }
+        let share = law_share(y, t, omega0, &c);
+        if share < 1.0 {
+            scaled_stations[j] = true;
+            for v in y.iter_mut() {
+                *v *= share;
+            }
+        }
+    }
+    // 4. The law, checked on the executed motion: the floors bound each station's own
+    // sectors, but a station's law meets its neighbour's where the plan passes from one to the
+    // other (and a segment may end just after a sector edge), so the blocks are checked as the
+    // program will run them, and where they break a limit the stations' modulation is scaled
+    // down (which keeps every floor: the plan stands).
+    let mut round = 0;
+    let (factors, blocks, peaks) = loop {
+        let factors = speed_factors(&modulation, dwell);
+        let law = SectorLaw::new(motion.len(), sectors, factors.concat()).map_err(|e| {
+            OptimizeError::Numerical {
+                status: format!("the C law is not one: {e}"),
+            }
+        })?;
+        let executed =
+            motion
+                .clone()
+                .with_sector_law(law)
+                .map_err(|e| OptimizeError::Numerical {
+                    status: format!("the C law does not fit the plan: {e}"),
+                })?;
+        let blocks = executed_blocks(&executed, dwell, pad.part_speed_rad_per_s(), 0.0);
+        let peaks = c_peaks(&blocks, motion.len(), &c);
+        if peaks.over.iter().all(|&o| o <= 1.0) {
+            break (factors, blocks, peaks);
+        }
+        round += 1;
+        if round > MAX_LAW_ROUNDS {
+            return Err(OptimizeError::Infeasible {
+                fields: vec![Bound::Machine(
+                    Drive::Axis(Axis::C),
+                    LimitKind::MaxAcceleration,
+                )],
+                detail: format!(
+                    "C's law still breaks a limit of the c axis after {MAX_LAW_ROUNDS} rounds of \
+                     scaling its modulation down"
+                ),
+            });
+        }
+        for (j, &over) in peaks.over.iter().enumerate() {
+            if over > 1.0 {
+                scaled_stations[j] = true;
+                for y in &mut modulation[j] {
+                    *y /= over * (1.0 + LAW_MARGIN);
+                }
+            }
+        }
+    };
+    let dwell = &plan.solution.dwell_s;
+    let sector_dwell_s: Vec<Vec<f64>> = modulation
+        .iter()
+        .zip(dwell)
+        .map(|(y, &t)| y.iter().map(|v| (t + v) / sectors as f64).collect())
+        .collect();
+    // 5. The exact removal on a square map, at a pixel the work limit allows.
+    let radius = process.workpiece_radius_mm();
+    let turns: f64 = blocks
+        .iter()
+        .map(|b| b.duration_s * b.part_speed_rad_per_s.abs() / TAU)
+        .sum();
+    let mut pixel = pixel_mm;
+    let on_part = |p: f64| std::f64::consts::PI * (radius / p + 0.5).powi(2);
+    while on_part(pixel) * (turns + blocks.len() as f64 / 10.0) > MAX_WORK {
+        pixel *= 1.25;
+    }
+    let mut warnings = plan.warnings.clone();
+    if pixel > pixel_mm {
+        warnings.push(Warning::MapCoarsened {
+            asked_mm: pixel_mm,
+            used_mm: pixel,
+        });
+    }
+    let half = (radius / pixel).ceil() as usize;
+    let (x_mm, y_mm) = square_axes(0.0, half, pixel);
+    let points: Vec<(f64, f64)> = y_mm
+        .iter()
+        .flat_map(|&y| x_mm.iter().map(move |&x| (x, y)))
+        .collect();
+    let on: Vec<usize> = (0..points.len())
+        .filter(|&i| points[i].0.hypot(points[i].1) <= radius)
+        .collect();
+    let depths = pad.depth_nm(&blocks, &on.iter().map(|&i| points[i]).collect::<Vec<_>>());
+    let piston = plan.solution.piston_nm.unwrap_or(0.0);
+    let mut removal_nm = vec![None; points.len()];
+    let mut target_nm = vec![None; points.len()];
+    let mut residual_nm = vec![None; points.len()];
+    let (inner, outer) = (target.inner_mm, target.outer_mm);
+    // (radius, target, residual) over the aperture's pixels with data.
+    let mut inside = Vec::new();
+    for (&i, &d) in on.iter().zip(&depths) {
+        removal_nm[i] = Some(d);
+        let (x, y) = points[i];
+        let r = x.hypot(y);
+        if r < inner || r > outer {
+            continue;
+        }
+        if let Some(e) = target.at(x, y) {
+            target_nm[i] = Some(e + piston);
+            residual_nm[i] = Some(d - e - piston);
+            inside.push((r, e, d - e - piston));
+        }
+    }
+    let figures_of = |pick: &dyn Fn(&(f64, f64, f64)) -> f64| figures(inside.iter().map(pick));
+    let before = figures_of(&|p| p.1);
+    let after = figures_of(&|p| p.2);
+    let ring_means = |pick: &dyn Fn(&(f64, f64, f64)) -> f64| ring_means(&inside, pixel, pick);
+    let (target_rings, residual_rings) = (ring_means(&|p| p.1), ring_means(&|p| p.2));
+    let ring = |r: f64| (r / pixel).floor() as usize;
+    let before_non_axisymmetric = figures(inside.iter().map(|p| p.1 - target_rings[ring(p.0)]));
+    let after_non_axisymmetric = figures(inside.iter().map(|p| p.2 - residual_rings[ring(p.0)]));
+    let (peak_v, peak_a) = (peaks.velocity_rad_per_s, peaks.acceleration_rad_per_s2);
+    let near = |peak: f64, limit: Option<f64>| {
+        limit.is_some_and(|l| peak >= l * super::warnings::ACTIVE_USE)
+    };
+    for (peak, limit, kind) in [
+        (peak_v, c.max_velocity_rad_per_s, LimitKind::MaxVelocity),
+        (
+            peak_a,
+            c.max_acceleration_rad_per_s2,
+            LimitKind::MaxAcceleration,
+        ),
+    ] {
+        if near(peak, limit) {
+            warnings.push(Warning::MachineLimitActive {
+                drive: Drive::Axis(Axis::C),
+                limit: kind,
+                default_machine: machine.is_default(Drive::Axis(Axis::C), kind),
+            });
+        }
+    }
+    // The harmonic budget, per band of one pad radius.
+    let mut harmonic_budget = Vec::new();
+    let allowed = |m: usize| {
+        let mut a = c.max_modulation;
+        if let Some(v) = c.max_velocity_rad_per_s {
+            a = a.min(1.0 - omega0 / v);
+        }
+        if let Some(acc) = c.max_acceleration_rad_per_s2 {
+            a = a.min(acc / (m as f64 * omega0 * omega0));
+        }
+        a
+    };
+    let per_m: Vec<Vec<f64>> = (1..=m_max)
+        .map(|m| operator.footprint_apply(m, dwell))
+        .collect();
+    let mut from = inner;
+    while from < outer {
+        let to = (from + rt).min(outer);
+        let rows: Vec<usize> = (0..harmonics.radii_mm.len())
+            .filter(|&i| harmonics.radii_mm[i] >= from && harmonics.radii_mm[i] <= to)
+            .collect();
+        if !rows.is_empty() {
+            let amplitude_nm = (1..=m_max)
+                .map(|m| {
+                    rows.iter().map(|&i| per_m[m - 1][i].abs()).sum::<f64>() / rows.len() as f64
+                        * allowed(m)
+                })
+                .collect();
+            let target_amplitude_nm = (1..=m_max)
+                .map(|m| {
+                    rows.iter()
+                        .map(|&i| {
+                            let (a, b) = harmonics.coefficients[i][m];
+                            a.hypot(b)
+                        })
+                        .fold(0.0, f64::max)
+                })
+                .collect();
+            harmonic_budget.push(BudgetBand {
+                from_mm: from,
+                to_mm: to,
+                amplitude_nm,
+                target_amplitude_nm,
+            });
+        }
+        from = to;
+    }
+    Ok(MapCorrection {
+        total_time_s: plan.total_time_s,
+        plan,
+        sectors,
+        max_harmonic: m_max,
+        speed_factors: factors,
+        sector_dwell_s,
+        pixel_mm: pixel,
+        x_mm,
+        y_mm,
+        removal_nm,
+        target_nm,
+        residual_nm,
+        before,
+        before_non_axisymmetric,
+        after,
+        after_non_axisymmetric,
+        c_peak_velocity_deg_per_min: peak_v.to_degrees() * 60.0,
+        c_peak_acceleration_deg_per_s2: peak_a.to_degrees(),
+        harmonic_budget,
+        blocks: blocks.len(),
+        warnings,
+    })
+}
+
+/// How many times the modulation is scaled down where C's law breaks a limit on the executed
+/// motion before the plan is refused.
+const MAX_LAW_ROUNDS: usize = 20;
+/// Where it breaks a limit by a factor, a station's modulation is scaled down by that factor
+/// and this much more.
+const LAW_MARGIN: f64 = 0.01;
+
+/// C's peaks over a plan's executed blocks, and for each station how far the blocks it
+/// takes part in exceed C's limits (the largest of peak/limit, ≤ 1 when within).
+struct CPeaks {
+    velocity_rad_per_s: f64,
+    acceleration_rad_per_s2: f64,
+    over: Vec<f64>,
+}
+
+/// C's speed in each block and its acceleration between consecutive spans of blocks at one
+/// C speed as the program's model takes it (`physics::motion::acceleration`: the change over
+/// the mean of the two spans' durations; blocks split only where X changes speed are one
+/// span of C).
+fn c_peaks(blocks: &[Block], stations: usize, c: &CLimits) -> CPeaks {
+    let mut peaks = CPeaks {
+        velocity_rad_per_s: 0.0,
+        acceleration_rad_per_s2: 0.0,
+        over: vec![0.0; stations],
+    };
+    let ratio = |value: f64, limit: Option<f64>| limit.map_or(0.0, |l| value / l);
+    // Spans: (speed, duration, first block, end).
+    let mut spans: Vec<(f64, f64, usize, usize)> = Vec::new();
+    for (i, b) in blocks.iter().enumerate() {
+        let v = b.part_speed_rad_per_s;
+        peaks.velocity_rad_per_s = peaks.velocity_rad_per_s.max(v.abs());
+        let over = &mut peaks.over[b.station];
+        *over = over.max(ratio(v.abs(), c.max_velocity_rad_per_s));
+        match spans.last_mut() {
+            Some(span) if span.0 == v => {
+                span.1 += b.duration_s;
+                span.3 = i + 1;
+            }
+            _ => spans.push((v, b.duration_s, i, i + 1)),
+        }
+    }
+    for w in spans.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let value = acceleration((b.0 - a.0).abs(), a.1, b.1).abs();
+        peaks.acceleration_rad_per_s2 = peaks.acceleration_rad_per_s2.max(value);
+        let r = ratio(value, c.max_acceleration_rad_per_s2);
+        if r > 0.0 {
+            for block in &blocks[a.2..b.3] {
+                let over = &mut peaks.over[block.station];
+                *over = over.max(r);
+            }
+        }
+    }
+    peaks
+}
+
+/// The mean of `pick` over each ring one pixel wide (index ⌊r/pixel⌋).
+fn ring_means(
+    points: &[(f64, f64, f64)],
+    pixel: f64,
+    pick: &dyn Fn(&(f64, f64, f64)) -> f64,
+) -> Vec<f64> {
+    let rings = points
+        .iter()
+        .map(|p| (p.0 / pixel).floor() as usize)
+        .max()
+        .map_or(0, |m| m + 1);
+    let mut sums = vec![(0.0, 0usize); rings];
+    for p in points {
+        let s = &mut sums[(p.0 / pixel).floor() as usize];
+        s.0 += pick(p);
+        s.1 += 1;
+    }
+    sums.iter()
+        .map(|&(s, n)| if n > 0 { s / n as f64 } else { 0.0 })
+        .collect()
+}
