@@ -173,6 +173,17 @@ async function mapPredict(name: string): Promise<void> {
   check(name, data.total_time_s === body.dwell.dwell_s.reduce((a, b) => a + b, 0), "the plan's time");
 }
 
+async function mapOptimize(name: string): Promise<void> {
+  const body = read<Schemas["MapOptimizeRequest"]>(name);
+  const { data, error } = await client.POST("/v1/maps/optimize", { body });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const metrics: Schemas["CorrectionMetricsDto"] = data.metrics;
+  check(name, metrics.after.rms_nm < metrics.before.rms_nm, "the correction lowers the RMS");
+  check(name, data.c_law.speed_factors.length === data.dwell.positions_mm.length, "a law row per station");
+  check(name, data.harmonic_budget.every((b) => b.amplitude_nm.length === data.max_harmonic), "a budget per harmonic");
+}
+
 // An error comes back typed as the problem it is.
 async function problem(): Promise<void> {
   const body = read<Schemas["PredictRequest"]>("predict_paper_exp2.json");
@@ -196,6 +207,7 @@ const runners: [string, (name: string) => Promise<void>][] = [
   ["maps_difference", mapDifference],
   ["maps_removal_function", mapRemovalFunction],
   ["maps_predict", mapPredict],
+  ["maps_optimize", mapOptimize],
 ];
 let calls = 0;
 for (const name of readdirSync(fixtures).filter((f) => f.endsWith(".json")).sort()) {

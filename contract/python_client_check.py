@@ -21,6 +21,7 @@ from preston_client.api.maps import (  # noqa: E402
     analyse_map,
     compute_map_removal_function,
     difference_maps,
+    optimize_map,
     predict_removal_map,
 )
 from preston_client.api.metrology import fit_measurement  # noqa: E402
@@ -59,6 +60,7 @@ OPERATIONS = {
         models.MapRemovalFunctionResponse,
     ),
     "maps_predict": (predict_removal_map, models.MapPredictRequest, models.MapPredictResponse),
+    "maps_optimize": (optimize_map, models.MapOptimizeRequest, models.MapOptimizeResponse),
 }
 
 root = pathlib.Path(__file__).resolve().parent.parent
