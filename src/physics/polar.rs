@@ -47,6 +47,14 @@
 //! a ring (closed form) or a piece of spiral (quadrature) at its own Ω, and the depth is their
 //! sum. Only ω2 − Ω in the sliding speed depends on Ω on a plane, so one pad per distinct
 //! speed serves ([`RemovalKernel::with_part_speed`]).
+//!
+//! **Harmonics.** ρ is even in α, so a density of dwell u(φ) over the pad centre's angle
+//! removes ∫ u(φ)·ρ(r, θ − φ) dφ, a circular convolution: harmonic m of the removal is harmonic
+//! m of the density times ĝ_m(r; r1) = (1/2π)∫ρ(r, α)·cos mα dα, and ĝ_0 = R. Modulating the
+//! density modulates C's speed (the time per unit angle is 1/Ω), and V depends on Ω: to first
+//! order a relative modulation δ acts through h = ρ − Ω·∂ρ/∂Ω, with
+//! ∂V/∂Ω = (−(ω2 − Ω)·r² + r·r1·ω2·cos α)/V ([`PolarPad::angular_spectrum`] gives the
+//! coefficients of both; `optimize::harmonics` plans with them).
 
 use std::f64::consts::{PI, TAU};
 
@@ -361,7 +369,7 @@ impl PolarPad {
     }
 
     /// The footprint's angular spectrum at radius `r_mm` with the pad centre at `r1_mm`, for
-    /// m = 0 … `m_max` (module docs, "Harmonics"): the cosine coefficients
+    /// m = 0 … `m_max` (module docs, **Harmonics**): the cosine coefficients
     /// ĝ_m = (1/2π)·∫ρ(r, α)·cos(mα) dα of the footprint, and those of the modulation kernel
     /// h = ρ − Ω·∂ρ/∂Ω. ĝ_0 is R(r; r1). By a 15-point Kronrod rule on equal panels of the
     /// pressed half-arc [0, θ0] (ρ is even in α), each spanning at most 2 rad of m_max·α (a

@@ -26,7 +26,7 @@
 use std::f64::consts::TAU;
 
 use super::map_analysis::{MapInputError, Placement};
-use super::map_predict::{figures, MAX_WORK};
+use super::map_predict::{figures, MAX_BLOCKS};
 use super::map_removal_function::square_axes;
 use super::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan, TargetSpec};
 use super::{ComputeLimits, InputError, OperatorCache, Recommender, Setting, Warning};
@@ -52,6 +52,12 @@ pub const DEFAULT_SECTORS: usize = 180;
 pub const DEFAULT_MAX_MODULATION: f64 = 0.5;
 /// The most harmonics one plan corrects.
 pub const MAX_HARMONIC: usize = 90;
+/// The most work the harmonics may take in one request, in operations (a few seconds on 2
+/// cores).
+pub const MAX_HARMONIC_WORK: f64 = 1e10;
+/// The most work the result's removal map may take, in pixel-turns as `/v1/maps/predict`
+/// counts them (half its limit, about 7 s on 2 cores: the plan is solved first).
+pub const MAX_MAP_WORK: f64 = 1.5e7;
 /// Pixels across the part of the result's maps by default.
 pub const DEFAULT_PIXELS_ACROSS: usize = 81;
 
@@ -102,6 +108,18 @@ pub enum MapOptimizeInputError {
     )]
     CTooSlow { omega_deg_per_min: f64, limit: f64 },
     #[error(
+        "{rows} radii × {stations} stations × harmonics up to {max_harmonic} is about \
+         {work:.1e} operations, more than one request may take ({max:.0e}): fewer radial \
+         samples, positions or harmonics"
+    )]
+    TooMuchWork {
+        rows: usize,
+        stations: usize,
+        max_harmonic: usize,
+        work: f64,
+        max: f64,
+    },
+    #[error(
         "the map covers {covered:.1} % of the clear aperture (radius {outer_mm} mm as placed); \
          at least 50 % is needed"
     )]
@@ -122,6 +140,8 @@ pub struct MapOptimizeCommand {
     /// The machine as the request named it (for warnings on the default machine's limits).
     machine: MachineChoice,
     pixel_mm: f64,
+    /// The map's RMS above `max_harmonic` on the rings (what the plan leaves alone), nm.
+    left_rms_nm: f64,
 }
 
 /// The map as the plan sees it: heights (nm) in the part's frame, piston and tilt removed.
@@ -239,6 +259,22 @@ impl MapOptimizeCommand {
             .copied()
             .filter(|&r| r >= inner_mm && r <= outer_mm)
             .collect();
+        // The harmonic operator's spectra (a 15-point rule on up to ⌈m·π/2⌉ panels for every
+        // m, at each radius and each of a station's four places) and each harmonic's normal
+        // equations.
+        let (rows, stations) = (radii.len() as f64, spec.optimize.positions_mm.len() as f64);
+        let m = max_harmonic as f64;
+        let work = rows * stations * 4.0 * 15.0 * (1.6 * m).max(4.0) * (m + 1.0)
+            + m * (rows * stations * stations + stations.powi(3) / 3.0);
+        if work > MAX_HARMONIC_WORK {
+            return Err(E::TooMuchWork {
+                rows: radii.len(),
+                stations: spec.optimize.positions_mm.len(),
+                max_harmonic,
+                work,
+                max: MAX_HARMONIC_WORK,
+            });
+        }
         let n = 4 * max_harmonic + 8;
         let (mut sampled, mut missing) = (0usize, 0usize);
         let rings: Vec<Vec<f64>> = radii
@@ -266,6 +302,21 @@ impl MapOptimizeCommand {
             return Err(E::MapTooSmall { covered, outer_mm });
         }
         let harmonics = Harmonics::of_rings(radii.clone(), &rings, max_harmonic);
+        // What the rings hold above max_harmonic: their variance less the harmonics' power,
+        // each ring weighted by its radius (its share of the area).
+        let (mut left, mut area) = (0.0, 0.0);
+        for ((ring, c), &r) in rings.iter().zip(&harmonics.coefficients).zip(&radii) {
+            let mean = c[0].0;
+            let variance = ring.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / ring.len() as f64;
+            let captured: f64 = c.iter().skip(1).map(|(a, b)| 0.5 * (a * a + b * b)).sum();
+            left += r * (variance - captured).max(0.0);
+            area += r;
+        }
+        let left_rms_nm = if area > 0.0 {
+            (left / area).sqrt()
+        } else {
+            0.0
+        };
         let profile = DepthProfile {
             radius_mm: radii.clone(),
             depth_nm: harmonics.coefficients.iter().map(|c| c[0].0).collect(),
@@ -292,6 +343,7 @@ impl MapOptimizeCommand {
             c,
             machine,
             pixel_mm,
+            left_rms_nm,
         })
     }
 }
@@ -391,7 +443,23 @@ pub struct MapCorrection {
 }
 
 /// Why a correction has no plan (found by solving).
-pub type MapOptimizeError = OptimizeError;
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MapOptimizeError {
+    #[error(transparent)]
+    Optimize(#[from] OptimizeError),
+    /// The plan's law would cut the motion into more blocks than one request computes.
+    #[error(
+        "the plan runs C through about {turns:.0} turns: at {sectors} sectors that is about \
+         {blocks:.2e} blocks, and at most {max:.0e} are computed in one request (fewer sectors, \
+         or a smaller correction per plan)"
+    )]
+    TooManyBlocks {
+        turns: f64,
+        sectors: usize,
+        blocks: f64,
+        max: f64,
+    },
+}
 
 pub fn map_optimize(
     command: MapOptimizeCommand,
@@ -408,6 +476,7 @@ pub fn map_optimize(
         c,
         machine,
         pixel_mm,
+        left_rms_nm,
     } = command;
     let process = setting.process();
     let rt = process.tool_radius_mm();
@@ -450,6 +519,18 @@ pub fn map_optimize(
     // 3. The mean.
     let plan = optimize(plan.with_floors(floors), recommender, operators)?;
     let dwell = &plan.solution.dwell_s;
+    // The blocks the law cuts the motion into (a block per sector passed; a turn under the
+    // law takes as long as at constant speed), before any is made.
+    let turns: f64 = dwell.iter().sum::<f64>() * omega0 / TAU;
+    let estimate = turns * sectors as f64 + 2.0 * motion.len() as f64;
+    if estimate > MAX_BLOCKS {
+        return Err(MapOptimizeError::TooManyBlocks {
+            turns,
+            sectors,
+            blocks: estimate,
+            max: MAX_BLOCKS,
+        });
+    }
     // The modulation again, now as δ relative to the dwell found (smooth across the stations,
     // so that C's speed changes little where the plan passes from one to the next), within the
     // modulation bound.
@@ -503,7 +584,8 @@ pub fn map_optimize(
                     "C's law still breaks a limit of the c axis after {MAX_LAW_ROUNDS} rounds of \
                      scaling its modulation down"
                 ),
-            });
+            }
+            .into());
         }
         for (j, &over) in peaks.over.iter().enumerate() {
             if over > 1.0 {
@@ -528,10 +610,16 @@ pub fn map_optimize(
         .sum();
     let mut pixel = pixel_mm;
     let on_part = |p: f64| std::f64::consts::PI * (radius / p + 0.5).powi(2);
-    while on_part(pixel) * (turns + blocks.len() as f64 / 10.0) > MAX_WORK {
+    while on_part(pixel) * (turns + blocks.len() as f64 / 10.0) > MAX_MAP_WORK {
         pixel *= 1.25;
     }
     let mut warnings = plan.warnings.clone();
+    if left_rms_nm > HARMONICS_LEFT_FRACTION * before_rms_of(&harmonics) {
+        warnings.push(Warning::HarmonicsLeft {
+            max_harmonic: m_max,
+            rms_nm: left_rms_nm,
+        });
+    }
     if pixel > pixel_mm {
         warnings.push(Warning::MapCoarsened {
             asked_mm: pixel_mm,
@@ -722,6 +810,28 @@ fn c_peaks(blocks: &[Block], stations: usize, c: &CLimits) -> CPeaks {
         }
     }
     peaks
+}
+
+/// The target's harmonics above max_harmonic earn a warning when their RMS exceeds this
+/// fraction of the RMS of those it corrects.
+const HARMONICS_LEFT_FRACTION: f64 = 0.25;
+
+/// The RMS of harmonics 1 … m_max over the rings, each weighted by its radius, nm.
+fn before_rms_of(harmonics: &Harmonics) -> f64 {
+    let (mut power, mut area) = (0.0, 0.0);
+    for (c, &r) in harmonics.coefficients.iter().zip(&harmonics.radii_mm) {
+        power += r * c
+            .iter()
+            .skip(1)
+            .map(|(a, b)| 0.5 * (a * a + b * b))
+            .sum::<f64>();
+        area += r;
+    }
+    if area > 0.0 {
+        (power / area).sqrt()
+    } else {
+        0.0
+    }
 }
 
 /// The mean of `pick` over each ring one pixel wide (index ⌊r/pixel⌋).

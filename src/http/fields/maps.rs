@@ -6,7 +6,7 @@ use crate::maps::difference::DifferenceError;
 use crate::physics::SectorLawError;
 use crate::usecases::map_analysis::{MapInput, MapInputError};
 use crate::usecases::map_difference::DifferenceInputError;
-use crate::usecases::map_optimize::MapOptimizeInputError;
+use crate::usecases::map_optimize::{MapOptimizeError, MapOptimizeInputError};
 use crate::usecases::map_predict::MapPredictInputError;
 use crate::usecases::map_removal_function::FootprintInputError;
 
@@ -137,7 +137,21 @@ impl From<MapOptimizeInputError> for ApiError {
             E::Pixel(_) => "removal_pixel_mm",
             E::CTooSlow { .. } => "machine.c.max_velocity_deg_per_min",
             E::MapTooSmall { .. } => "map",
+            E::TooMuchWork { .. } => return ApiError::limit("c_law.max_harmonic", err.to_string()),
         };
         ApiError::invalid(at, err.to_string())
+    }
+}
+
+/// A correction found too large to compute names the sectors that cut it; else as the
+/// optimizer's problems.
+impl From<MapOptimizeError> for ApiError {
+    fn from(err: MapOptimizeError) -> Self {
+        match err {
+            MapOptimizeError::Optimize(e) => e.into(),
+            MapOptimizeError::TooManyBlocks { .. } => {
+                ApiError::limit("c_law.sectors", err.to_string())
+            }
+        }
     }
 }
