@@ -250,12 +250,12 @@ async fn planted_astigmatism_and_trefoil_are_corrected_within_c_s_limits() {
 
 /// prysm's 50 mm Fizeau sample (a real part: a strong zone and an edge roll) planned on a
 /// 50 mm part with a 5 mm pad at the paper's speeds, on the default machine's C. At the default
-/// process the plan runs about 54,000 turns of C, so one request's block limit allows 12
-/// sectors (harmonics up to 5). Measured: RMS 25.6 → 11.6 nm, what is not round 14.2 → 9.8
-/// nm (a plan in radius alone leaves the map's rotationally variant part as it is, so 14.2 nm
-/// is the 1-D plan's); beyond one pad radius the budget reaches every harmonic it corrects,
-/// and what is left is
-/// mostly above m = 5 (warned). The bound checks the plan lowers both by a quarter at least.
+/// process the plan runs tens of thousands of turns of C (about 32,000 here), so one request's
+/// block limit allows 12 sectors (harmonics up to 5). Measured: RMS 25.6 → 11.6 nm, what is
+/// not round 14.2 → 9.8 nm (a plan in radius alone leaves the map's rotationally variant part
+/// as it is, so 14.2 nm is the 1-D plan's); beyond one pad radius the budget reaches every
+/// harmonic it corrects, and what is left is mostly above m = 5 (warned). The bounds check the
+/// plan lowers both by a quarter at least.
 #[tokio::test(flavor = "multi_thread")]
 async fn the_real_fizeau_map_loses_what_is_not_round() {
     let bytes = std::fs::read(crate::common::fixture_path("maps/valid_zygo_dat_file.dat")).unwrap();
