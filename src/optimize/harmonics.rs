@@ -74,6 +74,7 @@ use faer::Mat;
 use rayon::prelude::*;
 
 use super::kinematics::MARGIN;
+use super::scaling::second_differences;
 use crate::physics::polar::PolarPad;
 use crate::physics::Motion;
 
@@ -264,7 +265,13 @@ impl HarmonicOperator {
         m_accel: f64,
     ) -> Vec<(Vec<f64>, Vec<f64>)> {
         let n = self.columns;
+        // Row k − 1 of D2 is the second divided difference at station k; it stands for the
+        // width (h_{k−1} + h_k)/2.
         let curvature = second_differences(stations_mm);
+        let widths: Vec<f64> = stations_mm
+            .windows(3)
+            .map(|w| 0.5 * (w[2] - w[0]))
+            .collect();
         let span = stations_mm.last().unwrap_or(&0.0) - stations_mm.first().unwrap_or(&0.0);
         (1..=self.m_max())
             .into_par_iter()
@@ -290,14 +297,12 @@ impl HarmonicOperator {
                         rhs[(j, 1)] += column * w * b;
                     }
                 }
-                if let Some((rows, weights)) = &curvature {
-                    let lambda =
-                        SMOOTHING * scale * tool_radius_mm.powi(4) / span.max(f64::MIN_POSITIVE);
-                    for (row, h) in rows.iter().zip(weights) {
-                        for &(p, cp) in row {
-                            for &(q, cq) in row {
-                                normal[(p, q)] += lambda * h * cp * cq;
-                            }
+                let lambda =
+                    SMOOTHING * scale * tool_radius_mm.powi(4) / span.max(f64::MIN_POSITIVE);
+                for (k, (row, h)) in curvature.iter().zip(&widths).enumerate() {
+                    for (p, cp) in row.iter().enumerate() {
+                        for (q, cq) in row.iter().enumerate() {
+                            normal[(k + p, k + q)] += lambda * h * cp * cq;
                         }
                     }
                 }
@@ -316,29 +321,6 @@ impl HarmonicOperator {
             })
             .collect()
     }
-}
-
-/// The second divided differences over `x` (each a row of three (index, coefficient)) and the
-/// width each stands for; `None` for fewer than three points.
-type Curvature = (Vec<[(usize, f64); 3]>, Vec<f64>);
-
-fn second_differences(x: &[f64]) -> Option<Curvature> {
-    if x.len() < 3 {
-        return None;
-    }
-    let mut rows = Vec::with_capacity(x.len() - 2);
-    let mut widths = Vec::with_capacity(x.len() - 2);
-    for k in 1..x.len() - 1 {
-        let (h0, h1) = (x[k] - x[k - 1], x[k + 1] - x[k]);
-        let s = h0 + h1;
-        rows.push([
-            (k - 1, 2.0 / (h0 * s)),
-            (k, -2.0 / (h0 * h1)),
-            (k + 1, 2.0 / (h1 * s)),
-        ]);
-        widths.push(0.5 * s);
-    }
-    Some((rows, widths))
 }
 
 /// C's limits as the law must keep them, rad/s and rad/s² (`None`: unlimited).

@@ -32,7 +32,8 @@ use super::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan, Ta
 use super::{ComputeLimits, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::field::{DepthProfile, Figures};
 use crate::machine::{Axis, Drive, LimitKind, MachineChoice};
-use crate::maps::aperture::Alignment;
+use crate::maps::analysis::{aperture_pixels, plane_fit};
+use crate::maps::aperture::{Alignment, Aperture};
 use crate::maps::HeightMap;
 use crate::optimize::harmonics::{
     law_floor, law_share, sector_modulation, speed_factors, CLimits, HarmonicOperator, Harmonics,
@@ -52,12 +53,13 @@ pub const DEFAULT_SECTORS: usize = 180;
 pub const DEFAULT_MAX_MODULATION: f64 = 0.5;
 /// The most harmonics one plan corrects.
 pub const MAX_HARMONIC: usize = 90;
-/// The most work the harmonics may take in one request, in operations (a few seconds on 2
+/// The most work the harmonics may take in one request, in operations (about a second on 2
 /// cores).
-pub const MAX_HARMONIC_WORK: f64 = 1e10;
+pub const MAX_HARMONIC_WORK: f64 = 3e9;
 /// The most work the result's removal map may take, in pixel-turns as `/v1/maps/predict`
-/// counts them (half its limit, about 7 s on 2 cores: the plan is solved first).
-pub const MAX_MAP_WORK: f64 = 1.5e7;
+/// counts them (a tenth of its limit, about 1.5 s on 2 cores: the plan is solved first, and
+/// a coarser map is still the exact removal at its pixels).
+pub const MAX_MAP_WORK: f64 = 3e6;
 /// Pixels across the part of the result's maps by default.
 pub const DEFAULT_PIXELS_ACROSS: usize = 81;
 
@@ -151,9 +153,6 @@ struct SampledMap {
     alignment: Alignment,
     /// Piston (nm) and tilt (nm/mm in x and y) removed.
     plane: [f64; 3],
-    /// The aperture's pixels' heights' RMS about the mean, and their non-axisymmetric RMS.
-    outer_mm: f64,
-    inner_mm: f64,
 }
 
 impl SampledMap {
@@ -248,8 +247,6 @@ impl MapOptimizeCommand {
             map,
             alignment,
             plane,
-            outer_mm,
-            inner_mm,
         };
         // Rings at the grid's radii in the aperture, N angles each.
         let radii: Vec<f64> = setting
@@ -349,53 +346,16 @@ impl MapOptimizeCommand {
 }
 
 /// Piston and tilt (nm, nm/mm) of the least-squares plane through the map's valid pixels in
-/// the annulus [inner, outer] about the part's centre.
+/// the annulus [inner, outer] about the part's centre (the analysis's plane fit, in mm).
 fn tilt_plane(map: &HeightMap, alignment: &Alignment, inner: f64, outer: f64) -> [f64; 3] {
-    let frame = alignment.frame();
-    let mut m = [[0.0; 3]; 3];
-    let mut v = [0.0; 3];
-    for row in 0..map.height() {
-        for column in 0..map.width() {
-            let Some(h) = map.at(column, row) else {
-                continue;
-            };
-            let (x, y) = frame.to_part(column as f64, row as f64);
-            let r = x.hypot(y);
-            if r < inner || r > outer {
-                continue;
-            }
-            let basis = [1.0, x, y];
-            for a in 0..3 {
-                v[a] += basis[a] * h;
-                for b in 0..3 {
-                    m[a][b] += basis[a] * basis[b];
-                }
-            }
-        }
-    }
-    solve3(m, v).unwrap_or([0.0; 3])
-}
-
-/// The 3 × 3 system m·x = v by Cramer's rule; `None` when singular.
-fn solve3(m: [[f64; 3]; 3], v: [f64; 3]) -> Option<[f64; 3]> {
-    let det = |a: [[f64; 3]; 3]| {
-        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
-            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
-            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+    let aperture = Aperture::Annulus {
+        inner_radius_mm: inner,
+        outer_radius_mm: outer,
     };
-    let d = det(m);
-    if d.abs() <= f64::EPSILON * m[0][0].abs().powi(3) || !d.is_finite() {
-        return None;
-    }
-    let mut x = [0.0; 3];
-    for (k, xk) in x.iter_mut().enumerate() {
-        let mut a = m;
-        for row in 0..3 {
-            a[row][k] = v[row];
-        }
-        *xk = det(a) / d;
-    }
-    Some(x)
+    let census = aperture_pixels(map, alignment, &aperture);
+    // In unit coordinates over the aperture, as the analysis fits it; back to nm/mm here.
+    let [piston, x, y] = plane_fit(&census.pixels, &|p| (p.x_mm / outer, p.y_mm / outer));
+    [piston, x / outer, y / outer]
 }
 
 /// One radius band's budget: for m = 1 … m_max, the largest amplitude (nm) of harmonic m the
@@ -515,7 +475,6 @@ pub fn map_optimize(
             }
         })
         .collect();
-    let mut scaled_stations = vec![false; motion.len()];
     // 3. The mean.
     let plan = optimize(plan.with_floors(floors), recommender, operators)?;
     let dwell = &plan.solution.dwell_s;
@@ -536,13 +495,12 @@ pub fn map_optimize(
     // modulation bound.
     let relative = operator.fit(&harmonics, &weights, dwell, motion.radii_mm(), rt, m_accel);
     let mut modulation = sector_modulation(&relative, motion.len(), sectors);
-    for (j, (y, &t)) in modulation.iter_mut().zip(dwell).enumerate() {
+    for (y, &t) in modulation.iter_mut().zip(dwell) {
         for v in y.iter_mut() {
             *v *= t;
         }
         let share = law_share(y, t, omega0, &c);
         if share < 1.0 {
-            scaled_stations[j] = true;
             for v in y.iter_mut() {
                 *v *= share;
             }
@@ -589,7 +547,6 @@ pub fn map_optimize(
         }
         for (j, &over) in peaks.over.iter().enumerate() {
             if over > 1.0 {
-                scaled_stations[j] = true;
                 for y in &mut modulation[j] {
                     *y /= over * (1.0 + LAW_MARGIN);
                 }
@@ -640,7 +597,7 @@ pub fn map_optimize(
     let mut removal_nm = vec![None; points.len()];
     let mut target_nm = vec![None; points.len()];
     let mut residual_nm = vec![None; points.len()];
-    let (inner, outer) = (target.inner_mm, target.outer_mm);
+    let (inner, outer) = (setting.aperture().inner_mm(), setting.aperture().outer_mm());
     // (radius, target, residual) over the aperture's pixels with data.
     let mut inside = Vec::new();
     for (&i, &d) in on.iter().zip(&depths) {
