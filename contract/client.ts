@@ -184,6 +184,18 @@ async function mapOptimize(name: string): Promise<void> {
   check(name, data.harmonic_budget.every((b) => b.amplitude_nm.length === data.max_harmonic), "a budget per harmonic");
 }
 
+async function mapProgram(name: string): Promise<void> {
+  const body = read<Schemas["MapProgramRequest"]>(name);
+  const { data, error } = await client.POST("/v1/maps/program", { body });
+  check(name, error === undefined && data !== undefined, JSON.stringify(error));
+  if (!data) return;
+  const c: Schemas["CAxisReport"] = data.axes.c;
+  check(name, c.peak_velocity_deg_per_min > 0 && c.turns !== 0, "C turns");
+  const planned = body.dwell.dwell_s.reduce((a, b) => a + b, 0);
+  check(name, Math.abs(data.total_time_s - planned) <= 1e-9 * planned, "the plan's time");
+  check(name, data.blocks > body.dwell.positions_mm.length, "cut at the sector edges");
+}
+
 // An error comes back typed as the problem it is.
 async function problem(): Promise<void> {
   const body = read<Schemas["PredictRequest"]>("predict_paper_exp2.json");
@@ -208,6 +220,7 @@ const runners: [string, (name: string) => Promise<void>][] = [
   ["maps_removal_function", mapRemovalFunction],
   ["maps_predict", mapPredict],
   ["maps_optimize", mapOptimize],
+  ["maps_program", mapProgram],
 ];
 let calls = 0;
 for (const name of readdirSync(fixtures).filter((f) => f.endsWith(".json")).sort()) {

@@ -21,6 +21,7 @@ from preston_client.api.maps import (  # noqa: E402
     analyse_map,
     compute_map_removal_function,
     difference_maps,
+    generate_map_program,
     optimize_map,
     predict_removal_map,
 )
@@ -61,6 +62,11 @@ OPERATIONS = {
     ),
     "maps_predict": (predict_removal_map, models.MapPredictRequest, models.MapPredictResponse),
     "maps_optimize": (optimize_map, models.MapOptimizeRequest, models.MapOptimizeResponse),
+    "maps_program": (
+        generate_map_program,
+        models.MapProgramRequest,
+        models.MapProgramResponse,
+    ),
 }
 
 root = pathlib.Path(__file__).resolve().parent.parent

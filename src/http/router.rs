@@ -62,7 +62,7 @@ const fn entry<E: Endpoint>() -> EndpointEntry {
 }
 
 /// Every computing endpoint, in the order the documentation lists them.
-pub static ENDPOINTS: [EndpointEntry; 13] = [
+pub static ENDPOINTS: [EndpointEntry; 14] = [
     entry::<removal_function::RemovalFunctionEndpoint>(),
     entry::<predict::PredictEndpoint>(),
     entry::<optimize::OptimizeEndpoint>(),
@@ -76,6 +76,7 @@ pub static ENDPOINTS: [EndpointEntry; 13] = [
     entry::<maps::removal_function::MapRemovalFunctionEndpoint>(),
     entry::<maps::predict::MapPredictEndpoint>(),
     entry::<maps::optimize::MapOptimizeEndpoint>(),
+    entry::<maps::program::MapProgramEndpoint>(),
 ];
 
 /// The offline twin of the API: the exact JSON body `POST /v1/<endpoint>` would return.

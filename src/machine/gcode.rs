@@ -4,6 +4,10 @@
 //! alone carries deg/min), G4 P dwells in seconds, G1 for every move in contact. The approach
 //! and retract run in G94 at their own feed.
 //!
+//! A polar program ([`write_polar`]) adds C, the part's spindle under position control, to
+//! every block and runs them all in G93, approach and retract included (C turns in each);
+//! C's words are wrapped to [0°, 360°) or cumulative ([`CWords`]).
+//!
 //! **Spindle directions.** Speeds are signed in one lab frame, counter-clockwise positive as
 //! seen from the tool side. M3/M4 mean clockwise/counter-clockwise as seen from the spindle
 //! looking at its work, so a positive tool speed is counter-clockwise to the tool spindle
@@ -14,6 +18,8 @@
 
 use std::fmt::Write;
 
+use super::polar_program::PolarProgram;
+use super::pose::Pose;
 use super::program::{BlockKind, Program};
 
 /// How polishing moves carry their feed.
@@ -257,6 +263,70 @@ pub fn write(
     }
     let _ = writeln!(out, "{}", format.tool_spindle.stop);
     let _ = writeln!(out, "{}", format.workpiece_spindle.stop);
+    out.push_str("M2\n");
+    out
+}
+
+/// How a polar program writes C.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CWords {
+    /// In [0°, 360°): every block turns C by at most a quarter turn, so a controller that
+    /// wraps C and takes the shorter way round takes the plan's way.
+    #[default]
+    Wrapped,
+    /// Cumulative from the start (a C axis without roll-over; the words grow by 360 a turn).
+    Unwound,
+}
+
+/// A polar program as G-code: C under position control beside X, Z and B, every block a G1 in
+/// inverse time (G93, F = 1/duration) — the only feed that states a move of C and X together
+/// exactly. The workpiece spindle is C, so it gets no spindle word; the tool's turns at
+/// `tool_rpm`.
+pub fn write_polar(
+    program: &PolarProgram,
+    header: &[String],
+    tool_rpm: f64,
+    format: &GcodeFormat,
+    c_words: CWords,
+) -> String {
+    let d = format.decimals as usize;
+    let c_word = |c: f64| match c_words {
+        CWords::Unwound => fixed(c, d),
+        CWords::Wrapped => {
+            // Rounded first, so a C just short of a whole turn is written 0, not 360.
+            let scale = 10f64.powi(d as i32);
+            fixed(((c * scale).round() / scale).rem_euclid(360.0), d)
+        }
+    };
+    let axes = |p: Pose, c: f64| {
+        format!(
+            "X{} Z{} B{} C{}",
+            fixed(p.x_mm, d),
+            fixed(p.z_mm, d),
+            fixed(p.b_deg, d),
+            c_word(c)
+        )
+    };
+    let mut out = String::with_capacity(72 * (program.blocks().len() + 16));
+    for line in header {
+        out.push_str(&comment(line));
+        out.push('\n');
+    }
+    let (start, start_c) = program.start();
+    out.push_str("G21 G90 G94\n");
+    let _ = writeln!(out, "G0 {}", axes(start, start_c));
+    let _ = writeln!(out, "{}", spindle_on(&format.tool_spindle, tool_rpm, false));
+    out.push_str("G93\n");
+    for block in program.blocks() {
+        let _ = writeln!(
+            out,
+            "G1 {} F{}",
+            axes(block.end, block.c_deg),
+            significant(60.0 / block.duration_s)
+        );
+    }
+    out.push_str("G94\n");
+    let _ = writeln!(out, "{}", format.tool_spindle.stop);
     out.push_str("M2\n");
     out
 }

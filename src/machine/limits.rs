@@ -1,7 +1,7 @@
 //! A machine's limits (per axis: travel, velocity, acceleration; per spindle: speed), their
 //! validation, and the check of a program against them.
 
-use super::program::Program;
+use super::program::{AxisMotion, Program};
 
 /// Whether an axis moves along a line (positions in mm) or turns (positions in deg).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -401,10 +401,28 @@ impl MachineLimits {
     /// Every limit the program breaks with these spindle speeds (r/min, signed), one entry
     /// per (drive, limit). Empty means the program is within every stated limit.
     pub fn violations(&self, program: &Program, spindle_rpm: (f64, f64)) -> Vec<Violation> {
+        let axes = Axis::ALL.map(|axis| (axis, program.motion(axis)));
+        self.violations_of(
+            &axes,
+            |limit, index| program.block_of(limit, index),
+            program.blocks().len(),
+            spindle_rpm,
+        )
+    }
+
+    /// Every limit broken by the `axes`' motions over a program of `blocks` blocks
+    /// (`block_of` says which block an entry of a motion's lists belongs to) with these
+    /// spindle speeds, one entry per (drive, limit).
+    pub fn violations_of(
+        &self,
+        axes: &[(Axis, &AxisMotion)],
+        block_of: impl Fn(LimitKind, usize) -> usize,
+        blocks: usize,
+        spindle_rpm: (f64, f64),
+    ) -> Vec<Violation> {
         let mut found = Vec::new();
-        for axis in Axis::ALL {
+        for &(axis, motion) in axes {
             let limits = self.axis(axis);
-            let motion = program.motion(axis);
             let drive = Drive::from(axis);
             // (limit, values, compared as magnitudes, an upper bound)
             let checks = [
@@ -454,7 +472,7 @@ impl MachineLimits {
                         limit,
                         limit_value,
                         value,
-                        first_block: Some(program.block_of(limit, first)),
+                        first_block: Some(block_of(limit, first)),
                         blocks: bad.len(),
                         default_machine: false,
                     });
@@ -476,7 +494,7 @@ impl MachineLimits {
                     limit_value: max,
                     value: rpm.abs(),
                     first_block: None,
-                    blocks: program.blocks().len(),
+                    blocks,
                     default_machine: false,
                 });
             }

@@ -3,7 +3,8 @@
 //!
 //! **Axes.** X moves the tool across the spindle axis, Z along it (positive toward the tool),
 //! B tilts the tool spindle in the meridian plane; the workpiece and tool spindles turn at the
-//! process's signed speeds. Coordinates are in the design frame: the surface vertex at X = 0,
+//! process's signed speeds. Under a C speed law the workpiece spindle is C, an axis of the
+//! program ([`polar_program`]). Coordinates are in the design frame: the surface vertex at X = 0,
 //! Z = 0 (a work offset maps them to the machine).
 //!
 //! **Pose** (the tool-radius compensation along the normal of the turning literature, applied
@@ -38,16 +39,19 @@
 
 pub mod gcode;
 pub mod limits;
+pub mod polar_program;
 pub mod pose;
 pub mod program;
 
 pub use gcode::{
-    FeedMode, GcodeFormat, GcodeFormatError, GcodeFormatSpec, SpindleWords, SpindleWordsSpec,
+    CWords, FeedMode, GcodeFormat, GcodeFormatError, GcodeFormatSpec, SpindleWords,
+    SpindleWordsSpec,
 };
 pub use limits::{
     Axis, AxisKind, AxisLimits, Drive, InvalidLimit, LimitKind, MachineChoice, MachineLimits,
     MachineLimitsSpec, Violation, DEFAULT_MACHINE,
 };
+pub use polar_program::{PolarBlock, PolarProgram, PolarRun};
 pub use pose::{Orientation, Pose, Tool, ToolError};
 pub use program::{
     cell_travel, Approach, AxisMotion, Block, BlockKind, Program, ProgramError, Skipped,

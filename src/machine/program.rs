@@ -52,35 +52,58 @@ pub struct AxisMotion {
 }
 
 impl AxisMotion {
-    /// `positions`: the axis at the program's start and at the end of each block.
+    /// `positions`: the axis at the program's start and at the end of each block; each block
+    /// its own span.
     fn of(positions: Vec<f64>, durations_s: &[f64]) -> AxisMotion {
-        let velocity_per_min: Vec<f64> = positions
-            .windows(2)
-            .zip(durations_s)
-            .map(|(p, &d)| 60.0 * (p[1] - p[0]) / d)
-            .collect();
-        // At rest (a zero-length block) before the first block and after the last.
-        let n = velocity_per_min.len();
-        let velocity = |k: usize| {
-            if k == 0 || k > n {
-                0.0
-            } else {
-                velocity_per_min[k - 1]
+        let spans: Vec<usize> = (0..durations_s.len()).collect();
+        AxisMotion::of_spans(positions, durations_s, &spans)
+    }
+
+    /// `positions`: the axis at the program's start and at the end of each block; `spans`:
+    /// a label per block, consecutive blocks with one label being one span the axis runs at
+    /// one velocity (its travel over its duration). The velocity changes only between spans,
+    /// over the time between their midpoints (`physics::motion::acceleration`); entries
+    /// inside a span are 0.
+    pub(super) fn of_spans(
+        positions: Vec<f64>,
+        durations_s: &[f64],
+        spans: &[usize],
+    ) -> AxisMotion {
+        let n = durations_s.len();
+        debug_assert_eq!(spans.len(), n);
+        // Each block's span: (first block, end, duration, velocity per minute).
+        let mut runs: Vec<(usize, usize, f64, f64)> = Vec::new();
+        for k in 0..n {
+            match runs.last_mut() {
+                Some(run) if spans[k] == spans[run.0] => {
+                    run.1 = k + 1;
+                    run.2 += durations_s[k];
+                }
+                _ => runs.push((k, k + 1, durations_s[k], 0.0)),
             }
-        };
-        let duration = |k: usize| {
-            if k == 0 || k > n {
-                0.0
+        }
+        for run in &mut runs {
+            run.3 = 60.0 * (positions[run.1] - positions[run.0]) / run.2;
+        }
+        let mut velocity_per_min = Vec::with_capacity(n);
+        for run in &runs {
+            velocity_per_min.extend(std::iter::repeat_n(run.3, run.1 - run.0));
+        }
+        // At rest (a zero-length span) before the first block and after the last.
+        let mut acceleration_per_s2 = vec![0.0; n + 1];
+        for i in 0..=runs.len() {
+            let (v0, d0) = if i == 0 {
+                (0.0, 0.0)
             } else {
-                durations_s[k - 1]
-            }
-        };
-        let acceleration_per_s2: Vec<f64> = (0..=n)
-            .map(|k| {
-                let dv = (velocity(k + 1) - velocity(k)) / 60.0;
-                acceleration(dv, duration(k), duration(k + 1))
-            })
-            .collect();
+                (runs[i - 1].3, runs[i - 1].2)
+            };
+            let (v1, d1, at) = if i == runs.len() {
+                (0.0, 0.0, n)
+            } else {
+                (runs[i].3, runs[i].2, runs[i].0)
+            };
+            acceleration_per_s2[at] = acceleration((v1 - v0) / 60.0, d0, d1);
+        }
         let peak = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
         AxisMotion {
             min: positions.iter().copied().fold(f64::INFINITY, f64::min),
@@ -181,14 +204,7 @@ impl Program {
         dwell_s: &[f64],
         approach: Approach,
     ) -> Result<Program, ProgramError> {
-        let first = dwell_s
-            .iter()
-            .position(|&t| t > 0.0)
-            .ok_or(ProgramError::NoDwell)?;
-        let last = dwell_s.iter().rposition(|&t| t > 0.0).unwrap_or(first);
-        if let Some(index) = (first..=last).find(|&j| dwell_s[j] == 0.0) {
-            return Err(ProgramError::ZeroInteriorDwell { index });
-        }
+        let (first, last) = dwell_span(dwell_s)?;
         // Zero-dwell cells at either end are crossed in no time, so the program starts at the
         // first cell with dwell and ends after the last one: the segments of the stations with
         // dwell (a stop belongs to one of the plan's own two ends).
@@ -319,12 +335,30 @@ impl Program {
     /// The block an entry of an [`AxisMotion`]'s lists belongs to (`positions` for travel
     /// limits).
     pub fn block_of(&self, limit: LimitKind, index: usize) -> usize {
-        let last = self.blocks.len() - 1;
-        match limit {
-            // Entry 0 is the start, before block 0.
-            LimitKind::Min | LimitKind::Max => index.saturating_sub(1),
-            _ => index.min(last),
-        }
+        block_of(limit, index, self.blocks.len())
+    }
+}
+
+/// The first and last stations with dwell; an error when there are none, or a station between
+/// them has none (its cell would be crossed in no time).
+pub(super) fn dwell_span(dwell_s: &[f64]) -> Result<(usize, usize), ProgramError> {
+    let first = dwell_s
+        .iter()
+        .position(|&t| t > 0.0)
+        .ok_or(ProgramError::NoDwell)?;
+    let last = dwell_s.iter().rposition(|&t| t > 0.0).unwrap_or(first);
+    if let Some(index) = (first..=last).find(|&j| dwell_s[j] == 0.0) {
+        return Err(ProgramError::ZeroInteriorDwell { index });
+    }
+    Ok((first, last))
+}
+
+/// The block of `blocks` an entry of an [`AxisMotion`]'s lists belongs to (`positions` for
+/// travel limits, whose entry 0 is the start, before block 0).
+pub(super) fn block_of(limit: LimitKind, index: usize, blocks: usize) -> usize {
+    match limit {
+        LimitKind::Min | LimitKind::Max => index.saturating_sub(1),
+        _ => index.min(blocks - 1),
     }
 }
 
@@ -361,7 +395,7 @@ fn axis_index(axis: Axis) -> usize {
 }
 
 /// The pose with the pad moved `clearance_mm` away from the part along the tool axis.
-fn lifted(pose: &Pose, clearance_mm: f64) -> Pose {
+pub(super) fn lifted(pose: &Pose, clearance_mm: f64) -> Pose {
     let (sin, cos) = pose.b_deg.to_radians().sin_cos();
     Pose {
         x_mm: pose.x_mm - clearance_mm * sin,

@@ -323,6 +323,14 @@ pub fn acceleration(dv: f64, before_s: f64, after_s: f64) -> f64 {
     dv / (0.5 * (before_s + after_s))
 }
 
+/// Whether two speeds are one for the acceleration model: equal to 1e-9 of the larger. A
+/// speed law's factors can differ in their last bits where the same bound shaped them (two
+/// sectors at the modulation's cap); a drive cannot tell them apart, and splitting its span
+/// there would put a change of nothing over a short span.
+pub fn one_speed(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * a.abs().max(b.abs())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -452,6 +452,8 @@ impl PolarPad {
 pub struct Block {
     /// The station whose dwell the block spends.
     pub station: usize,
+    /// Which of `Motion::segments` (a stop or a move) it is part of.
+    pub segment: usize,
     pub from_mm: f64,
     pub to_mm: f64,
     pub start_rad: f64,
@@ -481,7 +483,7 @@ pub fn executed_blocks(
     let mut blocks = Vec::new();
     // The sector the pad centre is over (by the edge it meets next) and its factor.
     let mut entered: Option<(i64, f64)> = None;
-    for segment in motion.segments() {
+    for (index, segment) in motion.segments().into_iter().enumerate() {
         let station = segment.station();
         let duration = segment.share() * dwell_s[station];
         if duration <= 0.0 {
@@ -493,6 +495,7 @@ pub fn executed_blocks(
             Turning::Constant => {
                 blocks.push(Block {
                     station,
+                    segment: index,
                     from_mm: from,
                     to_mm: to,
                     start_rad: phi,
@@ -527,6 +530,7 @@ pub fn executed_blocks(
                     let time = to_edge.min(duration - elapsed);
                     blocks.push(Block {
                         station,
+                        segment: index,
                         from_mm: at(elapsed),
                         to_mm: if time < to_edge {
                             to

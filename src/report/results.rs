@@ -12,6 +12,7 @@ use crate::usecases::eta_sweep::EtaSweep;
 use crate::usecases::map_analysis::MapAnalysisResult;
 use crate::usecases::map_difference::MapDifferenceResult;
 use crate::usecases::map_predict::MapPrediction;
+use crate::usecases::map_program::PolarMachineProgram;
 use crate::usecases::map_removal_function::MapRemovalFunction;
 use crate::usecases::measurement_fit::MeasurementFit;
 use crate::usecases::optimize::OptimizedPlan;
@@ -362,12 +363,7 @@ pub fn program_csv(m: &MachineProgram) -> String {
     );
     let optional = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     for (i, b) in p.blocks().iter().enumerate() {
-        let kind = match b.kind {
-            BlockKind::Approach => "approach",
-            BlockKind::Dwell => "dwell",
-            BlockKind::Move => "move",
-            BlockKind::Retract => "retract",
-        };
+        let kind = block_kind(b.kind);
         let feed = p.path_feed_per_min(i);
         out.push_str(&format!(
             "{i},{kind},{},{},{},{},{},{},{},{}\n",
@@ -382,6 +378,41 @@ pub fn program_csv(m: &MachineProgram) -> String {
         ));
     }
     out
+}
+
+/// One row per block of a polar program: its kind, station, where it ends on every axis (C
+/// unwound) and C's speed over it.
+pub fn polar_program_csv(m: &PolarMachineProgram) -> String {
+    let mut out = String::from(
+        "block,kind,station,position_mm,x_mm,z_mm,b_deg,c_deg,c_velocity_deg_per_min,duration_s,\
+         inverse_time_per_min\n",
+    );
+    for (i, b) in m.program.blocks().iter().enumerate() {
+        out.push_str(&format!(
+            "{i},{},{},{},{},{},{},{},{},{},{}\n",
+            block_kind(b.kind),
+            b.station.map_or(String::new(), |s| s.to_string()),
+            b.position_mm,
+            b.end.x_mm,
+            b.end.z_mm,
+            b.end.b_deg,
+            b.c_deg,
+            60.0 * b.c_deg_per_s,
+            b.duration_s,
+            60.0 / b.duration_s
+        ));
+    }
+    out
+}
+
+/// A block's kind as the tables write it.
+fn block_kind(kind: BlockKind) -> &'static str {
+    match kind {
+        BlockKind::Approach => "approach",
+        BlockKind::Dwell => "dwell",
+        BlockKind::Move => "move",
+        BlockKind::Retract => "retract",
+    }
 }
 
 /// One row per measured point: its run, radius, measured and predicted removal.

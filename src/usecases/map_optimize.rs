@@ -42,7 +42,7 @@ use crate::optimize::harmonics::{
 use crate::optimize::kinematics::Floor;
 use crate::optimize::problem::Bound;
 use crate::optimize::OptimizeError;
-use crate::physics::motion::acceleration;
+use crate::physics::motion::{acceleration, one_speed};
 use crate::physics::polar::{executed_blocks, Block, PolarPad};
 use crate::physics::SectorLaw;
 
@@ -730,8 +730,8 @@ struct CPeaks {
 
 /// C's speed in each block and its acceleration between consecutive spans of blocks at one
 /// C speed as the program's model takes it (`physics::motion::acceleration`: the change over
-/// the mean of the two spans' durations; blocks split only where X changes speed are one
-/// span of C).
+/// the mean of the two spans' durations; blocks split only where X changes speed, or at
+/// speeds equal to their last bits (`one_speed`), are one span of C).
 fn c_peaks(blocks: &[Block], stations: usize, c: &CLimits) -> CPeaks {
     let mut peaks = CPeaks {
         velocity_rad_per_s: 0.0,
@@ -747,7 +747,7 @@ fn c_peaks(blocks: &[Block], stations: usize, c: &CLimits) -> CPeaks {
         let over = &mut peaks.over[b.station];
         *over = over.max(ratio(v.abs(), c.max_velocity_rad_per_s));
         match spans.last_mut() {
-            Some(span) if span.0 == v => {
+            Some(span) if one_speed(span.0, v) => {
                 span.1 += b.duration_s;
                 span.3 = i + 1;
             }

@@ -44,6 +44,61 @@ pub struct CLawSpec {
     pub speed_factors: Vec<Vec<f64>>,
 }
 
+/// Why C's law does not fit the plan.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CLawError {
+    #[error("c_law.speed_factors has {got} rows; the plan has {stations} stations, one row each")]
+    Rows { stations: usize, got: usize },
+    #[error("c_law.speed_factors[{station}] has {got} factors; c_law.sectors is {sectors}")]
+    Row {
+        station: usize,
+        sectors: usize,
+        got: usize,
+    },
+    #[error(transparent)]
+    Law(SectorLawError),
+}
+
+/// `schedule` with C's `law` (unchanged without one), and each station's largest speed
+/// factor (1 at constant speed).
+pub(super) fn polar_schedule(
+    schedule: DwellSchedule,
+    law: Option<CLawSpec>,
+) -> Result<(DwellSchedule, Vec<f64>), CLawError> {
+    let stations = schedule.positions_mm().len();
+    let Some(law) = law else {
+        return Ok((schedule, vec![1.0; stations]));
+    };
+    SectorLaw::check_sectors(law.sectors).map_err(CLawError::Law)?;
+    if law.speed_factors.len() != stations {
+        return Err(CLawError::Rows {
+            stations,
+            got: law.speed_factors.len(),
+        });
+    }
+    if let Some((station, row)) = law
+        .speed_factors
+        .iter()
+        .enumerate()
+        .find(|(_, row)| row.len() != law.sectors)
+    {
+        return Err(CLawError::Row {
+            station,
+            sectors: law.sectors,
+            got: row.len(),
+        });
+    }
+    let fastest = law
+        .speed_factors
+        .iter()
+        .map(|row| row.iter().cloned().fold(0.0, f64::max))
+        .collect();
+    let law = SectorLaw::new(stations, law.sectors, law.speed_factors.concat())
+        .map_err(CLawError::Law)?;
+    let schedule = schedule.with_sector_law(law).map_err(CLawError::Law)?;
+    Ok((schedule, fastest))
+}
+
 /// What the caller asks for.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MapPredictSpec {
@@ -73,16 +128,8 @@ pub enum MapPredictInputError {
          (leave out surface, or give a plane)"
     )]
     CurvedPart,
-    #[error("c_law.speed_factors has {got} rows; the plan has {stations} stations, one row each")]
-    LawRows { stations: usize, got: usize },
-    #[error("c_law.speed_factors[{station}] has {got} factors; c_law.sectors is {sectors}")]
-    LawRow {
-        station: usize,
-        sectors: usize,
-        got: usize,
-    },
     #[error(transparent)]
-    Law(SectorLawError),
+    Law(CLawError),
     #[error("the start angle must be a finite number of degrees, not {0}")]
     StartAngle(f64),
     #[error("the pixel must be a positive number of mm, not {0}")]
@@ -136,43 +183,10 @@ impl MapPredictCommand {
                     error,
                 }
             })?;
+        let sectors = spec.c_law.as_ref().map_or(1, |law| law.sectors);
+        let (schedule, fastest) =
+            polar_schedule(schedule, spec.c_law).map_err(MapPredictInputError::Law)?;
         let stations = schedule.positions_mm().len();
-        // The largest speed factor of each station (1 at constant speed).
-        let mut fastest = vec![1.0; stations];
-        let mut sectors = 1;
-        let schedule = match spec.c_law {
-            None => schedule,
-            Some(law) => {
-                SectorLaw::check_sectors(law.sectors).map_err(MapPredictInputError::Law)?;
-                if law.speed_factors.len() != stations {
-                    return Err(MapPredictInputError::LawRows {
-                        stations,
-                        got: law.speed_factors.len(),
-                    });
-                }
-                if let Some((station, row)) = law
-                    .speed_factors
-                    .iter()
-                    .enumerate()
-                    .find(|(_, row)| row.len() != law.sectors)
-                {
-                    return Err(MapPredictInputError::LawRow {
-                        station,
-                        sectors: law.sectors,
-                        got: row.len(),
-                    });
-                }
-                for (f, row) in fastest.iter_mut().zip(&law.speed_factors) {
-                    *f = row.iter().cloned().fold(0.0, f64::max);
-                }
-                sectors = law.sectors;
-                let law = SectorLaw::new(stations, law.sectors, law.speed_factors.concat())
-                    .map_err(MapPredictInputError::Law)?;
-                schedule
-                    .with_sector_law(law)
-                    .map_err(MapPredictInputError::Law)?
-            }
-        };
         let start_deg = spec.start_angle_deg.unwrap_or(0.0);
         if !start_deg.is_finite() {
             return Err(MapPredictInputError::StartAngle(start_deg));

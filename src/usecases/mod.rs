@@ -24,6 +24,7 @@ pub mod map_analysis;
 pub mod map_difference;
 pub mod map_optimize;
 pub mod map_predict;
+pub mod map_program;
 pub mod map_removal_function;
 pub mod measurement_fit;
 pub mod operators;

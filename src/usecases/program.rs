@@ -6,8 +6,8 @@ use super::setting::{process_on_part, Mount, PartSpec, SettingError};
 use super::warnings::process_warnings;
 use super::Warning;
 use crate::machine::{
-    gcode, Approach, Axis, GcodeFormat, GcodeFormatError, GcodeFormatSpec, InvalidLimit,
-    MachineChoice, MachineLimits, Program, ProgramError, Tool, Violation,
+    gcode, Approach, Axis, AxisMotion, GcodeFormat, GcodeFormatError, GcodeFormatSpec,
+    InvalidLimit, MachineChoice, MachineLimits, Program, ProgramError, Tool, Violation,
 };
 use crate::physics::{DwellSchedule, Process, ProcessSpec, ScheduleError};
 use crate::surface::SurfaceError;
@@ -64,20 +64,20 @@ pub enum ProgramInputError {
 /// A checked program request.
 #[derive(Debug, Clone)]
 pub struct ProgramCommand {
-    process: Process,
-    schedule: DwellSchedule,
-    tool: Tool,
-    machine: MachineLimits,
+    pub(super) process: Process,
+    pub(super) schedule: DwellSchedule,
+    pub(super) tool: Tool,
+    pub(super) machine: MachineLimits,
     /// Which machine the limits are, for the header.
-    choice: MachineChoice,
-    clearance_mm: f64,
-    approach_feed_mm_per_min: Option<f64>,
-    format: GcodeFormat,
-    request_digest: String,
+    pub(super) choice: MachineChoice,
+    pub(super) clearance_mm: f64,
+    pub(super) approach_feed_mm_per_min: Option<f64>,
+    pub(super) format: GcodeFormat,
+    pub(super) request_digest: String,
     /// More header lines: where the plan came from.
-    provenance: Vec<String>,
+    pub(super) provenance: Vec<String>,
     /// Likely unit mistakes, and a machine asked to be unlimited.
-    warnings: Vec<Warning>,
+    pub(super) warnings: Vec<Warning>,
 }
 
 impl ProgramCommand {
@@ -164,7 +164,7 @@ pub struct MachineProgram {
 /// its velocity or acceleration limit moving along the tool axis at either end of the plan.
 /// An axis taking the share s of feed f over the clearance c starts from rest at
 /// a = s·(f/60) / (d/2) with d = 60·c/f, so a ≤ a_max needs f ≤ 60·√(a_max·c / (2·s)).
-fn approach_feed(command: &ProgramCommand) -> f64 {
+pub(super) fn approach_feed(command: &ProgramCommand) -> f64 {
     if let Some(feed) = command.approach_feed_mm_per_min {
         return feed;
     }
@@ -245,6 +245,22 @@ pub fn program(command: ProgramCommand) -> Result<MachineProgram, ProgramFailure
 
 /// The G-code's header comments: what was planned, for whom, from which request.
 fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
+    let axes = Axis::ALL.map(|axis| (axis, program.motion(axis)));
+    header_lines(
+        command,
+        program.polishing_time_s,
+        program.program_time_s,
+        &axes,
+    )
+}
+
+/// The header's lines for a program of these times whose `axes` move so.
+pub(super) fn header_lines(
+    command: &ProgramCommand,
+    polishing_time_s: f64,
+    program_time_s: f64,
+    axes: &[(Axis, &AxisMotion)],
+) -> Vec<String> {
     let spec = command.process.spec();
     let eta = match command.process.eta().value() {
         Some(eta) => format!("{eta}"),
@@ -255,10 +271,9 @@ fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
         Some(r) if command.process.part().surface.is_sphere() => format!("sphere R = {r} mm"),
         Some(r) => format!("asphere R = {r} mm"),
     };
-    let axes: Vec<String> = Axis::ALL
+    let axes: Vec<String> = axes
         .iter()
-        .map(|&d| {
-            let m = program.motion(d);
+        .map(|&(d, m)| {
             format!(
                 "{} {:.4} to {:.4} {}",
                 d.name().to_uppercase(),
@@ -282,8 +297,8 @@ fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
         format!(
             "plan: {} positions, total time {:.3} s; program with approach and retract {:.3} s",
             command.schedule.positions_mm().len(),
-            program.polishing_time_s,
-            program.program_time_s
+            polishing_time_s,
+            program_time_s
         ),
         format!("axes: {}", axes.join(", ")),
         match command.choice {

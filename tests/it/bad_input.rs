@@ -54,9 +54,39 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let mr = "maps_removal_function_paper_exp1.json";
     let mp = "maps_predict_sector_law.json";
     let mo = "maps_optimize_astigmatism.json";
+    let mg = "maps_program_astigmatism.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 54] = [
+    let cases: [(&str, &str, Value, &str, &str); 59] = [
+        (
+            mg,
+            "c_law.speed_factors[3]",
+            json!([1.0]),
+            INVALID,
+            "c_law.speed_factors[3]",
+        ),
+        (mg, "c_law.sectors", json!(0), INVALID, "c_law.sectors"),
+        (
+            mg,
+            "surface",
+            json!({"kind": "sphere", "radius_of_curvature_mm": 200}),
+            INVALID,
+            "surface",
+        ),
+        (
+            mg,
+            "format.c_words",
+            json!("rolled"),
+            SCHEMA,
+            "format.c_words",
+        ),
+        (
+            mg,
+            "dwell.dwell_s[2]",
+            json!(0),
+            INVALID,
+            "dwell.dwell_s[2]",
+        ),
         (md, "after", Value::Null, INVALID, "after"),
         (
             md,

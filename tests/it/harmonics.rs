@@ -186,8 +186,9 @@ fn planted_map() -> Value {
 /// the paper's speeds (K = 1e-12 m²/N, so the plan runs ~2,400 turns of C and the verdict's
 /// exact map fits one request's work at the 5 mm pixels asked), within C's stated limits (36,000 deg/min, 360 deg/s²): the exact
 /// removal of the executed motion leaves at most 10 % of the planted RMS over a 72 mm clear
-/// aperture, C's peaks are within its limits, and a limit the plan sits on is named in the
-/// warnings. The residual figures are recomputed here from the maps the response returns.
+/// aperture, C's peaks are within its limits, a limit the plan sits on is named in the
+/// warnings, and `/v1/maps/program` accepts the plan on the same machine with C's peaks the
+/// plan's. The residual figures are recomputed here from the maps the response returns.
 #[tokio::test(flavor = "multi_thread")]
 async fn planted_astigmatism_and_trefoil_are_corrected_within_c_s_limits() {
     let body = json!({
@@ -249,6 +250,32 @@ async fn planted_astigmatism_and_trefoil_are_corrected_within_c_s_limits() {
             let f = f.as_f64().unwrap();
             assert!(f > 0.0 && f * omega_deg_per_min <= 36000.0, "factor {f}");
         }
+    }
+    // The plan as a program for the same machine: accepted, C's peaks the plan's to 1e-9.
+    let program = json!({
+        "process": body["process"],
+        "dwell": out["dwell"],
+        "c_law": out["c_law"],
+        "machine": body["machine"],
+    });
+    let reply = post_json(&app(), "/v1/maps/program", program.to_string()).await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let c = &reply.json()["axes"]["c"];
+    for (got, want) in [
+        (
+            &c["peak_velocity_deg_per_min"],
+            &peaks["velocity_deg_per_min"],
+        ),
+        (
+            &c["peak_acceleration_deg_per_s2"],
+            &peaks["acceleration_deg_per_s2"],
+        ),
+    ] {
+        let (got, want) = (got.as_f64().unwrap(), want.as_f64().unwrap());
+        assert!(
+            (got - want).abs() <= 1e-9 * want,
+            "program {got} vs plan {want}"
+        );
     }
 }
 

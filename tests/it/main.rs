@@ -22,6 +22,7 @@ mod layers;
 mod machine;
 mod map_analysis;
 mod map_predict;
+mod map_program;
 mod map_removal_function;
 mod maps;
 mod metrology;

@@ -298,7 +298,7 @@ async fn unit_mistakes_in_the_process_warn_on_every_endpoint() {
             }
             "/v1/studies/eta-sweep" => body["etas"] = json!([-1.0, -0.5]),
             "/v1/maps/removal-function" => body["tool_position_mm"] = json!(0.02),
-            "/v1/maps/predict" => {
+            "/v1/maps/predict" | "/v1/maps/program" => {
                 body["dwell"] = json!({"positions_mm": positions, "dwell_s": [1, 1, 1, 1, 1, 1]})
             }
             "/v1/maps/optimize" => {
@@ -327,7 +327,7 @@ async fn unit_mistakes_in_the_process_warn_on_every_endpoint() {
     }
     assert_eq!(
         metres.len(),
-        10,
+        11,
         "every endpoint that takes a process: {metres:?}"
     );
 }

@@ -6,8 +6,8 @@ use utoipa::ToSchema;
 
 use super::super::extract::optional_object;
 use crate::machine::{
-    Axis, AxisLimits, MachineChoice, MachineLimits, MachineLimitsSpec, Orientation, Program,
-    Utilisation,
+    Axis, AxisLimits, AxisMotion, MachineChoice, MachineLimits, MachineLimitsSpec, Orientation,
+    Program, Utilisation,
 };
 
 /// How the tool is carried: `normal` (B follows the surface normal) or `vertical` (no tilt).
@@ -274,21 +274,23 @@ impl From<Utilisation> for UtilisationDto {
 impl AxesDto {
     /// Each axis's travel, peaks and use of `machine`'s limits over `program`.
     pub fn of(program: &Program, machine: &MachineLimits) -> Self {
-        let linear = |axis| {
-            let m = program.motion(axis);
-            LinearAxisReport {
-                min_mm: m.min,
-                max_mm: m.max,
-                travel_mm: m.travel(),
-                peak_velocity_mm_per_min: m.peak_velocity_per_min,
-                peak_acceleration_mm_per_s2: m.peak_acceleration_per_s2,
-                utilisation: m.utilisation(machine.axis(axis)).into(),
-            }
+        AxesDto::of_motions(Axis::ALL.map(|axis| program.motion(axis)), machine)
+    }
+
+    /// Each axis's travel, peaks and use of `machine`'s limits over its motion (X, Z, B).
+    pub fn of_motions(motions: [&AxisMotion; 3], machine: &MachineLimits) -> Self {
+        let [x, z, b] = motions;
+        let linear = |axis, m: &AxisMotion| LinearAxisReport {
+            min_mm: m.min,
+            max_mm: m.max,
+            travel_mm: m.travel(),
+            peak_velocity_mm_per_min: m.peak_velocity_per_min,
+            peak_acceleration_mm_per_s2: m.peak_acceleration_per_s2,
+            utilisation: m.utilisation(machine.axis(axis)).into(),
         };
-        let b = program.motion(Axis::B);
         AxesDto {
-            x: linear(Axis::X),
-            z: linear(Axis::Z),
+            x: linear(Axis::X, x),
+            z: linear(Axis::Z, z),
             b: RotaryAxisReport {
                 min_deg: b.min,
                 max_deg: b.max,

@@ -7,7 +7,8 @@ use crate::physics::SectorLawError;
 use crate::usecases::map_analysis::{MapInput, MapInputError};
 use crate::usecases::map_difference::DifferenceInputError;
 use crate::usecases::map_optimize::{MapOptimizeError, MapOptimizeInputError};
-use crate::usecases::map_predict::MapPredictInputError;
+use crate::usecases::map_predict::{CLawError, MapPredictInputError};
+use crate::usecases::map_program::MapProgramInputError;
 use crate::usecases::map_removal_function::FootprintInputError;
 
 fn field(input: MapInput) -> &'static str {
@@ -50,6 +51,37 @@ impl From<FootprintInputError> for ApiError {
     }
 }
 
+/// Where a C law's problem sits in a request's `c_law`.
+fn c_law_field(err: &CLawError) -> String {
+    match err {
+        CLawError::Rows { .. } => "c_law.speed_factors".to_string(),
+        CLawError::Row { station, .. } => format!("c_law.speed_factors[{station}]"),
+        CLawError::Law(SectorLawError::NoSectors | SectorLawError::TooManySectors(_)) => {
+            "c_law.sectors".to_string()
+        }
+        CLawError::Law(SectorLawError::Shape { .. }) => "c_law.speed_factors".to_string(),
+        CLawError::Law(SectorLawError::Factor {
+            station, sector, ..
+        }) => format!("c_law.speed_factors[{station}][{sector}]"),
+    }
+}
+
+/// A polar program's own inputs by their fields; a radial program's as `/v1/program`'s.
+impl From<MapProgramInputError> for ApiError {
+    fn from(err: MapProgramInputError) -> Self {
+        use MapProgramInputError as E;
+        let at = match &err {
+            E::CurvedPart => "surface".to_string(),
+            E::Law(law) => c_law_field(law),
+            E::StartAngle(_) => "start_angle_deg".to_string(),
+            E::TooManyBlocks { .. } => {
+                return ApiError::limit("c_law.sectors", err.to_string());
+            }
+        };
+        ApiError::invalid(at, err.to_string())
+    }
+}
+
 /// A polar prediction's own inputs by their fields; the plan's and the setting's as
 /// `/v1/predict`'s.
 impl From<MapPredictInputError> for ApiError {
@@ -58,17 +90,7 @@ impl From<MapPredictInputError> for ApiError {
         let at = match &err {
             E::Setting(setting) => return setting.clone().into(),
             E::CurvedPart => "surface".to_string(),
-            E::LawRows { .. } => "c_law.speed_factors".to_string(),
-            E::LawRow { station, .. } => format!("c_law.speed_factors[{station}]"),
-            E::Law(SectorLawError::NoSectors | SectorLawError::TooManySectors(_)) => {
-                "c_law.sectors".to_string()
-            }
-            E::Law(SectorLawError::Shape { .. }) => "c_law.speed_factors".to_string(),
-            E::Law(SectorLawError::Factor {
-                station, sector, ..
-            }) => {
-                format!("c_law.speed_factors[{station}][{sector}]")
-            }
+            E::Law(law) => c_law_field(law),
             E::StartAngle(_) => "start_angle_deg".to_string(),
             E::Pixel(_) => "pixel_mm".to_string(),
             E::TooManyPixels { .. } | E::TooMuchWork { .. } => {

@@ -4,6 +4,7 @@ pub mod body;
 pub mod difference;
 pub mod optimize;
 pub mod predict;
+pub mod program;
 pub mod removal_function;
 
 use serde::{Deserialize, Serialize};

@@ -67,7 +67,7 @@ pub struct PolarMachineDto {
 }
 
 impl PolarMachineDto {
-    fn choice(&self) -> MachineChoice {
+    pub(super) fn choice(&self) -> MachineChoice {
         let axes = MachineDto {
             x: self.x.clone(),
             z: self.z.clone(),

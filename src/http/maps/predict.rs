@@ -36,6 +36,16 @@ pub struct CLawDto {
     pub speed_factors: Vec<Vec<f64>>,
 }
 
+impl CLawDto {
+    /// The law as the core takes it.
+    pub fn spec(self) -> CLawSpec {
+        CLawSpec {
+            sectors: self.sectors,
+            speed_factors: self.speed_factors,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MapPredictRequest {
@@ -180,10 +190,7 @@ x, y and removal per pixel on the part; `image/png` a heat map.",
                 grid: req.radial_grid.as_ref().into(),
                 positions_mm: req.dwell.positions_mm,
                 dwell_s: req.dwell.dwell_s,
-                c_law: req.c_law.map(|law| CLawSpec {
-                    sectors: law.sectors,
-                    speed_factors: law.speed_factors,
-                }),
+                c_law: req.c_law.map(CLawDto::spec),
                 start_angle_deg: req.start_angle_deg,
                 pixel_mm: req.pixel_mm,
             },

@@ -22,6 +22,7 @@
     mapRemovalFunction: '/v1/maps/removal-function',
     mapPredict: '/v1/maps/predict',
     mapOptimize: '/v1/maps/optimize',
+    mapProgram: '/v1/maps/program',
     parts: '/v1/parts',
     processProfiles: '/v1/process-profiles',
   };

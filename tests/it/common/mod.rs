@@ -210,6 +210,8 @@ pub fn endpoint_of(fixture: &str) -> &'static str {
         "/v1/maps/predict"
     } else if fixture.starts_with("maps_optimize") {
         "/v1/maps/optimize"
+    } else if fixture.starts_with("maps_program") {
+        "/v1/maps/program"
     } else if fixture.starts_with("maps_removal_function") {
         "/v1/maps/removal-function"
     } else {

@@ -1,0 +1,176 @@
+//! A polar plan as a machine program (`POST /v1/maps/program`): the radial plan's stops and
+//! moves with C under position control, its speed law executed block by block
+//! ([`crate::machine::polar_program`]), checked against every limit of the machine, C's
+//! included, and written as G-code in inverse time with C words.
+
+use super::map_predict::{polar_schedule, CLawError, CLawSpec, MAX_BLOCKS};
+use super::program::{approach_feed, header_lines, ProgramCommand, ProgramFailure};
+use super::Warning;
+use crate::machine::gcode::{self, CWords};
+use crate::machine::polar_program::MAX_C_STEP_DEG;
+use crate::machine::{Approach, Axis, MachineLimits};
+use crate::machine::{PolarProgram, PolarRun};
+use crate::physics::polar::PolarPad;
+use crate::physics::Process;
+
+/// What the caller asks beyond a radial program.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapProgramSpec {
+    /// `None`: C at the process's constant speed.
+    pub c_law: Option<CLawSpec>,
+    /// The pad centre's part-frame angle at the start, degrees; default 0.
+    pub start_angle_deg: Option<f64>,
+    /// Default [`CWords::Wrapped`].
+    pub c_words: Option<CWords>,
+}
+
+/// Why a polar program request was refused before computing (beyond a radial program's
+/// reasons).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MapProgramInputError {
+    #[error(
+        "a program with C's words is written for a flat part yet (leave out surface, or give a \
+         plane)"
+    )]
+    CurvedPart,
+    #[error(transparent)]
+    Law(CLawError),
+    #[error("the start angle must be a finite number of degrees, not {0}")]
+    StartAngle(f64),
+    #[error(
+        "the plan runs C through about {turns:.0} turns in about {blocks:.2e} blocks; a program \
+         has at most {max:.0e} (fewer sectors or a shorter plan)"
+    )]
+    TooManyBlocks { turns: f64, blocks: f64, max: f64 },
+}
+
+/// A checked polar program request: a radial program's, C's law applied to its motion.
+#[derive(Debug, Clone)]
+pub struct MapProgramCommand {
+    base: ProgramCommand,
+    /// Ω, rad/s (signed, lab frame).
+    part_speed_rad_per_s: f64,
+    start_rad: f64,
+    c_words: CWords,
+    sectors: Option<usize>,
+}
+
+impl MapProgramCommand {
+    pub fn new(base: ProgramCommand, spec: MapProgramSpec) -> Result<Self, MapProgramInputError> {
+        use MapProgramInputError as E;
+        let pad = PolarPad::new(&base.process).map_err(|_| E::CurvedPart)?;
+        let sectors = spec.c_law.as_ref().map(|law| law.sectors);
+        let (schedule, fastest) =
+            polar_schedule(base.schedule.clone(), spec.c_law).map_err(E::Law)?;
+        let start_deg = spec.start_angle_deg.unwrap_or(0.0);
+        if !start_deg.is_finite() {
+            return Err(E::StartAngle(start_deg));
+        }
+        // A block per sector passed (a quarter turn at most), one more where each stop or
+        // move ends, and the approach's and retract's quarter turns.
+        let omega = pad.part_speed_rad_per_s();
+        let turns: f64 = schedule
+            .dwell_s()
+            .iter()
+            .zip(&fastest)
+            .map(|(t, f)| t * omega.abs() * f / std::f64::consts::TAU)
+            .sum();
+        let per_turn = (360.0 / MAX_C_STEP_DEG).max(sectors.unwrap_or(1) as f64);
+        let blocks = turns * per_turn + 2.0 * schedule.dwell_s().len() as f64 + 2.0;
+        if blocks > MAX_BLOCKS {
+            return Err(E::TooManyBlocks {
+                turns,
+                blocks,
+                max: MAX_BLOCKS,
+            });
+        }
+        Ok(MapProgramCommand {
+            base: ProgramCommand { schedule, ..base },
+            part_speed_rad_per_s: omega,
+            start_rad: start_deg.to_radians(),
+            c_words: spec.c_words.unwrap_or_default(),
+            sectors,
+        })
+    }
+}
+
+/// A polar program within every limit in force, and its G-code.
+#[derive(Debug, Clone)]
+pub struct PolarMachineProgram {
+    pub warnings: Vec<Warning>,
+    pub program: PolarProgram,
+    pub process: Process,
+    pub machine: MachineLimits,
+    pub c_words: CWords,
+    pub gcode: String,
+}
+
+pub fn map_program(command: MapProgramCommand) -> Result<PolarMachineProgram, ProgramFailure> {
+    let MapProgramCommand {
+        base,
+        part_speed_rad_per_s,
+        start_rad,
+        c_words,
+        sectors,
+    } = command;
+    let approach = Approach {
+        clearance_mm: base.clearance_mm,
+        feed_mm_per_min: approach_feed(&base),
+    };
+    let machine = base.machine;
+    let program = PolarProgram::from_motion(
+        &base.process.part().surface,
+        &base.tool,
+        base.schedule.motion(),
+        base.schedule.dwell_s(),
+        PolarRun {
+            part_speed_rad_per_s,
+            start_rad,
+            approach,
+            c_max_acceleration_deg_per_s2: machine.axis(Axis::C).max_acceleration_per_s2,
+        },
+    )
+    .map_err(ProgramFailure::Plan)?;
+    let spec = base.process.spec();
+    let axes = [Axis::X, Axis::Z, Axis::B, Axis::C].map(|a| (a, program.motion(a)));
+    let violations = base.choice.mark(machine.violations_of(
+        &axes,
+        |limit, index| program.block_of(limit, index),
+        program.blocks().len(),
+        (spec.workpiece_rpm, spec.tool_rpm),
+    ));
+    if !violations.is_empty() {
+        return Err(ProgramFailure::Limits(violations));
+    }
+    let c = program.motion(Axis::C);
+    let mut header = header_lines(
+        &base,
+        program.polishing_time_s,
+        program.program_time_s,
+        &axes[..3],
+    );
+    let law = match sectors {
+        Some(s) => format!("a speed law of {s} sectors per turn"),
+        None => "the process's constant speed".to_string(),
+    };
+    header.insert(
+        header.len() - 2,
+        format!(
+            "C: the part's spindle under position control at {law}, {:.3} turns, words {}",
+            (c.max - c.min) / 360.0,
+            match c_words {
+                CWords::Wrapped => "wrapped to 0 to 360 deg, at most 90 deg a block",
+                CWords::Unwound => "unwound (cumulative)",
+            }
+        ),
+    );
+    let gcode = gcode::write_polar(&program, &header, spec.tool_rpm, &base.format, c_words);
+    Ok(PolarMachineProgram {
+        warnings: base.warnings,
+        program,
+        process: base.process,
+        machine,
+        c_words,
+        gcode,
+    })
+}
