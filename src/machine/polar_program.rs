@@ -20,7 +20,8 @@
 //! **On and off the part.** C cannot jump to speed: the approach runs C at the first block's
 //! speed while the pad comes down along the tool axis, and the retract at the last block's
 //! while it lifts; both take long enough that C's change from and to rest, v/(d/2), is no
-//! more than the plan's own largest C acceleration (C's limit when the plan has none).
+//! more than the plan's own largest C acceleration, or half C's limit where that is more
+//! ([`ramp_acceleration`]).
 //! Without a clearance C starts and stops within the first and last polishing blocks.
 
 use super::limits::{Axis, LimitKind};
@@ -126,11 +127,7 @@ impl PolarProgram {
         let origin = pieces[0].from_mm;
         let polishing_time_s = dwell_s[first..=last].iter().sum();
         let plan_peak = peak_between_runs(&blocks);
-        let ramp = if plan_peak > 0.0 {
-            Some(plan_peak)
-        } else {
-            run.c_max_acceleration_deg_per_s2
-        };
+        let ramp = ramp_acceleration(plan_peak, run.c_max_acceleration_deg_per_s2);
         let first_pose = tool.pose(surface, origin);
         let mut start = first_pose;
         let mut start_c_deg = -run.start_rad.to_degrees();
@@ -220,6 +217,14 @@ impl PolarProgram {
     pub fn block_of(&self, limit: LimitKind, index: usize) -> usize {
         super::program::block_of(limit, index, self.blocks.len())
     }
+}
+
+/// The acceleration C takes from and to rest in the approach and retract, deg/s²: the plan's
+/// own largest, so the program's peak is the plan's, but at least half C's limit (a plan
+/// whose law hardly changes C's speed would otherwise spend hours reaching it) and at most the
+/// limit; `None` (no limit): the approach as asked decides.
+pub fn ramp_acceleration(plan_peak: f64, limit: Option<f64>) -> Option<f64> {
+    limit.map(|l| plan_peak.max(0.5 * l).min(l))
 }
 
 /// C's spans: runs of blocks at one C speed ([`one_speed`]), labelled by the block that opens each. The

@@ -38,6 +38,12 @@ pub enum MapProgramInputError {
     #[error("the start angle must be a finite number of degrees, not {0}")]
     StartAngle(f64),
     #[error(
+        "the approach takes {duration_s:.0} s, and C turns about {turns:.0} times in it (the \
+         program keeps C at its polishing speed on and off the part): a faster approach feed or \
+         a smaller clearance"
+    )]
+    ApproachTooLong { turns: f64, duration_s: f64 },
+    #[error(
         "the plan runs C through about {turns:.0} turns in about {blocks:.2e} blocks; a program \
          has at most {max:.0e} (fewer sectors or a shorter plan)"
     )]
@@ -77,10 +83,29 @@ impl MapProgramCommand {
             .sum();
         let per_turn = (360.0 / MAX_C_STEP_DEG).max(sectors.unwrap_or(1) as f64);
         let blocks = turns * per_turn + 2.0 * schedule.dwell_s().len() as f64 + 2.0;
-        if blocks > MAX_BLOCKS {
+        // The approach and retract at C's fastest, each as long as its feed or C's ramp
+        // (from half C's limit, `ramp_acceleration`) makes it, in quarter turns.
+        let fastest_deg_per_s =
+            omega.abs().to_degrees() * fastest.iter().cloned().fold(0.0, f64::max);
+        let mut approach_s = 60.0 * base.clearance_mm / approach_feed(&base);
+        if let Some(a) = base.machine.axis(Axis::C).max_acceleration_per_s2 {
+            approach_s = approach_s.max(4.0 * fastest_deg_per_s / a);
+        }
+        let ramps = if base.clearance_mm > 0.0 {
+            2.0 * (fastest_deg_per_s * approach_s / MAX_C_STEP_DEG).ceil()
+        } else {
+            0.0
+        };
+        if ramps > MAX_BLOCKS / 10.0 {
+            return Err(E::ApproachTooLong {
+                turns: ramps * MAX_C_STEP_DEG / 720.0,
+                duration_s: approach_s,
+            });
+        }
+        if blocks + ramps > MAX_BLOCKS {
             return Err(E::TooManyBlocks {
                 turns,
-                blocks,
+                blocks: blocks + ramps,
                 max: MAX_BLOCKS,
             });
         }

@@ -57,7 +57,14 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let mg = "maps_program_astigmatism.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 59] = [
+    let cases: [(&str, &str, Value, &str, &str); 60] = [
+        (
+            mg,
+            "approach",
+            json!({"clearance_mm": 999, "feed_mm_per_min": 0.001}),
+            "limit-exceeded",
+            "approach.feed_mm_per_min",
+        ),
         (
             mg,
             "c_law.speed_factors[3]",

@@ -77,6 +77,9 @@ impl From<MapProgramInputError> for ApiError {
             E::TooManyBlocks { .. } => {
                 return ApiError::limit("c_law.sectors", err.to_string());
             }
+            E::ApproachTooLong { .. } => {
+                return ApiError::limit("approach.feed_mm_per_min", err.to_string());
+            }
         };
         ApiError::invalid(at, err.to_string())
     }
