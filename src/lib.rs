@@ -34,3 +34,4 @@ pub mod study;
 pub mod surface;
 pub mod telemetry;
 pub mod usecases;
+pub mod wide;

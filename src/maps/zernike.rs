@@ -50,6 +50,8 @@ use faer::linalg::solvers::Solve;
 use faer::{Accum, Mat, Par, Side};
 use rayon::prelude::*;
 
+use crate::wide::{lanes, widest, Wide};
+
 /// The most terms a fit takes: every term through n = 20 (Noll, ANSI).
 pub const MAX_TERMS: usize = 231;
 
@@ -438,14 +440,11 @@ impl Basis {
                         let s: Vec<f64> = (0..line.nodes)
                             .map(|a| (0..j).map(|c| line.w[a * j + c] * coefficients[c]).sum())
                             .collect();
-                        let mut out = Vec::with_capacity(range.len());
-                        for chunk in points[range.clone()].chunks(LANES) {
-                            let t = std::array::from_fn(|l| {
-                                chunk.get(l).map_or(0.0, |p| line.parameter(p))
-                            });
-                            out.extend_from_slice(&clenshaw(&s, t)[..chunk.len()]);
-                        }
-                        out
+                        widest(LineSurface {
+                            line,
+                            s: &s,
+                            points: &points[range.clone()],
+                        })
                     }
                     Piece::Points(indices) => {
                         let (mut values, mut scratch) = (vec![0.0; j], Vec::new());
@@ -599,6 +598,7 @@ impl LineBasis {
     }
 
     /// A point's position t along the line (−1 at the first point, 1 at the last).
+    #[inline(always)]
     fn parameter(&self, p: &(f64, f64, f64)) -> f64 {
         let (dx, dy) = (p.0 - self.mid.0, p.1 - self.mid.1);
         (dx * self.half.0 + dy * self.half.1)
@@ -609,8 +609,15 @@ impl LineBasis {
     /// T_a·T_b = (T_{a+b} + T_{|a−b|})/2, so M comes from the sums S_k = Σ T_k(t_i),
     /// k < 2P − 1: 2P − 1 additions a point rather than P(P + 1)/2 multiply-adds.
     /// The recurrence T_{k+1} = 2t·T_k − T_{k−1} is a chain of dependent operations, so it
-    /// runs for [`LANES`] points side by side, each lane summing on its own.
+    /// runs for [`LANES`] points side by side, each lane summing on its own, in the widest
+    /// build the CPU has (`crate::wide`: the same operations lane by lane, the same bits).
     fn moments(&self, points: &[(f64, f64, f64)]) -> (Vec<f64>, Vec<f64>) {
+        widest(Moments { line: self, points })
+    }
+
+    /// [`LineBasis::moments`]'s work, inlined into each build.
+    #[inline(always)]
+    fn moments_here(&self, points: &[(f64, f64, f64)]) -> (Vec<f64>, Vec<f64>) {
         let p = self.nodes;
         let q = 2 * p - 1;
         let mut sums = vec![[0.0; LANES]; q];
@@ -631,8 +638,7 @@ impl LineBasis {
             }
             for k in 1..q {
                 if k > 1 {
-                    let next: [f64; LANES] =
-                        std::array::from_fn(|l| 2.0 * x[l] * current[l] - previous[l]);
+                    let next: [f64; LANES] = lanes(|l| 2.0 * x[l] * current[l] - previous[l]);
                     (previous, current) = (current, next);
                 }
                 for l in 0..LANES {
@@ -660,13 +666,50 @@ impl LineBasis {
 /// Points whose Chebyshev recurrences run side by side.
 const LANES: usize = 8;
 
+/// A line's moments, for [`widest`].
+struct Moments<'a> {
+    line: &'a LineBasis,
+    points: &'a [(f64, f64, f64)],
+}
+
+impl Wide for Moments<'_> {
+    type Output = (Vec<f64>, Vec<f64>);
+
+    #[inline(always)]
+    fn run(self) -> Self::Output {
+        self.line.moments_here(self.points)
+    }
+}
+
+/// Σ s_a T_a(t) at each of a line's points, for [`widest`].
+struct LineSurface<'a> {
+    line: &'a LineBasis,
+    s: &'a [f64],
+    points: &'a [(f64, f64, f64)],
+}
+
+impl Wide for LineSurface<'_> {
+    type Output = Vec<f64>;
+
+    #[inline(always)]
+    fn run(self) -> Vec<f64> {
+        let mut out = Vec::with_capacity(self.points.len());
+        for chunk in self.points.chunks(LANES) {
+            let t = lanes(|l| chunk.get(l).map_or(0.0, |p| self.line.parameter(p)));
+            out.extend_from_slice(&clenshaw(self.s, t)[..chunk.len()]);
+        }
+        out
+    }
+}
+
 /// Σ s_a T_a(t) by Clenshaw's recurrence, at [`LANES`] points side by side.
+#[inline(always)]
 fn clenshaw(s: &[f64], t: [f64; LANES]) -> [f64; LANES] {
     let (mut b1, mut b2) = ([0.0; LANES], [0.0; LANES]);
     for &c in s.iter().skip(1).rev() {
-        (b1, b2) = (std::array::from_fn(|l| 2.0 * t[l] * b1[l] - b2[l] + c), b1);
+        (b1, b2) = (lanes(|l| 2.0 * t[l] * b1[l] - b2[l] + c), b1);
     }
-    std::array::from_fn(|l| s[0] + t[l] * b1[l] - b2[l])
+    lanes(|l| s[0] + t[l] * b1[l] - b2[l])
 }
 
 /// The lower Cholesky factor of the n × n row-major `m`; `None` when a pivot falls below

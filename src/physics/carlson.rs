@@ -17,7 +17,7 @@
 //! positive, so the result is accurate to a few ulps; the iteration count grows like
 //! log₄(max/min) of the arguments, which stays small for the arguments the removal function uses.
 
-use super::wide::lanes;
+use crate::wide::lanes;
 
 /// Relative tolerance handed to Carlson's stopping rule; gives results within a few ulps.
 const TOLERANCE: f64 = 1.0e-16;
@@ -38,10 +38,10 @@ pub fn rf_rd(x: f64, y: f64, z: f64) -> (f64, f64) {
 pub fn rf_rd_many(x: &[f64], y: &[f64], z: &[f64], rf: &mut [f64], rd: &mut [f64]) {
     let n = x.len();
     assert!(y.len() == n && z.len() == n && rf.len() == n && rd.len() == n);
-    super::wide::widest(Chunks { x, y, z, rf, rd });
+    crate::wide::widest(Chunks { x, y, z, rf, rd });
 }
 
-/// [`rf_rd_many`]'s work, for [`super::wide::widest`].
+/// [`rf_rd_many`]'s work, for [`crate::wide::widest`].
 struct Chunks<'a> {
     x: &'a [f64],
     y: &'a [f64],
@@ -50,7 +50,7 @@ struct Chunks<'a> {
     rd: &'a mut [f64],
 }
 
-impl super::wide::Wide for Chunks<'_> {
+impl crate::wide::Wide for Chunks<'_> {
     type Output = ();
 
     #[inline(always)]

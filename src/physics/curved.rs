@@ -95,7 +95,7 @@ impl Weight {
     }
 }
 
-/// [`CurvedKernel::arc_rate`]'s work, for [`super::wide::widest`].
+/// [`CurvedKernel::arc_rate`]'s work, for [`crate::wide::widest`].
 struct ArcRate<'a> {
     kernel: &'a CurvedKernel,
     ring: &'a Ring,
@@ -109,7 +109,7 @@ struct ArcRate<'a> {
 /// hyperbola's waist δ/√c₂ is narrower than this fraction of the side's range.
 const NARROW_WAIST: f64 = 1.0;
 
-impl super::wide::Wide for ArcRate<'_> {
+impl crate::wide::Wide for ArcRate<'_> {
     type Output = f64;
 
     /// The arc rate itself ([`CurvedKernel::arc_rate`] has the mathematics), inlined into
@@ -447,7 +447,7 @@ impl CurvedKernel {
     /// as they are, and no node needs a trigonometric function. Both variables stay within
     /// [0, √½], well clear of the Jacobian's singularity at 1.
     fn arc_rate(&self, ring: &Ring, site: &Site, end: HalfAngle, most: f64, weight: Weight) -> f64 {
-        super::wide::widest(ArcRate {
+        crate::wide::widest(ArcRate {
             kernel: self,
             ring,
             site,
@@ -719,7 +719,7 @@ mod tests {
     /// the same bits: the lane sums run in one order, and nothing is fused.
     #[test]
     fn wide_and_portable_arc_rates_agree_to_the_bit() {
-        use crate::physics::wide::Wide;
+        use crate::wide::Wide;
         let part = Part {
             surface: Surface::new(&crate::surface::SurfaceSpec::Sphere {
                 radius_of_curvature_mm: 80.0,

@@ -18,7 +18,6 @@ pub mod removal;
 pub mod roots;
 pub mod schedule;
 pub mod sliding_log;
-mod wide;
 
 pub use curved::{Orientation, Part};
 pub use grid::{check_radius, ClearAperture, GridError, RadialGrid, Reach};

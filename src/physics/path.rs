@@ -441,7 +441,7 @@ impl PathIntegral {
     pub fn at_ascending(&self, xs: &[f64], out: &mut [f64]) {
         debug_assert!(xs.windows(2).all(|w| w[0] <= w[1]));
         assert_eq!(xs.len(), out.len(), "one output per point");
-        super::wide::widest(Read {
+        crate::wide::widest(Read {
             path: self,
             xs,
             out,
@@ -520,14 +520,14 @@ impl PathIntegral {
     }
 }
 
-/// [`PathIntegral::at_ascending`]'s work, for [`super::wide::widest`].
+/// [`PathIntegral::at_ascending`]'s work, for [`crate::wide::widest`].
 struct Read<'a> {
     path: &'a PathIntegral,
     xs: &'a [f64],
     out: &'a mut [f64],
 }
 
-impl super::wide::Wide for Read<'_> {
+impl crate::wide::Wide for Read<'_> {
     type Output = ();
 
     #[inline(always)]
@@ -707,7 +707,7 @@ impl Lobatto {
     /// values held in `values` (every 32/(points − 1)-th): the node values times the level's
     /// antiderivative table, every coefficient summed side by side in the widest build.
     fn antiderivative(&self, values: &[f64; MAX_POINTS], points: usize) -> [f64; MAX_COEFFS] {
-        super::wide::widest(Antiderivative {
+        crate::wide::widest(Antiderivative {
             table: self,
             values,
             points,
@@ -754,14 +754,14 @@ impl Lobatto {
     }
 }
 
-/// [`Lobatto::antiderivative`]'s work, for [`super::wide::widest`].
+/// [`Lobatto::antiderivative`]'s work, for [`crate::wide::widest`].
 struct Antiderivative<'a> {
     table: &'a Lobatto,
     values: &'a [f64; MAX_POINTS],
     points: usize,
 }
 
-impl super::wide::Wide for Antiderivative<'_> {
+impl crate::wide::Wide for Antiderivative<'_> {
     type Output = [f64; MAX_COEFFS];
 
     #[inline(always)]

@@ -105,7 +105,7 @@ impl SlidingLog {
 
     /// Takes S(x) off every rate `out[i]` at `xs[i]` inside the range (nm/s).
     pub fn subtract(&self, xs: &[f64], out: &mut [f64]) {
-        super::wide::widest(Work {
+        crate::wide::widest(Work {
             log: self,
             xs,
             out,
@@ -115,7 +115,7 @@ impl SlidingLog {
 
     /// Adds ∫ S from lo to x (x clamped to the range) to every `out[i]` at `xs[i]`.
     pub fn add_integrals(&self, xs: &[f64], out: &mut [f64]) {
-        super::wide::widest(Work {
+        crate::wide::widest(Work {
             log: self,
             xs,
             out,
@@ -154,7 +154,7 @@ impl SlidingLog {
 }
 
 /// [`SlidingLog::subtract`]'s or [`SlidingLog::add_integrals`]' work, for
-/// [`super::wide::widest`].
+/// [`crate::wide::widest`].
 struct Work<'a> {
     log: &'a SlidingLog,
     xs: &'a [f64],
@@ -162,7 +162,7 @@ struct Work<'a> {
     add_integrals: bool,
 }
 
-impl super::wide::Wide for Work<'_> {
+impl crate::wide::Wide for Work<'_> {
     type Output = ();
 
     #[inline(always)]
