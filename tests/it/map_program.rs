@@ -111,6 +111,24 @@ async fn planned() -> (Value, Value) {
     (plan, program)
 }
 
+/// A program's C peaks (`axes.c`) are its plan's `c_peaks` to 1e-9.
+pub fn assert_c_peaks_are_the_plan_s(program: &Value, plan: &Value) {
+    let (c, peaks) = (&program["axes"]["c"], &plan["c_peaks"]);
+    for (got, want) in [
+        (
+            &c["peak_velocity_deg_per_min"],
+            &peaks["velocity_deg_per_min"],
+        ),
+        (
+            &c["peak_acceleration_deg_per_s2"],
+            &peaks["acceleration_deg_per_s2"],
+        ),
+    ] {
+        let (got, want) = (got.as_f64().unwrap(), want.as_f64().unwrap());
+        assert!(close(got, want, 1e-9), "program {got} vs plan {want}");
+    }
+}
+
 fn close(a: f64, b: f64, relative: f64) -> bool {
     (a - b).abs() <= relative * a.abs().max(b.abs())
 }
@@ -126,21 +144,7 @@ async fn a_planned_correction_s_program_has_the_plan_s_c_peaks() {
     let reply = post_json(&app(), "/v1/maps/program", request.to_string()).await;
     assert_eq!(reply.status, 200, "{}", reply.text());
     let program = reply.json();
-    let c = &program["axes"]["c"];
-    let peaks = &plan["c_peaks"];
-    for (got, want) in [
-        (
-            &c["peak_velocity_deg_per_min"],
-            &peaks["velocity_deg_per_min"],
-        ),
-        (
-            &c["peak_acceleration_deg_per_s2"],
-            &peaks["acceleration_deg_per_s2"],
-        ),
-    ] {
-        let (got, want) = (got.as_f64().unwrap(), want.as_f64().unwrap());
-        assert!(close(got, want, 1e-9), "program {got} vs plan {want}");
-    }
+    assert_c_peaks_are_the_plan_s(&program, &plan);
     let total = program["total_time_s"].as_f64().unwrap();
     let planned = plan["total_time_s"].as_f64().unwrap();
     assert!(close(total, planned, 1e-12), "{total} vs {planned}");
