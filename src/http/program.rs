@@ -220,12 +220,23 @@ impl From<&FormatDto> for GcodeFormatSpec {
                 FeedModeDto::UnitsPerMinute => FeedMode::UnitsPerMinute,
                 FeedModeDto::InverseTime => FeedMode::InverseTime,
             }),
-            // Out of range values are refused by the format's check (u32::MAX is > 7).
-            decimals: f.decimals.map(|d| u32::try_from(d).unwrap_or(u32::MAX)),
+            decimals: decimals(f.decimals),
             workpiece_spindle: words(&f.workpiece_spindle),
             tool_spindle: words(&f.tool_spindle),
         }
     }
+}
+
+/// Decimals as the format takes them (a count too large is refused by the format's check:
+/// u32::MAX is > 7).
+pub(in crate::http) fn decimals(d: Option<usize>) -> Option<u32> {
+    d.map(|d| u32::try_from(d).unwrap_or(u32::MAX))
+}
+
+/// The SHA-256 of a request as parsed (its canonical JSON), written into a program's header.
+pub(in crate::http) fn request_digest(req: &impl Serialize) -> Result<String, ApiError> {
+    let canonical = serde_json::to_vec(req).map_err(|e| ApiError::internal(e.to_string()))?;
+    Ok(crate::store::sha256_hex(&canonical))
 }
 
 pub struct ProgramEndpoint;
@@ -257,8 +268,7 @@ seconds), `text/csv` the block table.",
     const GCODE: Option<fn(&MachineProgram) -> String> = Some(|m| m.gcode.clone());
 
     fn parse(req: ProgramRequest, limits: &ComputeLimits) -> Result<ProgramCommand, ApiError> {
-        let canonical = serde_json::to_vec(&req).map_err(|e| ApiError::internal(e.to_string()))?;
-        let digest = crate::store::sha256_hex(&canonical);
+        let digest = request_digest(&req)?;
         let approach = req.approach.clone().unwrap_or_default();
         let spec = ProgramSpec {
             process: req.process.spec()?,

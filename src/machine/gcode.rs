@@ -204,6 +204,28 @@ fn spindle_on(words: &SpindleWords, rpm: f64, clockwise_when_positive: bool) -> 
     format!("{word} S{}", fixed(rpm.abs(), 3))
 }
 
+/// A program's text up to its first move: `header` as comments, then millimetres, absolute
+/// positions and units-per-minute feed. `capacity`: the bytes to reserve.
+fn opening(header: &[String], capacity: usize) -> String {
+    let mut out = String::with_capacity(capacity);
+    for line in header {
+        out.push_str(&comment(line));
+        out.push('\n');
+    }
+    out.push_str("G21 G90 G94\n");
+    out
+}
+
+/// X, Z and B's words for `pose`, with `d` decimals.
+fn pose_words(pose: Pose, d: usize) -> String {
+    format!(
+        "X{} Z{} B{}",
+        fixed(pose.x_mm, d),
+        fixed(pose.z_mm, d),
+        fixed(pose.b_deg, d)
+    )
+}
+
 /// The program as G-code. `header` lines become comments; `workpiece_rpm` and `tool_rpm` are
 /// the signed lab-frame speeds.
 pub fn write(
@@ -214,16 +236,8 @@ pub fn write(
     format: &GcodeFormat,
 ) -> String {
     let d = format.decimals as usize;
-    let mut out = String::with_capacity(64 * (program.blocks().len() + 16));
-    for line in header {
-        out.push_str(&comment(line));
-        out.push('\n');
-    }
-    let axes =
-        |x: f64, z: f64, b: f64| format!("X{} Z{} B{}", fixed(x, d), fixed(z, d), fixed(b, d));
-    let start = program.start();
-    out.push_str("G21 G90 G94\n");
-    let _ = writeln!(out, "G0 {}", axes(start.x_mm, start.z_mm, start.b_deg));
+    let mut out = opening(header, 64 * (program.blocks().len() + 16));
+    let _ = writeln!(out, "G0 {}", pose_words(program.start(), d));
     let _ = writeln!(
         out,
         "{}",
@@ -249,12 +263,7 @@ pub fn write(
                 } else {
                     path_feed
                 };
-                let _ = writeln!(
-                    out,
-                    "G1 {} F{}",
-                    axes(p.x_mm, p.z_mm, p.b_deg),
-                    significant(feed)
-                );
+                let _ = writeln!(out, "G1 {} F{}", pose_words(p, d), significant(feed));
             }
         }
     }
@@ -298,22 +307,9 @@ pub fn write_polar(
             fixed(((c * scale).round() / scale).rem_euclid(360.0), d)
         }
     };
-    let axes = |p: Pose, c: f64| {
-        format!(
-            "X{} Z{} B{} C{}",
-            fixed(p.x_mm, d),
-            fixed(p.z_mm, d),
-            fixed(p.b_deg, d),
-            c_word(c)
-        )
-    };
-    let mut out = String::with_capacity(72 * (program.blocks().len() + 16));
-    for line in header {
-        out.push_str(&comment(line));
-        out.push('\n');
-    }
+    let axes = |p: Pose, c: f64| format!("{} C{}", pose_words(p, d), c_word(c));
+    let mut out = opening(header, 72 * (program.blocks().len() + 16));
     let (start, start_c) = program.start();
-    out.push_str("G21 G90 G94\n");
     let _ = writeln!(out, "G0 {}", axes(start, start_c));
     let _ = writeln!(out, "{}", spindle_on(&format.tool_spindle, tool_rpm, false));
     out.push_str("G93\n");

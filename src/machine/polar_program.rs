@@ -28,7 +28,7 @@ use super::limits::{Axis, LimitKind};
 use super::pose::{Pose, Tool};
 use super::program::{dwell_span, lifted, Approach, AxisMotion, BlockKind, ProgramError, Skipped};
 use crate::physics::motion::{one_speed, Motion, Segment};
-use crate::physics::polar::executed_blocks;
+use crate::physics::polar::{c_changes, c_runs, executed_blocks};
 use crate::surface::Surface;
 
 /// The most C turns in one block, degrees: a quarter turn, so the shorter way round is
@@ -126,7 +126,10 @@ impl PolarProgram {
         // the first one.
         let origin = pieces[0].from_mm;
         let polishing_time_s = dwell_s[first..=last].iter().sum();
-        let plan_peak = peak_between_runs(&blocks);
+        // The plan's largest change of C's speed (the cuts above change no speed).
+        let plan_peak = c_changes(&c_runs(&pieces))
+            .map(|(change, _)| change.to_degrees())
+            .fold(0.0, f64::max);
         let ramp = ramp_acceleration(plan_peak, run.c_max_acceleration_deg_per_s2);
         let first_pose = tool.pose(surface, origin);
         let mut start = first_pose;
@@ -247,22 +250,6 @@ fn c_spans(blocks: &[PolarBlock]) -> Vec<usize> {
             label
         })
         .collect()
-}
-
-/// The largest change of C's speed between runs of `blocks` (polishing blocks alone), deg/s²,
-/// by the program's model; 0 for a single run.
-fn peak_between_runs(blocks: &[PolarBlock]) -> f64 {
-    let durations: Vec<f64> = blocks.iter().map(|b| b.duration_s).collect();
-    let before = blocks[0].c_deg - blocks[0].c_deg_per_s * blocks[0].duration_s;
-    let positions: Vec<f64> = std::iter::once(before)
-        .chain(blocks.iter().map(|b| b.c_deg))
-        .collect();
-    let motion = AxisMotion::of_spans(positions, &durations, &c_spans(blocks));
-    // Not the changes from and to rest at the ends.
-    let changes = &motion.acceleration_per_s2;
-    changes[1..changes.len() - 1]
-        .iter()
-        .fold(0.0_f64, |m, a| m.max(a.abs()))
 }
 
 /// A straight move from `from` to `to` (pose, C) at C speed `c_deg_per_s` over `duration_s`,

@@ -61,7 +61,7 @@ use std::f64::consts::{PI, TAU};
 use rayon::prelude::*;
 
 use super::kronrod::{adaptive_gauss_kronrod, kronrod_rule};
-use super::motion::{Motion, Turning};
+use super::motion::{acceleration, one_speed, Motion, Turning};
 use super::process::Process;
 use super::removal::RemovalKernel;
 use super::roots::illinois;
@@ -459,6 +459,51 @@ pub struct Block {
     pub start_rad: f64,
     pub duration_s: f64,
     pub part_speed_rad_per_s: f64,
+}
+
+/// A run of consecutive blocks at one C speed ([`one_speed`]): what C executes without a
+/// change of speed, the span its acceleration model takes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CRun {
+    /// The first block's C speed, rad/s.
+    pub speed_rad_per_s: f64,
+    pub duration_s: f64,
+    /// Its blocks.
+    pub blocks: std::ops::Range<usize>,
+}
+
+/// The runs of one C speed in `blocks`, in order.
+pub fn c_runs(blocks: &[Block]) -> Vec<CRun> {
+    let mut runs: Vec<CRun> = Vec::new();
+    for (i, b) in blocks.iter().enumerate() {
+        match runs.last_mut() {
+            Some(run) if one_speed(run.speed_rad_per_s, b.part_speed_rad_per_s) => {
+                run.duration_s += b.duration_s;
+                run.blocks.end = i + 1;
+            }
+            _ => runs.push(CRun {
+                speed_rad_per_s: b.part_speed_rad_per_s,
+                duration_s: b.duration_s,
+                blocks: i..i + 1,
+            }),
+        }
+    }
+    runs
+}
+
+/// C's acceleration between each two consecutive runs (rad/s², by
+/// `physics::motion::acceleration`: the change over the mean of their durations) and the
+/// blocks of both.
+pub fn c_changes(runs: &[CRun]) -> impl Iterator<Item = (f64, std::ops::Range<usize>)> + '_ {
+    runs.windows(2).map(|w| {
+        let (a, b) = (&w[0], &w[1]);
+        let change = acceleration(
+            (b.speed_rad_per_s - a.speed_rad_per_s).abs(),
+            a.duration_s,
+            b.duration_s,
+        );
+        (change, a.blocks.start..b.blocks.end)
+    })
 }
 
 /// The blocks `motion` runs with `dwell_s` at its stations: its stops and moves in order

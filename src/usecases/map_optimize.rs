@@ -42,8 +42,7 @@ use crate::optimize::harmonics::{
 use crate::optimize::kinematics::Floor;
 use crate::optimize::problem::Bound;
 use crate::optimize::OptimizeError;
-use crate::physics::motion::{acceleration, one_speed};
-use crate::physics::polar::{executed_blocks, Block, PolarPad};
+use crate::physics::polar::{c_changes, c_runs, executed_blocks, Block, PolarPad};
 use crate::physics::SectorLaw;
 
 /// Sectors per turn by default: 2° each.
@@ -728,10 +727,9 @@ struct CPeaks {
     over: Vec<f64>,
 }
 
-/// C's speed in each block and its acceleration between consecutive spans of blocks at one
-/// C speed as the program's model takes it (`physics::motion::acceleration`: the change over
-/// the mean of the two spans' durations; blocks split only where X changes speed, or at
-/// speeds equal to their last bits (`one_speed`), are one span of C).
+/// C's speed in each block and its acceleration between consecutive runs of one C speed
+/// (`physics::polar::c_runs`, `c_changes`: the program's model), and how far each station's
+/// blocks go over C's limits.
 fn c_peaks(blocks: &[Block], stations: usize, c: &CLimits) -> CPeaks {
     let mut peaks = CPeaks {
         velocity_rad_per_s: 0.0,
@@ -739,28 +737,17 @@ fn c_peaks(blocks: &[Block], stations: usize, c: &CLimits) -> CPeaks {
         over: vec![0.0; stations],
     };
     let ratio = |value: f64, limit: Option<f64>| limit.map_or(0.0, |l| value / l);
-    // Spans: (speed, duration, first block, end).
-    let mut spans: Vec<(f64, f64, usize, usize)> = Vec::new();
-    for (i, b) in blocks.iter().enumerate() {
-        let v = b.part_speed_rad_per_s;
-        peaks.velocity_rad_per_s = peaks.velocity_rad_per_s.max(v.abs());
+    for b in blocks {
+        let v = b.part_speed_rad_per_s.abs();
+        peaks.velocity_rad_per_s = peaks.velocity_rad_per_s.max(v);
         let over = &mut peaks.over[b.station];
-        *over = over.max(ratio(v.abs(), c.max_velocity_rad_per_s));
-        match spans.last_mut() {
-            Some(span) if one_speed(span.0, v) => {
-                span.1 += b.duration_s;
-                span.3 = i + 1;
-            }
-            _ => spans.push((v, b.duration_s, i, i + 1)),
-        }
+        *over = over.max(ratio(v, c.max_velocity_rad_per_s));
     }
-    for w in spans.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let value = acceleration((b.0 - a.0).abs(), a.1, b.1).abs();
-        peaks.acceleration_rad_per_s2 = peaks.acceleration_rad_per_s2.max(value);
-        let r = ratio(value, c.max_acceleration_rad_per_s2);
+    for (change, both) in c_changes(&c_runs(blocks)) {
+        peaks.acceleration_rad_per_s2 = peaks.acceleration_rad_per_s2.max(change);
+        let r = ratio(change, c.max_acceleration_rad_per_s2);
         if r > 0.0 {
-            for block in &blocks[a.2..b.3] {
+            for block in &blocks[both] {
                 let over = &mut peaks.over[block.station];
                 *over = over.max(r);
             }

@@ -59,6 +59,25 @@ pub enum CLawError {
     Law(SectorLawError),
 }
 
+/// The turns of C a plan under C's law runs at most (each station's dwell at its fastest
+/// factor) at the part speed `omega` (rad/s), and the blocks that cuts at `per_turn` blocks a
+/// turn, with one more at most where each stop or move ends.
+pub(super) fn law_work(
+    schedule: &DwellSchedule,
+    fastest: &[f64],
+    omega: f64,
+    per_turn: f64,
+) -> (f64, f64) {
+    let turns: f64 = schedule
+        .dwell_s()
+        .iter()
+        .zip(fastest)
+        .map(|(t, f)| t * omega.abs() * f / std::f64::consts::TAU)
+        .sum();
+    let blocks = turns * per_turn + 2.0 * fastest.len() as f64 + 2.0;
+    (turns, blocks)
+}
+
 /// `schedule` with C's `law` (unchanged without one), and each station's largest speed
 /// factor (1 at constant speed).
 pub(super) fn polar_schedule(
@@ -186,7 +205,6 @@ impl MapPredictCommand {
         let sectors = spec.c_law.as_ref().map_or(1, |law| law.sectors);
         let (schedule, fastest) =
             polar_schedule(schedule, spec.c_law).map_err(MapPredictInputError::Law)?;
-        let stations = schedule.positions_mm().len();
         let start_deg = spec.start_angle_deg.unwrap_or(0.0);
         if !start_deg.is_finite() {
             return Err(MapPredictInputError::StartAngle(start_deg));
@@ -207,15 +225,12 @@ impl MapPredictCommand {
             });
         }
         // The turns C runs at each station's fastest, and the blocks that cuts.
-        let omega = pad.part_speed_rad_per_s().abs();
-        let turns: f64 = schedule
-            .dwell_s()
-            .iter()
-            .zip(&fastest)
-            .map(|(t, f)| t * omega * f / std::f64::consts::TAU)
-            .sum();
-        // A block per sector passed, and one more at most where each stop or move ends.
-        let blocks = turns * sectors as f64 + 2.0 * stations as f64 + 2.0;
+        let (turns, blocks) = law_work(
+            &schedule,
+            &fastest,
+            pad.part_speed_rad_per_s(),
+            sectors as f64,
+        );
         let on_part = (std::f64::consts::PI * (half + 0.5).powi(2)).ceil() as usize;
         let work = on_part as f64 * (turns + blocks / 10.0);
         if work > MAX_WORK || blocks > MAX_BLOCKS {

@@ -3,7 +3,7 @@
 //! ([`crate::machine::polar_program`]), checked against every limit of the machine, C's
 //! included, and written as G-code in inverse time with C words.
 
-use super::map_predict::{polar_schedule, CLawError, CLawSpec, MAX_BLOCKS};
+use super::map_predict::{law_work, polar_schedule, CLawError, CLawSpec, MAX_BLOCKS};
 use super::program::{approach_feed, header_lines, ProgramCommand, ProgramFailure};
 use super::Warning;
 use crate::machine::gcode::{self, CWords};
@@ -72,17 +72,10 @@ impl MapProgramCommand {
         if !start_deg.is_finite() {
             return Err(E::StartAngle(start_deg));
         }
-        // A block per sector passed (a quarter turn at most), one more where each stop or
-        // move ends, and the approach's and retract's quarter turns.
         let omega = pad.part_speed_rad_per_s();
-        let turns: f64 = schedule
-            .dwell_s()
-            .iter()
-            .zip(&fastest)
-            .map(|(t, f)| t * omega.abs() * f / std::f64::consts::TAU)
-            .sum();
+        // A block per sector passed (a quarter turn at most).
         let per_turn = (360.0 / MAX_C_STEP_DEG).max(sectors.unwrap_or(1) as f64);
-        let blocks = turns * per_turn + 2.0 * schedule.dwell_s().len() as f64 + 2.0;
+        let (turns, blocks) = law_work(&schedule, &fastest, omega, per_turn);
         // The approach and retract at C's fastest, each as long as its feed or C's ramp
         // (from half C's limit, `ramp_acceleration`) makes it, in quarter turns.
         let fastest_deg_per_s =
@@ -168,26 +161,24 @@ pub fn map_program(command: MapProgramCommand) -> Result<PolarMachineProgram, Pr
         return Err(ProgramFailure::Limits(violations));
     }
     let c = program.motion(Axis::C);
-    let mut header = header_lines(
-        &base,
-        program.polishing_time_s,
-        program.program_time_s,
-        &axes[..3],
-    );
     let law = match sectors {
         Some(s) => format!("a speed law of {s} sectors per turn"),
         None => "the process's constant speed".to_string(),
     };
-    header.insert(
-        header.len() - 2,
-        format!(
-            "C: the part's spindle under position control at {law}, {:.3} turns, words {}",
-            (c.max - c.min) / 360.0,
-            match c_words {
-                CWords::Wrapped => "wrapped to 0 to 360 deg, at most 90 deg a block",
-                CWords::Unwound => "unwound (cumulative)",
-            }
-        ),
+    let c_line = format!(
+        "C: the part's spindle under position control at {law}, {:.3} turns, words {}",
+        (c.max - c.min) / 360.0,
+        match c_words {
+            CWords::Wrapped => "wrapped to 0 to 360 deg, at most 90 deg a block",
+            CWords::Unwound => "unwound (cumulative)",
+        }
+    );
+    let header = header_lines(
+        &base,
+        program.polishing_time_s,
+        program.program_time_s,
+        &axes[..3],
+        &[c_line],
     );
     let gcode = gcode::write_polar(&program, &header, spec.tool_rpm, &base.format, c_words);
     Ok(PolarMachineProgram {

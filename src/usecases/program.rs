@@ -251,15 +251,18 @@ fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
         program.polishing_time_s,
         program.program_time_s,
         &axes,
+        &[],
     )
 }
 
-/// The header's lines for a program of these times whose `axes` move so.
+/// The header's lines for a program of these times whose `axes` move so, with `more` lines
+/// after the axes' ranges.
 pub(super) fn header_lines(
     command: &ProgramCommand,
     polishing_time_s: f64,
     program_time_s: f64,
     axes: &[(Axis, &AxisMotion)],
+    more: &[String],
 ) -> Vec<String> {
     let spec = command.process.spec();
     let eta = match command.process.eta().value() {
@@ -301,6 +304,9 @@ pub(super) fn header_lines(
             program_time_s
         ),
         format!("axes: {}", axes.join(", ")),
+    ]);
+    lines.extend(more.iter().cloned());
+    lines.extend([
         match command.choice {
             MachineChoice::Default => "limits: Preston's default machine".to_string(),
             MachineChoice::Given(_) => {

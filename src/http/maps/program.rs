@@ -12,7 +12,9 @@ use super::super::dto::{
 use super::super::endpoint::{Doc, Endpoint};
 use super::super::error::ApiError;
 use super::super::extract::{object, optional_count, optional_object, ApiJson};
-use super::super::program::{ApproachDto, SkippedDto, SpindleWordsDto, SpindlesDto};
+use super::super::program::{
+    decimals, request_digest, ApproachDto, SkippedDto, SpindleWordsDto, SpindlesDto,
+};
 use super::super::state::Services;
 use super::optimize::PolarMachineDto;
 use super::predict::CLawDto;
@@ -204,8 +206,7 @@ program. `Accept: text/x-gcode` returns the G-code, `text/csv` the block table. 
         req: MapProgramRequest,
         limits: &ComputeLimits,
     ) -> Result<MapProgramCommand, ApiError> {
-        let canonical = serde_json::to_vec(&req).map_err(|e| ApiError::internal(e.to_string()))?;
-        let digest = crate::store::sha256_hex(&canonical);
+        let digest = request_digest(&req)?;
         let approach = req.approach.clone().unwrap_or_default();
         let format = req.format.clone().unwrap_or_default();
         let machine = req.machine.clone().unwrap_or_default();
@@ -221,9 +222,7 @@ program. `Accept: text/x-gcode` returns the G-code, `text/csv` the block table. 
                 approach_feed_mm_per_min: approach.feed_mm_per_min,
                 format: GcodeFormatSpec {
                     feed_mode: None,
-                    decimals: format
-                        .decimals
-                        .map(|d| u32::try_from(d).unwrap_or(u32::MAX)),
+                    decimals: decimals(format.decimals),
                     workpiece_spindle: Default::default(),
                     tool_spindle: format
                         .tool_spindle
