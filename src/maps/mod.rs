@@ -20,7 +20,7 @@
 //!
 //! The analysis ([`analysis`]) aligns a map to the part and its clear aperture ([`aperture`]),
 //! fits Zernike terms ([`zernike`]), takes its PSD ([`psd`]) and its rotationally symmetric
-//! part ([`radial`]).
+//! part ([`radial`]); [`rings`] splits what is not round into angular harmonics ring by ring.
 
 pub mod analysis;
 pub mod aperture;
@@ -31,6 +31,7 @@ pub mod grid;
 pub mod metropro;
 pub mod psd;
 pub mod radial;
+pub mod rings;
 pub mod zernike;
 pub mod zygo_text;
 

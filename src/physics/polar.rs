@@ -522,7 +522,45 @@ pub fn executed_blocks(
     part_speed_rad_per_s: f64,
     start_rad: f64,
 ) -> Vec<Block> {
+    walk(motion, dwell_s, part_speed_rad_per_s, start_rad, false).blocks
+}
+
+/// C's schedule ([`c_schedule`]): a few of the executed motion's blocks, and how many it has.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CSchedule {
+    pub blocks: Vec<Block>,
+    /// How many blocks [`executed_blocks`] gives for the same motion.
+    pub executed_blocks: usize,
+}
+
+/// C's schedule over the motion [`executed_blocks`] gives, in as many blocks as a plan has
+/// stations times two turns of sectors rather than as many as C turns through sectors: where
+/// a segment under a sector law holds three whole turns or more of its station's law past its
+/// first edge, all but two are left out (a station whose sectors all take one speed keeps
+/// them as one block at that speed). Every two consecutive runs of one C speed
+/// ([`c_runs`], [`c_changes`]) of the full motion are then two consecutive runs here, with the
+/// same speeds and durations: C's peaks and where they fall are the executed motion's, at a
+/// cost that does not grow with the plan's time. The blocks' radii and angles are not the
+/// motion's and carry no removal.
+pub fn c_schedule(
+    motion: &Motion,
+    dwell_s: &[f64],
+    part_speed_rad_per_s: f64,
+    start_rad: f64,
+) -> CSchedule {
+    walk(motion, dwell_s, part_speed_rad_per_s, start_rad, true)
+}
+
+/// [`executed_blocks`], or with `skip_turns` [`c_schedule`].
+fn walk(
+    motion: &Motion,
+    dwell_s: &[f64],
+    part_speed_rad_per_s: f64,
+    start_rad: f64,
+    skip_turns: bool,
+) -> CSchedule {
     debug_assert_eq!(dwell_s.len(), motion.len());
+    let mut left_out_blocks = 0;
     let omega = part_speed_rad_per_s;
     let mut phi = start_rad;
     let mut blocks = Vec::new();
@@ -560,6 +598,13 @@ pub fn executed_blocks(
                     (phi / width).floor() as i64 + 1
                 };
                 let mut elapsed = 0.0;
+                // A turn of this station's law from an edge, s, and whether it is one speed.
+                let turn = (0..law.sectors())
+                    .map(|k| width / (omega * law.factor(station, k)).abs())
+                    .sum::<f64>();
+                let first = law.factor(station, 0);
+                let uniform = (1..law.sectors()).all(|k| one_speed(first, law.factor(station, k)));
+                let mut skipped = !skip_turns;
                 while elapsed < duration {
                     let sector = if falling { edge } else { edge - 1 }
                         .rem_euclid(law.sectors() as i64) as usize;
@@ -599,9 +644,36 @@ pub fn executed_blocks(
                         break;
                     }
                     elapsed += time;
+                    // At the segment's first edge, the whole turns beyond two (c_schedule).
+                    if !skipped {
+                        skipped = true;
+                        let whole = ((duration - elapsed) / turn).floor();
+                        if whole >= 3.0 {
+                            let left_out = whole - 2.0;
+                            if uniform {
+                                blocks.push(Block {
+                                    station,
+                                    segment: index,
+                                    from_mm: at(elapsed),
+                                    to_mm: at(elapsed + left_out * turn),
+                                    start_rad: phi,
+                                    duration_s: left_out * turn,
+                                    part_speed_rad_per_s: omega * first,
+                                });
+                            }
+                            elapsed += left_out * turn;
+                            let sectors = left_out as i64 * law.sectors() as i64;
+                            left_out_blocks += sectors as usize - usize::from(uniform);
+                            edge += if falling { -sectors } else { sectors };
+                            phi -= (if falling { 1.0 } else { -1.0 }) * sectors as f64 * width;
+                        }
+                    }
                 }
             }
         }
     }
-    blocks
+    CSchedule {
+        executed_blocks: blocks.len() + left_out_blocks,
+        blocks,
+    }
 }

@@ -5,20 +5,30 @@
 //! The map is placed on the part (as the analysis places it) and its piston and tilt are
 //! removed (a least-squares plane over the clear aperture's valid pixels: alignment, not
 //! figure). On rings at the radial grid's radii inside the aperture it is sampled at N equally
-//! spaced angles (bilinear between the four nearest pixels, over those with data; a ring's
-//! missing samples take its mean), and split into harmonics (`optimize::harmonics`):
+//! spaced angles (at least 4·m_max + 8, and one per map pixel along the ring, so that the
+//! map's finer harmonics do not fold onto those corrected; bilinear between the four nearest
+//! pixels, over those with data; a ring's missing samples take its mean), and split into
+//! harmonics (`optimize::harmonics`):
 //!
-//! 1. m ≥ 1: each harmonic's modulation y_m, one radial problem each;
+//! 0. the best plan in radius alone (the 1-D optimizer on the azimuthal mean, C at constant
+//!    speed): the comparison a machine without C under control sets, and the dwell shape t⁰;
+//! 1. m ≥ 1: each harmonic's modulation y_m = t⁰·x_m, one radial problem each, fitted as x
+//!    relative to t⁰ (so that the floors it asks are in proportion to a dwell that removes an
+//!    even layer, which a uniform layer more meets);
 //! 2. its C law's floors on each station's dwell: the modulation bound, C's velocity and its
 //!    acceleration (`harmonics::law_floor`);
 //! 3. m = 0: the 1-D optimizer (`usecases::optimize`) on the azimuthal mean with a free
 //!    piston, its floors raised to those, within every 1-D limit (the total time, X, Z, B);
 //! 4. the law: speed factors per station and sector;
-//! 5. the exact removal of the executed motion (`physics::polar`) on a square map, the target
+//! 5. the removal on a square map — the exact removal of the executed motion
+//!    (`physics::polar`), or the plan's own first-order model ([`RemovalModel`]) — the target
 //!    sampled at the same pixels, and their difference.
 //!
-//! The residual's figures are about its mean (a piston is free); its rotationally variant part
-//! is the residual less its mean over the pixels of each ring one pixel wide. The harmonic
+//! The residual's figures are about its mean (a piston is free). What is not round is each
+//! map less its azimuthal mean at the pixel's own radius: the removal's from the identity of
+//! `physics::polar` (exactly, or the model's), the target's from a ring of samples. (Less the
+//! mean of a ring of pixels, a steep radial profile across the ring's width would count as not
+//! round.) Each harmonic's RMS per band is fitted on rings of pixels (`maps::rings`). The harmonic
 //! budget reports, per radius band and harmonic m, the largest amplitude (nm) the plan's mean
 //! dwell can put there: the footprint's harmonic of the dwell times the most modulation C
 //! allows at m (seed 000's eq. 4 for C: δ ≤ min{δ_max, 1 − Ω0/v_max, a_max/(m·Ω0²)}).
@@ -42,7 +52,8 @@ use crate::optimize::harmonics::{
 use crate::optimize::kinematics::Floor;
 use crate::optimize::problem::Bound;
 use crate::optimize::OptimizeError;
-use crate::physics::polar::{c_changes, c_runs, executed_blocks, Block, PolarPad};
+use crate::maps::rings::{band_rms, ring_harmonics};
+use crate::physics::polar::{c_changes, c_runs, c_schedule, executed_blocks, Block, PolarPad};
 use crate::physics::SectorLaw;
 
 /// Sectors per turn by default: 2° each.
@@ -59,8 +70,26 @@ pub const MAX_HARMONIC_WORK: f64 = 3e9;
 /// counts them (a tenth of its limit, about 1.5 s on 2 cores: the plan is solved first, and
 /// a coarser map is still the exact removal at its pixels).
 pub const MAX_MAP_WORK: f64 = 3e6;
+/// The most samples the map is read at on one ring.
+pub const MAX_RING_SAMPLES: usize = 16_384;
 /// Pixels across the part of the result's maps by default.
 pub const DEFAULT_PIXELS_ACROSS: usize = 81;
+
+/// How the result's removal map is computed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum RemovalModel {
+    /// The exact removal of the executed motion (`physics::polar`) at the map's pixels: the
+    /// verdict, at a cost that grows with C's turns (the pixel is coarsened, with a warning,
+    /// to keep within [`MAX_MAP_WORK`], and a plan of more than `MAX_BLOCKS` blocks is refused).
+    #[default]
+    Exact,
+    /// The plan's own model (`optimize::harmonics`): the mean dwell's removal ĝ_0·t and each
+    /// harmonic's first-order removal of the law's modulation, on the aperture's rings,
+    /// linear in the radius between them. A cost independent of the turns, but blind to what
+    /// the linearisation leaves out (the modulation's second order, the sectors' aliases and
+    /// the spiral's ripple): `/v1/maps/predict` gives the exact removal of the same plan.
+    Harmonic,
+}
 
 /// A correction as asked, besides its setting.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -79,6 +108,7 @@ pub struct MapOptimizeSpec {
     pub max_modulation: Option<f64>,
     /// The result maps' pixel, mm; default the part's diameter / 80.
     pub pixel_mm: Option<f64>,
+    pub removal_model: RemovalModel,
 }
 
 /// Why a correction cannot be planned as asked.
@@ -141,6 +171,7 @@ pub struct MapOptimizeCommand {
     /// The machine as the request named it (for warnings on the default machine's limits).
     machine: MachineChoice,
     pixel_mm: f64,
+    removal_model: RemovalModel,
     /// The map's RMS above `max_harmonic` on the rings (what the plan leaves alone), nm.
     left_rms_nm: f64,
 }
@@ -155,6 +186,22 @@ struct SampledMap {
 }
 
 impl SampledMap {
+    /// The mean of `samples` equally spaced values on the ring of radius r (over those with
+    /// data; 0 when none has).
+    fn ring_mean(&self, r: f64, samples: usize) -> f64 {
+        let known: Vec<f64> = (0..samples)
+            .filter_map(|k| {
+                let (s, c) = (TAU * k as f64 / samples as f64).sin_cos();
+                self.at(r * c, r * s)
+            })
+            .collect();
+        if known.is_empty() {
+            0.0
+        } else {
+            known.iter().sum::<f64>() / known.len() as f64
+        }
+    }
+
     /// The tilt-free height at (x, y) mm (part frame): bilinear over the neighbours with data;
     /// `None` where none has.
     fn at(&self, x: f64, y: f64) -> Option<f64> {
@@ -271,11 +318,15 @@ impl MapOptimizeCommand {
                 max: MAX_HARMONIC_WORK,
             });
         }
-        let n = 4 * max_harmonic + 8;
+        // At least 4·m_max + 8 samples a ring, and one per map pixel along it: a ring sampled
+        // more sparsely than the map would fold the map's finer harmonics (m above N − m_max)
+        // onto those the plan corrects.
+        let map_pixel = target.alignment.pixel_mm;
         let (mut sampled, mut missing) = (0usize, 0usize);
         let rings: Vec<Vec<f64>> = radii
             .iter()
             .map(|&r| {
+                let n = ((TAU * r / map_pixel).ceil() as usize).clamp(4 * max_harmonic + 8, MAX_RING_SAMPLES);
                 let values: Vec<Option<f64>> = (0..n)
                     .map(|k| {
                         let (s, c) = (TAU * k as f64 / n as f64).sin_cos();
@@ -339,6 +390,7 @@ impl MapOptimizeCommand {
             c,
             machine,
             pixel_mm,
+            removal_model: spec.removal_model,
             left_rms_nm,
         })
     }
@@ -366,6 +418,10 @@ pub struct BudgetBand {
     pub amplitude_nm: Vec<f64>,
     /// The target's own amplitude of each harmonic in the band (its largest over the band's radii).
     pub target_amplitude_nm: Vec<f64>,
+    /// Each harmonic's RMS over the band's pixels (`maps::rings`), of the target and of the
+    /// residual, nm; empty where no ring of the band has pixels enough to fit.
+    pub target_rms_nm: Vec<f64>,
+    pub residual_rms_nm: Vec<f64>,
 }
 
 /// The corrected plan and what it does.
@@ -392,12 +448,19 @@ pub struct MapCorrection {
     /// The residual over the aperture, about its mean; and its non-axisymmetric part.
     pub after: Figures,
     pub after_non_axisymmetric: Figures,
+    /// The residual of the best plan in radius alone (C at constant speed, the same limits
+    /// but no modulation's floors), about its mean, and that plan's time (s). Its removal is
+    /// round, so its non-axisymmetric part is the target's.
+    pub radial_plan_after: Figures,
+    pub radial_plan_time_s: f64,
     /// C's peaks over the executed motion, deg/min and deg/s².
     pub c_peak_velocity_deg_per_min: f64,
     pub c_peak_acceleration_deg_per_s2: f64,
     pub harmonic_budget: Vec<BudgetBand>,
     pub total_time_s: f64,
+    /// How many blocks the executed motion takes.
     pub blocks: usize,
+    pub removal_model: RemovalModel,
     pub warnings: Vec<Warning>,
 }
 
@@ -406,11 +469,13 @@ pub struct MapCorrection {
 pub enum MapOptimizeError {
     #[error(transparent)]
     Optimize(#[from] OptimizeError),
-    /// The plan's law would cut the motion into more blocks than one request computes.
+    /// The plan's law would cut the motion into more blocks than one request's exact map
+    /// computes.
     #[error(
         "the plan runs C through about {turns:.0} turns: at {sectors} sectors that is about \
-         {blocks:.2e} blocks, and at most {max:.0e} are computed in one request (fewer sectors, \
-         or a smaller correction per plan)"
+         {blocks:.2e} blocks, and the exact removal map computes at most {max:.0e} in one \
+         request (fewer sectors, a smaller correction per plan, or removal_model \"harmonic\" \
+         and the exact map from /v1/maps/predict)"
     )]
     TooManyBlocks {
         turns: f64,
@@ -435,12 +500,16 @@ pub fn map_optimize(
         c,
         machine,
         pixel_mm,
+        removal_model,
         left_rms_nm,
     } = command;
     let process = setting.process();
     let rt = process.tool_radius_mm();
     let motion = plan.motion().clone();
     let m_max = harmonics.coefficients[0].len() - 1;
+    // 0. The best plan in radius alone: for comparison, and the shape the modulation is
+    // fitted relative to.
+    let radial_plan = optimize(plan.clone(), recommender, operators)?;
     // 1. Each harmonic's modulation.
     let operator = HarmonicOperator::new(&pad, &motion, &harmonics.radii_mm, m_max);
     let omega0 = pad.part_speed_rad_per_s().abs();
@@ -449,8 +518,25 @@ pub fn map_optimize(
         .map_or(f64::INFINITY, |a| a / (c.max_modulation * omega0 * omega0));
     // A ring's share of the area (the centre keeps a little weight).
     let weights: Vec<f64> = harmonics.radii_mm.iter().map(|&r| r + 1e-3 * rt).collect();
-    let ones = vec![1.0; motion.len()];
-    let coefficients = operator.fit(&harmonics, &weights, &ones, motion.radii_mm(), rt, m_accel);
+    let largest = radial_plan.solution.dwell_s.iter().fold(0.0_f64, |a, &t| a.max(t));
+    // Fitted as δ relative to that dwell (a station's share of it least 1e-3 of the largest),
+    // the modulation asks floors in proportion to a dwell that removes an even layer, which a
+    // uniform layer more then meets; fitted in seconds, it asked floors of any shape, and the
+    // mean dwell bent to them left its own profile (on prysm's sample 17 nm RMS of it, not 2).
+    let shape: Vec<f64> = radial_plan
+        .solution
+        .dwell_s
+        .iter()
+        .map(|&t| t.max(1e-3 * largest).max(f64::MIN_POSITIVE))
+        .collect();
+    let coefficients = operator.fit(&harmonics, &weights, &shape, motion.radii_mm(), rt, m_accel);
+    let coefficients: Vec<(Vec<f64>, Vec<f64>)> = coefficients
+        .into_iter()
+        .map(|(c, s)| {
+            let scale = |x: Vec<f64>| x.iter().zip(&shape).map(|(x, t)| x * t).collect();
+            (scale(c), scale(s))
+        })
+        .collect();
     // 2. The law's floors.
     let modulation = sector_modulation(&coefficients, motion.len(), sectors);
     let floors: Vec<Floor> = modulation
@@ -478,10 +564,10 @@ pub fn map_optimize(
     let plan = optimize(plan.with_floors(floors), recommender, operators)?;
     let dwell = &plan.solution.dwell_s;
     // The blocks the law cuts the motion into (a block per sector passed; a turn under the
-    // law takes as long as at constant speed), before any is made.
+    // law takes as long as at constant speed), before any is made: the exact map needs them.
     let turns: f64 = dwell.iter().sum::<f64>() * omega0 / TAU;
     let estimate = turns * sectors as f64 + 2.0 * motion.len() as f64;
-    if estimate > MAX_BLOCKS {
+    if removal_model == RemovalModel::Exact && estimate > MAX_BLOCKS {
         return Err(MapOptimizeError::TooManyBlocks {
             turns,
             sectors,
@@ -507,11 +593,12 @@ pub fn map_optimize(
     }
     // 4. The law, checked on the executed motion: the floors bound each station's own
     // sectors, but a station's law meets its neighbour's where the plan passes from one to the
-    // other (and a segment may end just after a sector edge), so the blocks are checked as the
-    // program will run them, and where they break a limit the stations' modulation is scaled
-    // down (which keeps every floor: the plan stands).
+    // other (and a segment may end just after a sector edge), so C's schedule is checked as
+    // the program will run it (`c_schedule`: every change of speed the executed blocks hold,
+    // without their repeated turns), and where it breaks a limit the stations' modulation is
+    // scaled down (which keeps every floor: the plan stands).
     let mut round = 0;
-    let (factors, blocks, peaks) = loop {
+    let (factors, executed, schedule, peaks) = loop {
         let factors = speed_factors(&modulation, dwell);
         let law = SectorLaw::new(motion.len(), sectors, factors.concat()).map_err(|e| {
             OptimizeError::Numerical {
@@ -525,10 +612,10 @@ pub fn map_optimize(
                 .map_err(|e| OptimizeError::Numerical {
                     status: format!("the C law does not fit the plan: {e}"),
                 })?;
-        let blocks = executed_blocks(&executed, dwell, pad.part_speed_rad_per_s(), 0.0);
-        let peaks = c_peaks(&blocks, motion.len(), &c);
+        let schedule = c_schedule(&executed, dwell, pad.part_speed_rad_per_s(), 0.0);
+        let peaks = c_peaks(&schedule.blocks, motion.len(), &c);
         if peaks.over.iter().all(|&o| o <= 1.0) {
-            break (factors, blocks, peaks);
+            break (factors, executed, schedule, peaks);
         }
         round += 1;
         if round > MAX_LAW_ROUNDS {
@@ -558,16 +645,15 @@ pub fn map_optimize(
         .zip(dwell)
         .map(|(y, &t)| y.iter().map(|v| (t + v) / sectors as f64).collect())
         .collect();
-    // 5. The exact removal on a square map, at a pixel the work limit allows.
+    // 5. The removal on a square map: exact at a pixel the work limit allows, or the model's.
     let radius = process.workpiece_radius_mm();
-    let turns: f64 = blocks
-        .iter()
-        .map(|b| b.duration_s * b.part_speed_rad_per_s.abs() / TAU)
-        .sum();
     let mut pixel = pixel_mm;
-    let on_part = |p: f64| std::f64::consts::PI * (radius / p + 0.5).powi(2);
-    while on_part(pixel) * (turns + blocks.len() as f64 / 10.0) > MAX_MAP_WORK {
-        pixel *= 1.25;
+    if removal_model == RemovalModel::Exact {
+        let on_part = |p: f64| std::f64::consts::PI * (radius / p + 0.5).powi(2);
+        let blocks = schedule.executed_blocks as f64;
+        while on_part(pixel) * (turns + blocks / 10.0) > MAX_MAP_WORK {
+            pixel *= 1.25;
+        }
     }
     let mut warnings = plan.warnings.clone();
     if left_rms_nm > HARMONICS_LEFT_FRACTION * before_rms_of(&harmonics) {
@@ -591,15 +677,41 @@ pub fn map_optimize(
     let on: Vec<usize> = (0..points.len())
         .filter(|&i| points[i].0.hypot(points[i].1) <= radius)
         .collect();
-    let depths = pad.depth_nm(&blocks, &on.iter().map(|&i| points[i]).collect::<Vec<_>>());
+    let on_points: Vec<(f64, f64)> = on.iter().map(|&i| points[i]).collect();
+    // The removal at the pixels, and its azimuthal mean at any radius (to tell what is not
+    // round from a steep radial profile within a ring of pixels).
+    let (depths, mean_at): (Vec<Option<f64>>, Box<dyn Fn(&[f64]) -> Vec<f64>>) =
+        match removal_model {
+            RemovalModel::Exact => {
+                let blocks = executed_blocks(&executed, dwell, pad.part_speed_rad_per_s(), 0.0);
+                let depths = pad.depth_nm(&blocks, &on_points);
+                let pad = pad.clone();
+                // The identity of `physics::polar`: exact, at the C speed of each instant.
+                let mean = move |radii: &[f64]| pad.mean_depth_nm(&blocks, radii);
+                (depths.into_iter().map(Some).collect(), Box::new(mean))
+            }
+            RemovalModel::Harmonic => {
+                let grid = setting.grid().radii_mm();
+                let mean: Vec<f64> = harmonics
+                    .radii_mm
+                    .iter()
+                    .map(|r| plan.removal_nm[grid.partition_point(|g| g < r)])
+                    .collect();
+                let model = ModelRemoval::new(&operator, &harmonics.radii_mm, &mean, &modulation);
+                let depths = on_points.iter().map(|&(x, y)| model.at(x, y)).collect();
+                let mean = move |radii: &[f64]| radii.iter().map(|&r| model.mean_at(r)).collect();
+                (depths, Box::new(mean))
+            }
+        };
     let piston = plan.solution.piston_nm.unwrap_or(0.0);
     let mut removal_nm = vec![None; points.len()];
     let mut target_nm = vec![None; points.len()];
     let mut residual_nm = vec![None; points.len()];
     let (inner, outer) = (setting.aperture().inner_mm(), setting.aperture().outer_mm());
-    // (radius, target, residual) over the aperture's pixels with data.
+    // The aperture's pixels with data.
     let mut inside = Vec::new();
     for (&i, &d) in on.iter().zip(&depths) {
+        let Some(d) = d else { continue };
         removal_nm[i] = Some(d);
         let (x, y) = points[i];
         let r = x.hypot(y);
@@ -609,17 +721,58 @@ pub fn map_optimize(
         if let Some(e) = target.at(x, y) {
             target_nm[i] = Some(e + piston);
             residual_nm[i] = Some(d - e - piston);
-            inside.push((r, e, d - e - piston));
+            inside.push(Inside {
+                r,
+                theta: y.atan2(x),
+                removal: d,
+                target: e,
+                residual: d - e - piston,
+                target_variant: 0.0,
+                residual_variant: 0.0,
+            });
         }
     }
-    let figures_of = |pick: &dyn Fn(&(f64, f64, f64)) -> f64| figures(inside.iter().map(pick));
-    let before = figures_of(&|p| p.1);
-    let after = figures_of(&|p| p.2);
-    let ring_means = |pick: &dyn Fn(&(f64, f64, f64)) -> f64| ring_means(&inside, pixel, pick);
-    let (target_rings, residual_rings) = (ring_means(&|p| p.1), ring_means(&|p| p.2));
-    let ring = |r: f64| (r / pixel).floor() as usize;
-    let before_non_axisymmetric = figures(inside.iter().map(|p| p.1 - target_rings[ring(p.0)]));
-    let after_non_axisymmetric = figures(inside.iter().map(|p| p.2 - residual_rings[ring(p.0)]));
+    // What is not round: each less its azimuthal mean at the pixel's own radius (the
+    // removal's from its model or exactly, the target's from a ring of samples).
+    let mut radii: Vec<f64> = inside.iter().map(|p| p.r).collect();
+    radii.sort_by(f64::total_cmp);
+    radii.dedup();
+    let removal_means = mean_at(&radii);
+    // The radial plan's removal is round: at each radius its 1-D removal (the identity of
+    // `physics::polar` at constant C, exactly).
+    let radial_blocks = executed_blocks(
+        &motion,
+        &radial_plan.solution.dwell_s,
+        pad.part_speed_rad_per_s(),
+        0.0,
+    );
+    let radial_removal = pad.mean_depth_nm(&radial_blocks, &radii);
+    let radial_piston = radial_plan.solution.piston_nm.unwrap_or(0.0);
+    let samples = 4 * m_max + 8;
+    let target_means: Vec<f64> = radii
+        .iter()
+        .map(|&r| target.ring_mean(r, samples))
+        .collect();
+    for p in &mut inside {
+        let k = radii.partition_point(|&r| r < p.r);
+        p.target_variant = p.target - target_means[k];
+        p.residual_variant = p.removal - removal_means[k] - p.target_variant;
+    }
+    let radial_after = figures(inside.iter().map(|p| {
+        radial_removal[radii.partition_point(|&r| r < p.r)] - p.target - radial_piston
+    }));
+    let before = figures(inside.iter().map(|p| p.target));
+    let after = figures(inside.iter().map(|p| p.residual));
+    let before_non_axisymmetric = figures(inside.iter().map(|p| p.target_variant));
+    let after_non_axisymmetric = figures(inside.iter().map(|p| p.residual_variant));
+    let ring_fits = |pick: fn(&Inside) -> f64| {
+        let values: Vec<(f64, f64, f64)> = inside.iter().map(|p| (p.r, p.theta, pick(p))).collect();
+        ring_harmonics(&values, pixel, m_max)
+    };
+    let (target_fits, residual_fits) = (
+        ring_fits(|p| p.target_variant),
+        ring_fits(|p| p.residual_variant),
+    );
     let (peak_v, peak_a) = (peaks.velocity_rad_per_s, peaks.acceleration_rad_per_s2);
     let near = |peak: f64, limit: Option<f64>| {
         limit.is_some_and(|l| peak >= l * super::warnings::ACTIVE_USE)
@@ -678,11 +831,18 @@ pub fn map_optimize(
                         .fold(0.0, f64::max)
                 })
                 .collect();
+            let last = to >= outer;
+            let band = |fits| {
+                // The last band takes in the ring at the aperture's edge.
+                band_rms(fits, from, if last { f64::INFINITY } else { to }).unwrap_or_default()
+            };
             harmonic_budget.push(BudgetBand {
                 from_mm: from,
                 to_mm: to,
                 amplitude_nm,
                 target_amplitude_nm,
+                target_rms_nm: band(&target_fits),
+                residual_rms_nm: band(&residual_fits),
             });
         }
         from = to;
@@ -704,10 +864,13 @@ pub fn map_optimize(
         before_non_axisymmetric,
         after,
         after_non_axisymmetric,
+        radial_plan_after: radial_after,
+        radial_plan_time_s: radial_plan.total_time_s,
         c_peak_velocity_deg_per_min: peak_v.to_degrees() * 60.0,
         c_peak_acceleration_deg_per_s2: peak_a.to_degrees(),
         harmonic_budget,
-        blocks: blocks.len(),
+        blocks: schedule.executed_blocks,
+        removal_model,
         warnings,
     })
 }
@@ -778,24 +941,102 @@ fn before_rms_of(harmonics: &Harmonics) -> f64 {
     }
 }
 
-/// The mean of `pick` over each ring one pixel wide (index ⌊r/pixel⌋).
-fn ring_means(
-    points: &[(f64, f64, f64)],
-    pixel: f64,
-    pick: &dyn Fn(&(f64, f64, f64)) -> f64,
-) -> Vec<f64> {
-    let rings = points
-        .iter()
-        .map(|p| (p.0 / pixel).floor() as usize)
-        .max()
-        .map_or(0, |m| m + 1);
-    let mut sums = vec![(0.0, 0usize); rings];
-    for p in points {
-        let s = &mut sums[(p.0 / pixel).floor() as usize];
-        s.0 += pick(p);
-        s.1 += 1;
+/// A pixel of the clear aperture with data: its radius (mm), angle, the removal, the target
+/// and the residual (nm), and the target's and the residual's parts that are not round.
+struct Inside {
+    r: f64,
+    theta: f64,
+    removal: f64,
+    target: f64,
+    residual: f64,
+    target_variant: f64,
+    residual_variant: f64,
+}
+
+/// The removal the plan's model predicts (`RemovalModel::Harmonic`): the 1-D plan's exact
+/// removal (the azimuthal mean at constant C) plus, for each harmonic m, the modulation kernel's G_m applied to harmonic m of the
+/// law as executed — sector values Y_jk constant over each sector, whose coefficients are
+/// sinc(mπ/S)·(2/S)·Σ_k Y_jk·(cos, sin)(m·c_k) (exact for m < S/2, as the law was built from
+/// them: `optimize::harmonics`) — on the rings `radii_mm`, linear in the radius between them.
+struct ModelRemoval {
+    radii_mm: Vec<f64>,
+    /// Per ring, (a_m, b_m) for m = 0 … m_max.
+    rings: Vec<Vec<(f64, f64)>>,
+}
+
+impl ModelRemoval {
+    /// `mean_nm`: the removal's azimuthal mean on the rings (the 1-D plan's exact removal).
+    fn new(
+        operator: &HarmonicOperator,
+        radii_mm: &[f64],
+        mean_nm: &[f64],
+        modulation: &[Vec<f64>],
+    ) -> ModelRemoval {
+        let sectors = modulation.first().map_or(1, Vec::len);
+        let width = TAU / sectors as f64;
+        let mut rings: Vec<Vec<(f64, f64)>> = mean_nm.iter().map(|&mean| vec![(mean, 0.0)]).collect();
+        for m in 1..=operator.m_max() {
+            let x = m as f64 * width / 2.0;
+            let scale = x.sin() / x * 2.0 / sectors as f64;
+            let (cosines, sines): (Vec<f64>, Vec<f64>) = modulation
+                .iter()
+                .map(|y| {
+                    y.iter().enumerate().fold((0.0, 0.0), |(c, s), (k, v)| {
+                        let (sn, cs) = (m as f64 * (k as f64 + 0.5) * width).sin_cos();
+                        (c + scale * v * cs, s + scale * v * sn)
+                    })
+                })
+                .unzip();
+            let (c, s) = (operator.apply(m, &cosines), operator.apply(m, &sines));
+            for (i, ring) in rings.iter_mut().enumerate() {
+                ring.push((c[i], s[i]));
+            }
+        }
+        ModelRemoval {
+            radii_mm: radii_mm.to_vec(),
+            rings,
+        }
     }
-    sums.iter()
-        .map(|&(s, n)| if n > 0 { s / n as f64 } else { 0.0 })
-        .collect()
+
+    /// The rings either side of r and the weight of the outer one; `None` outside their span.
+    fn between(&self, r: f64) -> Option<(usize, usize, f64)> {
+        let radii = &self.radii_mm;
+        let above = radii.partition_point(|&v| v < r);
+        if above == radii.len() {
+            return None;
+        }
+        if radii[above] == r {
+            return Some((above, above, 0.0));
+        }
+        if above == 0 {
+            return None;
+        }
+        let (a, b) = (radii[above - 1], radii[above]);
+        Some((above - 1, above, (r - a) / (b - a)))
+    }
+
+    fn ring_at(&self, i: usize, theta: f64) -> f64 {
+        self.rings[i]
+            .iter()
+            .enumerate()
+            .map(|(m, &(c, s))| {
+                let (sn, cs) = (m as f64 * theta).sin_cos();
+                c * cs + s * sn
+            })
+            .sum()
+    }
+
+    /// The removal at (x, y) mm.
+    fn at(&self, x: f64, y: f64) -> Option<f64> {
+        let theta = y.atan2(x);
+        let (i, j, w) = self.between(x.hypot(y))?;
+        Some((1.0 - w) * self.ring_at(i, theta) + w * self.ring_at(j, theta))
+    }
+
+    /// Its azimuthal mean at r (0 where out of span: no pixel there has a removal).
+    fn mean_at(&self, r: f64) -> f64 {
+        self.between(r).map_or(0.0, |(i, j, w)| {
+            (1.0 - w) * self.rings[i][0].0 + w * self.rings[j][0].0
+        })
+    }
 }

@@ -264,13 +264,23 @@ async fn planted_astigmatism_and_trefoil_are_corrected_within_c_s_limits() {
 }
 
 /// prysm's 50 mm Fizeau sample (a real part: a strong zone and an edge roll) planned on a
-/// 50 mm part with a 5 mm pad at the paper's speeds, on the default machine's C. At the default
-/// process the plan runs tens of thousands of turns of C (about 32,000 here), so one request's
-/// block limit allows 12 sectors (harmonics up to 5). Measured: RMS 25.6 → 11.6 nm, what is
-/// not round 14.2 → 9.8 nm (a plan in radius alone leaves the map's rotationally variant part
-/// as it is, so 14.2 nm is the 1-D plan's); beyond one pad radius the budget reaches every
-/// harmonic it corrects, and what is left is mostly above m = 5 (warned). The bounds check the
-/// plan lowers both by a quarter at least.
+/// 50 mm part with a 5 mm pad at the paper's speeds, on the default machine's C, 90 sectors,
+/// harmonics up to what the pad resolves at the aperture's edge (15). K = 1e-11 m²/N: the plan
+/// is the default K's scaled in time (dwell ∝ 1/K, the same law: no time-set limit binds), and
+/// runs ~720 turns of C rather than 72,000, so that the exact map fits one request.
+///
+/// Judged twice: by the exact removal of the executed motion (coarsened to ~2.4 mm pixels by
+/// the work limit) and by the plan's harmonic model at 1 mm (where rings of pixels are wide
+/// enough to fit 15 harmonics beyond 10 mm). Measured: RMS 26.6 → 14.3 nm exact, beside the
+/// best plan in radius alone's 14.9; what is not round 14.7 → 9.2 nm exact, 14.2 → 8.8 by the
+/// model at 1 mm (the best radial plan leaves it as it is); 6.9 nm of it lies above m = 15,
+/// beyond what the pad resolves (warned). Harmonic by harmonic, the strong ones inside the
+/// edge band lose 62–78 % (band 10–15 mm: m = 1 9.1 → 2.0 nm, m = 2 5.2 → 1.6, m = 3
+/// 3.6 → 1.4; 15–20 mm: m = 1 6.3 → 2.0, m = 3 5.3 → 1.5); what the pad's width spills from
+/// the edge band's corrections leaves 1–2 nm in every harmonic, so weak harmonics gain. The
+/// bounds check: the 2-D plan beats the radial one; the exact verdict and the model agree on
+/// what is not round within a quarter; what is not round loses a third at least; every
+/// harmonic of 3 nm RMS or more in the bands from 10 to 20 mm loses 60 % at least.
 #[tokio::test(flavor = "multi_thread")]
 async fn the_real_fizeau_map_loses_what_is_not_round() {
     let bytes = std::fs::read(crate::common::fixture_path("maps/valid_zygo_dat_file.dat")).unwrap();
@@ -280,42 +290,79 @@ async fn the_real_fizeau_map_loses_what_is_not_round() {
         .chunks(map.width())
         .map(<[_]>::to_vec)
         .collect();
-    let body = json!({
-        "process": {"workpiece_radius_mm": 25, "tool_radius_mm": 5, "workpiece_rpm": -10, "tool_rpm": 200},
-        "map": {"heights_nm": rows, "pixel_mm": map.pixel_mm()},
-        "positions_mm": (0..=50).map(|k| 0.5 * k as f64).collect::<Vec<_>>(),
-        "radial_grid": {"start_mm": 0, "stop_mm": 25, "count": 51},
-        "clear_aperture": {"inner_mm": 0, "outer_mm": 23},
-        "c_law": {"sectors": 12},
-        "removal_pixel_mm": 1
-    });
-    let reply = post_json(&app(), "/v1/maps/optimize", body.to_string()).await;
-    assert_eq!(reply.status, 200, "{}", reply.text());
-    let out = reply.json();
-    let m = &out["metrics"];
-    eprintln!(
-        "real map: RMS {} → {} nm, not round {} → {} nm, {} s, harmonics ≤ {}, warnings {}",
-        m["before"]["rms_nm"],
-        m["after"]["rms_nm"],
-        m["non_axisymmetric_before"]["rms_nm"],
-        m["non_axisymmetric_after"]["rms_nm"],
-        out["total_time_s"],
-        out["max_harmonic"],
-        out["warnings"]
-    );
-    let rms = |key: &str| m[key]["rms_nm"].as_f64().unwrap();
-    assert!(rms("after") <= 0.75 * rms("before"), "{m}");
+    let body = |model: &str, pixel: f64| {
+        json!({
+            "process": {"workpiece_radius_mm": 25, "tool_radius_mm": 5, "workpiece_rpm": -10, "tool_rpm": 200,
+                        "preston_coefficient_m2_per_n": 1e-11},
+            "map": {"heights_nm": rows, "pixel_mm": map.pixel_mm()},
+            "positions_mm": (0..=50).map(|k| 0.5 * k as f64).collect::<Vec<_>>(),
+            "radial_grid": {"start_mm": 0, "stop_mm": 25, "count": 51},
+            "clear_aperture": {"inner_mm": 0, "outer_mm": 23},
+            "c_law": {"sectors": 90},
+            "removal_pixel_mm": pixel,
+            "removal_model": model
+        })
+    };
+    let run = |model: &'static str, pixel: f64| {
+        let body = body(model, pixel);
+        async move {
+            let reply = post_json(&app(), "/v1/maps/optimize", body.to_string()).await;
+            assert_eq!(reply.status, 200, "{}", reply.text());
+            reply.json()
+        }
+    };
+    let (exact, model) = (run("exact", 1.0).await, run("harmonic", 1.0).await);
+    assert_eq!(exact["dwell"], model["dwell"]);
+    assert_eq!(exact["c_law"], model["c_law"]);
+    let rms = |out: &Value, key: &str| out["metrics"][key]["rms_nm"].as_f64().unwrap();
+    for (name, out) in [("exact", &exact), ("model", &model)] {
+        eprintln!(
+            "real map, {name} at {} mm: RMS {:.2} → {:.2} nm (radial plan {:.2} nm in {:.0} s), \
+             not round {:.2} → {:.2} nm, {:.0} s",
+            out["maps"]["pixel_mm"],
+            rms(out, "before"),
+            rms(out, "after"),
+            rms(out, "radial_plan_after"),
+            out["metrics"]["radial_plan_time_s"],
+            rms(out, "non_axisymmetric_before"),
+            rms(out, "non_axisymmetric_after"),
+            out["total_time_s"].as_f64().unwrap(),
+        );
+    }
+    assert!(rms(&exact, "after") < rms(&exact, "radial_plan_after"));
+    let not_round = |out: &Value| rms(out, "non_axisymmetric_after") / rms(out, "non_axisymmetric_before");
+    assert!(not_round(&exact) <= 2.0 / 3.0, "{}", exact["metrics"]);
+    assert!(not_round(&model) <= 2.0 / 3.0, "{}", model["metrics"]);
     assert!(
-        rms("non_axisymmetric_after") <= 0.75 * rms("non_axisymmetric_before"),
-        "{m}"
+        (rms(&exact, "non_axisymmetric_after") / rms(&model, "non_axisymmetric_after") - 1.0).abs()
+            <= 0.25
     );
-    // Beyond one pad radius of the axis (inside it the pad sees almost only the mean).
-    for band in out["harmonic_budget"].as_array().unwrap() {
-        if band["from_mm"].as_f64().unwrap() < 5.0 {
+    let fields: Vec<&str> = exact["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|w| w["field"].as_str())
+        .collect();
+    assert!(fields.contains(&"c_law.max_harmonic"), "{fields:?}");
+    // Harmonic by harmonic, from the model's 1 mm maps.
+    let mut strong = 0;
+    for band in model["harmonic_budget"].as_array().unwrap() {
+        let (from, to) = (band["from_mm"].as_f64().unwrap(), band["to_mm"].as_f64().unwrap());
+        let before = crate::common::numbers(&band["target_rms_nm"]);
+        let after = crate::common::numbers(&band["residual_rms_nm"]);
+        eprintln!("{from}–{to} mm: before {before:.1?}\n           after  {after:.1?}");
+        if from < 10.0 || to > 20.0 {
             continue;
         }
         let reach = crate::common::numbers(&band["amplitude_nm"]);
         let want = crate::common::numbers(&band["target_amplitude_nm"]);
-        assert!(reach.iter().zip(&want).all(|(r, w)| r >= w), "{band}");
+        for m in 0..before.len() {
+            if before[m] >= 3.0 {
+                strong += 1;
+                assert!(reach[m] >= want[m], "m = {} in {from}–{to} mm: {band}", m + 1);
+                assert!(after[m] <= 0.4 * before[m], "m = {} in {from}–{to} mm: {band}", m + 1);
+            }
+        }
     }
+    assert!(strong >= 3, "{strong} strong harmonics");
 }

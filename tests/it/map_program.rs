@@ -76,9 +76,11 @@ fn c_peaks(start: f64, unwound: &[f64], durations: &[f64], rounding_deg: f64) ->
     for (&c, &d) in unwound.iter().zip(durations) {
         let v = (c - before) / d;
         before = c;
-        let tolerance = 2.0 * rounding_deg / d + 1e-9 * v.abs();
+        // Each speed read is a travel between two rounded words over a duration: the block's
+        // and the run's so far are each off by up to 2·rounding/duration.
+        let tolerance = |run: f64| 2.0 * rounding_deg * (1.0 / d + 1.0 / run) + 1e-9 * v.abs();
         match runs.last_mut() {
-            Some(run) if (run.2 - v).abs() <= tolerance => {
+            Some(run) if (run.2 - v).abs() <= tolerance(run.1) => {
                 run.0 += v * d;
                 run.1 += d;
                 run.2 = run.0 / run.1;

@@ -611,3 +611,96 @@ fn mean_and_ripple(depths: &[f64], want: f64, case: &str) {
         .fold((f64::INFINITY, 0.0_f64), |(a, b), d| (a.min(*d), b.max(*d)));
     assert!(hi - lo > 0.05 * want, "{case}: a ripple of {} nm", hi - lo);
 }
+
+/// C's schedule (`c_schedule`) against the executed blocks of the same plan: five stations
+/// of 40 to 300 turns under a law of 12 sectors, one of them at one speed all round and one
+/// running less than a turn. Every change of speed between two runs of one speed
+/// (`c_runs`, `c_changes`) of the executed blocks is one of the schedule's, with the same
+/// speeds and durations (to 1e-9 relative: the durations are sums of the same sectors' times
+/// in another order), and the other way round; the largest speed and acceleration agree to
+/// 1e-12, each station's largest acceleration too, and the block count is the executed one.
+#[test]
+fn c_s_schedule_holds_every_change_of_speed_the_executed_motion_does() {
+    use preston::physics::polar::{c_changes, c_runs, c_schedule};
+    let omega = 10.0 * TAU / 60.0;
+    let stations = vec![0.0, 5.0, 9.0, 14.0, 20.0];
+    let turn = TAU / omega;
+    let dwell = [40.3 * turn, 120.7 * turn, 0.4 * turn, 300.2 * turn, 55.0 * turn];
+    let sectors = 12;
+    let factors: Vec<f64> = (0..stations.len())
+        .flat_map(|j| {
+            (0..sectors).map(move |k| {
+                if j == 1 {
+                    1.1
+                } else {
+                    1.0 + 0.3 * ((k * (j + 2)) as f64 * 0.7).sin() / (1.0 + j as f64)
+                }
+            })
+        })
+        .collect();
+    let law = SectorLaw::new(stations.len(), sectors, factors).unwrap();
+    let motion = Motion::radial(stations.clone()).with_sector_law(law).unwrap();
+    let full = executed_blocks(&motion, &dwell, omega, 0.2);
+    let schedule = c_schedule(&motion, &dwell, omega, 0.2);
+    assert_eq!(schedule.executed_blocks, full.len());
+    assert!(
+        schedule.blocks.len() * 20 < full.len(),
+        "{} of {}",
+        schedule.blocks.len(),
+        full.len()
+    );
+    // (speed before, speed after, duration before, duration after, acceleration, station).
+    let changes = |blocks: &[Block]| -> Vec<[f64; 6]> {
+        let runs = c_runs(blocks);
+        c_changes(&runs)
+            .zip(runs.windows(2))
+            .map(|((a, both), w)| {
+                [
+                    w[0].speed_rad_per_s,
+                    w[1].speed_rad_per_s,
+                    w[0].duration_s,
+                    w[1].duration_s,
+                    a,
+                    blocks[both.end - 1].station as f64,
+                ]
+            })
+            .collect()
+    };
+    let (of_full, of_schedule) = (changes(&full), changes(&schedule.blocks));
+    let close = |a: &[f64; 6], b: &[f64; 6]| {
+        a.iter()
+            .zip(b)
+            .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(1e-9))
+    };
+    for (one, other, name) in [
+        (&of_full, &of_schedule, "executed"),
+        (&of_schedule, &of_full, "schedule"),
+    ] {
+        for c in one.iter() {
+            assert!(
+                other.iter().any(|d| close(c, d)),
+                "a change of the {name} blocks is missing from the other: {c:?}"
+            );
+        }
+    }
+    let largest = |v: &[[f64; 6]], i: usize, station: Option<usize>| {
+        v.iter()
+            .filter(|c| station.is_none_or(|s| c[5] as usize == s))
+            .map(|c| c[i].abs())
+            .fold(0.0, f64::max)
+    };
+    for station in [None, Some(0), Some(2), Some(3), Some(4)] {
+        let (a, b) = (
+            largest(&of_full, 4, station),
+            largest(&of_schedule, 4, station),
+        );
+        assert!((a - b).abs() <= 1e-12 * a, "{station:?}: {a} vs {b}");
+    }
+    let fastest = |blocks: &[Block]| {
+        blocks
+            .iter()
+            .map(|b| b.part_speed_rad_per_s.abs())
+            .fold(0.0, f64::max)
+    };
+    assert_eq!(fastest(&full), fastest(&schedule.blocks));
+}

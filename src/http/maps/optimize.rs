@@ -20,7 +20,7 @@ use super::MapAlignmentDto;
 use crate::machine::{AxisLimits, MachineChoice, MachineLimitsSpec};
 use crate::maps::HeightMap;
 use crate::usecases::map_optimize::{
-    map_optimize, MapCorrection, MapOptimizeCommand, MapOptimizeSpec,
+    map_optimize, MapCorrection, RemovalModel, MapOptimizeCommand, MapOptimizeSpec,
 };
 use crate::usecases::optimize::OptimizeSpec;
 use crate::usecases::ComputeLimits;
@@ -154,9 +154,48 @@ pub struct MapOptimizeRequest {
     #[serde(default, deserialize_with = "optional_object")]
     pub c_law: Option<CLawOptionsDto>,
     /// The result maps' pixel, mm (> 0); default the part's diameter / 80. Coarsened (with a
-    /// warning) when the plan's turns make every pixel more work than one request allows.
+    /// warning) when the plan's turns make every pixel of the exact map more work than one
+    /// request allows.
     #[schema(example = 1.0)]
     pub removal_pixel_mm: Option<f64>,
+    /// How the removal map is computed; default `exact`.
+    #[serde(default)]
+    pub removal_model: RemovalModelDto,
+}
+
+/// How the result's removal map is computed.
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RemovalModelDto {
+    /// The exact removal of the executed motion at every pixel (the verdict). Its cost grows
+    /// with C's turns: the pixel is coarsened (with a warning) to keep one request's work,
+    /// and a plan of more than 1,000,000 blocks is refused (422 naming `removal_model`).
+    #[default]
+    Exact,
+    /// The plan's own model: the mean dwell's removal plus each harmonic's first-order
+    /// removal of C's law, on the radial grid's rings inside the clear aperture (null
+    /// outside them), linear in the radius between rings. Its cost does not grow with the
+    /// turns; it leaves out the modulation's second order, the sectors' aliases and the
+    /// spiral's ripple. `/v1/maps/predict` gives the exact removal of the same plan.
+    Harmonic,
+}
+
+impl From<RemovalModelDto> for RemovalModel {
+    fn from(m: RemovalModelDto) -> RemovalModel {
+        match m {
+            RemovalModelDto::Exact => RemovalModel::Exact,
+            RemovalModelDto::Harmonic => RemovalModel::Harmonic,
+        }
+    }
+}
+
+impl From<RemovalModel> for RemovalModelDto {
+    fn from(m: RemovalModel) -> RemovalModelDto {
+        match m {
+            RemovalModel::Exact => RemovalModelDto::Exact,
+            RemovalModel::Harmonic => RemovalModelDto::Harmonic,
+        }
+    }
 }
 
 /// The result's maps on one square grid centred on the axis (x right, y up, mm).
@@ -168,7 +207,8 @@ pub struct CorrectionMapsDto {
     pub x_mm: Vec<f64>,
     /// The rows' y, mm, top (largest) first.
     pub y_mm: Vec<f64>,
-    /// The exact removal of the executed motion, nm; null off the part.
+    /// The removal as `removal_model` computes it, nm; null off the part (and, by the
+    /// harmonic model, off the aperture's rings).
     pub removal_nm: Vec<Vec<Option<f64>>>,
     /// The target: the map (piston and tilt removed) plus the plan's piston, nm; null outside
     /// the clear aperture or without data.
@@ -184,10 +224,17 @@ pub struct CorrectionMetricsDto {
     pub before: MapFiguresDto,
     /// The residual, about its mean (a piston is free).
     pub after: MapFiguresDto,
-    /// The map's rotationally variant part (less its mean over each ring one pixel wide).
+    /// The map's rotationally variant part: less its azimuthal mean at each pixel's radius
+    /// (the mean of a ring of samples of the map at that radius).
     pub non_axisymmetric_before: MapFiguresDto,
     /// The residual's rotationally variant part.
     pub non_axisymmetric_after: MapFiguresDto,
+    /// For comparison, the residual of the best plan in radius alone (C at constant speed,
+    /// the same limits without the modulation's floors), about its mean. Its removal is
+    /// round, so what it leaves not round is `non_axisymmetric_before`.
+    pub radial_plan_after: MapFiguresDto,
+    /// That radial plan's total time, s.
+    pub radial_plan_time_s: f64,
 }
 
 /// C's peaks over the executed motion (the program's acceleration model: a speed change over
@@ -213,6 +260,12 @@ pub struct HarmonicBandDto {
     pub amplitude_nm: Vec<f64>,
     /// For m = 1, 2, …: the map's amplitude of harmonic m, nm (its largest over the band).
     pub target_amplitude_nm: Vec<f64>,
+    /// For m = 1, 2, …: harmonic m's RMS over the band's pixels in the target, nm (a
+    /// least-squares fit of harmonics 0 … max_harmonic on each ring one pixel wide with at
+    /// least 2·(2·max_harmonic + 1) pixels); empty when no ring of the band has as many.
+    pub target_rms_nm: Vec<f64>,
+    /// The same of the residual: what the plan left of each harmonic.
+    pub residual_rms_nm: Vec<f64>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
@@ -245,6 +298,8 @@ pub struct MapOptimizeResponse {
     pub total_time_s: f64,
     /// How many constant-speed blocks the executed motion takes.
     pub blocks: usize,
+    /// How the removal map was computed.
+    pub removal_model: RemovalModelDto,
     /// Every limit the plan sits on (≥ 99.9 %), a missed target, harmonics left; empty when
     /// there is nothing to say.
     pub warnings: Vec<WarningDto>,
@@ -312,6 +367,7 @@ motion. Flat parts.",
             max_harmonic: law.max_harmonic,
             max_modulation: law.max_modulation,
             pixel_mm: req.removal_pixel_mm,
+            removal_model: req.removal_model.into(),
         };
         Ok(MapOptimizeCommand::new(setting, map, spec, limits)?)
     }
@@ -353,6 +409,8 @@ motion. Flat parts.",
                 after: (&r.after).into(),
                 non_axisymmetric_before: (&r.before_non_axisymmetric).into(),
                 non_axisymmetric_after: (&r.after_non_axisymmetric).into(),
+                radial_plan_after: (&r.radial_plan_after).into(),
+                radial_plan_time_s: r.radial_plan_time_s,
             },
             c_peaks: CPeaksDto {
                 velocity_deg_per_min: r.c_peak_velocity_deg_per_min,
@@ -366,11 +424,14 @@ motion. Flat parts.",
                     to_mm: b.to_mm,
                     amplitude_nm: b.amplitude_nm,
                     target_amplitude_nm: b.target_amplitude_nm,
+                    target_rms_nm: b.target_rms_nm,
+                    residual_rms_nm: b.residual_rms_nm,
                 })
                 .collect(),
             clear_aperture: ApertureEcho::from(r.plan.setting.aperture()),
             total_time_s: r.total_time_s,
             blocks: r.blocks,
+            removal_model: r.removal_model.into(),
             warnings: WarningDto::all(&r.warnings),
         }
     }
