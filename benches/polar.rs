@@ -11,11 +11,12 @@
 //! RMS each) on a 1 mm map, its maps by the plan's harmonic model (the exact map of so long a
 //! plan is `/v1/maps/predict`'s work, measured above). Beside it the 1-D plan of the same part
 //! (`usecases::optimize`: a uniform layer, the same stations and radii). Every run is
-//! cold: a new operator cache each time.
+//! cold: a new operator cache each time (the service's, which keeps what one request assembles
+//! for its second solve).
 
 use divan::Bencher;
-use preston::physics::{PressureModel, ProcessSpec};
 use preston::maps::HeightMap;
+use preston::physics::{PressureModel, ProcessSpec};
 use preston::usecases::map_analysis::Placement;
 use preston::usecases::map_optimize::{
     map_optimize, MapOptimizeCommand, MapOptimizeSpec, RemovalModel,
@@ -196,7 +197,7 @@ fn polar_plan_180_sectors_harmonic_model(bencher: Bencher) {
     bencher
         .with_inputs(|| plan_command(180, RemovalModel::Harmonic))
         .bench_values(|c| {
-            divan::black_box(map_optimize(c, &recommender, &OperatorCache::new(0)).unwrap())
+            divan::black_box(map_optimize(c, &recommender, &OperatorCache::default()).unwrap())
         });
 }
 
@@ -223,6 +224,6 @@ fn one_dimensional_plan(bencher: Bencher) {
             .unwrap()
         })
         .bench_values(|c| {
-            divan::black_box(optimize(c, &recommender, &OperatorCache::new(0)).unwrap())
+            divan::black_box(optimize(c, &recommender, &OperatorCache::default()).unwrap())
         });
 }

@@ -60,26 +60,28 @@ pub fn ring_harmonics(points: &[(f64, f64, f64)], pixel_mm: f64, m_max: usize) -
 /// (pixels bunched at a few angles).
 fn fit_ring(ring: &[(f64, f64, f64)], m_max: usize) -> Option<RingFit> {
     let unknowns = 2 * m_max + 1;
+    // cos mθ, sin mθ by turning through θ once per harmonic.
     let basis = |theta: f64, row: &mut [f64]| {
+        let (step_sin, step_cos) = theta.sin_cos();
+        let (mut c, mut s) = (1.0, 0.0);
         row[0] = 1.0;
         for m in 1..=m_max {
-            let (s, c) = (m as f64 * theta).sin_cos();
+            (c, s) = (c * step_cos - s * step_sin, s * step_cos + c * step_sin);
             row[2 * m - 1] = c;
             row[2 * m] = s;
         }
     };
-    let mut normal = Mat::<f64>::zeros(unknowns, unknowns);
-    let mut right = Mat::<f64>::zeros(unknowns, 1);
+    let mut design = Mat::<f64>::zeros(ring.len(), unknowns);
     let mut row = vec![0.0; unknowns];
-    for &(_, theta, value) in ring {
+    for (i, &(_, theta, _)) in ring.iter().enumerate() {
         basis(theta, &mut row);
-        for a in 0..unknowns {
-            right[(a, 0)] += row[a] * value;
-            for b in 0..=a {
-                normal[(a, b)] += row[a] * row[b];
-            }
+        for (a, &v) in row.iter().enumerate() {
+            design[(i, a)] = v;
         }
     }
+    let values = Mat::from_fn(ring.len(), 1, |i, _| ring[i].2);
+    let normal = design.transpose() * &design;
+    let right = design.transpose() * &values;
     let solution = normal.llt(faer::Side::Lower).ok()?.solve(&right);
     let power = (1..=m_max)
         .map(|m| 0.5 * (solution[(2 * m - 1, 0)].powi(2) + solution[(2 * m, 0)].powi(2)))
@@ -142,7 +144,11 @@ mod tests {
         }
         // 2·13 pixels are needed for 13 unknowns: rings 0 to 4 (1 to 24 pixels) are not
         // fitted, ring 5 (40) is.
-        assert!(rings[0].radius_mm >= 5.0 && rings[0].radius_mm < 6.0, "{:?}", rings[0]);
+        assert!(
+            rings[0].radius_mm >= 5.0 && rings[0].radius_mm < 6.0,
+            "{:?}",
+            rings[0]
+        );
         assert_eq!(rings[0].pixels, 40);
         let band = band_rms(&rings, 10.0, 20.0).unwrap();
         assert!((band[1] - 4.5f64.sqrt()).abs() < 1e-9);

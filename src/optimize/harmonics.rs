@@ -347,27 +347,93 @@ pub fn sector_modulation(
     stations: usize,
     sectors: usize,
 ) -> Vec<Vec<f64>> {
-    let width = std::f64::consts::TAU / sectors as f64;
+    let basis = SectorBasis::new(sectors, coefficients.len());
     (0..stations)
         .map(|j| {
-            (0..sectors)
-                .map(|k| {
-                    let centre = (k as f64 + 0.5) * width;
-                    coefficients
-                        .iter()
-                        .enumerate()
-                        .map(|(i, (c, s))| {
-                            let m = (i + 1) as f64;
-                            let x = m * width / 2.0;
-                            let sinc = x.sin() / x;
-                            let (sn, cs) = (m * centre).sin_cos();
-                            (c[j] * cs + s[j] * sn) / sinc
-                        })
-                        .sum()
-                })
-                .collect()
+            let station: Vec<(f64, f64)> = coefficients.iter().map(|(c, s)| (c[j], s[j])).collect();
+            basis.values(&station)
         })
         .collect()
+}
+
+/// A law constant on each of S sectors against its harmonics m = 1 … m_max: cos(m·c_k) and
+/// sin(m·c_k) at the sectors' centres c_k, and sinc(mπ/S), tabulated once.
+pub struct SectorBasis {
+    m_max: usize,
+    /// [k·m_max + m − 1].
+    cos: Vec<f64>,
+    sin: Vec<f64>,
+    sinc: Vec<f64>,
+}
+
+impl SectorBasis {
+    pub fn new(sectors: usize, m_max: usize) -> SectorBasis {
+        let width = std::f64::consts::TAU / sectors as f64;
+        let (mut cos, mut sin) = (Vec::with_capacity(sectors * m_max), Vec::new());
+        for k in 0..sectors {
+            for m in 1..=m_max {
+                let (sn, cs) = (m as f64 * (k as f64 + 0.5) * width).sin_cos();
+                cos.push(cs);
+                sin.push(sn);
+            }
+        }
+        let sinc = (1..=m_max)
+            .map(|m| {
+                let x = m as f64 * width / 2.0;
+                x.sin() / x
+            })
+            .collect();
+        SectorBasis {
+            m_max,
+            cos,
+            sin,
+            sinc,
+        }
+    }
+
+    fn sectors(&self) -> usize {
+        self.cos.len() / self.m_max.max(1)
+    }
+
+    /// The sector values Y_k = Σ_m (c_m·cos m·c_k + s_m·sin m·c_k)/sinc(mπ/S) whose law
+    /// carries the harmonics `harmonics` ((c_m, s_m), m = 1 …).
+    pub fn values(&self, harmonics: &[(f64, f64)]) -> Vec<f64> {
+        let scaled: Vec<(f64, f64)> = harmonics
+            .iter()
+            .zip(&self.sinc)
+            .map(|(&(c, s), sinc)| (c / sinc, s / sinc))
+            .collect();
+        (0..self.sectors())
+            .map(|k| {
+                let at = k * self.m_max;
+                scaled
+                    .iter()
+                    .enumerate()
+                    .map(|(i, (c, s))| c * self.cos[at + i] + s * self.sin[at + i])
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// The harmonics (c_m, s_m), m = 1 … m_max, of the law constant at `values` on each
+    /// sector: sinc(mπ/S)·(2/S)·Σ_k Y_k·(cos, sin)(m·c_k) (the inverse of [`Self::values`]
+    /// for m < S/2).
+    pub fn harmonics(&self, values: &[f64]) -> Vec<(f64, f64)> {
+        let mut out = vec![(0.0, 0.0); self.m_max];
+        for (k, &y) in values.iter().enumerate() {
+            let at = k * self.m_max;
+            for (i, h) in out.iter_mut().enumerate() {
+                h.0 += y * self.cos[at + i];
+                h.1 += y * self.sin[at + i];
+            }
+        }
+        let scale = 2.0 / values.len() as f64;
+        for (h, sinc) in out.iter_mut().zip(&self.sinc) {
+            h.0 *= scale * sinc;
+            h.1 *= scale * sinc;
+        }
+        out
+    }
 }
 
 /// The least dwell (s) at which a station's modulation `y` (Y_k at its S sectors) keeps C's

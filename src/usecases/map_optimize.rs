@@ -44,17 +44,17 @@ use crate::field::{DepthProfile, Figures};
 use crate::machine::{Axis, Drive, LimitKind, MachineChoice};
 use crate::maps::analysis::{aperture_pixels, plane_fit};
 use crate::maps::aperture::{Alignment, Aperture};
+use crate::maps::rings::{band_rms, ring_harmonics};
 use crate::maps::HeightMap;
 use crate::optimize::harmonics::{
     law_floor, law_share, sector_modulation, speed_factors, CLimits, HarmonicOperator, Harmonics,
-    LawBound,
+    LawBound, SectorBasis,
 };
 use crate::optimize::kinematics::Floor;
 use crate::optimize::problem::Bound;
 use crate::optimize::OptimizeError;
-use crate::maps::rings::{band_rms, ring_harmonics};
 use crate::physics::polar::{c_changes, c_runs, c_schedule, executed_blocks, Block, PolarPad};
-use crate::physics::SectorLaw;
+use crate::physics::{RemovalKernel, RemovalOperator, SectorLaw};
 
 /// Sectors per turn by default: 2° each.
 pub const DEFAULT_SECTORS: usize = 180;
@@ -326,7 +326,8 @@ impl MapOptimizeCommand {
         let rings: Vec<Vec<f64>> = radii
             .iter()
             .map(|&r| {
-                let n = ((TAU * r / map_pixel).ceil() as usize).clamp(4 * max_harmonic + 8, MAX_RING_SAMPLES);
+                let n = ((TAU * r / map_pixel).ceil() as usize)
+                    .clamp(4 * max_harmonic + 8, MAX_RING_SAMPLES);
                 let values: Vec<Option<f64>> = (0..n)
                     .map(|k| {
                         let (s, c) = (TAU * k as f64 / n as f64).sin_cos();
@@ -518,7 +519,11 @@ pub fn map_optimize(
         .map_or(f64::INFINITY, |a| a / (c.max_modulation * omega0 * omega0));
     // A ring's share of the area (the centre keeps a little weight).
     let weights: Vec<f64> = harmonics.radii_mm.iter().map(|&r| r + 1e-3 * rt).collect();
-    let largest = radial_plan.solution.dwell_s.iter().fold(0.0_f64, |a, &t| a.max(t));
+    let largest = radial_plan
+        .solution
+        .dwell_s
+        .iter()
+        .fold(0.0_f64, |a, &t| a.max(t));
     // Fitted as δ relative to that dwell (a station's share of it least 1e-3 of the largest),
     // the modulation asks floors in proportion to a dwell that removes an even layer, which a
     // uniform layer more then meets; fitted in seconds, it asked floors of any shape, and the
@@ -680,29 +685,29 @@ pub fn map_optimize(
     let on_points: Vec<(f64, f64)> = on.iter().map(|&i| points[i]).collect();
     // The removal at the pixels, and its azimuthal mean at any radius (to tell what is not
     // round from a steep radial profile within a ring of pixels).
-    let (depths, mean_at): (Vec<Option<f64>>, Box<dyn Fn(&[f64]) -> Vec<f64>>) =
-        match removal_model {
-            RemovalModel::Exact => {
-                let blocks = executed_blocks(&executed, dwell, pad.part_speed_rad_per_s(), 0.0);
-                let depths = pad.depth_nm(&blocks, &on_points);
-                let pad = pad.clone();
-                // The identity of `physics::polar`: exact, at the C speed of each instant.
-                let mean = move |radii: &[f64]| pad.mean_depth_nm(&blocks, radii);
-                (depths.into_iter().map(Some).collect(), Box::new(mean))
-            }
-            RemovalModel::Harmonic => {
-                let grid = setting.grid().radii_mm();
-                let mean: Vec<f64> = harmonics
-                    .radii_mm
-                    .iter()
-                    .map(|r| plan.removal_nm[grid.partition_point(|g| g < r)])
-                    .collect();
-                let model = ModelRemoval::new(&operator, &harmonics.radii_mm, &mean, &modulation);
-                let depths = on_points.iter().map(|&(x, y)| model.at(x, y)).collect();
-                let mean = move |radii: &[f64]| radii.iter().map(|&r| model.mean_at(r)).collect();
-                (depths, Box::new(mean))
-            }
-        };
+    let removal = match removal_model {
+        RemovalModel::Exact => Removal::Exact(executed_blocks(
+            &executed,
+            dwell,
+            pad.part_speed_rad_per_s(),
+            0.0,
+        )),
+        RemovalModel::Harmonic => {
+            let grid = setting.grid().radii_mm();
+            let mean: Vec<f64> = harmonics
+                .radii_mm
+                .iter()
+                .map(|r| plan.removal_nm[grid.partition_point(|g| g < r)])
+                .collect();
+            Removal::Model(ModelRemoval::new(
+                &operator,
+                &harmonics.radii_mm,
+                &mean,
+                &modulation,
+            ))
+        }
+    };
+    let depths = removal.depth_nm(&pad, &on_points);
     let piston = plan.solution.piston_nm.unwrap_or(0.0);
     let mut removal_nm = vec![None; points.len()];
     let mut target_nm = vec![None; points.len()];
@@ -737,16 +742,10 @@ pub fn map_optimize(
     let mut radii: Vec<f64> = inside.iter().map(|p| p.r).collect();
     radii.sort_by(f64::total_cmp);
     radii.dedup();
-    let removal_means = mean_at(&radii);
-    // The radial plan's removal is round: at each radius its 1-D removal (the identity of
-    // `physics::polar` at constant C, exactly).
-    let radial_blocks = executed_blocks(
-        &motion,
-        &radial_plan.solution.dwell_s,
-        pad.part_speed_rad_per_s(),
-        0.0,
-    );
-    let radial_removal = pad.mean_depth_nm(&radial_blocks, &radii);
+    let removal_means = removal.mean_nm(&pad, &radii);
+    // The radial plan's removal is round: at each radius its 1-D removal, exactly.
+    let radial_removal = RemovalOperator::assemble(&RemovalKernel::new(process), &radii, &motion)
+        .apply(&radial_plan.solution.dwell_s);
     let radial_piston = radial_plan.solution.piston_nm.unwrap_or(0.0);
     let samples = 4 * m_max + 8;
     let target_means: Vec<f64> = radii
@@ -758,9 +757,10 @@ pub fn map_optimize(
         p.target_variant = p.target - target_means[k];
         p.residual_variant = p.removal - removal_means[k] - p.target_variant;
     }
-    let radial_after = figures(inside.iter().map(|p| {
-        radial_removal[radii.partition_point(|&r| r < p.r)] - p.target - radial_piston
-    }));
+    let radial_after =
+        figures(inside.iter().map(|p| {
+            radial_removal[radii.partition_point(|&r| r < p.r)] - p.target - radial_piston
+        }));
     let before = figures(inside.iter().map(|p| p.target));
     let after = figures(inside.iter().map(|p| p.residual));
     let before_non_axisymmetric = figures(inside.iter().map(|p| p.target_variant));
@@ -953,6 +953,31 @@ struct Inside {
     residual_variant: f64,
 }
 
+/// The removal as the result computes it: the executed blocks, or the plan's model.
+enum Removal {
+    Exact(Vec<Block>),
+    Model(ModelRemoval),
+}
+
+impl Removal {
+    /// At the points (x, y mm); `None` where the model has no ring.
+    fn depth_nm(&self, pad: &PolarPad, points: &[(f64, f64)]) -> Vec<Option<f64>> {
+        match self {
+            Removal::Exact(blocks) => pad.depth_nm(blocks, points).into_iter().map(Some).collect(),
+            Removal::Model(model) => points.iter().map(|&(x, y)| model.at(x, y)).collect(),
+        }
+    }
+
+    /// The azimuthal mean at each radius: exactly by the identity of `physics::polar` (at the
+    /// C speed of each instant), or the model's.
+    fn mean_nm(&self, pad: &PolarPad, radii_mm: &[f64]) -> Vec<f64> {
+        match self {
+            Removal::Exact(blocks) => pad.mean_depth_nm(blocks, radii_mm),
+            Removal::Model(model) => radii_mm.iter().map(|&r| model.mean_at(r)).collect(),
+        }
+    }
+}
+
 /// The removal the plan's model predicts (`RemovalModel::Harmonic`): the 1-D plan's exact
 /// removal (the azimuthal mean at constant C) plus, for each harmonic m, the modulation kernel's G_m applied to harmonic m of the
 /// law as executed — sector values Y_jk constant over each sector, whose coefficients are
@@ -973,20 +998,13 @@ impl ModelRemoval {
         modulation: &[Vec<f64>],
     ) -> ModelRemoval {
         let sectors = modulation.first().map_or(1, Vec::len);
-        let width = TAU / sectors as f64;
-        let mut rings: Vec<Vec<(f64, f64)>> = mean_nm.iter().map(|&mean| vec![(mean, 0.0)]).collect();
-        for m in 1..=operator.m_max() {
-            let x = m as f64 * width / 2.0;
-            let scale = x.sin() / x * 2.0 / sectors as f64;
-            let (cosines, sines): (Vec<f64>, Vec<f64>) = modulation
-                .iter()
-                .map(|y| {
-                    y.iter().enumerate().fold((0.0, 0.0), |(c, s), (k, v)| {
-                        let (sn, cs) = (m as f64 * (k as f64 + 0.5) * width).sin_cos();
-                        (c + scale * v * cs, s + scale * v * sn)
-                    })
-                })
-                .unzip();
+        let m_max = operator.m_max();
+        let basis = SectorBasis::new(sectors, m_max);
+        let law: Vec<Vec<(f64, f64)>> = modulation.iter().map(|y| basis.harmonics(y)).collect();
+        let mut rings: Vec<Vec<(f64, f64)>> =
+            mean_nm.iter().map(|&mean| vec![(mean, 0.0)]).collect();
+        for m in 1..=m_max {
+            let (cosines, sines): (Vec<f64>, Vec<f64>) = law.iter().map(|h| h[m - 1]).unzip();
             let (c, s) = (operator.apply(m, &cosines), operator.apply(m, &sines));
             for (i, ring) in rings.iter_mut().enumerate() {
                 ring.push((c[i], s[i]));
@@ -1016,14 +1034,15 @@ impl ModelRemoval {
     }
 
     fn ring_at(&self, i: usize, theta: f64) -> f64 {
-        self.rings[i]
-            .iter()
-            .enumerate()
-            .map(|(m, &(c, s))| {
-                let (sn, cs) = (m as f64 * theta).sin_cos();
-                c * cs + s * sn
-            })
-            .sum()
+        // cos mθ, sin mθ by turning through θ once per harmonic.
+        let (step_sin, step_cos) = theta.sin_cos();
+        let (mut cs, mut sn) = (1.0, 0.0);
+        let mut sum = 0.0;
+        for &(c, s) in &self.rings[i] {
+            sum += c * cs + s * sn;
+            (cs, sn) = (cs * step_cos - sn * step_sin, sn * step_cos + cs * step_sin);
+        }
+        sum
     }
 
     /// The removal at (x, y) mm.

@@ -330,7 +330,8 @@ async fn the_real_fizeau_map_loses_what_is_not_round() {
         );
     }
     assert!(rms(&exact, "after") < rms(&exact, "radial_plan_after"));
-    let not_round = |out: &Value| rms(out, "non_axisymmetric_after") / rms(out, "non_axisymmetric_before");
+    let not_round =
+        |out: &Value| rms(out, "non_axisymmetric_after") / rms(out, "non_axisymmetric_before");
     assert!(not_round(&exact) <= 2.0 / 3.0, "{}", exact["metrics"]);
     assert!(not_round(&model) <= 2.0 / 3.0, "{}", model["metrics"]);
     assert!(
@@ -347,7 +348,10 @@ async fn the_real_fizeau_map_loses_what_is_not_round() {
     // Harmonic by harmonic, from the model's 1 mm maps.
     let mut strong = 0;
     for band in model["harmonic_budget"].as_array().unwrap() {
-        let (from, to) = (band["from_mm"].as_f64().unwrap(), band["to_mm"].as_f64().unwrap());
+        let (from, to) = (
+            band["from_mm"].as_f64().unwrap(),
+            band["to_mm"].as_f64().unwrap(),
+        );
         let before = crate::common::numbers(&band["target_rms_nm"]);
         let after = crate::common::numbers(&band["residual_rms_nm"]);
         eprintln!("{from}–{to} mm: before {before:.1?}\n           after  {after:.1?}");
@@ -359,8 +363,16 @@ async fn the_real_fizeau_map_loses_what_is_not_round() {
         for m in 0..before.len() {
             if before[m] >= 3.0 {
                 strong += 1;
-                assert!(reach[m] >= want[m], "m = {} in {from}–{to} mm: {band}", m + 1);
-                assert!(after[m] <= 0.4 * before[m], "m = {} in {from}–{to} mm: {band}", m + 1);
+                assert!(
+                    reach[m] >= want[m],
+                    "m = {} in {from}–{to} mm: {band}",
+                    m + 1
+                );
+                assert!(
+                    after[m] <= 0.4 * before[m],
+                    "m = {} in {from}–{to} mm: {band}",
+                    m + 1
+                );
             }
         }
     }

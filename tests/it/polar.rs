@@ -625,7 +625,13 @@ fn c_s_schedule_holds_every_change_of_speed_the_executed_motion_does() {
     let omega = 10.0 * TAU / 60.0;
     let stations = vec![0.0, 5.0, 9.0, 14.0, 20.0];
     let turn = TAU / omega;
-    let dwell = [40.3 * turn, 120.7 * turn, 0.4 * turn, 300.2 * turn, 55.0 * turn];
+    let dwell = [
+        40.3 * turn,
+        120.7 * turn,
+        0.4 * turn,
+        300.2 * turn,
+        55.0 * turn,
+    ];
     let sectors = 12;
     let factors: Vec<f64> = (0..stations.len())
         .flat_map(|j| {
@@ -639,7 +645,9 @@ fn c_s_schedule_holds_every_change_of_speed_the_executed_motion_does() {
         })
         .collect();
     let law = SectorLaw::new(stations.len(), sectors, factors).unwrap();
-    let motion = Motion::radial(stations.clone()).with_sector_law(law).unwrap();
+    let motion = Motion::radial(stations.clone())
+        .with_sector_law(law)
+        .unwrap();
     let full = executed_blocks(&motion, &dwell, omega, 0.2);
     let schedule = c_schedule(&motion, &dwell, omega, 0.2);
     assert_eq!(schedule.executed_blocks, full.len());

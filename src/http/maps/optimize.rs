@@ -20,7 +20,7 @@ use super::MapAlignmentDto;
 use crate::machine::{AxisLimits, MachineChoice, MachineLimitsSpec};
 use crate::maps::HeightMap;
 use crate::usecases::map_optimize::{
-    map_optimize, MapCorrection, RemovalModel, MapOptimizeCommand, MapOptimizeSpec,
+    map_optimize, MapCorrection, MapOptimizeCommand, MapOptimizeSpec, RemovalModel,
 };
 use crate::usecases::optimize::OptimizeSpec;
 use crate::usecases::ComputeLimits;
