@@ -598,12 +598,6 @@ fn walk(
                     (phi / width).floor() as i64 + 1
                 };
                 let mut elapsed = 0.0;
-                // A turn of this station's law from an edge, s, and whether it is one speed.
-                let turn = (0..law.sectors())
-                    .map(|k| width / (omega * law.factor(station, k)).abs())
-                    .sum::<f64>();
-                let first = law.factor(station, 0);
-                let uniform = (1..law.sectors()).all(|k| one_speed(first, law.factor(station, k)));
                 let mut skipped = !skip_turns;
                 while elapsed < duration {
                     let sector = if falling { edge } else { edge - 1 }
@@ -647,6 +641,14 @@ fn walk(
                     // At the segment's first edge, the whole turns beyond two (c_schedule).
                     if !skipped {
                         skipped = true;
+                        // A turn of this station's law from an edge, s, and whether it is
+                        // one speed.
+                        let turn = (0..law.sectors())
+                            .map(|k| width / (omega * law.factor(station, k)).abs())
+                            .sum::<f64>();
+                        let first = law.factor(station, 0);
+                        let uniform =
+                            (1..law.sectors()).all(|k| one_speed(first, law.factor(station, k)));
                         let whole = ((duration - elapsed) / turn).floor();
                         if whole >= 3.0 {
                             let left_out = whole - 2.0;
