@@ -142,7 +142,7 @@ impl PolarPad {
     /// the spiral's tolerance.
     pub fn mean_depth_nm(&self, blocks: &[Block], radii_mm: &[f64]) -> Vec<f64> {
         self.sum_in_reach(
-            blocks,
+            &rings_merged(blocks),
             radii_mm,
             |&r| r,
             |pad, &r, block| pad.block_mean_depth_nm(r, block),
@@ -459,6 +459,34 @@ pub struct Block {
     pub start_rad: f64,
     pub duration_s: f64,
     pub part_speed_rad_per_s: f64,
+}
+
+/// `blocks` with each stop's rings at one C speed merged into one ring of their total time:
+/// a ring's azimuthal mean is T·R_Ω(r; r1) whatever its start angle, so the merged blocks
+/// have the same means, and a stop under a sector law (thousands of turns, a block per
+/// sector passed) costs one term per distinct speed. The order stays outward.
+fn rings_merged(blocks: &[Block]) -> Vec<Block> {
+    let mut merged: Vec<Block> = Vec::with_capacity(blocks.len());
+    // Where the current stop's merged rings begin in `merged`.
+    let mut stop_start = 0;
+    for (i, block) in blocks.iter().enumerate() {
+        let same_stop = i > 0 && blocks[i - 1].segment == block.segment;
+        if !same_stop {
+            stop_start = merged.len();
+        }
+        if block.from_mm == block.to_mm {
+            if let Some(ring) = merged[stop_start..].iter_mut().find(|b| {
+                b.from_mm == b.to_mm
+                    && b.from_mm == block.from_mm
+                    && b.part_speed_rad_per_s == block.part_speed_rad_per_s
+            }) {
+                ring.duration_s += block.duration_s;
+                continue;
+            }
+        }
+        merged.push(*block);
+    }
+    merged
 }
 
 /// A run of consecutive blocks at one C speed ([`one_speed`]): what C executes without a

@@ -36,7 +36,7 @@
 use std::f64::consts::TAU;
 
 use super::map_analysis::{MapInputError, Placement};
-use super::map_predict::{figures, MAX_BLOCKS};
+use super::map_predict::{covered_turns, figures, map_size, map_work, station_turns, MAX_BLOCKS};
 use super::map_removal_function::square_axes;
 use super::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan, TargetSpec};
 use super::{ComputeLimits, InputError, OperatorCache, Recommender, Setting, Warning};
@@ -67,9 +67,15 @@ pub const MAX_HARMONIC: usize = 90;
 /// cores).
 pub const MAX_HARMONIC_WORK: f64 = 3e9;
 /// The most work the result's removal map may take, in pixel-turns as `/v1/maps/predict`
-/// counts them (a tenth of its limit, about 1.5 s on 2 cores: the plan is solved first, and
-/// a coarser map is still the exact removal at its pixels).
-pub const MAX_MAP_WORK: f64 = 3e6;
+/// counts them (`map_work`: the depths and the exact azimuthal means; about a second on 2 cores,
+/// the plan solved first; a coarser map is still the exact removal at its pixels).
+pub const MAX_MAP_WORK: f64 = 1.5e6;
+/// The result's map is coarsened for the work limit to at most this many pixels across the
+/// part's radius, no fewer: a coarser map tells nothing of what is not round.
+const COARSEST_PIXELS_ACROSS_RADIUS: f64 = 8.0;
+/// The caps tried on the law's floors, in multiples of the radial plan's dwell (∞: the floors
+/// the modulation asks).
+const FLOOR_CAPS: &[f64] = &[1.0, 2.0, f64::INFINITY];
 /// The most samples the map is read at on one ring.
 pub const MAX_RING_SAMPLES: usize = 16_384;
 /// Pixels across the part of the result's maps by default.
@@ -484,6 +490,15 @@ pub enum MapOptimizeError {
         blocks: f64,
         max: f64,
     },
+    /// Even the coarsest map the work limit would coarsen to costs more than one request's
+    /// exact map computes (a pad over much of the part for many turns, a linear pad's
+    /// pressure solved at every instant of a spiral).
+    #[error(
+        "the exact removal map of this plan costs about {work:.2e} pixel-turns even at \
+         {pixel_mm} mm pixels, and one request computes at most {max:.1e} (a larger K or \
+         pressure for fewer turns of C, a smaller pad, or removal_model \"harmonic\")"
+    )]
+    ExactMapTooCostly { work: f64, pixel_mm: f64, max: f64 },
 }
 
 pub fn map_optimize(
@@ -542,31 +557,56 @@ pub fn map_optimize(
             (scale(c), scale(s))
         })
         .collect();
-    // 2. The law's floors.
+    // 2–3. The law's floors and the mean. A station's modulation may ask more dwell than the
+    // radial plan gives it (its floor), and the mean bent to the floors leaves a radial error
+    // of its own, which can cost more than the modulation gains (on prysm's sample 2 → 11 nm
+    // of round residual for 13 → 9 nm not round). So the modulation is also tried capped at
+    // each share of FLOOR_CAPS (no station's floor above that many times the radial plan's
+    // dwell), and the plan whose residual the plan's own model predicts smallest is kept.
     let modulation = sector_modulation(&coefficients, motion.len(), sectors);
-    let floors: Vec<Floor> = modulation
-        .iter()
-        .map(|y| {
-            let (dwell_s, bound) =
-                law_floor(y, omega0, &c).expect("C's velocity was checked above Ω0");
-            Floor {
-                dwell_s,
-                bound: match bound {
-                    LawBound::Modulation => {
-                        Bound::Constraint(crate::optimize::problem::Constraint::MinDwell)
-                    }
-                    LawBound::Velocity => {
-                        Bound::Machine(Drive::Axis(Axis::C), LimitKind::MaxVelocity)
-                    }
-                    LawBound::Acceleration => {
-                        Bound::Machine(Drive::Axis(Axis::C), LimitKind::MaxAcceleration)
-                    }
-                },
+    let grid = setting.grid().radii_mm().to_vec();
+    let mut best: Option<(f64, OptimizedPlan)> = None;
+    let mut failure = None;
+    for &cap in FLOOR_CAPS {
+        let capped: Vec<Vec<f64>> = modulation
+            .iter()
+            .zip(&shape)
+            .map(|(y, &t)| {
+                let share = if cap.is_finite() {
+                    law_share(y, cap * t, omega0, &c)
+                } else {
+                    1.0
+                };
+                y.iter().map(|v| v * share).collect()
+            })
+            .collect();
+        let floors = law_floors(&capped, omega0, &c);
+        // Floors the radial plan already meets leave it the optimum: no solve.
+        let meets = floors
+            .iter()
+            .zip(&radial_plan.solution.dwell_s)
+            .all(|(floor, &t)| floor.dwell_s <= t);
+        let solved = if meets {
+            Ok(radial_plan.clone())
+        } else {
+            optimize(plan.clone().with_floors(floors), recommender, operators)
+        };
+        match solved {
+            Ok(candidate) => {
+                let score =
+                    predicted_residual(&operator, &harmonics, &weights, &grid, &candidate, &capped);
+                if best.as_ref().is_none_or(|(best, _)| score < *best) {
+                    best = Some((score, candidate));
+                }
             }
-        })
-        .collect();
-    // 3. The mean.
-    let plan = optimize(plan.with_floors(floors), recommender, operators)?;
+            Err(error) => failure = failure.or(Some(error)),
+        }
+    }
+    let plan = match (best, failure) {
+        (Some((_, plan)), _) => plan,
+        (None, Some(error)) => return Err(error.into()),
+        (None, None) => unreachable!("FLOOR_CAPS is not empty"),
+    };
     let dwell = &plan.solution.dwell_s;
     // The blocks the law cuts the motion into (a block per sector passed; a turn under the
     // law takes as long as at constant speed), before any is made: the exact map needs them.
@@ -654,10 +694,34 @@ pub fn map_optimize(
     let radius = process.workpiece_radius_mm();
     let mut pixel = pixel_mm;
     if removal_model == RemovalModel::Exact {
-        let on_part = |p: f64| std::f64::consts::PI * (radius / p + 0.5).powi(2);
         let blocks = schedule.executed_blocks as f64;
-        while on_part(pixel) * (turns + blocks / 10.0) > MAX_MAP_WORK {
-            pixel *= 1.25;
+        let covered = covered_turns(
+            process,
+            motion.radii_mm(),
+            &station_turns(dwell, &vec![1.0; dwell.len()], omega0),
+        );
+        let aperture = setting.aperture();
+        let work = |pixel: f64| {
+            let half = (radius / pixel).ceil() as usize;
+            let (pixels, rings) = map_size(
+                pixel,
+                half,
+                radius,
+                (aperture.inner_mm(), aperture.outer_mm()),
+            );
+            map_work(pixels, rings, turns, blocks, covered)
+        };
+        // At coarsest about 9 pixels across the part's radius.
+        let coarsest = pixel_mm.max(radius / COARSEST_PIXELS_ACROSS_RADIUS);
+        while work(pixel) > MAX_MAP_WORK {
+            if pixel >= coarsest {
+                return Err(MapOptimizeError::ExactMapTooCostly {
+                    work: work(pixel),
+                    pixel_mm: pixel,
+                    max: MAX_MAP_WORK,
+                });
+            }
+            pixel = (pixel * 1.25).min(coarsest);
         }
     }
     let mut warnings = plan.warnings.clone();
@@ -893,6 +957,63 @@ struct CPeaks {
 /// C's speed in each block and its acceleration between consecutive runs of one C speed
 /// (`physics::polar::c_runs`, `c_changes`: the program's model), and how far each station's
 /// blocks go over C's limits.
+/// The floors C's law puts under each station's dwell (`law_floor`), named by what sets them.
+fn law_floors(modulation: &[Vec<f64>], omega0: f64, c: &CLimits) -> Vec<Floor> {
+    modulation
+        .iter()
+        .map(|y| {
+            let (dwell_s, bound) =
+                law_floor(y, omega0, c).expect("C's velocity was checked above Ω0");
+            Floor {
+                dwell_s,
+                bound: match bound {
+                    LawBound::Modulation => {
+                        Bound::Constraint(crate::optimize::problem::Constraint::MinDwell)
+                    }
+                    LawBound::Velocity => {
+                        Bound::Machine(Drive::Axis(Axis::C), LimitKind::MaxVelocity)
+                    }
+                    LawBound::Acceleration => {
+                        Bound::Machine(Drive::Axis(Axis::C), LimitKind::MaxAcceleration)
+                    }
+                },
+            }
+        })
+        .collect()
+}
+
+/// The residual's mean square over the target's rings, area-weighted (`weights`), about its
+/// mean, that the plan's own model ([`ModelRemoval`]) predicts for `plan` under `modulation`:
+/// ring by ring, the 1-D removal less the target's mean, and for each harmonic m = 1 … M half
+/// the square of the removal's coefficients less the target's. What lies above M is the
+/// same for every plan and left out.
+fn predicted_residual(
+    operator: &HarmonicOperator,
+    harmonics: &Harmonics,
+    weights: &[f64],
+    grid_mm: &[f64],
+    plan: &OptimizedPlan,
+    modulation: &[Vec<f64>],
+) -> f64 {
+    let mean: Vec<f64> = harmonics
+        .radii_mm
+        .iter()
+        .map(|r| plan.removal_nm[grid_mm.partition_point(|g| g < r)])
+        .collect();
+    let model = ModelRemoval::new(operator, &harmonics.radii_mm, &mean, modulation);
+    let (mut total, mut first, mut second, mut rest) = (0.0, 0.0, 0.0, 0.0);
+    for ((removal, target), &w) in model.rings.iter().zip(&harmonics.coefficients).zip(weights) {
+        let round = removal[0].0 - target[0].0;
+        total += w;
+        first += w * round;
+        second += w * round * round;
+        for ((c, s), (a, b)) in removal.iter().zip(target).skip(1) {
+            rest += w * 0.5 * ((c - a).powi(2) + (s - b).powi(2));
+        }
+    }
+    (second - first * first / total + rest) / total
+}
+
 fn c_peaks(blocks: &[Block], stations: usize, c: &CLimits) -> CPeaks {
     let mut peaks = CPeaks {
         velocity_rad_per_s: 0.0,

@@ -21,16 +21,122 @@ use super::warnings::unit_warnings;
 use super::{ComputeLimits, Input, InputError, Warning};
 use crate::field::{Figures, Tally};
 use crate::physics::polar::{executed_blocks, PolarPad};
-use crate::physics::{ClearAperture, DwellSchedule, ProcessSpec, SectorLaw, SectorLawError};
+use crate::physics::{
+    ClearAperture, DwellSchedule, PressureModel, Process, ProcessSpec, SectorLaw, SectorLawError,
+};
+use std::f64::consts::PI;
 
 /// Pixels across the part's diameter by default.
 pub const DEFAULT_PIXELS_ACROSS: usize = 101;
 
-/// The most work one prediction may take, in pixel-turns: the pixels on the part × (the turns
-/// of C the plan runs + a tenth of its blocks). Measured on 2 cores (a 100 mm part, 101
-/// stations, over HTTP): about 0.46 µs per pixel and turn and 0.05 µs per pixel and block, so
-/// the limit is about 14 s (a synchronous request; longer plans wait for jobs).
-pub const MAX_WORK: f64 = 3e7;
+/// The most work one prediction may take, in pixel-turns ([`map_work`]). Measured on 2 cores
+/// (a 100 mm part, 101 stations, over HTTP): about 0.46 µs per pixel and turn and 0.05 µs per
+/// pixel and block, so the limit is about 5 s (a synchronous request, two of which must fit
+/// well inside a client's 30 s on 2 cores; longer plans wait for jobs).
+pub const MAX_WORK: f64 = 1e7;
+
+/// The work of an exact map, in pixel-turns: `pixels` depths, each passing the `turns` of C
+/// cut into `blocks` (a block a tenth of a turn) and integrating the `covered` turns' worth
+/// the pad spends over it ([`covered_turns`]), and `rings` exact azimuthal means, each
+/// integrating every block within the pad's reach of its ring whatever the turns (a
+/// ring-block about a pixel-turn: 13 rings took as long as 81 pixels under a 180-sector law of
+/// 1054 turns in 282,028 blocks, nearly all pieces of spirals).
+pub(super) fn map_work(pixels: usize, rings: usize, turns: f64, blocks: f64, covered: f64) -> f64 {
+    pixels as f64 * (turns + blocks / 10.0 + covered) + rings as f64 * blocks
+}
+
+/// A turn of C spent with the pad over a pixel costs about this many pixel-turns: passing a
+/// turn, a pixel's depth finds where the pad meets it (a few roots), but under the pad it
+/// integrates the rate to 1e-11 (measured: a 100 m pad over a 50 mm part, every pixel covered
+/// all the time, 17 µs per pixel and turn against 0.46 µs).
+const COVERED_TURN_COST: f64 = 40.0;
+
+/// How much more a rate evaluation costs under a linear pad than under a nominal one, at
+/// most: its pressure is solved for the pad centre's radius at each instant of a spiral, and
+/// where the pad overhangs the part's edge for a lifted line (measured over a 50 mm part: 27×
+/// for a 49 mm pad, about 130× for a 60 mm one).
+const LINEAR_PRESSURE_COST: f64 = 150.0;
+
+/// The turns' worth, per pixel of the part on average, that a plan holding `turns[j]` turns of
+/// C at `positions_mm[j]` spends with the pad over the pixel (the share of a turn a ring of
+/// radius r is under a pad at r1 is θ0/π, cos θ0 = (r² + r1² − rt²)/(2·r·r1)), in pixel-turns
+/// of work ([`COVERED_TURN_COST`], [`LINEAR_PRESSURE_COST`]). Averaged over the part's area by
+/// the midpoint rule on 64 rings: an estimate of cost, not a figure.
+pub(super) fn covered_turns(process: &Process, positions_mm: &[f64], turns: &[f64]) -> f64 {
+    const RINGS: usize = 64;
+    let (big, rt) = (process.workpiece_radius_mm(), process.tool_radius_mm());
+    let share = |r: f64, r1: f64| {
+        if r + r1 <= rt {
+            1.0
+        } else if (r - r1).abs() >= rt {
+            0.0
+        } else {
+            ((r * r + r1 * r1 - rt * rt) / (2.0 * r * r1))
+                .clamp(-1.0, 1.0)
+                .acos()
+                / PI
+        }
+    };
+    let covered: f64 = positions_mm
+        .iter()
+        .zip(turns)
+        .map(|(&r1, &n)| {
+            let area_mean: f64 = (0..RINGS)
+                .map(|i| {
+                    let r = big * (i as f64 + 0.5) / RINGS as f64;
+                    share(r, r1) * 2.0 * r / big
+                })
+                .sum::<f64>()
+                / RINGS as f64;
+            n * area_mean
+        })
+        .sum();
+    let cost = match process.pressure_model() {
+        PressureModel::Linear { .. } => COVERED_TURN_COST * LINEAR_PRESSURE_COST,
+        PressureModel::Uniform | PressureModel::ConstantForce => COVERED_TURN_COST,
+    };
+    cost * covered
+}
+
+/// The pixels of a square map `pixel_mm` apart about the axis, `half` either side, on a part
+/// of `radius_mm`, and the distinct radii among those within [`inner_mm`, `outer_mm`] (where
+/// the azimuthal mean is taken).
+pub(super) fn map_size(
+    pixel_mm: f64,
+    half: usize,
+    radius_mm: f64,
+    (inner_mm, outer_mm): (f64, f64),
+) -> (usize, usize) {
+    // Beyond a thousand pixels either side (more than any work limit allows) the count is
+    // estimated rather than enumerated: the disc's area, and every whole r² in the annulus.
+    if half > 1000 {
+        let across = radius_mm / pixel_mm;
+        let pixels = (PI * (across + 0.5).powi(2)).ceil() as usize;
+        let (lo, hi) = (inner_mm / pixel_mm, outer_mm.min(radius_mm) / pixel_mm);
+        return (pixels, (hi * hi - lo * lo).max(0.0) as usize + 1);
+    }
+    let mut pixels = 0;
+    let mut rings = std::collections::BTreeSet::new();
+    for i in 0..=half {
+        for j in 0..=half {
+            let square = i * i + j * j;
+            let r = pixel_mm * (square as f64).sqrt();
+            if r > radius_mm {
+                continue;
+            }
+            // The quadrant's pixels, the axes' counted once.
+            pixels += match (i, j) {
+                (0, 0) => 1,
+                (0, _) | (_, 0) => 2,
+                _ => 4,
+            };
+            if r >= inner_mm && r <= outer_mm {
+                rings.insert(square);
+            }
+        }
+    }
+    (pixels, rings.len())
+}
 
 /// The most blocks (constant-speed pieces of the executed motion) one prediction may cut
 /// (about 64 bytes each).
@@ -68,14 +174,21 @@ pub(super) fn law_work(
     omega: f64,
     per_turn: f64,
 ) -> (f64, f64) {
-    let turns: f64 = schedule
-        .dwell_s()
+    let turns: f64 = station_turns(schedule.dwell_s(), fastest, omega)
         .iter()
-        .zip(fastest)
-        .map(|(t, f)| t * omega.abs() * f / std::f64::consts::TAU)
         .sum();
     let blocks = turns * per_turn + 2.0 * fastest.len() as f64 + 2.0;
     (turns, blocks)
+}
+
+/// The turns of C each station's dwell `dwell_s` runs at `factor` times the part speed `omega`
+/// (rad/s).
+pub(super) fn station_turns(dwell_s: &[f64], factor: &[f64], omega: f64) -> Vec<f64> {
+    dwell_s
+        .iter()
+        .zip(factor)
+        .map(|(t, f)| t * omega.abs() * f / std::f64::consts::TAU)
+        .collect()
 }
 
 /// `schedule` with C's `law` (unchanged without one), and each station's largest speed
@@ -163,13 +276,15 @@ pub enum MapPredictInputError {
     },
     #[error(
         "the plan runs C through about {turns:.0} turns in {blocks:.2e} blocks over {pixels} \
-         pixels ({work:.2e} pixel-turns, counting a block as a tenth of a turn); at most \
-         {max_work:.0e} pixel-turns and {max_blocks:.0e} blocks are computed (about 14 s): a \
-         larger pixel, fewer sectors or a shorter plan"
+         pixels and {rings} rings' means, {work:.2e} pixel-turns of work (a block a tenth of a \
+         turn, a ring's block one, a turn the pad spends over a pixel 40, 6000 under a linear \
+         pad); at most {max_work:.1e} pixel-turns and {max_blocks:.0e} blocks are computed \
+         (about 5 s): a larger pixel, fewer sectors or a shorter plan"
     )]
     TooMuchWork {
         turns: f64,
         pixels: usize,
+        rings: usize,
         work: f64,
         blocks: f64,
         max_work: f64,
@@ -231,12 +346,26 @@ impl MapPredictCommand {
             pad.part_speed_rad_per_s(),
             sectors as f64,
         );
-        let on_part = (std::f64::consts::PI * (half + 0.5).powi(2)).ceil() as usize;
-        let work = on_part as f64 * (turns + blocks / 10.0);
+        let aperture = setting.aperture();
+        let (on_part, rings) = map_size(
+            pixel_mm,
+            half as usize,
+            process.workpiece_radius_mm(),
+            (aperture.inner_mm(), aperture.outer_mm()),
+        );
+        // The azimuthal mean is reported on the radial grid as well.
+        let rings = rings + setting.grid().radii_mm().len();
+        let covered = covered_turns(
+            process,
+            schedule.positions_mm(),
+            &station_turns(schedule.dwell_s(), &fastest, pad.part_speed_rad_per_s()),
+        );
+        let work = map_work(on_part, rings, turns, blocks, covered);
         if work > MAX_WORK || blocks > MAX_BLOCKS {
             return Err(MapPredictInputError::TooMuchWork {
                 turns,
                 pixels: on_part,
+                rings,
                 work,
                 blocks,
                 max_work: MAX_WORK,

@@ -57,7 +57,7 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let mg = "maps_program_astigmatism.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 60] = [
+    let cases: [(&str, &str, Value, &str, &str); 61] = [
         (
             mg,
             "approach",
@@ -131,6 +131,14 @@ async fn each_endpoint_names_the_field_of_bad_input() {
             json!(0),
             INVALID,
             "removal_pixel_mm",
+        ),
+        // ~42,000 turns of C: even an 8 mm map's exact means cost too much.
+        (
+            mo,
+            "process.pressure_kpa",
+            json!(0.25),
+            "limit-exceeded",
+            "removal_model",
         ),
         (
             mo,

@@ -177,6 +177,9 @@ impl From<MapOptimizeError> for ApiError {
             MapOptimizeError::TooManyBlocks { .. } => {
                 ApiError::limit("c_law.sectors", err.to_string())
             }
+            MapOptimizeError::ExactMapTooCostly { .. } => {
+                ApiError::limit("removal_model", err.to_string())
+            }
         }
     }
 }
