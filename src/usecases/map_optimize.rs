@@ -16,9 +16,12 @@
 //!    relative to t⁰ (so that the floors it asks are in proportion to a dwell that removes an
 //!    even layer, which a uniform layer more meets);
 //! 2. its C law's floors on each station's dwell: the modulation bound, C's velocity and its
-//!    acceleration (`harmonics::law_floor`);
-//! 3. m = 0: the 1-D optimizer (`usecases::optimize`) on the azimuthal mean with a free
-//!    piston, its floors raised to those, within every 1-D limit (the total time, X, Z, B);
+//!    acceleration (`harmonics::law_floor`), as asked and capped at 1 and 2 times the radial
+//!    plan's dwell ([`FLOOR_CAPS`]);
+//! 3. m = 0: for each set of floors, the 1-D optimizer (`usecases::optimize`) on the
+//!    azimuthal mean with a free piston, its floors raised to those, within every 1-D limit
+//!    (the total time, X, Z, B); the plan kept is the one whose residual the plan's own model
+//!    predicts smallest (floors that bend the mean dwell leave a round error of their own);
 //! 4. the law: speed factors per station and sector;
 //! 5. the removal on a square map — the exact removal of the executed motion
 //!    (`physics::polar`), or the plan's own first-order model ([`RemovalModel`]) — the target
@@ -695,10 +698,12 @@ pub fn map_optimize(
     let mut pixel = pixel_mm;
     if removal_model == RemovalModel::Exact {
         let blocks = schedule.executed_blocks as f64;
+        // Under the law a turn takes as long as at constant speed.
+        let at_constant_speed = vec![1.0; dwell.len()];
         let covered = covered_turns(
             process,
             motion.radii_mm(),
-            &station_turns(dwell, &vec![1.0; dwell.len()], omega0),
+            &station_turns(dwell, &at_constant_speed, omega0),
         );
         let aperture = setting.aperture();
         let work = |pixel: f64| {
@@ -711,7 +716,6 @@ pub fn map_optimize(
             );
             map_work(pixels, rings, turns, blocks, covered)
         };
-        // At coarsest about 9 pixels across the part's radius.
         let coarsest = pixel_mm.max(radius / COARSEST_PIXELS_ACROSS_RADIUS);
         while work(pixel) > MAX_MAP_WORK {
             if pixel >= coarsest {
@@ -954,9 +958,6 @@ struct CPeaks {
     over: Vec<f64>,
 }
 
-/// C's speed in each block and its acceleration between consecutive runs of one C speed
-/// (`physics::polar::c_runs`, `c_changes`: the program's model), and how far each station's
-/// blocks go over C's limits.
 /// The floors C's law puts under each station's dwell (`law_floor`), named by what sets them.
 fn law_floors(modulation: &[Vec<f64>], omega0: f64, c: &CLimits) -> Vec<Floor> {
     modulation
@@ -1014,6 +1015,9 @@ fn predicted_residual(
     (second - first * first / total + rest) / total
 }
 
+/// C's speed in each block and its acceleration between consecutive runs of one C speed
+/// (`physics::polar::c_runs`, `c_changes`: the program's model), and how far each station's
+/// blocks go over C's limits.
 fn c_peaks(blocks: &[Block], stations: usize, c: &CLimits) -> CPeaks {
     let mut peaks = CPeaks {
         velocity_rad_per_s: 0.0,

@@ -277,9 +277,11 @@ pub enum MapPredictInputError {
     #[error(
         "the plan runs C through about {turns:.0} turns in {blocks:.2e} blocks over {pixels} \
          pixels and {rings} rings' means, {work:.2e} pixel-turns of work (a block a tenth of a \
-         turn, a ring's block one, a turn the pad spends over a pixel 40, 6000 under a linear \
-         pad); at most {max_work:.1e} pixel-turns and {max_blocks:.0e} blocks are computed \
-         (about 5 s): a larger pixel, fewer sectors or a shorter plan"
+         turn, a ring's block one, a turn the pad spends over a pixel {covered}, {linear} under \
+         a linear pad); at most {max_work:.1e} pixel-turns and {max_blocks:.0e} blocks are \
+         computed (about 5 s): a larger pixel, fewer sectors or a shorter plan",
+        covered = COVERED_TURN_COST,
+        linear = COVERED_TURN_COST * LINEAR_PRESSURE_COST
     )]
     TooMuchWork {
         turns: f64,
