@@ -91,7 +91,13 @@ impl PolarProgram {
     ) -> Result<PolarProgram, ProgramError> {
         let (first, last) = dwell_span(dwell_s)?;
         let segments = motion.segments();
-        let pieces = executed_blocks(motion, dwell_s, run.part_speed_rad_per_s, run.start_rad);
+        let pieces = executed_blocks(
+            motion,
+            dwell_s,
+            run.part_speed_rad_per_s,
+            run.start_rad,
+            surface,
+        );
         // The polishing blocks, each piece cut into equal parts of at most a quarter turn.
         let mut blocks = Vec::with_capacity(pieces.len());
         // Per block: its span of X, Z and B (the plan's segment).

@@ -60,7 +60,7 @@
 //! is weighted by p/P = level + slope·(s·cos φ − s1), zero beyond the lift line, which cuts
 //! the arc at cos φ = u0/s.
 
-use std::f64::consts::FRAC_1_SQRT_2;
+use std::f64::consts::{FRAC_1_SQRT_2, PI};
 
 use super::contact::{half_angle_of_squared_reach, HalfAngle};
 use super::kronrod::adaptive_gauss_kronrod;
@@ -584,6 +584,94 @@ impl CurvedKernel {
         let mut kinks = super::removal::crossings(&past_arc_end, from, to);
         kinks.extend(super::removal::crossings(&past_ring, from, to));
         kinks
+    }
+}
+
+/// The footprint point by point, for a part turning on C under position control
+/// ([`super::polar`]): at the point of a ring at the angle α from the pad centre's meridian,
+///
+/// ```text
+/// ρ = K·P·w(cos α)·|v_t|,   |v_t|² = E·sin²α + (B − A·r·cos α)²   on the arc |α| ≤ φ0,
+/// ∂|v_t|/∂Ω = (−A·r²·sin²α + (B − A·r·cos α)·r·cos α)/|v_t|
+/// ```
+///
+/// (module docs; only A = ω_t·a_z − Ω depends on the part's speed Ω, and E through A², so
+/// ∂E/∂Ω = −2·A·r²), w the pad's pressure relative to nominal in the developed plane,
+/// max(0, level + slope·(s·cos α − s1)). Its integral over the arc is π times
+/// [`CurvedKernel::rate_nm_per_s`]'s integrand, point for point.
+impl CurvedKernel {
+    /// The same kernel with the part turning at `part_speed_rad_per_s` (Ω, lab frame): the
+    /// contact and the pressure depend only on where the pad is.
+    pub fn with_part_speed(&self, part_speed_rad_per_s: f64) -> CurvedKernel {
+        CurvedKernel {
+            omega_workpiece: part_speed_rad_per_s,
+            ..self.clone()
+        }
+    }
+
+    /// The half-angle φ0 (rad) of the arc of `ring` under the pad at `site`, `None` where the
+    /// pad does not touch it.
+    pub fn pressed_half_angle(&self, ring: &Ring, site: &Site) -> Option<f64> {
+        covered_arc(ring, site).map(|psi| 2.0 * psi.radians())
+    }
+
+    /// The footprint ρ (nm/s) at the point of `ring` whose angle α from the pad centre's
+    /// meridian has the cosine `cos_alpha`, with the pad at `site` under `pressure`, and its
+    /// derivative in the part's speed Ω (nm/s per rad/s). The caller keeps α on the arc
+    /// ([`Self::pressed_half_angle`]).
+    pub fn footprint(
+        &self,
+        ring: &Ring,
+        site: &Site,
+        pressure: &PadPressure,
+        cos_alpha: f64,
+    ) -> (f64, f64) {
+        let weight = if pressure.slope_per_mm == 0.0 {
+            pressure.level
+        } else {
+            (pressure.level + pressure.slope_per_mm * (ring.arc * cos_alpha - site.arc1)).max(0.0)
+        };
+        if weight == 0.0 {
+            return (0.0, 0.0);
+        }
+        let dz = ring.z - site.z1;
+        let (w, t) = (self.omega_workpiece, self.omega_tool);
+        let a = t * site.axis_z - w;
+        let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
+        let c = -t * site.axis_x;
+        let d = c * ring.r * ring.cos - b * ring.sin;
+        let e = (a * a + c * c) * ring.r * ring.r - d * d;
+        let sin2 = (1.0 - cos_alpha * cos_alpha).max(0.0);
+        let along = b - a * ring.r * cos_alpha;
+        let speed = (e * sin2 + along * along).max(0.0).sqrt();
+        let slope = if speed > 0.0 {
+            (-a * ring.r * ring.r * sin2 + along * ring.r * cos_alpha) / speed
+        } else {
+            0.0
+        };
+        // `scale` is K·P/π.
+        let k = PI * self.scale * weight;
+        (k * speed, k * slope)
+    }
+
+    /// The squared reach c² = c_t² − (z − z₁)² of the pad at `r1_mm` on `ring` (module docs:
+    /// the ring is under the pad where r² + r1² − 2·r·r1·cos α ≤ c²) and its derivative in
+    /// r1: (z − z₁)² exactly, a changing chord (an asphere's) by a central difference.
+    pub fn squared_reach(&self, ring: &Ring, r1_mm: f64) -> (f64, f64) {
+        let site = self.site(r1_mm);
+        let dz = ring.z - site.z1;
+        let chord_slope = if self.sphere_chord.is_some() {
+            0.0
+        } else {
+            let h = 1e-6 * (1.0 + r1_mm.abs());
+            let (lo, hi) = (self.site(r1_mm - h).chord, self.site(r1_mm + h).chord);
+            (hi * hi - lo * lo) / (2.0 * h)
+        };
+        let slope1 = self.part.surface.local(r1_mm).slope;
+        (
+            site.chord * site.chord - dz * dz,
+            chord_slope + 2.0 * dz * slope1,
+        )
     }
 }
 

@@ -45,7 +45,7 @@
 //! centre's part-frame angle; cut where that angle crosses a sector's edge, the executed
 //! motion is a chain of [`Block`]s at constant speeds on both axes ([`executed_blocks`]), each
 //! a ring (closed form) or a piece of spiral (quadrature) at its own Ω, and the depth is their
-//! sum. Only ω2 − Ω in the sliding speed depends on Ω on a plane, so one pad per distinct
+//! sum. Only the sliding speed depends on Ω (ω2 − Ω on a plane), so one pad per distinct
 //! speed serves ([`RemovalKernel::with_part_speed`]).
 //!
 //! **Harmonics.** ρ is even in α, so a density of dwell u(φ) over the pad centre's angle
@@ -55,28 +55,110 @@
 //! order a relative modulation δ acts through h = ρ − Ω·∂ρ/∂Ω, with
 //! ∂V/∂Ω = (−(ω2 − Ω)·r² + r·r1·ω2·cos α)/V ([`PolarPad::angular_spectrum`] gives the
 //! coefficients of both; `optimize::harmonics` plans with them).
+//!
+//! **A curved part.** The pad conforms to a surface of revolution (`super::curved`): at the
+//! point of the ring at projected radius r and angle α from the pad centre's meridian the
+//! sliding speed is |v_t|² = E·sin²α + (B − A·r·cos α)² on the arc under the pad |α| ≤ φ0, and
+//! ρ = K·P·w·|v_t| ([`CurvedKernel::footprint`]; A = ω_t·a_z − Ω carries Ω). Its integral over
+//! the arc is π·R of the curved model, so whole turns and azimuthal means are the 1-D curved
+//! removal as above. S(α) is integrated by adaptive Gauss–Kronrod (no closed form), a spiral's
+//! rim is where r² + r1² − 2·r·r1·cos α = c², c² = c_t² − (z − z₁)² the pad's reach on the
+//! ring ([`CurvedKernel::squared_reach`]), and within a move the pad centre runs at constant
+//! speed along the arc, as the 1-D model's feed does ([`Track`]). The depth is along the
+//! normal, at the point's projection (x, y).
 
 use std::f64::consts::{PI, TAU};
 
 use rayon::prelude::*;
 
+use super::curved::{CurvedKernel, Ring, Site};
 use super::kronrod::{adaptive_gauss_kronrod, kronrod_rule};
 use super::motion::{acceleration, one_speed, Motion, Turning};
+use super::pressure::PadPressure;
 use super::process::Process;
 use super::removal::RemovalKernel;
 use super::roots::illinois;
+use crate::surface::Surface;
 
 /// The tolerance of a spiral's quadrature, relative to the largest rate a point can see
 /// (times the duration: the depth's absolute error).
 const RELATIVE_TOLERANCE: f64 = 1e-11;
 
-/// Why a process has no 2-D footprint (yet).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum PolarError {
-    #[error(
-        "the footprint on a curved part is not modelled point by point yet: the part must be flat"
-    )]
-    CurvedPart,
+/// The pad centre's radius along a move from `from_mm` to `to_mm` lasting `duration_s`: at a
+/// constant speed along the surface, as the 1-D model moves it (constant feed along the arc),
+/// so linear in time on a plane.
+#[derive(Debug, Clone, Copy)]
+pub struct Track<'a> {
+    from_mm: f64,
+    to_mm: f64,
+    duration_s: f64,
+    /// The surface, its arc length at `from_mm` and the arc's speed (mm/s), on a curved part.
+    along: Option<(&'a Surface, f64, f64)>,
+}
+
+impl<'a> Track<'a> {
+    /// `surface`: `None` (or a plane) for a flat part.
+    pub fn new(surface: Option<&'a Surface>, from_mm: f64, to_mm: f64, duration_s: f64) -> Self {
+        let along = surface.filter(|s| !s.is_plane()).map(|surface| {
+            let start = surface.arc_length_mm(from_mm);
+            let speed = (surface.arc_length_mm(to_mm) - start) / duration_s;
+            (surface, start, speed)
+        });
+        Track {
+            from_mm,
+            to_mm,
+            duration_s,
+            along,
+        }
+    }
+
+    /// The radius (mm) at `elapsed_s` into the move.
+    pub fn at(&self, elapsed_s: f64) -> f64 {
+        match self.along {
+            None => self.from_mm + (self.to_mm - self.from_mm) * (elapsed_s / self.duration_s),
+            Some((surface, start, speed)) => {
+                surface.radius_at_arc_length(start + speed * elapsed_s)
+            }
+        }
+    }
+
+    /// When (s into the move) the pad centre passes the radius `r_mm` (between the ends).
+    fn time_at(&self, r_mm: f64) -> f64 {
+        match self.along {
+            None => (r_mm - self.from_mm) / (self.to_mm - self.from_mm) * self.duration_s,
+            Some((surface, start, speed)) => (surface.arc_length_mm(r_mm) - start) / speed,
+        }
+    }
+
+    /// The radius and its speed (mm, mm/s) at `elapsed_s` into the move: ds/dt over
+    /// ds/dr = √(1 + z′²) on a curved part.
+    fn with_speed(&self, elapsed_s: f64) -> (f64, f64) {
+        match self.along {
+            None => {
+                let feed = (self.to_mm - self.from_mm) / self.duration_s;
+                (self.from_mm + feed * elapsed_s, feed)
+            }
+            Some((surface, start, speed)) => {
+                let r1 = surface.radius_at_arc_length(start + speed * elapsed_s);
+                (r1, speed / surface.arc_integrand(r1))
+            }
+        }
+    }
+}
+
+/// A ring of the part and a pad position: what the footprint between them needs, made once.
+enum Pair<'a> {
+    Flat {
+        r: f64,
+        r1: f64,
+        pressure: PadPressure,
+    },
+    Curved {
+        kernel: &'a CurvedKernel,
+        ring: Ring,
+        site: Site,
+        pressure: PadPressure,
+    },
 }
 
 /// The pad of a process at the process's C speed: its footprint, and the removal of a ring or a
@@ -94,18 +176,15 @@ pub struct PolarPad {
 }
 
 impl PolarPad {
-    pub fn new(process: &Process) -> Result<PolarPad, PolarError> {
-        if !process.part().is_flat() {
-            return Err(PolarError::CurvedPart);
-        }
-        Ok(PolarPad {
+    pub fn new(process: &Process) -> PolarPad {
+        PolarPad {
             kernel: RemovalKernel::new(process),
             part_speed: -process.omega1_rad_per_s(),
             tool_speed: process.omega2_rad_per_s(),
             preston: process.preston_rate_scale(),
             tool_radius_mm: process.tool_radius_mm(),
             workpiece_radius_mm: process.workpiece_radius_mm(),
-        })
+        }
     }
 
     /// Ω, rad/s (counter-clockwise positive; never 0: a process's part turns).
@@ -116,10 +195,7 @@ impl PolarPad {
     /// The same pad with the part turning at `part_speed_rad_per_s` (non-zero).
     pub fn turning_at(&self, part_speed_rad_per_s: f64) -> PolarPad {
         PolarPad {
-            kernel: self
-                .kernel
-                .with_part_speed(part_speed_rad_per_s)
-                .expect("a polar pad is on a flat part"),
+            kernel: self.kernel.with_part_speed(part_speed_rad_per_s),
             part_speed: part_speed_rad_per_s,
             ..self.clone()
         }
@@ -208,8 +284,26 @@ impl PolarPad {
             return block.duration_s * rate(block.from_mm);
         }
         let (t, from, to) = (block.duration_s, block.from_mm, block.to_mm);
+        let track = self.track(from, to, t);
         let density = RELATIVE_TOLERANCE * self.largest_rate(r_mm, from.max(to));
-        adaptive_gauss_kronrod(&|s: f64| rate(from + (to - from) * s / t), 0.0, t, density)
+        let Some(curved) = self.kernel.curved() else {
+            return adaptive_gauss_kronrod(&|s: f64| rate(track.at(s)), 0.0, t, density);
+        };
+        // On a curved part R(r; r1) is split where it has kinks in r1 (the pad's tangencies,
+        // the sliding speed's zero: `CurvedKernel::breakpoints`), as the 1-D path is: the
+        // zero's logarithmic kink fools the rule's error estimate (~1e-5 of a block's depth).
+        let (lo, hi) = (from.min(to), from.max(to));
+        let mut cuts: Vec<f64> = curved
+            .breakpoints(&curved.ring(r_mm), hi)
+            .into_iter()
+            .filter(|&x| x > lo && x < hi)
+            .map(|x| track.time_at(x))
+            .chain([0.0, t])
+            .collect();
+        cuts.sort_by(f64::total_cmp);
+        cuts.windows(2)
+            .map(|w| adaptive_gauss_kronrod(&|s: f64| rate(track.at(s)), w[0], w[1], density))
+            .sum()
     }
 
     /// The depth (nm) at (r_mm, θ) of one block, at this pad's C speed (the block's own).
@@ -246,6 +340,21 @@ impl PolarPad {
             return 0.0;
         }
         let r1 = cx.hypot(cy);
+        if self.kernel.curved().is_some() {
+            // The projected distance is at most the geodesic one: the test above holds on any
+            // surface; the pressed arc decides.
+            let r = x.hypot(y);
+            let pair = self.pair(r, r1);
+            let cos = if r * r1 > 0.0 {
+                ((x * cx + y * cy) / (r * r1)).clamp(-1.0, 1.0)
+            } else {
+                1.0
+            };
+            return match self.pressed_half_angle(&pair) {
+                Some(arc) if cos >= arc.cos() => self.footprint(&pair, cos).0,
+                _ => 0.0,
+            };
+        }
         let pressure = self.kernel.pad_pressure(r1);
         // The point's coordinate along the pad centre's direction (the 1-D model's x).
         let along = if r1 > 0.0 {
@@ -275,13 +384,109 @@ impl PolarPad {
         let whole = self.kernel.rate_nm_per_s(r_mm, r1_mm);
         let unwrapped = |alpha: f64| {
             let turns = (alpha / TAU).round();
-            let partial = self
-                .kernel
-                .swept_rate_integral(r_mm, r1_mm, (alpha - turns * TAU).clamp(-PI, PI))
-                .expect("a polar pad is on a flat part");
+            let partial =
+                self.swept_rate_integral(r_mm, r1_mm, (alpha - turns * TAU).clamp(-PI, PI));
             TAU * whole * turns + partial
         };
         ((unwrapped(end) - unwrapped(start)) / self.part_speed).max(0.0)
+    }
+
+    /// S(α) = ∫_0^α ρ dα′ at radius `r_mm` with the pad centre at `r1_mm`, α ∈ [−π, π]
+    /// (module docs): on a plane in closed form ([`RemovalKernel::swept_rate_integral`]), on a
+    /// curved part by adaptive Gauss–Kronrod over the pressed arc to the spiral's tolerance
+    /// (per radian, of the largest rate a point can see).
+    fn swept_rate_integral(&self, r_mm: f64, r1_mm: f64, alpha_rad: f64) -> f64 {
+        if let Some(flat) = self.kernel.swept_rate_integral(r_mm, r1_mm, alpha_rad) {
+            return flat;
+        }
+        let pair = self.pair(r_mm, r1_mm);
+        let Some(arc) = self.pressed_half_angle(&pair) else {
+            return 0.0;
+        };
+        let end = alpha_rad.abs().min(arc);
+        if end <= 0.0 {
+            return 0.0;
+        }
+        let density = RELATIVE_TOLERANCE * self.largest_rate(r_mm, r1_mm);
+        let rate = |alpha: f64| self.footprint(&pair, alpha.cos()).0;
+        alpha_rad.signum() * adaptive_gauss_kronrod(&rate, 0.0, end, density)
+    }
+
+    /// The pad centre's track over a move on this pad's part.
+    fn track(&self, from_mm: f64, to_mm: f64, duration_s: f64) -> Track<'_> {
+        Track::new(
+            self.kernel.curved().map(|curved| curved.surface()),
+            from_mm,
+            to_mm,
+            duration_s,
+        )
+    }
+
+    /// What the footprint between the ring at `r_mm` and the pad centre at `r1_mm` needs,
+    /// computed once.
+    fn pair(&self, r_mm: f64, r1_mm: f64) -> Pair<'_> {
+        let pressure = self.kernel.pad_pressure(r1_mm);
+        match self.kernel.curved() {
+            Some(kernel) => Pair::Curved {
+                kernel,
+                ring: kernel.ring(r_mm),
+                site: kernel.site(r1_mm),
+                pressure,
+            },
+            None => Pair::Flat {
+                r: r_mm,
+                r1: r1_mm,
+                pressure,
+            },
+        }
+    }
+
+    /// The half-angle θ0 (rad) of the ring's arc under the pad (short of no lift line),
+    /// `None` where the pad does not touch the ring.
+    fn pressed_half_angle(&self, pair: &Pair) -> Option<f64> {
+        match *pair {
+            Pair::Flat { r, r1, .. } => {
+                let rt = self.tool_radius_mm;
+                // |p − c| ≤ r_t, i.e. cos α ≥ (r² + r1² − r_t²)/(2·r·r1).
+                if r * r1 > 0.0 {
+                    let c = (r * r + r1 * r1 - rt * rt) / (2.0 * r * r1);
+                    (c < 1.0).then(|| c.max(-1.0).acos())
+                } else {
+                    (r.max(r1) <= rt).then_some(PI)
+                }
+            }
+            Pair::Curved {
+                kernel, ring, site, ..
+            } => kernel.pressed_half_angle(&ring, &site),
+        }
+    }
+
+    /// The footprint ρ (nm/s) at the point of the pair's ring at angle α (its cosine `cos`)
+    /// from the pad centre's direction, on the pressed arc, and ∂ρ/∂Ω (module docs).
+    fn footprint(&self, pair: &Pair, cos: f64) -> (f64, f64) {
+        match *pair {
+            Pair::Flat { r, r1, pressure } => {
+                let (omega, w2) = (self.part_speed, self.tool_speed);
+                let k = w2 - omega;
+                let factor = (pressure.level + pressure.slope_per_mm * (r * cos - r1)).max(0.0);
+                let v = (k * k * r * r + w2 * w2 * r1 * r1 - 2.0 * r * r1 * w2 * k * cos)
+                    .max(0.0)
+                    .sqrt();
+                // ∂V/∂Ω = (−(ω2 − Ω)·r² + r·r1·ω2·cos α)/V, 0 where V vanishes (a point).
+                let dv = if v > 0.0 {
+                    (-k * r * r + r * r1 * w2 * cos) / v
+                } else {
+                    0.0
+                };
+                (self.preston * factor * v, self.preston * factor * dv)
+            }
+            Pair::Curved {
+                kernel,
+                ring,
+                site,
+                pressure,
+            } => kernel.footprint(&ring, &site, &pressure, cos),
+        }
     }
     /// The depth (nm) at the point (r_mm, θ) of the part left by a spiral: the pad centre
     /// moving from `r1_start_mm` to `r1_end_mm` at a constant radial speed while C turns at
@@ -307,20 +512,48 @@ impl PolarPad {
             return 0.0;
         }
         let omega = self.part_speed;
-        let feed = (r1_end_mm - r1_start_mm) / duration_s;
+        let track = self.track(r1_start_mm, r1_end_mm, duration_s);
         let point = (r_mm * theta_rad.cos(), r_mm * theta_rad.sin());
-        let r1 = |t: f64| r1_start_mm + feed * t;
+        let r1 = |t: f64| track.with_speed(t).0;
         let alpha = |t: f64| theta_rad - start_rad + omega * t;
+        // The squared reach c² of the pad and its derivative in r1: r_t² on a plane, the
+        // chord less the sag's difference on a curved part (`CurvedKernel::squared_reach`).
+        let ring = self
+            .kernel
+            .curved()
+            .map(|curved| (curved, curved.ring(r_mm)));
         let rt2 = self.tool_radius_mm * self.tool_radius_mm;
-        let reach =
-            |t: f64| rt2 - r_mm * r_mm - r1(t) * r1(t) + 2.0 * r_mm * r1(t) * alpha(t).cos();
+        let squared_reach = |r1: f64| match &ring {
+            Some((curved, ring)) => curved.squared_reach(ring, r1),
+            None => (rt2, 0.0),
+        };
+        let reach = |t: f64| {
+            squared_reach(r1(t)).0 - r_mm * r_mm - r1(t) * r1(t)
+                + 2.0 * r_mm * r1(t) * alpha(t).cos()
+        };
         let slope = |t: f64| {
             let (s, c) = alpha(t).sin_cos();
-            -2.0 * r1(t) * feed + 2.0 * r_mm * feed * c - 2.0 * r_mm * r1(t) * omega * s
+            let (r1, feed) = track.with_speed(t);
+            squared_reach(r1).1 * feed - 2.0 * r1 * feed + 2.0 * r_mm * feed * c
+                - 2.0 * r_mm * r1 * omega * s
         };
-        let rate = |t: f64| {
-            let phi = start_rad - omega * t;
-            self.rate_at(point, (r1(t) * phi.cos(), r1(t) * phi.sin()))
+        let rate = |t: f64| match &ring {
+            // Only where the reach says the point is under the pad (below), so the ring's
+            // footprint needs no test of its own.
+            Some((kernel, ring)) => {
+                let r1 = r1(t);
+                let pair = Pair::Curved {
+                    kernel,
+                    ring: *ring,
+                    site: kernel.site(r1),
+                    pressure: self.kernel.pad_pressure(r1),
+                };
+                self.footprint(&pair, alpha(t).cos()).0
+            }
+            None => {
+                let phi = start_rad - omega * t;
+                self.rate_at(point, (r1(t) * phi.cos(), r1(t) * phi.sin()))
+            }
         };
         // The extremes of g: near each time α passes a multiple of π (a quarter turn either
         // side brackets the root of g′ while the feed is slower than r·Ω, as any pass is).
@@ -378,22 +611,11 @@ impl PolarPad {
     pub fn angular_spectrum(&self, r_mm: f64, r1_mm: f64, m_max: usize) -> (Vec<f64>, Vec<f64>) {
         let mut rho = vec![0.0; m_max + 1];
         let mut kernel = vec![0.0; m_max + 1];
-        let rt = self.tool_radius_mm;
-        // The pressed arc: |p − c| ≤ r_t, i.e. cos α ≥ (r² + r1² − r_t²)/(2·r·r1).
-        let half_arc = if r_mm * r1_mm > 0.0 {
-            let c = (r_mm * r_mm + r1_mm * r1_mm - rt * rt) / (2.0 * r_mm * r1_mm);
-            if c >= 1.0 {
-                return (rho, kernel);
-            }
-            c.max(-1.0).acos()
-        } else if r_mm.max(r1_mm) <= rt {
-            PI
-        } else {
+        let pair = self.pair(r_mm, r1_mm);
+        let Some(half_arc) = self.pressed_half_angle(&pair) else {
             return (rho, kernel);
         };
-        let (omega, w2) = (self.part_speed, self.tool_speed);
-        let k = w2 - omega;
-        let pressure = self.kernel.pad_pressure(r1_mm);
+        let omega = self.part_speed;
         let panels = ((m_max as f64 * half_arc / 2.0).ceil() as usize).max(4);
         let width = half_arc / panels as f64;
         let mut cosines = vec![0.0; m_max + 1];
@@ -404,18 +626,9 @@ impl PolarPad {
                     continue;
                 }
                 let c = alpha.cos();
-                let factor = (pressure.level + pressure.slope_per_mm * (r_mm * c - r1_mm)).max(0.0);
-                let v2 =
-                    k * k * r_mm * r_mm + w2 * w2 * r1_mm * r1_mm - 2.0 * r_mm * r1_mm * w2 * k * c;
-                let v = v2.max(0.0).sqrt();
-                // ∂V/∂Ω = (−(ω2 − Ω)·r² + r·r1·ω2·cos α)/V, 0 where V vanishes (a point).
-                let dv = if v > 0.0 {
-                    (-k * r_mm * r_mm + r_mm * r1_mm * w2 * c) / v
-                } else {
-                    0.0
-                };
-                let scale = self.preston * factor * weight / PI;
-                let (a, b) = (scale * v, scale * (v - omega * dv));
+                let (footprint, slope) = self.footprint(&pair, c);
+                let scale = weight / PI;
+                let (a, b) = (scale * footprint, scale * (footprint - omega * slope));
                 // cos(mα) by the recurrence cos((m+1)α) = 2·cos α·cos(mα) − cos((m−1)α).
                 cosines[0] = 1.0;
                 if m_max >= 1 {
@@ -436,8 +649,12 @@ impl PolarPad {
     /// An upper bound of the footprint's rate at radius `r_mm` with the pad centre within
     /// `r1_max_mm` of the axis (nm/s): K·P times the largest pressure factor and sliding speed.
     fn largest_rate(&self, r_mm: f64, r1_max_mm: f64) -> f64 {
-        let speed =
-            (self.tool_speed - self.part_speed).abs() * r_mm + self.tool_speed.abs() * r1_max_mm;
+        let speed = if self.kernel.curved().is_some() {
+            // |Ω·ẑ × X| = Ω·r, and |a × (X − P₀)| is at most the chord, at most r_t.
+            self.part_speed.abs() * r_mm + self.tool_speed.abs() * self.tool_radius_mm
+        } else {
+            (self.tool_speed - self.part_speed).abs() * r_mm + self.tool_speed.abs() * r1_max_mm
+        };
         let pressure = self.kernel.pad_pressure(r1_max_mm);
         let factor = pressure.level + pressure.slope_per_mm.abs() * 2.0 * self.tool_radius_mm;
         self.preston * factor.max(1.0) * speed.max(f64::MIN_POSITIVE)
@@ -549,8 +766,16 @@ pub fn executed_blocks(
     dwell_s: &[f64],
     part_speed_rad_per_s: f64,
     start_rad: f64,
+    surface: &Surface,
 ) -> Vec<Block> {
-    walk(motion, dwell_s, part_speed_rad_per_s, start_rad, false).blocks
+    walk(
+        motion,
+        dwell_s,
+        part_speed_rad_per_s,
+        start_rad,
+        Some(surface),
+    )
+    .blocks
 }
 
 /// C's schedule ([`c_schedule`]): a few of the executed motion's blocks, and how many it has.
@@ -576,17 +801,18 @@ pub fn c_schedule(
     part_speed_rad_per_s: f64,
     start_rad: f64,
 ) -> CSchedule {
-    walk(motion, dwell_s, part_speed_rad_per_s, start_rad, true)
+    walk(motion, dwell_s, part_speed_rad_per_s, start_rad, None)
 }
 
-/// [`executed_blocks`], or with `skip_turns` [`c_schedule`].
+/// [`executed_blocks`] on `surface`, or without one [`c_schedule`].
 fn walk(
     motion: &Motion,
     dwell_s: &[f64],
     part_speed_rad_per_s: f64,
     start_rad: f64,
-    skip_turns: bool,
+    surface: Option<&Surface>,
 ) -> CSchedule {
+    let skip_turns = surface.is_none();
     debug_assert_eq!(dwell_s.len(), motion.len());
     let mut left_out_blocks = 0;
     let omega = part_speed_rad_per_s;
@@ -601,7 +827,8 @@ fn walk(
             continue;
         }
         let (from, to) = segment.ends_mm();
-        let at = |elapsed: f64| from + (to - from) * (elapsed / duration);
+        let track = Track::new(surface, from, to, duration);
+        let at = |elapsed: f64| track.at(elapsed);
         match motion.turning() {
             Turning::Constant => {
                 blocks.push(Block {

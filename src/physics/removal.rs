@@ -186,18 +186,24 @@ impl RemovalKernel {
     /// The same pad with the part turning at `part_speed_rad_per_s` (Ω, lab frame,
     /// counter-clockwise positive) instead of the process's speed: on a plane only the
     /// sliding speed depends on Ω (the contact and the pressure depend on where the pad is),
-    /// so only ω1 + ω2 = ω2 − Ω changes. `None` on a curved part.
-    pub fn with_part_speed(&self, part_speed_rad_per_s: f64) -> Option<RemovalKernel> {
-        if self.curved.is_some() {
-            return None;
-        }
+    /// so only ω1 + ω2 = ω2 − Ω changes; on a curved part, the curved kernel's Ω.
+    pub fn with_part_speed(&self, part_speed_rad_per_s: f64) -> RemovalKernel {
         let omega_sum = self.omega2 - part_speed_rad_per_s;
-        Some(RemovalKernel {
+        RemovalKernel {
             omega_sum,
             // η = −1 exactly: the relative motion under the pad is a pure translation.
             translation: omega_sum == 0.0,
+            curved: self
+                .curved
+                .as_ref()
+                .map(|curved| curved.with_part_speed(part_speed_rad_per_s)),
             ..self.clone()
-        })
+        }
+    }
+
+    /// The kernel of a curved part, `None` on a plane.
+    pub fn curved(&self) -> Option<&CurvedKernel> {
+        self.curved.as_ref()
     }
 
     /// Removal rate in nm/s at radius `r_mm` with the tool centre at `r1_mm` (both ≥ 0).
@@ -314,7 +320,7 @@ impl RemovalKernel {
     /// `r1_mm`) is α′, integrated from 0 to `alpha_rad` ∈ [−π, π]. ρ is even in α′ and 0
     /// beyond the pressed arc, so S is odd and S(±π) = ±π·R(r; r1) ([`Self::rate_nm_per_s`]):
     /// the revolution average is S(π)/π. [`super::polar`] builds the removal of a sweeping
-    /// pad from it. `None` on a curved part (its footprint is not modelled in 2-D yet).
+    /// pad from it. `None` on a curved part, whose arc [`super::polar`] integrates itself.
     pub fn swept_rate_integral(&self, r_mm: f64, r1_mm: f64, alpha_rad: f64) -> Option<f64> {
         if self.curved.is_some() {
             return None;

@@ -127,11 +127,6 @@ pub enum MapOptimizeInputError {
     Setting(#[from] InputError),
     #[error("{0}")]
     Map(MapInputError),
-    #[error(
-        "the correction on a curved part is not modelled point by point yet: the part must be \
-         flat (leave out surface, or give a plane)"
-    )]
-    CurvedPart,
     #[error("sectors must be a whole number from 8 to 3600, not {0}")]
     Sectors(usize),
     #[error(
@@ -246,7 +241,7 @@ impl MapOptimizeCommand {
     ) -> Result<Self, MapOptimizeInputError> {
         use MapOptimizeInputError as E;
         let process = setting.process();
-        let pad = PolarPad::new(process).map_err(|_| E::CurvedPart)?;
+        let pad = PolarPad::new(process);
         let sectors = spec.sectors.unwrap_or(DEFAULT_SECTORS);
         if !(8..=3600).contains(&sectors) {
             return Err(E::Sectors(sectors));
@@ -714,7 +709,7 @@ pub fn map_optimize(
                 radius,
                 (aperture.inner_mm(), aperture.outer_mm()),
             );
-            map_work(pixels, rings, turns, blocks, covered)
+            map_work(process, pixels, rings, turns, blocks, covered)
         };
         let coarsest = pixel_mm.max(radius / COARSEST_PIXELS_ACROSS_RADIUS);
         while work(pixel) > MAX_MAP_WORK {
@@ -759,6 +754,7 @@ pub fn map_optimize(
             dwell,
             pad.part_speed_rad_per_s(),
             0.0,
+            &setting.process().part().surface,
         )),
         RemovalModel::Harmonic => {
             let grid = setting.grid().radii_mm();

@@ -40,9 +40,36 @@ pub const MAX_WORK: f64 = 1e7;
 /// the pad spends over it ([`covered_turns`]), and `rings` exact azimuthal means, each
 /// integrating every block within the pad's reach of its ring whatever the turns (a
 /// ring-block about a pixel-turn: 13 rings took as long as 81 pixels under a 180-sector law of
-/// 1054 turns in 282,028 blocks, nearly all pieces of spirals).
-pub(super) fn map_work(pixels: usize, rings: usize, turns: f64, blocks: f64, covered: f64) -> f64 {
-    pixels as f64 * (turns + blocks / 10.0 + covered) + rings as f64 * blocks
+/// 1054 turns in 282,028 blocks, nearly all pieces of spirals); all of it
+/// [`surface_cost`] times dearer on a curved part.
+pub(super) fn map_work(
+    process: &Process,
+    pixels: usize,
+    rings: usize,
+    turns: f64,
+    blocks: f64,
+    covered: f64,
+) -> f64 {
+    surface_cost(process)
+        * (pixels as f64 * (turns + blocks / 10.0 + covered) + rings as f64 * blocks)
+}
+
+/// How much dearer a map is on a curved part: the footprint's arc is integrated rather than
+/// taken in closed form, and a spiral's radius follows the arc (measured on the sector-law
+/// fixture, a 30 mm part: a sphere 3.3× to 4.4× the plane, an asphere, whose arc lengths
+/// and chords are quadratures, 16× to 25×).
+const SPHERE_COST: f64 = 4.0;
+const ASPHERE_COST: f64 = 25.0;
+
+fn surface_cost(process: &Process) -> f64 {
+    let surface = &process.part().surface;
+    if surface.is_plane() {
+        1.0
+    } else if surface.is_sphere() {
+        SPHERE_COST
+    } else {
+        ASPHERE_COST
+    }
 }
 
 /// A turn of C spent with the pad over a pixel costs about this many pixel-turns: passing a
@@ -255,11 +282,6 @@ pub enum MapPredictInputError {
     /// The process, the part, the aperture or the dwell plan (as `/v1/predict` checks them).
     #[error(transparent)]
     Setting(#[from] InputError),
-    #[error(
-        "the removal on a curved part is not modelled point by point yet: the part must be flat \
-         (leave out surface, or give a plane)"
-    )]
-    CurvedPart,
     #[error(transparent)]
     Law(CLawError),
     #[error("the start angle must be a finite number of degrees, not {0}")]
@@ -278,10 +300,13 @@ pub enum MapPredictInputError {
         "the plan runs C through about {turns:.0} turns in {blocks:.2e} blocks over {pixels} \
          pixels and {rings} rings' means, {work:.2e} pixel-turns of work (a block a tenth of a \
          turn, a ring's block one, a turn the pad spends over a pixel {covered}, {linear} under \
-         a linear pad); at most {max_work:.1e} pixel-turns and {max_blocks:.0e} blocks are \
-         computed (about 5 s): a larger pixel, fewer sectors or a shorter plan",
+         a linear pad; all of it {sphere}× on a sphere, {asphere}× on an asphere); at most \
+         {max_work:.1e} pixel-turns and {max_blocks:.0e} blocks are computed (about 5 s): a \
+         larger pixel, fewer sectors or a shorter plan",
         covered = COVERED_TURN_COST,
-        linear = COVERED_TURN_COST * LINEAR_PRESSURE_COST
+        linear = COVERED_TURN_COST * LINEAR_PRESSURE_COST,
+        sphere = SPHERE_COST,
+        asphere = ASPHERE_COST
     )]
     TooMuchWork {
         turns: f64,
@@ -311,7 +336,7 @@ impl MapPredictCommand {
         let setting = Setting::new(spec.process, &spec.part, spec.grid, spec.aperture, limits)
             .map_err(InputError::from)?;
         let process = setting.process();
-        let pad = PolarPad::new(process).map_err(|_| MapPredictInputError::CurvedPart)?;
+        let pad = PolarPad::new(process);
         let schedule =
             DwellSchedule::new(process, spec.positions_mm, spec.dwell_s).map_err(|error| {
                 InputError::Schedule {
@@ -362,7 +387,7 @@ impl MapPredictCommand {
             schedule.positions_mm(),
             &station_turns(schedule.dwell_s(), &fastest, pad.part_speed_rad_per_s()),
         );
-        let work = map_work(on_part, rings, turns, blocks, covered);
+        let work = map_work(process, on_part, rings, turns, blocks, covered);
         if work > MAX_WORK || blocks > MAX_BLOCKS {
             return Err(MapPredictInputError::TooMuchWork {
                 turns,
@@ -436,6 +461,7 @@ pub fn map_predict(command: MapPredictCommand) -> MapPrediction {
         schedule.dwell_s(),
         pad.part_speed_rad_per_s(),
         start_rad,
+        &process.part().surface,
     );
     let targets: Vec<(f64, f64)> = on_part.iter().map(|&i| points[i]).collect();
     let depths = pad.depth_nm(&blocks, &targets);

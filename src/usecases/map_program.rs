@@ -28,11 +28,6 @@ pub struct MapProgramSpec {
 /// reasons).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MapProgramInputError {
-    #[error(
-        "a program with C's words is written for a flat part yet (leave out surface, or give a \
-         plane)"
-    )]
-    CurvedPart,
     #[error(transparent)]
     Law(CLawError),
     #[error("the start angle must be a finite number of degrees, not {0}")]
@@ -64,7 +59,7 @@ pub struct MapProgramCommand {
 impl MapProgramCommand {
     pub fn new(base: ProgramCommand, spec: MapProgramSpec) -> Result<Self, MapProgramInputError> {
         use MapProgramInputError as E;
-        let pad = PolarPad::new(&base.process).map_err(|_| E::CurvedPart)?;
+        let pad = PolarPad::new(&base.process);
         let sectors = spec.c_law.as_ref().map(|law| law.sectors);
         let (schedule, fastest) =
             polar_schedule(base.schedule.clone(), spec.c_law).map_err(E::Law)?;

@@ -41,11 +41,6 @@ pub enum FootprintInputError {
     /// The process, the part or the radial grid (as the radial removal function checks them).
     #[error(transparent)]
     Setting(#[from] InputError),
-    #[error(
-        "the footprint on a curved part is not modelled point by point yet: the part must be \
-         flat (leave out surface, or give a plane)"
-    )]
-    CurvedPart,
     #[error("the tool position must be a finite number of mm, not {0}")]
     PositionNotFinite(f64),
     #[error(
@@ -102,7 +97,7 @@ impl MapRemovalFunctionCommand {
                     other => FootprintInputError::Setting(other),
                 })?;
         let process = profile.process();
-        let pad = PolarPad::new(process).map_err(|_| FootprintInputError::CurvedPart)?;
+        let pad = PolarPad::new(process);
         let radius = process.tool_radius_mm();
         let pixel_mm = match spec.pixel_mm {
             None => 2.0 * radius / (DEFAULT_PIXELS_ACROSS - 1) as f64,

@@ -76,9 +76,9 @@ async fn each_endpoint_names_the_field_of_bad_input() {
         (
             mg,
             "surface",
-            json!({"kind": "sphere", "radius_of_curvature_mm": 200}),
+            json!({"kind": "sphere", "radius_of_curvature_mm": 20}),
             INVALID,
-            "surface",
+            "process.workpiece_radius_mm",
         ),
         (
             mg,
@@ -186,9 +186,9 @@ async fn each_endpoint_names_the_field_of_bad_input() {
         (
             mr,
             "surface",
-            json!({"kind": "sphere", "radius_of_curvature_mm": 120.0}),
+            json!({"kind": "sphere", "radius_of_curvature_mm": 0.0}),
             INVALID,
-            "surface",
+            "surface.radius_of_curvature_mm",
         ),
         (ma, "map.heights_nm[1]", json!([1.0, 2.0]), INVALID, "map"),
         (ma, "pixel_mm", json!(-0.1), INVALID, "pixel_mm"),

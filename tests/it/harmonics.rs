@@ -15,7 +15,7 @@ use crate::common::http::{app, post_json};
 use crate::common::paper_spec;
 
 fn pad_of(spec: ProcessSpec) -> PolarPad {
-    PolarPad::new(&Process::new(spec).unwrap()).unwrap()
+    PolarPad::new(&Process::new(spec).unwrap())
 }
 
 /// (1/2π)·∫ρ(r, α)·cos(mα) dα, the footprint taken point by point (`PolarPad::rate_at`, the

@@ -38,6 +38,7 @@ mod plausibility;
 mod plots;
 mod polar;
 mod polar_reference;
+mod polar_sphere;
 mod problems;
 mod recommend;
 mod records;

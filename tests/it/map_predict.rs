@@ -333,8 +333,8 @@ async fn bad_input_names_its_field() {
         ),
         (
             "surface",
-            json!({"kind": "sphere", "radius_of_curvature_mm": -150.0}),
-            "surface",
+            json!({"kind": "sphere", "radius_of_curvature_mm": -20.0}),
+            "process.workpiece_radius_mm",
         ),
         ("pixel_mm", json!(0.0), "pixel_mm"),
         ("pixel_mm", json!(1e-3), "pixel_mm"),
@@ -364,46 +364,55 @@ async fn bad_input_names_its_field() {
 }
 
 /// With C at constant speed the map's azimuthal mean is `/v1/predict`'s 1-D removal of the same
-/// plan on the same grid to 1e-9 of its peak (the identity of the 2-D model, tested against
-/// the map itself by quadrature over θ in `polar.rs`); under a sector law it is not.
+/// plan on the same grid to 1e-9 of its peak, on a plane and on a convex and a concave sphere
+/// (the identity of the 2-D model, tested against the map itself by quadrature over θ in
+/// `polar.rs` and `polar_sphere.rs`); under a sector law it is not.
 #[tokio::test]
 async fn with_c_at_constant_speed_the_azimuthal_mean_is_the_one_dimensional_prediction() {
     let app = app();
     let plan = json!({"positions_mm": [0.0, 4.0, 9.0, 15.0, 22.0, 30.0],
                       "dwell_s": [2.0, 1.5, 3.0, 2.5, 1.0, 2.0]});
-    let body = json!({
-        "process": process(-30.0, 200.0),
-        "dwell": plan,
-        "pixel_mm": 4.0,
-        "radial_grid": {"start_mm": 0.0, "stop_mm": 40.0, "count": 81},
-    });
-    let two_d = post_json(&app, PATH, body.to_string()).await.json();
-    let one_d = post_json(
-        &app,
-        "/v1/predict",
-        json!({"process": body["process"], "dwell": plan, "radial_grid": body["radial_grid"]})
+    for surface in [
+        json!({"kind": "plane"}),
+        json!({"kind": "sphere", "radius_of_curvature_mm": -150.0}),
+        json!({"kind": "sphere", "radius_of_curvature_mm": 120.0}),
+    ] {
+        let body = json!({
+            "process": process(-30.0, 200.0),
+            "surface": surface,
+            "dwell": plan,
+            "pixel_mm": 4.0,
+            "radial_grid": {"start_mm": 0.0, "stop_mm": 40.0, "count": 81},
+        });
+        let two_d = post_json(&app, PATH, body.to_string()).await.json();
+        let one_d = post_json(
+            &app,
+            "/v1/predict",
+            json!({"process": body["process"], "surface": surface, "dwell": plan,
+                   "radial_grid": body["radial_grid"]})
             .to_string(),
-    )
-    .await
-    .json();
-    assert_eq!(two_d["azimuthal_mean"]["radius_mm"], one_d["radius_mm"]);
-    let want = super::common::numbers(&one_d["removal_nm"]);
-    let got = super::common::numbers(&two_d["azimuthal_mean"]["removal_nm"]);
-    let peak = want.iter().cloned().fold(0.0, f64::max);
-    assert!(peak > 0.0);
-    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
-        assert!(
-            (g - w).abs() <= 1e-9 * peak,
-            "sample {i}: {g} vs {w} (peak {peak})"
-        );
+        )
+        .await
+        .json();
+        assert_eq!(two_d["azimuthal_mean"]["radius_mm"], one_d["radius_mm"]);
+        let want = super::common::numbers(&one_d["removal_nm"]);
+        let got = super::common::numbers(&two_d["azimuthal_mean"]["removal_nm"]);
+        let peak = want.iter().cloned().fold(0.0, f64::max);
+        assert!(peak > 0.0);
+        for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+            assert!(
+                (g - w).abs() <= 1e-9 * peak,
+                "{surface}, sample {i}: {g} vs {w} (peak {peak})"
+            );
+        }
+        let mut modulated = body.clone();
+        modulated["c_law"] = json!({"sectors": 3, "speed_factors": vec![[0.5, 1.0, 2.0]; 6]});
+        let law = post_json(&app, PATH, modulated.to_string()).await.json();
+        let moved = super::common::numbers(&law["azimuthal_mean"]["removal_nm"])
+            .iter()
+            .zip(&want)
+            .map(|(g, w)| (g - w).abs())
+            .fold(0.0, f64::max);
+        assert!(moved > 1e-3 * peak, "{surface}: {moved}");
     }
-    let mut modulated = body.clone();
-    modulated["c_law"] = json!({"sectors": 3, "speed_factors": vec![[0.5, 1.0, 2.0]; 6]});
-    let law = post_json(&app, PATH, modulated.to_string()).await.json();
-    let moved = super::common::numbers(&law["azimuthal_mean"]["removal_nm"])
-        .iter()
-        .zip(&want)
-        .map(|(g, w)| (g - w).abs())
-        .fold(0.0, f64::max);
-    assert!(moved > 1e-3 * peak, "{moved}");
 }

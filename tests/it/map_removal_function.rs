@@ -158,7 +158,8 @@ async fn the_footprint_comes_as_csv_and_png() {
     assert_eq!(&png.body[..8], b"\x89PNG\r\n\x1a\n");
 }
 
-/// Bad input is a 422 naming the field: a curved part (`surface`), a position beyond the reach
+/// Bad input is a 422 naming the field: a sphere that does not reach the part's edge
+/// (`process.workpiece_radius_mm`), a position beyond the reach
 /// (`tool_position_mm`), a pixel that is not positive or so small that the grid passes the map
 /// limit (`pixel_mm`), a kinematics the endpoint does not know (`machine.kinematics`).
 #[tokio::test]
@@ -167,8 +168,8 @@ async fn bad_input_names_its_field() {
     let cases: [(&str, Value, &str); 5] = [
         (
             "surface",
-            json!({"kind": "sphere", "radius_of_curvature_mm": -150.0}),
-            "surface",
+            json!({"kind": "sphere", "radius_of_curvature_mm": -20.0}),
+            "process.workpiece_radius_mm",
         ),
         ("tool_position_mm", json!(61.0), "tool_position_mm"),
         ("pixel_mm", json!(0.0), "pixel_mm"),

@@ -12,6 +12,7 @@ use preston::physics::{
 
 use super::common::adaptive_integral;
 use super::polar_reference::{depth_nm, Segment, Setup};
+use preston::surface::Surface;
 
 const K: f64 = 1e-13;
 const KPA: f64 = 10.0;
@@ -55,7 +56,7 @@ fn points() -> Vec<(f64, f64)> {
 #[test]
 fn the_footprint_is_preston_s_law_on_the_two_dimensional_sliding_speed() {
     let process = process(-37.0, 600.0, PressureModel::Uniform);
-    let pad = PolarPad::new(&process).unwrap();
+    let pad = PolarPad::new(&process);
     let omega = -37.0 * TAU / 60.0;
     let tool = 600.0 * TAU / 60.0;
     let mut seen = 0;
@@ -93,7 +94,7 @@ fn rings_at_constant_speed_match_the_time_stepped_motion() {
         (-15.0, 200.0, 35.0, 1.3, 2.25), // over the edge
     ];
     for (workpiece_rpm, tool_rpm, r1, start, turns) in cases {
-        let pad = PolarPad::new(&process(workpiece_rpm, tool_rpm, PressureModel::Uniform)).unwrap();
+        let pad = PolarPad::new(&process(workpiece_rpm, tool_rpm, PressureModel::Uniform));
         let duration = turns * 60.0 / f64::abs(workpiece_rpm);
         let segment = Segment::Ring {
             r1_mm: r1,
@@ -176,7 +177,7 @@ fn whole_turns_leave_the_one_dimensional_removal_at_every_angle() {
         },
     ] {
         let process = process(-12.0, 150.0, model);
-        let pad = PolarPad::new(&process).unwrap();
+        let pad = PolarPad::new(&process);
         let kernel = RemovalKernel::new(&process);
         let duration = 3.0 * 60.0 / 12.0;
         for r1 in [0.0, 4.0, 17.0, 33.0] {
@@ -209,7 +210,7 @@ fn a_partial_ring_averages_to_the_one_dimensional_removal() {
         },
     ] {
         let process = process(25.0, -180.0, model);
-        let pad = PolarPad::new(&process).unwrap();
+        let pad = PolarPad::new(&process);
         let kernel = RemovalKernel::new(&process);
         let turns = 1.375;
         let duration = turns * 60.0 / 25.0;
@@ -229,7 +230,7 @@ fn a_partial_ring_averages_to_the_one_dimensional_removal() {
 #[test]
 fn the_centre_is_every_angle_at_once() {
     let process = process(30.0, 300.0, PressureModel::Uniform);
-    let pad = PolarPad::new(&process).unwrap();
+    let pad = PolarPad::new(&process);
     let kernel = RemovalKernel::new(&process);
     for duration in [0.37, 2.0, 5.1] {
         let want = kernel.rate_nm_per_s(0.0, 6.0) * duration;
@@ -254,7 +255,7 @@ fn a_linear_pad_s_partial_ring_is_its_footprint_swept() {
             pad_moment_share: 0.6,
         },
     );
-    let pad = PolarPad::new(&process).unwrap();
+    let pad = PolarPad::new(&process);
     let omega = pad.part_speed_rad_per_s();
     let (r1, start, duration) = (33.0, 0.9, 0.62 * 60.0 / 20.0);
     let steps = 400_000;
@@ -297,7 +298,7 @@ fn spirals_match_the_time_stepped_motion() {
         (20.0, 200.0, 14.0, 16.0, 2.0, 1.45),
     ];
     for (workpiece_rpm, tool_rpm, from, to, start, turns) in cases {
-        let pad = PolarPad::new(&process(workpiece_rpm, tool_rpm, PressureModel::Uniform)).unwrap();
+        let pad = PolarPad::new(&process(workpiece_rpm, tool_rpm, PressureModel::Uniform));
         let duration = turns * 60.0 / f64::abs(workpiece_rpm);
         let segment = Segment::Spiral {
             r1_start_mm: from,
@@ -321,7 +322,7 @@ fn spirals_match_the_time_stepped_motion() {
 /// A spiral that does not move is a ring: the same depth to 1e-10 of the peak.
 #[test]
 fn a_spiral_standing_still_is_a_ring() {
-    let pad = PolarPad::new(&process(-15.0, 200.0, PressureModel::ConstantForce)).unwrap();
+    let pad = PolarPad::new(&process(-15.0, 200.0, PressureModel::ConstantForce));
     let duration = 1.7 * 60.0 / 15.0;
     let points = points();
     let rings: Vec<f64> = points
@@ -392,7 +393,7 @@ fn a_sector_law_s_ring_averages_to_the_one_dimensional_removal_at_each_speed() {
         let dwell = times.iter().sum::<f64>();
         let law = SectorLaw::new(1, sectors, factors.to_vec()).unwrap();
         let motion = Motion::radial(vec![r1]).with_sector_law(law).unwrap();
-        let blocks = executed_blocks(&motion, &[dwell], omega, 0.0);
+        let blocks = executed_blocks(&motion, &[dwell], omega, 0.0, &Surface::plane());
         assert_eq!(blocks.len(), 13);
         for (block, (&k, &t)) in blocks.iter().zip(visited.iter().zip(&times)) {
             assert!(
@@ -406,7 +407,7 @@ fn a_sector_law_s_ring_averages_to_the_one_dimensional_removal_at_each_speed() {
             .iter()
             .map(|&f| rate_at_factor(workpiece_rpm, tool_rpm, model, f))
             .collect();
-        let pad = PolarPad::new(&process).unwrap();
+        let pad = PolarPad::new(&process);
         let n = 8 * 360;
         for r in [4.5, 9.5, 14.0, 21.0, 23.5] {
             let circle: Vec<(f64, f64)> = (0..n)
@@ -443,7 +444,7 @@ fn a_plan_s_azimuthal_mean_is_the_one_dimensional_removal_of_its_instants() {
     let omega = workpiece_rpm * TAU / 60.0;
     let stations = vec![6.0, 11.0, 15.0, 22.0];
     let dwell = [2.5, 3.0, 1.5, 2.0];
-    let pad = PolarPad::new(&process).unwrap();
+    let pad = PolarPad::new(&process);
     let radii = [0.4, 5.5, 12.3, 19.0, 27.9];
     let mean_of = |blocks: &[Block], r: f64, peak: f64| {
         let depth = |theta: f64| pad.depth_nm(blocks, &[(r * theta.cos(), r * theta.sin())])[0];
@@ -451,7 +452,7 @@ fn a_plan_s_azimuthal_mean_is_the_one_dimensional_removal_of_its_instants() {
     };
 
     let constant = Motion::radial(stations.clone());
-    let blocks = executed_blocks(&constant, &dwell, omega, 0.3);
+    let blocks = executed_blocks(&constant, &dwell, omega, 0.3, &Surface::plane());
     let one_d =
         RemovalOperator::assemble(&RemovalKernel::new(&process), &radii, &constant).apply(&dwell);
     let peak = one_d.iter().cloned().fold(0.0, f64::max);
@@ -473,7 +474,7 @@ fn a_plan_s_azimuthal_mean_is_the_one_dimensional_removal_of_its_instants() {
     )
     .unwrap();
     let modulated = constant.with_sector_law(law).unwrap();
-    let blocks = executed_blocks(&modulated, &dwell, omega, 0.3);
+    let blocks = executed_blocks(&modulated, &dwell, omega, 0.3, &Surface::plane());
     assert!(blocks.len() > 3 * factors.len(), "{} blocks", blocks.len());
     let spent: f64 = blocks.iter().map(|b| b.duration_s).sum();
     assert!((spent - dwell.iter().sum::<f64>()).abs() <= 1e-12 * spent);
@@ -585,8 +586,8 @@ fn sector_laws_match_the_time_stepped_motion() {
                 }
             })
             .collect();
-        let blocks = executed_blocks(&motion, &case.dwell, omega, case.start);
-        let pad = PolarPad::new(&process).unwrap();
+        let blocks = executed_blocks(&motion, &case.dwell, omega, case.start, &Surface::plane());
+        let pad = PolarPad::new(&process);
         let (worst, peak) = against_reference(case.tool_rpm, case.start, &segments, |points| {
             pad.depth_nm(&blocks, points)
         });
@@ -648,7 +649,7 @@ fn c_s_schedule_holds_every_change_of_speed_the_executed_motion_does() {
     let motion = Motion::radial(stations.clone())
         .with_sector_law(law)
         .unwrap();
-    let full = executed_blocks(&motion, &dwell, omega, 0.2);
+    let full = executed_blocks(&motion, &dwell, omega, 0.2, &Surface::plane());
     let schedule = c_schedule(&motion, &dwell, omega, 0.2);
     assert_eq!(schedule.executed_blocks, full.len());
     assert!(

@@ -300,10 +300,17 @@ fn crossing(inside_at: &impl Fn(f64) -> bool, mut lo: f64, mut hi: f64, in_lo: b
 
 /// ∫_0^dt V·[inside] du for a step whose indicator (start, mid, end) = `f` is not constant:
 /// cut at the crossing(s) found in each half step, then the midpoint rule on every piece.
-fn split_step(step: &Step, dt: f64, p: (f64, f64), w2: f64, rp2: f64, f: [bool; 3]) -> f64 {
+/// `inside(c)` and `speed(c, Ω)` are the point's, for the pad centre c = (c_x, c_y).
+fn split_step(
+    step: &Step,
+    dt: f64,
+    inside: &impl Fn(f64, f64) -> bool,
+    speed: &impl Fn(f64, f64, f64) -> f64,
+    f: [bool; 3],
+) -> f64 {
     let inside_at = |u: f64| {
         let (cx, cy, _) = step.at(u);
-        (p.0 - cx) * (p.0 - cx) + (p.1 - cy) * (p.1 - cy) <= rp2
+        inside(cx, cy)
     };
     let h = 0.5 * dt;
     let mut cuts = [0.0; 5];
@@ -324,11 +331,103 @@ fn split_step(step: &Step, dt: f64, p: (f64, f64), w2: f64, rp2: f64, f: [bool; 
     for w in cuts[..n].windows(2) {
         let (a, b, u) = (w[0], w[1], 0.5 * (w[0] + w[1]));
         let (cx, cy, om) = step.at(u);
-        if b > a && (p.0 - cx) * (p.0 - cx) + (p.1 - cy) * (p.1 - cy) <= rp2 {
-            sum += sliding_speed_mm_s(om, w2, p, (cx, cy)) * (b - a);
+        if b > a && inside(cx, cy) {
+            sum += speed(cx, cy, om) * (b - a);
         }
     }
     sum
+}
+
+/// A spherical part (see [`depth_nm_on_sphere`]): each point in 3-D with its unit normal.
+struct SphereField {
+    /// Signed radius R (mm), the centre at (0, 0, R).
+    radius: f64,
+    points: Vec<[f64; 3]>,
+    normals: Vec<[f64; 3]>,
+    pad_radius: f64,
+}
+
+impl SphereField {
+    fn new(radius: f64, pad_radius: f64, points: &[(f64, f64)]) -> SphereField {
+        let points: Vec<[f64; 3]> = points
+            .iter()
+            .map(|&(x, y)| [x, y, sphere_sag(radius, x.hypot(y))])
+            .collect();
+        let normals = points.iter().map(|&p| sphere_normal(radius, p)).collect();
+        SphereField {
+            radius,
+            points,
+            normals,
+            pad_radius,
+        }
+    }
+
+    /// The pad centre on the surface at arc length s = |(c_x, c_y)| from the vertex in the
+    /// direction of (c_x, c_y), and its unit normal (the spin axis).
+    fn centre(&self, cx: f64, cy: f64) -> ([f64; 3], [f64; 3]) {
+        let s = cx.hypot(cy);
+        let r1 = self.radius.abs() * (s / self.radius.abs()).sin();
+        let (x, y) = if s > 0.0 {
+            (cx * r1 / s, cy * r1 / s)
+        } else {
+            (0.0, 0.0)
+        };
+        let p0 = [x, y, sphere_sag(self.radius, r1)];
+        (p0, sphere_normal(self.radius, p0))
+    }
+
+    /// Geodesic distance |R|·∠(X − O, P₀ − O) ≤ r_pad.
+    fn inside(&self, j: usize, cx: f64, cy: f64) -> bool {
+        let o = [0.0, 0.0, self.radius];
+        let (p0, _) = self.centre(cx, cy);
+        let (u, w) = (sub3(self.points[j], o), sub3(p0, o));
+        let c = cross3(u, w);
+        let angle = dot3(c, c).sqrt().atan2(dot3(u, w));
+        self.radius.abs() * angle <= self.pad_radius
+    }
+
+    /// |v_t|, v = Ω·ẑ × X − ω2·a × (X − P₀), less its part along the normal at X.
+    fn speed(&self, j: usize, cx: f64, cy: f64, omega: f64, w2: f64) -> f64 {
+        let x = self.points[j];
+        let m = self.normals[j];
+        let (p0, a) = self.centre(cx, cy);
+        let part = cross3([0.0, 0.0, omega], x);
+        let pad = cross3([w2 * a[0], w2 * a[1], w2 * a[2]], sub3(x, p0));
+        let v = sub3(part, pad);
+        let along = dot3(v, m);
+        let t = [
+            v[0] - along * m[0],
+            v[1] - along * m[1],
+            v[2] - along * m[2],
+        ];
+        dot3(t, t).sqrt()
+    }
+}
+
+/// z(r) = R − sign(R)·√(R² − r²): the sphere through the origin, its centre at (0, 0, R).
+fn sphere_sag(radius: f64, r: f64) -> f64 {
+    radius - radius.signum() * (radius * radius - r * r).sqrt()
+}
+
+/// The unit normal toward +z at the surface point `p`: (O − X)/R.
+fn sphere_normal(radius: f64, p: [f64; 3]) -> [f64; 3] {
+    [-p[0] / radius, -p[1] / radius, (radius - p[2]) / radius]
+}
+
+fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 /// Shared state of one `depth_nm` run.
@@ -339,19 +438,41 @@ struct Field<'a> {
     inside: Vec<bool>,
     w2: f64,
     rp2: f64,
+    sphere: Option<SphereField>,
 }
 
 impl Field<'_> {
+    /// Is point `j` under the pad centred above (cx, cy)?
+    fn inside(&self, j: usize, cx: f64, cy: f64) -> bool {
+        match &self.sphere {
+            Some(sphere) => sphere.inside(j, cx, cy),
+            None => {
+                let (x, y) = self.points[j];
+                (x - cx) * (x - cx) + (y - cy) * (y - cy) <= self.rp2
+            }
+        }
+    }
+
+    /// The sliding speed at point `j` with the pad centred above (cx, cy), the part at Ω.
+    fn speed(&self, j: usize, cx: f64, cy: f64, omega: f64) -> f64 {
+        match &self.sphere {
+            Some(sphere) => sphere.speed(j, cx, cy, omega, self.w2),
+            None => sliding_speed_mm_s(omega, self.w2, self.points[j], (cx, cy)),
+        }
+    }
+
     /// Under-pad indicators at the start of `step` (used where r1 may jump: segment starts).
     fn refresh(&mut self, step: &Step) {
         let (cx, cy, _) = step.at(0.0);
-        let rp2 = self.rp2;
-        for (j, &(x, y)) in self.points.iter().enumerate() {
-            self.inside[j] = (x - cx) * (x - cx) + (y - cy) * (y - cy) <= rp2;
+        for j in 0..self.points.len() {
+            self.inside[j] = self.inside(j, cx, cy);
         }
     }
     /// Adds ∫_0^dt V·[inside] du of one step to every on-part point (see `depth_nm`).
     fn add_step(&mut self, step: &Step, dt: f64) {
+        if self.sphere.is_some() {
+            return self.add_step_anywhere(step, dt);
+        }
         let (w2, rp2) = (self.w2, self.rp2);
         let (mx, my, wm) = step.at(0.5 * dt);
         let (ex, ey, _) = step.at(dt);
@@ -369,7 +490,41 @@ impl Field<'_> {
                     self.acc[j] += (vx * vx + vy * vy).sqrt() * dt;
                 }
             } else {
-                self.acc[j] += split_step(step, dt, (x, y), w2, rp2, [in0, in_m, in1]);
+                self.acc[j] += split_step(
+                    step,
+                    dt,
+                    &|cx, cy| (x - cx) * (x - cx) + (y - cy) * (y - cy) <= rp2,
+                    &|cx, cy, om| sliding_speed_mm_s(om, w2, (x, y), (cx, cy)),
+                    [in0, in_m, in1],
+                );
+            }
+            self.inside[j] = in1;
+        }
+    }
+
+    /// [`Self::add_step`] by the geometry's own `inside` and `speed` (any surface).
+    fn add_step_anywhere(&mut self, step: &Step, dt: f64) {
+        let (mx, my, wm) = step.at(0.5 * dt);
+        let (ex, ey, _) = step.at(dt);
+        for j in 0..self.points.len() {
+            if !self.on_part[j] {
+                continue;
+            }
+            let in0 = self.inside[j];
+            let in_m = self.inside(j, mx, my);
+            let in1 = self.inside(j, ex, ey);
+            if in0 == in_m && in_m == in1 {
+                if in_m {
+                    self.acc[j] += self.speed(j, mx, my, wm) * dt;
+                }
+            } else {
+                self.acc[j] += split_step(
+                    step,
+                    dt,
+                    &|cx, cy| self.inside(j, cx, cy),
+                    &|cx, cy, om| self.speed(j, cx, cy, om),
+                    [in0, in_m, in1],
+                );
             }
             self.inside[j] = in1;
         }
@@ -406,6 +561,40 @@ pub fn depth_nm(
     points: &[(f64, f64)],
     steps_per_second: f64,
 ) -> Vec<f64> {
+    depth_nm_over(setup, None, motion, points, steps_per_second)
+}
+
+/// [`depth_nm`] on a sphere of signed radius `sphere_radius_mm` (R > 0: the centre of
+/// curvature on the pad's side, at (0, 0, R); z = R − sign(R)·√(R² − r²)), the points given
+/// by their projection (x, y). The motion's r1 is the pad centre's ARC LENGTH from the
+/// vertex along its meridian (a spiral then moves at constant speed along the surface). The
+/// pad conforms to the sphere: it covers the points within geodesic distance r_pad of its
+/// centre P₀ (the surface point at arc length r1(t) in the direction φ),
+/// spins about the normal there, and the sliding speed at X is the tangential part of
+/// Ω·ẑ × X − ω2·a × (X − P₀), the depth taken along the normal. Same stepping, same error.
+pub fn depth_nm_on_sphere(
+    setup: &Setup,
+    sphere_radius_mm: f64,
+    motion: &[Segment],
+    points: &[(f64, f64)],
+    steps_per_second: f64,
+) -> Vec<f64> {
+    depth_nm_over(
+        setup,
+        Some(sphere_radius_mm),
+        motion,
+        points,
+        steps_per_second,
+    )
+}
+
+fn depth_nm_over(
+    setup: &Setup,
+    sphere_radius_mm: Option<f64>,
+    motion: &[Segment],
+    points: &[(f64, f64)],
+    steps_per_second: f64,
+) -> Vec<f64> {
     assert!(
         steps_per_second > 0.0 && steps_per_second.is_finite(),
         "steps_per_second must be > 0"
@@ -421,6 +610,8 @@ pub fn depth_nm(
         inside: vec![false; points.len()],
         w2: rpm_to_rad_s(setup.tool_rpm),
         rp2: setup.pad_radius_mm * setup.pad_radius_mm,
+        sphere: sphere_radius_mm
+            .map(|radius| SphereField::new(radius, setup.pad_radius_mm, points)),
     };
     let mut phi = setup.start_angle_rad;
     // The speed of the sector the pad is over at the end of the last `Sectors` segment.

@@ -39,7 +39,6 @@ impl From<FootprintInputError> for ApiError {
     fn from(err: FootprintInputError) -> Self {
         let at = match &err {
             FootprintInputError::Setting(setting) => return setting.clone().into(),
-            FootprintInputError::CurvedPart => "surface",
             FootprintInputError::PositionNotFinite(_)
             | FootprintInputError::PositionOutOfReach { .. } => "tool_position_mm",
             FootprintInputError::Pixel(_) => "pixel_mm",
@@ -71,7 +70,6 @@ impl From<MapProgramInputError> for ApiError {
     fn from(err: MapProgramInputError) -> Self {
         use MapProgramInputError as E;
         let at = match &err {
-            E::CurvedPart => "surface".to_string(),
             E::Law(law) => c_law_field(law),
             E::StartAngle(_) => "start_angle_deg".to_string(),
             E::TooManyBlocks { .. } => {
@@ -92,7 +90,6 @@ impl From<MapPredictInputError> for ApiError {
         use MapPredictInputError as E;
         let at = match &err {
             E::Setting(setting) => return setting.clone().into(),
-            E::CurvedPart => "surface".to_string(),
             E::Law(law) => c_law_field(law),
             E::StartAngle(_) => "start_angle_deg".to_string(),
             E::Pixel(_) => "pixel_mm".to_string(),
@@ -155,7 +152,6 @@ impl From<MapOptimizeInputError> for ApiError {
         let at = match &err {
             E::Setting(setting) => return setting.clone().into(),
             E::Map(map) => return map.clone().into(),
-            E::CurvedPart => "surface",
             E::Sectors(_) => "c_law.sectors",
             E::MaxHarmonic { .. } => "c_law.max_harmonic",
             E::MaxModulation(_) => "c_law.max_modulation",
