@@ -32,6 +32,8 @@
 //! it at all) is held at its nominal value and reported without a standard error; the caller
 //! says why. Standard errors are √ of the diagonal of σ²·(JᵀWJ)⁻¹, σ² = S/(n − p).
 
+pub mod spatial;
+
 use crate::field::{interpolate_within, DepthProfile};
 use faer::Mat;
 

@@ -28,7 +28,7 @@ use super::limits::{Axis, LimitKind};
 use super::pose::{Pose, Tool};
 use super::program::{dwell_span, lifted, Approach, AxisMotion, BlockKind, ProgramError, Skipped};
 use crate::physics::motion::{one_speed, Motion, Segment};
-use crate::physics::polar::{c_changes, c_runs, executed_blocks};
+use crate::physics::polar::{c_changes, c_runs, executed_blocks, Track};
 use crate::surface::Surface;
 
 /// The most C turns in one block, degrees: a quarter turn, so the shorter way round is
@@ -112,9 +112,10 @@ impl PolarProgram {
             let turn = speed * piece.duration_s;
             let parts = (turn.abs() / MAX_C_STEP_DEG).ceil().max(1.0) as usize;
             let c0 = c;
+            let track = Track::new(Some(surface), piece.from_mm, piece.to_mm, 1.0);
             for k in 1..=parts {
                 let share = k as f64 / parts as f64;
-                let position_mm = piece.from_mm + (piece.to_mm - piece.from_mm) * share;
+                let position_mm = track.at(share);
                 c = c0 + turn * share;
                 blocks.push(PolarBlock {
                     kind,

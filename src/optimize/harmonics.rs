@@ -75,7 +75,7 @@ use rayon::prelude::*;
 
 use super::kinematics::MARGIN;
 use super::scaling::second_differences;
-use crate::physics::polar::PolarPad;
+use crate::physics::polar::{PolarPad, Track};
 use crate::physics::Motion;
 
 /// The smoothing weight λ of each harmonic's problem (module docs), as the 1-D optimizer's
@@ -166,11 +166,12 @@ impl HarmonicOperator {
             .map(|j| {
                 let mut at = vec![(motion.radii_mm()[j], motion.stop_share(j))];
                 if motion.move_share(j) > 0.0 {
-                    let (a, b) = (bounds[j], bounds[j + 1]);
+                    // At constant speed along the surface (a plane's radius, linear).
+                    let track = Track::new(pad.surface(), bounds[j], bounds[j + 1], 1.0);
                     at.extend(
                         CELL_NODES
                             .iter()
-                            .map(|(x, w)| (a + (b - a) * x, w * motion.move_share(j))),
+                            .map(|(x, w)| (track.at(*x), w * motion.move_share(j))),
                     );
                 }
                 at.retain(|p| p.1 > 0.0);

@@ -597,8 +597,8 @@ impl CurvedKernel {
 ///
 /// (module docs; only A = ω_t·a_z − Ω depends on the part's speed Ω, and E through A², so
 /// ∂E/∂Ω = −2·A·r²), w the pad's pressure relative to nominal in the developed plane,
-/// max(0, level + slope·(s·cos α − s1)). Its integral over the arc is π times
-/// [`CurvedKernel::rate_nm_per_s`]'s integrand, point for point.
+/// max(0, level + slope·(s·cos α − s1)). Its integral over the half-arc [0, φ0] is π times
+/// [`CurvedKernel::rate_nm_per_s`].
 impl CurvedKernel {
     /// The same kernel with the part turning at `part_speed_rad_per_s` (Ω, lab frame): the
     /// contact and the pressure depend only on where the pad is.
@@ -615,24 +615,24 @@ impl CurvedKernel {
         covered_arc(ring, site).map(|psi| 2.0 * psi.radians())
     }
 
-    /// The footprint ρ (nm/s) at the point of `ring` whose angle α from the pad centre's
-    /// meridian has the cosine `cos_alpha`, with the pad at `site` under `pressure`, and its
-    /// derivative in the part's speed Ω (nm/s per rad/s). The caller keeps α on the arc
-    /// ([`Self::pressed_half_angle`]).
+    /// The footprint ρ = K·P·w·|v_t| at the point of `ring` whose angle α from the pad
+    /// centre's meridian has the cosine `cos_alpha`, with the pad at `site` under `pressure`,
+    /// as its three factors: K·P·w (nm/s per mm/s), |v_t| (mm/s) and ∂|v_t|/∂Ω (mm/s per
+    /// rad/s). The caller keeps α on the arc ([`Self::pressed_half_angle`]).
     pub fn footprint(
         &self,
         ring: &Ring,
         site: &Site,
         pressure: &PadPressure,
         cos_alpha: f64,
-    ) -> (f64, f64) {
+    ) -> (f64, f64, f64) {
         let weight = if pressure.slope_per_mm == 0.0 {
             pressure.level
         } else {
             (pressure.level + pressure.slope_per_mm * (ring.arc * cos_alpha - site.arc1)).max(0.0)
         };
         if weight == 0.0 {
-            return (0.0, 0.0);
+            return (0.0, 0.0, 0.0);
         }
         let dz = ring.z - site.z1;
         let (w, t) = (self.omega_workpiece, self.omega_tool);
@@ -650,13 +650,13 @@ impl CurvedKernel {
             0.0
         };
         // `scale` is K·P/π.
-        let k = PI * self.scale * weight;
-        (k * speed, k * slope)
+        (PI * self.scale * weight, speed, slope)
     }
 
     /// The squared reach c² = c_t² − (z − z₁)² of the pad at `r1_mm` on `ring` (module docs:
     /// the ring is under the pad where r² + r1² − 2·r·r1·cos α ≤ c²) and its derivative in
-    /// r1: (z − z₁)² exactly, a changing chord (an asphere's) by a central difference.
+    /// r1: 2·(z − z₁)·z′(r1) exactly, plus a changing chord's (an asphere's) by a difference,
+    /// one-sided where r1 + h leaves the surface's domain.
     pub fn squared_reach(&self, ring: &Ring, r1_mm: f64) -> (f64, f64) {
         let site = self.site(r1_mm);
         let dz = ring.z - site.z1;
@@ -664,8 +664,13 @@ impl CurvedKernel {
             0.0
         } else {
             let h = 1e-6 * (1.0 + r1_mm.abs());
-            let (lo, hi) = (self.site(r1_mm - h).chord, self.site(r1_mm + h).chord);
-            (hi * hi - lo * lo) / (2.0 * h)
+            let squared = |x: f64| self.site(x).chord.powi(2);
+            let (lo, mid, hi) = (squared(r1_mm - h), squared(r1_mm), squared(r1_mm + h));
+            if hi.is_finite() {
+                (hi - lo) / (2.0 * h)
+            } else {
+                (mid - lo) / h
+            }
         };
         let slope1 = self.part.surface.local(r1_mm).slope;
         (

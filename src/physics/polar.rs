@@ -40,7 +40,8 @@
 //! 1-D prediction at the C speed of each instant; what is left around it is the ripple of
 //! where the rings begin and end.
 //!
-//! **A motion.** A plan's stops and moves (`Motion::segments`, X at constant speed in each)
+//! **A motion.** A plan's stops and moves (`Motion::segments`, the pad at constant speed along
+//! the surface in each)
 //! run with C at the process's Ω, or under a sector law at f·Ω over each sector of the pad
 //! centre's part-frame angle; cut where that angle crosses a sector's edge, the executed
 //! motion is a chain of [`Block`]s at constant speeds on both axes ([`executed_blocks`]), each
@@ -112,10 +113,13 @@ impl<'a> Track<'a> {
         }
     }
 
-    /// The radius (mm) at `elapsed_s` into the move.
+    /// The radius (mm) at `elapsed_s` into the move: its ends exactly at 0 and the duration
+    /// (an arc length's inverse may differ from the radius in the last bit).
     pub fn at(&self, elapsed_s: f64) -> f64 {
         match self.along {
             None => self.from_mm + (self.to_mm - self.from_mm) * (elapsed_s / self.duration_s),
+            Some(_) if elapsed_s <= 0.0 || self.from_mm == self.to_mm => self.from_mm,
+            Some(_) if elapsed_s >= self.duration_s => self.to_mm,
             Some((surface, start, speed)) => {
                 surface.radius_at_arc_length(start + speed * elapsed_s)
             }
@@ -214,8 +218,8 @@ impl PolarPad {
 
     /// The azimuthal mean (nm) of the depth `blocks` leave at each radius of `radii_mm`: by the
     /// identity of the module docs, Σ ∫ R_Ω(r; r1(t)) dt over the blocks, each at its own C
-    /// speed — a ring's T·R in closed form, a spiral's by adaptive Gauss–Kronrod in time to
-    /// the spiral's tolerance.
+    /// speed — a ring's T·R, a spiral's by adaptive Gauss–Kronrod in time to the spiral's
+    /// tolerance (on a curved part split where R has kinks in r1).
     pub fn mean_depth_nm(&self, blocks: &[Block], radii_mm: &[f64]) -> Vec<f64> {
         self.sum_in_reach(
             &rings_merged(blocks),
@@ -287,7 +291,8 @@ impl PolarPad {
         let track = self.track(from, to, t);
         let density = RELATIVE_TOLERANCE * self.largest_rate(r_mm, from.max(to));
         let Some(curved) = self.kernel.curved() else {
-            return adaptive_gauss_kronrod(&|s: f64| rate(track.at(s)), 0.0, t, density);
+            let line = |s: f64| rate(from + (to - from) * s / t);
+            return adaptive_gauss_kronrod(&line, 0.0, t, density);
         };
         // On a curved part R(r; r1) is split where it has kinks in r1 (the pad's tangencies,
         // the sliding speed's zero: `CurvedKernel::breakpoints`), as the 1-D path is: the
@@ -345,13 +350,15 @@ impl PolarPad {
             // surface; the pressed arc decides.
             let r = x.hypot(y);
             let pair = self.pair(r, r1);
+            // With r or r1 zero the angle is undefined and the sliding speed does not depend
+            // on it; the weight then takes the pad's level, as the plane's does.
             let cos = if r * r1 > 0.0 {
                 ((x * cx + y * cy) / (r * r1)).clamp(-1.0, 1.0)
             } else {
-                1.0
+                0.0
             };
             return match self.pressed_half_angle(&pair) {
-                Some(arc) if cos >= arc.cos() => self.footprint(&pair, cos).0,
+                Some(arc) if cos >= arc.cos() => self.footprint(&pair, cos),
                 _ => 0.0,
             };
         }
@@ -408,18 +415,18 @@ impl PolarPad {
             return 0.0;
         }
         let density = RELATIVE_TOLERANCE * self.largest_rate(r_mm, r1_mm);
-        let rate = |alpha: f64| self.footprint(&pair, alpha.cos()).0;
+        let rate = |alpha: f64| self.footprint(&pair, alpha.cos());
         alpha_rad.signum() * adaptive_gauss_kronrod(&rate, 0.0, end, density)
     }
 
     /// The pad centre's track over a move on this pad's part.
     fn track(&self, from_mm: f64, to_mm: f64, duration_s: f64) -> Track<'_> {
-        Track::new(
-            self.kernel.curved().map(|curved| curved.surface()),
-            from_mm,
-            to_mm,
-            duration_s,
-        )
+        Track::new(self.surface(), from_mm, to_mm, duration_s)
+    }
+
+    /// The part's surface, `None` on a plane.
+    pub fn surface(&self) -> Option<&Surface> {
+        self.kernel.curved().map(|curved| curved.surface())
     }
 
     /// What the footprint between the ring at `r_mm` and the pad centre at `r1_mm` needs,
@@ -462,8 +469,15 @@ impl PolarPad {
     }
 
     /// The footprint ρ (nm/s) at the point of the pair's ring at angle α (its cosine `cos`)
-    /// from the pad centre's direction, on the pressed arc, and ∂ρ/∂Ω (module docs).
-    fn footprint(&self, pair: &Pair, cos: f64) -> (f64, f64) {
+    /// from the pad centre's direction, on the pressed arc (module docs).
+    fn footprint(&self, pair: &Pair, cos: f64) -> f64 {
+        let (pressed, speed, _) = self.footprint_parts(pair, cos);
+        pressed * speed
+    }
+
+    /// [`Self::footprint`] as its factors: K·P·w (nm/s per mm/s), the sliding speed V and
+    /// ∂V/∂Ω (module docs).
+    fn footprint_parts(&self, pair: &Pair, cos: f64) -> (f64, f64, f64) {
         match *pair {
             Pair::Flat { r, r1, pressure } => {
                 let (omega, w2) = (self.part_speed, self.tool_speed);
@@ -478,7 +492,7 @@ impl PolarPad {
                 } else {
                     0.0
                 };
-                (self.preston * factor * v, self.preston * factor * dv)
+                (self.preston * factor, v, dv)
             }
             Pair::Curved {
                 kernel,
@@ -488,12 +502,15 @@ impl PolarPad {
             } => kernel.footprint(&ring, &site, &pressure, cos),
         }
     }
+
     /// The depth (nm) at the point (r_mm, θ) of the part left by a spiral: the pad centre
-    /// moving from `r1_start_mm` to `r1_end_mm` at a constant radial speed while C turns at
-    /// this pad's Ω, from the part-frame angle `start_rad`, for `duration_s` (module docs).
+    /// moving from `r1_start_mm` to `r1_end_mm` at a constant speed (along the surface:
+    /// [`Track`]) while C turns at this pad's Ω, from the part-frame angle `start_rad`, for
+    /// `duration_s` (module docs).
     ///
     /// No closed form: the footprint is integrated along the time, exactly where it is
-    /// smooth. The pad's rim crosses the point where g(t) = r_t² − |p − c(t)|² = 0; g is
+    /// smooth. The pad's rim crosses the point where g(t) = c² − |p − c(t)|² = 0 (c = r_t on a
+    /// plane, the pad's reach on the point's ring on a curved part); g is
     /// largest near each time the pad centre passes the point's angle and smallest half a turn
     /// later, so [0, T] splits at those extremes (roots of g′ by the Illinois method) into
     /// pieces where g is monotone, each holding at most one crossing (found the same way).
@@ -548,7 +565,7 @@ impl PolarPad {
                     site: kernel.site(r1),
                     pressure: self.kernel.pad_pressure(r1),
                 };
-                self.footprint(&pair, alpha(t).cos()).0
+                self.footprint(&pair, alpha(t).cos())
             }
             None => {
                 let phi = start_rad - omega * t;
@@ -626,9 +643,9 @@ impl PolarPad {
                     continue;
                 }
                 let c = alpha.cos();
-                let (footprint, slope) = self.footprint(&pair, c);
-                let scale = weight / PI;
-                let (a, b) = (scale * footprint, scale * (footprint - omega * slope));
+                let (pressed, v, dv) = self.footprint_parts(&pair, c);
+                let scale = pressed * weight / PI;
+                let (a, b) = (scale * v, scale * (v - omega * dv));
                 // cos(mα) by the recurrence cos((m+1)α) = 2·cos α·cos(mα) − cos((m−1)α).
                 cosines[0] = 1.0;
                 if m_max >= 1 {
@@ -662,7 +679,8 @@ impl PolarPad {
 }
 
 /// A piece of the executed motion at constant speed on both axes: the pad centre from the
-/// radius `from_mm` to `to_mm` (linear in time) and from the part-frame angle `start_rad`, for
+/// radius `from_mm` to `to_mm` (at constant speed along the surface, [`Track`]: linear in time
+/// on a plane) and from the part-frame angle `start_rad`, for
 /// `duration_s`, with the part turning at `part_speed_rad_per_s` (so the pad centre's angle
 /// falls at that rate). A ring when `from_mm == to_mm`, else a piece of spiral.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -751,8 +769,9 @@ pub fn c_changes(runs: &[CRun]) -> impl Iterator<Item = (f64, std::ops::Range<us
     })
 }
 
-/// The blocks `motion` runs with `dwell_s` at its stations: its stops and moves in order
-/// (`Motion::segments`), X at constant speed within each; C at `part_speed_rad_per_s` (the
+/// The blocks `motion` runs with `dwell_s` at its stations on `surface`: its stops and moves in
+/// order (`Motion::segments`), the pad centre at constant speed along the surface within each
+/// ([`Track`]; X at constant speed on a plane); C at `part_speed_rad_per_s` (the
 /// process's Ω) throughout, or under a sector law at Ω times the factor of the sector the pad
 /// centre is over, each segment then cut where the pad centre crosses a sector's edge. C's
 /// speed changes only at a sector's edge: a sector takes the factor of the station whose

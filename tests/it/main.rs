@@ -21,6 +21,7 @@ mod invariant;
 mod layers;
 mod machine;
 mod map_analysis;
+mod map_calibration;
 mod map_predict;
 mod map_program;
 mod map_removal_function;

@@ -114,7 +114,7 @@ pub struct MapOptimizeRequest {
     /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
     #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
-    /// The part's surface; default a plane, and only a plane yet (a 422 names `surface`).
+    /// The part's surface; default a plane (a sphere or an asphere: the pad conforms to it).
     #[serde(default, deserialize_with = "optional_object")]
     pub surface: Option<SurfaceDto>,
     /// The measured error: heights (nm, the surface above its design), as `/v1/maps/analysis`
@@ -321,7 +321,7 @@ symmetric); its answer modulates the time the pad spends over each sector of the
 executes by its speed. The modulation's needs (its bound, C's velocity and acceleration) are \
 floors on the mean dwell, solved as `/v1/optimize` solves a profile (the azimuthal mean, with a \
 free piston) within every limit. The result is judged by the exact removal of the executed \
-motion. Flat parts.",
+motion, on a plane, a sphere or an asphere.",
         ok: "The plan, C's law, the maps and their figures, the harmonic budget",
     };
     type Request = MapOptimizeRequest;

@@ -52,7 +52,8 @@ pub struct MapPredictRequest {
     /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
     #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
-    /// The part's surface; default a plane, and only a plane yet (a 422 names `surface`).
+    /// The part's surface; default a plane. On a curved part the pad conforms to it, moves at
+    /// constant speed along the arc within a move, and the map is over the projection (x, y).
     #[serde(default, deserialize_with = "optional_object")]
     pub surface: Option<SurfaceDto>,
     /// The machine; default `{"kinematics": "polar"}`.
@@ -168,7 +169,8 @@ impl Endpoint for MapPredictEndpoint {
 turns on C under the pad while X runs the dwell plan; with `c_law`, C's speed is set per station \
 and sector. The executed motion (blocks at constant X and C speed, cut at the sector edges) is \
 integrated exactly at each pixel: rings in closed form, spirals by quadrature. Figures over the \
-clear aperture, with the non-axisymmetric part separated. Flat parts. `Accept: text/csv` returns \
+clear aperture, with the non-axisymmetric part separated. On a sphere or an asphere the pad \
+conforms to the surface and the map is over the projection (x, y). `Accept: text/csv` returns \
 x, y and removal per pixel on the part; `image/png` a heat map.",
         ok: "The removal map and its figures; as CSV, the pixels; as PNG, the heat map",
     };

@@ -71,7 +71,7 @@ pub struct MapProgramRequest {
     /// speed (times the law's factors).
     #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
-    /// The part's surface; default a plane, and only a plane yet (a 422 names `surface`).
+    /// The part's surface; default a plane (on a curved part Z and B follow the pad centre).
     #[serde(default, deserialize_with = "optional_object")]
     pub surface: Option<SurfaceDto>,
     /// The plan, as `/v1/maps/optimize` returns it: stations (strictly increasing) and the
@@ -191,7 +191,8 @@ positive seen from the tool side; no block turns it more than 90°. The approach
 C at the first and last blocks' speeds, long enough for C to reach them. Every axis is checked \
 against `machine`, C's velocity and acceleration included; a program that would break a limit \
 is a 422 `machine-limits` problem naming the axis, the limit and the first block, never a \
-program. `Accept: text/x-gcode` returns the G-code, `text/csv` the block table. Flat parts.",
+program. On a curved part Z and B follow the pad centre along the surface. `Accept: \
+text/x-gcode` returns the G-code, `text/csv` the block table.",
         ok: "Per-axis motion and utilisation; as G-code, the program; as CSV, the block table",
     };
     type Request = MapProgramRequest;

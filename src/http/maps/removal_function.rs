@@ -40,8 +40,8 @@ pub struct MapRemovalFunctionRequest {
     /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
     #[serde(deserialize_with = "object")]
     pub process: ProcessDto,
-    /// The part's surface; default a plane, and only a plane yet: the footprint on a curved
-    /// part is not modelled point by point (a 422 names `surface`).
+    /// The part's surface; default a plane. On a curved part the pad conforms to it and the
+    /// map is over the projection (x, y), the rate along the normal.
     #[serde(default, deserialize_with = "optional_object")]
     pub surface: Option<SurfaceDto>,
     /// The machine; default `{"kinematics": "polar"}`.
@@ -121,7 +121,8 @@ impl Endpoint for MapRemovalFunctionEndpoint {
         description: "On the paper's machine (`machine.kinematics: polar`, the default) the part \
 turns on C under the pad: the footprint is the removal rate at each point of the part at one \
 instant, the pad centre at (tool_position_mm, 0), exact (Preston's law on the 2-D sliding speed); \
-its revolution average is the radial removal function R(r; r1). Flat parts. `Accept: text/csv` \
+its revolution average is the radial removal function R(r; r1). On a sphere or an asphere the \
+pad conforms to the surface and the map is over the projection (x, y). `Accept: text/csv` \
 returns the footprint as x, y and rate per pixel; `image/png` a heat map of it.",
         ok: "The footprint and its revolution average; as CSV, the footprint's pixels; as PNG, \
              its heat map",

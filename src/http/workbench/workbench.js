@@ -543,9 +543,9 @@
       series: rf.profiles.map((p) => ({ name: `tool at ${p.tool_position_mm} mm`, points: zip(rf.radius_mm, p.removal_rate_nm_per_min) })),
     });
     downloads(view, 'removal-function', rf, repeat(view, API.removalFunction, rfRequest));
-    // The middle position's footprint at one instant: the 2-D model's own, on a plane.
+    // The middle position's footprint at one instant: the 2-D model's own.
     const footprint = $('figure[data-chart="footprint"] .plot', section(view));
-    if (surface.kind === 'plane' && rfRequest.tool_positions_mm.length > 1) {
+    if (rfRequest.tool_positions_mm.length > 1) {
       const fpRequest = { process, surface, tool_position_mm: rfRequest.tool_positions_mm[1], pixel_mm: process.tool_radius_mm / 25 };
       const fp = (await post(view, API.mapRemovalFunction, fpRequest)).footprint;
       // The map's rows as the CSV heatMap reads (x, y, value), header first.
@@ -553,7 +553,7 @@
       footprint.replaceChildren(
         heatMap(['x_mm,y_mm,rate', ...rows].join('\n'), fp.pixel_mm, `pad at ${fpRequest.tool_position_mm} mm, one instant`, 'nm/min'));
     } else {
-      footprint.replaceChildren(h('p', {}, 'The footprint is modelled point by point on a plane only.'));
+      footprint.replaceChildren(h('p', {}, 'The footprint is drawn for the middle of three or more tool positions.'));
     }
     const eta = now.eta ?? (process.tool_rpm ? -process.workpiece_rpm / process.tool_rpm : NaN);
     draw(view, 'predict', {
