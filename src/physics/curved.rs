@@ -463,18 +463,24 @@ impl CurvedKernel {
     /// or `None` where the pad does not touch the ring.
     fn arc_speed(&self, ring: &Ring, site: &Site) -> Option<ArcSpeed> {
         let psi = covered_arc(ring, site)?;
+        let (a, b, e) = self.speed_terms(ring, site);
+        Some(ArcSpeed {
+            psi,
+            b,
+            f: a * ring.r,
+            e,
+        })
+    }
+
+    /// The sliding speed's terms A, B and E on `ring` with the pad at `site` (module docs).
+    fn speed_terms(&self, ring: &Ring, site: &Site) -> (f64, f64, f64) {
         let dz = ring.z - site.z1;
         let (w, t) = (self.omega_workpiece, self.omega_tool);
         let a = t * site.axis_z - w;
         let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
         let c = -t * site.axis_x;
         let d = c * ring.r * ring.cos - b * ring.sin;
-        Some(ArcSpeed {
-            psi,
-            b,
-            f: a * ring.r,
-            e: (a * a + c * c) * ring.r * ring.r - d * d,
-        })
+        (a, b, (a * a + c * c) * ring.r * ring.r - d * d)
     }
 
     /// The tool positions (radii, ascending) that bound the support of R(`ring`; ·), clipped
@@ -634,13 +640,7 @@ impl CurvedKernel {
         if weight == 0.0 {
             return (0.0, 0.0, 0.0);
         }
-        let dz = ring.z - site.z1;
-        let (w, t) = (self.omega_workpiece, self.omega_tool);
-        let a = t * site.axis_z - w;
-        let b = t * (site.axis_z * site.r1 + site.axis_x * dz);
-        let c = -t * site.axis_x;
-        let d = c * ring.r * ring.cos - b * ring.sin;
-        let e = (a * a + c * c) * ring.r * ring.r - d * d;
+        let (a, b, e) = self.speed_terms(ring, site);
         let sin2 = (1.0 - cos_alpha * cos_alpha).max(0.0);
         let along = b - a * ring.r * cos_alpha;
         let speed = (e * sin2 + along * along).max(0.0).sqrt();
