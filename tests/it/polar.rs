@@ -124,18 +124,10 @@ fn against_reference(
     segments: &[Segment],
     depths: impl Fn(&[(f64, f64)]) -> Vec<f64>,
 ) -> (f64, f64) {
-    let fastest = |segment: &Segment| match *segment {
-        Segment::Ring { omega_rpm, .. } | Segment::Spiral { omega_rpm, .. } => omega_rpm,
-        Segment::Modulated { mean_omega_rpm, .. } => mean_omega_rpm,
-        // Steps counted at the fastest sector.
-        Segment::Sectors { ref omega_rpm, .. } => {
-            omega_rpm.iter().fold(0.0_f64, |m, w| m.max(w.abs()))
-        }
-    };
     let omega_rpm = segments
         .iter()
-        .map(fastest)
-        .fold(0.0_f64, |m, w| m.max(w.abs()));
+        .map(Segment::fastest_rpm)
+        .fold(0.0_f64, f64::max);
     let setup = Setup {
         part_radius_mm: 40.0,
         pad_radius_mm: 10.0,

@@ -113,6 +113,18 @@ pub enum Segment {
 }
 
 impl Segment {
+    /// The fastest |Ω| the segment runs C at, rpm (a modulated one's mean; a sector law's
+    /// fastest sector): what the steps per second are counted against.
+    pub fn fastest_rpm(&self) -> f64 {
+        match *self {
+            Segment::Ring { omega_rpm, .. } | Segment::Spiral { omega_rpm, .. } => omega_rpm.abs(),
+            Segment::Modulated { mean_omega_rpm, .. } => mean_omega_rpm.abs(),
+            Segment::Sectors { ref omega_rpm, .. } => {
+                omega_rpm.iter().fold(0.0_f64, |m, w| m.max(w.abs()))
+            }
+        }
+    }
+
     pub fn duration_s(&self) -> f64 {
         match *self {
             Segment::Ring { duration_s, .. }

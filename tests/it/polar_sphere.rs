@@ -89,13 +89,7 @@ fn against_reference(
 ) -> (f64, f64) {
     let fastest = segments
         .iter()
-        .map(|segment| match *segment {
-            Segment::Ring { omega_rpm, .. } | Segment::Spiral { omega_rpm, .. } => omega_rpm.abs(),
-            Segment::Modulated { mean_omega_rpm, .. } => mean_omega_rpm.abs(),
-            Segment::Sectors { ref omega_rpm, .. } => {
-                omega_rpm.iter().fold(0.0_f64, |m, w| m.max(w.abs()))
-            }
-        })
+        .map(Segment::fastest_rpm)
         .fold(0.0_f64, f64::max);
     let setup = Setup {
         part_radius_mm: PART_RADIUS_MM,
