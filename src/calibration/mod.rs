@@ -38,10 +38,14 @@ use crate::field::{interpolate_within, DepthProfile};
 use faer::Mat;
 
 use crate::lsq::{self, Fit, LsqError, Model, RobustLoss};
+use crate::physics::polar::{executed_blocks, Block, PolarPad};
+use crate::physics::Turning;
 use crate::physics::{
     ClearAperture, DwellSchedule, GridError, PressureModel, Process, ProcessError, ProcessSpec,
     RemovalKernel, RemovalOperator, ScheduleError,
 };
+use spatial::{Pixel, Sandwich};
+use std::cell::RefCell;
 
 /// Levenberg–Marquardt steps per weighting.
 const MAX_STEPS: usize = 100;
@@ -122,13 +126,28 @@ pub enum TrialSpec {
         positions_mm: Vec<f64>,
         dwell_s: Vec<f64>,
     },
+    /// A polar plan on the paper's machine: a dwell schedule (checked against the nominal
+    /// process), under C's sector law or not, its pad centre starting at the part-frame
+    /// angle `start_angle_rad`.
+    Polar {
+        schedule: DwellSchedule,
+        start_angle_rad: f64,
+    },
 }
 
-/// What ran, checked: a ring, or a dwell schedule (its motion built once).
+/// What ran, checked: a ring, a dwell schedule (its motion built once), or for a run measured
+/// by a map the executed motion's blocks (`physics::polar`) and the stations they visit.
 #[derive(Debug, Clone, PartialEq)]
 enum Trial {
-    Ring { position_mm: f64, duration_s: f64 },
+    Ring {
+        position_mm: f64,
+        duration_s: f64,
+    },
     Plan(DwellSchedule),
+    Executed {
+        blocks: Vec<Block>,
+        positions_mm: Vec<f64>,
+    },
 }
 
 /// What a run removed, as measured.
@@ -143,6 +162,21 @@ pub enum Measured {
         before: DepthProfile,
         after: DepthProfile,
     },
+    /// Material removed (nm, positive) at a map's pixels: an interferometer's map of the
+    /// removal, or the difference of the maps before and after (`maps::difference`). Each
+    /// pixel has its own piston, tilt and the removal's spatial correlation in the fit.
+    Map(Vec<MapSample>),
+}
+
+/// One pixel of a measured removal map.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapSample {
+    /// The pixel's column and row on the map (its neighbours, for the residual's correlation).
+    pub pixel: Pixel,
+    /// Where it lies in the part's C frame, mm.
+    pub x_mm: f64,
+    pub y_mm: f64,
+    pub removal_nm: f64,
 }
 
 /// One run as asked.
@@ -213,6 +247,11 @@ pub enum RunError {
     Aperture(GridError),
     #[error("no measured point lies within the run's clear aperture")]
     NothingInAperture,
+    #[error(
+        "C's sector law makes the removal vary with the angle, which one profile does not \
+         sample: measure this run with a map"
+    )]
+    LawNeedsMap,
 }
 
 /// Why a calibration was refused before fitting.
@@ -230,9 +269,16 @@ pub enum CalibrationError {
     #[error("pad_moment_share can be fitted only under the linear pressure model")]
     MomentShareNeedsLinear,
     #[error(
-        "{points} measured points cannot determine {parameters} parameters (the process's and \
-         each run's piston{}): give more points",
-        if *power { " and power" } else { "" }
+        "run {run} is measured by a map, from which only K is fitted: a pixel's predicted \
+         depth jumps where it meets the pad's rim (a pad held over the axis covers it whole or \
+         not at all), so the fit cannot follow r_t or κ through the map's pixels; fit them from \
+         ring-test profiles and K from the map"
+    )]
+    ShapeFromMap { run: usize },
+    #[error(
+        "{points} measured points cannot determine {parameters} parameters (the process's, \
+         each run's piston{} and a map run's tilt): give more points",
+        if *power { ", power" } else { "" }
     )]
     TooFewPoints {
         points: usize,
@@ -276,10 +322,20 @@ pub enum OutsideModel {
 #[derive(Debug, Clone)]
 struct Run {
     trial: Trial,
+    /// The measured points' radii (a map's pixels': √(x² + y²)), mm.
     radius_mm: Vec<f64>,
     removal_nm: Vec<f64>,
     /// The piston's shape at each radius: cos θ(r) for before/after profiles, else 1.
     piston_shape: Vec<f64>,
+    /// A map's pixels: where each lies (part frame, mm) and its place on the map.
+    map: Option<MapPoints>,
+}
+
+/// The pixels of a run measured by a map.
+#[derive(Debug, Clone)]
+struct MapPoints {
+    xy_mm: Vec<(f64, f64)>,
+    pixels: Vec<Pixel>,
 }
 
 /// A checked calibration.
@@ -318,18 +374,36 @@ impl Estimate {
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunFit {
     pub piston_nm: f64,
+    /// A map run's own fitted terms and its residual's correlation.
+    pub map: Option<MapRunFit>,
     /// The r² term, nm/mm² (when fitted).
     pub power_nm_per_mm2: Option<f64>,
     pub residual_rms_nm: f64,
     /// Point-to-point noise of the residual: 1.4826·median|Δ²e|/√6 over its second
     /// differences (σ for white noise; blind to a smooth misfit and to a few sharp ones, such
-    /// as a pad rim in the wrong place); `None` below 5 points.
+    /// as a pad rim in the wrong place); `None` below 5 points and for a map.
     pub difference_noise_nm: Option<f64>,
     pub radius_mm: Vec<f64>,
     pub measured_nm: Vec<f64>,
     pub predicted_nm: Vec<f64>,
     /// The final weights (robust losses; 1 otherwise).
     pub weight: Vec<f64>,
+}
+
+/// What a map run adds to its fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapRunFit {
+    /// The run's tilt, nm per mm along x and y of the part's frame.
+    pub tilt_nm_per_mm: (f64, f64),
+    /// The pixels used, and the residual (measured − model, nm) at each.
+    pub pixels: Vec<Pixel>,
+    pub residual_nm: Vec<f64>,
+    /// The residual's correlation length as the standard errors count it, pixels
+    /// ([`spatial`]).
+    pub bandwidth_px: usize,
+    /// How many times the first fitted parameter's variance from this run exceeds what it
+    /// would be were its pixels independent.
+    pub variance_inflation: f64,
 }
 
 /// A calibrated process.
@@ -384,6 +458,11 @@ impl Calibration {
                 check_run(&nominal, spec).map_err(|error| CalibrationError::Run { index, error })
             })
             .collect::<Result<Vec<Run>, _>>()?;
+        if freedom.tool_radius || freedom.pad_moment_share {
+            if let Some(run) = runs.iter().position(|run| run.map.is_some()) {
+                return Err(CalibrationError::ShapeFromMap { run });
+            }
+        }
         let calibration = Calibration {
             nominal,
             runs,
@@ -406,6 +485,29 @@ impl Calibration {
         self.runs.iter().map(|run| run.radius_mm.len()).sum()
     }
 
+    /// Each run measured by a map: its pixels, the executed motion's blocks and the stations
+    /// they visit (what one prediction of it costs).
+    pub fn measured_maps(&self) -> Vec<(usize, &[Block], &[f64])> {
+        self.runs
+            .iter()
+            .filter_map(|run| match (&run.map, &run.trial) {
+                (
+                    Some(map),
+                    Trial::Executed {
+                        blocks,
+                        positions_mm,
+                    },
+                ) => Some((map.pixels.len(), blocks.as_slice(), positions_mm.as_slice())),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The nominal process.
+    pub fn nominal(&self) -> &Process {
+        &self.nominal
+    }
+
     /// The parameter vector's layout: the free process parameters (those `informative`), then
     /// each run's piston, then each run's power term.
     fn layout(&self, informative: &[bool; 3]) -> Vec<Slot> {
@@ -416,6 +518,11 @@ impl Calibration {
             .map(|(p, _)| Slot::Process(*p))
             .collect();
         slots.extend((0..self.runs.len()).map(Slot::Piston));
+        for (j, run) in self.runs.iter().enumerate() {
+            if run.map.is_some() {
+                slots.extend([Slot::TiltX(j), Slot::TiltY(j)]);
+            }
+        }
         if self.freedom.metrology_power {
             slots.extend((0..self.runs.len()).map(Slot::Power));
         }
@@ -430,13 +537,14 @@ impl Calibration {
         let model = CalibrationModel {
             calibration: self,
             slots: self.layout(&informative),
+            memo: RefCell::new(Vec::new()),
         };
         let start: Vec<f64> = model
             .slots
             .iter()
             .map(|slot| match slot {
                 Slot::Process(p) => self.nominal_value(*p),
-                Slot::Piston(_) | Slot::Power(_) => 0.0,
+                _ => 0.0,
             })
             .collect();
         let fit = lsq::fit(&model, start, self.points(), self.robust, MAX_STEPS, 0.0)
@@ -516,19 +624,38 @@ impl Run {
             }
             Trial::Plan(schedule) => {
                 let motion = schedule.motion();
-                // The nominal process held these positions; a fitted one may reach less far.
-                if let Some(&far) = motion
-                    .radii_mm()
-                    .iter()
-                    .find(|&&x| !process.holds_position(x))
-                {
-                    return Err(OutsideModel::OutOfReach { position_mm: far });
-                }
+                within_reach(process, motion.radii_mm())?;
                 Ok(RemovalOperator::assemble(kernel, &self.radius_mm, motion)
                     .apply(schedule.dwell_s()))
             }
+            Trial::Executed {
+                blocks,
+                positions_mm,
+            } => {
+                within_reach(process, positions_mm)?;
+                let pad = PolarPad::new(process);
+                Ok(match &self.map {
+                    Some(map) => pad.depth_nm(blocks, &map.xy_mm),
+                    None => pad.mean_depth_nm(blocks, &self.radius_mm),
+                })
+            }
         }
     }
+}
+
+/// The nominal process held these positions; a fitted one may reach less far.
+fn within_reach(process: &Process, positions_mm: &[f64]) -> Result<(), OutsideModel> {
+    match positions_mm.iter().find(|&&x| !process.holds_position(x)) {
+        Some(&far) => Err(OutsideModel::OutOfReach { position_mm: far }),
+        None => Ok(()),
+    }
+}
+
+/// The process parameters' covariance from runs measured by maps (`spatial_covariance`), and
+/// each map run's bandwidth (pixels) and variance inflation (`None` for a profile run).
+struct SpatialCovariance {
+    covariance: Vec<Vec<f64>>,
+    runs: Vec<Option<(usize, f64)>>,
 }
 
 /// What each entry of the parameter vector is.
@@ -536,12 +663,32 @@ impl Run {
 enum Slot {
     Process(ProcessParameter),
     Piston(usize),
+    /// A map run's tilt along x and y.
+    TiltX(usize),
+    TiltY(usize),
     Power(usize),
 }
+
+/// A run's own terms: piston, tilt (x, y) and power.
+#[derive(Debug, Clone, Copy, Default)]
+struct Offsets {
+    piston: f64,
+    tilt: (f64, f64),
+    power: f64,
+}
+
+/// How many predictions the model remembers: a step's residuals, its Jacobian and the
+/// report ask for the same r_t and κ, and a map's prediction is dear.
+const MEMO: usize = 8;
+
+/// Each run's prediction at [r_t, κ].
+type Remembered = ([f64; 2], Vec<Vec<f64>>);
 
 struct CalibrationModel<'a> {
     calibration: &'a Calibration,
     slots: Vec<Slot>,
+    /// The last predictions, by [r_t, κ] (ρ does not enter them).
+    memo: RefCell<Vec<Remembered>>,
 }
 
 impl CalibrationModel<'_> {
@@ -556,20 +703,37 @@ impl CalibrationModel<'_> {
         values
     }
 
-    fn offsets(&self, p: &[f64], run: usize) -> (f64, f64) {
-        let mut piston = 0.0;
-        let mut power = 0.0;
+    fn offsets(&self, p: &[f64], run: usize) -> Offsets {
+        let mut offsets = Offsets::default();
         for (slot, &x) in self.slots.iter().zip(p) {
             match slot {
-                Slot::Piston(j) if *j == run => piston = x,
-                Slot::Power(j) if *j == run => power = x,
+                Slot::Piston(j) if *j == run => offsets.piston = x,
+                Slot::TiltX(j) if *j == run => offsets.tilt.0 = x,
+                Slot::TiltY(j) if *j == run => offsets.tilt.1 = x,
+                Slot::Power(j) if *j == run => offsets.power = x,
                 _ => {}
             }
         }
-        (piston, power)
+        offsets
     }
 
-    /// The model's prediction of each run (with piston and power), from g at [ρ, r_t, κ].
+    /// Each run's removal at the nominal K with r_t and κ from `values`
+    /// ([`Calibration::predictions`]), remembered.
+    fn predictions(&self, values: &[f64; 3]) -> Result<Vec<Vec<f64>>, OutsideModel> {
+        let key = [values[1], values[2]];
+        if let Some((_, g)) = self.memo.borrow().iter().find(|(k, _)| *k == key) {
+            return Ok(g.clone());
+        }
+        let g = self.calibration.predictions(values)?;
+        let mut memo = self.memo.borrow_mut();
+        if memo.len() == MEMO {
+            memo.remove(0);
+        }
+        memo.push((key, g.clone()));
+        Ok(g)
+    }
+
+    /// The model's prediction of each run (with its own terms), from g at [ρ, r_t, κ].
     fn model_values(&self, p: &[f64], g: &[Vec<f64>]) -> Vec<Vec<f64>> {
         let rho = self.process_values(p)[0];
         self.calibration
@@ -578,12 +742,16 @@ impl CalibrationModel<'_> {
             .zip(g)
             .enumerate()
             .map(|(j, (run, g))| {
-                let (piston, power) = self.offsets(p, j);
-                run.radius_mm
-                    .iter()
-                    .zip(&run.piston_shape)
-                    .zip(g)
-                    .map(|((r, shape), g)| rho * g + piston * shape + power * r * r)
+                let o = self.offsets(p, j);
+                (0..g.len())
+                    .map(|i| {
+                        let r = run.radius_mm[i];
+                        let tilt = run.map.as_ref().map_or(0.0, |m| {
+                            let (x, y) = m.xy_mm[i];
+                            o.tilt.0 * x + o.tilt.1 * y
+                        });
+                        rho * g[i] + o.piston * run.piston_shape[i] + tilt + o.power * r * r
+                    })
                     .collect()
             })
             .collect()
@@ -611,8 +779,7 @@ impl CalibrationModel<'_> {
         let at = |offset: f64| {
             let mut v = *values;
             v[j] += offset;
-            self.calibration
-                .predictions(&v)
+            self.predictions(&v)
                 .map(|g| g.into_iter().flatten().collect::<Vec<f64>>())
         };
         if values[j] - h < lower || values[j] + h > upper {
@@ -643,6 +810,103 @@ impl CalibrationModel<'_> {
             .collect())
     }
 
+    /// The covariance of the parameters in `indices` (slots) with each map run's residual
+    /// correlation counted: Σ_j Cov(Σ_(i∈j) a_k,i·e_i) over the runs, a_k = ((JᵀWJ)⁻¹·JᵀW)_k
+    /// each parameter's influence, in the √w-scaled form (rows √wᵢ·Jᵢ, residuals √wᵢ·eᵢ,
+    /// exact for weights 0 and 1). A map run's share is its [`Sandwich`] (its variances never
+    /// below its white-noise figure); a profile's, its residual's variance times Σ a_k·a_l
+    /// (independent points, as a calibration of profiles alone takes them, but each run with
+    /// its own variance). All of it times n/(n − p), the degrees of freedom the fit took. With
+    /// it, each map run's bandwidth and its first parameter's variance inflation.
+    fn spatial_covariance(
+        &self,
+        fit: &Fit,
+        indices: &[usize],
+    ) -> Result<SpatialCovariance, OutsideModel> {
+        let jacobian = self.jacobian(&fit.parameters, &fit.residuals)?;
+        let inverse = &fit.inverse_normal;
+        let q = indices.len();
+        let mut covariance = vec![vec![0.0; q]; q];
+        let mut runs = Vec::with_capacity(self.calibration.runs.len());
+        let mut offset = 0;
+        for run in &self.calibration.runs {
+            let range = offset..offset + run.radius_mm.len();
+            offset = range.end;
+            let root: Vec<f64> = fit.weights[range.clone()]
+                .iter()
+                .map(|w| w.sqrt())
+                .collect();
+            let residual: Vec<f64> = fit.residuals[range.clone()]
+                .iter()
+                .zip(&root)
+                .map(|(e, s)| e * s)
+                .collect();
+            let influence: Vec<Vec<f64>> = indices
+                .iter()
+                .map(|&k| {
+                    range
+                        .clone()
+                        .zip(&root)
+                        .map(|(i, s)| {
+                            s * (0..jacobian.ncols())
+                                .map(|l| inverse[k][l] * jacobian[(i, l)])
+                                .sum::<f64>()
+                        })
+                        .collect()
+                })
+                .collect();
+            let (share, this_run) = match &run.map {
+                Some(map) => {
+                    let sandwich = Sandwich::new(&map.pixels, &influence, &residual);
+                    let mut share = sandwich.covariance.clone();
+                    for (k, row) in share.iter_mut().enumerate() {
+                        row[k] = sandwich.variance(k);
+                    }
+                    let inflation = if q > 0 && sandwich.white[0][0] > 0.0 {
+                        sandwich.variance(0) / sandwich.white[0][0]
+                    } else {
+                        1.0
+                    };
+                    (share, Some((sandwich.bandwidth_px, inflation)))
+                }
+                None => {
+                    let variance =
+                        residual.iter().map(|e| e * e).sum::<f64>() / residual.len() as f64;
+                    let share = (0..q)
+                        .map(|k| {
+                            (0..q)
+                                .map(|l| {
+                                    variance
+                                        * influence[k]
+                                            .iter()
+                                            .zip(&influence[l])
+                                            .map(|(a, b)| a * b)
+                                            .sum::<f64>()
+                                })
+                                .collect()
+                        })
+                        .collect::<Vec<Vec<f64>>>();
+                    (share, None)
+                }
+            };
+            for (total, part) in covariance.iter_mut().zip(&share) {
+                for (t, p) in total.iter_mut().zip(part) {
+                    *t += p;
+                }
+            }
+            runs.push(this_run);
+        }
+        let m = self.slots.len();
+        let n = fit.degrees_of_freedom + m;
+        let dof = n as f64 / fit.degrees_of_freedom.max(1) as f64;
+        for row in &mut covariance {
+            for v in row.iter_mut() {
+                *v *= dof;
+            }
+        }
+        Ok(SpatialCovariance { covariance, runs })
+    }
+
     fn failure(&self, error: LsqError<OutsideModel>) -> FitFailure {
         match error {
             LsqError::Model(e) => FitFailure::OutsideModel(e.to_string()),
@@ -663,6 +927,8 @@ impl CalibrationModel<'_> {
         match slot {
             Slot::Process(q) => q.name().into(),
             Slot::Piston(j) => format!("the piston of run {j}"),
+            Slot::TiltX(j) => format!("the x tilt of run {j}"),
+            Slot::TiltY(j) => format!("the y tilt of run {j}"),
             Slot::Power(j) => format!("the power term of run {j}"),
         }
     }
@@ -670,7 +936,7 @@ impl CalibrationModel<'_> {
     fn report(&self, fit: &Fit) -> Result<Calibrated, FitFailure> {
         let calibration = self.calibration;
         let values = self.process_values(&fit.parameters);
-        let g = calibration
+        let g = self
             .predictions(&values)
             .map_err(|e| FitFailure::OutsideModel(e.to_string()))?;
         let model = self.model_values(&fit.parameters, &g);
@@ -684,19 +950,39 @@ impl CalibrationModel<'_> {
             ProcessParameter::PrestonCoefficient => k_nominal,
             _ => 1.0,
         };
+        // The fitted process parameters' slots, in ALL's order.
+        let fitted: Vec<(ProcessParameter, usize)> = ProcessParameter::ALL
+            .into_iter()
+            .filter_map(|q| {
+                let slot = self.slots.iter().position(|s| *s == Slot::Process(q))?;
+                Some((q, slot))
+            })
+            .collect();
+        let indices: Vec<usize> = fitted.iter().map(|f| f.1).collect();
+        // With a map among the runs, the residual's spatial correlation enters the errors.
+        let spatial = if calibration.runs.iter().any(|run| run.map.is_some()) {
+            Some(
+                self.spatial_covariance(fit, &indices)
+                    .map_err(|e| FitFailure::OutsideModel(e.to_string()))?,
+            )
+        } else {
+            None
+        };
+        let covariance = |a: usize, b: usize| match &spatial {
+            Some(s) => s.covariance[a][b],
+            None => fit.variance * fit.inverse_normal[indices[a]][indices[b]],
+        };
         let mut estimates = Vec::new();
         let mut correlated = Vec::new();
-        let mut indices = Vec::new();
         for q in ProcessParameter::ALL {
             if !calibration.freedom.frees(q) {
                 continue;
             }
-            let slot = self.slots.iter().position(|s| *s == Slot::Process(q));
+            let slot = fitted.iter().position(|f| f.0 == q);
             let value = values[q as usize] * scale(q);
-            let uncertainty = slot.filter(|_| !exact_fit).map(|k| {
-                let se = fit.standard_error(k) * scale(q);
+            let uncertainty = slot.filter(|_| !exact_fit).map(|a| {
+                let se = covariance(a, a).sqrt() * scale(q);
                 correlated.push(q);
-                indices.push(k);
                 Uncertainty {
                     standard_error: se,
                     interval_95: (value - t * se, value + t * se),
@@ -708,10 +994,23 @@ impl CalibrationModel<'_> {
                 uncertainty,
             });
         }
-        let correlation = indices
-            .iter()
-            .map(|&a| indices.iter().map(|&b| fit.correlation(a, b)).collect())
-            .collect();
+        let correlation = if exact_fit {
+            Vec::new()
+        } else {
+            (0..indices.len())
+                .map(|a| {
+                    (0..indices.len())
+                        .map(|b| match &spatial {
+                            // The floors can part the variances from the covariances.
+                            Some(_) => (covariance(a, b)
+                                / (covariance(a, a) * covariance(b, b)).sqrt())
+                            .clamp(-1.0, 1.0),
+                            None => fit.correlation(indices[a], indices[b]),
+                        })
+                        .collect()
+                })
+                .collect()
+        };
         let mut offset = 0;
         let runs = calibration
             .runs
@@ -722,12 +1021,27 @@ impl CalibrationModel<'_> {
                 let residual = &fit.residuals[offset..offset + n];
                 let weight = fit.weights[offset..offset + n].to_vec();
                 offset += n;
-                let (piston_nm, power) = self.offsets(&fit.parameters, j);
+                let o = self.offsets(&fit.parameters, j);
+                let map = run.map.as_ref().map(|m| {
+                    let (bandwidth_px, variance_inflation) =
+                        spatial.as_ref().and_then(|s| s.runs[j]).unwrap_or((0, 1.0));
+                    MapRunFit {
+                        tilt_nm_per_mm: o.tilt,
+                        pixels: m.pixels.clone(),
+                        residual_nm: residual.to_vec(),
+                        bandwidth_px,
+                        variance_inflation,
+                    }
+                });
                 RunFit {
-                    piston_nm,
-                    power_nm_per_mm2: calibration.freedom.metrology_power.then_some(power),
+                    piston_nm: o.piston,
+                    map,
+                    power_nm_per_mm2: calibration.freedom.metrology_power.then_some(o.power),
                     residual_rms_nm: rms(residual),
-                    difference_noise_nm: (n >= 5).then(|| {
+                    // A map's residual correlates from pixel to pixel (what the interferometer
+                    // smooths, and the part's own mid-spatial error): its point-to-point noise
+                    // would call every map unexplained.
+                    difference_noise_nm: (n >= 5 && run.map.is_none()).then(|| {
                         let d: Vec<f64> = residual
                             .windows(3)
                             .map(|w| w[2] - 2.0 * w[1] + w[0])
@@ -785,28 +1099,25 @@ impl Model for CalibrationModel<'_> {
     }
 
     fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, OutsideModel> {
-        let g = self.calibration.predictions(&self.process_values(p))?;
+        let g = self.predictions(&self.process_values(p))?;
+
         Ok(self.residuals_from(p, &g))
     }
 
     fn jacobian(&self, p: &[f64], _residuals: &[f64]) -> Result<Mat<f64>, OutsideModel> {
         let values = self.process_values(p);
-        let g: Vec<f64> = self
-            .calibration
-            .predictions(&values)?
-            .into_iter()
-            .flatten()
-            .collect();
-        let run_of: Vec<(usize, f64, f64)> = self
+        let g: Vec<f64> = self.predictions(&values)?.into_iter().flatten().collect();
+        // Each point's run, radius, piston shape and place (x, y; 0 on a profile).
+        let run_of: Vec<(usize, f64, f64, (f64, f64))> = self
             .calibration
             .runs
             .iter()
             .enumerate()
             .flat_map(|(j, run)| {
-                run.radius_mm
-                    .iter()
-                    .zip(&run.piston_shape)
-                    .map(move |(&r, &shape)| (j, r, shape))
+                (0..run.radius_mm.len()).map(move |i| {
+                    let xy = run.map.as_ref().map_or((0.0, 0.0), |m| m.xy_mm[i]);
+                    (j, run.radius_mm[i], run.piston_shape[i], xy)
+                })
             })
             .collect();
         let mut columns = Vec::with_capacity(self.slots.len());
@@ -822,11 +1133,19 @@ impl Model for CalibrationModel<'_> {
                     .collect(),
                 Slot::Piston(j) => run_of
                     .iter()
-                    .map(|&(k, _, shape)| if k == j { -shape } else { 0.0 })
+                    .map(|&(k, _, shape, _)| if k == j { -shape } else { 0.0 })
+                    .collect(),
+                Slot::TiltX(j) => run_of
+                    .iter()
+                    .map(|&(k, _, _, (x, _))| if k == j { -x } else { 0.0 })
+                    .collect(),
+                Slot::TiltY(j) => run_of
+                    .iter()
+                    .map(|&(k, _, _, (_, y))| if k == j { -y } else { 0.0 })
                     .collect(),
                 Slot::Power(j) => run_of
                     .iter()
-                    .map(|&(k, r, _)| if k == j { -r * r } else { 0.0 })
+                    .map(|&(k, r, _, _)| if k == j { -r * r } else { 0.0 })
                     .collect(),
             };
             columns.push(column);
@@ -894,6 +1213,19 @@ fn removal_between(before: &DepthProfile, after: &DepthProfile) -> DepthProfile 
 }
 
 fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
+    let by_map = matches!(spec.measured, Measured::Map(_));
+    // A run measured by a map is predicted pixel by pixel from the motion C and X executed.
+    let omega = PolarPad::new(process).part_speed_rad_per_s();
+    let executed = |schedule: DwellSchedule, start_rad: f64| Trial::Executed {
+        blocks: executed_blocks(
+            schedule.motion(),
+            schedule.dwell_s(),
+            omega,
+            start_rad,
+            &process.part().surface,
+        ),
+        positions_mm: schedule.positions_mm().to_vec(),
+    };
     let trial = match spec.trial {
         TrialSpec::Ring {
             position_mm,
@@ -906,24 +1238,58 @@ fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
                     max_s: MAX_RING_DURATION_S,
                 });
             }
-            Trial::Ring {
-                position_mm,
-                duration_s,
+            if by_map {
+                Trial::Executed {
+                    blocks: vec![Block {
+                        station: 0,
+                        segment: 0,
+                        from_mm: position_mm,
+                        to_mm: position_mm,
+                        start_rad: 0.0,
+                        duration_s,
+                        part_speed_rad_per_s: omega,
+                    }],
+                    positions_mm: vec![position_mm],
+                }
+            } else {
+                Trial::Ring {
+                    position_mm,
+                    duration_s,
+                }
             }
         }
         TrialSpec::Dwell {
             positions_mm,
             dwell_s,
-        } => Trial::Plan(
-            DwellSchedule::new(process, positions_mm, dwell_s).map_err(RunError::Position)?,
-        ),
+        } => {
+            let schedule =
+                DwellSchedule::new(process, positions_mm, dwell_s).map_err(RunError::Position)?;
+            if by_map {
+                executed(schedule, 0.0)
+            } else {
+                Trial::Plan(schedule)
+            }
+        }
+        TrialSpec::Polar {
+            schedule,
+            start_angle_rad,
+        } => {
+            if by_map {
+                executed(schedule, start_angle_rad)
+            } else if matches!(schedule.motion().turning(), Turning::Sectors(_)) {
+                return Err(RunError::LawNeedsMap);
+            } else {
+                // C at constant speed: a profile is the 1-D removal, the dwell run's.
+                Trial::Plan(schedule)
+            }
+        }
     };
     let edge = process.workpiece_radius_mm();
     let axial_zero = matches!(spec.measured, Measured::BeforeAfter { .. });
-    let measured = match spec.measured {
+    let (measured, map) = match spec.measured {
         Measured::Removal(profile) => {
             check_profile(ProfileRole::Removal, &profile, edge)?;
-            profile
+            (profile, None)
         }
         Measured::BeforeAfter { before, after } => {
             check_profile(ProfileRole::Before, &before, edge)?;
@@ -932,25 +1298,57 @@ fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
             if removal.radius_mm.is_empty() {
                 return Err(RunError::NoOverlap);
             }
-            removal
+            (removal, None)
+        }
+        Measured::Map(samples) => {
+            // A map may reach past the part's edge (its boundary fitted to the pixels): only
+            // the part's pixels count.
+            let on_part: Vec<MapSample> = samples
+                .into_iter()
+                .filter(|s| s.removal_nm.is_finite() && s.x_mm.hypot(s.y_mm) <= edge)
+                .collect();
+            let profile = DepthProfile {
+                radius_mm: on_part.iter().map(|s| s.x_mm.hypot(s.y_mm)).collect(),
+                depth_nm: on_part.iter().map(|s| s.removal_nm).collect(),
+            };
+            (profile, Some(on_part))
         }
     };
-    let (radius_mm, removal_nm) = match spec.aperture {
+    let within = match spec.aperture {
         Some((inner, outer)) => {
             let aperture = ClearAperture::new(process, inner, outer).map_err(RunError::Aperture)?;
             measured
                 .radius_mm
                 .iter()
-                .zip(&measured.depth_nm)
-                .filter(|(r, _)| aperture.contains(**r))
-                .map(|(r, d)| (*r, *d))
-                .unzip()
+                .map(|&r| aperture.contains(r))
+                .collect()
         }
-        None => (measured.radius_mm, measured.depth_nm),
+        None => vec![true; measured.radius_mm.len()],
     };
+    let kept = |values: &[f64]| -> Vec<f64> {
+        values
+            .iter()
+            .zip(&within)
+            .filter(|(_, &w)| w)
+            .map(|(v, _)| *v)
+            .collect()
+    };
+    let (radius_mm, removal_nm) = (kept(&measured.radius_mm), kept(&measured.depth_nm));
     if radius_mm.is_empty() {
         return Err(RunError::NothingInAperture);
     }
+    let map = map.map(|samples| {
+        let kept: Vec<&MapSample> = samples
+            .iter()
+            .zip(&within)
+            .filter(|(_, &w)| w)
+            .map(|(s, _)| s)
+            .collect();
+        MapPoints {
+            xy_mm: kept.iter().map(|s| (s.x_mm, s.y_mm)).collect(),
+            pixels: kept.iter().map(|s| s.pixel).collect(),
+        }
+    });
     let surface = &process.part().surface;
     let piston_shape = radius_mm
         .iter()
@@ -961,5 +1359,6 @@ fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
         radius_mm,
         removal_nm,
         piston_shape,
+        map,
     })
 }

@@ -89,12 +89,21 @@ pub fn spatial_covariance(
             parameters: p,
         });
     }
-    let grid = Grid::new(pixels);
-    let bandwidth = bandwidth(&grid, residual);
-    let offset = far_covariance(&grid, residual, bandwidth).min(0.0);
     let inverse = invert(&normal_matrix(jacobian)).ok_or(SpatialError::Singular)?;
-    // Each parameter's influence a_k = (A·Jᵀ)_k: V_kk = Σ_h k(h)·Ĉ(h)·Σ_i a_k,i·a_k,(i+h).
-    let influence: Vec<Vec<f64>> = inverse
+    let sandwich = Sandwich::new(pixels, &influence(&inverse, jacobian), residual);
+    let dof = n as f64 / (n - p) as f64;
+    let variance: Vec<f64> = (0..p).map(|k| dof * sandwich.variance(k)).collect();
+    let variance_inflation = variance[0] / (dof * sandwich.white[0][0]);
+    Ok(SpatialCovariance {
+        variance,
+        bandwidth_px: sandwich.bandwidth_px,
+        variance_inflation,
+    })
+}
+
+/// Each parameter's influence on the fit, a_k = ((JᵀJ)⁻¹·Jᵀ)_k, from (JᵀJ)⁻¹ and J's rows.
+fn influence(inverse: &[Vec<f64>], jacobian: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    inverse
         .iter()
         .map(|row| {
             jacobian
@@ -102,51 +111,85 @@ pub fn spatial_covariance(
                 .map(|j| row.iter().zip(j).map(|(a, b)| a * b).sum())
                 .collect()
         })
-        .collect();
-    let reach = bandwidth as i64;
-    let mut variance = vec![0.0; p];
-    for dy in -reach..=reach {
-        for dx in -reach..=reach {
-            let weight = flat_top(dx, bandwidth) * flat_top(dy, bandwidth);
-            if weight == 0.0 {
-                continue;
-            }
-            let mut pairs = 0usize;
-            let mut covariance = 0.0;
-            let mut cross = vec![0.0; p];
-            for (i, pixel) in pixels.iter().enumerate() {
-                let Some(j) = grid.at(pixel.column + dx, pixel.row + dy) else {
+        .collect()
+}
+
+/// The covariance of linear functionals Σ_i a_k,i·e_i of one map's residual e (a fit's
+/// parameters, with a_k their influence rows): Σ_h k(h)·(Ĉ(h) − Ĉ_far)·Σ_i a_k,i·a_l,(i+h)
+/// (module docs), unscaled and unfloored, beside the white-noise figure
+/// Ĉ(0)·Σ_i a_k,i·a_l,i. A fit over several maps adds each map's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sandwich {
+    pub covariance: Vec<Vec<f64>>,
+    pub white: Vec<Vec<f64>>,
+    /// The bandwidth used, pixels.
+    pub bandwidth_px: usize,
+}
+
+impl Sandwich {
+    /// Over `pixels`, with the influence rows `influence` (each one value per pixel) and the
+    /// residual `residual`.
+    pub fn new(pixels: &[Pixel], influence: &[Vec<f64>], residual: &[f64]) -> Sandwich {
+        let q = influence.len();
+        let grid = Grid::new(pixels);
+        let bandwidth = bandwidth(&grid, residual);
+        let offset = far_covariance(&grid, residual, bandwidth).min(0.0);
+        let reach = bandwidth as i64;
+        // The upper triangle of the pairs (k, l), k ≤ l.
+        let pairs: Vec<(usize, usize)> = (0..q).flat_map(|k| (k..q).map(move |l| (k, l))).collect();
+        let mut upper = vec![0.0; pairs.len()];
+        let mut white = vec![vec![0.0; q]; q];
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                let weight = flat_top(dx, bandwidth) * flat_top(dy, bandwidth);
+                if weight == 0.0 {
                     continue;
-                };
-                pairs += 1;
-                covariance += residual[i] * residual[j];
-                for (c, a) in cross.iter_mut().zip(&influence) {
-                    *c += a[i] * a[j];
+                }
+                let mut count = 0usize;
+                let mut covariance = 0.0;
+                let mut cross = vec![0.0; pairs.len()];
+                for (i, pixel) in pixels.iter().enumerate() {
+                    let Some(j) = grid.at(pixel.column + dx, pixel.row + dy) else {
+                        continue;
+                    };
+                    count += 1;
+                    covariance += residual[i] * residual[j];
+                    for (c, &(k, l)) in cross.iter_mut().zip(&pairs) {
+                        *c += influence[k][i] * influence[l][j];
+                    }
+                }
+                if count == 0 {
+                    continue;
+                }
+                let c_hat = covariance / count as f64;
+                let scale = weight * (c_hat - offset);
+                for (u, c) in upper.iter_mut().zip(&cross) {
+                    *u += scale * c;
+                }
+                if dx == 0 && dy == 0 {
+                    for (&(k, l), c) in pairs.iter().zip(&cross) {
+                        white[k][l] = c_hat * c;
+                        white[l][k] = c_hat * c;
+                    }
                 }
             }
-            if pairs == 0 {
-                continue;
-            }
-            let scale = weight * (covariance / pairs as f64 - offset);
-            for (v, c) in variance.iter_mut().zip(&cross) {
-                *v += scale * c;
-            }
+        }
+        let mut covariance = vec![vec![0.0; q]; q];
+        for (&(k, l), u) in pairs.iter().zip(&upper) {
+            covariance[k][l] = *u;
+            covariance[l][k] = *u;
+        }
+        Sandwich {
+            covariance,
+            white,
+            bandwidth_px: bandwidth,
         }
     }
-    let white = residual.iter().map(|e| e * e).sum::<f64>() / n as f64;
-    let dof = n as f64 / (n - p) as f64;
-    let variance: Vec<f64> = variance
-        .iter()
-        .enumerate()
-        // Never below the white-noise variance (module docs).
-        .map(|(k, v)| dof * v.max(white * inverse[k][k]))
-        .collect();
-    let variance_inflation = variance[0] / (dof * white * inverse[0][0]);
-    Ok(SpatialCovariance {
-        variance,
-        bandwidth_px: bandwidth,
-        variance_inflation,
-    })
+
+    /// Row k's variance, never below the white-noise figure (module docs).
+    pub fn variance(&self, k: usize) -> f64 {
+        self.covariance[k][k].max(self.white[k][k])
+    }
 }
 
 /// The mean autocovariance at offsets beyond the bandwidth, to twice it (module docs): where
@@ -377,14 +420,15 @@ pub fn fit_ratio(
         .collect();
     let n = residual.len();
     let sum_of_squares: f64 = residual.iter().map(|e| e * e).sum();
-    let covariance = spatial_covariance(pixels, &jacobian, &residual)?;
+    let sandwich = Sandwich::new(pixels, &influence(&inverse[..1], &jacobian), &residual);
+    let dof = n as f64 / (n - 4) as f64;
     Ok(RatioFit {
         ratio: beta[0],
-        standard_error: covariance.variance[0].sqrt(),
+        standard_error: (dof * sandwich.variance(0)).sqrt(),
         independent_standard_error: (sum_of_squares / (n - 4) as f64 * inverse[0][0]).sqrt(),
         piston_nm: beta[1],
         tilt_nm_per_mm: (beta[2], beta[3]),
         residual_rms_nm: (sum_of_squares / n as f64).sqrt(),
-        bandwidth_px: covariance.bandwidth_px,
+        bandwidth_px: sandwich.bandwidth_px,
     })
 }

@@ -1,17 +1,35 @@
 //! Calibration: fit the process's removal rate (and, if asked, its pad radius and moment
 //! share) to what ring tests or production runs removed ([`crate::calibration`]), and say
 //! which parameters the runs could not determine and which runs the model does not explain.
+//!
+//! A run may be a polar plan on the paper's machine (C's sector law, as `/v1/maps/predict`
+//! takes it) and may be measured by maps: the removal as a map, or the maps before and after
+//! (registered and differenced as `/v1/maps/difference` does). A run measured by a map is
+//! predicted pixel by pixel from the motion executed (`physics::polar`), and its residual's
+//! spatial correlation enters the standard errors (`calibration::spatial`).
 
 use super::limits::{ComputeLimits, SizeLimitError};
+use super::map_analysis::{check_on_map, MapInputError, MapOrigin, Placement};
+use super::map_difference::{
+    map_difference, DifferenceInputError, MapDifferenceCommand, MapDifferenceSpec,
+};
+use super::map_predict::{covered_turns, map_work, polar_schedule, CLawError, CLawSpec};
 use super::setting::{process_on_part, SettingError};
 use super::warnings::process_warnings;
 use super::{PartSpec, Warning};
+use crate::calibration::spatial::Pixel;
 use crate::calibration::{
-    Calibrated, Calibration, CalibrationError, FitFailure, Freedom, ProcessParameter, RunSpec,
-    TrialSpec,
+    Calibrated, Calibration, CalibrationError, FitFailure, Freedom, MapSample, Measured,
+    ProcessParameter, RunSpec, TrialSpec,
 };
 use crate::lsq::RobustLoss;
-use crate::physics::ProcessSpec;
+use crate::maps::analysis::aperture_pixels;
+use crate::maps::aperture::Aperture;
+use crate::maps::difference::DifferenceError;
+use crate::maps::HeightMap;
+use crate::physics::polar::Block;
+use crate::physics::{DwellSchedule, Process, ProcessSpec, ScheduleError};
+use std::f64::consts::TAU;
 
 /// The most runs one calibration takes.
 pub const MAX_RUNS: usize = 64;
@@ -21,6 +39,99 @@ pub const POOR_RELATIVE: f64 = 0.2;
 pub const POOR_SHARE: f64 = 0.25;
 /// A run whose residual RMS exceeds this many times its noise is flagged.
 pub const NOISE_FACTOR: f64 = 3.0;
+
+/// The most work the map runs' prediction may take, in pixel-turns (`map_predict::map_work`):
+/// about 5 s on 2 cores, made once (only K is fitted from maps, and it enters linearly).
+pub const MAX_MAP_WORK: f64 = super::map_predict::MAX_WORK;
+/// The most pixels the map runs may hold together: their standard errors sum over up to
+/// (2·24 + 1)² offsets per pixel (`calibration::spatial`), about 2 s at this many.
+pub const MAX_MAP_PIXELS: usize = 200_000;
+
+/// What ran, as asked: a ring or a dwell schedule, or a polar plan.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TrialInput {
+    /// As the core takes it: a ring or a dwell schedule (or a polar plan already checked).
+    Given(TrialSpec),
+    Polar(PolarTrial),
+}
+
+/// A polar plan as `/v1/maps/predict` takes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PolarTrial {
+    pub positions_mm: Vec<f64>,
+    pub dwell_s: Vec<f64>,
+    /// `None`: C at the process's constant speed.
+    pub c_law: Option<CLawSpec>,
+    /// Default 0.
+    pub start_angle_deg: Option<f64>,
+}
+
+/// What a run removed, as asked: profiles, or maps.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MeasuredInput {
+    /// As the core takes it: profiles (or a map's samples already read).
+    Given(Measured),
+    Map(Box<MapMeasurement>),
+}
+
+/// A run measured by an interferometer.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MapMeasurement {
+    /// The removal itself (nm, > 0 removed), placed on the part; only the aperture's pixels
+    /// (default a circle of the part's radius) count.
+    Removal {
+        map: HeightMap,
+        placement: Placement,
+        aperture: Option<Aperture>,
+    },
+    /// The surface before and after (heights, nm), registered and differenced.
+    BeforeAfter {
+        before: HeightMap,
+        after: HeightMap,
+        difference: MapDifferenceSpec,
+    },
+}
+
+/// One run as asked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunInput {
+    pub trial: TrialInput,
+    pub measured: MeasuredInput,
+    /// Only the points within this annulus (mm) count; default all.
+    pub aperture: Option<(f64, f64)>,
+}
+
+impl From<RunSpec> for RunInput {
+    fn from(run: RunSpec) -> Self {
+        RunInput {
+            trial: TrialInput::Given(run.trial),
+            measured: MeasuredInput::Given(run.measured),
+            aperture: run.aperture,
+        }
+    }
+}
+
+/// Why a polar run's plan was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PolarTrialError {
+    #[error("{0}")]
+    Schedule(ScheduleError),
+    #[error(transparent)]
+    Law(CLawError),
+    #[error("the start angle must be a finite number of degrees, not {0}")]
+    StartAngle(f64),
+}
+
+/// Why a run's maps were refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MapRunError {
+    #[error("{0}")]
+    Removal(MapInputError),
+    #[error("{0}")]
+    Difference(DifferenceInputError),
+    #[error("{0}")]
+    Differenced(DifferenceError),
+}
 
 /// What to fit, as asked (`None`: the default).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -40,7 +151,7 @@ pub struct ParameterSelection {
 pub struct CalibrationSpec {
     pub process: ProcessSpec,
     pub part: PartSpec,
-    pub runs: Vec<RunSpec>,
+    pub runs: Vec<RunInput>,
     pub fit: ParameterSelection,
     pub robust: Option<RobustLoss>,
     /// The measurements' expected noise per point, nm (default: estimated from each run's
@@ -61,6 +172,22 @@ pub enum CalibrationInputError {
     Positions { run: usize, error: SizeLimitError },
     #[error("expected_noise_nm must be a finite number > 0")]
     Noise,
+    #[error("run {run}: {error}")]
+    Polar { run: usize, error: PolarTrialError },
+    #[error("run {run}: {error}")]
+    Map { run: usize, error: MapRunError },
+    #[error(
+        "the runs' maps hold {pixels} pixels; at most {max} are fitted (their standard errors \
+         sum over the residual's correlation at every pixel): a coarser map or a smaller \
+         aperture"
+    )]
+    MapPixels { pixels: usize, max: usize },
+    #[error(
+        "predicting the runs' maps is {work:.2e} pixel-turns of work (pixels × C's turns, as \
+         /v1/maps/predict counts it); at most {max:.1e} are computed: a coarser map, a \
+         smaller aperture or a shorter run"
+    )]
+    MapWork { work: f64, max: f64 },
     #[error(transparent)]
     Calibration(CalibrationError),
 }
@@ -88,15 +215,32 @@ impl CalibrationCommand {
                 max: MAX_RUNS,
             }));
         }
-        let points: usize = spec.runs.iter().map(measured_points).sum();
+        let points: usize = spec
+            .runs
+            .iter()
+            .filter_map(|run| match &run.measured {
+                MeasuredInput::Given(m) => Some(profile_points(m)),
+                MeasuredInput::Map(_) => None,
+            })
+            .sum();
         limits.check_trace_points(points).map_err(E::Points)?;
-        for (run, spec) in spec.runs.iter().enumerate() {
-            if let TrialSpec::Dwell { positions_mm, .. } = &spec.trial {
+        for (run, input) in spec.runs.iter().enumerate() {
+            if let (
+                TrialInput::Given(TrialSpec::Dwell { positions_mm, .. }),
+                MeasuredInput::Given(m),
+            ) = (&input.trial, &input.measured)
+            {
                 limits
-                    .check_operator(measured_points(spec), positions_mm.len())
+                    .check_operator(profile_points(m), positions_mm.len())
                     .map_err(|error| E::Positions { run, error })?;
             }
         }
+        let runs = spec
+            .runs
+            .into_iter()
+            .enumerate()
+            .map(|(run, input)| run_spec(&process, input, run, limits))
+            .collect::<Result<Vec<RunSpec>, _>>()?;
         if spec
             .expected_noise_nm
             .is_some_and(|n| !(n.is_finite() && n > 0.0))
@@ -109,9 +253,9 @@ impl CalibrationCommand {
             pad_moment_share: spec.fit.pad_moment_share.unwrap_or(false),
             metrology_power: spec.fit.metrology_power.unwrap_or(false),
         };
-        let calibration =
-            Calibration::new(process, spec.runs, freedom, spec.robust.unwrap_or_default())
-                .map_err(E::Calibration)?;
+        let calibration = Calibration::new(process, runs, freedom, spec.robust.unwrap_or_default())
+            .map_err(E::Calibration)?;
+        check_map_work(&calibration)?;
         Ok(CalibrationCommand {
             calibration,
             expected_noise_nm: spec.expected_noise_nm,
@@ -120,12 +264,139 @@ impl CalibrationCommand {
     }
 }
 
-fn measured_points(run: &RunSpec) -> usize {
-    use crate::calibration::Measured;
-    match &run.measured {
+fn profile_points(measured: &Measured) -> usize {
+    match measured {
         Measured::Removal(p) => p.radius_mm.len(),
         Measured::BeforeAfter { before, after } => before.radius_mm.len() + after.radius_mm.len(),
+        Measured::Map(samples) => samples.len(),
     }
+}
+
+/// The run as the core takes it: a polar plan's schedule built, a map's pixels read.
+fn run_spec(
+    process: &Process,
+    input: RunInput,
+    run: usize,
+    limits: &ComputeLimits,
+) -> Result<RunSpec, CalibrationInputError> {
+    let trial = match input.trial {
+        TrialInput::Given(trial) => trial,
+        TrialInput::Polar(polar) => polar_trial(process, polar)
+            .map_err(|error| CalibrationInputError::Polar { run, error })?,
+    };
+    let measured = match input.measured {
+        MeasuredInput::Given(measured) => measured,
+        MeasuredInput::Map(map) => Measured::Map(
+            map_samples(*map, limits).map_err(|error| CalibrationInputError::Map { run, error })?,
+        ),
+    };
+    Ok(RunSpec {
+        trial,
+        measured,
+        aperture: input.aperture,
+    })
+}
+
+fn polar_trial(process: &Process, polar: PolarTrial) -> Result<TrialSpec, PolarTrialError> {
+    let schedule = DwellSchedule::new(process, polar.positions_mm, polar.dwell_s)
+        .map_err(PolarTrialError::Schedule)?;
+    let (schedule, _) = polar_schedule(schedule, polar.c_law).map_err(PolarTrialError::Law)?;
+    let start_deg = polar.start_angle_deg.unwrap_or(0.0);
+    if !start_deg.is_finite() {
+        return Err(PolarTrialError::StartAngle(start_deg));
+    }
+    Ok(TrialSpec::Polar {
+        schedule,
+        start_angle_rad: start_deg.to_radians(),
+    })
+}
+
+/// A map run's pixels in the part's frame and the removal at each.
+fn map_samples(map: MapMeasurement, limits: &ComputeLimits) -> Result<Vec<MapSample>, MapRunError> {
+    let pixels = match map {
+        MapMeasurement::Removal {
+            map,
+            placement,
+            aperture,
+        } => {
+            let (alignment, _) = placement.place(&map).map_err(MapRunError::Removal)?;
+            let aperture = aperture.unwrap_or(Aperture::Circle {
+                radius_mm: alignment.part_radius_mm,
+            });
+            check_on_map(&map, &alignment, &aperture).map_err(MapRunError::Removal)?;
+            aperture_pixels(&map, &alignment, &aperture).pixels
+        }
+        MapMeasurement::BeforeAfter {
+            before,
+            after,
+            difference,
+        } => {
+            let command = MapDifferenceCommand::new(
+                (before, MapOrigin::Heights),
+                (after, MapOrigin::Heights),
+                difference,
+                limits,
+            )
+            .map_err(MapRunError::Difference)?;
+            map_difference(command)
+                .map_err(MapRunError::Differenced)?
+                .difference
+                .pixels
+        }
+    };
+    Ok(pixels
+        .into_iter()
+        .map(|p| MapSample {
+            pixel: Pixel {
+                column: p.column as i64,
+                row: p.row as i64,
+            },
+            x_mm: p.x_mm,
+            y_mm: p.y_mm,
+            removal_nm: p.height_nm,
+        })
+        .collect())
+}
+
+/// The map runs' pixels and the work of predicting them within the limits.
+fn check_map_work(calibration: &Calibration) -> Result<(), CalibrationInputError> {
+    let maps = calibration.measured_maps();
+    let pixels: usize = maps.iter().map(|m| m.0).sum();
+    if pixels > MAX_MAP_PIXELS {
+        return Err(CalibrationInputError::MapPixels {
+            pixels,
+            max: MAX_MAP_PIXELS,
+        });
+    }
+    let process = calibration.nominal();
+    let work: f64 = maps
+        .iter()
+        .map(|&(pixels, blocks, positions)| prediction_work(process, pixels, blocks, positions))
+        .sum();
+    if work > MAX_MAP_WORK {
+        return Err(CalibrationInputError::MapWork {
+            work,
+            max: MAX_MAP_WORK,
+        });
+    }
+    Ok(())
+}
+
+/// One prediction's work on `pixels` pixels ([`map_work`], no rings' means).
+fn prediction_work(process: &Process, pixels: usize, blocks: &[Block], positions: &[f64]) -> f64 {
+    let mut turns = vec![0.0; positions.len()];
+    for b in blocks {
+        turns[b.station] += b.duration_s * b.part_speed_rad_per_s.abs() / TAU;
+    }
+    let covered = covered_turns(process, positions, &turns);
+    map_work(
+        process,
+        pixels,
+        0,
+        turns.iter().sum(),
+        blocks.len() as f64,
+        covered,
+    )
 }
 
 /// A calibration's answer.

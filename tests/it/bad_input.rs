@@ -15,11 +15,17 @@ fn spoiled(fixture: &str, path: &str, value: Value) -> Value {
     let last = parts.pop().unwrap();
     let mut at = &mut body;
     for part in parts {
-        at = at
-            .as_object_mut()
-            .unwrap()
-            .entry(part)
-            .or_insert_with(|| json!({}));
+        at = match part.split_once('[') {
+            Some((name, index)) => {
+                let index: usize = index.trim_end_matches(']').parse().unwrap();
+                &mut at[name][index]
+            }
+            None => at
+                .as_object_mut()
+                .unwrap()
+                .entry(part)
+                .or_insert_with(|| json!({})),
+        };
     }
     match last.split_once('[') {
         Some((name, index)) => {
@@ -49,6 +55,7 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let mf = "measurement_fit_asphere.json";
     let pg = "program_sphere.json";
     let ca = "calibration_rings.json";
+    let cm = "calibration_polar_map.json";
     let ma = "maps_analysis.json";
     let md = "maps_difference.json";
     let mr = "maps_removal_function_paper_exp1.json";
@@ -57,7 +64,7 @@ async fn each_endpoint_names_the_field_of_bad_input() {
     let mg = "maps_program_astigmatism.json";
     // (fixture, the member spoiled, its new value, the problem type, the field named); every
     // case is a 422.
-    let cases: [(&str, &str, Value, &str, &str); 61] = [
+    let cases: [(&str, &str, Value, &str, &str); 66] = [
         (
             mg,
             "approach",
@@ -239,6 +246,31 @@ async fn each_endpoint_names_the_field_of_bad_input() {
             "expected_noise_nm",
         ),
         (ca, "runs", json!([]), INVALID, "runs"),
+        // Only K is fitted from a map (its pixels' depth jumps at the pad's rim).
+        (cm, "fit.tool_radius", json!(true), INVALID, "runs[0].map"),
+        // A law makes the removal vary with the angle: one profile cannot measure it.
+        (cm, "runs[0].map", json!(null), INVALID, "runs[0].removal"),
+        (
+            cm,
+            "runs[0].polar.c_law.speed_factors[1]",
+            json!([1.0, 1.0]),
+            INVALID,
+            "runs[0].polar.c_law.speed_factors[1]",
+        ),
+        (
+            cm,
+            "runs[0].map.alignment.centre_x_px",
+            json!(-40),
+            INVALID,
+            "runs[0].map.alignment.centre_x_px",
+        ),
+        (
+            cm,
+            "runs[0].map.removal",
+            json!({"heights_nm": [[1.0]]}),
+            INVALID,
+            "runs[0].map.removal",
+        ),
         (
             ca,
             "fit.tool_radius",

@@ -187,7 +187,7 @@ async fn kappa_from_rings_far_from_the_edge_is_named_not_guessed() {
         CalibrationSpec {
             process: nominal.spec().clone(),
             part: Default::default(),
-            runs,
+            runs: runs.into_iter().map(Into::into).collect(),
             fit: ParameterSelection {
                 preston_coefficient: Some(true),
                 tool_radius: Some(true),

@@ -14,14 +14,21 @@ use super::dto::{ClearApertureDto, DwellDto, ProcessDto, SurfaceDto, ToolDto, Wa
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object};
+use super::maps::body::MapGridDto;
+use super::maps::difference::OffsetDto;
+use super::maps::predict::CLawDto;
+use super::maps::{MapAlignmentDto, MapApertureDto};
 use super::measurement_fit::RobustDto;
 use super::state::Services;
-use crate::calibration::{Measured, ProcessParameter, RunSpec, TrialSpec};
+use crate::calibration::{MapRunFit, Measured, ProcessParameter, TrialSpec};
 use crate::field::DepthProfile;
+use crate::maps::HeightMap;
 use crate::report::results;
 use crate::usecases::calibration::{
-    calibrate, CalibrationCommand, CalibrationResult, CalibrationSpec, ParameterSelection,
+    calibrate, CalibrationCommand, CalibrationResult, CalibrationSpec, MapMeasurement,
+    MeasuredInput, ParameterSelection, PolarTrial, RunInput, TrialInput,
 };
+use crate::usecases::map_difference::MapDifferenceSpec;
 use crate::usecases::ComputeLimits;
 
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -37,8 +44,9 @@ pub struct CalibrationRequest {
     /// The pad's spin axis (`tool.orientation`); only the orientation matters here.
     #[serde(default, deserialize_with = "optional_object")]
     pub tool: Option<ToolDto>,
-    /// The runs: 1 to 64, each what ran (`ring` or `dwell`) and what it removed (`removal`,
-    /// or `before` and `after`). Measured points over all runs: at most 100,000.
+    /// The runs: 1 to 64, each what ran (`ring`, `dwell` or `polar`) and what it removed
+    /// (`removal`, or `before` and `after` profiles; or `map`). Profile points over all runs:
+    /// at most 100,000; map pixels: at most 200,000.
     #[schema(min_items = 1, max_items = 64)]
     pub runs: Vec<RunDto>,
     /// What to fit; default the Preston coefficient alone.
@@ -65,6 +73,11 @@ pub struct RunDto {
     /// A dwell run (e.g. a plan from `/v1/optimize`), executed with the one motion model.
     #[serde(default, deserialize_with = "optional_object")]
     pub dwell: Option<DwellDto>,
+    /// A polar plan on the paper's machine (e.g. from `/v1/maps/optimize`): the dwell plan and
+    /// C's speed law, as `/v1/maps/predict` takes them. Under a law the removal varies with
+    /// the angle: measure such a run with a `map`.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub polar: Option<PolarRunDto>,
     /// Material removed (nm, positive), measured at radii. Give `removal`, or `before` and
     /// `after`.
     #[serde(default, deserialize_with = "optional_object")]
@@ -77,9 +90,59 @@ pub struct RunDto {
     /// The form error after the run.
     #[serde(default, deserialize_with = "optional_object")]
     pub after: Option<RadialProfileDto>,
-    /// Only the measured points within it count; default all.
+    /// What the run removed, measured by an interferometer: the removal as a map, or the
+    /// maps before and after. Each pixel is predicted from the motion executed (the exact
+    /// removal `/v1/maps/predict` gives), with the run's own piston and tilt; the residual's
+    /// correlation from pixel to pixel enters the standard errors.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub map: Option<MapRunDto>,
+    /// Only the measured points (or pixels) within this annulus about the axis count; default
+    /// all.
     #[serde(default, deserialize_with = "optional_object")]
     pub clear_aperture: Option<ClearApertureDto>,
+}
+
+/// A polar plan, as `/v1/maps/predict` takes it.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PolarRunDto {
+    /// The dwell plan: stations of the pad centre and the dwell in each one's cell.
+    #[serde(deserialize_with = "object")]
+    pub dwell: DwellDto,
+    /// C's speed law; default C at the process's constant speed.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub c_law: Option<CLawDto>,
+    /// The pad centre's angle in the part's frame when the plan starts, degrees; default 0.
+    pub start_angle_deg: Option<f64>,
+}
+
+/// A run's maps: `removal`, or `before` and `after` (heights, nm), placed on the part as
+/// `/v1/maps/difference` places them.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MapRunDto {
+    /// The material removed, nm (> 0 removed).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub removal: Option<MapGridDto>,
+    /// The surface before the run: heights, nm.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub before: Option<MapGridDto>,
+    /// The surface after the run: heights, nm. Removal = before − after.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub after: Option<MapGridDto>,
+    /// Pixel pitch, mm (> 0); default the maps' own `pixel_mm`.
+    pub pixel_mm: Option<f64>,
+    /// Where the part sits on the (before) map, in the C frame the plan's angles refer to;
+    /// default fitted to the map's boundary, no rotation.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub alignment: Option<MapAlignmentDto>,
+    /// The after map's centre relative to the before map's; default each fitted to its own
+    /// boundary.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub after_offset_px: Option<OffsetDto>,
+    /// The pixels fitted; default a circle of the part's radius.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub clear_aperture: Option<MapApertureDto>,
 }
 
 /// The tool parked at `position_mm` for `duration_s`.
@@ -178,6 +241,64 @@ pub struct RunFitDto {
     pub measured_nm: Vec<f64>,
     /// The calibrated process's removal plus the run's piston (and power), nm.
     pub predicted_nm: Vec<f64>,
+    /// A run measured by a map: its tilt, its residual and its correlation (`radius_mm`,
+    /// `measured_nm` and `predicted_nm` then list the pixels' radii and values, row by row).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub map: Option<MapRunFitDto>,
+}
+
+/// What a map run adds to its fit.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct MapRunFitDto {
+    /// Pixels fitted.
+    pub pixels: usize,
+    /// The run's fitted tilt along x of the part's frame, nm per mm.
+    pub tilt_x_nm_per_mm: f64,
+    /// The run's fitted tilt along y, nm per mm.
+    pub tilt_y_nm_per_mm: f64,
+    /// How far the residual correlates, as the standard errors count it: the flat-top
+    /// kernel's bandwidth, pixels.
+    pub correlation_bandwidth_px: usize,
+    /// The first fitted parameter's variance from this run over what it would be were the
+    /// pixels independent (≥ 1 unless the residual is anti-correlated).
+    pub variance_inflation: f64,
+    /// The residual, measured − model (nm), on the fitted pixels' bounding box of the (before)
+    /// map: rows from `residual_origin_px`'s, null where no pixel was fitted.
+    pub residual_nm: Vec<Vec<Option<f64>>>,
+    /// The bounding box's first column and row on the map, pixels.
+    pub residual_origin_px: [i64; 2],
+}
+
+impl From<&MapRunFit> for MapRunFitDto {
+    fn from(fit: &MapRunFit) -> Self {
+        let column0 = fit.pixels.iter().map(|p| p.column).min().unwrap_or(0);
+        let row0 = fit.pixels.iter().map(|p| p.row).min().unwrap_or(0);
+        let columns = fit
+            .pixels
+            .iter()
+            .map(|p| p.column - column0 + 1)
+            .max()
+            .unwrap_or(0);
+        let rows = fit
+            .pixels
+            .iter()
+            .map(|p| p.row - row0 + 1)
+            .max()
+            .unwrap_or(0);
+        let mut residual_nm = vec![vec![None; columns as usize]; rows as usize];
+        for (p, e) in fit.pixels.iter().zip(&fit.residual_nm) {
+            residual_nm[(p.row - row0) as usize][(p.column - column0) as usize] = Some(*e);
+        }
+        MapRunFitDto {
+            pixels: fit.pixels.len(),
+            tilt_x_nm_per_mm: fit.tilt_nm_per_mm.0,
+            tilt_y_nm_per_mm: fit.tilt_nm_per_mm.1,
+            correlation_bandwidth_px: fit.bandwidth_px,
+            variance_inflation: fit.variance_inflation,
+            residual_nm,
+            residual_origin_px: [column0, row0],
+        }
+    }
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
@@ -208,39 +329,50 @@ fn profile(dto: RadialProfileDto) -> DepthProfile {
     }
 }
 
-/// A run as the core takes it; exactly one motion and one measurement.
-fn run_spec(index: usize, run: RunDto) -> Result<RunSpec, ApiError> {
+/// A run as the use case takes it; exactly one motion and one measurement.
+fn run_input(index: usize, run: RunDto, limits: &ComputeLimits) -> Result<RunInput, ApiError> {
     let at = |member: &str| format!("runs[{index}].{member}");
-    let trial = match (run.ring, run.dwell) {
-        (Some(ring), None) => TrialSpec::Ring {
+    let trial = match (run.ring, run.dwell, run.polar) {
+        (Some(ring), None, None) => TrialInput::Given(TrialSpec::Ring {
             position_mm: ring.position_mm,
             duration_s: ring.duration_s,
-        },
-        (None, Some(dwell)) => TrialSpec::Dwell {
+        }),
+        (None, Some(dwell), None) => TrialInput::Given(TrialSpec::Dwell {
             positions_mm: dwell.positions_mm,
             dwell_s: dwell.dwell_s,
-        },
+        }),
+        (None, None, Some(polar)) => TrialInput::Polar(PolarTrial {
+            positions_mm: polar.dwell.positions_mm,
+            dwell_s: polar.dwell.dwell_s,
+            c_law: polar.c_law.map(CLawDto::spec),
+            start_angle_deg: polar.start_angle_deg,
+        }),
         _ => {
             return Err(ApiError::invalid(
                 at("ring"),
-                "give exactly one of ring and dwell",
+                "give exactly one of ring, dwell and polar",
             ))
         }
     };
-    let measured = match (run.removal, run.before, run.after) {
-        (Some(removal), None, None) => Measured::Removal(profile(removal)),
-        (None, Some(before), Some(after)) => Measured::BeforeAfter {
+    let measured = match (run.removal, run.before, run.after, run.map) {
+        (Some(removal), None, None, None) => {
+            MeasuredInput::Given(Measured::Removal(profile(removal)))
+        }
+        (None, Some(before), Some(after), None) => MeasuredInput::Given(Measured::BeforeAfter {
             before: profile(before),
             after: profile(after),
-        },
+        }),
+        (None, None, None, Some(map)) => MeasuredInput::Map(Box::new(
+            map_measurement(map, limits).map_err(|e| e.under(&at("map")))?,
+        )),
         _ => {
             return Err(ApiError::invalid(
                 at("removal"),
-                "give removal, or before and after (not both)",
+                "give removal, or before and after, or map (one of them)",
             ))
         }
     };
-    Ok(RunSpec {
+    Ok(RunInput {
         trial,
         measured,
         aperture: run.clear_aperture.map(|a| {
@@ -252,6 +384,50 @@ fn run_spec(index: usize, run: RunDto) -> Result<RunSpec, ApiError> {
     })
 }
 
+/// A run's maps (fields relative to its `map`).
+fn map_measurement(map: MapRunDto, limits: &ComputeLimits) -> Result<MapMeasurement, ApiError> {
+    let grid = |g: MapGridDto, field: &str| {
+        HeightMap::from_rows(
+            g.heights_nm,
+            g.pixel_mm,
+            g.wavelength_nm,
+            limits.max_map_pixels,
+        )
+        .map_err(|e| ApiError::invalid(field, e.to_string()))
+    };
+    let placement = map.alignment.unwrap_or_default().placement(map.pixel_mm)?;
+    match (map.removal, map.before, map.after) {
+        (Some(removal), None, None) => {
+            if map.after_offset_px.is_some() {
+                return Err(ApiError::invalid(
+                    "after_offset_px",
+                    "an after map's offset needs before and after maps, not a removal map",
+                ));
+            }
+            Ok(MapMeasurement::Removal {
+                map: grid(removal, "removal")?,
+                placement,
+                aperture: map.clear_aperture.map(Into::into),
+            })
+        }
+        (None, Some(before), Some(after)) => Ok(MapMeasurement::BeforeAfter {
+            before: grid(before, "before")?,
+            after: grid(after, "after")?,
+            difference: MapDifferenceSpec {
+                placement,
+                after_offset_px: map.after_offset_px.map(|o| (o.x_px, o.y_px)),
+                aperture: map.clear_aperture.map(Into::into),
+                remove_tilt: None,
+                bands: None,
+            },
+        }),
+        _ => Err(ApiError::invalid(
+            "removal",
+            "give removal, or before and after (not both)",
+        )),
+    }
+}
+
 impl Endpoint for CalibrationEndpoint {
     const NAME: &'static str = "calibration";
     const EXAMPLE: &'static str = include_str!("../../../fixtures/calibration_rings.json");
@@ -259,10 +435,12 @@ impl Endpoint for CalibrationEndpoint {
         operation_id: "calibrate",
         tag: "calibration",
         summary: "Fit the removal rate (and pad radius, moment share) to measured removal.",
-        description: "Each run is what ran (a ring test or a dwell schedule) and what it removed (a removal\n\
-profile, or the form error before and after). K, and if asked r_t and κ, are fitted by\n\
-nonlinear least squares with a free piston per run; standard errors come from the Jacobian\n\
-and the residual variance with n − p degrees of freedom. The answer's `process` is the\n\
+        description: "Each run is what ran (a ring test, a dwell schedule or a polar plan with C's speed law) and\n\
+what it removed (a removal profile, the form error before and after, or interferometer maps:\n\
+the removal, or the surface before and after). K, and if asked r_t and κ, are fitted by\n\
+nonlinear least squares with a free piston per run (and a tilt per map); standard errors\n\
+come from the Jacobian and the residual variance with n − p degrees of freedom, and for\n\
+maps count the residual's correlation from pixel to pixel. The answer's `process` is the\n\
 calibrated process, for every other endpoint. The body may be JSON, or ring tests as `text/csv`\n\
 (`position_mm,duration_s,radius_mm,depth_nm` columns: one run per distinct position and\n\
 duration) with the other fields as query parameters. `Accept: text/csv` gives one row per\n\
@@ -295,7 +473,7 @@ measured point (run, radius, measured, predicted), `Accept: image/svg+xml` a cha
             .runs
             .into_iter()
             .enumerate()
-            .map(|(i, run)| run_spec(i, run))
+            .map(|(i, run)| run_input(i, run, limits))
             .collect::<Result<Vec<_>, _>>()?;
         let fit = req.fit.unwrap_or_default();
         let spec = CalibrationSpec {
@@ -352,6 +530,7 @@ measured point (run, radius, measured, predicted), `Accept: image/svg+xml` a cha
                     radius_mm: r.radius_mm.clone(),
                     measured_nm: r.measured_nm.clone(),
                     predicted_nm: r.predicted_nm.clone(),
+                    map: r.map.as_ref().map(Into::into),
                 })
                 .collect(),
             degrees_of_freedom: c.degrees_of_freedom,

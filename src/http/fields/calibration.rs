@@ -3,7 +3,7 @@
 
 use super::super::error::{ApiError, Kind};
 use crate::calibration::{CalibrationError, FitFailure, ProfileRole, RunError};
-use crate::usecases::calibration::CalibrationInputError;
+use crate::usecases::calibration::{CalibrationInputError, MapRunError, PolarTrialError};
 
 fn role_name(role: ProfileRole) -> &'static str {
     match role {
@@ -37,6 +37,7 @@ fn run_error(index: usize, error: RunError) -> ApiError {
             None => format!("{run}.clear_aperture"),
         },
         RunError::NothingInAperture => format!("{run}.clear_aperture"),
+        RunError::LawNeedsMap => format!("{run}.map"),
     };
     ApiError::invalid(field, detail)
 }
@@ -52,12 +53,40 @@ impl From<CalibrationInputError> for ApiError {
                 ApiError::from_limit(&format!("runs[{run}].dwell.positions_mm"), error)
             }
             E::Noise => ApiError::invalid("expected_noise_nm", err.to_string()),
+            E::Polar { run, error } => {
+                let at = format!("runs[{run}].polar");
+                match error {
+                    PolarTrialError::Schedule(e) => {
+                        ApiError::from_schedule(&format!("{at}.dwell"), e)
+                    }
+                    PolarTrialError::Law(law) => ApiError::invalid(
+                        format!("{at}.{}", super::maps::c_law_field(&law)),
+                        format!("run {run}: {law}"),
+                    ),
+                    PolarTrialError::StartAngle(_) => ApiError::invalid(
+                        format!("{at}.start_angle_deg"),
+                        format!("run {run}: {error}"),
+                    ),
+                }
+            }
+            E::Map { run, error } => {
+                let at = format!("runs[{run}].map");
+                match error {
+                    MapRunError::Removal(e) => ApiError::from(e).under(&at),
+                    MapRunError::Difference(e) => ApiError::from(e).under(&at),
+                    MapRunError::Differenced(e) => ApiError::from(e).under(&at),
+                }
+            }
+            E::MapPixels { .. } | E::MapWork { .. } => ApiError::limit("runs", err.to_string()),
             E::Calibration(e) => match e {
                 CalibrationError::NoRuns => ApiError::invalid("runs", e.to_string()),
                 CalibrationError::Run { index, error } => run_error(index, error),
                 CalibrationError::NothingToFit => ApiError::invalid("fit", e.to_string()),
                 CalibrationError::MomentShareNeedsLinear => {
                     ApiError::invalid("fit.pad_moment_share", e.to_string())
+                }
+                CalibrationError::ShapeFromMap { run } => {
+                    ApiError::invalid(format!("runs[{run}].map"), e.to_string())
                 }
                 CalibrationError::TooFewPoints { .. } => ApiError::invalid("runs", e.to_string()),
             },

@@ -51,7 +51,7 @@ impl From<FootprintInputError> for ApiError {
 }
 
 /// Where a C law's problem sits in a request's `c_law`.
-fn c_law_field(err: &CLawError) -> String {
+pub(super) fn c_law_field(err: &CLawError) -> String {
     match err {
         CLawError::Rows { .. } => "c_law.speed_factors".to_string(),
         CLawError::Row { station, .. } => format!("c_law.speed_factors[{station}]"),
