@@ -28,9 +28,22 @@
 //! start is the nominal process with ρ = 1: its first Gauss–Newton step solves the linear
 //! part exactly.
 //!
+//! **Runs measured by maps.** A run may instead be measured at a map's pixels (x, y) (a
+//! ring, a dwell schedule or a polar plan under C's sector law alike): g is then the exact
+//! depth the executed motion leaves at each pixel ([`crate::physics::polar`]), and the model
+//! m = ρ·g + c_j + t_x,j·x + t_y,j·y (+ d_j·(x² + y²)) has the run's own tilt (the map's
+//! alignment). Only ρ is fitted with a map among the runs: a point-sampled pixel's g jumps
+//! where it meets the pad's rim (a pad held over the axis covers it whole or not at all), a
+//! staircase in r_t and κ that no difference quotient follows. A map's residual correlates
+//! from pixel to pixel, so the covariance is then the sandwich Σ_j Cov(Σ_(i∈j) a_k,i·e_i) over
+//! the runs, a_k = ((JᵀWJ)⁻¹·JᵀW)_k: each map's term over its residual's autocovariance
+//! ([`spatial::Sandwich`]), each profile's its residual taken as independent, all of it times
+//! n/(n − p).
+//!
 //! A parameter no run is sensitive to (κ when no pad overhangs the edge: g does not depend on
 //! it at all) is held at its nominal value and reported without a standard error; the caller
-//! says why. Standard errors are √ of the diagonal of σ²·(JᵀWJ)⁻¹, σ² = S/(n − p).
+//! says why. Standard errors are √ of the diagonal of σ²·(JᵀWJ)⁻¹, σ² = S/(n − p) (profiles
+//! alone; with a map, the sandwich above).
 
 pub mod spatial;
 
@@ -247,6 +260,8 @@ pub enum RunError {
     Aperture(GridError),
     #[error("no measured point lies within the run's clear aperture")]
     NothingInAperture,
+    #[error("no pixel of the map lies on the part (within its workpiece radius)")]
+    NothingOnPart,
     #[error(
         "C's sector law makes the removal vary with the angle, which one profile does not \
          sample: measure this run with a map"
@@ -276,14 +291,16 @@ pub enum CalibrationError {
     )]
     ShapeFromMap { run: usize },
     #[error(
-        "{points} measured points cannot determine {parameters} parameters (the process's, \
-         each run's piston{} and a map run's tilt): give more points",
-        if *power { ", power" } else { "" }
+        "{points} measured points cannot determine {parameters} parameters (the process's and \
+         each run's piston{}{}): give more points",
+        if *power { " and power" } else { "" },
+        if *tilt { ", and a map run's tilt" } else { "" }
     )]
     TooFewPoints {
         points: usize,
         parameters: usize,
         power: bool,
+        tilt: bool,
     },
 }
 
@@ -402,7 +419,7 @@ pub struct MapRunFit {
     /// ([`spatial`]).
     pub bandwidth_px: usize,
     /// How many times the first fitted parameter's variance from this run exceeds what it
-    /// would be were its pixels independent.
+    /// would be were its pixels independent (≥ 1: the variance is never taken below that).
     pub variance_inflation: f64,
 }
 
@@ -476,6 +493,7 @@ impl Calibration {
                 points,
                 parameters,
                 power: freedom.metrology_power,
+                tilt: calibration.runs.iter().any(|run| run.map.is_some()),
             });
         }
         Ok(calibration)
@@ -509,7 +527,7 @@ impl Calibration {
     }
 
     /// The parameter vector's layout: the free process parameters (those `informative`), then
-    /// each run's piston, then each run's power term.
+    /// each run's piston, then each map run's tilt (x, y), then each run's power term.
     fn layout(&self, informative: &[bool; 3]) -> Vec<Slot> {
         let mut slots: Vec<Slot> = ProcessParameter::ALL
             .iter()
@@ -633,11 +651,9 @@ impl Run {
                 positions_mm,
             } => {
                 within_reach(process, positions_mm)?;
-                let pad = PolarPad::new(process);
-                Ok(match &self.map {
-                    Some(map) => pad.depth_nm(blocks, &map.xy_mm),
-                    None => pad.mean_depth_nm(blocks, &self.radius_mm),
-                })
+                // Built only for a run measured by a map: its pixels.
+                let pixels = self.map.as_ref().map_or(&[][..], |m| &m.xy_mm);
+                Ok(PolarPad::new(process).depth_nm(blocks, pixels))
             }
         }
     }
@@ -651,9 +667,9 @@ fn within_reach(process: &Process, positions_mm: &[f64]) -> Result<(), OutsideMo
     }
 }
 
-/// The process parameters' covariance from runs measured by maps (`spatial_covariance`), and
+/// The process parameters' covariance from runs measured by maps (`map_covariance`), and
 /// each map run's bandwidth (pixels) and variance inflation (`None` for a profile run).
-struct SpatialCovariance {
+struct MapCovariance {
     covariance: Vec<Vec<f64>>,
     runs: Vec<Option<(usize, f64)>>,
 }
@@ -746,11 +762,11 @@ impl CalibrationModel<'_> {
                 (0..g.len())
                     .map(|i| {
                         let r = run.radius_mm[i];
-                        let tilt = run.map.as_ref().map_or(0.0, |m| {
-                            let (x, y) = m.xy_mm[i];
-                            o.tilt.0 * x + o.tilt.1 * y
-                        });
-                        rho * g[i] + o.piston * run.piston_shape[i] + tilt + o.power * r * r
+                        let value = rho * g[i] + o.piston * run.piston_shape[i] + o.power * r * r;
+                        match &run.map {
+                            Some(m) => value + o.tilt.0 * m.xy_mm[i].0 + o.tilt.1 * m.xy_mm[i].1,
+                            None => value,
+                        }
                     })
                     .collect()
             })
@@ -812,52 +828,45 @@ impl CalibrationModel<'_> {
 
     /// The covariance of the parameters in `indices` (slots) with each map run's residual
     /// correlation counted: Σ_j Cov(Σ_(i∈j) a_k,i·e_i) over the runs, a_k = ((JᵀWJ)⁻¹·JᵀW)_k
-    /// each parameter's influence, in the √w-scaled form (rows √wᵢ·Jᵢ, residuals √wᵢ·eᵢ,
-    /// exact for weights 0 and 1). A map run's share is its [`Sandwich`] (its variances never
-    /// below its white-noise figure); a profile's, its residual's variance times Σ a_k·a_l
-    /// (independent points, as a calibration of profiles alone takes them, but each run with
-    /// its own variance). All of it times n/(n − p), the degrees of freedom the fit took. With
+    /// each parameter's influence, in the √w-scaled form (rows √wᵢ·Jᵢ, residuals √wᵢ·eᵢ) over
+    /// the points a robust loss kept (w > 0). A map run's share is its [`Sandwich`] (its
+    /// variances never below its white-noise figure); a profile's, its residual taken as
+    /// independent ([`spatial::independent`]: as a calibration of profiles alone takes it, but
+    /// each run with its own variance). All of it times n/(n − p), n the points kept. With
     /// it, each map run's bandwidth and its first parameter's variance inflation.
-    fn spatial_covariance(
-        &self,
-        fit: &Fit,
-        indices: &[usize],
-    ) -> Result<SpatialCovariance, OutsideModel> {
+    fn map_covariance(&self, fit: &Fit, indices: &[usize]) -> Result<MapCovariance, OutsideModel> {
         let jacobian = self.jacobian(&fit.parameters, &fit.residuals)?;
-        let inverse = &fit.inverse_normal;
+        let inverse: Vec<Vec<f64>> = indices
+            .iter()
+            .map(|&k| fit.inverse_normal[k].clone())
+            .collect();
         let q = indices.len();
         let mut covariance = vec![vec![0.0; q]; q];
         let mut runs = Vec::with_capacity(self.calibration.runs.len());
         let mut offset = 0;
         for run in &self.calibration.runs {
-            let range = offset..offset + run.radius_mm.len();
-            offset = range.end;
-            let root: Vec<f64> = fit.weights[range.clone()]
+            let start = offset;
+            offset += run.radius_mm.len();
+            // The points kept, their √w-scaled Jacobian rows and residuals.
+            let kept: Vec<usize> = (start..offset).filter(|&i| fit.weights[i] > 0.0).collect();
+            let rows: Vec<Vec<f64>> = kept
                 .iter()
-                .map(|w| w.sqrt())
-                .collect();
-            let residual: Vec<f64> = fit.residuals[range.clone()]
-                .iter()
-                .zip(&root)
-                .map(|(e, s)| e * s)
-                .collect();
-            let influence: Vec<Vec<f64>> = indices
-                .iter()
-                .map(|&k| {
-                    range
-                        .clone()
-                        .zip(&root)
-                        .map(|(i, s)| {
-                            s * (0..jacobian.ncols())
-                                .map(|l| inverse[k][l] * jacobian[(i, l)])
-                                .sum::<f64>()
-                        })
+                .map(|&i| {
+                    let s = fit.weights[i].sqrt();
+                    (0..jacobian.ncols())
+                        .map(|l| s * jacobian[(i, l)])
                         .collect()
                 })
                 .collect();
+            let residual: Vec<f64> = kept
+                .iter()
+                .map(|&i| fit.weights[i].sqrt() * fit.residuals[i])
+                .collect();
+            let influence = spatial::influence(&inverse, &rows);
             let (share, this_run) = match &run.map {
                 Some(map) => {
-                    let sandwich = Sandwich::new(&map.pixels, &influence, &residual);
+                    let pixels: Vec<Pixel> = kept.iter().map(|&i| map.pixels[i - start]).collect();
+                    let sandwich = Sandwich::new(&pixels, &influence, &residual);
                     let mut share = sandwich.covariance.clone();
                     for (k, row) in share.iter_mut().enumerate() {
                         row[k] = sandwich.variance(k);
@@ -869,25 +878,7 @@ impl CalibrationModel<'_> {
                     };
                     (share, Some((sandwich.bandwidth_px, inflation)))
                 }
-                None => {
-                    let variance =
-                        residual.iter().map(|e| e * e).sum::<f64>() / residual.len() as f64;
-                    let share = (0..q)
-                        .map(|k| {
-                            (0..q)
-                                .map(|l| {
-                                    variance
-                                        * influence[k]
-                                            .iter()
-                                            .zip(&influence[l])
-                                            .map(|(a, b)| a * b)
-                                            .sum::<f64>()
-                                })
-                                .collect()
-                        })
-                        .collect::<Vec<Vec<f64>>>();
-                    (share, None)
-                }
+                None => (spatial::independent(&influence, &residual), None),
             };
             for (total, part) in covariance.iter_mut().zip(&share) {
                 for (t, p) in total.iter_mut().zip(part) {
@@ -896,15 +887,14 @@ impl CalibrationModel<'_> {
             }
             runs.push(this_run);
         }
-        let m = self.slots.len();
-        let n = fit.degrees_of_freedom + m;
-        let dof = n as f64 / fit.degrees_of_freedom.max(1) as f64;
+        let dof =
+            spatial::lost_freedom(fit.degrees_of_freedom + self.slots.len(), self.slots.len());
         for row in &mut covariance {
             for v in row.iter_mut() {
                 *v *= dof;
             }
         }
-        Ok(SpatialCovariance { covariance, runs })
+        Ok(MapCovariance { covariance, runs })
     }
 
     fn failure(&self, error: LsqError<OutsideModel>) -> FitFailure {
@@ -959,10 +949,11 @@ impl CalibrationModel<'_> {
             })
             .collect();
         let indices: Vec<usize> = fitted.iter().map(|f| f.1).collect();
-        // With a map among the runs, the residual's spatial correlation enters the errors.
-        let spatial = if calibration.runs.iter().any(|run| run.map.is_some()) {
+        // With a map among the runs, the residual's spatial correlation enters the errors (an
+        // exact fit claims none).
+        let spatial = if !exact_fit && calibration.runs.iter().any(|run| run.map.is_some()) {
             Some(
-                self.spatial_covariance(fit, &indices)
+                self.map_covariance(fit, &indices)
                     .map_err(|e| FitFailure::OutsideModel(e.to_string()))?,
             )
         } else {
@@ -1214,8 +1205,9 @@ fn removal_between(before: &DepthProfile, after: &DepthProfile) -> DepthProfile 
 
 fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
     let by_map = matches!(spec.measured, Measured::Map(_));
-    // A run measured by a map is predicted pixel by pixel from the motion C and X executed.
-    let omega = PolarPad::new(process).part_speed_rad_per_s();
+    // A run measured by a map is predicted pixel by pixel from the motion C and X executed,
+    // the part turning at Ω = −ω₁ (`physics::polar`).
+    let omega = -process.omega1_rad_per_s();
     let executed = |schedule: DwellSchedule, start_rad: f64| Trial::Executed {
         blocks: executed_blocks(
             schedule.motion(),
@@ -1286,10 +1278,10 @@ fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
     };
     let edge = process.workpiece_radius_mm();
     let axial_zero = matches!(spec.measured, Measured::BeforeAfter { .. });
-    let (measured, map) = match spec.measured {
+    let measured = match spec.measured {
         Measured::Removal(profile) => {
             check_profile(ProfileRole::Removal, &profile, edge)?;
-            (profile, None)
+            profile
         }
         Measured::BeforeAfter { before, after } => {
             check_profile(ProfileRole::Before, &before, edge)?;
@@ -1298,57 +1290,49 @@ fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
             if removal.radius_mm.is_empty() {
                 return Err(RunError::NoOverlap);
             }
-            (removal, None)
+            removal
         }
         Measured::Map(samples) => {
             // A map may reach past the part's edge (its boundary fitted to the pixels): only
-            // the part's pixels count.
+            // the part's pixels count, and of them those in the run's aperture.
+            let aperture = run_aperture(process, spec.aperture)?;
             let on_part: Vec<MapSample> = samples
                 .into_iter()
                 .filter(|s| s.removal_nm.is_finite() && s.x_mm.hypot(s.y_mm) <= edge)
                 .collect();
-            let profile = DepthProfile {
-                radius_mm: on_part.iter().map(|s| s.x_mm.hypot(s.y_mm)).collect(),
-                depth_nm: on_part.iter().map(|s| s.removal_nm).collect(),
-            };
-            (profile, Some(on_part))
+            if on_part.is_empty() {
+                return Err(RunError::NothingOnPart);
+            }
+            let kept: Vec<MapSample> = on_part
+                .into_iter()
+                .filter(|s| aperture.is_none_or(|a| a.contains(s.x_mm.hypot(s.y_mm))))
+                .collect();
+            if kept.is_empty() {
+                return Err(RunError::NothingInAperture);
+            }
+            return Ok(Run {
+                trial,
+                radius_mm: kept.iter().map(|s| s.x_mm.hypot(s.y_mm)).collect(),
+                removal_nm: kept.iter().map(|s| s.removal_nm).collect(),
+                piston_shape: vec![1.0; kept.len()],
+                map: Some(MapPoints {
+                    xy_mm: kept.iter().map(|s| (s.x_mm, s.y_mm)).collect(),
+                    pixels: kept.iter().map(|s| s.pixel).collect(),
+                }),
+            });
         }
     };
-    let within = match spec.aperture {
-        Some((inner, outer)) => {
-            let aperture = ClearAperture::new(process, inner, outer).map_err(RunError::Aperture)?;
-            measured
-                .radius_mm
-                .iter()
-                .map(|&r| aperture.contains(r))
-                .collect()
-        }
-        None => vec![true; measured.radius_mm.len()],
-    };
-    let kept = |values: &[f64]| -> Vec<f64> {
-        values
-            .iter()
-            .zip(&within)
-            .filter(|(_, &w)| w)
-            .map(|(v, _)| *v)
-            .collect()
-    };
-    let (radius_mm, removal_nm) = (kept(&measured.radius_mm), kept(&measured.depth_nm));
+    let aperture = run_aperture(process, spec.aperture)?;
+    let (radius_mm, removal_nm): (Vec<f64>, Vec<f64>) = measured
+        .radius_mm
+        .iter()
+        .zip(&measured.depth_nm)
+        .filter(|(r, _)| aperture.is_none_or(|a| a.contains(**r)))
+        .map(|(r, d)| (*r, *d))
+        .unzip();
     if radius_mm.is_empty() {
         return Err(RunError::NothingInAperture);
     }
-    let map = map.map(|samples| {
-        let kept: Vec<&MapSample> = samples
-            .iter()
-            .zip(&within)
-            .filter(|(_, &w)| w)
-            .map(|(s, _)| s)
-            .collect();
-        MapPoints {
-            xy_mm: kept.iter().map(|s| (s.x_mm, s.y_mm)).collect(),
-            pixels: kept.iter().map(|s| s.pixel).collect(),
-        }
-    });
     let surface = &process.part().surface;
     let piston_shape = radius_mm
         .iter()
@@ -1359,6 +1343,17 @@ fn check_run(process: &Process, spec: RunSpec) -> Result<Run, RunError> {
         radius_mm,
         removal_nm,
         piston_shape,
-        map,
+        map: None,
     })
+}
+
+/// A run's clear aperture, checked; `None`: every point counts.
+fn run_aperture(
+    process: &Process,
+    aperture: Option<(f64, f64)>,
+) -> Result<Option<ClearAperture>, RunError> {
+    aperture
+        .map(|(inner, outer)| ClearAperture::new(process, inner, outer))
+        .transpose()
+        .map_err(RunError::Aperture)
 }

@@ -237,9 +237,11 @@ struct Lesson {
 
 /// The cycle a new measurement completes, if any: its run, and the calibration fitted to its
 /// removal (kept whether or not it is significant: the profile learns only from those that
-/// are). The removal is the map difference's radial removal when maps measured the part before
-/// and after (registered by their fitted apertures), else before − after of the radial
-/// profiles. A computation that could not run (the service overloaded) fails the write, to be
+/// are). When maps measured the part before and after, every pixel of their difference is
+/// fitted by the removal the plan's motion leaves there (registered as the after map was
+/// analysed; K's error counts the residual's correlation from pixel to pixel), or, for a plan
+/// too long to predict pixel by pixel, their difference's radial removal; else before − after
+/// of the radial profiles. A computation that could not run (the service overloaded) fails the write, to be
 /// retried; one that refuses the removal (no K > 0 fits it) leaves the cycle without a
 /// calibration.
 async fn learn_from_cycle<C: Compute>(
@@ -274,24 +276,57 @@ async fn learn_from_cycle<C: Compute>(
     let mut run_fit = json!({
         "dwell": read::<PlanAnswer>(&document(&plan.result)?, "a plan")?.dwell,
     });
+    if let Some(aperture) = read::<PlanAperture>(&plan_request, "a plan request")?.clear_aperture {
+        run_fit["clear_aperture"] = aperture;
+    }
+    let mut request = Document::new();
+    plan_setting(&mut request, &plan_request, &profile)?;
+    request.insert("fit".into(), json!({"preston_coefficient": true}));
+    let calibration = |run: Value| {
+        let mut request = request.clone();
+        request.insert("runs".into(), json!([run]));
+        request
+    };
+    let mut fitted = None;
     match (&before.map_sha256, after.map) {
         (Some(sha256), Some((file, analysed))) => {
             let before_file = store.blob(sha256).await?.ok_or_else(missing)?;
-            let mut request = Document::new();
+            let maps = [("before", before_file.as_slice()), ("after", file)];
+            // Where the maps sit on the part, as the after map was analysed.
+            let mut placed = Document::new();
             fill(
-                &mut request,
+                &mut placed,
                 &Value::Object(analysed.clone()),
-                &["pixel_mm", "clear_aperture", "psd"],
+                &["pixel_mm", "alignment", "clear_aperture"],
             );
-            let difference = compute
-                .compute_with_maps(
-                    Computation::MapDifference,
-                    &request,
-                    &[("before", &before_file), ("after", file)],
-                )
-                .await?;
-            run_fit["removal"] =
-                read::<DifferenceAnswer>(&difference, "a map difference")?.radial_removal;
+            // Every pixel predicted from the motion run, K's error with the residual's
+            // correlation counted.
+            let mut map_run = run_fit.clone();
+            map_run["map"] = Value::Object(placed.clone());
+            let map_request = calibration(map_run);
+            fitted = match compute
+                .compute_with_maps(Computation::Calibration, &map_request, &maps)
+                .await
+            {
+                Ok(result) => Some((map_request, result)),
+                Err(error) if C::refuses(&error) => {
+                    tracing::info!(run = %run.stamp.id, %error, "the maps' pixels determine no calibration: their radial removal is fitted");
+                    None
+                }
+                Err(error) => return Err(error),
+            };
+            if fitted.is_none() {
+                // A plan too long to predict pixel by pixel: the maps' radial removal.
+                placed.remove("alignment");
+                let mut psd = Document::new();
+                fill(&mut psd, &Value::Object(analysed.clone()), &["psd"]);
+                placed.extend(psd);
+                let difference = compute
+                    .compute_with_maps(Computation::MapDifference, &placed, &maps)
+                    .await?;
+                run_fit["removal"] =
+                    read::<DifferenceAnswer>(&difference, "a map difference")?.radial_removal;
+            }
         }
         _ => {
             let answer: MeasurementAnswer = read(&document(&before.result)?, "a measurement")?;
@@ -299,26 +334,29 @@ async fn learn_from_cycle<C: Compute>(
             run_fit["after"] = after.profile.clone();
         }
     }
-    if let Some(aperture) = read::<PlanAperture>(&plan_request, "a plan request")?.clear_aperture {
-        run_fit["clear_aperture"] = aperture;
-    }
-    let mut request = Document::new();
-    plan_setting(&mut request, &plan_request, &profile)?;
-    request.insert("runs".into(), json!([run_fit]));
-    request.insert("fit".into(), json!({"preston_coefficient": true}));
-    let fitted = match compute.compute(Computation::Calibration, &request).await {
-        Ok(result) => Some(calibration_record(
+    let fitted = match fitted {
+        Some(fitted) => Some(fitted),
+        None => {
+            let request = calibration(run_fit);
+            match compute.compute(Computation::Calibration, &request).await {
+                Ok(result) => Some((request, result)),
+                Err(error) if C::refuses(&error) => {
+                    tracing::info!(run = %run.stamp.id, %error, "the cycle's removal determines no calibration");
+                    None
+                }
+                Err(error) => return Err(error),
+            }
+        }
+    };
+    let fitted = match fitted {
+        Some((request, result)) => Some(calibration_record(
             write.stamp(),
             &profile.stamp.id,
             &request,
             &result,
             Some(run.stamp.id.clone()),
         )?),
-        Err(error) if C::refuses(&error) => {
-            tracing::info!(run = %run.stamp.id, %error, "the cycle's removal determines no calibration");
-            None
-        }
-        Err(error) => return Err(error),
+        None => None,
     };
     Ok(Some(Lesson {
         run: run.stamp.id.clone(),

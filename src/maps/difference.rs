@@ -111,24 +111,64 @@ fn interpolate(map: &HeightMap, alignment: &Alignment, x: f64, y: f64) -> Option
     )
 }
 
+/// The before map's valid pixels in the aperture that the after map covers, each with the
+/// after height there; how many it does not cover; the aperture's pixels on the before map.
+struct Registered {
+    pairs: Vec<(Pixel, f64)>,
+    uncovered: usize,
+    area_pixels: usize,
+}
+
+/// The maps registered as `plan` places them (module docs).
+fn register(
+    before: &HeightMap,
+    after: &HeightMap,
+    plan: &DifferencePlan,
+) -> Result<Registered, DifferenceError> {
+    let census = super::analysis::aperture_pixels(before, &plan.before, &plan.aperture);
+    let candidates = census.pixels;
+    let pairs: Vec<(Pixel, f64)> = candidates
+        .iter()
+        .filter_map(|p| interpolate(after, &plan.after, p.x_mm, p.y_mm).map(|h| (*p, h)))
+        .collect();
+    if pairs.len() < 16 {
+        return Err(DifferenceError::TooLittleOverlap(pairs.len()));
+    }
+    Ok(Registered {
+        uncovered: candidates.len() - pairs.len(),
+        area_pixels: census.area_pixels,
+        pairs,
+    })
+}
+
+/// The removal h_before − h_after at the compared pixels (no tilt removed), and nothing else
+/// of the difference: what a calibration fits.
+pub fn removal_pixels(
+    before: &HeightMap,
+    after: &HeightMap,
+    plan: &DifferencePlan,
+) -> Result<Vec<Pixel>, DifferenceError> {
+    Ok(register(before, after, plan)?
+        .pairs
+        .into_iter()
+        .map(|(p, h)| Pixel {
+            height_nm: p.height_nm - h,
+            ..p
+        })
+        .collect())
+}
+
 /// The difference (module docs) of `before` and `after` as `plan` says.
 pub fn difference(
     before: &HeightMap,
     after: &HeightMap,
     plan: DifferencePlan,
 ) -> Result<MapDifference, DifferenceError> {
-    let census = super::analysis::aperture_pixels(before, &plan.before, &plan.aperture);
-    let candidates = census.pixels;
-    let mut pairs: Vec<(Pixel, f64)> = Vec::with_capacity(candidates.len());
-    for p in &candidates {
-        if let Some(h) = interpolate(after, &plan.after, p.x_mm, p.y_mm) {
-            pairs.push((*p, h));
-        }
-    }
-    let uncovered = candidates.len() - pairs.len();
-    if pairs.len() < 16 {
-        return Err(DifferenceError::TooLittleOverlap(pairs.len()));
-    }
+    let Registered {
+        pairs,
+        uncovered,
+        area_pixels,
+    } = register(before, after, &plan)?;
     let (cx, cy) = plan.aperture.centre_mm();
     let radius = plan.aperture.normalization_radius_mm();
     let unit = |p: &Pixel| ((p.x_mm - cx) / radius, (p.y_mm - cy) / radius);
@@ -209,7 +249,7 @@ pub fn difference(
         plan,
         pixels: removal,
         uncovered,
-        area_pixels: census.area_pixels,
+        area_pixels,
         removal: removal_figures,
         before: before_figure,
         after: after_figure,

@@ -11,9 +11,12 @@
 use super::limits::{ComputeLimits, SizeLimitError};
 use super::map_analysis::{check_on_map, MapInputError, MapOrigin, Placement};
 use super::map_difference::{
-    map_difference, DifferenceInputError, MapDifferenceCommand, MapDifferenceSpec,
+    map_removal_pixels, DifferenceInputError, MapDifferenceCommand, MapDifferenceSpec,
 };
-use super::map_predict::{covered_turns, map_work, polar_schedule, CLawError, CLawSpec};
+use super::map_predict::{
+    covered_turns, law_work, map_work, polar_schedule, station_turns, CLawError, CLawSpec,
+    MAX_BLOCKS,
+};
 use super::setting::{process_on_part, SettingError};
 use super::warnings::process_warnings;
 use super::{PartSpec, Warning};
@@ -27,9 +30,7 @@ use crate::maps::analysis::aperture_pixels;
 use crate::maps::aperture::Aperture;
 use crate::maps::difference::DifferenceError;
 use crate::maps::HeightMap;
-use crate::physics::polar::Block;
-use crate::physics::{DwellSchedule, Process, ProcessSpec, ScheduleError};
-use std::f64::consts::TAU;
+use crate::physics::{DwellSchedule, Process, ProcessSpec, ScheduleError, Turning};
 
 /// The most runs one calibration takes.
 pub const MAX_RUNS: usize = 64;
@@ -177,17 +178,28 @@ pub enum CalibrationInputError {
     #[error("run {run}: {error}")]
     Map { run: usize, error: MapRunError },
     #[error(
-        "the runs' maps hold {pixels} pixels; at most {max} are fitted (their standard errors \
-         sum over the residual's correlation at every pixel): a coarser map or a smaller \
-         aperture"
+        "run {run}: the runs' maps hold {pixels} pixels with data up to this one; at most {max} \
+         are fitted (their standard errors sum over the residual's correlation at every \
+         pixel): a coarser map"
     )]
-    MapPixels { pixels: usize, max: usize },
+    MapPixels {
+        run: usize,
+        pixels: usize,
+        max: usize,
+    },
     #[error(
-        "predicting the runs' maps is {work:.2e} pixel-turns of work (pixels × C's turns, as \
-         /v1/maps/predict counts it); at most {max:.1e} are computed: a coarser map, a \
-         smaller aperture or a shorter run"
+        "run {run}: predicting the runs' maps is {work:.2e} pixel-turns of work up to this one \
+         (pixels × C's turns, as /v1/maps/predict counts it) in {blocks:.2e} blocks of motion; \
+         at most {max_work:.1e} pixel-turns and {max_blocks:.0e} blocks are computed: a coarser \
+         map, a smaller aperture or fewer sectors"
     )]
-    MapWork { work: f64, max: f64 },
+    MapWork {
+        run: usize,
+        work: f64,
+        blocks: f64,
+        max_work: f64,
+        max_blocks: f64,
+    },
     #[error(transparent)]
     Calibration(CalibrationError),
 }
@@ -225,21 +237,23 @@ impl CalibrationCommand {
             .sum();
         limits.check_trace_points(points).map_err(E::Points)?;
         for (run, input) in spec.runs.iter().enumerate() {
-            if let (
-                TrialInput::Given(TrialSpec::Dwell { positions_mm, .. }),
-                MeasuredInput::Given(m),
-            ) = (&input.trial, &input.measured)
-            {
+            let positions = match &input.trial {
+                TrialInput::Given(TrialSpec::Dwell { positions_mm, .. }) => positions_mm.len(),
+                TrialInput::Polar(polar) => polar.positions_mm.len(),
+                _ => continue,
+            };
+            if let MeasuredInput::Given(m) = &input.measured {
                 limits
-                    .check_operator(profile_points(m), positions_mm.len())
+                    .check_operator(profile_points(m), positions)
                     .map_err(|error| E::Positions { run, error })?;
             }
         }
+        let mut maps = MapTally::default();
         let runs = spec
             .runs
             .into_iter()
             .enumerate()
-            .map(|(run, input)| run_spec(&process, input, run, limits))
+            .map(|(run, input)| run_spec(&process, input, run, limits, &mut maps))
             .collect::<Result<Vec<RunSpec>, _>>()?;
         if spec
             .expected_noise_nm
@@ -255,7 +269,6 @@ impl CalibrationCommand {
         };
         let calibration = Calibration::new(process, runs, freedom, spec.robust.unwrap_or_default())
             .map_err(E::Calibration)?;
-        check_map_work(&calibration)?;
         Ok(CalibrationCommand {
             calibration,
             expected_noise_nm: spec.expected_noise_nm,
@@ -272,23 +285,61 @@ fn profile_points(measured: &Measured) -> usize {
     }
 }
 
+/// What the map runs read so far hold: pixels with data, and the work and blocks of
+/// predicting them (`map_predict::map_work`), each checked against its limit run by run, before
+/// anything dear is computed.
+#[derive(Debug, Default)]
+struct MapTally {
+    pixels: usize,
+    work: f64,
+    blocks: f64,
+}
+
 /// The run as the core takes it: a polar plan's schedule built, a map's pixels read.
 fn run_spec(
     process: &Process,
     input: RunInput,
     run: usize,
     limits: &ComputeLimits,
+    maps: &mut MapTally,
 ) -> Result<RunSpec, CalibrationInputError> {
-    let trial = match input.trial {
-        TrialInput::Given(trial) => trial,
-        TrialInput::Polar(polar) => polar_trial(process, polar)
-            .map_err(|error| CalibrationInputError::Polar { run, error })?,
+    let (trial, fastest) = match input.trial {
+        TrialInput::Given(trial) => (trial, None),
+        TrialInput::Polar(polar) => {
+            let (trial, fastest) = polar_trial(process, polar)
+                .map_err(|error| CalibrationInputError::Polar { run, error })?;
+            (trial, Some(fastest))
+        }
     };
     let measured = match input.measured {
         MeasuredInput::Given(measured) => measured,
-        MeasuredInput::Map(map) => Measured::Map(
-            map_samples(*map, limits).map_err(|error| CalibrationInputError::Map { run, error })?,
-        ),
+        MeasuredInput::Map(map) => {
+            let pixels = map.pixels();
+            maps.pixels += pixels;
+            if maps.pixels > MAX_MAP_PIXELS {
+                return Err(CalibrationInputError::MapPixels {
+                    run,
+                    pixels: maps.pixels,
+                    max: MAX_MAP_PIXELS,
+                });
+            }
+            let (turns, blocks, covered) = motion_work(process, &trial, fastest.as_deref());
+            maps.work += map_work(process, pixels, 0, turns, blocks, covered);
+            maps.blocks += blocks;
+            if maps.work > MAX_MAP_WORK || maps.blocks > MAX_BLOCKS {
+                return Err(CalibrationInputError::MapWork {
+                    run,
+                    work: maps.work,
+                    blocks: maps.blocks,
+                    max_work: MAX_MAP_WORK,
+                    max_blocks: MAX_BLOCKS,
+                });
+            }
+            Measured::Map(
+                map_samples(*map, limits)
+                    .map_err(|error| CalibrationInputError::Map { run, error })?,
+            )
+        }
     };
     Ok(RunSpec {
         trial,
@@ -297,18 +348,78 @@ fn run_spec(
     })
 }
 
-fn polar_trial(process: &Process, polar: PolarTrial) -> Result<TrialSpec, PolarTrialError> {
+/// A polar plan's trial and each station's fastest speed factor (1 at constant speed).
+fn polar_trial(
+    process: &Process,
+    polar: PolarTrial,
+) -> Result<(TrialSpec, Vec<f64>), PolarTrialError> {
     let schedule = DwellSchedule::new(process, polar.positions_mm, polar.dwell_s)
         .map_err(PolarTrialError::Schedule)?;
-    let (schedule, _) = polar_schedule(schedule, polar.c_law).map_err(PolarTrialError::Law)?;
+    let (schedule, fastest) =
+        polar_schedule(schedule, polar.c_law).map_err(PolarTrialError::Law)?;
     let start_deg = polar.start_angle_deg.unwrap_or(0.0);
     if !start_deg.is_finite() {
         return Err(PolarTrialError::StartAngle(start_deg));
     }
-    Ok(TrialSpec::Polar {
+    let trial = TrialSpec::Polar {
         schedule,
         start_angle_rad: start_deg.to_radians(),
-    })
+    };
+    Ok((trial, fastest))
+}
+
+/// The turns of C a trial runs (each station at its `fastest` factor), the blocks its motion
+/// is cut into, and the turns the pad spends over a pixel ([`covered_turns`]): one prediction's
+/// work per pixel, estimated before the motion is built. A dwell schedule the core will refuse
+/// counts nothing.
+fn motion_work(process: &Process, trial: &TrialSpec, fastest: Option<&[f64]>) -> (f64, f64, f64) {
+    let omega = -process.omega1_rad_per_s();
+    let estimate = |schedule: &DwellSchedule, sectors: f64| {
+        let ones = vec![1.0; schedule.positions_mm().len()];
+        let fastest = fastest.unwrap_or(&ones);
+        let (turns, blocks) = law_work(schedule, fastest, omega, sectors);
+        let covered = covered_turns(
+            process,
+            schedule.positions_mm(),
+            &station_turns(schedule.dwell_s(), fastest, omega),
+        );
+        (turns, blocks, covered)
+    };
+    match trial {
+        TrialSpec::Ring {
+            position_mm,
+            duration_s,
+        } => {
+            let turns = station_turns(&[*duration_s], &[1.0], omega);
+            let covered = covered_turns(process, &[*position_mm], &turns);
+            (turns[0], 1.0, covered)
+        }
+        TrialSpec::Dwell {
+            positions_mm,
+            dwell_s,
+        } => match DwellSchedule::new(process, positions_mm.clone(), dwell_s.clone()) {
+            Ok(schedule) => estimate(&schedule, 1.0),
+            Err(_) => (0.0, 0.0, 0.0),
+        },
+        TrialSpec::Polar { schedule, .. } => {
+            let sectors = match schedule.motion().turning() {
+                Turning::Sectors(law) => law.sectors() as f64,
+                Turning::Constant => 1.0,
+            };
+            estimate(schedule, sectors)
+        }
+    }
+}
+
+impl MapMeasurement {
+    /// The pixels with data on the map the removal is read on (the removal's, or the before
+    /// map's): at most what the fit gets.
+    fn pixels(&self) -> usize {
+        match self {
+            MapMeasurement::Removal { map, .. } => map.valid_pixels(),
+            MapMeasurement::BeforeAfter { before, .. } => before.valid_pixels(),
+        }
+    }
 }
 
 /// A map run's pixels in the part's frame and the removal at each.
@@ -338,10 +449,7 @@ fn map_samples(map: MapMeasurement, limits: &ComputeLimits) -> Result<Vec<MapSam
                 limits,
             )
             .map_err(MapRunError::Difference)?;
-            map_difference(command)
-                .map_err(MapRunError::Differenced)?
-                .difference
-                .pixels
+            map_removal_pixels(&command).map_err(MapRunError::Differenced)?
         }
     };
     Ok(pixels
@@ -356,47 +464,6 @@ fn map_samples(map: MapMeasurement, limits: &ComputeLimits) -> Result<Vec<MapSam
             removal_nm: p.height_nm,
         })
         .collect())
-}
-
-/// The map runs' pixels and the work of predicting them within the limits.
-fn check_map_work(calibration: &Calibration) -> Result<(), CalibrationInputError> {
-    let maps = calibration.measured_maps();
-    let pixels: usize = maps.iter().map(|m| m.0).sum();
-    if pixels > MAX_MAP_PIXELS {
-        return Err(CalibrationInputError::MapPixels {
-            pixels,
-            max: MAX_MAP_PIXELS,
-        });
-    }
-    let process = calibration.nominal();
-    let work: f64 = maps
-        .iter()
-        .map(|&(pixels, blocks, positions)| prediction_work(process, pixels, blocks, positions))
-        .sum();
-    if work > MAX_MAP_WORK {
-        return Err(CalibrationInputError::MapWork {
-            work,
-            max: MAX_MAP_WORK,
-        });
-    }
-    Ok(())
-}
-
-/// One prediction's work on `pixels` pixels ([`map_work`], no rings' means).
-fn prediction_work(process: &Process, pixels: usize, blocks: &[Block], positions: &[f64]) -> f64 {
-    let mut turns = vec![0.0; positions.len()];
-    for b in blocks {
-        turns[b.station] += b.duration_s * b.part_speed_rad_per_s.abs() / TAU;
-    }
-    let covered = covered_turns(process, positions, &turns);
-    map_work(
-        process,
-        pixels,
-        0,
-        turns.iter().sum(),
-        blocks.len() as f64,
-        covered,
-    )
 }
 
 /// A calibration's answer.

@@ -5,7 +5,7 @@ use super::map_analysis::{
 };
 use super::warnings::map_dropouts;
 use super::{ComputeLimits, Warning};
-use crate::maps::analysis::Band;
+use crate::maps::analysis::{Band, Pixel};
 use crate::maps::aperture::{Alignment, Aperture};
 use crate::maps::difference::{self, DifferenceError, DifferencePlan, MapDifference};
 use crate::maps::HeightMap;
@@ -148,4 +148,10 @@ pub fn map_difference(
         difference,
         warnings,
     })
+}
+
+/// The removal at the compared pixels alone (`maps::difference::removal_pixels`), without the
+/// difference's figures: what a calibration fits.
+pub fn map_removal_pixels(command: &MapDifferenceCommand) -> Result<Vec<Pixel>, DifferenceError> {
+    difference::removal_pixels(&command.before, &command.after, &command.plan)
 }

@@ -74,7 +74,7 @@ fn normal(rng: &mut fastrand::Rng) -> f64 {
 /// Noise of RMS `rms` at `pixels`: white normal numbers on a grid four widths wider on every
 /// side, convolved with a Gaussian of `width` pixels (to 4 widths; 0: white), scaled to `rms`
 /// over the pixels.
-fn correlated_noise(pixels: &[Pixel], width: f64, rms: f64, seed: u64) -> Vec<f64> {
+pub fn correlated_noise(pixels: &[Pixel], width: f64, rms: f64, seed: u64) -> Vec<f64> {
     let mut rng = fastrand::Rng::with_seed(seed);
     let reach = (4.0 * width).ceil() as i64;
     let lo = pixels.iter().map(|p| p.column.min(p.row)).min().unwrap() - reach;
@@ -330,4 +330,48 @@ async fn k_from_removal_maps_has_an_honest_error_through_the_endpoint() {
         "mean {mean} (sd {sd})"
     );
     assert!((0.90..=0.99).contains(&covered), "coverage {covered}");
+}
+
+/// Under C's law the removal varies with the angle: a polar run measured by one profile is
+/// refused, naming where its map belongs; without a law the same plan measured by a profile is
+/// a dwell run (the 1-D removal is its azimuthal mean), and the planted K comes back.
+#[tokio::test]
+async fn a_profile_cannot_measure_a_law_but_measures_constant_c() {
+    let app = crate::common::http::app();
+    let radius: Vec<f64> = (0..=36).map(f64::from).collect();
+    let run = serde_json::json!({
+        "polar": polar_json(),
+        "removal": {"radius_mm": radius, "depth_nm": vec![1.0; radius.len()]},
+    });
+    let body = serde_json::json!({"process": process_json(NOMINAL_K), "runs": [run]});
+    let reply = crate::common::http::post_json(&app, "/v1/calibration", body.to_string()).await;
+    assert_eq!(reply.status, 422, "{}", reply.text());
+    assert_eq!(reply.json()["field"], "runs[0].map");
+    // C at constant speed: the prediction is /v1/predict's, and 1.3× it gives K = 1.3×.
+    let mut polar = polar_json();
+    polar.as_object_mut().unwrap().remove("c_law");
+    let predict = serde_json::json!({
+        "process": process_json(NOMINAL_K),
+        "dwell": polar["dwell"],
+        "radial_grid": {"count": 37, "stop_mm": 36.0},
+        "clear_aperture": {"outer_mm": 36.0},
+    });
+    let predicted = crate::common::http::post_json(&app, "/v1/predict", predict.to_string()).await;
+    assert_eq!(predicted.status, 200, "{}", predicted.text());
+    let predicted = predicted.json();
+    let depth: Vec<f64> = crate::common::numbers(&predicted["removal_nm"])
+        .iter()
+        .map(|d| PLANTED * d + 2.0)
+        .collect();
+    let run = serde_json::json!({
+        "polar": polar,
+        "removal": {"radius_mm": predicted["radius_mm"], "depth_nm": depth},
+    });
+    let answer = calibrate(
+        &app,
+        serde_json::json!({"process": process_json(NOMINAL_K), "runs": [run]}),
+    )
+    .await;
+    let ratio = answer["removal_rate_ratio"].as_f64().unwrap();
+    assert!((ratio - PLANTED).abs() <= 1e-9, "ratio {ratio}");
 }

@@ -1238,3 +1238,182 @@ async fn a_part_measured_by_maps_learns_over_two_cycles_on_every_backend() {
         map_cycles(&url).await;
     }
 }
+
+/// A flat 20 mm part's map as Preston's text grid at 1 mm (centre pixel 20, 20): `height(x, y)`
+/// within the part, NaN beyond; and the same heights as JSON rows (null beyond).
+fn flat_map(height: &dyn Fn(i64, i64) -> f64) -> (String, Value) {
+    let mut text = String::from("# pixel_mm: 1\n");
+    let mut rows = Vec::new();
+    for row in 0..41i64 {
+        let (mut cells, mut json_row) = (Vec::new(), Vec::new());
+        for column in 0..41i64 {
+            let (x, y) = (column - 20, 20 - row);
+            if ((x * x + y * y) as f64).sqrt() > 20.0 {
+                cells.push("NaN".to_string());
+                json_row.push(Value::Null);
+            } else {
+                let h = height(x, y);
+                cells.push(format!("{h}"));
+                json_row.push(json!(h));
+            }
+        }
+        text.push_str(&cells.join(","));
+        text.push('\n');
+        rows.push(Value::Array(json_row));
+    }
+    (text, Value::Array(rows))
+}
+
+/// A cycle measured by maps learns K as a calibration of its maps does: the part (a flat 20 mm
+/// one) measured before with a figure, astigmatism and noise correlated over 1.5 pixels, the
+/// plan's run removing 90 % of its exact removal (the motion it executes, pixel by pixel), and
+/// measured after with fresh noise. The cycle's removal ratio and its standard error are those
+/// of `/v1/calibration` given the same maps as a map run, to rounding: the records add nothing
+/// and lose nothing, so the ratio inherits the map fit's tested coverage (±2σ over 200 seeds,
+/// `map_calibration`), where the radial removal's error, fitted to a smoothed profile as if its
+/// samples were independent, is several times smaller than the scatter.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_cycle_measured_by_maps_learns_what_a_calibration_of_its_maps_gives() {
+    use crate::map_calibration::correlated_noise;
+    use preston::calibration::spatial::Pixel;
+    use preston::physics::polar::{executed_blocks, PolarPad};
+    use preston::physics::{Motion, Part, PressureModel, Process, ProcessSpec};
+    use preston::surface::Surface;
+
+    let url = &backends()[0];
+    let store = open(url).await;
+    let app = app(store.clone(), AppState::new(ServiceLimits::default()));
+    let token = unique();
+    let process = json!({"workpiece_radius_mm": 20, "tool_radius_mm": 5, "workpiece_rpm": -10,
+                         "tool_rpm": 200, "preston_coefficient_m2_per_n": K_NOMINAL,
+                         "pressure_kpa": 10});
+    let profile = format!("flat-{token}");
+    created(
+        &app,
+        "/v1/process-profiles",
+        &json!({"name": profile, "process": process}),
+    )
+    .await;
+    let part = created(
+        &app,
+        "/v1/parts",
+        &json!({"name": format!("F-{token}"), "process_profile": profile,
+                "workpiece_radius_mm": 20, "clear_aperture": {"inner_mm": 0, "outer_mm": 18}}),
+    )
+    .await;
+    let part_id = part["id"].as_str().unwrap();
+    let pixels: Vec<Pixel> = (-20..=20)
+        .flat_map(|row| (-20..=20).map(move |column| Pixel { column, row }))
+        .collect();
+    let at = |values: &[f64], x: i64, y: i64| values[((y + 20) * 41 + (x + 20)) as usize];
+    let noise_before = correlated_noise(&pixels, 1.5, 0.4, 71);
+    let figure = |x: i64, y: i64| {
+        let (u, v) = (x as f64 / 18.0, y as f64 / 18.0);
+        30.0 * (u * u + v * v) + 8.0 * (u * u - v * v) + at(&noise_before, x, y)
+    };
+    let (before_text, before_rows) = flat_map(&figure);
+    measure_map(&app, part_id, &before_text).await;
+    let positions: Vec<f64> = (0..=36).map(|i| 0.5 * i as f64).collect();
+    let plan = created(
+        &app,
+        &format!("/v1/parts/{part_id}/plans"),
+        &json!({"positions_mm": positions}),
+    )
+    .await;
+    let dwell = &plan["result"]["dwell"];
+    created(
+        &app,
+        &format!("/v1/parts/{part_id}/runs"),
+        &json!({"plan_id": plan["id"], "started_at": from_now(1), "finished_at": from_now(300)}),
+    )
+    .await;
+    // The plan's exact removal at every pixel: the motion it executes, at the K it planned with.
+    let process = Process::new(ProcessSpec {
+        workpiece_radius_mm: 20.0,
+        tool_radius_mm: 5.0,
+        workpiece_rpm: -10.0,
+        tool_rpm: 200.0,
+        preston_coefficient_m2_per_n: K_NOMINAL,
+        pressure_kpa: 10.0,
+        pressure_model: PressureModel::Uniform,
+        part: Part::flat(),
+    })
+    .unwrap();
+    let pad = PolarPad::new(&process);
+    let blocks = executed_blocks(
+        &Motion::radial(numbers(&dwell["positions_mm"])),
+        &numbers(&dwell["dwell_s"]),
+        pad.part_speed_rad_per_s(),
+        0.0,
+        &Surface::plane(),
+    );
+    let points: Vec<(f64, f64)> = pixels
+        .iter()
+        .map(|p| (p.column as f64, p.row as f64))
+        .collect();
+    let removal = pad.depth_nm(&blocks, &points);
+    let noise_after = correlated_noise(&pixels, 1.5, 0.4, 72);
+    // The surface less 90 % of the removal, measured with fresh noise.
+    let after = |x: i64, y: i64| {
+        figure(x, y) - at(&noise_before, x, y) - 0.9 * at(&removal, x, y) + at(&noise_after, x, y)
+    };
+    let (after_text, after_rows) = flat_map(&after);
+    let measured = measure_map(&app, part_id, &after_text).await;
+    assert!(measured["learned_calibration_id"].is_string(), "{measured}");
+    let history = get(&app, &format!("/v1/parts/{part_id}/history"))
+        .await
+        .json();
+    let ratio = &history["cycles"][0]["removal_ratio"];
+    let (value, se) = (
+        ratio["value"].as_f64().unwrap(),
+        ratio["standard_error"].as_f64().unwrap(),
+    );
+    // The same maps as a map run of `/v1/calibration`, placed as the after map was analysed.
+    let direct = post(
+        &app,
+        "/v1/calibration",
+        &json!({
+            "process": process_json_of(&plan),
+            "runs": [{
+                "dwell": dwell,
+                "clear_aperture": plan["request"]["clear_aperture"],
+                "map": {
+                    "before": {"heights_nm": before_rows},
+                    "after": {"heights_nm": after_rows},
+                    "pixel_mm": 1.0,
+                    "clear_aperture": measured["request"]["clear_aperture"],
+                },
+            }],
+        }),
+        &[],
+    )
+    .await;
+    assert_eq!(direct.status, 200, "{}", direct.text());
+    let direct = direct.json();
+    let k = &direct["parameters"]["preston_coefficient_m2_per_n"];
+    let (direct_value, direct_se) = (
+        direct["removal_rate_ratio"].as_f64().unwrap(),
+        k["standard_error"].as_f64().unwrap() / K_NOMINAL,
+    );
+    println!(
+        "map cycle: removal_ratio {value:.5} ± {se:.5}, direct {direct_value:.5} ± {direct_se:.5}, \
+         bandwidth {} px, inflation {:.2}",
+        direct["runs"][0]["map"]["correlation_bandwidth_px"],
+        direct["runs"][0]["map"]["variance_inflation"].as_f64().unwrap()
+    );
+    assert!(
+        (value - direct_value).abs() <= 1e-12 * direct_value,
+        "{value} against {direct_value}"
+    );
+    assert!(
+        (se - direct_se).abs() <= 1e-9 * direct_se,
+        "{se} against {direct_se}"
+    );
+    assert!((value - 0.9).abs() <= 4.0 * se, "{value} ± {se}");
+    store.close().await;
+}
+
+/// A plan's process (its request's), as a calibration's nominal.
+fn process_json_of(plan: &Value) -> Value {
+    plan["request"]["process"].clone()
+}

@@ -14,7 +14,7 @@ use super::dto::{ClearApertureDto, DwellDto, ProcessDto, SurfaceDto, ToolDto, Wa
 use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_object};
-use super::maps::body::MapGridDto;
+use super::maps::body::MapSource;
 use super::maps::difference::OffsetDto;
 use super::maps::predict::CLawDto;
 use super::maps::{MapAlignmentDto, MapApertureDto};
@@ -22,7 +22,6 @@ use super::measurement_fit::RobustDto;
 use super::state::Services;
 use crate::calibration::{MapRunFit, Measured, ProcessParameter, TrialSpec};
 use crate::field::DepthProfile;
-use crate::maps::HeightMap;
 use crate::report::results;
 use crate::usecases::calibration::{
     calibrate, CalibrationCommand, CalibrationResult, CalibrationSpec, MapMeasurement,
@@ -31,7 +30,7 @@ use crate::usecases::calibration::{
 use crate::usecases::map_difference::MapDifferenceSpec;
 use crate::usecases::ComputeLimits;
 
-#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[derive(Debug, Clone, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CalibrationRequest {
     /// The nominal process: its K, r_t and κ are the fit's starting values (and the values
@@ -63,7 +62,7 @@ pub struct CalibrationRequest {
 }
 
 /// One run: what ran and what it removed.
-#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[derive(Debug, Clone, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RunDto {
     /// A ring test: the tool parked at one position while the part turns. Give `ring` or
@@ -118,18 +117,18 @@ pub struct PolarRunDto {
 
 /// A run's maps: `removal`, or `before` and `after` (heights, nm), placed on the part as
 /// `/v1/maps/difference` places them.
-#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[derive(Debug, Clone, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MapRunDto {
     /// The material removed, nm (> 0 removed).
-    #[serde(default, deserialize_with = "optional_object")]
-    pub removal: Option<MapGridDto>,
+    #[serde(default)]
+    pub removal: MapSource,
     /// The surface before the run: heights, nm.
-    #[serde(default, deserialize_with = "optional_object")]
-    pub before: Option<MapGridDto>,
+    #[serde(default)]
+    pub before: MapSource,
     /// The surface after the run: heights, nm. Removal = before − after.
-    #[serde(default, deserialize_with = "optional_object")]
-    pub after: Option<MapGridDto>,
+    #[serde(default)]
+    pub after: MapSource,
     /// Pixel pitch, mm (> 0); default the maps' own `pixel_mm`.
     pub pixel_mm: Option<f64>,
     /// Where the part sits on the (before) map, in the C frame the plan's angles refer to;
@@ -260,7 +259,7 @@ pub struct MapRunFitDto {
     /// kernel's bandwidth, pixels.
     pub correlation_bandwidth_px: usize,
     /// The first fitted parameter's variance from this run over what it would be were the
-    /// pixels independent (≥ 1 unless the residual is anti-correlated).
+    /// pixels independent (≥ 1: the variance is never taken below that).
     pub variance_inflation: f64,
     /// The residual, measured − model (nm), on the fitted pixels' bounding box of the (before)
     /// map: rows from `residual_origin_px`'s, null where no pixel was fitted.
@@ -386,18 +385,10 @@ fn run_input(index: usize, run: RunDto, limits: &ComputeLimits) -> Result<RunInp
 
 /// A run's maps (fields relative to its `map`).
 fn map_measurement(map: MapRunDto, limits: &ComputeLimits) -> Result<MapMeasurement, ApiError> {
-    let grid = |g: MapGridDto, field: &str| {
-        HeightMap::from_rows(
-            g.heights_nm,
-            g.pixel_mm,
-            g.wavelength_nm,
-            limits.max_map_pixels,
-        )
-        .map_err(|e| ApiError::invalid(field, e.to_string()))
-    };
     let placement = map.alignment.unwrap_or_default().placement(map.pixel_mm)?;
-    match (map.removal, map.before, map.after) {
-        (Some(removal), None, None) => {
+    let given = |source: &MapSource| !matches!(source, MapSource::Missing);
+    match (given(&map.removal), given(&map.before), given(&map.after)) {
+        (true, false, false) => {
             if map.after_offset_px.is_some() {
                 return Err(ApiError::invalid(
                     "after_offset_px",
@@ -405,14 +396,14 @@ fn map_measurement(map: MapRunDto, limits: &ComputeLimits) -> Result<MapMeasurem
                 ));
             }
             Ok(MapMeasurement::Removal {
-                map: grid(removal, "removal")?,
+                map: map.removal.read("removal", limits.max_map_pixels)?.0,
                 placement,
                 aperture: map.clear_aperture.map(Into::into),
             })
         }
-        (None, Some(before), Some(after)) => Ok(MapMeasurement::BeforeAfter {
-            before: grid(before, "before")?,
-            after: grid(after, "after")?,
+        (false, true, true) => Ok(MapMeasurement::BeforeAfter {
+            before: map.before.read("before", limits.max_map_pixels)?.0,
+            after: map.after.read("after", limits.max_map_pixels)?.0,
             difference: MapDifferenceSpec {
                 placement,
                 after_offset_px: map.after_offset_px.map(|o| (o.x_px, o.y_px)),
@@ -425,6 +416,31 @@ fn map_measurement(map: MapRunDto, limits: &ComputeLimits) -> Result<MapMeasurem
             "removal",
             "give removal, or before and after (not both)",
         )),
+    }
+}
+
+impl CalibrationRequest {
+    /// The request with map files (as an instrument wrote them, any format `/v1/maps/analysis`
+    /// reads) as its first run's `map.before` and `map.after` (a cycle measured by maps, as the
+    /// records compose it).
+    pub fn with_map_files(mut self, files: &[(&str, &[u8])]) -> Result<Self, ApiError> {
+        let map = self
+            .runs
+            .first_mut()
+            .and_then(|run| run.map.as_mut())
+            .ok_or_else(|| ApiError::invalid("runs[0].map", "the map files need a map run"))?;
+        for (member, file) in files {
+            let source = MapSource::File(axum::body::Bytes::copy_from_slice(file));
+            match *member {
+                "before" => map.before = source,
+                "after" => map.after = source,
+                "removal" => map.removal = source,
+                other => {
+                    return Err(ApiError::internal(format!("no map member `{other}`")));
+                }
+            }
+        }
+        Ok(self)
     }
 }
 

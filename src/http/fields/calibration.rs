@@ -37,7 +37,7 @@ fn run_error(index: usize, error: RunError) -> ApiError {
             None => format!("{run}.clear_aperture"),
         },
         RunError::NothingInAperture => format!("{run}.clear_aperture"),
-        RunError::LawNeedsMap => format!("{run}.map"),
+        RunError::LawNeedsMap | RunError::NothingOnPart => format!("{run}.map"),
     };
     ApiError::invalid(field, detail)
 }

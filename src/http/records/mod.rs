@@ -318,8 +318,21 @@ fn fetched_as(
 /// Runs endpoint `E` on a request assembled from records: parsed (errors name its fields),
 /// computed in a slot, answered as its JSON body.
 async fn compute<E: Endpoint>(state: &AppState, request: &Document) -> Result<Value, ApiError> {
+    compute_request::<E>(state, parsed::<E>(request)?).await
+}
+
+/// `request` as endpoint `E` reads its body.
+fn parsed<E: Endpoint>(request: &Document) -> Result<E::Request, ApiError> {
     let bytes = serde_json::to_vec(request).map_err(|e| ApiError::internal(e.to_string()))?;
-    let command = E::parse(extract::parse_json(&bytes)?, &state.compute)?;
+    extract::parse_json(&bytes)
+}
+
+/// Runs endpoint `E` on its request, as the endpoint would, and answers its JSON.
+async fn compute_request<E: Endpoint>(
+    state: &AppState,
+    request: E::Request,
+) -> Result<Value, ApiError> {
+    let command = E::parse(request, &state.compute)?;
     let services = state.services.clone();
     let output = state.run(move || E::run(command, &services)).await?;
     serde_json::to_value(E::respond(output)).map_err(|e| ApiError::internal(e.to_string()))
@@ -334,7 +347,13 @@ async fn computation(
 ) -> Result<Value, ApiError> {
     match what {
         Computation::MeasurementFit => compute::<MeasurementFitEndpoint>(state, request).await,
-        Computation::Calibration => compute::<CalibrationEndpoint>(state, request).await,
+        Computation::Calibration if files.is_empty() => {
+            compute::<CalibrationEndpoint>(state, request).await
+        }
+        Computation::Calibration => {
+            let request = parsed::<CalibrationEndpoint>(request)?.with_map_files(files)?;
+            compute_request::<CalibrationEndpoint>(state, request).await
+        }
         Computation::Optimize => compute::<OptimizeEndpoint>(state, request).await,
         Computation::MapAnalysis => {
             compute_maps::<MapAnalysisEndpoint>(state, request, files).await
@@ -354,15 +373,11 @@ async fn compute_maps<E: Endpoint>(
 where
     E::Request: MapForm,
 {
-    let bytes = serde_json::to_vec(request).map_err(|e| ApiError::internal(e.to_string()))?;
-    let mut request: E::Request = extract::parse_json(&bytes)?;
+    let mut request = parsed::<E>(request)?;
     for (member, file) in files {
         request.set_file(member, axum::body::Bytes::copy_from_slice(file));
     }
-    let command = E::parse(request, &state.compute)?;
-    let services = state.services.clone();
-    let output = state.run(move || E::run(command, &services)).await?;
-    serde_json::to_value(E::respond(output)).map_err(|e| ApiError::internal(e.to_string()))
+    compute_request::<E>(state, request).await
 }
 
 /// A record's `computed_by` as its wire form: null for one written before it was kept.
