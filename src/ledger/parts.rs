@@ -241,9 +241,9 @@ struct Lesson {
 /// fitted by the removal the plan's motion leaves there (registered as the after map was
 /// analysed; K's error counts the residual's correlation from pixel to pixel), or, for a plan
 /// too long to predict pixel by pixel, their difference's radial removal; else before − after
-/// of the radial profiles. A computation that could not run (the service overloaded) fails the write, to be
-/// retried; one that refuses the removal (no K > 0 fits it) leaves the cycle without a
-/// calibration.
+/// of the radial profiles. A computation that could not run (the service overloaded) fails the
+/// write, to be retried; one that refuses the removal (no K > 0 fits it) leaves the cycle
+/// without a calibration.
 async fn learn_from_cycle<C: Compute>(
     compute: &C,
     write: &Write<'_>,
