@@ -53,6 +53,28 @@ pub struct Pixel {
     pub row: i64,
 }
 
+/// The pixels' bounding box: its first column and row, and its size (0 × 0 for no pixels).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Bounds {
+    pub column0: i64,
+    pub row0: i64,
+    pub columns: usize,
+    pub rows: usize,
+}
+
+/// The smallest box of whole pixels holding every pixel.
+pub fn bounds(pixels: &[Pixel]) -> Bounds {
+    let column0 = pixels.iter().map(|p| p.column).min().unwrap_or(0);
+    let row0 = pixels.iter().map(|p| p.row).min().unwrap_or(0);
+    let extent = |span: Option<i64>| span.map_or(0, |s| s as usize + 1);
+    Bounds {
+        column0,
+        row0,
+        columns: extent(pixels.iter().map(|p| p.column - column0).max()),
+        rows: extent(pixels.iter().map(|p| p.row - row0).max()),
+    }
+}
+
 /// The covariance of a fit's parameters with the residual's spatial correlation counted.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SpatialCovariance {
@@ -275,11 +297,12 @@ struct Grid {
 
 impl Grid {
     fn new(pixels: &[Pixel]) -> Grid {
-        let column0 = pixels.iter().map(|p| p.column).min().unwrap_or(0);
-        let row0 = pixels.iter().map(|p| p.row).min().unwrap_or(0);
-        let columns = pixels.iter().map(|p| p.column).max().unwrap_or(0) - column0 + 1;
-        let rows = pixels.iter().map(|p| p.row).max().unwrap_or(0) - row0 + 1;
-        let (columns, rows) = (columns as usize, rows as usize);
+        let Bounds {
+            column0,
+            row0,
+            columns,
+            rows,
+        } = bounds(pixels);
         let mut index = vec![usize::MAX; columns * rows];
         for (i, p) in pixels.iter().enumerate() {
             index[(p.row - row0) as usize * columns + (p.column - column0) as usize] = i;

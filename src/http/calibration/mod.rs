@@ -20,6 +20,7 @@ use super::maps::predict::CLawDto;
 use super::maps::{MapAlignmentDto, MapApertureDto};
 use super::measurement_fit::RobustDto;
 use super::state::Services;
+use crate::calibration::spatial::{bounds, Bounds};
 use crate::calibration::{MapRunFit, Measured, ProcessParameter, TrialSpec};
 use crate::field::DepthProfile;
 use crate::report::results;
@@ -270,21 +271,13 @@ pub struct MapRunFitDto {
 
 impl From<&MapRunFit> for MapRunFitDto {
     fn from(fit: &MapRunFit) -> Self {
-        let column0 = fit.pixels.iter().map(|p| p.column).min().unwrap_or(0);
-        let row0 = fit.pixels.iter().map(|p| p.row).min().unwrap_or(0);
-        let columns = fit
-            .pixels
-            .iter()
-            .map(|p| p.column - column0 + 1)
-            .max()
-            .unwrap_or(0);
-        let rows = fit
-            .pixels
-            .iter()
-            .map(|p| p.row - row0 + 1)
-            .max()
-            .unwrap_or(0);
-        let mut residual_nm = vec![vec![None; columns as usize]; rows as usize];
+        let Bounds {
+            column0,
+            row0,
+            columns,
+            rows,
+        } = bounds(&fit.pixels);
+        let mut residual_nm = vec![vec![None; columns]; rows];
         for (p, e) in fit.pixels.iter().zip(&fit.residual_nm) {
             residual_nm[(p.row - row0) as usize][(p.column - column0) as usize] = Some(*e);
         }
