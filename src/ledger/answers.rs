@@ -6,7 +6,7 @@ use serde::de::DeserializeOwned;
 use serde::Deserialize;
 use serde_json::Value;
 
-use super::LedgerError;
+use super::{Document, LedgerError};
 
 /// `value` read as `T`; `what` names the document in the error.
 pub(super) fn read<T: DeserializeOwned>(value: &Value, what: &str) -> Result<T, LedgerError> {
@@ -19,11 +19,51 @@ pub(super) struct Rms {
     pub rms_nm: f64,
 }
 
-/// A `/v1/optimize` answer: the plan and its predicted residual.
+/// A part's plan: a `/v1/optimize` answer (the dwell over radius, C at the process's speed)
+/// or a `/v1/maps/optimize` answer (the mean dwell and C's speed law).
 #[derive(Debug, Deserialize)]
-pub(super) struct PlanAnswer {
-    pub residual: Rms,
-    pub dwell: Value,
+#[serde(untagged)]
+pub(super) enum PlanAnswer {
+    Polar {
+        dwell: Value,
+        c_law: Value,
+        metrics: PolarPlanFigures,
+    },
+    Radial {
+        dwell: Value,
+        residual: Rms,
+    },
+}
+
+#[derive(Debug, Deserialize)]
+pub(super) struct PolarPlanFigures {
+    pub after: Rms,
+}
+
+impl PlanAnswer {
+    /// The residual's RMS over the clear aperture the plan predicts, nm.
+    pub fn residual_rms_nm(&self) -> f64 {
+        match self {
+            PlanAnswer::Polar { metrics, .. } => metrics.after.rms_nm,
+            PlanAnswer::Radial { residual, .. } => residual.rms_nm,
+        }
+    }
+
+    /// What the plan runs, as a calibration run's and a program request's members: the dwell,
+    /// and a polar plan's C law.
+    pub fn motion(self) -> Document {
+        let mut motion = Document::new();
+        if let PlanAnswer::Polar { c_law, .. } = &self {
+            motion.insert("c_law".into(), c_law.clone());
+        }
+        let (PlanAnswer::Polar { dwell, .. } | PlanAnswer::Radial { dwell, .. }) = self;
+        motion.insert("dwell".into(), dwell);
+        motion
+    }
+
+    pub fn is_polar(&self) -> bool {
+        matches!(self, PlanAnswer::Polar { .. })
+    }
 }
 
 /// A measurement's answer: a probe trace's (`/v1/measurement/fit`: the form error, its radial

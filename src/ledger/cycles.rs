@@ -13,14 +13,16 @@ use super::{
 };
 use crate::store::Store;
 use crate::usecases::records::{
-    cycles, CalibrationRecord, Cycle, MeasurementHead, PartRecord, PlanHead, PlanRecord,
-    ProfileRecord, Records, RunRecord,
+    cycles, CalibrationRecord, Cycle, MeasurementHead, MeasurementRecord, PartRecord, PlanHead,
+    PlanRecord, ProfileRecord, Records, RunRecord,
 };
 
-/// Plans part `id`'s next correction: `body` is a `/v1/optimize` request without `process`
-/// (the profile's current one, at the part's workpiece radius) and `surface` (the part's);
-/// `target` defaults to the correction of the part's latest measurement, `clear_aperture` to
-/// the part's.
+/// Plans part `id`'s next correction. `body` is a `/v1/optimize` request, or with
+/// `machine.kinematics: polar` a `/v1/maps/optimize` request, without `process` (the profile's
+/// current one, at the part's workpiece radius) and `surface` (the part's); `clear_aperture`
+/// defaults to the part's. A radial plan's `target` defaults to the correction of the part's
+/// latest measurement; a polar plan's `map` to the latest measurement's map, placed (its pixel
+/// and alignment) as it was analysed.
 pub async fn plan<C: Compute>(
     compute: &C,
     write: &Write<'_>,
@@ -31,6 +33,10 @@ pub async fn plan<C: Compute>(
     let part = parts::load(store, id).await?;
     let profile = profiles::load(store, &part.process_profile).await?;
     let current = profiles::current(store, &profile).await?;
+    let polar = body
+        .get("machine")
+        .and_then(|m| m.get("kinematics"))
+        .is_some_and(|k| k == "polar");
     let mut request = without(
         body,
         &[
@@ -44,31 +50,80 @@ pub async fn plan<C: Compute>(
         }
     }
     let latest = store.measurements(id).await?.pop();
-    if absent(&request, "target") {
-        let head = latest.as_ref().ok_or_else(|| {
-            LedgerError::invalid(
-                "target",
-                "this part has no measurement yet: send a `target`, or measure it first",
-            )
-        })?;
-        let measurement = found(
-            store.measurement(&head.stamp.id).await?,
-            "measurement",
-            &head.stamp.id,
-        )?;
-        let answer: MeasurementAnswer = read(&document(&measurement.result)?, "a measurement")?;
-        request.insert("target".into(), answer.correction_target().clone());
-    }
-    let result = compute.compute(Computation::Optimize, &request).await?;
+    let result = if polar {
+        polar_plan(compute, store, &mut request, latest.as_ref()).await?
+    } else {
+        if absent(&request, "target") {
+            let measurement = latest_measurement(store, latest.as_ref(), "target").await?;
+            let answer: MeasurementAnswer = read(&document(&measurement.result)?, "a measurement")?;
+            request.insert("target".into(), answer.correction_target().clone());
+        }
+        compute.compute(Computation::Optimize, &request).await?
+    };
     let answer: PlanAnswer = read(&result, "an optimize answer")?;
     Ok(PlanRecord {
         stamp: write.stamp(),
         part: id.to_string(),
         measurement: latest.map(|m| m.stamp.id),
         request: Value::Object(request).to_string(),
-        predicted_rms_after_nm: answer.residual.rms_nm,
+        predicted_rms_after_nm: answer.residual_rms_nm(),
         result: result.to_string(),
     })
+}
+
+/// The part's latest measurement, which `field` defaults from; an error naming `field` when
+/// the part has none.
+async fn latest_measurement(
+    store: &Store,
+    latest: Option<&MeasurementHead>,
+    field: &str,
+) -> Result<MeasurementRecord, LedgerError> {
+    let head = latest.ok_or_else(|| {
+        LedgerError::invalid(
+            field,
+            format!("this part has no measurement yet: send a `{field}`, or measure it first"),
+        )
+    })?;
+    found(
+        store.measurement(&head.stamp.id).await?,
+        "measurement",
+        &head.stamp.id,
+    )
+}
+
+/// A polar plan's answer. Without a `map`, the latest measurement's map file is corrected,
+/// with the pixel and alignment its analysis had unless the request names its own.
+async fn polar_plan<C: Compute>(
+    compute: &C,
+    store: &Store,
+    request: &mut Document,
+    latest: Option<&MeasurementHead>,
+) -> Result<Value, C::Problem> {
+    if !absent(request, "map") {
+        return compute.compute(Computation::MapOptimize, request).await;
+    }
+    let measurement = latest_measurement(store, latest, "map").await?;
+    let sha256 = measurement.map_sha256.as_deref().ok_or_else(|| {
+        LedgerError::invalid(
+            "map",
+            "this part's latest measurement is a probe trace, which has no angle: send a `map`, \
+             or measure the part by an interferometer map",
+        )
+    })?;
+    let file = store.blob(sha256).await?.ok_or_else(|| {
+        LedgerError::Broken(format!(
+            "measurement {}'s map {sha256} is not kept",
+            measurement.stamp.id
+        ))
+    })?;
+    fill(
+        request,
+        &document(&measurement.request)?,
+        &["pixel_mm", "alignment"],
+    );
+    compute
+        .compute_with_maps(Computation::MapOptimize, request, &[("map", &file)])
+        .await
 }
 
 pub async fn load_plan(store: &Store, id: &str) -> Result<PlanRecord, LedgerError> {
@@ -79,15 +134,18 @@ pub async fn load_run(store: &Store, id: &str) -> Result<RunRecord, LedgerError>
     found(store.run(id).await?, "run", id)
 }
 
-/// A plan's machine program, as a `/v1/program` request.
+/// A plan's machine program, as a `/v1/program` request (a polar plan's: `/v1/maps/program`).
 pub struct PlanProgram {
     pub request: Document,
+    /// The plan has C's speed law: its request is a `/v1/maps/program` request.
+    pub polar: bool,
     /// What the program's header names: the plan and its part.
     pub provenance: String,
 }
 
-/// Plan `id`'s program request: `body` is a `/v1/program` request without `process`,
-/// `surface` and `dwell` (the plan's); `tool` defaults to the profile's.
+/// Plan `id`'s program request: `body` is a `/v1/program` request (a polar plan's:
+/// `/v1/maps/program`) without `process`, `surface`, `dwell` and `c_law` (the plan's); `tool`
+/// defaults to the profile's.
 pub async fn program_request(
     store: &Store,
     id: &str,
@@ -103,13 +161,16 @@ pub async fn program_request(
             ("process", "the plan"),
             ("surface", "the plan"),
             ("dwell", "the plan"),
+            ("c_law", "the plan"),
         ],
     )?;
     plan_setting(&mut request, &plan_request, &profile)?;
     let answer: PlanAnswer = read(&document(&plan.result)?, "a plan")?;
-    request.insert("dwell".into(), answer.dwell);
+    let polar = answer.is_polar();
+    request.extend(answer.motion());
     Ok(PlanProgram {
         request,
+        polar,
         provenance: format!(
             "plan {} of part {}, part id {}",
             plan.stamp.id, part.name, part.stamp.id

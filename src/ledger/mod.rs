@@ -72,8 +72,10 @@ pub enum Computation {
     MeasurementFit,
     /// A profile's calibration, or one learned from a completed cycle.
     Calibration,
-    /// A part's plan.
+    /// A part's plan: its dwell over radius.
     Optimize,
+    /// A part's polar plan: its dwell and C's speed law, correcting its measured map.
+    MapOptimize,
     /// A part's measurement by an interferometer map: the map analysed on the part.
     MapAnalysis,
     /// A cycle measured by maps before and after: the removal between them.

@@ -11,7 +11,7 @@ use super::answers::{
 use super::cycles::plan_setting;
 use super::profiles::{self, calibration_record};
 use super::{
-    absent, document, fill, found, without, Computation, Compute, Document, LedgerError,
+    absent, document, fill, found, without, Computation, Compute, Document, LedgerError, MapFile,
     SettingOwner, Write,
 };
 use crate::store::Store;
@@ -273,22 +273,25 @@ async fn learn_from_cycle<C: Compute>(
     let before = store.measurement(before_id).await?.ok_or_else(missing)?;
     let plan_request = document(&plan.request)?;
     let profile = profiles::load(store, &part.process_profile).await?;
-    let mut run_fit = json!({
-        "dwell": read::<PlanAnswer>(&document(&plan.result)?, "a plan")?.dwell,
-    });
+    // What ran: the plan's dwell, and a polar plan's C law.
+    let answer = read::<PlanAnswer>(&document(&plan.result)?, "a plan")?;
+    let mut run_fit = if answer.is_polar() {
+        json!({"polar": answer.motion()})
+    } else {
+        Value::Object(answer.motion())
+    };
     if let Some(aperture) = read::<PlanAperture>(&plan_request, "a plan request")?.clear_aperture {
         run_fit["clear_aperture"] = aperture;
     }
-    let mut request = Document::new();
-    plan_setting(&mut request, &plan_request, &profile)?;
-    request.insert("fit".into(), json!({"preston_coefficient": true}));
+    let mut setting = Document::new();
+    plan_setting(&mut setting, &plan_request, &profile)?;
+    setting.insert("fit".into(), json!({"preston_coefficient": true}));
     let calibration = |run: Value| {
-        let mut request = request.clone();
+        let mut request = setting.clone();
         request.insert("runs".into(), json!([run]));
         request
     };
-    let mut fitted = None;
-    match (&before.map_sha256, after.map) {
+    let fitted = match (&before.map_sha256, after.map) {
         (Some(sha256), Some((file, analysed))) => {
             let before_file = store.blob(sha256).await?.ok_or_else(missing)?;
             let maps = [("before", before_file.as_slice()), ("after", file)];
@@ -303,49 +306,20 @@ async fn learn_from_cycle<C: Compute>(
             // correlation counted.
             let mut map_run = run_fit.clone();
             map_run["map"] = Value::Object(placed.clone());
-            let map_request = calibration(map_run);
-            fitted = match compute
-                .compute_with_maps(Computation::Calibration, &map_request, &maps)
-                .await
-            {
-                Ok(result) => Some((map_request, result)),
-                Err(error) if C::refuses(&error) => {
-                    tracing::info!(run = %run.stamp.id, %error, "the maps' pixels determine no calibration: their radial removal is fitted");
-                    None
+            match fit_run(compute, calibration(map_run), &maps).await? {
+                Some(fitted) => Some(fitted),
+                None => {
+                    tracing::info!(run = %run.stamp.id, "the maps' pixels determine no calibration: their radial removal is fitted");
+                    run_fit["removal"] = radial_removal(compute, placed, analysed, &maps).await?;
+                    fit_run(compute, calibration(run_fit), &[]).await?
                 }
-                Err(error) => return Err(error),
-            };
-            if fitted.is_none() {
-                // A plan too long to predict pixel by pixel: the maps' radial removal.
-                placed.remove("alignment");
-                let mut psd = Document::new();
-                fill(&mut psd, &Value::Object(analysed.clone()), &["psd"]);
-                placed.extend(psd);
-                let difference = compute
-                    .compute_with_maps(Computation::MapDifference, &placed, &maps)
-                    .await?;
-                run_fit["removal"] =
-                    read::<DifferenceAnswer>(&difference, "a map difference")?.radial_removal;
             }
         }
         _ => {
             let answer: MeasurementAnswer = read(&document(&before.result)?, "a measurement")?;
             run_fit["before"] = answer.profile().clone();
             run_fit["after"] = after.profile.clone();
-        }
-    }
-    let fitted = match fitted {
-        Some(fitted) => Some(fitted),
-        None => {
-            let request = calibration(run_fit);
-            match compute.compute(Computation::Calibration, &request).await {
-                Ok(result) => Some((request, result)),
-                Err(error) if C::refuses(&error) => {
-                    tracing::info!(run = %run.stamp.id, %error, "the cycle's removal determines no calibration");
-                    None
-                }
-                Err(error) => return Err(error),
-            }
+            fit_run(compute, calibration(run_fit), &[]).await?
         }
     };
     let fitted = match fitted {
@@ -363,6 +337,43 @@ async fn learn_from_cycle<C: Compute>(
         measured_before: true,
         fitted,
     }))
+}
+
+/// A calibration of one run: the request and its answer, or None when the run determines
+/// none (the calibration refuses it: nothing to learn, not an error of the measurement).
+async fn fit_run<C: Compute>(
+    compute: &C,
+    request: Document,
+    maps: &[MapFile<'_>],
+) -> Result<Option<(Document, Value)>, C::Problem> {
+    match compute
+        .compute_with_maps(Computation::Calibration, &request, maps)
+        .await
+    {
+        Ok(result) => Ok(Some((request, result))),
+        Err(error) if C::refuses(&error) => {
+            tracing::info!(%error, "the cycle's removal determines no calibration");
+            Ok(None)
+        }
+        Err(error) => Err(error),
+    }
+}
+
+/// The radial removal of the maps' difference (for a plan too long to predict pixel by pixel),
+/// with the after map's analysis's PSD settings; placed without the alignment, which the
+/// difference does itself.
+async fn radial_removal<C: Compute>(
+    compute: &C,
+    mut placed: Document,
+    analysed: &Document,
+    maps: &[MapFile<'_>],
+) -> Result<Value, C::Problem> {
+    placed.remove("alignment");
+    fill(&mut placed, &Value::Object(analysed.clone()), &["psd"]);
+    let difference = compute
+        .compute_with_maps(Computation::MapDifference, &placed, maps)
+        .await?;
+    Ok(read::<DifferenceAnswer>(&difference, "a map difference")?.radial_removal)
 }
 
 /// A stored measurement, and the cycle it completed.

@@ -57,6 +57,14 @@ pub struct MapProgramCommand {
 }
 
 impl MapProgramCommand {
+    /// The command with a header line saying where its plan came from (a stored plan's id).
+    pub fn with_provenance(self, line: impl Into<String>) -> Self {
+        MapProgramCommand {
+            base: self.base.with_provenance(line),
+            ..self
+        }
+    }
+
     pub fn new(base: ProgramCommand, spec: MapProgramSpec) -> Result<Self, MapProgramInputError> {
         use MapProgramInputError as E;
         let pad = PolarPad::new(&base.process);

@@ -343,6 +343,9 @@ def main_flow(binary, screenshots):
         # axisymmetric correction planned and programmed on the set-up (a plane, from the
         # calibration above).
         page.one("#tab-maps").click()
+        # K 100× the calibrated one: the polar plan of this map then runs some 300 turns of C,
+        # whose program (180 sectors a turn) is a page's download rather than 5e6 blocks.
+        page.set("preston_coefficient_m2_per_n", "1.3e-11")
         sample = str(ROOT / "fixtures/maps/valid_zygo_dat_file.dat")
         page.one("#map_file").send_keys(sample)
         page.one("#map_after_file").send_keys(sample)  # the same map after: nothing removed
@@ -364,6 +367,20 @@ def main_flow(binary, screenshots):
         check("ISO 10110-5" in mapped and "RMSa" in mapped.replace("RMSt / RMSi / RMSa", "RMSa"),
               f"the ISO figures reported ({mapped[:120]!r}…)")
         page.wait("the map's correction program", lambda: page.css('[data-program="maps"] a[data-download="program"]'))
+        # The polar plan of the same map: its target, dwell and residual as heat maps, the
+        # harmonic budget, what stays not round against the radial plan, and its C program.
+        for name in ("polar-target", "polar-dwell", "polar-residual"):
+            canvas = page.one(f'figure[data-chart="{name}"] canvas')
+            painted = driver.execute_script(
+                "const c = arguments[0]; const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
+                " let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++; return n;", canvas)
+            check(painted > 20_000, f"the {name} heat map is painted ({painted} opaque pixels)")
+        budget = page.css('figure[data-chart="polar-budget"] table.budget tbody tr')
+        check(len(budget) >= 1, f"the harmonic budget tabled ({len(budget)} bands)")
+        polar = page.text_of('[data-summary="maps-polar"]')
+        check("Not round: before → after" in polar and "NaN" not in polar,
+              f"the polar plan's figures reported ({polar[:160]!r}…)")
+        page.wait("the polar program", lambda: page.css('[data-program="maps-polar"] a[data-download="polar-program"]'))
         page.screenshot(screenshots, "maps")
 
         # A shared link reopens the study.

@@ -1417,3 +1417,170 @@ async fn a_cycle_measured_by_maps_learns_what_a_calibration_of_its_maps_gives() 
 fn process_json_of(plan: &Value) -> Value {
     plan["request"]["process"].clone()
 }
+
+/// A polar plan is a part's plan: planned from the part's latest map (its file, placed as it
+/// was analysed) it answers what `/v1/maps/optimize` answers on that map's heights, exactly;
+/// its program is `/v1/maps/program`'s on the plan's dwell and C law, its header naming the
+/// plan; and its cycle, measured by maps, learns K from every pixel of the plan's polar motion:
+/// an after map that lost 0.9 of the plan's predicted removal (`/v1/maps/predict`, the same
+/// exact removal) gives a removal ratio of 0.9 to the fit's rounding. (K 20× the nominal: a
+/// plan of some 80 turns, whose exact map one request predicts.)
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_polar_plan_corrects_the_parts_map_and_learns_from_its_maps() {
+    let url = &backends()[0];
+    let store = open(url).await;
+    let app = app(store.clone(), AppState::new(ServiceLimits::default()));
+    let token = unique();
+    let process = json!({"workpiece_radius_mm": 20, "tool_radius_mm": 5, "workpiece_rpm": -10,
+                         "tool_rpm": 200, "preston_coefficient_m2_per_n": 20.0 * K_NOMINAL,
+                         "pressure_kpa": 10});
+    let profile = format!("polar-{token}");
+    created(
+        &app,
+        "/v1/process-profiles",
+        &json!({"name": profile, "process": process}),
+    )
+    .await;
+    let new_part = |serial: String| {
+        json!({"name": serial, "process_profile": profile, "workpiece_radius_mm": 20,
+               "clear_aperture": {"inner_mm": 0, "outer_mm": 18}})
+    };
+    let positions: Vec<f64> = (0..=36).map(|i| 0.5 * i as f64).collect();
+    let polar = json!({"positions_mm": positions, "machine": {"kinematics": "polar"},
+                       "c_law": {"sectors": 16}});
+
+    // Nothing measured yet, or only a trace: the plan names `map`.
+    let bare = created(&app, "/v1/parts", &new_part(format!("P0-{token}"))).await;
+    let refused = post(
+        &app,
+        &format!("/v1/parts/{}/plans", bare["id"].as_str().unwrap()),
+        &polar,
+        &[],
+    )
+    .await;
+    assert_eq!(refused.status, 422, "{}", refused.text());
+    assert_eq!(refused.json()["field"], "map", "{}", refused.text());
+
+    let part = created(&app, "/v1/parts", &new_part(format!("P1-{token}"))).await;
+    let part_id = part["id"].as_str().unwrap();
+    let figure = |x: i64, y: i64| {
+        let (u, v) = (x as f64 / 18.0, y as f64 / 18.0);
+        20.0 * (u * u + v * v) + 12.0 * (u * u - v * v) + 6.0 * u * (u * u - 3.0 * v * v)
+    };
+    let (before_text, before_rows) = flat_map(&figure);
+    let measured = measure_map(&app, part_id, &before_text).await;
+    let plan = created(&app, &format!("/v1/parts/{part_id}/plans"), &polar).await;
+    assert_eq!(plan["measurement_id"], measured["id"]);
+    assert!(
+        plan["request"].get("map").is_none(),
+        "the map is the measurement's file"
+    );
+
+    // The same plan from `/v1/maps/optimize`, the map as its rows.
+    let mut direct_request = plan["request"].clone();
+    direct_request["map"] = json!({"heights_nm": before_rows, "pixel_mm": 1.0});
+    let direct = post(&app, "/v1/maps/optimize", &direct_request, &[]).await;
+    assert_eq!(direct.status, 200, "{}", direct.text());
+    assert_eq!(
+        plan["result"],
+        direct.json(),
+        "the plan is maps/optimize's answer"
+    );
+    let metrics = &plan["result"]["metrics"];
+    assert_eq!(plan["predicted_rms_after_nm"], metrics["after"]["rms_nm"]);
+    let (asym_before, asym_after) = (
+        metrics["non_axisymmetric_before"]["rms_nm"]
+            .as_f64()
+            .unwrap(),
+        metrics["non_axisymmetric_after"]["rms_nm"]
+            .as_f64()
+            .unwrap(),
+    );
+    assert!(asym_after < 0.5 * asym_before, "{metrics}");
+
+    // Its program: maps/program's on the plan's motion, the header naming the plan.
+    let plan_id = plan["id"].as_str().unwrap();
+    let (dwell, c_law) = (&plan["result"]["dwell"], &plan["result"]["c_law"]);
+    let program = post(
+        &app,
+        &format!("/v1/plans/{plan_id}/program"),
+        &json!({}),
+        &[],
+    )
+    .await;
+    assert_eq!(program.status, 200, "{}", program.text());
+    let program = program.json();
+    let direct_program = post(
+        &app,
+        "/v1/maps/program",
+        &json!({"process": process_json_of(&plan), "dwell": dwell, "c_law": c_law}),
+        &[],
+    )
+    .await;
+    assert_eq!(direct_program.status, 200, "{}", direct_program.text());
+    let direct_program = direct_program.json();
+    assert_eq!(program["axes"], direct_program["axes"]);
+    assert_eq!(program["blocks"], direct_program["blocks"]);
+    let gcode = post(
+        &app,
+        &format!("/v1/plans/{plan_id}/program"),
+        &json!({}),
+        &[("accept", "text/x-gcode")],
+    )
+    .await;
+    assert_eq!(gcode.status, 200, "{}", gcode.text());
+    assert!(
+        gcode.text().lines().take(3).any(|l| l.contains(plan_id)),
+        "the G-code header names the plan"
+    );
+    assert!(gcode.text().contains(" C"), "C words");
+    let refused = post(
+        &app,
+        &format!("/v1/plans/{plan_id}/program"),
+        &json!({"c_law": c_law}),
+        &[],
+    )
+    .await;
+    assert_eq!(refused.status, 422, "{}", refused.text());
+    assert_eq!(refused.json()["field"], "c_law");
+
+    // Run it; the after map lost 0.9 of the plan's exact removal.
+    created(
+        &app,
+        &format!("/v1/parts/{part_id}/runs"),
+        &json!({"plan_id": plan_id, "started_at": from_now(1), "finished_at": from_now(300)}),
+    )
+    .await;
+    let predicted = post(
+        &app,
+        "/v1/maps/predict",
+        &json!({"process": process_json_of(&plan), "dwell": dwell, "c_law": c_law,
+                "pixel_mm": 1.0}),
+        &[],
+    )
+    .await;
+    assert_eq!(predicted.status, 200, "{}", predicted.text());
+    let predicted = predicted.json();
+    let removal = &predicted["removal"]["removal_nm"];
+    let x_mm = numbers(&predicted["removal"]["x_mm"]);
+    let y_mm = numbers(&predicted["removal"]["y_mm"]);
+    assert_eq!(x_mm.len(), 41, "a pixel a millimetre across the part");
+    let removal_at = |x: i64, y: i64| {
+        let column = x_mm.iter().position(|&v| v == x as f64).unwrap();
+        let row = y_mm.iter().position(|&v| v == y as f64).unwrap();
+        removal[row][column].as_f64().unwrap()
+    };
+    let (after_text, _) = flat_map(&|x, y| figure(x, y) - 0.9 * removal_at(x, y));
+    let after = measure_map(&app, part_id, &after_text).await;
+    // Noiseless maps fit exactly: K with no standard error, so nothing is learned from it.
+    assert!(after["completes_run_id"].is_string(), "{after}");
+    let history = get(&app, &format!("/v1/parts/{part_id}/history"))
+        .await
+        .json();
+    let ratio = history["cycles"][0]["removal_ratio"]["value"]
+        .as_f64()
+        .unwrap();
+    println!("polar cycle: removal ratio {ratio:.9}");
+    assert!((ratio - 0.9).abs() <= 1e-6, "{ratio}");
+    store.close().await;
+}

@@ -10,15 +10,14 @@ use super::super::dto::{
 };
 use super::super::endpoint::{Doc, Endpoint};
 use super::super::error::ApiError;
-use super::super::extract::{object, optional_count, optional_object, ApiJson};
+use super::super::extract::{object, optional_count, optional_object};
 use super::super::optimize::{ConstraintsDto, ObjectiveDto, SolverOptionsDto};
 use super::super::state::Services;
-use super::body::MapGridDto;
+use super::body::{self, MapForm, MapOrJson, MapSource};
 use super::predict::{CLawDto, MapFiguresDto};
 use super::removal_function::KinematicsDto;
 use super::MapAlignmentDto;
 use crate::machine::{AxisLimits, MachineChoice, MachineLimitsSpec};
-use crate::maps::HeightMap;
 use crate::usecases::map_optimize::{
     map_optimize, MapCorrection, MapOptimizeCommand, MapOptimizeSpec, RemovalModel,
 };
@@ -108,7 +107,7 @@ pub struct CLawOptionsDto {
     pub max_modulation: Option<f64>,
 }
 
-#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
+#[derive(Debug, Clone, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MapOptimizeRequest {
     /// The polishing process (radii in mm, signed speeds in r/min, CCW positive).
@@ -118,10 +117,13 @@ pub struct MapOptimizeRequest {
     #[serde(default, deserialize_with = "optional_object")]
     pub surface: Option<SurfaceDto>,
     /// The measured error: heights (nm, the surface above its design), as `/v1/maps/analysis`
-    /// takes them. The plan removes it, less its piston and tilt, plus the least uniform layer
-    /// that lets C's law reach it.
-    #[serde(deserialize_with = "object")]
-    pub map: MapGridDto,
+    /// takes them: rows of heights, or the file itself as the body (any format that endpoint
+    /// reads) with the other fields as query parameters (objects and lists as JSON). The plan
+    /// removes it, less its piston and tilt, plus the least uniform layer that lets C's law
+    /// reach it.
+    #[serde(default)]
+    #[schema(required = true)]
+    pub map: MapSource,
     /// The map's pixel pitch, mm (> 0); default the map's own `pixel_mm`.
     pub pixel_mm: Option<f64>,
     /// Where the part sits on the map; default fitted to the map's boundary.
@@ -161,6 +163,30 @@ pub struct MapOptimizeRequest {
     /// How the removal map is computed; default `exact`.
     #[serde(default)]
     pub removal_model: RemovalModelDto,
+}
+
+impl MapForm for MapOptimizeRequest {
+    const FILES: &'static [&'static str] = &["map"];
+    const QUERY_FIELDS: &'static [&'static str] = &[
+        "process",
+        "surface",
+        "pixel_mm",
+        "alignment",
+        "positions_mm",
+        "constraints",
+        "objective",
+        "radial_grid",
+        "clear_aperture",
+        "solver",
+        "machine",
+        "c_law",
+        "removal_pixel_mm",
+        "removal_model",
+    ];
+
+    fn set_file(&mut self, _: &str, bytes: axum::body::Bytes) {
+        self.map = MapSource::File(bytes);
+    }
 }
 
 /// How the result's removal map is computed.
@@ -325,10 +351,18 @@ motion, on a plane, a sphere or an asphere.",
         ok: "The plan, C's law, the maps and their figures, the harmonic budget",
     };
     type Request = MapOptimizeRequest;
-    type Body = ApiJson<MapOptimizeRequest>;
+    type Body = MapOrJson<MapOptimizeRequest>;
     type Command = MapOptimizeCommand;
     type Output = MapCorrection;
     type Response = MapOptimizeResponse;
+
+    fn document(operation: &mut utoipa::openapi::path::Operation) {
+        body::document(
+            operation,
+            MapOptimizeRequest::FILES,
+            MapOptimizeRequest::QUERY_FIELDS,
+        );
+    }
 
     fn parse(req: MapOptimizeRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let machine = req.machine.clone().unwrap_or_default();
@@ -341,13 +375,7 @@ motion, on a plane, a sphere or an asphere.",
             aperture: req.clear_aperture.as_ref(),
         }
         .parse(limits)?;
-        let map = HeightMap::from_rows(
-            req.map.heights_nm,
-            req.map.pixel_mm,
-            req.map.wavelength_nm,
-            limits.max_map_pixels,
-        )
-        .map_err(|e| ApiError::invalid("map", e.to_string()))?;
+        let (map, _) = req.map.read("map", limits.max_map_pixels)?;
         let placement = req.alignment.unwrap_or_default().placement(req.pixel_mm)?;
         let law = req.c_law.unwrap_or_default();
         let spec = MapOptimizeSpec {

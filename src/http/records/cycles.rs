@@ -5,7 +5,10 @@ use axum::http::HeaderMap;
 use axum::response::Response;
 use serde_json::{Map, Value};
 
-use super::docs::{PartPlanRequest, PlanProgramRequest, RecordReadProblems, RecordWriteProblems};
+use super::docs::{
+    PartPlanRequest, PlanProgramRequest, PlanProgramResponse, RecordReadProblems,
+    RecordWriteProblems,
+};
 use super::dto::{CycleDto, HistoryDto, PlanDto, RatioDto, RunRecordDto, RunRequest};
 use super::parts::part_dto;
 use super::{begin, commit, computed_by, fetched, replayed, store, tag, Writer};
@@ -13,6 +16,7 @@ use crate::http::dto::WarningDto;
 use crate::http::endpoint::{offered, render, Endpoint};
 use crate::http::error::ApiError;
 use crate::http::extract::{self, ApiJson};
+use crate::http::maps::program::MapProgramEndpoint;
 use crate::http::program::ProgramEndpoint;
 use crate::http::state::AppState;
 use crate::ledger::cycles::{self, NewRun};
@@ -98,27 +102,49 @@ pub async fn show_plan(
 
 #[utoipa::path(post, path = "/v1/plans/{id}/program", tag = "records", operation_id = "createPlanProgram", summary = "The plan's machine program (computed from the record, not stored)",
     params(("id" = String, Path, description = "The plan's id")), request_body = PlanProgramRequest,
-    responses((status = 200, description = "The program: JSON (as /v1/program) or G-code (Accept: text/x-gcode), its header naming the plan",
-        content((crate::http::program::ProgramResponse = "application/json"), (String = "text/x-gcode"))), RecordWriteProblems))]
+    responses((status = 200, description = "The program: JSON (as /v1/program, or /v1/maps/program for a polar plan) or G-code (Accept: text/x-gcode), its header naming the plan",
+        content((PlanProgramResponse = "application/json"), (String = "text/x-gcode"))), RecordWriteProblems))]
 /// `POST /v1/plans/{id}/program`: the plan's machine program (JSON or G-code, as
-/// `/v1/program`), its header naming the plan and the part. Computed, not stored: a read.
+/// `/v1/program`, or `/v1/maps/program` for a polar plan), its header naming the plan and the
+/// part. Computed, not stored: a read.
 pub async fn program(
     State(state): State<AppState>,
     Path(id): Path<String>,
     headers: HeaderMap,
     ApiJson(body): ApiJson<Map<String, Value>>,
 ) -> Result<Response, ApiError> {
-    let format = extract::negotiate(&headers, &offered::<ProgramEndpoint>())?;
     let program = cycles::program_request(store(&state)?, &id, body).await?;
+    if program.polar {
+        plan_program::<MapProgramEndpoint>(&state, &headers, program, |c, line| {
+            c.with_provenance(line)
+        })
+        .await
+    } else {
+        plan_program::<ProgramEndpoint>(&state, &headers, program, |c, line| {
+            c.with_provenance(line)
+        })
+        .await
+    }
+}
+
+/// A stored plan's program by endpoint `E` (`/v1/program`, or `/v1/maps/program` for a polar
+/// plan), its header naming the plan (`named`).
+async fn plan_program<E: Endpoint>(
+    state: &AppState,
+    headers: &HeaderMap,
+    program: cycles::PlanProgram,
+    named: fn(E::Command, String) -> E::Command,
+) -> Result<Response, ApiError> {
+    let format = extract::negotiate(headers, &offered::<E>())?;
     let bytes =
         serde_json::to_vec(&program.request).map_err(|e| ApiError::internal(e.to_string()))?;
-    let command = ProgramEndpoint::parse(extract::parse_json(&bytes)?, &state.compute)?
-        .with_provenance(program.provenance);
+    let command = named(
+        E::parse(extract::parse_json(&bytes)?, &state.compute)?,
+        program.provenance,
+    );
     let services = state.services.clone();
-    let output = state
-        .run(move || ProgramEndpoint::run(command, &services))
-        .await?;
-    Ok(render::<ProgramEndpoint>(format, output))
+    let output = state.run(move || E::run(command, &services)).await?;
+    Ok(render::<E>(format, output))
 }
 
 #[utoipa::path(post, path = "/v1/parts/{id}/runs", tag = "records", operation_id = "createRun", summary = "Record a run of a plan on the machine",

@@ -3,7 +3,8 @@
 //! request's schema less those properties) and the problems they answer (`contract` adds the
 //! links between them).
 
-use utoipa::openapi::{RefOr, Schema};
+use utoipa::openapi::schema::AnyOfBuilder;
+use utoipa::openapi::{Ref, RefOr, Schema};
 use utoipa::{PartialSchema, ToSchema};
 
 use super::dto::{
@@ -11,20 +12,59 @@ use super::dto::{
     ProcessProfileDto, ProcessProfileListDto, ProcessProfileRequest, RunRecordDto, RunRequest,
 };
 use crate::http::calibration::CalibrationRequest;
+use crate::http::maps::optimize::{MapOptimizeRequest, MapOptimizeResponse};
+use crate::http::maps::program::{MapProgramRequest, MapProgramResponse};
 use crate::http::maps::MapAnalysisRequest;
 use crate::http::measurement_fit::MeasurementFitRequest;
-use crate::http::optimize::OptimizeRequest;
-use crate::http::program::ProgramRequest;
+use crate::http::optimize::{OptimizeRequest, OptimizeResponse};
+use crate::http::program::{ProgramRequest, ProgramResponse};
 
-/// A request that is `Base`'s less the properties a record supplies.
-macro_rules! less {
-    ($name:ident, $base:ty, [$($field:literal),*], [$($optional:literal),*], $doc:literal) => {
+/// A schema that is any of the named ones (`anyOf`: a body may fit more than one).
+macro_rules! any_of {
+    ($name:ident, [$($member:ty),*], $doc:literal) => {
         #[doc = $doc]
         pub struct $name;
 
         impl PartialSchema for $name {
             fn schema() -> RefOr<Schema> {
-                without(<$base as PartialSchema>::schema(), &[$($field),*], &[$($optional),*], $doc)
+                let any = AnyOfBuilder::new().description(Some($doc));
+                $(let any = any.item(Ref::from_schema_name(<$member as ToSchema>::name()));)*
+                RefOr::T(Schema::AnyOf(any.build()))
+            }
+        }
+
+        impl ToSchema for $name {
+            fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
+                $(
+                    schemas.push((
+                        <$member as ToSchema>::name().into_owned(),
+                        <$member as PartialSchema>::schema(),
+                    ));
+                    <$member as ToSchema>::schemas(schemas);
+                )*
+            }
+        }
+    };
+}
+
+/// A request that is `Base`'s less the properties a record supplies.
+macro_rules! less {
+    ($name:ident, $base:ty, [$($field:literal),*], [$($optional:literal),*], $doc:literal) => {
+        less!($name, $base, [$($field),*], [$($optional),*], [], $doc);
+    };
+    ($name:ident, $base:ty, [$($field:literal),*], [$($optional:literal),*], [$($required:literal),*], $doc:literal) => {
+        #[doc = $doc]
+        pub struct $name;
+
+        impl PartialSchema for $name {
+            fn schema() -> RefOr<Schema> {
+                without(
+                    <$base as PartialSchema>::schema(),
+                    &[$($field),*],
+                    &[$($optional),*],
+                    &[$($required),*],
+                    $doc,
+                )
             }
         }
 
@@ -65,24 +105,85 @@ less!(
      (kept as a blob: `GET /v1/measurements/{id}/map`)."
 );
 less!(
-    PartPlanRequest,
+    PartRadialPlanRequest,
     OptimizeRequest,
     ["process", "surface"],
     ["target"],
-    "An `/v1/optimize` request without `process` (the profile's current one, at the part's \
-     workpiece radius) and `surface` (the part's); `target` defaults to the correction of the \
-     part's latest measurement, `clear_aperture` to the part's."
+    "A radial plan: an `/v1/optimize` request without `process` (the profile's current one, at \
+     the part's workpiece radius) and `surface` (the part's); `target` defaults to the \
+     correction of the part's latest measurement, `clear_aperture` to the part's."
 );
 less!(
-    PlanProgramRequest,
+    PartPolarPlanRequest,
+    MapOptimizeRequest,
+    ["process", "surface"],
+    ["map"],
+    ["machine"],
+    "A polar plan (`machine.kinematics: polar`, required here): a `/v1/maps/optimize` request \
+     without `process` (the profile's current one, at the part's workpiece radius) and \
+     `surface` (the part's); `map` defaults to the part's latest measurement's map file, with \
+     the `pixel_mm` and `alignment` it was analysed with; `clear_aperture` to the part's."
+);
+less!(
+    PlanRadialProgramRequest,
     ProgramRequest,
     ["process", "surface", "dwell"],
     [],
-    "A `/v1/program` request without `process`, `surface` and `dwell` (the plan's)."
+    "A radial plan's: a `/v1/program` request without `process`, `surface` and `dwell` (the \
+     plan's)."
+);
+less!(
+    PlanPolarProgramRequest,
+    MapProgramRequest,
+    ["process", "surface", "dwell", "c_law"],
+    [],
+    "A polar plan's: a `/v1/maps/program` request without `process`, `surface`, `dwell` and \
+     `c_law` (the plan's)."
+);
+any_of!(
+    PartPlanRequest,
+    [PartRadialPlanRequest, PartPolarPlanRequest],
+    "A radial plan's request, or a polar plan's (`machine.kinematics: polar`)."
+);
+any_of!(
+    PlanProgramRequest,
+    [PlanRadialProgramRequest, PlanPolarProgramRequest],
+    "The program's options: as `/v1/program` takes them for a radial plan, as \
+     `/v1/maps/program` for a polar plan."
+);
+less!(
+    PolarPlanRequestAsRun,
+    MapOptimizeRequest,
+    [],
+    ["map"],
+    "A polar plan's `/v1/maps/optimize` request as run; without `map` when the records supplied \
+     it: the file of the plan's measurement (`GET /v1/measurements/{id}/map`)."
+);
+any_of!(
+    PlanRequestAsRun,
+    [OptimizeRequest, PolarPlanRequestAsRun],
+    "A radial plan's `/v1/optimize` request, or a polar plan's `/v1/maps/optimize` request."
+);
+any_of!(
+    PlanResult,
+    [OptimizeResponse, MapOptimizeResponse],
+    "A radial plan's `/v1/optimize` answer, or a polar plan's `/v1/maps/optimize` answer."
+);
+any_of!(
+    PlanProgramResponse,
+    [ProgramResponse, MapProgramResponse],
+    "As `/v1/program` answers a radial plan, as `/v1/maps/program` a polar plan."
 );
 
-/// `schema` less the properties `fields`, with `optional` no longer required.
-fn without(schema: RefOr<Schema>, fields: &[&str], optional: &[&str], doc: &str) -> RefOr<Schema> {
+/// `schema` less the properties `fields`, with `optional` no longer required and `required`
+/// required.
+fn without(
+    schema: RefOr<Schema>,
+    fields: &[&str],
+    optional: &[&str],
+    required: &[&str],
+    doc: &str,
+) -> RefOr<Schema> {
     match schema {
         RefOr::T(Schema::Object(mut object)) => {
             for field in fields {
@@ -91,6 +192,9 @@ fn without(schema: RefOr<Schema>, fields: &[&str], optional: &[&str], doc: &str)
             object
                 .required
                 .retain(|r| !fields.contains(&r.as_str()) && !optional.contains(&r.as_str()));
+            object
+                .required
+                .extend(required.iter().map(|r| r.to_string()));
             object.description = Some(doc.to_string());
             RefOr::T(Schema::Object(object))
         }
@@ -121,6 +225,9 @@ pub fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
     add::<PartMapMeasurementRequest>(schemas);
     add::<PartPlanRequest>(schemas);
     add::<PlanProgramRequest>(schemas);
+    add::<PlanRequestAsRun>(schemas);
+    add::<PlanResult>(schemas);
+    add::<PlanProgramResponse>(schemas);
 }
 
 /// What a record write may answer besides 201.

@@ -5,10 +5,10 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use utoipa::ToSchema;
 
+use super::docs::{PlanRequestAsRun, PlanResult};
 use crate::http::calibration::CalibrationResponse;
 use crate::http::dto::{ClearApertureDto, ProcessDto, SurfaceDto, ToolDto, WarningDto};
 use crate::http::measurement_fit::{MeasurementFitRequest, MeasurementFitResponse};
-use crate::http::optimize::{OptimizeRequest, OptimizeResponse};
 
 /// `POST /v1/process-profiles`: a shop's named process.
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
@@ -244,10 +244,10 @@ pub struct PlanDto {
     /// The residual's RMS over the clear aperture the plan predicts.
     pub predicted_rms_after_nm: f64,
     /// The request as run (with what the records supplied).
-    #[schema(value_type = OptimizeRequest)]
+    #[schema(value_type = PlanRequestAsRun)]
     pub request: Value,
     /// Its answer, as the endpoint returned it.
-    #[schema(value_type = OptimizeResponse)]
+    #[schema(value_type = PlanResult)]
     pub result: Value,
     /// When it was written, RFC 3339 UTC.
     pub created_at: String,

@@ -38,6 +38,7 @@ use super::error::{ApiError, Kind};
 use super::extract;
 use super::maps::body::MapForm;
 use super::maps::difference::MapDifferenceEndpoint;
+use super::maps::optimize::MapOptimizeEndpoint;
 use super::maps::MapAnalysisEndpoint;
 use super::measurement_fit::MeasurementFitEndpoint;
 use super::optimize::OptimizeEndpoint;
@@ -355,6 +356,9 @@ async fn computation(
             compute_request::<CalibrationEndpoint>(state, request).await
         }
         Computation::Optimize => compute::<OptimizeEndpoint>(state, request).await,
+        Computation::MapOptimize => {
+            compute_maps::<MapOptimizeEndpoint>(state, request, files).await
+        }
         Computation::MapAnalysis => {
             compute_maps::<MapAnalysisEndpoint>(state, request, files).await
         }

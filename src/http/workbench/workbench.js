@@ -1001,6 +1001,121 @@
     const o = await plan(view, 'map-correction', a.correction_target, 'map_correction_step_mm', {}, aperture);
     summary(view, 'maps', [...items, ...planSummary(o, false)]);
     await program(view, o.dwell);
+    const polar = $('[data-polar="maps"]', section(view));
+    polar.hidden = !$('#map_polar').checked;
+    if (!polar.hidden) await correctMap(view, a, query, aperture);
+  }
+
+  /** A map on its grid (rows top first) as the heat map's CSV: x_mm, y_mm, value. */
+  function gridCsv(x, y, rows) {
+    const lines = ['x_mm,y_mm,value'];
+    rows.forEach((row, i) => row.forEach((v, j) => { if (v !== null) lines.push(`${x[j]},${y[i]},${v}`); }));
+    return lines.join('\n');
+  }
+
+  /** The dwell over (r, θ) on the maps' grid: each pixel within the stations' reach shows
+   * the time the pad centre spends over its sector at the nearest station (sector k holds the
+   * part-frame angle [2πk/S, 2π(k + 1)/S), counter-clockwise from +x). */
+  function dwellCsv(o) {
+    const { x_mm: x, y_mm: y } = o.maps;
+    const r = o.dwell.positions_mm;
+    const sectors = o.c_law.sectors;
+    const lines = ['x_mm,y_mm,value'];
+    for (const yy of y) {
+      for (const xx of x) {
+        const rho = Math.hypot(xx, yy);
+        if (rho > r[r.length - 1] + 1e-9) continue;
+        let i = 0;
+        while (i + 1 < r.length && Math.abs(r[i + 1] - rho) < Math.abs(r[i] - rho)) i += 1;
+        const theta = (Math.atan2(yy, xx) + 2 * Math.PI) % (2 * Math.PI);
+        const k = Math.min(Math.floor((theta / (2 * Math.PI)) * sectors), sectors - 1);
+        lines.push(`${xx},${yy},${o.sector_dwell_s[i][k]}`);
+      }
+    }
+    return lines.join('\n');
+  }
+
+  /** The harmonic budget as a table: a row per radius band, a column per harmonic m, each
+   * cell the target's amplitude over the most the plan can remove (red where it asks more). */
+  function budgetTable(bands, shown) {
+    const ms = Array.from({ length: shown }, (_, i) => i + 1);
+    const head = h('tr', {}, h('th', {}, 'band (mm)'), ...ms.map((m) => h('th', {}, `m = ${m}`)));
+    const rows = bands.map((b) => h('tr', {},
+      h('th', {}, `${label(b.from_mm)}–${label(b.to_mm)}`),
+      ...ms.map((m) => {
+        const target = b.target_amplitude_nm[m - 1];
+        const most = b.amplitude_nm[m - 1];
+        const short = (v) => Number(v.toPrecision(3));
+        return h('td', target > most ? { class: 'over' } : {}, `${short(target)} / ${short(most)}`);
+      })));
+    return h('table', { class: 'budget', 'aria-label': 'Harmonic budget' }, h('thead', {}, head), h('tbody', {}, ...rows));
+  }
+
+  /** The polar correction of the map (API.mapOptimize on the file itself): its target, dwell
+   * and residual maps, its harmonic budget, and its program (API.mapProgram). */
+  async function correctMap(view, a, query, aperture) {
+    const machine = { kinematics: 'polar', ...(machineInput().machine ?? {}) };
+    const process = processInput();
+    const surface = surfaceInput();
+    const request = defined({
+      process: JSON.stringify(process),
+      surface: surface ? JSON.stringify(surface) : undefined,
+      positions_mm: JSON.stringify(positions('map_correction_step_mm', aperture.outer_mm)),
+      clear_aperture: JSON.stringify(aperture),
+      alignment: JSON.stringify({ centre_x_px: a.alignment.centre_x_px, centre_y_px: a.alignment.centre_y_px,
+        part_radius_mm: a.alignment.part_radius_mm }),
+      pixel_mm: query.pixel_mm,
+      machine: JSON.stringify(machine),
+      c_law: JSON.stringify(defined({ sectors: value('map_sectors') })),
+      // The plan's own model: a long plan's exact map is more work than one request may take.
+      removal_model: 'harmonic',
+    });
+    const o = await postFile(view, API.mapOptimize, mapFile, request);
+    const { x_mm: x, y_mm: y, pixel_mm: px } = o.maps;
+    const m = o.metrics;
+    const plot = (name) => $(`figure[data-chart="${name}"] .plot`, section(view));
+    plot('polar-target').replaceChildren(heatMap(gridCsv(x, y, o.maps.target_nm), px,
+      `Target: RMS ${label(m.before.rms_nm)} nm, not round ${label(m.non_axisymmetric_before.rms_nm)} nm`));
+    plot('polar-dwell').replaceChildren(heatMap(dwellCsv(o), px,
+      `Dwell: ${o.c_law.sectors} sectors, ${fmtTime(o.total_time_s)} in all`, 's'));
+    plot('polar-residual').replaceChildren(heatMap(gridCsv(x, y, o.maps.residual_nm), px,
+      `Residual: RMS ${label(m.after.rms_nm)} nm, not round ${label(m.non_axisymmetric_after.rms_nm)} nm`));
+    const shown = Math.min(o.max_harmonic, 12);
+    plot('polar-budget').replaceChildren(budgetTable(o.harmonic_budget, shown),
+      ...(o.max_harmonic > shown ? [h('p', {}, `m = 1 to ${shown} of the ${o.max_harmonic} corrected.`)] : []));
+    summary(view, 'maps-polar', [
+      ['Residual RMS: polar / radial plan', `${label(m.after.rms_nm)} / ${label(m.radial_plan_after.rms_nm)} nm`, 'good'],
+      ['Not round: before → after', `${label(m.non_axisymmetric_before.rms_nm)} → ${label(m.non_axisymmetric_after.rms_nm)} nm`, 'good'],
+      ['Total dwell: polar / radial plan', `${fmtTime(o.total_time_s)} / ${fmtTime(m.radial_plan_time_s)}`],
+      ['Harmonics corrected', `m = 1 to ${o.max_harmonic}, ${o.c_law.sectors} sectors a turn`],
+      ['C peaks', `${label(o.c_peaks.velocity_deg_per_min)} deg/min, ${label(o.c_peaks.acceleration_deg_per_s2)} deg/s²`],
+      ['Uniform layer added', `${label(o.piston_nm)} nm`],
+      ...o.warnings.map((w) => ['Warning', w.message]),
+    ]);
+    await polarProgram(view, { process, surface, dwell: o.dwell, c_law: o.c_law, machine });
+  }
+
+  /** A polar plan's program (API.mapProgram): its G-code with C words. */
+  async function polarProgram(view, request) {
+    const box = $('[data-program="maps-polar"]', section(view));
+    box.replaceChildren(h('p', { class: 'status' }, 'Writing the polar program…'));
+    try {
+      const again = repeat(view, API.mapProgram, defined(request));
+      const [p, gcode] = await Promise.all([again('application/json'), again('text/x-gcode')]);
+      const link = h('a', {
+        href: URL.createObjectURL(new Blob([gcode], { type: 'text/x-gcode' })),
+        download: 'preston-polar-program.ngc',
+        'data-download': 'polar-program',
+      }, 'Download the polar program (G-code with C words, .ngc)');
+      box.replaceChildren(
+        h('h3', {}, 'Polar machine program'),
+        h('p', {}, `${p.blocks} blocks, ${fmtTime(p.program_time_s)} with approach and retract. `, link),
+        h('pre', { 'aria-label': 'Polar G-code, first lines' }, gcode.split('\n').slice(0, 14).join('\n') + '\n…'),
+      );
+    } catch (e) {
+      box.replaceChildren();
+      showProblem(view, e);
+    }
   }
 
   const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure, calibrate: runCalibrate, parts: runParts, maps: runMaps };
