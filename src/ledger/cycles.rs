@@ -102,6 +102,8 @@ async fn polar_plan<C: Compute>(
     if !absent(request, "map") {
         return compute.compute(Computation::MapOptimize, request).await;
     }
+    // A null map is not given: the measurement's file fills it.
+    request.remove("map");
     let measurement = latest_measurement(store, latest, "map").await?;
     let sha256 = measurement.map_sha256.as_deref().ok_or_else(|| {
         LedgerError::invalid(
@@ -144,8 +146,8 @@ pub struct PlanProgram {
 }
 
 /// Plan `id`'s program request: `body` is a `/v1/program` request (a polar plan's:
-/// `/v1/maps/program`) without `process`, `surface`, `dwell` and `c_law` (the plan's); `tool`
-/// defaults to the profile's.
+/// `/v1/maps/program`) without `process`, `surface`, `dwell` (and a polar plan's `c_law`):
+/// the plan's; `tool` defaults to the profile's, `machine` to the plan's.
 pub async fn program_request(
     store: &Store,
     id: &str,
@@ -155,18 +157,20 @@ pub async fn program_request(
     let part = parts::load(store, &plan.part).await?;
     let profile = profiles::load(store, &part.process_profile).await?;
     let plan_request = document(&plan.request)?;
-    let mut request = without(
-        body,
-        &[
-            ("process", "the plan"),
-            ("surface", "the plan"),
-            ("dwell", "the plan"),
-            ("c_law", "the plan"),
-        ],
-    )?;
-    plan_setting(&mut request, &plan_request, &profile)?;
     let answer: PlanAnswer = read(&document(&plan.result)?, "a plan")?;
     let polar = answer.is_polar();
+    let mut supplied = vec![
+        ("process", "the plan"),
+        ("surface", "the plan"),
+        ("dwell", "the plan"),
+    ];
+    if polar {
+        supplied.push(("c_law", "the plan"));
+    }
+    let mut request = without(body, &supplied)?;
+    plan_setting(&mut request, &plan_request, &profile)?;
+    // The limits it was planned within, unless the program names its own.
+    fill(&mut request, &plan_request, &["machine"]);
     request.extend(answer.motion());
     Ok(PlanProgram {
         request,

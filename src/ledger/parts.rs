@@ -275,7 +275,8 @@ async fn learn_from_cycle<C: Compute>(
     let profile = profiles::load(store, &part.process_profile).await?;
     // What ran: the plan's dwell, and a polar plan's C law.
     let answer = read::<PlanAnswer>(&document(&plan.result)?, "a plan")?;
-    let mut run_fit = if answer.is_polar() {
+    let polar = answer.is_polar();
+    let mut run_fit = if polar {
         json!({"polar": answer.motion()})
     } else {
         Value::Object(answer.motion())
@@ -306,12 +307,14 @@ async fn learn_from_cycle<C: Compute>(
             // correlation counted.
             let mut map_run = run_fit.clone();
             map_run["map"] = Value::Object(placed.clone());
-            match fit_run(compute, calibration(map_run), &maps).await? {
+            match fit_run(compute, &run.stamp.id, calibration(map_run), &maps).await? {
                 Some(fitted) => Some(fitted),
+                // A polar plan's law shows only pixel by pixel (a profile of it is refused).
+                None if polar => None,
                 None => {
                     tracing::info!(run = %run.stamp.id, "the maps' pixels determine no calibration: their radial removal is fitted");
                     run_fit["removal"] = radial_removal(compute, placed, analysed, &maps).await?;
-                    fit_run(compute, calibration(run_fit), &[]).await?
+                    fit_run(compute, &run.stamp.id, calibration(run_fit), &[]).await?
                 }
             }
         }
@@ -319,7 +322,7 @@ async fn learn_from_cycle<C: Compute>(
             let answer: MeasurementAnswer = read(&document(&before.result)?, "a measurement")?;
             run_fit["before"] = answer.profile().clone();
             run_fit["after"] = after.profile.clone();
-            fit_run(compute, calibration(run_fit), &[]).await?
+            fit_run(compute, &run.stamp.id, calibration(run_fit), &[]).await?
         }
     };
     let fitted = match fitted {
@@ -343,6 +346,7 @@ async fn learn_from_cycle<C: Compute>(
 /// none (the calibration refuses it: nothing to learn, not an error of the measurement).
 async fn fit_run<C: Compute>(
     compute: &C,
+    run: &str,
     request: Document,
     maps: &[MapFile<'_>],
 ) -> Result<Option<(Document, Value)>, C::Problem> {
@@ -352,7 +356,7 @@ async fn fit_run<C: Compute>(
     {
         Ok(result) => Ok(Some((request, result))),
         Err(error) if C::refuses(&error) => {
-            tracing::info!(%error, "the cycle's removal determines no calibration");
+            tracing::info!(run, %error, "the cycle's removal determines no calibration");
             Ok(None)
         }
         Err(error) => Err(error),

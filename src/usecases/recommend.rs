@@ -298,6 +298,10 @@ impl Recommender {
             read,
         )
         .ok()
+        // A depth too small for any finite feed (a denormal one): nothing to recommend.
+        .filter(|r| {
+            r.current.feed_mm_per_min().is_finite() && r.recommended.feed_mm_per_min().is_finite()
+        })
     }
 }
 

@@ -385,3 +385,33 @@ async fn a_process_in_metres_gets_a_hint() {
     let reply = post_json(&app(), "/v1/predict", small.to_string()).await;
     assert_eq!(reply.json()["warnings"], json!([]), "{}", reply.text());
 }
+
+/// A uniform depth so small (a denormal number of nm) that equal dwell's feed overflows: the
+/// plan stands, with no η = −1 recommendation rather than one whose feeds are not numbers (a
+/// case the contract fuzzer found).
+#[tokio::test]
+async fn a_denormal_depth_plans_without_a_recommendation() {
+    let reply = optimize(json!({
+        "positions_mm": [0.3466388844911519],
+        "target": {"uniform_depth_nm": 5e-324},
+        "process": {"workpiece_rpm": -1.6201956367709252e-180, "tool_radius_mm": 0.8000933031658438,
+                    "workpiece_radius_mm": 0.9219909695617657, "tool_rpm": 0.7215713813017821}
+    }))
+    .await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    assert!(reply.json()["recommendation"].is_null(), "{}", reply.text());
+    // A depth of a nanometre on the same set-up keeps its recommendation, feeds finite.
+    let reply = optimize(json!({
+        "positions_mm": [0.3466388844911519],
+        "target": {"uniform_depth_nm": 1.0},
+        "process": {"workpiece_rpm": -1.6201956367709252e-180, "tool_radius_mm": 0.8000933031658438,
+                    "workpiece_radius_mm": 0.9219909695617657, "tool_rpm": 0.7215713813017821}
+    }))
+    .await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let recommendation = &reply.json()["recommendation"];
+    assert!(
+        recommendation["current_feed_mm_per_min"].is_f64(),
+        "{recommendation}"
+    );
+}

@@ -1449,7 +1449,7 @@ async fn a_polar_plan_corrects_the_parts_map_and_learns_from_its_maps() {
     let polar = json!({"positions_mm": positions, "machine": {"kinematics": "polar"},
                        "c_law": {"sectors": 16}});
 
-    // Nothing measured yet, or only a trace: the plan names `map`.
+    // Nothing measured yet, or a trace last: the plan names `map`.
     let bare = created(&app, "/v1/parts", &new_part(format!("P0-{token}"))).await;
     let refused = post(
         &app,
@@ -1460,6 +1460,37 @@ async fn a_polar_plan_corrects_the_parts_map_and_learns_from_its_maps() {
     .await;
     assert_eq!(refused.status, 422, "{}", refused.text());
     assert_eq!(refused.json()["field"], "map", "{}", refused.text());
+    let traced = created(&app, "/v1/parts", &new_part(format!("P2-{token}"))).await;
+    let traced_id = traced["id"].as_str().unwrap();
+    let flat_trace: Vec<f64> = (0..=200).map(|i| -20.0 + 0.2 * i as f64).collect();
+    created(
+        &app,
+        &format!("/v1/parts/{traced_id}/measurements"),
+        &json!({"profile": {"x_mm": flat_trace,
+                            "z_mm": flat_trace.iter().map(|x| 1e-6 * x * x).collect::<Vec<_>>()}}),
+    )
+    .await;
+    let refused = post(&app, &format!("/v1/parts/{traced_id}/plans"), &polar, &[]).await;
+    assert_eq!(refused.status, 422, "{}", refused.text());
+    assert_eq!(refused.json()["field"], "map", "{}", refused.text());
+    assert!(refused.text().contains("probe trace"), "{}", refused.text());
+    // A polar member in a radial plan's body: an invalid input naming it, saying how a polar
+    // plan is asked for.
+    let refused = post(
+        &app,
+        &format!("/v1/parts/{traced_id}/plans"),
+        &json!({"positions_mm": positions, "c_law": {"sectors": 16}}),
+        &[],
+    )
+    .await;
+    assert_eq!(refused.status, 422, "{}", refused.text());
+    let problem = refused.json();
+    assert_eq!(problem["field"], "c_law", "{problem}");
+    assert_eq!(problem["type"], "urn:preston:problem:invalid-input");
+    assert!(problem["detail"]
+        .as_str()
+        .unwrap()
+        .contains("machine.kinematics: polar"));
 
     let part = created(&app, "/v1/parts", &new_part(format!("P1-{token}"))).await;
     let part_id = part["id"].as_str().unwrap();
@@ -1533,7 +1564,13 @@ async fn a_polar_plan_corrects_the_parts_map_and_learns_from_its_maps() {
         gcode.text().lines().take(3).any(|l| l.contains(plan_id)),
         "the G-code header names the plan"
     );
-    assert!(gcode.text().contains(" C"), "C words");
+    assert!(
+        gcode
+            .text()
+            .lines()
+            .any(|l| l.starts_with("G1") && l.contains(" C")),
+        "moves with C words"
+    );
     let refused = post(
         &app,
         &format!("/v1/plans/{plan_id}/program"),
@@ -1543,6 +1580,22 @@ async fn a_polar_plan_corrects_the_parts_map_and_learns_from_its_maps() {
     .await;
     assert_eq!(refused.status, 422, "{}", refused.text());
     assert_eq!(refused.json()["field"], "c_law");
+    // A radial program's member: an invalid input here (the body's schema is either kind's).
+    let refused = post(
+        &app,
+        &format!("/v1/plans/{plan_id}/program"),
+        &json!({"clearance_mm": 5}),
+        &[],
+    )
+    .await;
+    assert_eq!(refused.status, 422, "{}", refused.text());
+    let problem = refused.json();
+    assert_eq!(problem["field"], "clearance_mm", "{problem}");
+    assert_eq!(problem["type"], "urn:preston:problem:invalid-input");
+    assert!(problem["detail"]
+        .as_str()
+        .unwrap()
+        .contains("this plan is polar"));
 
     // Run it; the after map lost 0.9 of the plan's exact removal.
     created(

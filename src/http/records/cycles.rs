@@ -11,7 +11,7 @@ use super::docs::{
 };
 use super::dto::{CycleDto, HistoryDto, PlanDto, RatioDto, RunRecordDto, RunRequest};
 use super::parts::part_dto;
-use super::{begin, commit, computed_by, fetched, replayed, store, tag, Writer};
+use super::{begin, commit, computed_by, fetched, not_of_this_kind, replayed, store, tag, Writer};
 use crate::http::dto::WarningDto;
 use crate::http::endpoint::{offered, render, Endpoint};
 use crate::http::error::ApiError;
@@ -115,33 +115,36 @@ pub async fn program(
 ) -> Result<Response, ApiError> {
     let program = cycles::program_request(store(&state)?, &id, body).await?;
     if program.polar {
-        plan_program::<MapProgramEndpoint>(&state, &headers, program, |c, line| {
+        plan_program::<MapProgramEndpoint>(&state, &headers, program, POLAR_PROGRAM, |c, line| {
             c.with_provenance(line)
         })
         .await
     } else {
-        plan_program::<ProgramEndpoint>(&state, &headers, program, |c, line| {
+        plan_program::<ProgramEndpoint>(&state, &headers, program, RADIAL_PROGRAM, |c, line| {
             c.with_provenance(line)
         })
         .await
     }
 }
 
+const RADIAL_PROGRAM: &str = "this plan is radial: its program takes `/v1/program`'s members";
+const POLAR_PROGRAM: &str = "this plan is polar: its program takes `/v1/maps/program`'s members";
+
 /// A stored plan's program by endpoint `E` (`/v1/program`, or `/v1/maps/program` for a polar
-/// plan), its header naming the plan (`named`).
+/// plan), its header naming the plan (`named`); `kind` says which members the plan's program
+/// takes when the body has others.
 async fn plan_program<E: Endpoint>(
     state: &AppState,
     headers: &HeaderMap,
     program: cycles::PlanProgram,
+    kind: &str,
     named: fn(E::Command, String) -> E::Command,
 ) -> Result<Response, ApiError> {
     let format = extract::negotiate(headers, &offered::<E>())?;
     let bytes =
         serde_json::to_vec(&program.request).map_err(|e| ApiError::internal(e.to_string()))?;
-    let command = named(
-        E::parse(extract::parse_json(&bytes)?, &state.compute)?,
-        program.provenance,
-    );
+    let request = extract::parse_json(&bytes).map_err(|e| not_of_this_kind(e, kind))?;
+    let command = named(E::parse(request, &state.compute)?, program.provenance);
     let services = state.services.clone();
     let output = state.run(move || E::run(command, &services)).await?;
     Ok(render::<E>(format, output))

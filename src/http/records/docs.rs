@@ -3,7 +3,7 @@
 //! request's schema less those properties) and the problems they answer (`contract` adds the
 //! links between them).
 
-use utoipa::openapi::schema::AnyOfBuilder;
+use utoipa::openapi::schema::{AllOfBuilder, AnyOfBuilder, ObjectBuilder};
 use utoipa::openapi::{Ref, RefOr, Schema};
 use utoipa::{PartialSchema, ToSchema};
 
@@ -12,7 +12,7 @@ use super::dto::{
     ProcessProfileDto, ProcessProfileListDto, ProcessProfileRequest, RunRecordDto, RunRequest,
 };
 use crate::http::calibration::CalibrationRequest;
-use crate::http::maps::optimize::{MapOptimizeRequest, MapOptimizeResponse};
+use crate::http::maps::optimize::{MapOptimizeRequest, MapOptimizeResponse, PolarMachineDto};
 use crate::http::maps::program::{MapProgramRequest, MapProgramResponse};
 use crate::http::maps::MapAnalysisRequest;
 use crate::http::measurement_fit::MeasurementFitRequest;
@@ -114,7 +114,7 @@ less!(
      correction of the part's latest measurement, `clear_aperture` to the part's."
 );
 less!(
-    PartPolarPlanRequest,
+    PolarPlanBody,
     MapOptimizeRequest,
     ["process", "surface"],
     ["map"],
@@ -124,13 +124,39 @@ less!(
      `surface` (the part's); `map` defaults to the part's latest measurement's map file, with \
      the `pixel_mm` and `alignment` it was analysed with; `clear_aperture` to the part's."
 );
+
+/// [`PolarPlanBody`] with `machine.kinematics` required: what tells a polar plan's body from a
+/// radial one's.
+pub struct PartPolarPlanRequest;
+
+impl PartialSchema for PartPolarPlanRequest {
+    fn schema() -> RefOr<Schema> {
+        let mut schema = PolarPlanBody::schema();
+        if let RefOr::T(Schema::Object(object)) = &mut schema {
+            let machine = AllOfBuilder::new()
+                .item(Ref::from_schema_name(PolarMachineDto::name()))
+                .item(ObjectBuilder::new().required("kinematics"))
+                .description(Some(
+                    "The machine; `kinematics: polar` makes the plan a polar one.",
+                ));
+            object.properties.insert("machine".into(), machine.into());
+        }
+        schema
+    }
+}
+
+impl ToSchema for PartPolarPlanRequest {
+    fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
+        <MapOptimizeRequest as ToSchema>::schemas(schemas);
+    }
+}
 less!(
     PlanRadialProgramRequest,
     ProgramRequest,
     ["process", "surface", "dwell"],
     [],
     "A radial plan's: a `/v1/program` request without `process`, `surface` and `dwell` (the \
-     plan's)."
+     plan's); `machine` defaults to the plan's."
 );
 less!(
     PlanPolarProgramRequest,
@@ -138,7 +164,7 @@ less!(
     ["process", "surface", "dwell", "c_law"],
     [],
     "A polar plan's: a `/v1/maps/program` request without `process`, `surface`, `dwell` and \
-     `c_law` (the plan's)."
+     `c_law` (the plan's); `machine` defaults to the plan's."
 );
 any_of!(
     PartPlanRequest,

@@ -1002,9 +1002,15 @@
     summary(view, 'maps', [...items, ...planSummary(o, false)]);
     await program(view, o.dwell);
     const polar = $('[data-polar="maps"]', section(view));
-    polar.hidden = !$('#map_polar').checked;
-    if (!polar.hidden) await correctMap(view, a, query, aperture);
+    polar.hidden = true;
+    if ($('#map_polar').checked) {
+      await correctMap(view, a, query, aperture);
+      polar.hidden = false;
+    }
   }
+
+  /** The most blocks one machine program holds (the API's documented limit). */
+  const MAX_PROGRAM_BLOCKS = 1e6;
 
   /** A map on its grid (rows top first) as the heat map's CSV: x_mm, y_mm, value. */
   function gridCsv(x, y, rows) {
@@ -1054,7 +1060,8 @@
   /** The polar correction of the map (API.mapOptimize on the file itself): its target, dwell
    * and residual maps, its harmonic budget, and its program (API.mapProgram). */
   async function correctMap(view, a, query, aperture) {
-    const machine = { kinematics: 'polar', ...(machineInput().machine ?? {}) };
+    const { tool, machine: axes } = machineInput();
+    const machine = { kinematics: 'polar', ...(axes ?? {}) };
     const process = processInput();
     const surface = surfaceInput();
     const request = defined({
@@ -1092,7 +1099,15 @@
       ['Uniform layer added', `${label(o.piston_nm)} nm`],
       ...o.warnings.map((w) => ['Warning', w.message]),
     ]);
-    await polarProgram(view, { process, surface, dwell: o.dwell, c_law: o.c_law, machine });
+    const box = $('[data-program="maps-polar"]', section(view));
+    if (o.blocks > MAX_PROGRAM_BLOCKS) {
+      box.replaceChildren(h('h3', {}, 'Polar machine program'), h('p', {},
+        `The plan runs C through ${label(o.blocks)} blocks, more than one program holds `
+        + `(${label(MAX_PROGRAM_BLOCKS)}): fewer sectors, a larger K or pressure, or a smaller `
+        + 'correction per plan.'));
+      return;
+    }
+    await polarProgram(view, { process, surface, dwell: o.dwell, c_law: o.c_law, machine, tool });
   }
 
   /** A polar plan's program (API.mapProgram): its G-code with C words. */
