@@ -66,9 +66,17 @@ impl<S: Send + Sync, R: CsvForm> FromRequest<S> for CsvOrJson<R> {
             ));
         }
         R::merge_csv(&bytes, &mut body)?;
-        let text = serde_json::to_vec(&body).map_err(|e| ApiError::internal(e.to_string()))?;
-        extract::parse_json(&text).map(CsvOrJson)
+        query_request(body).map(CsvOrJson)
     }
+}
+
+/// The request a file body's query composes (`query_object`, and the file's own members): the
+/// parameters are text to the schema (each a field's JSON value), so a value that is not its
+/// field's is an invalid input, not a mismatch of the schema.
+pub fn query_request<R: DeserializeOwned>(body: Map<String, Value>) -> Result<R, ApiError> {
+    let text = serde_json::to_vec(&body).map_err(|e| ApiError::internal(e.to_string()))?;
+    extract::parse_json(&text)
+        .map_err(|e| e.mismatch_as_invalid("a query parameter: the field's JSON value"))
 }
 
 /// The query's parameters as the members of a JSON body: each value JSON, or a bare word for

@@ -225,6 +225,18 @@ impl ApiError {
         ApiError::new(Kind::InvalidInput, detail).at(field)
     }
 
+    /// A request composed from what the schema states only as text or as a union (query
+    /// parameters' JSON values, a records body of either kind of plan) that its endpoint refuses
+    /// as not its schema: an invalid input naming the member, `why` saying what was expected.
+    /// Any other problem as it is.
+    pub fn mismatch_as_invalid(self, why: &str) -> Self {
+        if self.kind != Kind::SchemaMismatch {
+            return self;
+        }
+        let field = self.field.unwrap_or_else(|| "body".into());
+        ApiError::invalid(field, format!("{} ({why})", self.detail))
+    }
+
     pub fn limit(field: impl Into<String>, detail: impl Into<String>) -> Self {
         ApiError::new(Kind::LimitExceeded, detail).at(field)
     }

@@ -4,7 +4,7 @@
 //! included, and written as G-code in inverse time with C words.
 
 use super::map_predict::{law_work, polar_schedule, CLawError, CLawSpec, MAX_BLOCKS};
-use super::program::{approach_feed, header_lines, ProgramCommand, ProgramFailure};
+use super::program::{approach_feed, header_lines, ProgramCommand, ProgramFailure, Provenance};
 use super::Warning;
 use crate::machine::gcode::{self, CWords};
 use crate::machine::polar_program::MAX_C_STEP_DEG;
@@ -56,15 +56,16 @@ pub struct MapProgramCommand {
     sectors: Option<usize>,
 }
 
-impl MapProgramCommand {
-    /// The command with a header line saying where its plan came from (a stored plan's id).
-    pub fn with_provenance(self, line: impl Into<String>) -> Self {
+impl Provenance for MapProgramCommand {
+    fn with_provenance(self, line: String) -> Self {
         MapProgramCommand {
             base: self.base.with_provenance(line),
             ..self
         }
     }
+}
 
+impl MapProgramCommand {
     pub fn new(base: ProgramCommand, spec: MapProgramSpec) -> Result<Self, MapProgramInputError> {
         use MapProgramInputError as E;
         let pad = PolarPad::new(&base.process);

@@ -80,13 +80,20 @@ pub struct ProgramCommand {
     pub(super) warnings: Vec<Warning>,
 }
 
-impl ProgramCommand {
+/// A program command whose header can say where its plan came from.
+pub trait Provenance: Sized {
     /// The command with a header line saying where its plan came from (a stored plan's id).
-    pub fn with_provenance(mut self, line: impl Into<String>) -> Self {
-        self.provenance.push(line.into());
+    fn with_provenance(self, line: String) -> Self;
+}
+
+impl Provenance for ProgramCommand {
+    fn with_provenance(mut self, line: String) -> Self {
+        self.provenance.push(line);
         self
     }
+}
 
+impl ProgramCommand {
     pub fn new(spec: ProgramSpec, limits: &ComputeLimits) -> Result<Self, ProgramInputError> {
         use ProgramInputError as E;
         let (process, Mount { tool, .. }) =

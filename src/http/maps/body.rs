@@ -11,9 +11,9 @@ use utoipa::openapi::path::{Operation, Parameter, ParameterBuilder, ParameterIn}
 use utoipa::openapi::{Content, ObjectBuilder, RefOr, Required, Schema, Type};
 use utoipa::{PartialSchema, ToSchema};
 
-use super::super::csv_body::query_object;
+use super::super::csv_body::{query_object, query_request};
 use super::super::endpoint::Body;
-use super::super::error::{ApiError, Kind};
+use super::super::error::ApiError;
 use super::super::extract;
 use crate::maps::{self, HeightMap};
 use crate::usecases::map_analysis::MapOrigin;
@@ -137,19 +137,7 @@ impl<S: Send + Sync, R: MapForm> FromRequest<S> for MapOrJson<R> {
             }
             return extract::json_body(req, state).await.map(MapOrJson);
         }
-        let body = query_object(query, R::QUERY_FIELDS)?;
-        let text = serde_json::to_vec(&body).map_err(|e| ApiError::internal(e.to_string()))?;
-        // The parameters are text to the schema (each a field's JSON value): a value that is
-        // not the field's is an invalid input, not a mismatch of the schema.
-        let mut request: R = extract::parse_json(&text).map_err(|e| match e.kind {
-            Kind::SchemaMismatch if e.field.as_deref().is_some_and(|f| f != "body") => {
-                ApiError::invalid(
-                    e.field.clone().unwrap_or_default(),
-                    format!("{} (a query parameter: the field's JSON value)", e.detail),
-                )
-            }
-            _ => e,
-        })?;
+        let mut request: R = query_request(query_object(query, R::QUERY_FIELDS)?)?;
         if !multipart {
             request.set_file(R::FILES[0], extract::read_body(req, state).await?);
             return Ok(MapOrJson(request));

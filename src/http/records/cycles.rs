@@ -11,7 +11,7 @@ use super::docs::{
 };
 use super::dto::{CycleDto, HistoryDto, PlanDto, RatioDto, RunRecordDto, RunRequest};
 use super::parts::part_dto;
-use super::{begin, commit, computed_by, fetched, not_of_this_kind, replayed, store, tag, Writer};
+use super::{begin, commit, computed_by, fetched, replayed, store, tag, Writer};
 use crate::http::dto::WarningDto;
 use crate::http::endpoint::{offered, render, Endpoint};
 use crate::http::error::ApiError;
@@ -21,6 +21,7 @@ use crate::http::program::ProgramEndpoint;
 use crate::http::state::AppState;
 use crate::ledger::cycles::{self, NewRun};
 use crate::ledger::document;
+use crate::usecases::program::Provenance;
 use crate::usecases::records::{Cycle, PlanRecord, Record, RunRecord};
 
 fn plan_dto(plan: &PlanRecord) -> Result<PlanDto, ApiError> {
@@ -115,15 +116,9 @@ pub async fn program(
 ) -> Result<Response, ApiError> {
     let program = cycles::program_request(store(&state)?, &id, body).await?;
     if program.polar {
-        plan_program::<MapProgramEndpoint>(&state, &headers, program, POLAR_PROGRAM, |c, line| {
-            c.with_provenance(line)
-        })
-        .await
+        plan_program::<MapProgramEndpoint>(&state, &headers, program, POLAR_PROGRAM).await
     } else {
-        plan_program::<ProgramEndpoint>(&state, &headers, program, RADIAL_PROGRAM, |c, line| {
-            c.with_provenance(line)
-        })
-        .await
+        plan_program::<ProgramEndpoint>(&state, &headers, program, RADIAL_PROGRAM).await
     }
 }
 
@@ -131,20 +126,23 @@ const RADIAL_PROGRAM: &str = "this plan is radial: its program takes `/v1/progra
 const POLAR_PROGRAM: &str = "this plan is polar: its program takes `/v1/maps/program`'s members";
 
 /// A stored plan's program by endpoint `E` (`/v1/program`, or `/v1/maps/program` for a polar
-/// plan), its header naming the plan (`named`); `kind` says which members the plan's program
-/// takes when the body has others.
-async fn plan_program<E: Endpoint>(
+/// plan), its header naming the plan; `kind` says which members the plan's program takes
+/// when the body has others.
+async fn plan_program<E>(
     state: &AppState,
     headers: &HeaderMap,
     program: cycles::PlanProgram,
     kind: &str,
-    named: fn(E::Command, String) -> E::Command,
-) -> Result<Response, ApiError> {
+) -> Result<Response, ApiError>
+where
+    E: Endpoint,
+    E::Command: Provenance,
+{
     let format = extract::negotiate(headers, &offered::<E>())?;
     let bytes =
         serde_json::to_vec(&program.request).map_err(|e| ApiError::internal(e.to_string()))?;
-    let request = extract::parse_json(&bytes).map_err(|e| not_of_this_kind(e, kind))?;
-    let command = named(E::parse(request, &state.compute)?, program.provenance);
+    let request = extract::parse_json(&bytes).map_err(|e| e.mismatch_as_invalid(kind))?;
+    let command = E::parse(request, &state.compute)?.with_provenance(program.provenance);
     let services = state.services.clone();
     let output = state.run(move || E::run(command, &services)).await?;
     Ok(render::<E>(format, output))

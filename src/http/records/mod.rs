@@ -357,10 +357,10 @@ async fn computation(
         }
         Computation::Optimize => compute::<OptimizeEndpoint>(state, request)
             .await
-            .map_err(|e| not_of_this_kind(e, RADIAL_PLAN)),
+            .map_err(|e| e.mismatch_as_invalid(RADIAL_PLAN)),
         Computation::MapOptimize => compute_maps::<MapOptimizeEndpoint>(state, request, files)
             .await
-            .map_err(|e| not_of_this_kind(e, POLAR_PLAN)),
+            .map_err(|e| e.mismatch_as_invalid(POLAR_PLAN)),
         Computation::MapAnalysis => {
             compute_maps::<MapAnalysisEndpoint>(state, request, files).await
         }
@@ -370,23 +370,13 @@ async fn computation(
     }
 }
 
-/// What a radial plan's request takes, and how a polar plan is asked for.
+/// What a radial plan's request takes, and how a polar plan is asked for: a records body is
+/// either kind's, so a member of the other kind is an invalid input saying so
+/// ([`ApiError::mismatch_as_invalid`]).
 const RADIAL_PLAN: &str = "a radial plan is a `/v1/optimize` request (a polar plan \
      says `machine.kinematics: polar` and is a `/v1/maps/optimize` request)";
 /// What a polar plan's request takes.
 const POLAR_PLAN: &str = "a polar plan is a `/v1/maps/optimize` request";
-
-/// A plan's or a program's request, composed by the records from the caller's body (whose
-/// schema is either kind's), that its endpoint refuses as not its schema: the body fitted the
-/// other kind, so the member is an invalid input here, not a schema mismatch, and the problem
-/// says which kind of plan this is (`kind`).
-pub(super) fn not_of_this_kind(error: ApiError, kind: &str) -> ApiError {
-    if error.kind != Kind::SchemaMismatch {
-        return error;
-    }
-    let field = error.field.clone().unwrap_or_else(|| "body".into());
-    ApiError::invalid(field, format!("{} ({kind})", error.detail))
-}
 
 /// [`compute`] for an endpoint that reads map files: each file put in its request member.
 async fn compute_maps<E: Endpoint>(
