@@ -12,16 +12,20 @@
 //!
 //! 0. the best plan in radius alone (the 1-D optimizer on the azimuthal mean, C at constant
 //!    speed): the comparison a machine without C under control sets, and the dwell shape t⁰;
-//! 1. m ≥ 1: each harmonic's modulation y_m = t⁰·x_m, one radial problem each, fitted as x
-//!    relative to t⁰ (so that the floors it asks are in proportion to a dwell that removes an
-//!    even layer, which a uniform layer more meets);
+//! 1. m ≥ 1: each harmonic's modulation y_m = t⁰·x_m, one radial problem each, fitted
+//!    unbounded as x relative to t⁰ (so that the floors it asks are in proportion to a dwell
+//!    that removes an even layer, which a uniform layer more meets);
 //! 2. its C law's floors on each station's dwell: the modulation bound, C's velocity and its
-//!    acceleration (`harmonics::law_floor`), as asked and capped at 1 and 2 times the radial
-//!    plan's dwell ([`FLOOR_CAPS`]);
-//! 3. m = 0: for each set of floors, the 1-D optimizer (`usecases::optimize`) on the
-//!    azimuthal mean with a free piston, its floors raised to those, within every 1-D limit
-//!    (the total time, X, Z, B); the plan kept is the one whose residual the plan's own model
-//!    predicts smallest (floors that bend the mean dwell leave a round error of their own);
+//!    acceleration (`harmonics::law_floor`), as asked and capped at twice the radial plan's
+//!    dwell ([`FLOOR_CAPS`]); for each set of floors, the 1-D optimizer
+//!    (`usecases::optimize`) on the azimuthal mean with a free piston, its floors raised to
+//!    those, within every 1-D limit (the total time, X, Z, B). These plans and the radial plan
+//!    are the candidates for the mean dwell;
+//! 3. each candidate's modulation fitted again relative to its own dwell, within C's law
+//!    (`HarmonicOperator::fit_within`: the harmonics' amplitudes together within what one law
+//!    carries), and the candidate kept whose residual the plan's own model predicts smallest
+//!    (more dwell gives the law room, but the mean bent to floors leaves a round error of its
+//!    own);
 //! 4. the law: speed factors per station and sector;
 //! 5. the removal on a square map — the exact removal of the executed motion
 //!    (`physics::polar`), or the plan's own first-order model ([`RemovalModel`]) — the target
@@ -31,10 +35,15 @@
 //! map less its azimuthal mean at the pixel's own radius: the removal's from the identity of
 //! `physics::polar` (exactly, or the model's), the target's from a ring of samples. (Less the
 //! mean of a ring of pixels, a steep radial profile across the ring's width would count as not
-//! round.) Each harmonic's RMS per band is fitted on rings of pixels (`maps::rings`). The harmonic
-//! budget reports, per radius band and harmonic m, the largest amplitude (nm) the plan's mean
-//! dwell can put there: the footprint's harmonic of the dwell times the most modulation C
-//! allows at m (seed 000's eq. 4 for C: δ ≤ min{δ_max, 1 − Ω0/v_max, a_max/(m·Ω0²)}).
+//! round.) Each harmonic's RMS per band is fitted on rings of pixels (`maps::rings`). The
+//! harmonic budget reports, per radius band and harmonic m, the largest amplitude (nm) the
+//! plan's mean dwell can put there: the footprint's harmonic of the dwell times the most
+//! modulation of m alone that C's law carries (`harmonics::ModulationBound`: 1/c_m =
+//! min{δ·sinc(mπ/S), a_max/(m·Ω0²)}, δ = min{δ_max, 1 − Ω0/v_max}, the servo rule
+//! A ≤ min{v_max/(2πf), a_max/(4π²f²)} for C); and since one law carries every harmonic,
+//! the share of that modulation the band's target asks of all of them at once,
+//! Σ_m (target amplitude)/(largest amplitude): at most 1, the budget allows the band's whole
+//! correction.
 
 use std::f64::consts::TAU;
 
@@ -51,7 +60,7 @@ use crate::maps::rings::{band_rms, ring_harmonics};
 use crate::maps::HeightMap;
 use crate::optimize::harmonics::{
     law_floor, law_share, sector_modulation, speed_factors, CLimits, HarmonicOperator, Harmonics,
-    LawBound, SectorBasis,
+    LawBound, ModulationBound, SectorBasis, ADMM_SCREEN_WORK, ADMM_WORK,
 };
 use crate::optimize::kinematics::Floor;
 use crate::optimize::problem::Bound;
@@ -69,6 +78,8 @@ pub const MAX_HARMONIC: usize = 90;
 /// The most work the harmonics may take in one request, in operations (about a second on 2
 /// cores).
 pub const MAX_HARMONIC_WORK: f64 = 3e9;
+/// The most candidates for the mean dwell: the radial plan and one per floor cap.
+const CANDIDATES: usize = 1 + FLOOR_CAPS.len();
 /// The most work the result's removal map may take, in pixel-turns as `/v1/maps/predict`
 /// counts them (`map_work`: the depths and the exact azimuthal means; about a second on 2 cores,
 /// the plan solved first; a coarser map is still the exact removal at its pixels).
@@ -77,8 +88,11 @@ pub const MAX_MAP_WORK: f64 = 1.5e6;
 /// part's radius, no fewer: a coarser map tells nothing of what is not round.
 const COARSEST_PIXELS_ACROSS_RADIUS: f64 = 8.0;
 /// The caps tried on the law's floors, in multiples of the radial plan's dwell (∞: the floors
-/// the modulation asks).
-const FLOOR_CAPS: &[f64] = &[1.0, 2.0, f64::INFINITY];
+/// the modulation asks). Twice the radial plan's dwell is the one kept on prysm's sample at both
+/// apertures tested; uncapped floors, on planted harmonics with no round error (where the radial
+/// plan's dwell leaves the law no room). A cap of 1 (about the radial plan, itself a candidate)
+/// won on neither, at a 1-D solve.
+const FLOOR_CAPS: &[f64] = &[2.0, f64::INFINITY];
 /// The most samples the map is read at on one ring.
 pub const MAX_RING_SAMPLES: usize = 16_384;
 /// Pixels across the part of the result's maps by default.
@@ -283,7 +297,8 @@ impl MapOptimizeCommand {
             max_modulation,
         };
         if let Some(v) = c.max_velocity_rad_per_s {
-            if omega0 >= v {
+            // The law's margin: C at Ω0 itself must stay strictly within the limit.
+            if omega0 >= v * (1.0 - crate::optimize::kinematics::MARGIN) {
                 return Err(E::CTooSlow {
                     omega_deg_per_min: omega0.to_degrees() * 60.0,
                     limit: v.to_degrees() * 60.0,
@@ -311,8 +326,15 @@ impl MapOptimizeCommand {
         // equations.
         let (rows, stations) = (radii.len() as f64, spec.optimize.positions_mm.len() as f64);
         let m = max_harmonic as f64;
+        // Then the normal equations once, and for the unbounded fit, each candidate mean
+        // dwell's fit within C's law and the final one, a Cholesky factorisation per harmonic
+        // (ADMM's refactorisations counted as ten) and ADMM's work.
+        let fits = 2.0 + CANDIDATES as f64;
         let work = rows * stations * 4.0 * 15.0 * (1.6 * m).max(4.0) * (m + 1.0)
-            + m * (rows * stations * stations + stations.powi(3) / 3.0);
+            + m * rows * stations * stations
+            + fits * 10.0 * m * stations.powi(3) / 3.0
+            + CANDIDATES as f64 * ADMM_SCREEN_WORK
+            + ADMM_WORK;
         if work > MAX_HARMONIC_WORK {
             return Err(E::TooMuchWork {
                 rows: radii.len(),
@@ -423,6 +445,11 @@ pub struct BudgetBand {
     pub amplitude_nm: Vec<f64>,
     /// The target's own amplitude of each harmonic in the band (its largest over the band's radii).
     pub target_amplitude_nm: Vec<f64>,
+    /// Σ_m target_amplitude_nm/amplitude_nm: the share of C's modulation the band's target asks,
+    /// every harmonic at once (one modulation carries them all). At most 1, the budget allows
+    /// the band's whole correction; `None` where the target has a harmonic the plan's dwell
+    /// cannot put in the band at all.
+    pub modulation_share: Option<f64>,
     /// Each harmonic's RMS over the band's pixels (`maps::rings`), of the target and of the
     /// residual, nm; empty where no ring of the band has pixels enough to fit.
     pub target_rms_nm: Vec<f64>,
@@ -547,26 +574,37 @@ pub fn map_optimize(
         .iter()
         .map(|&t| t.max(1e-3 * largest).max(f64::MIN_POSITIVE))
         .collect();
-    let coefficients = operator.fit(&harmonics, &weights, &shape, motion.radii_mm(), rt, m_accel);
-    let coefficients: Vec<(Vec<f64>, Vec<f64>)> = coefficients
+    let fit = operator.fit_setup(&harmonics, &weights, motion.radii_mm(), rt, m_accel);
+    let coefficients: Vec<(Vec<f64>, Vec<f64>)> = operator
+        .fit(&fit, &shape)
         .into_iter()
         .map(|(c, s)| {
             let scale = |x: Vec<f64>| x.iter().zip(&shape).map(|(x, t)| x * t).collect();
             (scale(c), scale(s))
         })
         .collect();
-    // 2–3. The law's floors and the mean. A station's modulation may ask more dwell than the
-    // radial plan gives it (its floor), and the mean bent to the floors leaves a radial error
-    // of its own, which can cost more than the modulation gains (on prysm's sample 2 → 11 nm
-    // of round residual for 13 → 9 nm not round). So the modulation is also tried capped at
-    // each share of FLOOR_CAPS (no station's floor above that many times the radial plan's
-    // dwell), and the plan whose residual the plan's own model predicts smallest is kept.
-    let modulation = sector_modulation(&coefficients, motion.len(), sectors);
+    // 2–3. The mean dwell (module docs): the radial plan, and the plans under the floors of
+    // the unbounded modulation capped at each share of FLOOR_CAPS, each modulated within C's
+    // law relative to its own dwell; the one whose residual the plan's own model predicts
+    // smallest is kept.
+    let bound = ModulationBound::new(&c, omega0, sectors, m_max)
+        .expect("C's velocity was checked above Ω0");
+    let modulate = |dwell: &[f64], work: f64| -> Vec<Vec<f64>> {
+        let relative = operator.fit_within(&fit, dwell, &bound, work);
+        let mut modulation = sector_modulation(&relative, motion.len(), sectors);
+        for (y, &t) in modulation.iter_mut().zip(dwell) {
+            for v in y.iter_mut() {
+                *v *= t;
+            }
+        }
+        modulation
+    };
+    let unbounded = sector_modulation(&coefficients, motion.len(), sectors);
     let grid = setting.grid().radii_mm().to_vec();
-    let mut best: Option<(f64, OptimizedPlan)> = None;
-    let mut failure = None;
+    let mut candidates = vec![radial_plan.clone()];
+    let mut tried: Vec<Vec<f64>> = Vec::new();
     for &cap in FLOOR_CAPS {
-        let capped: Vec<Vec<f64>> = modulation
+        let capped: Vec<Vec<f64>> = unbounded
             .iter()
             .zip(&shape)
             .map(|(y, &t)| {
@@ -584,27 +622,41 @@ pub fn map_optimize(
             .iter()
             .zip(&radial_plan.solution.dwell_s)
             .all(|(floor, &t)| floor.dwell_s <= t);
-        let solved = if meets {
-            Ok(radial_plan.clone())
-        } else {
-            optimize(plan.clone().with_floors(floors), recommender, operators)
-        };
-        match solved {
-            Ok(candidate) => {
-                let score =
-                    predicted_residual(&operator, &harmonics, &weights, &grid, &candidate, &capped);
-                if best.as_ref().is_none_or(|(best, _)| score < *best) {
-                    best = Some((score, candidate));
-                }
-            }
-            Err(error) => failure = failure.or(Some(error)),
+        if meets {
+            continue;
+        }
+        // A cap that changes no floor is the candidate before it.
+        let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
+        if tried.contains(&floors_s) {
+            continue;
+        }
+        tried.push(floors_s);
+        // Floors the 1-D limits cannot meet leave the candidate out: the radial plan stands
+        // (but a request out of time is out of time).
+        match optimize(plan.clone().with_floors(floors), recommender, operators) {
+            Ok(candidate) => candidates.push(candidate),
+            Err(error @ OptimizeError::TimeLimit { .. }) => return Err(error.into()),
+            Err(_) => {}
         }
     }
-    let plan = match (best, failure) {
-        (Some((_, plan)), _) => plan,
-        (None, Some(error)) => return Err(error.into()),
-        (None, None) => unreachable!("FLOOR_CAPS is not empty"),
-    };
+    // Compared on a shorter fit each; the one kept is fitted in full.
+    let mut best: Option<(f64, OptimizedPlan)> = None;
+    for candidate in candidates {
+        let modulation = modulate(&candidate.solution.dwell_s, ADMM_SCREEN_WORK);
+        let score = predicted_residual(
+            &operator,
+            &harmonics,
+            &weights,
+            &grid,
+            &candidate,
+            &modulation,
+        );
+        if best.as_ref().is_none_or(|(best, _)| score < *best) {
+            best = Some((score, candidate));
+        }
+    }
+    let (_, plan) = best.expect("the radial plan is a candidate");
+    let mut modulation = modulate(&plan.solution.dwell_s, ADMM_WORK);
     let dwell = &plan.solution.dwell_s;
     // The blocks the law cuts the motion into (a block per sector passed; a turn under the
     // law takes as long as at constant speed), before any is made: the exact map needs them.
@@ -617,22 +669,6 @@ pub fn map_optimize(
             blocks: estimate,
             max: MAX_BLOCKS,
         });
-    }
-    // The modulation again, now as δ relative to the dwell found (smooth across the stations,
-    // so that C's speed changes little where the plan passes from one to the next), within the
-    // modulation bound.
-    let relative = operator.fit(&harmonics, &weights, dwell, motion.radii_mm(), rt, m_accel);
-    let mut modulation = sector_modulation(&relative, motion.len(), sectors);
-    for (y, &t) in modulation.iter_mut().zip(dwell) {
-        for v in y.iter_mut() {
-            *v *= t;
-        }
-        let share = law_share(y, t, omega0, &c);
-        if share < 1.0 {
-            for v in y.iter_mut() {
-                *v *= share;
-            }
-        }
     }
     // 4. The law, checked on the executed motion: the floors bound each station's own
     // sectors, but a station's law meets its neighbour's where the plan passes from one to the
@@ -858,59 +894,22 @@ pub fn map_optimize(
         }
     }
     // The harmonic budget, per band of one pad radius.
-    let mut harmonic_budget = Vec::new();
-    let allowed = |m: usize| {
-        let mut a = c.max_modulation;
-        if let Some(v) = c.max_velocity_rad_per_s {
-            a = a.min(1.0 - omega0 / v);
-        }
-        if let Some(acc) = c.max_acceleration_rad_per_s2 {
-            a = a.min(acc / (m as f64 * omega0 * omega0));
-        }
-        a
-    };
-    let per_m: Vec<Vec<f64>> = (1..=m_max)
-        .map(|m| operator.footprint_apply(m, dwell))
-        .collect();
-    let mut from = inner;
-    while from < outer {
-        let to = (from + rt).min(outer);
-        let rows: Vec<usize> = (0..harmonics.radii_mm.len())
-            .filter(|&i| harmonics.radii_mm[i] >= from && harmonics.radii_mm[i] <= to)
-            .collect();
-        if !rows.is_empty() {
-            let amplitude_nm = (1..=m_max)
-                .map(|m| {
-                    rows.iter().map(|&i| per_m[m - 1][i].abs()).sum::<f64>() / rows.len() as f64
-                        * allowed(m)
-                })
-                .collect();
-            let target_amplitude_nm = (1..=m_max)
-                .map(|m| {
-                    rows.iter()
-                        .map(|&i| {
-                            let (a, b) = harmonics.coefficients[i][m];
-                            a.hypot(b)
-                        })
-                        .fold(0.0, f64::max)
-                })
-                .collect();
-            let last = to >= outer;
+    let harmonic_budget = band_budgets(&operator, &harmonics, dwell, &bound, (inner, outer), rt)
+        .into_iter()
+        .map(|b| {
+            let last = b.to_mm >= outer;
             let band = |fits| {
                 // The last band takes in the ring at the aperture's edge.
-                band_rms(fits, from, if last { f64::INFINITY } else { to }).unwrap_or_default()
+                band_rms(fits, b.from_mm, if last { f64::INFINITY } else { b.to_mm })
+                    .unwrap_or_default()
             };
-            harmonic_budget.push(BudgetBand {
-                from_mm: from,
-                to_mm: to,
-                amplitude_nm,
-                target_amplitude_nm,
+            BudgetBand {
                 target_rms_nm: band(&target_fits),
                 residual_rms_nm: band(&residual_fits),
-            });
-        }
-        from = to;
-    }
+                ..b
+            }
+        })
+        .collect();
     Ok(MapCorrection {
         total_time_s: plan.total_time_s,
         plan,
@@ -937,6 +936,68 @@ pub fn map_optimize(
         removal_model,
         warnings,
     })
+}
+
+/// The harmonic budget's amplitudes (module docs) with the mean dwell `dwell_s`, per band of
+/// one pad radius across the aperture `(inner, outer)` (mm), without the bands' RMS.
+fn band_budgets(
+    operator: &HarmonicOperator,
+    harmonics: &Harmonics,
+    dwell_s: &[f64],
+    bound: &ModulationBound,
+    (inner, outer): (f64, f64),
+    rt: f64,
+) -> Vec<BudgetBand> {
+    let m_max = operator.m_max();
+    // The most relative modulation of harmonic m alone that the law carries: 1/c_m.
+    let allowed = |m: usize| 1.0 / bound.weights[m - 1];
+    let per_m: Vec<Vec<f64>> = (1..=m_max)
+        .map(|m| operator.footprint_apply(m, dwell_s))
+        .collect();
+    let mut bands = Vec::new();
+    let mut from = inner;
+    while from < outer {
+        let to = (from + rt).min(outer);
+        let rows: Vec<usize> = (0..harmonics.radii_mm.len())
+            .filter(|&i| harmonics.radii_mm[i] >= from && harmonics.radii_mm[i] <= to)
+            .collect();
+        if !rows.is_empty() {
+            let amplitude_nm: Vec<f64> = (1..=m_max)
+                .map(|m| {
+                    rows.iter().map(|&i| per_m[m - 1][i].abs()).sum::<f64>() / rows.len() as f64
+                        * allowed(m)
+                })
+                .collect();
+            let target_amplitude_nm: Vec<f64> = (1..=m_max)
+                .map(|m| {
+                    rows.iter()
+                        .map(|&i| {
+                            let (a, b) = harmonics.coefficients[i][m];
+                            a.hypot(b)
+                        })
+                        .fold(0.0, f64::max)
+                })
+                .collect();
+            // None where the target has a harmonic the plan's dwell cannot put there at all.
+            let modulation_share = target_amplitude_nm
+                .iter()
+                .zip(&amplitude_nm)
+                .filter(|(t, _)| **t > 0.0)
+                .map(|(t, a)| (*a > 0.0).then(|| t / a))
+                .sum();
+            bands.push(BudgetBand {
+                from_mm: from,
+                to_mm: to,
+                amplitude_nm,
+                target_amplitude_nm,
+                modulation_share,
+                target_rms_nm: Vec::new(),
+                residual_rms_nm: Vec::new(),
+            });
+        }
+        from = to;
+    }
+    bands
 }
 
 /// How many times the modulation is scaled down where C's law breaks a limit on the executed

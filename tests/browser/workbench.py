@@ -374,6 +374,8 @@ def main_flow(binary, screenshots):
             check(painted > 20_000, f"the {name} heat map is painted ({painted} opaque pixels)")
         budget = page.css('figure[data-chart="polar-budget"] table.budget tbody tr')
         check(len(budget) >= 1, f"the harmonic budget tabled ({len(budget)} bands)")
+        shares = page.text_of('figure[data-chart="polar-budget"] table.budget')
+        check("share" in shares, f"each band's share of C's modulation tabled ({shares[:80]!r}…)")
         polar = page.text_of('[data-summary="maps-polar"]')
         check("Not round: before → after" in polar and "NaN" not in polar,
               f"the polar plan's figures reported ({polar[:160]!r}…)")

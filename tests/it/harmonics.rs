@@ -275,12 +275,11 @@ async fn planted_astigmatism_and_trefoil_are_corrected_within_c_s_limits() {
 /// runs ~240 turns of C rather than 72,000, so that the exact map fits one request at 1 mm.
 ///
 /// Judged twice: by the exact removal of the executed motion (at ~2 mm, where the work limit
-/// coarsens it) and by the plan's harmonic model at 1 mm. Measured: exact, RMS 26.6 → 12.7 nm
-/// beside the best plan in radius alone's 14.9, what is not round 14.7 → 11.6 nm; the model,
-/// 26.2 → 11.7 beside 14.4, not round 14.2 → 10.6, of which 6.9 nm lies above m = 15, beyond
-/// what the pad resolves (warned). The plan kept has its floors capped at twice the radial
-/// plan's dwell: uncapped, the modulation corrected more of what is not round (→ 8.9 nm) but
-/// the floors left 11 nm of round error, 14.8 nm in all. The bounds check: the 2-D plan beats
+/// coarsens it) and by the plan's harmonic model at 1 mm. Measured: exact, RMS 26.6 → 11.2 nm
+/// beside the best plan in radius alone's 14.9, what is not round 14.7 → 9.9 nm; the model,
+/// 26.2 → 10.2 beside 14.4, not round 14.2 → 8.8, much of it above m = 15, beyond what the
+/// pad resolves (warned), and in the edge roll (20–23 mm), whose harmonics ask C's law for 3.3
+/// times the modulation it has (`modulation_share`). The bounds check: the 2-D plan beats
 /// the radial one by 5 % at least; the exact verdict and the model agree within a quarter;
 /// what is not round loses a tenth at least; each band from 10 mm out loses (harmonics 1 … 15
 /// together), the edge band a quarter at least.
@@ -375,18 +374,44 @@ async fn the_real_fizeau_map_loses_what_is_not_round() {
     assert_eq!(bands, 3);
 }
 
-/// The same map and set-up judged inside its edge roll (a 36 mm clear aperture: beyond about
-/// 20 mm the map falls away steeply and irregularly, and correcting that zone's harmonics with
-/// a 5 mm pad bleeds into the zone a pad radius inside it, which the aperture of 46 mm above
-/// pays for). By the plan's model what is not round falls 10.4 → 3.2 nm, 3.2×, and in each band
-/// from 10 mm out harmonics 1 to 3 (most of what is not round there) fall 3.4× to 14×; the
-/// higher ones, and every one in the 5–10 mm band, where the pad spans 60° to 180° of the
-/// circle, fall 1–5×, though the amplitude budget allows them. The exact removal of the
-/// executed motion (at the 2.4 mm the work limit leaves, some four turns of C per station: the
-/// spiral's ripple counts) gives 10.3 → 4.8 nm, 2.2×.
-#[tokio::test(flavor = "multi_thread")]
-async fn inside_its_edge_roll_the_real_map_loses_two_thirds_of_what_is_not_round() {
+/// `/v1/maps/optimize` on prysm's Fizeau sample sent as its file: the body, the other fields
+/// (`query`'s members) as query parameters.
+async fn optimize_the_sample_file(query: Value) -> Value {
     let bytes = std::fs::read(crate::common::fixture_path("maps/valid_zygo_dat_file.dat")).unwrap();
+    let query: Vec<String> = query
+        .as_object()
+        .unwrap()
+        .iter()
+        .map(|(k, v)| {
+            let text = v.as_str().map_or_else(|| v.to_string(), str::to_string);
+            format!("{k}={}", crate::api_metrology::urlencode(&text))
+        })
+        .collect();
+    let path = format!("/v1/maps/optimize?{}", query.join("&"));
+    let reply = crate::common::http::post_with(
+        &app(),
+        &path,
+        bytes,
+        &[("content-type", "application/octet-stream")],
+    )
+    .await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    reply.json()
+}
+
+/// The same map and set-up judged inside its edge roll (a 36 mm clear aperture: beyond about
+/// 20 mm the map falls away steeply and irregularly, and its harmonics there ask C's law for
+/// three times the modulation it has, `modulation_share` 3.3). Here the budget allows every
+/// band from 5 mm out (`modulation_share` 0.3–0.7; inside 5 mm, where the pad spans more than
+/// half the circle, 7.8), and by the plan's model what is not round falls 10.4 → 1.9 nm; in
+/// each band the budget allows, harmonics 1 … 12 together fall 6×, 11× and 12×, m = 1, 2 and 3
+/// (most of what is not round) each at least 3× (the higher ones, under 1 nm to begin with,
+/// less). The exact removal of the executed motion at this K (at the 2.4 mm the work limit
+/// leaves, about three turns of C per station, so that each station's last part-turn leaves a
+/// sector of its own: the spiral's ripple) gives 10.6 → 4.8 nm; with ten times the turns, the
+/// next test, it falls 9–22× band by band.
+#[tokio::test(flavor = "multi_thread")]
+async fn the_real_map_falls_three_times_wherever_the_budget_allows_it() {
     let body = |model: &str| {
         json!({
             "process": {"workpiece_radius_mm": 25, "tool_radius_mm": 5, "workpiece_rpm": -10, "tool_rpm": 200,
@@ -399,31 +424,7 @@ async fn inside_its_edge_roll_the_real_map_loses_two_thirds_of_what_is_not_round
             "removal_model": model
         })
     };
-    // The map as its file: the body, the other fields as query parameters.
-    let run = |model: &'static str| {
-        let query: Vec<String> = body(model)
-            .as_object()
-            .unwrap()
-            .iter()
-            .map(|(k, v)| {
-                let text = v.as_str().map_or_else(|| v.to_string(), str::to_string);
-                format!("{k}={}", crate::api_metrology::urlencode(&text))
-            })
-            .collect();
-        let path = format!("/v1/maps/optimize?{}", query.join("&"));
-        let bytes = bytes.clone();
-        async move {
-            let reply = crate::common::http::post_with(
-                &app(),
-                &path,
-                bytes,
-                &[("content-type", "application/octet-stream")],
-            )
-            .await;
-            assert_eq!(reply.status, 200, "{}", reply.text());
-            reply.json()
-        }
-    };
+    let run = |model: &'static str| optimize_the_sample_file(body(model));
     let (model, exact) = (run("harmonic").await, run("exact").await);
     assert_eq!(exact["dwell"], model["dwell"]);
     let rms = |out: &Value, key: &str| out["metrics"][key]["rms_nm"].as_f64().unwrap();
@@ -436,26 +437,180 @@ async fn inside_its_edge_roll_the_real_map_loses_two_thirds_of_what_is_not_round
         rms(&exact, "non_axisymmetric_before"),
         rms(&exact, "non_axisymmetric_after"),
     );
-    assert!(not_round(&model) <= 1.0 / 3.0, "{}", model["metrics"]);
+    // 0.18 measured; the fit scaled to C's limits afterwards, as before the fit within them,
+    // gave 0.31.
+    assert!(not_round(&model) <= 0.25, "{}", model["metrics"]);
     assert!(not_round(&exact) <= 0.5, "{}", exact["metrics"]);
-    let mut bands = 0;
+    let power = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+    let mut allowed = 0;
     for band in model["harmonic_budget"].as_array().unwrap() {
-        if band["from_mm"].as_f64().unwrap() < 10.0 {
-            continue;
-        }
-        bands += 1;
+        let from = band["from_mm"].as_f64().unwrap();
+        let share = band["modulation_share"].as_f64().unwrap();
+        // The share is the sum of the amplitudes' ratios, each at most the whole.
+        let asked = crate::common::numbers(&band["target_amplitude_nm"]);
+        let within = crate::common::numbers(&band["amplitude_nm"]);
+        let sum: f64 = asked
+            .iter()
+            .zip(&within)
+            .filter(|(a, _)| **a > 0.0)
+            .map(|(a, w)| a / w)
+            .sum();
+        assert!((share - sum).abs() <= 1e-12 * sum, "{band}");
         let before = crate::common::numbers(&band["target_rms_nm"]);
         let after = crate::common::numbers(&band["residual_rms_nm"]);
-        let within = crate::common::numbers(&band["amplitude_nm"]);
-        let asked = crate::common::numbers(&band["target_amplitude_nm"]);
-        for m in 0..3 {
-            assert!(
-                asked[m] <= within[m],
-                "the budget allows m = {}: {band}",
-                m + 1
-            );
-            assert!(after[m] * 3.0 <= before[m], "m = {}: {band}", m + 1);
+        if share > 1.0 {
+            eprintln!("{from} mm: the law would need {share:.2} of its modulation");
+            continue;
         }
+        allowed += 1;
+        let fallen: Vec<usize> = (0..before.len())
+            .filter(|&m| 3.0 * after[m] <= before[m])
+            .map(|m| m + 1)
+            .collect();
+        eprintln!(
+            "{from} mm (share {share:.2}): {:.2} → {:.2} nm; 3× lower: m = {fallen:?}",
+            power(&before),
+            power(&after)
+        );
+        assert!(3.0 * power(&after) <= power(&before), "{band}");
     }
-    assert_eq!(bands, 2);
+    assert_eq!(allowed, 3);
+}
+
+/// The same plan judged by the exact removal of its executed motion rather than its model,
+/// with ten times the turns (K = 3e-12 m²/N: some 20 turns of C per station, so that what each
+/// station's last part-turn leaves, the spiral's ripple, is a tenth of the plan's at 3e-11).
+/// The exact map of so long a plan is more work than one request does, so the removal is
+/// computed here by `physics::polar` itself, at rings of 64 equally spaced points 1 mm apart,
+/// against the plan's own target (its `maps.target_nm`, bilinear): in each band the budget
+/// allows, harmonics 1 … M of the exact residual (discrete Fourier sums on each ring,
+/// area-weighted) are at least 3× below the target's (measured 9×, 22× and 17×).
+#[tokio::test(flavor = "multi_thread")]
+async fn the_exact_removal_of_the_real_map_s_plan_falls_three_times_where_the_budget_allows() {
+    use preston::physics::polar::executed_blocks;
+    use preston::physics::{Motion, SectorLaw};
+    let k = 3e-12;
+    let out = optimize_the_sample_file(json!({
+        "process": {"workpiece_radius_mm": 25, "tool_radius_mm": 5, "workpiece_rpm": -10, "tool_rpm": 200,
+                    "preston_coefficient_m2_per_n": k, "pressure_kpa": 10, "pressure_model": "uniform"},
+        "positions_mm": (0..=50).map(|k| 0.5 * k as f64).collect::<Vec<_>>(),
+        "radial_grid": {"start_mm": 0, "stop_mm": 25, "count": 51},
+        "clear_aperture": {"inner_mm": 0, "outer_mm": 18},
+        "c_law": {"sectors": 90},
+        "removal_pixel_mm": 0.5,
+        "removal_model": "harmonic"
+    }))
+    .await;
+    let process = Process::new(ProcessSpec {
+        workpiece_radius_mm: 25.0,
+        tool_radius_mm: 5.0,
+        workpiece_rpm: -10.0,
+        tool_rpm: 200.0,
+        preston_coefficient_m2_per_n: k,
+        pressure_kpa: 10.0,
+        pressure_model: PressureModel::Uniform,
+        part: preston::physics::Part::flat(),
+    })
+    .unwrap();
+    let pad = PolarPad::new(&process);
+    let positions = crate::common::numbers(&out["dwell"]["positions_mm"]);
+    let dwell = crate::common::numbers(&out["dwell"]["dwell_s"]);
+    let sectors = out["c_law"]["sectors"].as_u64().unwrap() as usize;
+    let factors: Vec<f64> = out["c_law"]["speed_factors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(crate::common::numbers)
+        .collect();
+    let motion = Motion::radial(positions.clone())
+        .with_sector_law(SectorLaw::new(positions.len(), sectors, factors).unwrap())
+        .unwrap();
+    let turns = dwell.iter().sum::<f64>() * pad.part_speed_rad_per_s().abs() / TAU;
+    let blocks = executed_blocks(
+        &motion,
+        &dwell,
+        pad.part_speed_rad_per_s(),
+        0.0,
+        &process.part().surface,
+    );
+    // The plan's target (with its piston) on its map, bilinear between the four pixels.
+    let maps = &out["maps"];
+    let (xs, ys) = (
+        crate::common::numbers(&maps["x_mm"]),
+        crate::common::numbers(&maps["y_mm"]),
+    );
+    let target: Vec<Vec<Option<f64>>> = maps["target_nm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|row| row.as_array().unwrap().iter().map(Value::as_f64).collect())
+        .collect();
+    let pixel = xs[1] - xs[0];
+    let at = |x: f64, y: f64| -> Option<f64> {
+        let (fx, fy) = ((x - xs[0]) / pixel, (y - ys[0]) / (ys[1] - ys[0]));
+        let (i, j) = (fy.floor() as usize, fx.floor() as usize);
+        let (u, v) = (fx - j as f64, fy - i as f64);
+        Some(
+            target.get(i)?.get(j).copied()?? * (1.0 - u) * (1.0 - v)
+                + target.get(i)?.get(j + 1).copied()?? * u * (1.0 - v)
+                + target.get(i + 1)?.get(j).copied()?? * (1.0 - u) * v
+                + target.get(i + 1)?.get(j + 1).copied()?? * u * v,
+        )
+    };
+    let m_max = out["max_harmonic"].as_u64().unwrap() as usize;
+    let samples = 64;
+    // Harmonics 1 … M's mean square on one ring of samples.
+    let power = |ring: &[f64]| -> f64 {
+        (1..=m_max)
+            .map(|m| {
+                let (mut a, mut b) = (0.0, 0.0);
+                for (k, v) in ring.iter().enumerate() {
+                    let (s, c) = (TAU * (m * k) as f64 / samples as f64).sin_cos();
+                    a += v * c;
+                    b += v * s;
+                }
+                let (a, b) = (2.0 * a / samples as f64, 2.0 * b / samples as f64);
+                0.5 * (a * a + b * b)
+            })
+            .sum()
+    };
+    let mut allowed = 0;
+    for band in out["harmonic_budget"].as_array().unwrap() {
+        let (from, to) = (
+            band["from_mm"].as_f64().unwrap(),
+            band["to_mm"].as_f64().unwrap(),
+        );
+        let share = band["modulation_share"].as_f64().unwrap();
+        if share > 1.0 {
+            continue;
+        }
+        allowed += 1;
+        let (mut before, mut after, mut weight) = (0.0, 0.0, 0.0);
+        let mut r = from + 0.5;
+        while r < to {
+            let points: Vec<(f64, f64)> = (0..samples)
+                .map(|k| {
+                    let (s, c) = (TAU * k as f64 / samples as f64).sin_cos();
+                    (r * c, r * s)
+                })
+                .collect();
+            let removal = pad.depth_nm(&blocks, &points);
+            let wanted: Option<Vec<f64>> = points.iter().map(|&(x, y)| at(x, y)).collect();
+            if let Some(wanted) = wanted {
+                let residual: Vec<f64> = removal.iter().zip(&wanted).map(|(d, t)| d - t).collect();
+                before += r * power(&wanted);
+                after += r * power(&residual);
+                weight += r;
+            }
+            r += 1.0;
+        }
+        let (before, after) = ((before / weight).sqrt(), (after / weight).sqrt());
+        eprintln!(
+            "exact, {turns:.0} turns of C: {from} mm (share {share:.2}): harmonics 1 … {m_max} \
+             {before:.2} → {after:.2} nm ({:.1}×)",
+            before / after
+        );
+        assert!(3.0 * after <= before, "{from} mm: {before} → {after} nm");
+    }
+    assert_eq!(allowed, 3);
 }

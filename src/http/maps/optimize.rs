@@ -281,11 +281,16 @@ pub struct HarmonicBandDto {
     /// The band's outer radius, mm (a pad radius further, or the aperture's edge).
     pub to_mm: f64,
     /// For m = 1, 2, …: the largest amplitude of harmonic m (nm) the plan's mean dwell can
-    /// remove in the band, with the most modulation C allows at m (δ ≤ min{max_modulation,
-    /// 1 − Ω0/v_max, a_max/(m·Ω0²)}).
+    /// remove in the band, with the most modulation C's law carries of m alone (relative to the
+    /// dwell: min{δ·sinc(mπ/S), a_max/(m·Ω0²)}, δ = min{max_modulation, 1 − Ω0/v_max}).
     pub amplitude_nm: Vec<f64>,
     /// For m = 1, 2, …: the map's amplitude of harmonic m, nm (its largest over the band).
     pub target_amplitude_nm: Vec<f64>,
+    /// Σ_m target_amplitude_nm/amplitude_nm: the share of C's modulation the band's target
+    /// asks, every harmonic at once (one law carries them all). At most 1, the budget allows
+    /// the band's whole correction; above, the plan corrects what the law leaves room for.
+    /// `null` where the target has a harmonic the plan's dwell cannot put in the band at all.
+    pub modulation_share: Option<f64>,
     /// For m = 1, 2, …: harmonic m's RMS over the band's pixels in the target, nm (a
     /// least-squares fit of harmonics 0 … max_harmonic on each ring one pixel wide with at
     /// least 2·(2·max_harmonic + 1) pixels); empty when no ring of the band has as many.
@@ -452,6 +457,7 @@ motion, on a plane, a sphere or an asphere.",
                     to_mm: b.to_mm,
                     amplitude_nm: b.amplitude_nm,
                     target_amplitude_nm: b.target_amplitude_nm,
+                    modulation_share: b.modulation_share,
                     target_rms_nm: b.target_rms_nm,
                     residual_rms_nm: b.residual_rms_nm,
                 })

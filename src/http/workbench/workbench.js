@@ -1041,13 +1041,17 @@
     return lines.join('\n');
   }
 
-  /** The harmonic budget as a table: a row per radius band, a column per harmonic m, each
+  /** The harmonic budget as a table: a row per radius band, the share of C's modulation the
+   * band asks of all its harmonics at once (red above 1), then a column per harmonic m, each
    * cell the target's amplitude over the most the plan can remove (red where it asks more). */
   function budgetTable(bands, shown) {
     const ms = Array.from({ length: shown }, (_, i) => i + 1);
-    const head = h('tr', {}, h('th', {}, 'band (mm)'), ...ms.map((m) => h('th', {}, `m = ${m}`)));
+    const head = h('tr', {}, h('th', {}, 'band (mm)'), h('th', {}, 'share'),
+      ...ms.map((m) => h('th', {}, `m = ${m}`)));
     const rows = bands.map((b) => h('tr', {},
       h('th', {}, `${label(b.from_mm)}–${label(b.to_mm)}`),
+      h('td', b.modulation_share == null || b.modulation_share > 1 ? { class: 'over' } : {},
+        b.modulation_share == null ? 'none' : Number(b.modulation_share.toPrecision(2)).toString()),
       ...ms.map((m) => {
         const target = b.target_amplitude_nm[m - 1];
         const most = b.amplitude_nm[m - 1];
