@@ -308,8 +308,7 @@ impl HarmonicOperator {
         // width (h_{k−1} + h_k)/2.
         let stations = fit.stations_mm;
         let span = stations.last().unwrap_or(&0.0) - stations.first().unwrap_or(&0.0);
-        let lambda =
-            fit.smoothing * scale * fit.tool_radius_mm.powi(4) / span.max(f64::MIN_POSITIVE);
+        let lambda = SMOOTHING * scale * fit.tool_radius_mm.powi(4) / span.max(f64::MIN_POSITIVE);
         for (k, (row, w)) in second_differences(stations)
             .iter()
             .zip(stations.windows(3))
@@ -333,8 +332,8 @@ impl HarmonicOperator {
     /// GᵀW·[a_m, b_m] made once, for fits on any column scaling.
     pub fn fit_setup<'a>(
         &self,
-        target: &'a Harmonics,
-        row_weights: &'a [f64],
+        target: &Harmonics,
+        row_weights: &[f64],
         stations_mm: &'a [f64],
         tool_radius_mm: f64,
         m_accel: f64,
@@ -362,7 +361,6 @@ impl HarmonicOperator {
         HarmonicFit {
             stations_mm,
             tool_radius_mm,
-            smoothing: SMOOTHING,
             m_accel,
             normals,
         }
@@ -420,15 +418,7 @@ impl HarmonicOperator {
             .par_iter()
             .map(|e| self.solve_unbounded(e.as_ref()))
             .collect();
-        let keeps = (0..n).all(|j| {
-            let size: f64 = free
-                .iter()
-                .zip(&bound.weights)
-                .map(|((c, s), w)| w * c[j].hypot(s[j]))
-                .sum();
-            size <= 1.0
-        });
-        if keeps {
+        if (0..n).all(|j| bound.load(&free, j) <= 1.0) {
             return free;
         }
         // Each harmonic in the variables ξ = √s·x, whose normal matrix N/s has unit mean
@@ -543,16 +533,15 @@ impl HarmonicOperator {
 }
 
 /// What a harmonic fit fits and how (module docs, "Each harmonic's problem").
-#[derive(Debug, Clone)]
+/// Made by [`HarmonicOperator::fit_setup`]; the smoothing is [`SMOOTHING`].
+#[derive(Debug)]
 pub struct HarmonicFit<'a> {
     /// The stations' radii (the smoothing's divided differences), mm.
-    pub stations_mm: &'a [f64],
+    stations_mm: &'a [f64],
     /// r_t, mm: the smoothing weighs the curvature over one pad radius.
-    pub tool_radius_mm: f64,
-    /// λ ([`SMOOTHING`] by default).
-    pub smoothing: f64,
+    tool_radius_mm: f64,
     /// m_a (∞ without an acceleration limit).
-    pub m_accel: f64,
+    m_accel: f64,
     /// Per harmonic, GᵀWG and GᵀW·[a_m, b_m] on unscaled columns.
     normals: Vec<(Mat<f64>, Mat<f64>)>,
 }
@@ -642,6 +631,15 @@ pub struct ModulationBound {
 }
 
 impl ModulationBound {
+    /// Σ_m c_m·‖x_jm‖ at station `j` of the harmonics' coefficients `x` ((x^c_m, x^s_m),
+    /// index m − 1): at most 1 within the bound.
+    pub fn load(&self, x: &[(Vec<f64>, Vec<f64>)], j: usize) -> f64 {
+        x.iter()
+            .zip(&self.weights)
+            .map(|((c, s), w)| w * c[j].hypot(s[j]))
+            .sum()
+    }
+
     /// The bound that keeps C's law within `limits` at |Ω0| = `omega0` with `sectors` sectors:
     /// c_m = max(1/(δ·sinc(mπ/S)), m/A), δ = min(δ_max, 1 − Ω0/v_max) and A = a_max/Ω0² (module
     /// docs: C's acceleration to first order);

@@ -575,31 +575,20 @@ pub fn map_optimize(
         .map(|&t| t.max(1e-3 * largest).max(f64::MIN_POSITIVE))
         .collect();
     let fit = operator.fit_setup(&harmonics, &weights, motion.radii_mm(), rt, m_accel);
-    let coefficients: Vec<(Vec<f64>, Vec<f64>)> = operator
-        .fit(&fit, &shape)
-        .into_iter()
-        .map(|(c, s)| {
-            let scale = |x: Vec<f64>| x.iter().zip(&shape).map(|(x, t)| x * t).collect();
-            (scale(c), scale(s))
-        })
-        .collect();
     // 2–3. The mean dwell (module docs): the radial plan, and the plans under the floors of
     // the unbounded modulation capped at each share of FLOOR_CAPS, each modulated within C's
     // law relative to its own dwell; the one whose residual the plan's own model predicts
     // smallest is kept.
     let bound = ModulationBound::new(&c, omega0, sectors, m_max)
         .expect("C's velocity was checked above Ω0");
-    let modulate = |dwell: &[f64], work: f64| -> Vec<Vec<f64>> {
-        let relative = operator.fit_within(&fit, dwell, &bound, work);
-        let mut modulation = sector_modulation(&relative, motion.len(), sectors);
-        for (y, &t) in modulation.iter_mut().zip(dwell) {
-            for v in y.iter_mut() {
-                *v *= t;
-            }
-        }
-        modulation
+    let modulate = |dwell: &[f64], work: f64| {
+        in_seconds(
+            operator.fit_within(&fit, dwell, &bound, work),
+            dwell,
+            sectors,
+        )
     };
-    let unbounded = sector_modulation(&coefficients, motion.len(), sectors);
+    let unbounded = in_seconds(operator.fit(&fit, &shape), &shape, sectors);
     let grid = setting.grid().radii_mm().to_vec();
     let mut candidates = vec![radial_plan.clone()];
     let mut tried: Vec<Vec<f64>> = Vec::new();
@@ -936,6 +925,22 @@ pub fn map_optimize(
         removal_model,
         warnings,
     })
+}
+
+/// The law's modulation Y_jk (s) at each station's sectors, of harmonics fitted relative to the
+/// dwell (`relative`: x^c_m, x^s_m per station, y = t·x).
+fn in_seconds(
+    relative: Vec<(Vec<f64>, Vec<f64>)>,
+    dwell_s: &[f64],
+    sectors: usize,
+) -> Vec<Vec<f64>> {
+    let mut modulation = sector_modulation(&relative, dwell_s.len(), sectors);
+    for (y, &t) in modulation.iter_mut().zip(dwell_s) {
+        for v in y.iter_mut() {
+            *v *= t;
+        }
+    }
+    modulation
 }
 
 /// The harmonic budget's amplitudes (module docs) with the mean dwell `dwell_s`, per band of
