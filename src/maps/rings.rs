@@ -31,10 +31,16 @@ pub struct RingFit {
     pub power: Vec<f64>,
 }
 
-/// The rings of `points` (r mm, θ rad, value nm) one `pixel_mm` wide, fitted to harmonics
-/// 1 … `m_max`, in order of radius; rings too small to fit are left out.
-pub fn ring_harmonics(points: &[(f64, f64, f64)], pixel_mm: f64, m_max: usize) -> Vec<RingFit> {
-    let mut rings: Vec<Vec<(f64, f64, f64)>> = Vec::new();
+/// The rings of `points` (r mm, θ rad, and K values nm at the pixel) one `pixel_mm` wide,
+/// fitted to harmonics 1 … `m_max`, in order of radius, for each of the K values (maps on the
+/// same pixels share each ring's design and its factorisation); rings too small to fit are left
+/// out.
+pub fn ring_harmonics<const K: usize>(
+    points: &[(f64, f64, [f64; K])],
+    pixel_mm: f64,
+    m_max: usize,
+) -> [Vec<RingFit>; K] {
+    let mut rings: Vec<Vec<(f64, f64, [f64; K])>> = Vec::new();
     for &p in points {
         let k = (p.0 / pixel_mm).floor() as usize;
         if rings.len() <= k {
@@ -42,23 +48,26 @@ pub fn ring_harmonics(points: &[(f64, f64, f64)], pixel_mm: f64, m_max: usize) -
         }
         rings[k].push(p);
     }
-    rings
+    let fits: Vec<[RingFit; K]> = rings
         .par_iter()
         .filter_map(|ring| {
             let fitted = (ring.len() / 2).saturating_sub(1) / 2;
             if fitted < m_max {
                 return None;
             }
-            let mut fit = fit_ring(ring, fitted.min(m_max + EXTRA_HARMONICS))?;
-            fit.power.truncate(m_max);
-            Some(fit)
+            let mut fits = fit_ring(ring, fitted.min(m_max + EXTRA_HARMONICS))?;
+            for fit in &mut fits {
+                fit.power.truncate(m_max);
+            }
+            Some(fits)
         })
-        .collect()
+        .collect();
+    std::array::from_fn(|k| fits.iter().map(|f| f[k].clone()).collect())
 }
 
-/// One ring's least squares by its normal equations (Cholesky); `None` if they are singular
-/// (pixels bunched at a few angles).
-fn fit_ring(ring: &[(f64, f64, f64)], m_max: usize) -> Option<RingFit> {
+/// One ring's least squares for each of its K values by its normal equations (Cholesky);
+/// `None` if they are singular (pixels bunched at a few angles).
+fn fit_ring<const K: usize>(ring: &[(f64, f64, [f64; K])], m_max: usize) -> Option<[RingFit; K]> {
     let unknowns = 2 * m_max + 1;
     // cos mθ, sin mθ by turning through θ once per harmonic.
     let basis = |theta: f64, row: &mut [f64]| {
@@ -79,18 +88,18 @@ fn fit_ring(ring: &[(f64, f64, f64)], m_max: usize) -> Option<RingFit> {
             design[(i, a)] = v;
         }
     }
-    let values = Mat::from_fn(ring.len(), 1, |i, _| ring[i].2);
+    let values = Mat::from_fn(ring.len(), K, |i, k| ring[i].2[k]);
     let normal = design.transpose() * &design;
     let right = design.transpose() * &values;
     let solution = normal.llt(faer::Side::Lower).ok()?.solve(&right);
-    let power = (1..=m_max)
-        .map(|m| 0.5 * (solution[(2 * m - 1, 0)].powi(2) + solution[(2 * m, 0)].powi(2)))
-        .collect();
-    Some(RingFit {
-        radius_mm: ring.iter().map(|p| p.0).sum::<f64>() / ring.len() as f64,
+    let radius_mm = ring.iter().map(|p| p.0).sum::<f64>() / ring.len() as f64;
+    Some(std::array::from_fn(|k| RingFit {
+        radius_mm,
         pixels: ring.len(),
-        power,
-    })
+        power: (1..=m_max)
+            .map(|m| 0.5 * (solution[(2 * m - 1, k)].powi(2) + solution[(2 * m, k)].powi(2)))
+            .collect(),
+    }))
 }
 
 /// Harmonic m's RMS (nm, m = 1 … M) over the fitted rings whose mean radius is in
@@ -128,11 +137,11 @@ mod tests {
                 let (r, theta) = (x.hypot(y), y.atan2(x));
                 if r <= 30.0 {
                     let value = 7.0 + 3.0 * (2.0 * theta).cos() + 4.0 * (5.0 * theta).sin();
-                    points.push((r, theta, value));
+                    points.push((r, theta, [value]));
                 }
             }
         }
-        let rings = ring_harmonics(&points, 1.0, 6);
+        let [rings] = ring_harmonics(&points, 1.0, 6);
         assert!(!rings.is_empty());
         for ring in &rings {
             assert_eq!(ring.power.len(), 6);

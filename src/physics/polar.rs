@@ -479,21 +479,7 @@ impl PolarPad {
     /// ∂V/∂Ω (module docs).
     fn footprint_parts(&self, pair: &Pair, cos: f64) -> (f64, f64, f64) {
         match *pair {
-            Pair::Flat { r, r1, pressure } => {
-                let (omega, w2) = (self.part_speed, self.tool_speed);
-                let k = w2 - omega;
-                let factor = (pressure.level + pressure.slope_per_mm * (r * cos - r1)).max(0.0);
-                let v = (k * k * r * r + w2 * w2 * r1 * r1 - 2.0 * r * r1 * w2 * k * cos)
-                    .max(0.0)
-                    .sqrt();
-                // ∂V/∂Ω = (−(ω2 − Ω)·r² + r·r1·ω2·cos α)/V, 0 where V vanishes (a point).
-                let dv = if v > 0.0 {
-                    (-k * r * r + r * r1 * w2 * cos) / v
-                } else {
-                    0.0
-                };
-                (self.preston * factor, v, dv)
-            }
+            Pair::Flat { r, r1, pressure } => self.flat_parts(r, r1, &pressure, cos),
             Pair::Curved {
                 kernel,
                 ring,
@@ -501,6 +487,24 @@ impl PolarPad {
                 pressure,
             } => kernel.footprint(&ring, &site, &pressure, cos),
         }
+    }
+
+    /// [`Self::footprint_parts`] on a flat, branch-free (it runs a panel's nodes side by side).
+    #[inline(always)]
+    fn flat_parts(&self, r: f64, r1: f64, pressure: &PadPressure, cos: f64) -> (f64, f64, f64) {
+        let (omega, w2) = (self.part_speed, self.tool_speed);
+        let k = w2 - omega;
+        let factor = (pressure.level + pressure.slope_per_mm * (r * cos - r1)).max(0.0);
+        let v = (k * k * r * r + w2 * w2 * r1 * r1 - 2.0 * r * r1 * w2 * k * cos)
+            .max(0.0)
+            .sqrt();
+        // ∂V/∂Ω = (−(ω2 − Ω)·r² + r·r1·ω2·cos α)/V, 0 where V vanishes (a point).
+        let dv = if v > 0.0 {
+            (-k * r * r + r * r1 * w2 * cos) / v
+        } else {
+            0.0
+        };
+        (self.preston * factor, v, dv)
     }
 
     /// The depth (nm) at the point (r_mm, θ) of the part left by a spiral: the pad centre
@@ -635,30 +639,67 @@ impl PolarPad {
         let omega = self.part_speed;
         let panels = ((m_max as f64 * half_arc / 2.0).ceil() as usize).max(4);
         let width = half_arc / panels as f64;
-        let mut cosines = vec![0.0; m_max + 1];
+        // cos(mα) by the recurrence cos((m+1)α) = 2·cos α·cos(mα) − cos((m−1)α), run on a
+        // panel's 16 lanes at once: one lane's recurrence is a chain of dependent operations,
+        // sixteen side by side are independent (vector instructions), and each lane keeps its
+        // own sums, added once at the end.
+        const LANES: usize = 16;
+        let mut rho_lanes = vec![[0.0; LANES]; m_max + 1];
+        let mut kernel_lanes = vec![[0.0; LANES]; m_max + 1];
+        // The panels are equal: each node is its panel's centre plus an offset they all share,
+        // so cos α = cos(centre)·cos(offset) − sin(centre)·sin(offset), one sincos a panel.
+        let (mut cos_offset, mut sin_offset, mut weights) =
+            ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        for (lane, (offset, weight)) in kronrod_rule(-0.5 * width, 0.5 * width).enumerate() {
+            (sin_offset[lane], cos_offset[lane]) = offset.sin_cos();
+            weights[lane] = weight / PI;
+        }
         for panel in 0..panels {
-            let lo = panel as f64 * width;
-            for (alpha, weight) in kronrod_rule(lo, lo + width) {
-                if weight == 0.0 {
-                    continue;
+            let (sin_centre, cos_centre) = ((panel as f64 + 0.5) * width).sin_cos();
+            let (mut c, mut a, mut b) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+            for lane in 0..LANES {
+                c[lane] = cos_centre * cos_offset[lane] - sin_centre * sin_offset[lane];
+            }
+            // On a flat every lane, the rule's zero weight included (its node is inside the
+            // panel: finite), side by side; a curved pair's footprint node by node.
+            let mut parts = [(0.0, 0.0, 0.0); LANES];
+            match pair {
+                Pair::Flat { r, r1, pressure } => {
+                    for (part, &cos) in parts.iter_mut().zip(&c) {
+                        *part = self.flat_parts(r, r1, &pressure, cos);
+                    }
                 }
-                let c = alpha.cos();
-                let (pressed, v, dv) = self.footprint_parts(&pair, c);
-                let scale = pressed * weight / PI;
-                let (a, b) = (scale * v, scale * (v - omega * dv));
-                // cos(mα) by the recurrence cos((m+1)α) = 2·cos α·cos(mα) − cos((m−1)α).
-                cosines[0] = 1.0;
-                if m_max >= 1 {
-                    cosines[1] = c;
-                }
-                for m in 2..=m_max {
-                    cosines[m] = 2.0 * c * cosines[m - 1] - cosines[m - 2];
-                }
-                for m in 0..=m_max {
-                    rho[m] += a * cosines[m];
-                    kernel[m] += b * cosines[m];
+                Pair::Curved { .. } => {
+                    for (lane, &weight) in weights.iter().enumerate() {
+                        if weight != 0.0 {
+                            parts[lane] = self.footprint_parts(&pair, c[lane]);
+                        }
+                    }
                 }
             }
+            for lane in 0..LANES {
+                let (pressed, v, dv) = parts[lane];
+                let scale = pressed * weights[lane];
+                (a[lane], b[lane]) = (scale * v, scale * (v - omega * dv));
+            }
+            let (mut before, mut now) = ([1.0; LANES], c);
+            for k in 0..LANES {
+                rho_lanes[0][k] += a[k];
+                kernel_lanes[0][k] += b[k];
+            }
+            for m in 1..=m_max {
+                for k in 0..LANES {
+                    rho_lanes[m][k] += a[k] * now[k];
+                    kernel_lanes[m][k] += b[k] * now[k];
+                    let next = 2.0 * c[k] * now[k] - before[k];
+                    before[k] = now[k];
+                    now[k] = next;
+                }
+            }
+        }
+        for m in 0..=m_max {
+            rho[m] = rho_lanes[m].iter().sum();
+            kernel[m] = kernel_lanes[m].iter().sum();
         }
         (rho, kernel)
     }

@@ -22,10 +22,10 @@
 //!    those, within every 1-D limit (the total time, X, Z, B). These plans and the radial plan
 //!    are the candidates for the mean dwell;
 //! 3. each candidate's modulation fitted again relative to its own dwell, within C's law
-//!    (`HarmonicOperator::fit_within`: the harmonics' amplitudes together within what one law
-//!    carries), and the candidate kept whose residual the plan's own model predicts smallest
-//!    (more dwell gives the law room, but the mean bent to floors leaves a round error of its
-//!    own);
+//!    (`harmonics::UnboundedFit::within`: the harmonics' amplitudes together within what one
+//!    law carries) for a few iterations, and the candidate kept whose residual the plan's own
+//!    model predicts smallest (more dwell gives the law room, but the mean bent to floors
+//!    leaves a round error of its own); the kept one's fit then runs on from where it stopped;
 //! 4. the law: speed factors per station and sector;
 //! 5. the removal on a square map — the exact removal of the executed motion
 //!    (`physics::polar`), or the plan's own first-order model ([`RemovalModel`]) — the target
@@ -47,6 +47,8 @@
 
 use std::f64::consts::TAU;
 
+use rayon::prelude::*;
+
 use super::map_analysis::{MapInputError, Placement};
 use super::map_predict::{covered_turns, figures, map_size, map_work, station_turns, MAX_BLOCKS};
 use super::map_removal_function::square_axes;
@@ -60,7 +62,7 @@ use crate::maps::rings::{band_rms, ring_harmonics};
 use crate::maps::HeightMap;
 use crate::optimize::harmonics::{
     law_floor, law_share, sector_modulation, speed_factors, CLimits, HarmonicOperator, Harmonics,
-    LawBound, ModulationBound, SectorBasis, ADMM_SCREEN_WORK, ADMM_WORK,
+    LawBound, ModulationBound, SectorBasis, UnboundedFit, WithinFit, ADMM_SCREEN_WORK, ADMM_WORK,
 };
 use crate::optimize::kinematics::Floor;
 use crate::optimize::problem::Bound;
@@ -326,15 +328,16 @@ impl MapOptimizeCommand {
         // equations.
         let (rows, stations) = (radii.len() as f64, spec.optimize.positions_mm.len() as f64);
         let m = max_harmonic as f64;
-        // Then the normal equations once, and for the unbounded fit, each candidate mean
-        // dwell's fit within C's law and the final one, a Cholesky factorisation per harmonic
-        // (ADMM's refactorisations counted as ten) and ADMM's work.
-        let fits = 2.0 + CANDIDATES as f64;
+        // Then the normal equations once; a Cholesky factorisation per harmonic for the
+        // unbounded fit and two for each candidate mean dwell's (its unbounded fit and ADMM's
+        // shifted matrix; ADMM's refactorisations counted as ten more), and ADMM's work: the
+        // kept candidate's in full, the others' screening.
+        let factorisations = 1.0 + 2.0 * CANDIDATES as f64 + 10.0;
         let work = rows * stations * 4.0 * 15.0 * (1.6 * m).max(4.0) * (m + 1.0)
             + m * rows * stations * stations
-            + fits * 10.0 * m * stations.powi(3) / 3.0
-            + CANDIDATES as f64 * ADMM_SCREEN_WORK
-            + ADMM_WORK;
+            + factorisations * m * stations.powi(3) / 3.0
+            + ADMM_WORK
+            + (CANDIDATES - 1) as f64 * ADMM_SCREEN_WORK;
         if work > MAX_HARMONIC_WORK {
             return Err(E::TooMuchWork {
                 rows: radii.len(),
@@ -581,17 +584,15 @@ pub fn map_optimize(
     // smallest is kept.
     let bound = ModulationBound::new(&c, omega0, sectors, m_max)
         .expect("C's velocity was checked above Ω0");
-    let modulate = |dwell: &[f64], work: f64| {
-        in_seconds(
-            operator.fit_within(&fit, dwell, &bound, work),
-            dwell,
-            sectors,
-        )
-    };
-    let unbounded = in_seconds(operator.fit(&fit, &shape), &shape, sectors);
+    let unbounded = in_seconds(
+        operator.fit(&fit, &shape).coefficients().to_vec(),
+        &shape,
+        sectors,
+    );
     let grid = setting.grid().radii_mm().to_vec();
-    let mut candidates = vec![radial_plan.clone()];
-    let mut tried: Vec<Vec<f64>> = Vec::new();
+    // The distinct sets of floors the radial plan does not already meet (it is then the
+    // optimum: no solve), solved side by side.
+    let mut distinct: Vec<Vec<Floor>> = Vec::new();
     for &cap in FLOOR_CAPS {
         let capped: Vec<Vec<f64>> = unbounded
             .iter()
@@ -606,46 +607,71 @@ pub fn map_optimize(
             })
             .collect();
         let floors = law_floors(&capped, omega0, &c);
-        // Floors the radial plan already meets leave it the optimum: no solve.
         let meets = floors
             .iter()
             .zip(&radial_plan.solution.dwell_s)
             .all(|(floor, &t)| floor.dwell_s <= t);
-        if meets {
-            continue;
+        let same = |other: &Vec<Floor>| {
+            other
+                .iter()
+                .zip(&floors)
+                .all(|(a, b)| a.dwell_s == b.dwell_s)
+        };
+        if !meets && !distinct.iter().any(same) {
+            distinct.push(floors);
         }
-        // A cap that changes no floor is the candidate before it.
-        let floors_s: Vec<f64> = floors.iter().map(|f| f.dwell_s).collect();
-        if tried.contains(&floors_s) {
-            continue;
-        }
-        tried.push(floors_s);
+    }
+    let solved: Vec<Result<OptimizedPlan, OptimizeError>> = distinct
+        .into_par_iter()
+        .map(|floors| optimize(plan.clone().with_floors(floors), recommender, operators))
+        .collect();
+    let mut candidates = vec![radial_plan.clone()];
+    for result in solved {
         // Floors the 1-D limits cannot meet leave the candidate out: the radial plan stands
         // (but a request out of time is out of time).
-        match optimize(plan.clone().with_floors(floors), recommender, operators) {
+        match result {
             Ok(candidate) => candidates.push(candidate),
             Err(error @ OptimizeError::TimeLimit { .. }) => return Err(error.into()),
             Err(_) => {}
         }
     }
-    // Compared on a shorter fit each; the one kept is fitted in full.
-    let mut best: Option<(f64, OptimizedPlan)> = None;
-    for candidate in candidates {
-        let modulation = modulate(&candidate.solution.dwell_s, ADMM_SCREEN_WORK);
-        let score = predicted_residual(
-            &operator,
-            &harmonics,
-            &weights,
-            &grid,
-            &candidate,
-            &modulation,
-        );
-        if best.as_ref().is_none_or(|(best, _)| score < *best) {
-            best = Some((score, candidate));
+    // Compared after a few iterations each of the fit within the law; the one kept goes on
+    // to the full fit from where it stopped.
+    let fits: Vec<UnboundedFit> = candidates
+        .par_iter()
+        .map(|candidate| operator.fit(&fit, &candidate.solution.dwell_s))
+        .collect();
+    let screened: Vec<(f64, WithinFit)> = candidates
+        .par_iter()
+        .zip(&fits)
+        .map(|(candidate, free)| {
+            let mut within = free.within(&bound);
+            within.run(ADMM_SCREEN_WORK);
+            let modulation =
+                in_seconds(within.coefficients(), &candidate.solution.dwell_s, sectors);
+            let score = predicted_residual(
+                &operator,
+                &harmonics,
+                &weights,
+                &grid,
+                candidate,
+                &modulation,
+            );
+            (score, within)
+        })
+        .collect();
+    // The first of equal scores, as the candidates are ordered (the radial plan first).
+    let mut best: Option<(f64, usize, WithinFit)> = None;
+    for (k, (score, within)) in screened.into_iter().enumerate() {
+        if best.as_ref().is_none_or(|(best, ..)| score < *best) {
+            best = Some((score, k, within));
         }
     }
-    let (_, plan) = best.expect("the radial plan is a candidate");
-    let mut modulation = modulate(&plan.solution.dwell_s, ADMM_WORK);
+    let (_, kept, mut within) = best.expect("the radial plan is a candidate");
+    within.run(ADMM_WORK - ADMM_SCREEN_WORK);
+    let modulation = within.coefficients();
+    let plan = candidates.swap_remove(kept);
+    let mut modulation = in_seconds(modulation, &plan.solution.dwell_s, sectors);
     let dwell = &plan.solution.dwell_s;
     // The blocks the law cuts the motion into (a block per sector passed; a turn under the
     // law takes as long as at constant speed), before any is made: the exact map needs them.
@@ -838,7 +864,7 @@ pub fn map_optimize(
     let radial_piston = radial_plan.solution.piston_nm.unwrap_or(0.0);
     let samples = 4 * m_max + 8;
     let target_means: Vec<f64> = radii
-        .iter()
+        .par_iter()
         .map(|&r| target.ring_mean(r, samples))
         .collect();
     for p in &mut inside {
@@ -854,13 +880,13 @@ pub fn map_optimize(
     let after = figures(inside.iter().map(|p| p.residual));
     let before_non_axisymmetric = figures(inside.iter().map(|p| p.target_variant));
     let after_non_axisymmetric = figures(inside.iter().map(|p| p.residual_variant));
-    let ring_fits = |pick: fn(&Inside) -> f64| {
-        let values: Vec<(f64, f64, f64)> = inside.iter().map(|p| (p.r, p.theta, pick(p))).collect();
-        ring_harmonics(&values, pixel, m_max)
-    };
-    let (target_fits, residual_fits) = (
-        ring_fits(|p| p.target_variant),
-        ring_fits(|p| p.residual_variant),
+    let [target_fits, residual_fits] = ring_harmonics(
+        &inside
+            .iter()
+            .map(|p| (p.r, p.theta, [p.target_variant, p.residual_variant]))
+            .collect::<Vec<_>>(),
+        pixel,
+        m_max,
     );
     let (peak_v, peak_a) = (peaks.velocity_rad_per_s, peaks.acceleration_rad_per_s2);
     let near = |peak: f64, limit: Option<f64>| {
@@ -1023,7 +1049,7 @@ struct CPeaks {
 /// The floors C's law puts under each station's dwell (`law_floor`), named by what sets them.
 fn law_floors(modulation: &[Vec<f64>], omega0: f64, c: &CLimits) -> Vec<Floor> {
     modulation
-        .iter()
+        .par_iter()
         .map(|y| {
             let (dwell_s, bound) =
                 law_floor(y, omega0, c).expect("C's velocity was checked above Ω0");
