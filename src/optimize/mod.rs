@@ -91,6 +91,7 @@
 //! equality rows with ½‖e‖² on extra variables, was measured slower and is gone.)
 
 pub mod basis;
+pub mod bounded;
 mod ccp;
 mod checks;
 pub mod dwell;
@@ -100,6 +101,7 @@ pub mod kinematics;
 pub mod operator;
 pub mod problem;
 pub mod qp;
+pub mod raster;
 mod scaling;
 pub mod solver;
 pub mod target;

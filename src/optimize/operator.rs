@@ -13,6 +13,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::basis::Basis;
+use crate::physics::raster::RasterOperator;
 use crate::physics::RemovalOperator;
 
 /// A linear map from dwell (s, one per station) to removal (nm, one per sample).
@@ -29,6 +30,28 @@ pub trait DwellOperator: std::fmt::Debug + Sync {
     /// holds it so; `None` otherwise.
     fn column(&self, _j: usize) -> Option<(usize, &[f64])> {
         None
+    }
+    /// Σ_i w_i·M_ij² for each column, when the operator can give them without its columns.
+    fn weighted_column_norms(&self, _weights: &[f64]) -> Option<Vec<f64>> {
+        None
+    }
+}
+
+impl DwellOperator for RasterOperator {
+    fn rows(&self) -> usize {
+        RasterOperator::rows(self)
+    }
+    fn cols(&self) -> usize {
+        RasterOperator::cols(self)
+    }
+    fn apply(&self, dwell_s: &[f64]) -> Vec<f64> {
+        RasterOperator::apply(self, dwell_s)
+    }
+    fn apply_transpose(&self, y: &[f64]) -> Vec<f64> {
+        RasterOperator::apply_transpose(self, y)
+    }
+    fn weighted_column_norms(&self, weights: &[f64]) -> Option<Vec<f64>> {
+        Some(RasterOperator::weighted_column_norms(self, weights))
     }
 }
 

@@ -4,8 +4,10 @@
 
 pub mod carlson;
 pub mod contact;
+pub mod convolution;
 pub mod curved;
 pub mod grid;
+pub mod influence;
 pub mod kronrod;
 pub mod metrics;
 pub mod motion;
@@ -14,6 +16,7 @@ pub mod path;
 pub mod polar;
 pub mod pressure;
 pub mod process;
+pub mod raster;
 pub mod removal;
 pub mod roots;
 pub mod schedule;

@@ -70,6 +70,9 @@ pub enum WarningCode {
     MapCoarsened,
     /// The target holds harmonics above the plan's `max_harmonic`, left in the residual.
     HarmonicsLeft,
+    /// The dwell map's solver stopped at its work limit before it converged (`solver`
+    /// reports its optimality residual): the plan keeps every limit but may not be the best.
+    SolverNotConverged,
 }
 
 impl WarningDto {
@@ -137,6 +140,10 @@ impl WarningDto {
             Warning::HarmonicsLeft { .. } => {
                 (WarningCode::HarmonicsLeft, "c_law.max_harmonic".to_string())
             }
+            Warning::SolverNotConverged { .. } => (
+                WarningCode::SolverNotConverged,
+                "dwell_pitch_mm".to_string(),
+            ),
         };
         WarningDto {
             code,

@@ -1,0 +1,686 @@
+//! Bound-constrained least squares without the matrix: projected Newton with conjugate
+//! gradients, for dwell maps of up to hundreds of thousands of points, where the operator is
+//! only ever applied (M·v by FFT or sparse columns, Mᵀ·y likewise).
+//!
+//! # The problem
+//!
+//! ```text
+//! minimise  f(t) = ½·(P·r)ᵀ·W·(P·r)/m  +  ½·λ·Σ_edges (t_a − t_b)²/(E·τ²)  +  μ·Σ t_j/(n·τ)
+//! over      l ≤ t ≤ u   (and Σ t ≤ T when asked),      r = M·t − d
+//! ```
+//!
+//! with W the rows' weights (1 inside the clear aperture, 0 outside, so the rows off it are
+//! free: dwell may go wherever the machine reaches, and only the aperture judges it), m their
+//! sum, and P the W-orthogonal projector that takes the weighted least-squares fit of the
+//! free terms B (piston, and tilt on request) off the residual, P = I − B(BᵀWB)⁻¹BᵀW, so the
+//! piston and tilt are solved exactly rather than guessed. PᵀWP = WP, so the gradient is
+//! g = MᵀWPr/m + λLt/(Eτ²) + μ/(nτ) and the Hessian H = MᵀWPM/m + λL/(Eτ²), applied with one
+//! M·v and one Mᵀ·y. The scales (the depth scale s_d and the dwell scale τ, as the radial
+//! optimizer takes them) make λ and μ dimensionless; the fit term is divided by s_d².
+//!
+//! # Why projected Newton
+//!
+//! The bounds are honoured exactly, every iterate being inside the box (Bertsekas 1982, with
+//! the inexact Newton step of Lin & Moré 1999): at t the variables at a bound whose gradient
+//! pushes them out are held, the Newton system on the others, H_FF·d = −g_F, is solved by
+//! conjugate gradients preconditioned with H's diagonal, and the step is searched along the
+//! projection arc t(α) = Π(t + α·d) with Armijo's rule. An interior point method would need
+//! a factorisation (or an iterative solve of a far worse conditioned system) at each of its
+//! iterations; an active set method, one change of the set per iteration, where a dwell map
+//! changes thousands at once. Projected Newton changes the set freely, needs only products
+//! with M and Mᵀ, and converges fast once the set settles.
+//!
+//! # The total time
+//!
+//! Σ t ≤ T is the one coupling constraint. It is kept by its multiplier ν: the problem with
+//! μ/(nτ) + ν in place of μ/(nτ) is solved, warm, for ν found by bisection (the total falls as
+//! ν grows) until the total is within 1e-9 of T (at most 40 halvings).
+//!
+//! # What is reported
+//!
+//! The KKT residual in seconds, max_j |Π(t − g/D)_j − t_j|, the most any dwell would move in
+//! one diagonally scaled projected-gradient step (0 exactly at the optimum), beside the
+//! products with M spent.
+
+use super::operator::DwellOperator;
+
+/// What the solver is asked.
+pub struct BoundedProblem<'a> {
+    pub operator: &'a dyn DwellOperator,
+    /// d, one per row, nm.
+    pub target: &'a [f64],
+    /// W, one per row (≥ 0).
+    pub weights: &'a [f64],
+    /// The free terms' columns over the rows (piston: all ones; tilt: x and y).
+    pub free_terms: Vec<Vec<f64>>,
+    /// The smoothing's pairs of neighbouring columns.
+    pub edges: &'a [(usize, usize)],
+    pub smoothing: f64,
+    pub time_weight: f64,
+    pub lower: Vec<f64>,
+    pub upper: Vec<f64>,
+    pub max_total_s: Option<f64>,
+    /// The most products with M (and as many with Mᵀ) the solve may spend.
+    pub max_products: usize,
+    /// Converged when the KKT residual is below this share of the largest dwell.
+    pub tolerance: f64,
+}
+
+/// The solution and how it was reached.
+#[derive(Debug, Clone)]
+pub struct BoundedSolution {
+    pub dwell_s: Vec<f64>,
+    /// M·t at the solution, one per row.
+    pub removal: Vec<f64>,
+    /// The free terms' coefficients at the solution (B's columns' weights in d + B·c ≈ M·t).
+    pub free_coefficients: Vec<f64>,
+    /// max_j |Π(t − g/D)_j − t_j|, s.
+    pub kkt_residual_s: f64,
+    pub converged: bool,
+    pub newton_iterations: usize,
+    pub cg_iterations: usize,
+    pub products: usize,
+    /// ν, the total time's multiplier (0 when the total does not bind), per s of dwell in
+    /// the objective's units.
+    pub time_multiplier: f64,
+}
+
+struct Solver<'a> {
+    p: &'a BoundedProblem<'a>,
+    /// (BᵀWB)⁻¹ (dense, at most 3 × 3).
+    gram_inverse: Vec<Vec<f64>>,
+    fit_scale: f64,
+    smooth_scale: f64,
+    time_scale: f64,
+    diagonal: Vec<f64>,
+    products: usize,
+}
+
+impl<'a> Solver<'a> {
+    /// c = (BᵀWB)⁻¹BᵀW·r: the free terms' fit to r.
+    fn free_fit(&self, r: &[f64]) -> Vec<f64> {
+        let p = self.p;
+        let moments: Vec<f64> = p
+            .free_terms
+            .iter()
+            .map(|b| {
+                b.iter()
+                    .zip(r)
+                    .zip(p.weights)
+                    .map(|((b, r), w)| b * w * r)
+                    .sum()
+            })
+            .collect();
+        self.gram_inverse
+            .iter()
+            .map(|row| row.iter().zip(&moments).map(|(g, m)| g * m).sum())
+            .collect()
+    }
+
+    /// W·P·r (in place of r), and the free terms' coefficients.
+    fn weighted_projection(&self, r: &mut [f64]) -> Vec<f64> {
+        let c = self.free_fit(r);
+        for (k, b) in self.p.free_terms.iter().enumerate() {
+            for (ri, bi) in r.iter_mut().zip(b) {
+                *ri -= c[k] * bi;
+            }
+        }
+        for (ri, w) in r.iter_mut().zip(self.p.weights) {
+            *ri *= w;
+        }
+        c
+    }
+
+    fn laplacian(&self, t: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; t.len()];
+        for &(a, b) in self.p.edges {
+            let d = t[a] - t[b];
+            out[a] += d;
+            out[b] -= d;
+        }
+        out
+    }
+
+    /// The gradient of f at t (with `nu` added to the time term), M·t and the free terms'
+    /// coefficients.
+    fn evaluate(&mut self, t: &[f64], nu: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let p = self.p;
+        self.products += 1;
+        let removal = p.operator.apply(t);
+        let mut r: Vec<f64> = removal.iter().zip(p.target).map(|(m, d)| m - d).collect();
+        let c = self.weighted_projection(&mut r);
+        let mut g = p.operator.apply_transpose(&r);
+        let lt = self.laplacian(t);
+        let linear = self.time_scale + nu;
+        for (j, gj) in g.iter_mut().enumerate() {
+            *gj = *gj * self.fit_scale + self.smooth_scale * lt[j] + linear;
+        }
+        (g, removal, c)
+    }
+
+    /// H·v on the free variables (v zero elsewhere).
+    fn hessian(&mut self, v: &[f64]) -> Vec<f64> {
+        self.products += 1;
+        let mut mv = self.p.operator.apply(v);
+        self.weighted_projection(&mut mv);
+        let mut hv = self.p.operator.apply_transpose(&mv);
+        let lv = self.laplacian(v);
+        for (h, l) in hv.iter_mut().zip(&lv) {
+            *h = *h * self.fit_scale + self.smooth_scale * l;
+        }
+        hv
+    }
+
+    /// D⁻¹·r on the free variables (zero elsewhere, where r is).
+    fn precondition(&self, r: &[f64]) -> Vec<f64> {
+        r.iter().zip(&self.diagonal).map(|(r, d)| r / d).collect()
+    }
+
+    fn project(&self, t: &mut [f64]) {
+        for ((t, l), u) in t.iter_mut().zip(&self.p.lower).zip(&self.p.upper) {
+            *t = t.clamp(*l, *u);
+        }
+    }
+
+    fn kkt(&self, t: &[f64], g: &[f64]) -> f64 {
+        t.iter()
+            .zip(g)
+            .zip(&self.diagonal)
+            .zip(self.p.lower.iter().zip(&self.p.upper))
+            .map(|(((&t, &g), &d), (&l, &u))| ((t - g / d).clamp(l, u) - t).abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// Projected Newton from `t` at time multiplier `nu`.
+    fn solve(&mut self, mut t: Vec<f64>, nu: f64, stats: &mut BoundedSolution) -> Vec<f64> {
+        let n = t.len();
+        self.project(&mut t);
+        let (mut g, mut removal, mut c) = self.evaluate(&t, nu);
+        let mut steps = 0usize;
+        loop {
+            let kkt = self.kkt(&t, &g);
+            let largest = t.iter().fold(0.0_f64, |m, &v| m.max(v)).max(1e-300);
+            stats.kkt_residual_s = kkt;
+            stats.removal = removal.clone();
+            stats.free_coefficients = c.clone();
+            if kkt <= self.p.tolerance * largest {
+                stats.converged = true;
+                return t;
+            }
+            if self.products >= self.p.max_products {
+                stats.converged = false;
+                return t;
+            }
+            stats.newton_iterations += 1;
+            // The free set: not within ε of a bound the gradient pushes against, ε the KKT
+            // residual itself (Bertsekas's ε-active set, so the set settles as t converges).
+            let free: Vec<bool> = (0..n)
+                .map(|j| {
+                    let (l, u) = (self.p.lower[j], self.p.upper[j]);
+                    let eps = kkt.min(0.5 * (u - l));
+                    !((t[j] <= l + eps && g[j] > 0.0) || (t[j] >= u - eps && g[j] < 0.0))
+                })
+                .collect();
+            // Preconditioned CG on H_FF·d = −g_F, to a relative residual of
+            // min(0.5, √‖g_F‖/‖g_0‖) (inexact Newton), at most 50 steps.
+            let mut d = vec![0.0; n];
+            let mut res: Vec<f64> = (0..n).map(|j| if free[j] { -g[j] } else { 0.0 }).collect();
+            let norm0 = res.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let target_norm = 0.1 * norm0;
+            let mut z = self.precondition(&res);
+            let mut dir = z.clone();
+            let mut rz: f64 = res.iter().zip(&z).map(|(a, b)| a * b).sum();
+            for _ in 0..50 {
+                if self.products >= self.p.max_products {
+                    break;
+                }
+                stats.cg_iterations += 1;
+                let mut hd = self.hessian(&dir);
+                for j in 0..n {
+                    if !free[j] {
+                        hd[j] = 0.0;
+                    }
+                }
+                let curvature: f64 = dir.iter().zip(&hd).map(|(a, b)| a * b).sum();
+                if curvature <= 0.0 {
+                    break;
+                }
+                let alpha = rz / curvature;
+                for j in 0..n {
+                    d[j] += alpha * dir[j];
+                    res[j] -= alpha * hd[j];
+                }
+                if res.iter().map(|v| v * v).sum::<f64>().sqrt() <= target_norm {
+                    break;
+                }
+                z = self.precondition(&res);
+                let rz_next: f64 = res.iter().zip(&z).map(|(a, b)| a * b).sum();
+                let beta = rz_next / rz;
+                rz = rz_next;
+                for j in 0..n {
+                    dir[j] = z[j] + beta * dir[j];
+                }
+            }
+            if d.iter().all(|&v| v == 0.0) {
+                // No direction from the free set: a projected gradient step instead.
+                for j in 0..n {
+                    d[j] = -g[j] / self.diagonal[j];
+                }
+            }
+            // Armijo along the projection arc; if the Newton direction gives no decrease,
+            // the scaled projected gradient's; if neither does, t is optimal to rounding.
+            // f is quadratic, so a step s changes it by exactly gᵀs + ½·sᵀHs, taken from
+            // M·s itself (not as a difference of two values of f, which rounding would
+            // swamp near the optimum); the gradient moves by H·s.
+            let gradient_step: Vec<f64> = (0..n).map(|j| -g[j] / self.diagonal[j]).collect();
+            let mut accepted = false;
+            'directions: for direction in [&d, &gradient_step] {
+                let mut step = 1.0;
+                for _ in 0..30 {
+                    let mut trial: Vec<f64> = t
+                        .iter()
+                        .zip(direction.iter())
+                        .map(|(t, d)| t + step * d)
+                        .collect();
+                    self.project(&mut trial);
+                    let s: Vec<f64> = trial.iter().zip(&t).map(|(a, b)| a - b).collect();
+                    let linear: f64 = g.iter().zip(&s).map(|(g, s)| g * s).sum();
+                    if linear < 0.0 {
+                        self.products += 1;
+                        let ms = self.p.operator.apply(&s);
+                        let mut wpms = ms.clone();
+                        self.weighted_projection(&mut wpms);
+                        let ls = self.laplacian(&s);
+                        let quadratic = 0.5
+                            * (self.fit_scale
+                                * ms.iter().zip(&wpms).map(|(a, b)| a * b).sum::<f64>()
+                                + self.smooth_scale
+                                    * s.iter().zip(&ls).map(|(a, b)| a * b).sum::<f64>());
+                        let change = linear + quadratic;
+                        if change <= 1e-4 * linear {
+                            let hs = self.p.operator.apply_transpose(&wpms);
+                            for j in 0..n {
+                                g[j] += self.fit_scale * hs[j] + self.smooth_scale * ls[j];
+                            }
+                            for (r, m) in removal.iter_mut().zip(&ms) {
+                                *r += m;
+                            }
+                            t = trial;
+                            accepted = true;
+                            steps += 1;
+                            if steps % 16 == 0 {
+                                // Start afresh now and then, so the updates' rounding
+                                // does not accumulate.
+                                (g, removal, c) = self.evaluate(&t, nu);
+                            } else {
+                                let r: Vec<f64> = removal
+                                    .iter()
+                                    .zip(self.p.target)
+                                    .map(|(m, d)| m - d)
+                                    .collect();
+                                c = self.free_fit(&r);
+                            }
+                            break 'directions;
+                        }
+                    }
+                    step *= 0.5;
+                }
+            }
+            if !accepted {
+                stats.kkt_residual_s = self.kkt(&t, &g);
+                stats.removal = removal;
+                stats.free_coefficients = c;
+                stats.converged = stats.kkt_residual_s <= self.p.tolerance * largest;
+                return t;
+            }
+        }
+    }
+}
+
+/// Solves `problem` from `start` (one dwell per column; projected into the bounds first).
+/// `depth_scale` and `dwell_scale` are s_d (nm) and τ (s) of the module docs.
+pub fn solve(
+    problem: &BoundedProblem,
+    start: Vec<f64>,
+    depth_scale: f64,
+    dwell_scale: f64,
+) -> BoundedSolution {
+    let n = problem.operator.cols();
+    let m: f64 = problem.weights.iter().sum::<f64>().max(1e-300);
+    // (BᵀWB)⁻¹ by Gauss–Jordan on a system of at most three unknowns.
+    let k = problem.free_terms.len();
+    let mut gram = vec![vec![0.0; 2 * k]; k];
+    for (a, row) in gram.iter_mut().enumerate() {
+        for (b, term) in problem.free_terms.iter().enumerate() {
+            row[b] = problem.free_terms[a]
+                .iter()
+                .zip(term)
+                .zip(problem.weights)
+                .map(|((x, y), w)| x * y * w)
+                .sum();
+        }
+        row[k + a] = 1.0;
+    }
+    for col in 0..k {
+        let pivot = (col..k)
+            .max_by(|&a, &b| gram[a][col].abs().total_cmp(&gram[b][col].abs()))
+            .expect("a column has rows");
+        gram.swap(col, pivot);
+        let p = gram[col][col];
+        if p.abs() < 1e-300 {
+            // A free term the weights cannot see: leave it out (its row stays zero).
+            gram[col].iter_mut().for_each(|v| *v = 0.0);
+            continue;
+        }
+        gram[col].iter_mut().for_each(|v| *v /= p);
+        for row in 0..k {
+            if row != col {
+                let f = gram[row][col];
+                let pivot_row = gram[col].clone();
+                gram[row]
+                    .iter_mut()
+                    .zip(pivot_row)
+                    .for_each(|(v, pv)| *v -= f * pv);
+            }
+        }
+    }
+    let gram_inverse = gram.into_iter().map(|row| row[k..].to_vec()).collect();
+    let fit_scale = 1.0 / (m * depth_scale * depth_scale);
+    let edges = problem.edges.len().max(1) as f64;
+    let smooth_scale = problem.smoothing / (edges * dwell_scale * dwell_scale);
+    let time_scale = problem.time_weight / (n.max(1) as f64 * dwell_scale);
+    let mut solver = Solver {
+        p: problem,
+        gram_inverse,
+        fit_scale,
+        smooth_scale,
+        time_scale,
+        diagonal: Vec::new(),
+        products: 0,
+    };
+    // D: H's diagonal, the fit's part without P (which only lowers it), floored so a column
+    // the aperture does not see still has a scale.
+    let norms = column_norms(problem.operator, problem.weights);
+    let mut degree = vec![0.0; n];
+    for &(a, b) in problem.edges {
+        degree[a] += 1.0;
+        degree[b] += 1.0;
+    }
+    let raw: Vec<f64> = norms
+        .iter()
+        .zip(&degree)
+        .map(|(s, d)| s * fit_scale + smooth_scale * d)
+        .collect();
+    let floor = 1e-8 * raw.iter().fold(0.0_f64, |m, &v| m.max(v)).max(1e-300);
+    solver.diagonal = raw.into_iter().map(|v| v.max(floor)).collect();
+    let mut stats = BoundedSolution {
+        dwell_s: Vec::new(),
+        removal: Vec::new(),
+        free_coefficients: Vec::new(),
+        kkt_residual_s: f64::INFINITY,
+        converged: false,
+        newton_iterations: 0,
+        cg_iterations: 0,
+        products: 0,
+        time_multiplier: 0.0,
+    };
+    let mut t = solver.solve(start, 0.0, &mut stats);
+    if let Some(limit) = problem.max_total_s {
+        let total = |t: &[f64]| t.iter().sum::<f64>();
+        if total(&t) > limit * (1.0 + 1e-9) {
+            // Bisection on ν: grow it until the total fits, then halve the bracket.
+            let (mut lo, mut hi) = (0.0, solver.diagonal.iter().sum::<f64>() / n as f64);
+            let mut best = t.clone();
+            loop {
+                let trial = solver.solve(best.clone(), hi, &mut stats);
+                if total(&trial) <= limit || solver.products >= problem.max_products {
+                    best = trial;
+                    break;
+                }
+                lo = hi;
+                hi *= 4.0;
+            }
+            for _ in 0..40 {
+                if (total(&best) - limit).abs() <= 1e-9 * limit
+                    || solver.products >= problem.max_products
+                {
+                    break;
+                }
+                let mid = 0.5 * (lo + hi);
+                let trial = solver.solve(best.clone(), mid, &mut stats);
+                if total(&trial) <= limit {
+                    hi = mid;
+                    best = trial;
+                } else {
+                    lo = mid;
+                }
+            }
+            // The last solve's figures are for its ν; report those of the kept plan.
+            let (g, removal, c) = solver.evaluate(&best, hi);
+            stats.kkt_residual_s = solver.kkt(&best, &g);
+            let largest = best.iter().fold(0.0_f64, |m, &v| m.max(v));
+            stats.converged = stats.kkt_residual_s <= problem.tolerance * largest;
+            stats.removal = removal;
+            stats.free_coefficients = c;
+            stats.time_multiplier = hi;
+            t = best;
+        }
+    }
+    stats.products = solver.products;
+    stats.dwell_s = t;
+    stats
+}
+
+/// Σ_i w_i·M_ij² per column: the operator's own when it has them, else by M·e_j.
+fn column_norms(op: &dyn DwellOperator, weights: &[f64]) -> Vec<f64> {
+    if let Some(norms) = op.weighted_column_norms(weights) {
+        return norms;
+    }
+    (0..op.cols())
+        .map(|j| {
+            let mut unit = vec![0.0; op.cols()];
+            unit[j] = 1.0;
+            op.apply(&unit)
+                .iter()
+                .zip(weights)
+                .map(|(m, w)| w * m * m)
+                .sum()
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clarabel::algebra::CscMatrix;
+    use clarabel::solver::{
+        DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+    };
+
+    #[derive(Debug)]
+    struct Dense {
+        rows: usize,
+        cols: usize,
+        /// Row-major.
+        m: Vec<f64>,
+    }
+
+    impl DwellOperator for Dense {
+        fn rows(&self) -> usize {
+            self.rows
+        }
+        fn cols(&self) -> usize {
+            self.cols
+        }
+        fn apply(&self, t: &[f64]) -> Vec<f64> {
+            self.m
+                .chunks(self.cols)
+                .map(|row| row.iter().zip(t).map(|(a, b)| a * b).sum())
+                .collect()
+        }
+        fn apply_transpose(&self, y: &[f64]) -> Vec<f64> {
+            let mut out = vec![0.0; self.cols];
+            for (row, yi) in self.m.chunks(self.cols).zip(y) {
+                for (o, a) in out.iter_mut().zip(row) {
+                    *o += a * yi;
+                }
+            }
+            out
+        }
+    }
+
+    /// A blurred 1-D deconvolution (Gaussian columns, 60 rows, 25 columns, the rows past 45
+    /// weighted 0), piston and tilt free, smoothing, a time weight, bounds and a total time
+    /// that binds: projected Newton's plan against Clarabel's interior point on the same QP
+    /// (the free terms as variables), objectives equal to 1e-8 of f(0) and dwell to 1e-3 of the
+    /// largest (the problem is ill-conditioned: dwell is less determined than the objective).
+    #[test]
+    fn projected_newton_meets_an_interior_point_solver() {
+        let (rows, cols) = (60, 25);
+        let m: Vec<f64> = (0..rows * cols)
+            .map(|k| {
+                let (i, j) = ((k / cols) as f64, (k % cols) as f64 * 2.5);
+                3.0 * (-(i - j) * (i - j) / 18.0).exp()
+            })
+            .collect();
+        let op = Dense { rows, cols, m };
+        let target: Vec<f64> = (0..rows)
+            .map(|i| 40.0 + 15.0 * (i as f64 / 7.0).sin() + 0.3 * i as f64)
+            .collect();
+        let weights: Vec<f64> = (0..rows).map(|i| if i < 45 { 1.0 } else { 0.0 }).collect();
+        let x: Vec<f64> = (0..rows).map(|i| i as f64).collect();
+        let edges: Vec<(usize, usize)> = (1..cols).map(|j| (j - 1, j)).collect();
+        let (depth, dwell) = (20.0, 5.0);
+        let mut free_total = 0.0;
+        for binding in [false, true] {
+            // The total time, when it binds: 0.7 of the plan's without it.
+            let max_total = binding.then_some(0.7 * free_total);
+            let problem = BoundedProblem {
+                operator: &op,
+                target: &target,
+                weights: &weights,
+                free_terms: vec![vec![1.0; rows], x.clone()],
+                edges: &edges,
+                smoothing: 1e-3,
+                time_weight: 1e-3,
+                lower: vec![0.5; cols],
+                upper: vec![12.0; cols],
+                max_total_s: max_total,
+                max_products: 20_000,
+                tolerance: 1e-8,
+            };
+            let ours = solve(&problem, vec![0.5; cols], depth, dwell);
+            assert!(ours.converged, "{binding}: {}", ours.kkt_residual_s);
+            free_total = ours.dwell_s.iter().sum();
+            // Clarabel: v = (t, c0, c1), ½vᵀPv + qᵀv over the same objective.
+            let fs = 1.0 / (45.0 * depth * depth);
+            let ss = 1e-3 / (edges.len() as f64 * dwell * dwell);
+            let ts = 1e-3 / (cols as f64 * dwell);
+            let nv = cols + 2;
+            let column = |v: usize, i: usize| -> f64 {
+                if v < cols {
+                    op.m[i * cols + v]
+                } else if v == cols {
+                    -1.0
+                } else {
+                    -x[i]
+                }
+            };
+            let mut p = vec![vec![0.0; nv]; nv];
+            let mut q = vec![0.0; nv];
+            for a in 0..nv {
+                for i in 0..rows {
+                    q[a] -= fs * weights[i] * column(a, i) * target[i];
+                    for (b, pb) in p[a].iter_mut().enumerate() {
+                        *pb += fs * weights[i] * column(a, i) * column(b, i);
+                    }
+                }
+            }
+            for &(a, b) in &edges {
+                p[a][a] += ss;
+                p[b][b] += ss;
+                p[a][b] -= ss;
+                p[b][a] -= ss;
+            }
+            for qj in q.iter_mut().take(cols) {
+                *qj += ts;
+            }
+            let (mut ar, mut ac, mut av, mut b) = (vec![], vec![], vec![], vec![]);
+            for j in 0..cols {
+                // −t ≤ −l and t ≤ u.
+                ar.extend([2 * j, 2 * j + 1]);
+                ac.extend([j, j]);
+                av.extend([-1.0, 1.0]);
+                b.extend([-0.5, 12.0]);
+            }
+            let mut cones = vec![SupportedConeT::NonnegativeConeT(2 * cols)];
+            if let Some(total) = max_total {
+                for j in 0..cols {
+                    ar.push(2 * cols);
+                    ac.push(j);
+                    av.push(1.0);
+                }
+                b.push(total);
+                cones.push(SupportedConeT::NonnegativeConeT(1));
+            }
+            let a = CscMatrix::new_from_triplets(b.len(), nv, ar, ac, av);
+            let (mut pr, mut pc, mut pv) = (vec![], vec![], vec![]);
+            for (r, row) in p.iter().enumerate() {
+                for (c, &v) in row.iter().enumerate() {
+                    if c >= r && v != 0.0 {
+                        pr.push(r);
+                        pc.push(c);
+                        pv.push(v);
+                    }
+                }
+            }
+            let pm = CscMatrix::new_from_triplets(nv, nv, pr, pc, pv);
+            let settings = DefaultSettingsBuilder::default()
+                .verbose(false)
+                .tol_gap_abs(1e-12)
+                .tol_gap_rel(1e-12)
+                .build()
+                .unwrap();
+            let mut solver = DefaultSolver::new(&pm, &q, &a, &b, &cones, settings).unwrap();
+            solver.solve();
+            assert_eq!(solver.solution.status, SolverStatus::Solved);
+            let reference = &solver.solution.x;
+            let objective = |v: &[f64]| -> f64 {
+                let mut total = 0.0;
+                for i in 0..nv {
+                    total += q[i] * v[i];
+                    for k in 0..nv {
+                        total += 0.5 * p[i][k] * v[i] * v[k];
+                    }
+                }
+                total
+            };
+            let mut mine = ours.dwell_s.clone();
+            mine.extend(&ours.free_coefficients);
+            let (f_ours, f_ref) = (objective(&mine), objective(reference));
+            // The objective's scale: its value with no dwell, ½·fs·Σ w·d².
+            let scale = fs
+                * 0.5
+                * (0..rows)
+                    .map(|i| weights[i] * target[i] * target[i])
+                    .sum::<f64>();
+            assert!(
+                (f_ours - f_ref).abs() <= 1e-8 * scale,
+                "{max_total:?}: {f_ours} vs {f_ref}"
+            );
+            let largest = reference[..cols].iter().fold(0.0_f64, |m, v| m.max(*v));
+            for (j, reference) in reference.iter().enumerate().take(cols) {
+                assert!(
+                    (ours.dwell_s[j] - reference).abs() < 1e-3 * largest,
+                    "{max_total:?} {j}: {} vs {reference}",
+                    ours.dwell_s[j],
+                );
+                assert!((0.5..=12.0).contains(&ours.dwell_s[j]));
+            }
+            if let Some(total) = max_total {
+                let sum: f64 = ours.dwell_s.iter().sum();
+                assert!(sum <= total && sum >= total * (1.0 - 1e-8), "{sum}");
+            }
+        }
+    }
+}
