@@ -169,6 +169,8 @@ async function mapPredict(name: string): Promise<void> {
   if (!data) return;
   const rows: (number | null)[][] = data.removal.removal_nm;
   check(name, rows.length === data.removal.y_mm.length, "a row per y");
+  check(name, data.kinematics === "polar", "a polar request gets a polar prediction");
+  if (data.kinematics !== "polar") return;
   check(name, data.metrics.pixels > 0 && data.non_axisymmetric.rms_nm > 0, "a law's removal is not round");
   check(name, data.total_time_s === body.dwell.dwell_s.reduce((a, b) => a + b, 0), "the plan's time");
 }
@@ -178,6 +180,9 @@ async function mapOptimize(name: string): Promise<void> {
   const { data, error } = await client.POST("/v1/maps/optimize", { body });
   check(name, error === undefined && data !== undefined, JSON.stringify(error));
   if (!data) return;
+  // The answer is either machine's: `kinematics` tells them apart.
+  check(name, data.kinematics === "polar", "a polar request gets a polar plan");
+  if (data.kinematics !== "polar") return;
   const metrics: Schemas["CorrectionMetricsDto"] = data.metrics;
   check(name, metrics.after.rms_nm < metrics.before.rms_nm, "the correction lowers the RMS");
   check(name, data.c_law.speed_factors.length === data.dwell.positions_mm.length, "a law row per station");

@@ -11,6 +11,7 @@ Usage: python scripts/make_fluid_jet_fixture.py SURFACE.mat TIF.mat OUT_DIR
 (needs numpy and scipy).
 """
 
+import json
 import sys
 from pathlib import Path
 
@@ -40,6 +41,32 @@ def main():
     write(out / "fluid_jet_tif.txt", np.round(tz * 1e9, 9), float(t["m_per_pixel"][0, 0]) * 1e3,
           "fluid-jet removal rate, nm/s (TWANG006/surface-extension "
           "data/step_0_fluid_jet_tif.mat)")
+    request(out)
+
+
+def rows(path):
+    """A grid file's rows and pixel, as Preston reads them."""
+    pixel, values = None, []
+    for line in open(path):
+        if line.startswith("#"):
+            if "pixel_mm" in line:
+                pixel = float(line.split(":")[1])
+            continue
+        values.append([float(v) for v in line.strip().split(",")])
+    return values, pixel
+
+
+def request(out):
+    surface, surface_px = rows(out / "fluid_jet_surface.txt")
+    tif, tif_px = rows(out / "fluid_jet_tif.txt")
+    axis = {"max_velocity_mm_per_min": 10000, "max_acceleration_mm_per_s2": 2000}
+    body = {
+        "machine": {"kinematics": "cartesian", "x": axis, "y": axis},
+        "influence": {"map": {"heights_nm": tif, "pixel_mm": tif_px}},
+        "map": {"heights_nm": surface, "pixel_mm": surface_px},
+    }
+    with open(out / "fluid_jet_request.json", "w") as f:
+        json.dump(body, f, separators=(",", ":"))
 
 
 if __name__ == "__main__":

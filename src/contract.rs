@@ -81,36 +81,55 @@ fn query_mirrors_body(doc: &mut Value) {
             .map(str::to_string);
         let parameters = post.get_mut("parameters").and_then(Value::as_array_mut);
         if let (Some(parameters), Some(body_schema)) = (parameters, body_schema) {
-            mirror(parameters, &schemas[&body_schema]["properties"], &schemas);
+            // A body of several kinds (`anyOf` of named schemas): each parameter is any of
+            // the kinds' fields of its name.
+            let body = &schemas[&body_schema];
+            let kinds: Vec<&Value> = match body["anyOf"].as_array() {
+                Some(members) => members
+                    .iter()
+                    .filter_map(|m| m["$ref"].as_str())
+                    .filter_map(|r| r.rsplit('/').next())
+                    .map(|n| &schemas[n]["properties"])
+                    .collect(),
+                None => vec![&body["properties"]],
+            };
+            mirror(parameters, &kinds, &schemas);
         }
     }
 }
 
-fn mirror(parameters: &mut [Value], properties: &Value, schemas: &Value) {
+fn mirror(parameters: &mut [Value], kinds: &[&Value], schemas: &Value) {
     for parameter in parameters {
-        let name = parameter["name"].as_str().expect("parameters are named");
-        let field = &properties[name];
-        let mut schema = match field["oneOf"].as_array() {
-            Some(branches) => branches
-                .iter()
-                .find(|b| b["type"] != "null")
-                .expect("an optional field has a non-null branch")
-                .clone(),
-            None => field.clone(),
-        };
-        let parameter = parameter.as_object_mut().expect("a parameter is an object");
-        if let Some(types) = schema["type"].as_array() {
-            let not_null: Vec<_> = types.iter().filter(|t| *t != "null").cloned().collect();
-            schema["type"] = Value::Array(not_null);
-            if let [only] = schema["type"].as_array().map(Vec::as_slice).unwrap_or(&[]) {
-                schema["type"] = only.clone();
+        let name = parameter["name"]
+            .as_str()
+            .expect("parameters are named")
+            .to_string();
+        let mirrored: Vec<(Value, bool)> = kinds
+            .iter()
+            .map(|properties| &properties[&name])
+            .filter(|field| !field.is_null())
+            .map(|field| mirrored(field, schemas))
+            .collect();
+        if mirrored.is_empty() {
+            // Not a body field (a path or header parameter): another edit's.
+            parameter
+                .as_object_mut()
+                .expect("a parameter is an object")
+                .insert("schema".to_string(), Value::Null);
+            continue;
+        }
+        let is_object = mirrored.iter().any(|(_, object)| *object);
+        let mut distinct: Vec<Value> = Vec::new();
+        for (schema, _) in mirrored {
+            if !distinct.contains(&schema) {
+                distinct.push(schema);
             }
         }
-        let referenced = schema["$ref"]
-            .as_str()
-            .and_then(|r| r.rsplit('/').next())
-            .map(|n| &schemas[n]);
-        let is_object = referenced.is_some_and(|s| s["type"] == "object" || s["oneOf"].is_array());
+        let schema = match distinct.len() {
+            1 => distinct.pop().expect("one schema"),
+            _ => json!({"anyOf": distinct}),
+        };
+        let parameter = parameter.as_object_mut().expect("a parameter is an object");
         parameter.remove("schema");
         if is_object {
             parameter.insert(
@@ -121,6 +140,32 @@ fn mirror(parameters: &mut [Value], properties: &Value, schemas: &Value) {
             parameter.insert("schema".to_string(), schema);
         }
     }
+}
+
+/// A body field's schema as its query parameter's (less its `null` branch), and whether it is
+/// an object (sent as JSON).
+fn mirrored(field: &Value, schemas: &Value) -> (Value, bool) {
+    let mut schema = match field["oneOf"].as_array() {
+        Some(branches) => branches
+            .iter()
+            .find(|b| b["type"] != "null")
+            .expect("an optional field has a non-null branch")
+            .clone(),
+        None => field.clone(),
+    };
+    if let Some(types) = schema["type"].as_array() {
+        let not_null: Vec<_> = types.iter().filter(|t| *t != "null").cloned().collect();
+        schema["type"] = Value::Array(not_null);
+        if let [only] = schema["type"].as_array().map(Vec::as_slice).unwrap_or(&[]) {
+            schema["type"] = only.clone();
+        }
+    }
+    let referenced = schema["$ref"]
+        .as_str()
+        .and_then(|r| r.rsplit('/').next())
+        .map(|n| &schemas[n]);
+    let is_object = referenced.is_some_and(|s| s["type"] == "object" || s["oneOf"].is_array());
+    (schema, is_object)
 }
 
 /// The links between record operations, a line each: the operation (from its 201 answer), the

@@ -46,8 +46,39 @@ pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
 const NOT_JSON: &str = "{what}: send one JSON object, such as {\"process\": {...}}, with \
     Content-Type: application/json (curl: -H 'Content-Type: application/json' -d @file.json)";
 
+/// Marks a failure's path inside a request of one of several kinds ([`kind_from_value`]), so
+/// that [`problem_of`] names the field as if the kind had been parsed directly.
+const PATH_MARK: char = '\u{1f}';
+
+/// A request of several kinds, told apart by a member, parsed as the kind chosen: its failure
+/// carries its path (below the outer one) for [`problem_of`].
+pub fn kind_from_value<T: DeserializeOwned, E: serde::de::Error>(
+    value: serde_json::Value,
+) -> Result<T, E> {
+    serde_path_to_error::deserialize(value).map_err(|err| {
+        let path = err.path().to_string();
+        E::custom(format!("{PATH_MARK}{path}{PATH_MARK}{}", err.into_inner()))
+    })
+}
+
 fn problem_of(path: &str, inner: serde_json::Error) -> ApiError {
     let raw = strip_position(&inner.to_string());
+    // A kind's own failure: its path below ours, and its message.
+    let (joined, raw) = match raw
+        .strip_prefix(PATH_MARK)
+        .and_then(|r| r.split_once(PATH_MARK))
+    {
+        Some((inner_path, message)) => {
+            let joined = match (path, inner_path) {
+                (".", p) => p.to_string(),
+                (p, ".") => p.to_string(),
+                (p, q) => format!("{p}.{q}"),
+            };
+            (joined, message.to_string())
+        }
+        None => (path.to_string(), raw),
+    };
+    let path = joined.as_str();
     let field = field_of(path, &raw);
     let message = in_users_words(raw);
     match inner.classify() {

@@ -132,3 +132,48 @@ pub enum ComputeProblems {
     #[response(status = 503, content_type = "application/problem+json")]
     Overloaded(super::error::Problem),
 }
+
+/// A schema that is any of the named ones (`anyOf`: a body may fit more than one):
+/// `any_of!(Name, [A, B], "doc")` declares the unit type `Name` for it; `any_of!(impl Type,
+/// [A, B], "doc")` gives an existing type that schema, and `any_of!(impl Type as "Name",
+/// [A, B], "doc")` names it too (a generic type's own name is not a schema's).
+macro_rules! any_of {
+    ($name:ident, [$($member:ty),*], $doc:literal) => {
+        #[doc = $doc]
+        pub struct $name;
+        $crate::http::openapi::any_of!(impl $name, [$($member),*], $doc);
+    };
+    (impl $name:ty as $schema:literal, [$($member:ty),*], $doc:literal) => {
+        $crate::http::openapi::any_of!(impl $name, [$($member),*], $doc, $schema);
+    };
+    (impl $name:ty, [$($member:ty),*], $doc:literal $(, $schema:literal)?) => {
+        impl utoipa::PartialSchema for $name {
+            fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::Schema> {
+                let any = utoipa::openapi::schema::AnyOfBuilder::new().description(Some($doc));
+                $(let any = any.item(utoipa::openapi::Ref::from_schema_name(
+                    <$member as utoipa::ToSchema>::name(),
+                ));)*
+                utoipa::openapi::RefOr::T(utoipa::openapi::Schema::AnyOf(any.build()))
+            }
+        }
+
+        impl utoipa::ToSchema for $name {
+            $(fn name() -> std::borrow::Cow<'static, str> {
+                std::borrow::Cow::Borrowed($schema)
+            })?
+
+            fn schemas(
+                schemas: &mut Vec<(String, utoipa::openapi::RefOr<utoipa::openapi::Schema>)>,
+            ) {
+                $(
+                    schemas.push((
+                        <$member as utoipa::ToSchema>::name().into_owned(),
+                        <$member as utoipa::PartialSchema>::schema(),
+                    ));
+                    <$member as utoipa::ToSchema>::schemas(schemas);
+                )*
+            }
+        }
+    };
+}
+pub(crate) use any_of;

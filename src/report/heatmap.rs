@@ -165,19 +165,35 @@ pub fn footprint_png(r: &MapRemovalFunction) -> Vec<u8> {
 
 /// The heat map of a predicted removal map (the pixels on the part), as PNG bytes.
 pub fn removal_map_png(r: &MapPrediction) -> Vec<u8> {
-    let width = r.x_mm.len();
-    heat_png(
-        (width, r.y_mm.len()),
+    removal_pixels_png(
+        (r.x_mm.len(), r.y_mm.len()),
         r.pixel_mm,
+        &r.removal_nm,
+        &r.metrics,
+    )
+}
+
+/// The heat map of a removal on a grid of `size` pixels (row-major from the top, `None`
+/// transparent) with its figures in the title, as PNG bytes.
+pub fn removal_pixels_png(
+    size: (usize, usize),
+    pixel_mm: f64,
+    removal_nm: &[Option<f64>],
+    figures: &crate::field::Figures,
+) -> Vec<u8> {
+    let width = size.0;
+    heat_png(
+        size,
+        pixel_mm,
         || {
-            r.removal_nm
+            removal_nm
                 .iter()
                 .enumerate()
                 .filter_map(move |(i, v)| v.map(|v| (i % width, i / width, v)))
         },
         &format!(
             "mean {:.2} nm  PV {:.2} nm  RMS {:.2} nm",
-            r.metrics.mean, r.metrics.pv, r.metrics.rms
+            figures.mean, figures.pv, figures.rms
         ),
         "nm",
     )

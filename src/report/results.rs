@@ -264,12 +264,18 @@ pub fn footprint_csv(r: &MapRemovalFunction) -> String {
 /// A predicted removal map, pixel by pixel from the top row, the pixels on the part only:
 /// position in the part's frame and the removal.
 pub fn removal_map_csv(r: &MapPrediction) -> String {
-    let width = r.x_mm.len();
+    removal_pixels_csv(&r.x_mm, &r.y_mm, &r.removal_nm)
+}
+
+/// A removal on a grid (row-major from the top; the pixels with a value only): each pixel's
+/// position and removal.
+pub fn removal_pixels_csv(x_mm: &[f64], y_mm: &[f64], removal_nm: &[Option<f64>]) -> String {
+    let width = x_mm.len();
     let (mut x, mut y, mut z) = (Vec::new(), Vec::new(), Vec::new());
-    for (i, value) in r.removal_nm.iter().enumerate() {
+    for (i, value) in removal_nm.iter().enumerate() {
         if let Some(v) = value {
-            x.push(r.x_mm[i % width]);
-            y.push(r.y_mm[i / width]);
+            x.push(x_mm[i % width]);
+            y.push(y_mm[i / width]);
             z.push(*v);
         }
     }

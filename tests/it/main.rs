@@ -41,6 +41,7 @@ mod polar;
 mod polar_reference;
 mod polar_sphere;
 mod problems;
+mod raster;
 mod recommend;
 mod records;
 mod removal_accuracy;

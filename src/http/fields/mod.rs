@@ -5,6 +5,7 @@
 mod calibration;
 mod maps;
 mod measurement;
+mod raster;
 
 use super::error::{ApiError, Kind, LimitViolation};
 use crate::machine::{Drive, GcodeFormatError, LimitKind, ProgramError, Violation};

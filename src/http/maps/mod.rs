@@ -5,6 +5,7 @@ pub mod difference;
 pub mod optimize;
 pub mod predict;
 pub mod program;
+pub mod raster;
 pub mod removal_function;
 
 use serde::{Deserialize, Serialize};

@@ -15,13 +15,16 @@ use super::super::optimize::{ConstraintsDto, ObjectiveDto, SolverOptionsDto};
 use super::super::state::Services;
 use super::body::{self, MapForm, MapOrJson, MapSource};
 use super::predict::{CLawDto, MapFiguresDto};
+use super::raster::{Answer, Kinds, RasterOptimizeRequest, RasterOptimizeResponse};
 use super::removal_function::KinematicsDto;
 use super::MapAlignmentDto;
+use crate::http::openapi::any_of;
 use crate::machine::{AxisLimits, MachineChoice, MachineLimitsSpec};
 use crate::usecases::map_optimize::{
     map_optimize, MapCorrection, MapOptimizeCommand, MapOptimizeSpec, RemovalModel,
 };
 use crate::usecases::optimize::OptimizeSpec;
+use crate::usecases::raster_optimize::{raster_optimize, RasterCorrection, RasterOptimizeCommand};
 use crate::usecases::ComputeLimits;
 
 /// C under position control: the part's spindle as an axis. Each limit optional (absent:
@@ -189,6 +192,55 @@ impl MapForm for MapOptimizeRequest {
     }
 }
 
+/// A correction's request: the paper's machine's or an X-Y machine's.
+pub type MapOptimizeAny = Kinds<MapOptimizeRequest, RasterOptimizeRequest>;
+any_of!(
+    impl MapOptimizeAny as "MapOptimizeAnyRequest",
+    [MapOptimizeRequest, RasterOptimizeRequest],
+    "A map to correct: on the paper's machine (`machine.kinematics` `polar`, the default) or \
+     on an X-Y machine (`machine.kinematics` `cartesian`)."
+);
+
+impl MapForm for MapOptimizeAny {
+    const FILES: &'static [&'static str] = &["map"];
+    /// Both kinds' fields (a file body's query names the machine as JSON).
+    const QUERY_FIELDS: &'static [&'static str] = &[
+        "process",
+        "surface",
+        "pixel_mm",
+        "alignment",
+        "positions_mm",
+        "constraints",
+        "objective",
+        "radial_grid",
+        "clear_aperture",
+        "solver",
+        "machine",
+        "c_law",
+        "removal_pixel_mm",
+        "removal_model",
+        "influence",
+        "dwell_pitch_mm",
+        "free_tilt",
+    ];
+
+    fn set_file(&mut self, _: &str, bytes: axum::body::Bytes) {
+        match self {
+            Kinds::Polar(r) => r.map = MapSource::File(bytes),
+            Kinds::Cartesian(r) => r.map = MapSource::File(bytes),
+        }
+    }
+}
+
+/// A correction on either machine.
+pub type MapOptimizeAnswer = Answer<MapOptimizeResponse, RasterOptimizeResponse>;
+any_of!(
+    impl MapOptimizeAnswer as "MapOptimizeAnyResponse",
+    [MapOptimizeResponse, RasterOptimizeResponse],
+    "A map's correction: a polar plan with C's law, or an X-Y machine's dwell map \
+     (`kinematics` says which)."
+);
+
 /// How the result's removal map is computed.
 #[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
@@ -355,21 +407,29 @@ free piston) within every limit. The result is judged by the exact removal of th
 motion, on a plane, a sphere or an asphere.",
         ok: "The plan, C's law, the maps and their figures, the harmonic budget",
     };
-    type Request = MapOptimizeRequest;
-    type Body = MapOrJson<MapOptimizeRequest>;
-    type Command = MapOptimizeCommand;
-    type Output = MapCorrection;
-    type Response = MapOptimizeResponse;
+    type Request = MapOptimizeAny;
+    type Body = MapOrJson<MapOptimizeAny>;
+    type Command = Kinds<MapOptimizeCommand, RasterOptimizeCommand>;
+    type Output = Answer<MapCorrection, RasterCorrection>;
+    type Response = MapOptimizeAnswer;
 
     fn document(operation: &mut utoipa::openapi::path::Operation) {
         body::document(
             operation,
-            MapOptimizeRequest::FILES,
-            MapOptimizeRequest::QUERY_FIELDS,
+            MapOptimizeAny::FILES,
+            MapOptimizeAny::QUERY_FIELDS,
         );
     }
 
-    fn parse(req: MapOptimizeRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
+    fn parse(req: MapOptimizeAny, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
+        let req = match req {
+            Kinds::Polar(req) => req,
+            Kinds::Cartesian(req) => {
+                return Ok(Kinds::Cartesian(RasterOptimizeCommand::new(
+                    req.spec(limits)?,
+                )?))
+            }
+        };
         let machine = req.machine.clone().unwrap_or_default();
         let KinematicsDto::Polar = machine.kinematics;
         let setting = super::super::dto::SettingDtos {
@@ -402,71 +462,82 @@ motion, on a plane, a sphere or an asphere.",
             pixel_mm: req.removal_pixel_mm,
             removal_model: req.removal_model.into(),
         };
-        Ok(MapOptimizeCommand::new(setting, map, spec, limits)?)
+        Ok(Kinds::Polar(MapOptimizeCommand::new(
+            setting, map, spec, limits,
+        )?))
     }
 
-    fn run(command: Self::Command, services: &Services) -> Result<MapCorrection, ApiError> {
-        Ok(map_optimize(
-            command,
-            &services.recommender,
-            &services.operators,
-        )?)
+    fn run(command: Self::Command, services: &Services) -> Result<Self::Output, ApiError> {
+        Ok(match command {
+            Kinds::Polar(c) => {
+                Answer::Polar(map_optimize(c, &services.recommender, &services.operators)?)
+            }
+            Kinds::Cartesian(c) => Answer::Cartesian(raster_optimize(c)?),
+        })
     }
 
-    fn respond(r: MapCorrection) -> MapOptimizeResponse {
-        let width = r.x_mm.len();
-        let rows = |v: Vec<Option<f64>>| v.chunks(width).map(<[_]>::to_vec).collect();
-        MapOptimizeResponse {
-            kinematics: KinematicsDto::Polar,
-            dwell: DwellDto {
-                positions_mm: r.plan.motion.radii_mm().to_vec(),
-                dwell_s: r.plan.solution.dwell_s.clone(),
-            },
-            c_law: CLawDto {
-                sectors: r.sectors,
-                speed_factors: r.speed_factors,
-            },
-            sector_dwell_s: r.sector_dwell_s,
-            max_harmonic: r.max_harmonic,
-            piston_nm: r.plan.solution.piston_nm.unwrap_or(0.0),
-            maps: CorrectionMapsDto {
-                pixel_mm: r.pixel_mm,
-                removal_nm: rows(r.removal_nm),
-                target_nm: rows(r.target_nm),
-                residual_nm: rows(r.residual_nm),
-                x_mm: r.x_mm,
-                y_mm: r.y_mm,
-            },
-            metrics: CorrectionMetricsDto {
-                before: (&r.before).into(),
-                after: (&r.after).into(),
-                non_axisymmetric_before: (&r.before_non_axisymmetric).into(),
-                non_axisymmetric_after: (&r.after_non_axisymmetric).into(),
-                radial_plan_after: (&r.radial_plan_after).into(),
-                radial_plan_time_s: r.radial_plan_time_s,
-            },
-            c_peaks: CPeaksDto {
-                velocity_deg_per_min: r.c_peak_velocity_deg_per_min,
-                acceleration_deg_per_s2: r.c_peak_acceleration_deg_per_s2,
-            },
-            harmonic_budget: r
-                .harmonic_budget
-                .into_iter()
-                .map(|b| HarmonicBandDto {
-                    from_mm: b.from_mm,
-                    to_mm: b.to_mm,
-                    amplitude_nm: b.amplitude_nm,
-                    target_amplitude_nm: b.target_amplitude_nm,
-                    modulation_share: b.modulation_share,
-                    target_rms_nm: b.target_rms_nm,
-                    residual_rms_nm: b.residual_rms_nm,
-                })
-                .collect(),
-            clear_aperture: ApertureEcho::from(r.plan.setting.aperture()),
-            total_time_s: r.total_time_s,
-            blocks: r.blocks,
-            removal_model: r.removal_model.into(),
-            warnings: WarningDto::all(&r.warnings),
+    fn respond(r: Self::Output) -> MapOptimizeAnswer {
+        match r {
+            Answer::Polar(r) => Answer::Polar(polar_response(r)),
+            Answer::Cartesian(r) => Answer::Cartesian(r.into()),
         }
+    }
+}
+
+/// A polar correction's answer.
+pub fn polar_response(r: MapCorrection) -> MapOptimizeResponse {
+    let width = r.x_mm.len();
+    let rows = |v: Vec<Option<f64>>| v.chunks(width).map(<[_]>::to_vec).collect();
+    MapOptimizeResponse {
+        kinematics: KinematicsDto::Polar,
+        dwell: DwellDto {
+            positions_mm: r.plan.motion.radii_mm().to_vec(),
+            dwell_s: r.plan.solution.dwell_s.clone(),
+        },
+        c_law: CLawDto {
+            sectors: r.sectors,
+            speed_factors: r.speed_factors,
+        },
+        sector_dwell_s: r.sector_dwell_s,
+        max_harmonic: r.max_harmonic,
+        piston_nm: r.plan.solution.piston_nm.unwrap_or(0.0),
+        maps: CorrectionMapsDto {
+            pixel_mm: r.pixel_mm,
+            removal_nm: rows(r.removal_nm),
+            target_nm: rows(r.target_nm),
+            residual_nm: rows(r.residual_nm),
+            x_mm: r.x_mm,
+            y_mm: r.y_mm,
+        },
+        metrics: CorrectionMetricsDto {
+            before: (&r.before).into(),
+            after: (&r.after).into(),
+            non_axisymmetric_before: (&r.before_non_axisymmetric).into(),
+            non_axisymmetric_after: (&r.after_non_axisymmetric).into(),
+            radial_plan_after: (&r.radial_plan_after).into(),
+            radial_plan_time_s: r.radial_plan_time_s,
+        },
+        c_peaks: CPeaksDto {
+            velocity_deg_per_min: r.c_peak_velocity_deg_per_min,
+            acceleration_deg_per_s2: r.c_peak_acceleration_deg_per_s2,
+        },
+        harmonic_budget: r
+            .harmonic_budget
+            .into_iter()
+            .map(|b| HarmonicBandDto {
+                from_mm: b.from_mm,
+                to_mm: b.to_mm,
+                amplitude_nm: b.amplitude_nm,
+                target_amplitude_nm: b.target_amplitude_nm,
+                modulation_share: b.modulation_share,
+                target_rms_nm: b.target_rms_nm,
+                residual_rms_nm: b.residual_rms_nm,
+            })
+            .collect(),
+        clear_aperture: ApertureEcho::from(r.plan.setting.aperture()),
+        total_time_s: r.total_time_s,
+        blocks: r.blocks,
+        removal_model: r.removal_model.into(),
+        warnings: WarningDto::all(&r.warnings),
     }
 }

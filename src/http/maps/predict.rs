@@ -12,12 +12,15 @@ use super::super::endpoint::{Doc, Endpoint, Picture};
 use super::super::error::ApiError;
 use super::super::extract::{count, object, optional_object, ApiJson};
 use super::super::state::Services;
+use super::raster::{Answer, Kinds, RasterPredictRequest, RasterPredictResponse};
 use super::removal_function::{KinematicsDto, MapMachineDto};
 use crate::field::Figures;
+use crate::http::openapi::any_of;
 use crate::report::{heatmap, results};
 use crate::usecases::map_predict::{
     map_predict, CLawSpec, MapPredictCommand, MapPredictSpec, MapPrediction,
 };
+use crate::usecases::raster_predict::{raster_predict, RasterPredictCommand, RasterPrediction};
 use crate::usecases::ComputeLimits;
 
 /// C's speed law under position control: the part's circle cut into `sectors` equal sectors of
@@ -155,6 +158,49 @@ pub struct RemovalMapDto {
     pub removal_nm: Vec<Vec<Option<f64>>>,
 }
 
+/// A prediction's request: the paper's machine's or an X-Y machine's.
+pub type MapPredictAny = Kinds<MapPredictRequest, RasterPredictRequest>;
+any_of!(
+    impl MapPredictAny as "MapPredictAnyRequest",
+    [MapPredictRequest, RasterPredictRequest],
+    "A plan to predict: on the paper's machine (`machine.kinematics` `polar`, the default) or \
+     on an X-Y machine (`machine.kinematics` `cartesian`)."
+);
+
+/// A prediction of either machine.
+pub type MapPredictAnswer = Answer<MapPredictResponse, RasterPredictResponse>;
+any_of!(
+    impl MapPredictAnswer as "MapPredictAnyResponse",
+    [MapPredictResponse, RasterPredictResponse],
+    "The removal map of a polar plan, or of an X-Y machine's raster (`kinematics` says which)."
+);
+
+/// What a prediction computed, on either machine.
+pub type MapPredictOutput = Answer<MapPrediction, RasterPrediction>;
+
+fn removal_csv(r: &MapPredictOutput) -> String {
+    match r {
+        Answer::Polar(p) => results::removal_map_csv(p),
+        Answer::Cartesian(c) => results::removal_pixels_csv(
+            &c.x_mm,
+            &c.y_mm,
+            &c.removal_nm.iter().copied().map(Some).collect::<Vec<_>>(),
+        ),
+    }
+}
+
+fn removal_png(r: &MapPredictOutput) -> Vec<u8> {
+    match r {
+        Answer::Polar(p) => heatmap::removal_map_png(p),
+        Answer::Cartesian(c) => heatmap::removal_pixels_png(
+            (c.x_mm.len(), c.y_mm.len()),
+            c.pixel_mm,
+            &c.removal_nm.iter().copied().map(Some).collect::<Vec<_>>(),
+            &c.removal,
+        ),
+    }
+}
+
 /// `POST /v1/maps/predict`.
 pub struct MapPredictEndpoint;
 
@@ -174,17 +220,25 @@ conforms to the surface and the map is over the projection (x, y). `Accept: text
 x, y and removal per pixel on the part; `image/png` a heat map.",
         ok: "The removal map and its figures; as CSV, the pixels; as PNG, the heat map",
     };
-    type Request = MapPredictRequest;
-    type Body = ApiJson<MapPredictRequest>;
-    type Command = MapPredictCommand;
-    type Output = MapPrediction;
-    type Response = MapPredictResponse;
-    const CSV: Option<fn(&MapPrediction) -> String> = Some(results::removal_map_csv);
-    const PNG: Option<Picture<MapPrediction>> = Some(heatmap::removal_map_png);
+    type Request = MapPredictAny;
+    type Body = ApiJson<MapPredictAny>;
+    type Command = Kinds<MapPredictCommand, RasterPredictCommand>;
+    type Output = MapPredictOutput;
+    type Response = MapPredictAnswer;
+    const CSV: Option<fn(&MapPredictOutput) -> String> = Some(removal_csv);
+    const PNG: Option<Picture<MapPredictOutput>> = Some(removal_png);
 
-    fn parse(req: MapPredictRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
+    fn parse(req: MapPredictAny, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
+        let req = match req {
+            Kinds::Polar(req) => req,
+            Kinds::Cartesian(req) => {
+                return Ok(Kinds::Cartesian(RasterPredictCommand::new(
+                    req.spec(limits)?,
+                )?))
+            }
+        };
         let KinematicsDto::Polar = req.machine.unwrap_or_default().kinematics;
-        Ok(MapPredictCommand::new(
+        Ok(Kinds::Polar(MapPredictCommand::new(
             MapPredictSpec {
                 process: req.process.spec()?,
                 part: part_spec(req.surface.as_ref(), None),
@@ -197,35 +251,45 @@ x, y and removal per pixel on the part; `image/png` a heat map.",
                 pixel_mm: req.pixel_mm,
             },
             limits,
-        )?)
+        )?))
     }
 
-    fn run(command: Self::Command, _: &Services) -> Result<MapPrediction, ApiError> {
-        Ok(map_predict(command))
+    fn run(command: Self::Command, _: &Services) -> Result<MapPredictOutput, ApiError> {
+        Ok(match command {
+            Kinds::Polar(c) => Answer::Polar(map_predict(c)),
+            Kinds::Cartesian(c) => Answer::Cartesian(raster_predict(c)?),
+        })
     }
 
-    fn respond(r: MapPrediction) -> MapPredictResponse {
-        let width = r.x_mm.len();
-        let m = &r.metrics;
-        MapPredictResponse {
-            kinematics: KinematicsDto::Polar,
-            nonuniformity: (m.mean != 0.0).then(|| m.pv / m.mean),
-            metrics: m.into(),
-            non_axisymmetric: (&r.non_axisymmetric).into(),
-            azimuthal_mean: AzimuthalMeanDto {
-                radius_mm: r.radius_mm,
-                removal_nm: r.azimuthal_mean_nm,
-            },
-            clear_aperture: ApertureEcho::from(&r.clear_aperture),
-            total_time_s: r.total_time_s,
-            blocks: r.blocks,
-            warnings: WarningDto::all_at(&r.warnings, "dwell.positions_mm"),
-            removal: RemovalMapDto {
-                pixel_mm: r.pixel_mm,
-                removal_nm: r.removal_nm.chunks(width).map(<[_]>::to_vec).collect(),
-                x_mm: r.x_mm,
-                y_mm: r.y_mm,
-            },
+    fn respond(r: MapPredictOutput) -> MapPredictAnswer {
+        match r {
+            Answer::Polar(r) => Answer::Polar(polar_response(r)),
+            Answer::Cartesian(r) => Answer::Cartesian(r.into()),
         }
+    }
+}
+
+fn polar_response(r: MapPrediction) -> MapPredictResponse {
+    let width = r.x_mm.len();
+    let m = &r.metrics;
+    MapPredictResponse {
+        kinematics: KinematicsDto::Polar,
+        nonuniformity: (m.mean != 0.0).then(|| m.pv / m.mean),
+        metrics: m.into(),
+        non_axisymmetric: (&r.non_axisymmetric).into(),
+        azimuthal_mean: AzimuthalMeanDto {
+            radius_mm: r.radius_mm,
+            removal_nm: r.azimuthal_mean_nm,
+        },
+        clear_aperture: ApertureEcho::from(&r.clear_aperture),
+        total_time_s: r.total_time_s,
+        blocks: r.blocks,
+        warnings: WarningDto::all_at(&r.warnings, "dwell.positions_mm"),
+        removal: RemovalMapDto {
+            pixel_mm: r.pixel_mm,
+            removal_nm: r.removal_nm.chunks(width).map(<[_]>::to_vec).collect(),
+            x_mm: r.x_mm,
+            y_mm: r.y_mm,
+        },
     }
 }

@@ -3,7 +3,7 @@
 //! request's schema less those properties) and the problems they answer (`contract` adds the
 //! links between them).
 
-use utoipa::openapi::schema::{AllOfBuilder, AnyOfBuilder, ObjectBuilder};
+use utoipa::openapi::schema::{AllOfBuilder, ObjectBuilder};
 use utoipa::openapi::{Ref, RefOr, Schema};
 use utoipa::{PartialSchema, ToSchema};
 
@@ -16,36 +16,9 @@ use crate::http::maps::optimize::{MapOptimizeRequest, MapOptimizeResponse, Polar
 use crate::http::maps::program::{MapProgramRequest, MapProgramResponse};
 use crate::http::maps::MapAnalysisRequest;
 use crate::http::measurement_fit::MeasurementFitRequest;
+use crate::http::openapi::any_of;
 use crate::http::optimize::{OptimizeRequest, OptimizeResponse};
 use crate::http::program::{ProgramRequest, ProgramResponse};
-
-/// A schema that is any of the named ones (`anyOf`: a body may fit more than one).
-macro_rules! any_of {
-    ($name:ident, [$($member:ty),*], $doc:literal) => {
-        #[doc = $doc]
-        pub struct $name;
-
-        impl PartialSchema for $name {
-            fn schema() -> RefOr<Schema> {
-                let any = AnyOfBuilder::new().description(Some($doc));
-                $(let any = any.item(Ref::from_schema_name(<$member as ToSchema>::name()));)*
-                RefOr::T(Schema::AnyOf(any.build()))
-            }
-        }
-
-        impl ToSchema for $name {
-            fn schemas(schemas: &mut Vec<(String, RefOr<Schema>)>) {
-                $(
-                    schemas.push((
-                        <$member as ToSchema>::name().into_owned(),
-                        <$member as PartialSchema>::schema(),
-                    ));
-                    <$member as ToSchema>::schemas(schemas);
-                )*
-            }
-        }
-    };
-}
 
 /// A request that is `Base`'s less the properties a record supplies.
 macro_rules! less {
