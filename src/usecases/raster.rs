@@ -47,6 +47,22 @@ pub enum RasterInputError {
     SpotCentre([f64; 2]),
     #[error("the spot map removes nothing: no pixel holds a positive removal")]
     SpotEmpty,
+    #[error(
+        "the spot's peak rate is {0:e} nm/s: a tool removes between {MIN_RATE:e} and \
+         {MAX_RATE:e} nm/s (is the map in nm, and `duration_s` in seconds?)"
+    )]
+    SpotRate(f64),
+    #[error(
+        "the map holds a height of {0:e} nm: a figure error is within ±{MAX_HEIGHT_NM:e} nm \
+         (is the map in nm?)"
+    )]
+    Height(f64),
+    #[error("the pixel must be between {MIN_PIXEL_MM:e} and {MAX_PIXEL_MM:e} mm, not {0}")]
+    PixelRange(f64),
+    #[error(
+        "the spot map's pixel must be between {MIN_PIXEL_MM:e} and {MAX_PIXEL_MM:e} mm, not {0}"
+    )]
+    SpotPixelRange(f64),
     #[error(transparent)]
     Influence(#[from] InfluenceError),
     #[error("the map's pixel is not known: give `pixel_mm` (its file does not say)")]
@@ -72,6 +88,38 @@ pub enum RasterInputError {
     },
 }
 
+/// The peak rates an influence function may have, nm/s: a nanometre a day to a metre a
+/// second, so every figure of a plan stays far inside the numbers' range.
+pub const MIN_RATE: f64 = 1e-5;
+pub const MAX_RATE: f64 = 1e9;
+/// The largest |height| of a map to correct, nm (a metre).
+pub const MAX_HEIGHT_NM: f64 = 1e9;
+/// The pixels a lattice may have, mm.
+pub const MIN_PIXEL_MM: f64 = 1e-6;
+pub const MAX_PIXEL_MM: f64 = 1e4;
+
+/// Whether a pixel is within [`MIN_PIXEL_MM`, `MAX_PIXEL_MM`].
+pub fn check_pixel(pixel_mm: f64) -> Result<f64, RasterInputError> {
+    if (MIN_PIXEL_MM..=MAX_PIXEL_MM).contains(&pixel_mm) {
+        Ok(pixel_mm)
+    } else {
+        Err(RasterInputError::PixelRange(pixel_mm))
+    }
+}
+
+/// Whether a map's heights are within ±[`MAX_HEIGHT_NM`].
+pub fn check_heights(map: &HeightMap) -> Result<(), RasterInputError> {
+    match map
+        .heights_nm()
+        .iter()
+        .flatten()
+        .find(|h| h.abs() > MAX_HEIGHT_NM)
+    {
+        Some(&h) => Err(RasterInputError::Height(h)),
+        None => Ok(()),
+    }
+}
+
 /// The most pixels a lattice may have (the map grown by the reach): 4,194,304, a
 /// 2048 × 2048 grid, whose transforms take about 70 MB each.
 pub const MAX_LATTICE_PIXELS: usize = 1 << 22;
@@ -89,6 +137,7 @@ impl SpotSpec {
         if !(pitch.is_finite() && pitch > 0.0) {
             return Err(RasterInputError::Pixel(pitch));
         }
+        check_pixel(pitch).map_err(|_| RasterInputError::SpotPixelRange(pitch))?;
         let per_second = match self.duration_s {
             None => 1.0,
             Some(d) if d.is_finite() && d > 0.0 => 1.0 / d,
@@ -122,7 +171,16 @@ impl SpotSpec {
         }
         // Sample (0, 0) is the map's bottom-left pixel: its offset from the centre.
         let origin = [-centre[0] * pitch, -((h - 1) as f64 - centre[1]) * pitch];
-        Ok(Influence::new(w, h, pitch, origin, rates)?)
+        let influence = Influence::new(w, h, pitch, origin, rates)?;
+        let peak = influence.peak_nm_per_s();
+        if !(MIN_RATE..=MAX_RATE).contains(&peak) {
+            return Err(RasterInputError::SpotRate(peak));
+        }
+        // A negative pixel (a spot map's noise) deeper than the peak is not a spot.
+        if let Some(&low) = influence.rates().iter().find(|r| **r < -peak) {
+            return Err(RasterInputError::SpotRate(low));
+        }
+        Ok(influence)
     }
 }
 

@@ -153,6 +153,8 @@ impl RasterOptimizeCommand {
         if !(pixel.is_finite() && pixel > 0.0) {
             return Err(RasterInputError::Pixel(pixel).into());
         }
+        super::raster::check_pixel(pixel)?;
+        super::raster::check_heights(&spec.map)?;
         let step = match spec.dwell_pitch_mm {
             Some(p) if p.is_finite() && p > 0.0 => (p / pixel).round().max(1.0),
             Some(p) => return Err(RasterInputError::DwellPitch(p).into()),

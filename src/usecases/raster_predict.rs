@@ -16,6 +16,9 @@ use crate::optimize::raster::{peaks, AxisPeaks};
 use crate::physics::influence::Influence;
 use crate::physics::raster::{Raster, RasterError, RasterOperator};
 
+/// The longest dwell at one point, s (a year).
+pub const MAX_DWELL_S: f64 = 3.2e7;
+
 /// The most dwell points one prediction takes.
 pub const MAX_PREDICT_POINTS: usize = super::raster::MAX_POINTS;
 
@@ -37,7 +40,7 @@ pub enum RasterPredictError {
     Input(#[from] RasterInputError),
     #[error("the plan needs as many dwell times as points: {points} points, {dwell} dwell times")]
     Lengths { points: usize, dwell: usize },
-    #[error("dwell {index} must be a finite number of seconds ≥ 0, not {value}")]
+    #[error("dwell {index} must be a number of seconds in [0, {MAX_DWELL_S:e}], not {value}")]
     Dwell { index: usize, value: f64 },
     #[error(
         "point {index} ({x}, {y}) mm is not on the lattice of {pixel_mm} mm pixels through the \
@@ -108,7 +111,7 @@ impl RasterPredictCommand {
             .dwell_s
             .iter()
             .enumerate()
-            .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+            .find(|(_, v)| !(v.is_finite() && (0.0..=MAX_DWELL_S).contains(*v)))
         {
             return Err(RasterPredictError::Dwell { index, value });
         }
@@ -119,6 +122,10 @@ impl RasterPredictCommand {
             .unwrap_or(influence.pitch_mm());
         if !(pixel.is_finite() && pixel > 0.0) {
             return Err(RasterInputError::Pixel(pixel).into());
+        }
+        super::raster::check_pixel(pixel)?;
+        if let Some(map) = &spec.map {
+            super::raster::check_heights(map)?;
         }
         // The points in pixels from the first; off the lattice beyond 1e-6 of a pixel, refused.
         let first = spec.points_mm[0];

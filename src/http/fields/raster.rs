@@ -9,11 +9,18 @@ use crate::usecases::raster_predict::RasterPredictError;
 impl From<RasterInputError> for ApiError {
     fn from(e: RasterInputError) -> Self {
         let field = match &e {
-            RasterInputError::SpotPixel => "influence.map.pixel_mm",
+            RasterInputError::SpotPixel | RasterInputError::SpotPixelRange(_) => {
+                "influence.map.pixel_mm"
+            }
             RasterInputError::SpotDuration(_) => "influence.duration_s",
             RasterInputError::SpotCentre(_) => "influence.centre_px",
-            RasterInputError::SpotEmpty | RasterInputError::Influence(_) => "influence.map",
-            RasterInputError::MapPixel | RasterInputError::Pixel(_) => "pixel_mm",
+            RasterInputError::SpotEmpty
+            | RasterInputError::Influence(_)
+            | RasterInputError::SpotRate(_) => "influence.map",
+            RasterInputError::Height(_) => "map",
+            RasterInputError::MapPixel
+            | RasterInputError::Pixel(_)
+            | RasterInputError::PixelRange(_) => "pixel_mm",
             RasterInputError::DwellPitch(_) | RasterInputError::TooManyPoints { .. } => {
                 "dwell_pitch_mm"
             }
