@@ -25,7 +25,6 @@
 //! and leaves the last at rest.
 
 use super::bounded::{self, BoundedProblem, BoundedSolution};
-use super::operator::DwellOperator;
 use crate::physics::motion::acceleration;
 use crate::physics::raster::{Block, Raster};
 
@@ -125,36 +124,18 @@ pub fn peaks(blocks: &[Block]) -> [AxisPeaks; 2] {
     out
 }
 
-/// What a plan on a raster is asked, besides its operator.
-pub struct RasterPlanSpec<'a> {
-    /// The removal wanted, per lattice pixel, nm (any value where the weight is 0).
-    pub target: &'a [f64],
-    /// 1 on the clear aperture's pixels, 0 elsewhere.
-    pub weights: &'a [f64],
-    /// The free terms' columns over the pixels: piston, and tilt when free.
-    pub free_terms: Vec<Vec<f64>>,
-    /// Neighbouring points (the smoothing's pairs).
-    pub edges: &'a [(usize, usize)],
-    pub smoothing: f64,
-    pub time_weight: f64,
-    /// Per point: the floor (the larger of the least dwell and the axes' floors) and the
-    /// ceiling, s.
-    pub lower: Vec<f64>,
-    pub upper: Vec<f64>,
-    pub max_total_s: Option<f64>,
-    pub max_products: usize,
-}
-
-/// Solves a raster plan: the scales from the target and the operator, then projected Newton
-/// from the floors.
-pub fn plan(operator: &dyn DwellOperator, spec: RasterPlanSpec) -> BoundedSolution {
-    let m: f64 = spec.weights.iter().sum::<f64>().max(1.0);
+/// Solves a raster plan (`problem`'s bounds the floors and ceilings, its tolerance
+/// [`TOLERANCE`]): the scales from the target and the operator, then projected Newton from
+/// the floors.
+pub fn plan(problem: BoundedProblem) -> BoundedSolution {
+    let (operator, weights) = (problem.operator, problem.weights);
+    let m: f64 = weights.iter().sum::<f64>().max(1.0);
     // s_d: the target's RMS over the aperture (1 nm when it is 0); ā: the mean removal per
     // second of dwell at every point, so τ = s_d/ā removes about s_d.
-    let depth = (spec
+    let depth = (problem
         .target
         .iter()
-        .zip(spec.weights)
+        .zip(weights)
         .map(|(d, w)| w * d * d)
         .sum::<f64>()
         / m)
@@ -164,26 +145,12 @@ pub fn plan(operator: &dyn DwellOperator, spec: RasterPlanSpec) -> BoundedSoluti
     let rate: f64 = operator
         .apply(&ones)
         .iter()
-        .zip(spec.weights)
+        .zip(weights)
         .map(|(r, w)| w * r)
         .sum::<f64>()
         / m;
     let dwell_scale = if rate > 0.0 { depth / rate } else { 1.0 };
-    let start = spec.lower.clone();
-    let problem = BoundedProblem {
-        operator,
-        target: spec.target,
-        weights: spec.weights,
-        free_terms: spec.free_terms,
-        edges: spec.edges,
-        smoothing: spec.smoothing,
-        time_weight: spec.time_weight,
-        lower: spec.lower,
-        upper: spec.upper,
-        max_total_s: spec.max_total_s,
-        max_products: spec.max_products,
-        tolerance: TOLERANCE,
-    };
+    let start = problem.lower.clone();
     bounded::solve(&problem, start, depth, dwell_scale)
 }
 

@@ -15,8 +15,9 @@ use super::raster::{
 use super::Warning;
 use crate::field::Figures;
 use crate::maps::HeightMap;
+use crate::optimize::bounded::BoundedProblem;
 use crate::optimize::bounded::BoundedSolution;
-use crate::optimize::raster::{floors, peaks, plan, AxisCaps, AxisPeaks, RasterPlanSpec};
+use crate::optimize::raster::{floors, peaks, plan, AxisCaps, AxisPeaks, TOLERANCE};
 use crate::physics::raster::{PointGrid, Raster, RasterOperator};
 
 /// What the caller asks.
@@ -326,21 +327,20 @@ pub fn raster_optimize(
             });
         }
     }
-    let solution: BoundedSolution = plan(
-        &operator,
-        RasterPlanSpec {
-            target: &target,
-            weights: &weights,
-            free_terms,
-            edges: &edges,
-            smoothing: spec.smoothing,
-            time_weight: spec.time_weight,
-            lower,
-            upper: vec![ceiling; n],
-            max_total_s: spec.max_total_time_s,
-            max_products: MAX_PRODUCTS,
-        },
-    );
+    let solution: BoundedSolution = plan(BoundedProblem {
+        operator: &operator,
+        target: &target,
+        weights: &weights,
+        free_terms,
+        edges: &edges,
+        smoothing: spec.smoothing,
+        time_weight: spec.time_weight,
+        lower,
+        upper: vec![ceiling; n],
+        max_total_s: spec.max_total_time_s,
+        max_products: MAX_PRODUCTS,
+        tolerance: TOLERANCE,
+    });
     // The figures on the map's pixels.
     let removal = placed.crop(&solution.removal);
     let c = &solution.free_coefficients;

@@ -168,30 +168,6 @@ pub struct MapOptimizeRequest {
     pub removal_model: RemovalModelDto,
 }
 
-impl MapForm for MapOptimizeRequest {
-    const FILES: &'static [&'static str] = &["map"];
-    const QUERY_FIELDS: &'static [&'static str] = &[
-        "process",
-        "surface",
-        "pixel_mm",
-        "alignment",
-        "positions_mm",
-        "constraints",
-        "objective",
-        "radial_grid",
-        "clear_aperture",
-        "solver",
-        "machine",
-        "c_law",
-        "removal_pixel_mm",
-        "removal_model",
-    ];
-
-    fn set_file(&mut self, _: &str, bytes: axum::body::Bytes) {
-        self.map = MapSource::File(bytes);
-    }
-}
-
 /// A correction's request: the paper's machine's or an X-Y machine's.
 pub type MapOptimizeAny = Kinds<MapOptimizeRequest, RasterOptimizeRequest>;
 any_of!(
@@ -203,7 +179,8 @@ any_of!(
 
 impl MapForm for MapOptimizeAny {
     const FILES: &'static [&'static str] = &["map"];
-    /// Both kinds' fields (a file body's query names the machine as JSON).
+    /// Both kinds' fields (a file body's query names the machine as JSON; without
+    /// `machine.kinematics: cartesian` the request is the paper's machine's).
     const QUERY_FIELDS: &'static [&'static str] = &[
         "process",
         "surface",
