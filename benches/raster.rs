@@ -50,6 +50,7 @@ fn spec(spot: HeightMap, map: HeightMap, pitch: Option<f64>) -> RasterOptimizeSp
         }; 2],
         smoothing: DEFAULT_RASTER_SMOOTHING,
         time_weight: DEFAULT_TIME_WEIGHT,
+        time_limit_s: f64::INFINITY,
     }
 }
 

@@ -44,6 +44,7 @@
 //! products with M spent.
 
 use super::operator::DwellOperator;
+use super::solver::Budget;
 
 /// What the solver is asked.
 pub struct BoundedProblem<'a> {
@@ -63,6 +64,8 @@ pub struct BoundedProblem<'a> {
     pub max_total_s: Option<f64>,
     /// The most products with M (and as many with Mᵀ) the solve may spend.
     pub max_products: usize,
+    /// The time it may take; `None`: no limit.
+    pub budget: Option<Budget>,
     /// Converged when the KKT residual is below this share of the largest dwell.
     pub tolerance: f64,
 }
@@ -172,6 +175,16 @@ impl<'a> Solver<'a> {
         hv
     }
 
+    /// Whether the solve has spent its products or its time.
+    fn exhausted(&self) -> bool {
+        self.products >= self.p.max_products
+            || self
+                .p
+                .budget
+                .as_ref()
+                .is_some_and(|b| b.remaining_s().is_err())
+    }
+
     /// D⁻¹·r on the free variables (zero elsewhere, where r is).
     fn precondition(&self, r: &[f64]) -> Vec<f64> {
         r.iter().zip(&self.diagonal).map(|(r, d)| r / d).collect()
@@ -208,7 +221,7 @@ impl<'a> Solver<'a> {
                 stats.converged = true;
                 return t;
             }
-            if self.products >= self.p.max_products {
+            if self.exhausted() {
                 stats.converged = false;
                 return t;
             }
@@ -232,7 +245,7 @@ impl<'a> Solver<'a> {
             let mut dir = z.clone();
             let mut rz: f64 = res.iter().zip(&z).map(|(a, b)| a * b).sum();
             for _ in 0..50 {
-                if self.products >= self.p.max_products {
+                if self.exhausted() {
                     break;
                 }
                 stats.cg_iterations += 1;
@@ -449,7 +462,7 @@ pub fn solve(
                 spent += std::mem::take(&mut solver.products);
                 solves += 1;
                 let trial = solver.solve(t.clone(), hi, &mut stats);
-                if phi(&trial) <= 0.0 || solves >= MAX_TOTAL_SOLVES {
+                if phi(&trial) <= 0.0 || solves >= MAX_TOTAL_SOLVES || solver.exhausted() {
                     break trial;
                 }
                 (lo, f_lo) = (hi, phi(&trial));
@@ -458,7 +471,11 @@ pub fn solve(
             };
             let mut f_hi = phi(&best);
             let mut side = 0i8;
-            while solves < MAX_TOTAL_SOLVES && f_hi.abs() > 1e-9 * limit && f_lo > 0.0 {
+            while solves < MAX_TOTAL_SOLVES
+                && f_hi.abs() > 1e-9 * limit
+                && f_lo > 0.0
+                && !solver.exhausted()
+            {
                 let nu = hi - f_hi * (hi - lo) / (f_hi - f_lo);
                 spent += std::mem::take(&mut solver.products);
                 solves += 1;
@@ -593,6 +610,7 @@ mod tests {
                 upper: vec![12.0; cols],
                 max_total_s: max_total,
                 max_products: 20_000,
+                budget: None,
                 tolerance: 1e-8,
             };
             let ours = solve(&problem, vec![0.5; cols], depth, dwell);

@@ -18,6 +18,7 @@ use crate::maps::HeightMap;
 use crate::optimize::bounded::BoundedProblem;
 use crate::optimize::bounded::BoundedSolution;
 use crate::optimize::raster::{floors, peaks, plan, AxisCaps, AxisPeaks, TOLERANCE};
+use crate::optimize::solver::Budget;
 use crate::physics::raster::{PointGrid, Raster, RasterOperator};
 
 /// What the caller asks.
@@ -43,6 +44,9 @@ pub struct RasterOptimizeSpec {
     pub smoothing: f64,
     /// μ: the weight of the total time; default as the radial optimizer's.
     pub time_weight: f64,
+    /// The solver's time, s (the service's solver time limit); it stops there with the best
+    /// plan so far, every bound kept, and a warning.
+    pub time_limit_s: f64,
 }
 
 /// A dwell bound of the plan, by name (for the caller's words).
@@ -339,6 +343,7 @@ pub fn raster_optimize(
         upper: vec![ceiling; n],
         max_total_s: spec.max_total_time_s,
         max_products: MAX_PRODUCTS,
+        budget: Some(Budget::start(spec.time_limit_s)),
         tolerance: TOLERANCE,
     });
     // The figures on the map's pixels.
@@ -445,6 +450,7 @@ mod tests {
             }; 2],
             smoothing: DEFAULT_RASTER_SMOOTHING,
             time_weight: DEFAULT_TIME_WEIGHT,
+            time_limit_s: f64::INFINITY,
         };
         let plan = raster_optimize(RasterOptimizeCommand::new(spec).unwrap()).unwrap();
         // 836 nm RMS of figure (piston and tilt removed) falls below 2 nm (measured 1.57),

@@ -209,12 +209,14 @@ pub enum Warning {
          leaves alone (raise max_harmonic, up to half the sectors)"
     )]
     HarmonicsLeft { max_harmonic: usize, rms_nm: f64 },
-    /// The dwell map's solver stopped at its work limit before its optimality residual
-    /// reached its tolerance: the plan stands (every bound kept) but may not be the best.
+    /// The dwell map's solver stopped at its work or time limit before its optimality
+    /// residual reached its tolerance: the plan stands (every bound kept) but may not be the
+    /// best.
     #[error(
-        "the solver stopped after {products} products with the operator, its optimality \
-         residual at {kkt_residual_s:.3e} s of dwell: the plan keeps every limit but a better \
-         one may exist (a coarser dwell pitch, or smoothing, converges faster)"
+        "the solver stopped at its limit (the service's solver time, or 3,000 products) after \
+         {products} products with the operator, its optimality residual at \
+         {kkt_residual_s:.3e} s of dwell: the plan keeps every limit but a better one may \
+         exist (a coarser dwell pitch, or more smoothing, converges faster)"
     )]
     SolverNotConverged {
         kkt_residual_s: f64,

@@ -452,6 +452,7 @@ impl RasterOptimizeRequest {
             axes,
             smoothing: objective.smoothing.unwrap_or(DEFAULT_RASTER_SMOOTHING),
             time_weight: objective.time_weight.unwrap_or(DEFAULT_TIME_WEIGHT),
+            time_limit_s: limits.solver_time_limit.as_secs_f64(),
         })
     }
 }
