@@ -16,7 +16,7 @@
 //! dwell step: dwell may go wherever the tool still reaches the aperture, and only the
 //! aperture judges it (surface extension, solved rather than guessed).
 
-use crate::field::{Figures, Tally};
+use crate::field::Figures;
 use crate::maps::HeightMap;
 use crate::physics::influence::{Influence, InfluenceError};
 use crate::physics::raster::Lattice;
@@ -256,41 +256,16 @@ impl Placed {
     }
 }
 
-/// The least-squares plane through `values` over the pixels where `mask` holds (x, y their
-/// positions), as a function of (x, y): piston only when the pixels lie on a line.
-pub fn plane_fit(values: &[f64], mask: &[bool], x: &[f64], y: &[f64]) -> impl Fn(f64, f64) -> f64 {
-    let n = mask.iter().filter(|&&m| m).count() as f64;
-    let mean = |f: &dyn Fn(usize) -> f64| -> f64 {
-        (0..values.len()).filter(|&k| mask[k]).map(f).sum::<f64>() / n.max(1.0)
-    };
-    let (mx, my, mz) = (mean(&|k| x[k]), mean(&|k| y[k]), mean(&|k| values[k]));
-    let (mut sxx, mut sxy, mut syy, mut sxz, mut syz) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for k in (0..values.len()).filter(|&k| mask[k]) {
-        let (dx, dy, dz) = (x[k] - mx, y[k] - my, values[k] - mz);
-        sxx += dx * dx;
-        sxy += dx * dy;
-        syy += dy * dy;
-        sxz += dx * dz;
-        syz += dy * dz;
-    }
-    let det = sxx * syy - sxy * sxy;
-    let (a, b) = if det.abs() > 1e-12 * (sxx * syy).max(1e-300) {
-        ((syy * sxz - sxy * syz) / det, (sxx * syz - sxy * sxz) / det)
-    } else {
-        (0.0, 0.0)
-    };
-    move |px, py| mz + a * (px - mx) + b * (py - my)
-}
-
-/// Figures of `values` over the pixels where `mask` holds, less their least-squares piston
-/// and tilt ([`plane_fit`]): the RMS and PV a metrologist quotes.
-pub fn figures_without_tilt(values: &[f64], mask: &[bool], x: &[f64], y: &[f64]) -> Figures {
-    let fit = plane_fit(values, mask, x, y);
-    let mut tally = Tally::new(0.0);
-    for k in (0..values.len()).filter(|&k| mask[k]) {
-        tally.push(values[k] - fit(x[k], y[k]));
-    }
-    tally.figures()
+/// `values` (row-major, `width` per row, `None` without data) as a map less its least-squares
+/// piston and tilt (`HeightMap::without_piston_and_tilt`): the residual a metrologist quotes,
+/// and its figures. At least one value must be given.
+pub fn without_tilt(values: &[Option<f64>], width: usize) -> (HeightMap, Figures) {
+    let rows = values.chunks(width).map(<[_]>::to_vec).collect();
+    let map = HeightMap::from_rows(rows, None, None, usize::MAX)
+        .expect("an aperture has a pixel with data")
+        .without_piston_and_tilt();
+    let figures = map.figures().expect("an aperture has a pixel with data");
+    (map, figures)
 }
 
 #[cfg(test)]

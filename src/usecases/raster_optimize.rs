@@ -9,9 +9,7 @@
 //! point from which the tool still reaches a pixel of the aperture (`usecases::raster`). They
 //! run as a serpentine, row by row from the top, each row the other way from the one before.
 
-use super::raster::{
-    figures_without_tilt, Placed, RasterInputError, SpotSpec, MAX_POINTS, REACH_SHARE,
-};
+use super::raster::{without_tilt, Placed, RasterInputError, SpotSpec, MAX_POINTS, REACH_SHARE};
 use super::Warning;
 use crate::field::Figures;
 use crate::maps::HeightMap;
@@ -368,10 +366,8 @@ pub fn raster_optimize(
         .zip(&removal)
         .map(|(t, m)| t.map(|t| m - t))
         .collect();
-    let mask: Vec<bool> = heights.iter().map(Option::is_some).collect();
-    let plain = |v: &[Option<f64>]| -> Vec<f64> { v.iter().map(|v| v.unwrap_or(0.0)).collect() };
-    let before = figures_without_tilt(&plain(heights), &mask, &xm, &ym);
-    let after = figures_without_tilt(&plain(&residual_nm), &mask, &xm, &ym);
+    let (_, before) = without_tilt(heights, placed.width);
+    let (_, after) = without_tilt(&residual_nm, placed.width);
     let blocks = raster.blocks(&solution.dwell_s);
     let (shapes, fft_shapes) = operator.shapes();
     let mut warnings = Vec::new();

@@ -9,7 +9,7 @@
 //! the points must sit on its pixels, and the residual removal − map (piston and tilt free)
 //! is judged over its pixels with data.
 
-use super::raster::{figures_without_tilt, Placed, RasterInputError, SpotSpec};
+use super::raster::{without_tilt, Placed, RasterInputError, SpotSpec};
 use crate::field::Figures;
 use crate::maps::HeightMap;
 use crate::optimize::raster::{peaks, AxisPeaks};
@@ -247,26 +247,28 @@ pub fn raster_predict(
     let operator = RasterOperator::new(&raster, &influence);
     let removal = placed.crop(&operator.apply(&dwell_s));
     let (x_mm, y_mm) = placed.axes_mm();
-    let xs: Vec<f64> = (0..removal.len()).map(|k| x_mm[k % placed.width]).collect();
-    let ys: Vec<f64> = (0..removal.len()).map(|k| y_mm[k / placed.width]).collect();
     let blocks = raster.blocks(&dwell_s);
-    let (residual_nm, before, after, mask) = match &map {
+    let (residual_nm, before, after) = match &map {
         Some(map) => {
-            let heights = map.heights_nm();
-            let mask: Vec<bool> = heights.iter().map(Option::is_some).collect();
-            let plain: Vec<f64> = heights.iter().map(|h| h.unwrap_or(0.0)).collect();
-            let difference: Vec<f64> = removal.iter().zip(&plain).map(|(m, h)| m - h).collect();
-            let before = figures_without_tilt(&plain, &mask, &xs, &ys);
-            let after = figures_without_tilt(&difference, &mask, &xs, &ys);
-            // The residual less its own best piston and tilt, as the figures take it.
-            let residual = residual_without_tilt(&difference, &mask, &xs, &ys);
-            (Some(residual), Some(before), Some(after), mask)
+            let difference: Vec<Option<f64>> = map
+                .heights_nm()
+                .iter()
+                .zip(&removal)
+                .map(|(h, m)| h.map(|h| m - h))
+                .collect();
+            let (_, before) = without_tilt(map.heights_nm(), placed.width);
+            let (residual, after) = without_tilt(&difference, placed.width);
+            (
+                Some(residual.heights_nm().to_vec()),
+                Some(before),
+                Some(after),
+            )
         }
-        None => (None, None, None, vec![true; removal.len()]),
+        None => (None, None, None),
     };
     let mut tally = crate::field::Tally::new(0.0);
-    for (v, m) in removal.iter().zip(&mask) {
-        if *m {
+    for (k, v) in removal.iter().enumerate() {
+        if map.as_ref().is_none_or(|m| m.heights_nm()[k].is_some()) {
             tally.push(*v);
         }
     }
@@ -283,14 +285,4 @@ pub fn raster_predict(
         blocks: blocks.len(),
         peaks: peaks(&blocks),
     })
-}
-
-/// `values` less their least-squares piston and tilt over `mask`; `None` off it.
-fn residual_without_tilt(values: &[f64], mask: &[bool], x: &[f64], y: &[f64]) -> Vec<Option<f64>> {
-    let fit = super::raster::plane_fit(values, mask, x, y);
-    values
-        .iter()
-        .enumerate()
-        .map(|(k, v)| mask[k].then(|| v - fit(x[k], y[k])))
-        .collect()
 }
