@@ -158,6 +158,8 @@ async function mapRemovalFunction(name: string): Promise<void> {
   check(name, footprint.removal_rate_nm_per_min.length === footprint.y_mm.length, "a row per y");
   const middle = footprint.x_mm[(footprint.x_mm.length - 1) / 2];
   check(name, middle === body.tool_position_mm, "the middle column is the pad centre");
+  check(name, data.kinematics === "polar", "a polar request gets a turning part's footprint");
+  if (data.kinematics !== "polar") return;
   const average: number[] = data.revolution_average.removal_rate_nm_per_min;
   check(name, average.length === data.revolution_average.radius_mm.length, "the average's profile");
 }
@@ -194,6 +196,8 @@ async function mapProgram(name: string): Promise<void> {
   const { data, error } = await client.POST("/v1/maps/program", { body });
   check(name, error === undefined && data !== undefined, JSON.stringify(error));
   if (!data) return;
+  check(name, data.kinematics === "polar", "a polar request gets a program with C words");
+  if (data.kinematics !== "polar") return;
   const c: Schemas["CAxisReport"] = data.axes.c;
   check(name, c.peak_velocity_deg_per_min > 0 && c.turns !== 0, "C turns");
   const planned = body.dwell.dwell_s.reduce((a, b) => a + b, 0);

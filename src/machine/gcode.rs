@@ -4,6 +4,8 @@
 //! alone carries deg/min), G4 P dwells in seconds, G1 for every move in contact. The approach
 //! and retract run in G94 at their own feed.
 //!
+//! An X-Y program ([`write_xy`]) moves X and Y in G93 and Z in G94.
+//!
 //! A polar program ([`write_polar`]) adds C, the part's spindle under position control, to
 //! every block and runs them all in G93, approach and retract included (C turns in each);
 //! C's words are wrapped to [0°, 360°) or cumulative ([`CWords`]).
@@ -21,6 +23,7 @@ use std::fmt::Write;
 use super::polar_program::PolarProgram;
 use super::pose::Pose;
 use super::program::{BlockKind, Program};
+use super::xy_program::XyProgram;
 
 /// How polishing moves carry their feed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -323,6 +326,59 @@ pub fn write_polar(
     }
     out.push_str("G94\n");
     let _ = writeln!(out, "{}", format.tool_spindle.stop);
+    out.push_str("M2\n");
+    out
+}
+
+/// An X-Y program as G-code ([`super::xy_program`]): G0 above the first point, the approach
+/// down Z and the retract up in G94 at their feed, the stops as G4, every move of X and Y a G1
+/// in inverse time (G93, F = 1/duration), so each block takes exactly its time. With
+/// `tool_rpm`, the tool spindle turns at it from before the approach to after the retract.
+pub fn write_xy(
+    program: &XyProgram,
+    header: &[String],
+    tool_rpm: Option<f64>,
+    format: &GcodeFormat,
+) -> String {
+    let d = format.decimals as usize;
+    let xy = |p: [f64; 3]| format!("X{} Y{}", fixed(p[0], d), fixed(p[1], d));
+    let mut out = opening(header, 40 * (program.blocks().len() + 16));
+    let start = program.start_mm();
+    let _ = writeln!(out, "G0 {} Z{}", xy(start), fixed(start[2], d));
+    if let Some(rpm) = tool_rpm {
+        let _ = writeln!(out, "{}", spindle_on(&format.tool_spindle, rpm, false));
+    }
+    let mut inverse_time = false;
+    for block in program.blocks() {
+        let want_inverse = block.kind == BlockKind::Move;
+        if want_inverse && !inverse_time {
+            out.push_str("G93\n");
+            inverse_time = true;
+        }
+        match block.kind {
+            BlockKind::Dwell => {
+                let _ = writeln!(out, "G4 P{}", fixed(block.duration_s, TIME_DECIMALS));
+            }
+            BlockKind::Move => {
+                let feed = significant(60.0 / block.duration_s);
+                let _ = writeln!(out, "G1 {} F{feed}", xy(block.end_mm));
+            }
+            BlockKind::Approach | BlockKind::Retract => {
+                if inverse_time {
+                    out.push_str("G94\n");
+                    inverse_time = false;
+                }
+                let feed = significant(program.approach.feed_mm_per_min);
+                let _ = writeln!(out, "G1 Z{} F{feed}", fixed(block.end_mm[2], d));
+            }
+        }
+    }
+    if inverse_time {
+        out.push_str("G94\n");
+    }
+    if tool_rpm.is_some() {
+        let _ = writeln!(out, "{}", format.tool_spindle.stop);
+    }
     out.push_str("M2\n");
     out
 }

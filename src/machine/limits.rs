@@ -14,8 +14,10 @@ pub enum AxisKind {
 /// an array.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Axis {
-    /// The radial axis.
+    /// The radial axis (on an X-Y machine, right on the part's map).
     X,
+    /// An X-Y machine's second table axis (up on the part's map); the paper's machine has none.
+    Y,
     /// The axial axis (positive toward the tool).
     Z,
     /// The tool's tilt in the meridian plane.
@@ -32,7 +34,7 @@ impl Axis {
 
     pub fn kind(self) -> AxisKind {
         match self {
-            Axis::X | Axis::Z => AxisKind::Linear,
+            Axis::X | Axis::Y | Axis::Z => AxisKind::Linear,
             Axis::B | Axis::C => AxisKind::Rotary,
         }
     }
@@ -41,6 +43,7 @@ impl Axis {
     pub fn name(self) -> &'static str {
         match self {
             Axis::X => "x",
+            Axis::Y => "y",
             Axis::Z => "z",
             Axis::B => "b",
             Axis::C => "c",
@@ -143,6 +146,8 @@ pub struct AxisLimits {
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct MachineLimitsSpec {
     pub x: AxisLimits,
+    /// An X-Y machine's Y.
+    pub y: AxisLimits,
     pub z: AxisLimits,
     pub b: AxisLimits,
     /// C under position control: its velocity and acceleration (travel does not apply).
@@ -160,6 +165,12 @@ pub struct MachineLimitsSpec {
 /// travel: that depends on the machine's size, and no dwell changes it.
 pub const DEFAULT_MACHINE: MachineLimitsSpec = MachineLimitsSpec {
     x: AxisLimits {
+        min: None,
+        max: None,
+        max_velocity_per_min: Some(10_000.0),
+        max_acceleration_per_s2: Some(2_000.0),
+    },
+    y: AxisLimits {
         min: None,
         max: None,
         max_velocity_per_min: Some(10_000.0),
@@ -226,6 +237,7 @@ impl MachineChoice {
             MachineChoice::Unlimited => MachineLimitsSpec::default(),
             MachineChoice::Given(given) => MachineLimitsSpec {
                 x: given.x.or(DEFAULT_MACHINE.x),
+                y: given.y.or(DEFAULT_MACHINE.y),
                 z: given.z.or(DEFAULT_MACHINE.z),
                 b: given.b.or(DEFAULT_MACHINE.b),
                 c: given.c.or(DEFAULT_MACHINE.c),
@@ -261,6 +273,7 @@ impl MachineChoice {
                 };
                 let stated = match drive {
                     Drive::Axis(Axis::X) => axis(&given.x),
+                    Drive::Axis(Axis::Y) => axis(&given.y),
                     Drive::Axis(Axis::Z) => axis(&given.z),
                     Drive::Axis(Axis::B) => axis(&given.b),
                     Drive::Axis(Axis::C) => axis(&given.c),
@@ -286,6 +299,7 @@ impl MachineChoice {
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct MachineLimits {
     x: AxisLimits,
+    y: AxisLimits,
     z: AxisLimits,
     b: AxisLimits,
     c: AxisLimits,
@@ -308,6 +322,7 @@ impl MachineLimits {
     pub fn new(spec: MachineLimitsSpec) -> Result<MachineLimits, InvalidLimit> {
         let limits = MachineLimits {
             x: spec.x,
+            y: spec.y,
             z: spec.z,
             b: spec.b,
             c: spec.c,
@@ -327,6 +342,7 @@ impl MachineLimits {
     pub fn axis(&self, axis: Axis) -> &AxisLimits {
         match axis {
             Axis::X => &self.x,
+            Axis::Y => &self.y,
             Axis::Z => &self.z,
             Axis::B => &self.b,
             Axis::C => &self.c,
@@ -339,7 +355,7 @@ impl MachineLimits {
             limit,
             message: format!("{} {message}", LimitKind::name(limit, drive)),
         };
-        for axis in Axis::ALL.into_iter().chain([Axis::C]) {
+        for axis in Axis::ALL.into_iter().chain([Axis::Y, Axis::C]) {
             let a = self.axis(axis);
             let drive = Drive::from(axis);
             for (value, limit) in [(a.min, LimitKind::Min), (a.max, LimitKind::Max)] {

@@ -42,6 +42,7 @@ pub mod limits;
 pub mod polar_program;
 pub mod pose;
 pub mod program;
+pub mod xy_program;
 
 pub use gcode::{
     CWords, FeedMode, GcodeFormat, GcodeFormatError, GcodeFormatSpec, SpindleWords,
@@ -57,3 +58,4 @@ pub use program::{
     cell_travel, Approach, AxisMotion, Block, BlockKind, Program, ProgramError, Skipped,
     Utilisation,
 };
+pub use xy_program::{XyBlock, XyProgram};

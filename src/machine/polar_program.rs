@@ -220,6 +220,7 @@ impl PolarProgram {
             Axis::Z => 1,
             Axis::B => 2,
             Axis::C => 3,
+            Axis::Y => unreachable!("the paper's machine has no Y"),
         }]
     }
 

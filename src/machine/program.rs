@@ -54,7 +54,7 @@ pub struct AxisMotion {
 impl AxisMotion {
     /// `positions`: the axis at the program's start and at the end of each block; each block
     /// its own span.
-    fn of(positions: Vec<f64>, durations_s: &[f64]) -> AxisMotion {
+    pub(super) fn of(positions: Vec<f64>, durations_s: &[f64]) -> AxisMotion {
         let spans: Vec<usize> = (0..durations_s.len()).collect();
         AxisMotion::of_spans(positions, durations_s, &spans)
     }
@@ -390,7 +390,7 @@ fn axis_index(axis: Axis) -> usize {
         Axis::B => 2,
         // A program's per-axis arrays hold the axes of `Axis::ALL`; C appears only under a
         // speed law, in its own words of the program.
-        Axis::C => unreachable!("a program's per-axis arrays do not hold C"),
+        Axis::Y | Axis::C => unreachable!("a program's per-axis arrays hold X, Z and B"),
     }
 }
 

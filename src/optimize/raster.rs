@@ -25,6 +25,7 @@
 //! and leaves the last at rest.
 
 use super::bounded::{self, BoundedProblem, BoundedSolution};
+use super::operator::DwellOperator;
 use crate::physics::motion::acceleration;
 use crate::physics::raster::{Block, Raster};
 
@@ -125,15 +126,20 @@ pub fn peaks(blocks: &[Block]) -> [AxisPeaks; 2] {
 }
 
 /// Solves a raster plan (`problem`'s bounds the floors and ceilings, its tolerance
-/// [`TOLERANCE`]): the scales from the target and the operator, then projected Newton from
-/// the floors.
+/// [`TOLERANCE`]): the scales from the target and the operator ([`scales`]), then projected
+/// Newton from the floors.
 pub fn plan(problem: BoundedProblem) -> BoundedSolution {
-    let (operator, weights) = (problem.operator, problem.weights);
+    let (depth, dwell_scale) = scales(problem.operator, problem.target, problem.weights);
+    let start = problem.lower.clone();
+    bounded::solve(&problem, start, depth, dwell_scale)
+}
+
+/// The depth scale s_d, the target's RMS over the aperture (1 nm when it is 0), and the dwell
+/// scale τ = s_d/ā, ā the mean removal per second of dwell at every point, so that τ at every
+/// point removes about s_d.
+pub fn scales(operator: &dyn DwellOperator, target: &[f64], weights: &[f64]) -> (f64, f64) {
     let m: f64 = weights.iter().sum::<f64>().max(1.0);
-    // s_d: the target's RMS over the aperture (1 nm when it is 0); ā: the mean removal per
-    // second of dwell at every point, so τ = s_d/ā removes about s_d.
-    let depth = (problem
-        .target
+    let depth = (target
         .iter()
         .zip(weights)
         .map(|(d, w)| w * d * d)
@@ -150,8 +156,7 @@ pub fn plan(problem: BoundedProblem) -> BoundedSolution {
         .sum::<f64>()
         / m;
     let dwell_scale = if rate > 0.0 { depth / rate } else { 1.0 };
-    let start = problem.lower.clone();
-    bounded::solve(&problem, start, depth, dwell_scale)
+    (depth, dwell_scale)
 }
 
 /// The default smoothing λ of a raster plan. A dwell map is a deconvolution: a point the

@@ -117,20 +117,122 @@ pub struct Block {
     pub duration_s: f64,
 }
 
-/// The raster: dwell points on a lattice in path order, and their motion along the path.
+/// A tool path: points in the plane (mm) in path order, and the motion along it (stations at
+/// the points' arc lengths). What a program executes; a [`Raster`] is one on a lattice.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Path {
+    points_mm: Vec<[f64; 2]>,
+    motion: Motion,
+}
+
+impl Path {
+    /// The path through `points_mm` in the order given (finite; no point twice in a row).
+    pub fn through(points_mm: Vec<[f64; 2]>) -> Result<Path, RasterError> {
+        let along = arc_lengths(&points_mm, dist)?;
+        Ok(Path {
+            points_mm,
+            motion: Motion::radial(along),
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.points_mm.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.points_mm.is_empty()
+    }
+
+    pub fn points_mm(&self) -> &[[f64; 2]] {
+        &self.points_mm
+    }
+
+    pub fn motion(&self) -> &Motion {
+        &self.motion
+    }
+
+    /// The executed motion for dwell `dwell_s` (one per point, ≥ 0): the stop at the first
+    /// point, each cell's two half-legs, the stop at the last (blocks of 0 s included, so the
+    /// blocks of a plan are the same for every dwell).
+    pub fn blocks(&self, dwell_s: &[f64]) -> Vec<Block> {
+        let n = self.len();
+        let motion = &self.motion;
+        let point = |k: usize| self.points_mm[k];
+        let mut blocks = Vec::with_capacity(2 * n + 2);
+        let stop = |k: usize| Block {
+            point: k,
+            from_mm: point(k),
+            to_mm: point(k),
+            duration_s: motion.stop_share(k) * dwell_s[k],
+        };
+        if n == 1 {
+            return vec![stop(0)];
+        }
+        blocks.push(stop(0));
+        let mid = |a: usize, b: usize| {
+            let (p, q) = (point(a), point(b));
+            [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]
+        };
+        for (k, &dwell) in dwell_s.iter().enumerate().take(n) {
+            let p = point(k);
+            let start = if k > 0 { mid(k - 1, k) } else { p };
+            let end = if k + 1 < n { mid(k, k + 1) } else { p };
+            let (a, b) = (dist(start, p), dist(p, end));
+            let time = motion.move_share(k) * dwell;
+            for (from, to, len) in [(start, p, a), (p, end, b)] {
+                if len > 0.0 {
+                    blocks.push(Block {
+                        point: k,
+                        from_mm: from,
+                        to_mm: to,
+                        duration_s: time * len / (a + b),
+                    });
+                }
+            }
+        }
+        blocks.push(stop(n - 1));
+        blocks
+    }
+}
+
+/// The arc length at each point of a path (`step` the length between neighbours), refusing
+/// an empty path and a point repeated in a row.
+fn arc_lengths<P: Copy + PartialEq>(
+    points: &[P],
+    step: impl Fn(P, P) -> f64,
+) -> Result<Vec<f64>, RasterError> {
+    if points.is_empty() {
+        return Err(RasterError::Empty);
+    }
+    let mut along = Vec::with_capacity(points.len());
+    let mut s = 0.0;
+    for (k, &p) in points.iter().enumerate() {
+        if k > 0 {
+            let q = points[k - 1];
+            if q == p {
+                return Err(RasterError::Repeated {
+                    point: k - 1,
+                    next: k,
+                });
+            }
+            s += step(q, p);
+        }
+        along.push(s);
+    }
+    Ok(along)
+}
+
+/// The raster: dwell points on a lattice in path order, and the path through them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Raster {
     lattice: Lattice,
     points: Vec<[usize; 2]>,
-    motion: Motion,
+    path: Path,
 }
 
 impl Raster {
     /// The raster through `points` (pixels of `lattice`) in the order given.
     pub fn along(lattice: Lattice, points: Vec<[usize; 2]>) -> Result<Raster, RasterError> {
-        if points.is_empty() {
-            return Err(RasterError::Empty);
-        }
         for (point, &[i, j]) in points.iter().enumerate() {
             if i >= lattice.nx || j >= lattice.ny {
                 return Err(RasterError::OffLattice {
@@ -142,26 +244,22 @@ impl Raster {
                 });
             }
         }
-        let mut along = Vec::with_capacity(points.len());
-        let mut s = 0.0;
-        for (k, p) in points.iter().enumerate() {
-            if k > 0 {
-                let q = points[k - 1];
-                if q == *p {
-                    return Err(RasterError::Repeated {
-                        point: k - 1,
-                        next: k,
-                    });
-                }
-                let (di, dj) = (p[0] as f64 - q[0] as f64, p[1] as f64 - q[1] as f64);
-                s += di.hypot(dj) * lattice.pitch_mm;
-            }
-            along.push(s);
-        }
+        // Arc lengths from whole pixel steps, so that equal steps are equal to the last bit.
+        let along = arc_lengths(&points, |q, p| {
+            let (di, dj) = (p[0] as f64 - q[0] as f64, p[1] as f64 - q[1] as f64);
+            di.hypot(dj) * lattice.pitch_mm
+        })?;
+        let points_mm = points
+            .iter()
+            .map(|&[i, j]| [lattice.x_mm(i), lattice.y_mm(j)])
+            .collect();
         Ok(Raster {
             lattice,
             points,
-            motion: Motion::radial(along),
+            path: Path {
+                points_mm,
+                motion: Motion::radial(along),
+            },
         })
     }
 
@@ -208,13 +306,12 @@ impl Raster {
 
     /// The motion along the path (stations at the points' arc lengths, mm).
     pub fn motion(&self) -> &Motion {
-        &self.motion
+        self.path.motion()
     }
 
-    /// Point k's position, mm.
-    pub fn point_mm(&self, k: usize) -> [f64; 2] {
-        let [i, j] = self.points[k];
-        [self.lattice.x_mm(i), self.lattice.y_mm(j)]
+    /// The path through the points, mm.
+    pub fn path(&self) -> &Path {
+        &self.path
     }
 
     /// The pixel vector from point k to point `other`.
@@ -233,50 +330,13 @@ impl Raster {
         } else {
             [after, before]
         };
-        let stop_halves = (2.0 * self.motion.stop_share(k)).round() as u8;
+        let stop_halves = (2.0 * self.motion().stop_share(k)).round() as u8;
         Shape { legs, stop_halves }
     }
 
-    /// The executed motion for dwell `dwell_s` (one per point, ≥ 0): the stop at the first
-    /// point, each cell's two half-legs, the stop at the last (blocks of 0 s included, so the
-    /// blocks of a plan are the same for every dwell).
+    /// The executed motion for dwell `dwell_s` ([`Path::blocks`]).
     pub fn blocks(&self, dwell_s: &[f64]) -> Vec<Block> {
-        let n = self.len();
-        let motion = &self.motion;
-        let mut blocks = Vec::with_capacity(2 * n + 2);
-        let stop = |k: usize| Block {
-            point: k,
-            from_mm: self.point_mm(k),
-            to_mm: self.point_mm(k),
-            duration_s: motion.stop_share(k) * dwell_s[k],
-        };
-        if n == 1 {
-            return vec![stop(0)];
-        }
-        blocks.push(stop(0));
-        let mid = |a: usize, b: usize| {
-            let (p, q) = (self.point_mm(a), self.point_mm(b));
-            [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]
-        };
-        for (k, &dwell) in dwell_s.iter().enumerate().take(n) {
-            let p = self.point_mm(k);
-            let start = if k > 0 { mid(k - 1, k) } else { p };
-            let end = if k + 1 < n { mid(k, k + 1) } else { p };
-            let (a, b) = (dist(start, p), dist(p, end));
-            let time = motion.move_share(k) * dwell;
-            for (from, to, len) in [(start, p, a), (p, end, b)] {
-                if len > 0.0 {
-                    blocks.push(Block {
-                        point: k,
-                        from_mm: from,
-                        to_mm: to,
-                        duration_s: time * len / (a + b),
-                    });
-                }
-            }
-        }
-        blocks.push(stop(n - 1));
-        blocks
+        self.path.blocks(dwell_s)
     }
 }
 

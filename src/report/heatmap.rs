@@ -22,7 +22,7 @@ use font8x8::UnicodeFonts;
 
 use crate::usecases::map_analysis::MapAnalysisResult;
 use crate::usecases::map_predict::MapPrediction;
-use crate::usecases::map_removal_function::MapRemovalFunction;
+use crate::usecases::map_removal_function::Footprint;
 
 /// The colour ramp's stops, from the minimum to the maximum.
 pub const RAMP: [[u8; 3]; 9] = [
@@ -141,9 +141,9 @@ pub fn map_png(r: &MapAnalysisResult) -> Vec<u8> {
     )
 }
 
-/// The heat map of a pad's footprint (its rate in nm/min over its grid), as PNG bytes.
-pub fn footprint_png(r: &MapRemovalFunction) -> Vec<u8> {
-    let f = &r.footprint;
+/// The heat map of a pad's footprint (its rate in nm/min over its grid, the pad centre at
+/// `tool_position_mm`), as PNG bytes.
+pub fn footprint_png(f: &Footprint, tool_position_mm: f64) -> Vec<u8> {
     let width = f.width();
     heat_png(
         (width, f.height()),
@@ -156,7 +156,7 @@ pub fn footprint_png(r: &MapRemovalFunction) -> Vec<u8> {
         },
         &format!(
             "r1 {} mm  peak {:.4} nm/min",
-            r.tool_position_mm,
+            tool_position_mm,
             f.peak_nm_per_min()
         ),
         "nm/min",

@@ -13,11 +13,12 @@ use crate::usecases::map_analysis::MapAnalysisResult;
 use crate::usecases::map_difference::MapDifferenceResult;
 use crate::usecases::map_predict::MapPrediction;
 use crate::usecases::map_program::PolarMachineProgram;
-use crate::usecases::map_removal_function::MapRemovalFunction;
+use crate::usecases::map_removal_function::Footprint;
 use crate::usecases::measurement_fit::MeasurementFit;
 use crate::usecases::optimize::OptimizedPlan;
 use crate::usecases::predict::Prediction;
 use crate::usecases::program::MachineProgram;
+use crate::usecases::raster_program::RasterMachineProgram;
 use crate::usecases::removal_function::RemovalFunction;
 
 fn header(names: &[&str]) -> Vec<String> {
@@ -248,8 +249,7 @@ pub fn map_analysis_svg(r: &MapAnalysisResult) -> String {
 
 /// A pad's footprint, pixel by pixel from the top row: position in the part's frame and the
 /// instantaneous rate.
-pub fn footprint_csv(r: &MapRemovalFunction) -> String {
-    let f = &r.footprint;
+pub fn footprint_csv(f: &Footprint) -> String {
     let (x, y): (Vec<f64>, Vec<f64>) = f
         .y_mm
         .iter()
@@ -404,6 +404,25 @@ pub fn polar_program_csv(m: &PolarMachineProgram) -> String {
             b.end.b_deg,
             b.c_deg,
             60.0 * b.c_deg_per_s,
+            b.duration_s,
+            60.0 / b.duration_s
+        ));
+    }
+    out
+}
+
+/// One row per block of an X-Y program: its kind, the plan's point whose dwell it spends,
+/// where it ends and its timing.
+pub fn xy_program_csv(m: &RasterMachineProgram) -> String {
+    let mut out = String::from("block,kind,point,x_mm,y_mm,z_mm,duration_s,inverse_time_per_min\n");
+    for (i, b) in m.program.blocks().iter().enumerate() {
+        out.push_str(&format!(
+            "{i},{},{},{},{},{},{},{}\n",
+            block_kind(b.kind),
+            b.point.map_or(String::new(), |p| p.to_string()),
+            b.end_mm[0],
+            b.end_mm[1],
+            b.end_mm[2],
             b.duration_s,
             60.0 / b.duration_s
         ));

@@ -12,6 +12,12 @@
 //!   radius r is R(r; r1) — the identity that makes today's 1-D model the azimuthal mean of
 //!   the 2-D one.
 //!
+//! On an X-Y machine the part stands still (Ω = 0) and the pad spins in place: the sliding
+//! speed is ω2·|p − c| and the footprint, ρ = K·P·(p/P)·|ω2|·|p − c| on the pad, is the
+//! removal rate at every instant, the tool's influence function ([`still_footprint`]). Its
+//! pressure is the process's model at the pad centre's distance r1 from the part's centre
+//! (uniform inside the part under every model; overhanging the edge, as the 1-D model has it).
+//!
 //! Rates in nm/min, like the 1-D removal function's.
 
 use super::removal_function::{removal_function, RemovalFunction, RemovalFunctionCommand};
@@ -48,6 +54,11 @@ pub enum FootprintInputError {
         if *open { ")" } else { "]" }
     )]
     PositionOutOfReach { value: f64, max: f64, open: bool },
+    #[error(
+        "on an X-Y machine the part stands still: workpiece_rpm must be 0, not {0} (the pad \
+         spins at tool_rpm in place)"
+    )]
+    PartTurning(f64),
     #[error("the pixel must be a positive number of mm, not {0}")]
     Pixel(f64),
     #[error(
@@ -182,20 +193,102 @@ pub fn map_removal_function(command: MapRemovalFunctionCommand) -> MapRemovalFun
         pixel_mm,
         half,
     } = command;
+    MapRemovalFunction {
+        tool_position_mm: r1,
+        average: removal_function(profile),
+        footprint: footprint(&pad, r1, half, pixel_mm),
+    }
+}
+
+/// The pad's influence function on a part that stands still: the process (its
+/// `workpiece_rpm` 0), where the pad centre is and the footprint's pixel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StillFootprintSpec {
+    pub process: ProcessSpec,
+    /// The pad centre's distance from the part's centre, mm; default 0.
+    pub tool_position_mm: Option<f64>,
+    /// Default the pad's diameter / 200.
+    pub pixel_mm: Option<f64>,
+}
+
+/// A checked still-part footprint: the pad with the part at rest.
+#[derive(Debug, Clone)]
+pub struct StillFootprintCommand {
+    pad: PolarPad,
+    tool_position_mm: f64,
+    pixel_mm: f64,
+    half: usize,
+}
+
+impl StillFootprintCommand {
+    pub fn new(
+        spec: StillFootprintSpec,
+        limits: &ComputeLimits,
+    ) -> Result<Self, FootprintInputError> {
+        if spec.process.workpiece_rpm != 0.0 {
+            return Err(FootprintInputError::PartTurning(spec.process.workpiece_rpm));
+        }
+        // A process is checked as a turning one; the footprint depends on the part's speed
+        // only through the sliding speed (ω2 − Ω)·p − ω2·c, set to Ω = 0 below, so any speed
+        // stands in for the check.
+        let turning = ProcessSpec {
+            workpiece_rpm: 1.0,
+            ..spec.process
+        };
+        let command = MapRemovalFunctionCommand::new(
+            MapRemovalFunctionSpec {
+                process: turning,
+                part: PartSpec::default(),
+                grid: GridSpec::default(),
+                tool_position_mm: spec.tool_position_mm.unwrap_or(0.0),
+                pixel_mm: spec.pixel_mm,
+            },
+            limits,
+        )?;
+        Ok(StillFootprintCommand {
+            pad: command.pad.turning_at(0.0),
+            tool_position_mm: command.tool_position_mm,
+            pixel_mm: command.pixel_mm,
+            half: command.half,
+        })
+    }
+}
+
+/// The influence function of the pad on a still part.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StillFootprint {
+    pub tool_position_mm: f64,
+    /// On the grid centred on the pad centre: its middle pixel (`half`, `half`).
+    pub footprint: Footprint,
+    pub half: usize,
+}
+
+pub fn still_footprint(command: StillFootprintCommand) -> StillFootprint {
+    let StillFootprintCommand {
+        pad,
+        tool_position_mm: r1,
+        pixel_mm,
+        half,
+    } = command;
+    StillFootprint {
+        tool_position_mm: r1,
+        footprint: footprint(&pad, r1, half, pixel_mm),
+        half,
+    }
+}
+
+/// The footprint of `pad` with its centre at (r1, 0) on the square grid of 2·half + 1 pixels.
+fn footprint(pad: &PolarPad, r1: f64, half: usize, pixel_mm: f64) -> Footprint {
     let (x_mm, y_mm) = square_axes(r1, half, pixel_mm);
     let rate_nm_per_min = y_mm
         .iter()
         .flat_map(|&y| x_mm.iter().map(move |&x| (x, y)))
         .map(|p| 60.0 * pad.rate_at(p, (r1, 0.0)))
         .collect();
-    MapRemovalFunction {
-        tool_position_mm: r1,
-        average: removal_function(profile),
-        footprint: Footprint {
-            pixel_mm,
-            x_mm,
-            y_mm,
-            rate_nm_per_min,
-        },
+    Footprint {
+        pixel_mm,
+        x_mm,
+        y_mm,
+        rate_nm_per_min,
     }
 }

@@ -34,6 +34,7 @@ pub mod program;
 pub mod raster;
 pub mod raster_optimize;
 pub mod raster_predict;
+pub mod raster_program;
 pub mod recommend;
 pub mod records;
 pub mod removal_function;

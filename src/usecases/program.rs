@@ -6,7 +6,7 @@ use super::setting::{process_on_part, Mount, PartSpec, SettingError};
 use super::warnings::process_warnings;
 use super::Warning;
 use crate::machine::{
-    gcode, Approach, Axis, AxisMotion, GcodeFormat, GcodeFormatError, GcodeFormatSpec,
+    gcode, Approach, Axis, AxisLimits, AxisMotion, GcodeFormat, GcodeFormatError, GcodeFormatSpec,
     InvalidLimit, MachineChoice, MachineLimits, Program, ProgramError, Tool, Violation,
 };
 use crate::physics::{DwellSchedule, Process, ProcessSpec, ScheduleError};
@@ -167,6 +167,24 @@ pub struct MachineProgram {
     pub gcode: String,
 }
 
+/// The fastest approach feed (mm/min) at which an axis taking the share `share` (> 0) of it
+/// over `clearance_mm`, starting from rest, stays within its limits (docs of
+/// [`approach_feed`]); unbounded without limits.
+pub(super) fn approach_cap(share: f64, limit: &AxisLimits, clearance_mm: f64) -> f64 {
+    let mut feed = f64::INFINITY;
+    // Each bound less a hair, so rounding in the program's own arithmetic never puts the
+    // approach over the limit it was slowed for (at the bound itself a Z velocity came out
+    // 1 ulp above its limit, and the program was refused).
+    if let Some(v) = limit.max_velocity_per_min {
+        feed = feed.min(v / share * (1.0 - 1e-9));
+    }
+    if let Some(a) = limit.max_acceleration_per_s2 {
+        let bound = 60.0 * (a * clearance_mm / (2.0 * share)).sqrt();
+        feed = feed.min(bound * (1.0 - 1e-9));
+    }
+    feed
+}
+
 /// The approach feed: the one asked, or the default lowered so that neither X nor Z exceeds
 /// its velocity or acceleration limit moving along the tool axis at either end of the plan.
 /// An axis taking the share s of feed f over the clearance c starts from rest at
@@ -193,16 +211,7 @@ pub(super) fn approach_feed(command: &ProgramCommand) -> f64 {
             if share == 0.0 {
                 continue;
             }
-            // Each bound less a hair, so rounding in the program's own arithmetic never puts
-            // the approach over the limit it was slowed for (at the bound itself a Z velocity
-            // came out 1 ulp above its limit, and the program was refused).
-            if let Some(v) = limit.max_velocity_per_min {
-                feed = feed.min(v / share * (1.0 - 1e-9));
-            }
-            if let Some(a) = limit.max_acceleration_per_s2 {
-                let bound = 60.0 * (a * command.clearance_mm / (2.0 * share)).sqrt();
-                feed = feed.min(bound * (1.0 - 1e-9));
-            }
+            feed = feed.min(approach_cap(share, limit, command.clearance_mm));
         }
     }
     // A limit tighter than the slowest approach is then reported as a violation.
@@ -262,6 +271,20 @@ fn header(command: &ProgramCommand, program: &Program) -> Vec<String> {
     )
 }
 
+/// The header's line saying which limits the program was checked against.
+pub(super) fn limits_line(choice: MachineChoice) -> String {
+    match choice {
+        MachineChoice::Default => "limits: Preston's default machine".to_string(),
+        MachineChoice::Given(_) => {
+            "limits: the machine as given (the default machine's where not given)".to_string()
+        }
+        MachineChoice::Unlimited => {
+            "WARNING: machine unlimited: no limit was checked; a study, not a program to run"
+                .to_string()
+        }
+    }
+}
+
 /// The header's lines for a program of these times whose `axes` move so, with `more` lines
 /// after the axes' ranges.
 pub(super) fn header_lines(
@@ -314,16 +337,7 @@ pub(super) fn header_lines(
     ]);
     lines.extend(more.iter().cloned());
     lines.extend([
-        match command.choice {
-            MachineChoice::Default => "limits: Preston's default machine".to_string(),
-            MachineChoice::Given(_) => {
-                "limits: the machine as given (the default machine's where not given)".to_string()
-            }
-            MachineChoice::Unlimited => {
-                "WARNING: machine unlimited: no limit was checked; a study, not a program to run"
-                    .to_string()
-            }
-        },
+        limits_line(command.choice),
         format!("request sha256 {}", command.request_digest),
     ]);
     lines

@@ -17,6 +17,7 @@ use crate::optimize::bounded::BoundedProblem;
 use crate::optimize::bounded::BoundedSolution;
 use crate::optimize::raster::{floors, peaks, plan, AxisCaps, AxisPeaks, TOLERANCE};
 use crate::optimize::solver::Budget;
+use crate::physics::influence::Influence;
 use crate::physics::raster::{PointGrid, Raster, RasterOperator};
 
 /// What the caller asks.
@@ -80,7 +81,7 @@ pub enum RasterOptimizeError {
 #[derive(Debug)]
 pub struct RasterOptimizeCommand {
     spec: RasterOptimizeSpec,
-    influence: crate::physics::influence::Influence,
+    influence: Influence,
     placed: Placed,
     grid: PointGrid,
 }
@@ -253,21 +254,40 @@ fn point_grid(placed: &Placed, map: &HeightMap, step: usize, reach: usize) -> Po
 /// The products the solver may spend.
 pub const MAX_PRODUCTS: usize = 3000;
 
-/// Plans the correction.
-pub fn raster_optimize(
-    command: RasterOptimizeCommand,
-) -> Result<RasterCorrection, RasterOptimizeError> {
-    let RasterOptimizeCommand {
-        spec,
-        influence,
-        placed,
-        grid,
-    } = command;
+/// A raster plan's problem before it is solved: the raster and its operator, the target and
+/// weights on the lattice (1 on the map's pixels with data), the free terms, the smoothing's
+/// neighbour pairs and the dwell bounds (the axes' floors and the caller's limits).
+pub struct RasterProblem {
+    pub raster: Raster,
+    pub operator: RasterOperator,
+    pub target: Vec<f64>,
+    pub weights: Vec<f64>,
+    /// Each lattice pixel's x and y, mm.
+    pub xs: Vec<f64>,
+    pub ys: Vec<f64>,
+    pub free_terms: Vec<Vec<f64>>,
+    pub edges: Vec<(usize, usize)>,
+    pub lower: Vec<f64>,
+    pub upper: Vec<f64>,
+}
+
+impl RasterOptimizeCommand {
+    /// The problem the plan solves (for a peer solver to be given the same one).
+    pub fn problem(&self) -> Result<RasterProblem, RasterOptimizeError> {
+        assemble(&self.spec, &self.influence, &self.placed, &self.grid)
+    }
+}
+
+fn assemble(
+    spec: &RasterOptimizeSpec,
+    influence: &Influence,
+    placed: &Placed,
+    grid: &PointGrid,
+) -> Result<RasterProblem, RasterOptimizeError> {
     let lattice = placed.lattice;
-    let raster = Raster::serpentine(lattice, &grid)
+    let raster = Raster::serpentine(lattice, grid)
         .expect("the grid's points are distinct pixels of its lattice");
-    let operator = RasterOperator::new(&raster, &influence);
-    let n = raster.len();
+    let operator = RasterOperator::new(&raster, influence);
     // The target and weights on the lattice; the free terms over it.
     let pixels = lattice.pixels();
     let (mut target, mut weights) = (vec![0.0; pixels], vec![0.0; pixels]);
@@ -329,6 +349,43 @@ pub fn raster_optimize(
             });
         }
     }
+    Ok(RasterProblem {
+        upper: vec![ceiling; raster.len()],
+        raster,
+        operator,
+        target,
+        weights,
+        xs,
+        ys,
+        free_terms,
+        edges,
+        lower,
+    })
+}
+
+/// Plans the correction.
+pub fn raster_optimize(
+    command: RasterOptimizeCommand,
+) -> Result<RasterCorrection, RasterOptimizeError> {
+    let RasterOptimizeCommand {
+        spec,
+        influence,
+        placed,
+        grid,
+    } = command;
+    let lattice = placed.lattice;
+    let RasterProblem {
+        raster,
+        operator,
+        target,
+        weights,
+        xs,
+        ys,
+        free_terms,
+        edges,
+        lower,
+        upper,
+    } = assemble(&spec, &influence, &placed, &grid)?;
     let solution: BoundedSolution = plan(BoundedProblem {
         operator: &operator,
         target: &target,
@@ -338,7 +395,7 @@ pub fn raster_optimize(
         smoothing: spec.smoothing,
         time_weight: spec.time_weight,
         lower,
-        upper: vec![ceiling; n],
+        upper,
         max_total_s: spec.max_total_time_s,
         max_products: MAX_PRODUCTS,
         budget: Some(Budget::start(spec.time_limit_s)),
@@ -382,7 +439,7 @@ pub fn raster_optimize(
         pixel_mm: lattice.pitch_mm,
         x_mm,
         y_mm,
-        points_mm: (0..n).map(|k| raster.point_mm(k)).collect(),
+        points_mm: raster.path().points_mm().to_vec(),
         total_time_s: solution.dwell_s.iter().sum(),
         dwell_pitch_mm: grid.step as f64 * lattice.pitch_mm,
         peaks: peaks(&blocks),
@@ -426,6 +483,10 @@ mod tests {
     /// influence function, planned at the default dwell pitch.
     #[test]
     fn the_fluid_jet_case_is_corrected() {
+        use crate::machine::{Axis, MachineChoice};
+        use crate::usecases::raster_program::{
+            raster_program, RasterProgramCommand, RasterProgramSpec,
+        };
         let spec = RasterOptimizeSpec {
             spot: SpotSpec {
                 map: fixture("fluid_jet_tif.txt"),
@@ -464,6 +525,32 @@ mod tests {
         for p in plan.peaks {
             assert!(p.velocity_mm_per_min <= 10_000.0 * (1.0 + 1e-12));
             assert!(p.acceleration_mm_per_s2 <= 2_000.0 * (1.0 + 1e-12));
+        }
+        // Its program on the default machine (the same X and Y limits) is accepted, and X's
+        // and Y's peaks are the plan's to 1e-9.
+        let program = raster_program(
+            RasterProgramCommand::new(RasterProgramSpec {
+                points_mm: plan.points_mm.clone(),
+                dwell_s: plan.dwell_s.clone(),
+                machine: MachineChoice::Default,
+                tool_rpm: None,
+                clearance_mm: None,
+                approach_feed_mm_per_min: None,
+                format: Default::default(),
+                request_digest: String::new(),
+            })
+            .unwrap(),
+        )
+        .unwrap();
+        for (axis, p) in [Axis::X, Axis::Y].into_iter().zip(plan.peaks) {
+            let m = program.program.motion(axis);
+            let v = p.velocity_mm_per_min;
+            let a = p.acceleration_mm_per_s2;
+            assert!((m.peak_velocity_per_min - v).abs() <= 1e-9 * v, "{axis:?}");
+            assert!(
+                (m.peak_acceleration_per_s2 - a).abs() <= 1e-9 * a,
+                "{axis:?}"
+            );
         }
     }
 }

@@ -19,6 +19,9 @@ use crate::physics::raster::{Raster, RasterError, RasterOperator};
 /// The longest dwell at one point, s (a year).
 pub const MAX_DWELL_S: f64 = 3.2e7;
 
+/// The farthest a point may be from the map's centre, mm (10 m).
+pub const MAX_COORDINATE_MM: f64 = 1e4;
+
 /// The most dwell points one prediction takes.
 pub const MAX_PREDICT_POINTS: usize = super::raster::MAX_POINTS;
 
@@ -56,7 +59,9 @@ pub enum RasterPredictError {
     },
     #[error("{0}")]
     Raster(#[from] RasterError),
-    #[error("a plan of {points} points: at most {max} are predicted")]
+    #[error("point {index} must be [x, y] mm, each within ±{MAX_COORDINATE_MM} mm")]
+    Point { index: usize },
+    #[error("a plan of {points} points: at most {max} are taken")]
     TooManyPoints { points: usize, max: usize },
 }
 
@@ -92,29 +97,7 @@ pub struct RasterPrediction {
 impl RasterPredictCommand {
     pub fn new(spec: RasterPredictSpec) -> Result<RasterPredictCommand, RasterPredictError> {
         let n = spec.points_mm.len();
-        if n != spec.dwell_s.len() {
-            return Err(RasterPredictError::Lengths {
-                points: n,
-                dwell: spec.dwell_s.len(),
-            });
-        }
-        if n == 0 {
-            return Err(RasterError::Empty.into());
-        }
-        if n > MAX_PREDICT_POINTS {
-            return Err(RasterPredictError::TooManyPoints {
-                points: n,
-                max: MAX_PREDICT_POINTS,
-            });
-        }
-        if let Some((index, &value)) = spec
-            .dwell_s
-            .iter()
-            .enumerate()
-            .find(|(_, v)| !(v.is_finite() && (0.0..=MAX_DWELL_S).contains(*v)))
-        {
-            return Err(RasterPredictError::Dwell { index, value });
-        }
+        check_plan(&spec.points_mm, &spec.dwell_s)?;
         let influence = spec.spot.influence()?;
         let pixel = spec
             .pixel_mm
@@ -231,6 +214,41 @@ impl RasterPredictCommand {
             map: spec.map,
         })
     }
+}
+
+/// A plan's points and dwell, as every raster endpoint takes them: one dwell per point, each
+/// in [0, [`MAX_DWELL_S`]], 1 to [`MAX_PREDICT_POINTS`] points within ±[`MAX_COORDINATE_MM`].
+pub fn check_plan(points_mm: &[[f64; 2]], dwell_s: &[f64]) -> Result<(), RasterPredictError> {
+    let n = points_mm.len();
+    if n != dwell_s.len() {
+        return Err(RasterPredictError::Lengths {
+            points: n,
+            dwell: dwell_s.len(),
+        });
+    }
+    if n == 0 {
+        return Err(RasterError::Empty.into());
+    }
+    if n > MAX_PREDICT_POINTS {
+        return Err(RasterPredictError::TooManyPoints {
+            points: n,
+            max: MAX_PREDICT_POINTS,
+        });
+    }
+    if let Some((index, &value)) = dwell_s
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !(v.is_finite() && (0.0..=MAX_DWELL_S).contains(*v)))
+    {
+        return Err(RasterPredictError::Dwell { index, value });
+    }
+    if let Some(index) = points_mm
+        .iter()
+        .position(|p| p.iter().any(|c| !c.is_finite() || c.abs() > MAX_COORDINATE_MM))
+    {
+        return Err(RasterPredictError::Point { index });
+    }
+    Ok(())
 }
 
 pub fn raster_predict(

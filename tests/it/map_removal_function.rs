@@ -165,7 +165,7 @@ async fn the_footprint_comes_as_csv_and_png() {
 #[tokio::test]
 async fn bad_input_names_its_field() {
     let app = app();
-    let cases: [(&str, Value, &str); 5] = [
+    let cases: [(&str, Value, &str); 6] = [
         (
             "surface",
             json!({"kind": "sphere", "radius_of_curvature_mm": -20.0}),
@@ -174,9 +174,15 @@ async fn bad_input_names_its_field() {
         ("tool_position_mm", json!(61.0), "tool_position_mm"),
         ("pixel_mm", json!(0.0), "pixel_mm"),
         ("pixel_mm", json!(1e-4), "pixel_mm"),
+        // On an X-Y machine the part stands still: a turning part is refused by its field.
         (
             "machine",
             json!({"kinematics": "cartesian"}),
+            "process.workpiece_rpm",
+        ),
+        (
+            "machine",
+            json!({"kinematics": "milling"}),
             "machine.kinematics",
         ),
     ];

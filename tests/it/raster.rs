@@ -5,7 +5,7 @@
 
 use serde_json::{json, Value};
 
-use crate::common::http::{app, post_json};
+use crate::common::http::{app, post_json, post_with};
 
 /// An uneven spot (no symmetry to hide a flipped axis), 9 × 7 pixels of 0.4 mm, its removal in
 /// nm over `SPOT_S` seconds, rows top first.
@@ -271,6 +271,7 @@ async fn a_correction_is_its_own_prediction_and_keeps_its_limits() {
             assert!((a - b).abs() <= 1e-9 * b, "{axis} {peak}: {a} vs {b}");
         }
     }
+    program_keeps_the_plans_limits(&plan, &machine).await;
     // A total time the plan must meet binds, and is met (to 1e-5 below: the multiplier's
     // search stops where its solves' own tolerance does).
     let total = plan["total_time_s"].as_f64().unwrap();
@@ -355,4 +356,281 @@ async fn bad_raster_input_names_its_field() {
     let reply = post_json(&app(), "/v1/maps/predict", polar.to_string()).await;
     assert_eq!(reply.status, 422, "{}", reply.text());
     assert_eq!(reply.json()["field"], "influence", "{}", reply.text());
+}
+
+/// The G-code's G1 and G4 blocks, read back: (X, Y, seconds) per block from the start, the
+/// approach and retract (Z words) left out as the plan's own motion has none.
+fn gcode_blocks(gcode: &str) -> (Vec<[f64; 2]>, Vec<f64>) {
+    let word = |line: &str, letter: char| {
+        line.split_whitespace()
+            .find(|w| w.starts_with(letter))
+            .map(|w| w[1..].parse::<f64>().unwrap())
+    };
+    let (mut at, mut ends, mut seconds) = ([f64::NAN; 2], vec![], vec![]);
+    for line in gcode.lines() {
+        if line.starts_with("G0 ") {
+            at = [word(line, 'X').unwrap(), word(line, 'Y').unwrap()];
+            ends.push(at);
+        } else if line.starts_with("G4 ") {
+            ends.push(at);
+            seconds.push(word(line, 'P').unwrap());
+        } else if line.starts_with("G1 X") {
+            at = [word(line, 'X').unwrap(), word(line, 'Y').unwrap()];
+            ends.push(at);
+            // G93: F is the block's inverse time, 1/min.
+            seconds.push(60.0 / word(line, 'F').unwrap());
+        }
+    }
+    (ends, seconds)
+}
+
+/// `/v1/maps/program` of the plan on the same machine: accepted; X's and Y's peaks equal the
+/// plan's to 1e-9 (one model, computed again from the program's own blocks); and the G-code
+/// read back gives them again by the documented model (velocity constant in a block, changed
+/// over the time between block midpoints, from and to rest), to the G-code's rounding: 7
+/// decimals of a 0.4 mm half-leg and 10 digits of F are 1e-6 relative at worst.
+async fn program_keeps_the_plans_limits(plan: &Value, machine: &Value) {
+    let body = json!({
+        "machine": machine,
+        "dwell": plan["dwell"],
+        "format": {"decimals": 7},
+    });
+    let reply = post_json(&app(), "/v1/maps/program", body.to_string()).await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let program = reply.json();
+    assert_eq!(program["kinematics"], "cartesian");
+    let total = plan["total_time_s"].as_f64().unwrap();
+    assert!((program["total_time_s"].as_f64().unwrap() - total).abs() <= 1e-9 * total);
+    let names = [
+        ("velocity_mm_per_min", "peak_velocity_mm_per_min"),
+        ("acceleration_mm_per_s2", "peak_acceleration_mm_per_s2"),
+    ];
+    for axis in ["x", "y"] {
+        for (ours, theirs) in names {
+            let (a, b) = (
+                program["axes"][axis][theirs].as_f64().unwrap(),
+                plan["axes"][axis][ours].as_f64().unwrap(),
+            );
+            assert!((a - b).abs() <= 1e-9 * b, "{axis} {ours}: {a} vs {b}");
+        }
+    }
+    let reply = post_with(
+        &app(),
+        "/v1/maps/program",
+        body.to_string(),
+        &[
+            ("content-type", "application/json"),
+            ("accept", "text/x-gcode"),
+        ],
+    )
+    .await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let gcode = reply.text();
+    assert!(
+        gcode.contains("G93") && gcode.trim_end().ends_with("M2"),
+        "{gcode}"
+    );
+    let (ends, seconds) = gcode_blocks(&gcode);
+    assert_eq!(ends.len(), seconds.len() + 1);
+    let read: f64 = seconds.iter().sum();
+    assert!((read - total).abs() <= 1e-6 * total, "{read} vs {total}");
+    for (axis, name) in [(0, "x"), (1, "y")] {
+        let v: Vec<f64> = (0..seconds.len())
+            .map(|k| (ends[k + 1][axis] - ends[k][axis]) / seconds[k])
+            .collect();
+        let mut peak_a = 0.0_f64;
+        for k in 0..=v.len() {
+            let (v0, d0) = if k == 0 {
+                (0.0, 0.0)
+            } else {
+                (v[k - 1], seconds[k - 1])
+            };
+            let (v1, d1) = if k == v.len() {
+                (0.0, 0.0)
+            } else {
+                (v[k], seconds[k])
+            };
+            if (v1 - v0).abs() > 1e-9 * v0.abs().max(v1.abs()) {
+                peak_a = peak_a.max((v1 - v0).abs() / ((d0 + d1) / 2.0));
+            }
+        }
+        let peak_v = 60.0 * v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        for (read, name2) in [(peak_v, names[0].1), (peak_a, names[1].1)] {
+            let reported = program["axes"][name][name2].as_f64().unwrap();
+            assert!(
+                (read - reported).abs() <= 1e-5 * reported,
+                "{name} {name2}: read {read} vs {reported}"
+            );
+        }
+    }
+    // The same plan on a machine with X at half the plan's peak velocity: a 422 naming the
+    // limit, never a program.
+    let peak = plan["axes"]["x"]["velocity_mm_per_min"].as_f64().unwrap();
+    let mut slow = body.clone();
+    slow["machine"]["x"]["max_velocity_mm_per_min"] = json!(peak / 2.0);
+    let reply = post_json(&app(), "/v1/maps/program", slow.to_string()).await;
+    assert_eq!(reply.status, 422, "{}", reply.text());
+    assert_eq!(
+        reply.json()["violations"][0]["field"],
+        "machine.x.max_velocity_mm_per_min",
+        "{}",
+        reply.text()
+    );
+}
+
+/// The area, centroid abscissa and second moment about it of the lens where a pad of radius
+/// `rt` centred at (r1, 0) meets a part of radius `rm`: A = ∫2h dx, x_c = ∫2h·x dx / A,
+/// I_c = ∫2h·(x − x_c)² dx, h the half-chord, on the two pieces each circle bounds, each by
+/// Simpson's rule in θ with x = a + (b − a)(1 − cos θ)/2 (which takes the square-root ends
+/// away: the integrand becomes smooth, and 20,000 panels are exact to rounding).
+fn lens(rt: f64, rm: f64, r1: f64) -> (f64, f64, f64) {
+    let cross = (r1 * r1 + rm * rm - rt * rt) / (2.0 * r1);
+    type HalfChord = Box<dyn Fn(f64) -> f64>;
+    let pieces: [(f64, f64, HalfChord); 2] = [
+        (
+            r1 - rt,
+            cross,
+            Box::new(move |x: f64| (rt * rt - (x - r1).powi(2)).max(0.0).sqrt()),
+        ),
+        (
+            cross,
+            rm,
+            Box::new(move |x: f64| (rm * rm - x * x).max(0.0).sqrt()),
+        ),
+    ];
+    let integral = |g: &dyn Fn(f64) -> f64| -> f64 {
+        let n = 20_000;
+        pieces
+            .iter()
+            .map(|(a, b, h)| {
+                let f = |t: f64| {
+                    let x = a + (b - a) * (1.0 - t.cos()) / 2.0;
+                    2.0 * h(x) * g(x) * (b - a) * t.sin() / 2.0
+                };
+                let dt = std::f64::consts::PI / n as f64;
+                (0..=n)
+                    .map(|i| {
+                        let w = if i == 0 || i == n {
+                            1.0
+                        } else if i % 2 == 1 {
+                            4.0
+                        } else {
+                            2.0
+                        };
+                        w * f(i as f64 * dt)
+                    })
+                    .sum::<f64>()
+                    * dt
+                    / 3.0
+            })
+            .sum()
+    };
+    let area = integral(&|_| 1.0);
+    let centroid = integral(&|x| x) / area;
+    let second = integral(&|x: f64| (x - centroid).powi(2));
+    (area, centroid, second)
+}
+
+/// Preston's pad on a part that stands still (`/v1/maps/removal-function`, cartesian): at
+/// every pixel the rate is K·p·|ω2|·ρ, ρ the distance from the pad centre (the sliding speed
+/// of a pad spinning in place), against this test's own pressure: nominal on the part; under
+/// constant force and the linear (moment-balance) model overhanging the edge, the force
+/// P·π·r_t² on the lens the part leaves, p = F/A + b·(x − x_c), b = κ·F·(r1 − x_c)/I_c, with
+/// A, x_c, I_c by the quadrature above. Agreement to 1e-9 of the peak. Its `influence` drives
+/// `/v1/maps/predict` as it is: one point's dwell of 10 s removes 10 s of the rate.
+#[tokio::test]
+async fn the_pad_on_a_still_part_is_its_sliding_speed() {
+    let (rm, rt, rpm, k, kpa) = (50.0, 10.0, 200.0, 1e-13, 10.0);
+    let omega = rpm * std::f64::consts::TAU / 60.0;
+    let f = kpa * 1e3 * std::f64::consts::PI * rt * rt;
+    for (model, r1) in [
+        ("uniform", 0.0),
+        ("uniform", 44.0),
+        ("constant_force", 44.0),
+        ("linear", 44.0),
+    ] {
+        let body = json!({
+            "process": {
+                "workpiece_radius_mm": rm, "tool_radius_mm": rt,
+                "workpiece_rpm": 0.0, "tool_rpm": rpm,
+                "preston_coefficient_m2_per_n": k, "pressure_kpa": kpa,
+                "pressure_model": model, "pad_moment_share": 1.0,
+            },
+            "machine": {"kinematics": "cartesian"},
+            "tool_position_mm": r1,
+            "pixel_mm": 0.25,
+        });
+        let reply = post_json(&app(), "/v1/maps/removal-function", body.to_string()).await;
+        assert_eq!(reply.status, 200, "{}", reply.text());
+        let answer = reply.json();
+        assert_eq!(answer["kinematics"], "cartesian");
+        let (area, xc, ic) = lens(rt, rm, r1);
+        // Pressure (Pa) at abscissa x on the contact.
+        let pressure = |x: f64| match (model, r1) {
+            ("uniform", _) | (_, 0.0) => kpa * 1e3,
+            ("constant_force", _) => f / area,
+            _ => f / area + f * (r1 - xc) / ic * (x - xc),
+        };
+        if model == "linear" {
+            // The least pressure, on the pad's inner rim: 0.37 of nominal (a 4 mm overhang).
+            let least = pressure(r1 - rt) / (kpa * 1e3);
+            assert!((least - 0.37).abs() < 0.005, "{least}");
+        }
+        let fp = &answer["footprint"];
+        let xs: Vec<f64> = serde_json::from_value(fp["x_mm"].clone()).unwrap();
+        let ys: Vec<f64> = serde_json::from_value(fp["y_mm"].clone()).unwrap();
+        let rates: Vec<Vec<f64>> =
+            serde_json::from_value(fp["removal_rate_nm_per_min"].clone()).unwrap();
+        let peak = fp["peak_removal_rate_nm_per_min"].as_f64().unwrap();
+        let mut worst = 0.0_f64;
+        for (row, &y) in rates.iter().zip(&ys) {
+            for (&got, &x) in row.iter().zip(&xs) {
+                let (dx, dy) = (x - r1, y);
+                let on = x * x + y * y <= rm * rm && dx * dx + dy * dy <= rt * rt;
+                let want = if on {
+                    60.0 * 1e6 * k * pressure(x) * omega * dx.hypot(dy)
+                } else {
+                    0.0
+                };
+                worst = worst.max((got - want).abs());
+            }
+        }
+        assert!(worst <= 1e-9 * peak, "{model} at {r1}: {worst} of {peak}");
+        // The influence is the same map in nm/s, centred on the pad.
+        let influence = &answer["influence"];
+        let centre = (xs.len() - 1) / 2;
+        assert_eq!(
+            influence["centre_px"],
+            json!([centre as f64, centre as f64])
+        );
+        let per_s = influence["map"]["heights_nm"][centre + 3][centre - 7]
+            .as_f64()
+            .unwrap();
+        assert!((per_s * 60.0 - rates[centre + 3][centre - 7]).abs() <= 1e-12 * peak);
+        if r1 == 0.0 {
+            let predict = json!({
+                "machine": {"kinematics": "cartesian"},
+                "influence": influence,
+                "dwell": {"points_mm": [[0.0, 0.0]], "dwell_s": [10.0]},
+            });
+            let reply = post_json(&app(), "/v1/maps/predict", predict.to_string()).await;
+            assert_eq!(reply.status, 200, "{}", reply.text());
+            let removal = reply.json()["removal"]["removal_nm"].clone();
+            let removal: Vec<Vec<f64>> = serde_json::from_value(removal).unwrap();
+            let most = removal.iter().flatten().fold(0.0_f64, |m, v| m.max(*v));
+            // The rim's peak rate, 10 s of it (the lattice holds the spot's pixels).
+            assert!(
+                (most - 10.0 * peak / 60.0).abs() <= 1e-9 * most,
+                "{most} vs {peak}"
+            );
+        }
+    }
+    // A part that turns is not an X-Y machine's.
+    let turning = json!({
+        "process": {"workpiece_radius_mm": rm, "tool_radius_mm": rt, "workpiece_rpm": 5.0, "tool_rpm": rpm},
+        "machine": {"kinematics": "cartesian"},
+    });
+    let reply = post_json(&app(), "/v1/maps/removal-function", turning.to_string()).await;
+    assert_eq!(reply.status, 422, "{}", reply.text());
+    assert_eq!(reply.json()["field"], "process.workpiece_rpm");
 }

@@ -229,18 +229,21 @@ fn axis_limits(
     }
 }
 
+impl From<&LinearAxisDto> for AxisLimits {
+    fn from(a: &LinearAxisDto) -> Self {
+        axis_limits(
+            a.min_mm,
+            a.max_mm,
+            a.max_velocity_mm_per_min,
+            a.max_acceleration_mm_per_s2,
+        )
+    }
+}
+
 impl From<&MachineDto> for MachineLimitsSpec {
     fn from(m: &MachineDto) -> Self {
-        let linear = |a: &Option<LinearAxisDto>| {
-            a.as_ref().map_or(AxisLimits::default(), |a| {
-                axis_limits(
-                    a.min_mm,
-                    a.max_mm,
-                    a.max_velocity_mm_per_min,
-                    a.max_acceleration_mm_per_s2,
-                )
-            })
-        };
+        let linear =
+            |a: &Option<LinearAxisDto>| a.as_ref().map_or(AxisLimits::default(), Into::into);
         let b = m.b.as_ref().map_or(AxisLimits::default(), |b| {
             axis_limits(
                 b.min_deg,
@@ -251,6 +254,8 @@ impl From<&MachineDto> for MachineLimitsSpec {
         });
         MachineLimitsSpec {
             x: linear(&m.x),
+            // The paper's machine has no Y.
+            y: AxisLimits::default(),
             z: linear(&m.z),
             b,
             // A 1-D plan turns C at the process's constant speed: the spindle's limit holds.
@@ -271,6 +276,20 @@ impl From<Utilisation> for UtilisationDto {
     }
 }
 
+impl LinearAxisReport {
+    /// A linear axis's travel, peaks and use of its `limits` over its motion.
+    pub fn of(m: &AxisMotion, limits: &AxisLimits) -> Self {
+        LinearAxisReport {
+            min_mm: m.min,
+            max_mm: m.max,
+            travel_mm: m.travel(),
+            peak_velocity_mm_per_min: m.peak_velocity_per_min,
+            peak_acceleration_mm_per_s2: m.peak_acceleration_per_s2,
+            utilisation: m.utilisation(limits).into(),
+        }
+    }
+}
+
 impl AxesDto {
     /// Each axis's travel, peaks and use of `machine`'s limits over `program`.
     pub fn of(program: &Program, machine: &MachineLimits) -> Self {
@@ -280,14 +299,7 @@ impl AxesDto {
     /// Each axis's travel, peaks and use of `machine`'s limits over its motion (X, Z, B).
     pub fn of_motions(motions: [&AxisMotion; 3], machine: &MachineLimits) -> Self {
         let [x, z, b] = motions;
-        let linear = |axis, m: &AxisMotion| LinearAxisReport {
-            min_mm: m.min,
-            max_mm: m.max,
-            travel_mm: m.travel(),
-            peak_velocity_mm_per_min: m.peak_velocity_per_min,
-            peak_acceleration_mm_per_s2: m.peak_acceleration_per_s2,
-            utilisation: m.utilisation(machine.axis(axis)).into(),
-        };
+        let linear = |axis, m: &AxisMotion| LinearAxisReport::of(m, machine.axis(axis));
         AxesDto {
             x: linear(Axis::X, x),
             z: linear(Axis::Z, z),

@@ -42,6 +42,7 @@ impl From<FootprintInputError> for ApiError {
             FootprintInputError::PositionNotFinite(_)
             | FootprintInputError::PositionOutOfReach { .. } => "tool_position_mm",
             FootprintInputError::Pixel(_) => "pixel_mm",
+            FootprintInputError::PartTurning(_) => "process.workpiece_rpm",
             FootprintInputError::TooManyPixels { .. } => {
                 return ApiError::limit("pixel_mm", err.to_string())
             }

@@ -1,10 +1,12 @@
 //! Where the X-Y machine's inputs sit in the map requests (`machine.kinematics: cartesian`).
 
 use super::super::error::ApiError;
+use crate::machine::GcodeFormatError;
 use crate::physics::raster::RasterError;
 use crate::usecases::raster::RasterInputError;
 use crate::usecases::raster_optimize::{RasterBound, RasterOptimizeError};
 use crate::usecases::raster_predict::RasterPredictError;
+use crate::usecases::raster_program::RasterProgramInputError;
 
 impl From<RasterInputError> for ApiError {
     fn from(e: RasterInputError) -> Self {
@@ -53,7 +55,9 @@ impl From<RasterPredictError> for ApiError {
             RasterPredictError::Input(input) => return input.clone().into(),
             RasterPredictError::Lengths { .. } => "dwell.dwell_s".to_string(),
             RasterPredictError::Dwell { index, .. } => format!("dwell.dwell_s[{index}]"),
-            RasterPredictError::OffLattice { index, .. } => format!("dwell.points_mm[{index}]"),
+            RasterPredictError::OffLattice { index, .. } | RasterPredictError::Point { index } => {
+                format!("dwell.points_mm[{index}]")
+            }
             RasterPredictError::Raster(RasterError::Repeated { next, .. }) => {
                 format!("dwell.points_mm[{next}]")
             }
@@ -64,5 +68,24 @@ impl From<RasterPredictError> for ApiError {
             | RasterPredictError::TooManyPoints { .. } => "dwell.points_mm".to_string(),
         };
         ApiError::invalid(field, e.to_string())
+    }
+}
+
+impl From<RasterProgramInputError> for ApiError {
+    fn from(e: RasterProgramInputError) -> Self {
+        use RasterProgramInputError as E;
+        let detail = e.to_string();
+        let field = match e {
+            E::Plan(plan) => return plan.into(),
+            E::Limits(l) => super::limit_field(l.drive, l.limit),
+            E::Format(GcodeFormatError::Decimals) => "format.decimals".to_string(),
+            E::Format(GcodeFormatError::Word { word, .. }) => {
+                format!("format.tool_spindle.{word}")
+            }
+            E::Clearance => "approach.clearance_mm".to_string(),
+            E::ApproachFeed => "approach.feed_mm_per_min".to_string(),
+            E::ToolRpm(_) => "tool_rpm".to_string(),
+        };
+        ApiError::invalid(field, detail)
     }
 }

@@ -6,6 +6,7 @@ pub mod optimize;
 pub mod predict;
 pub mod program;
 pub mod raster;
+pub mod raster_program;
 pub mod removal_function;
 
 use serde::{Deserialize, Serialize};

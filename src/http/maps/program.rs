@@ -18,7 +18,10 @@ use super::super::program::{
 use super::super::state::Services;
 use super::optimize::PolarMachineDto;
 use super::predict::CLawDto;
+use super::raster::{Answer, Kinds};
+use super::raster_program::{RasterProgramRequest, RasterProgramResponse};
 use super::removal_function::KinematicsDto;
+use crate::http::openapi::any_of;
 use crate::machine::gcode::CWords;
 use crate::machine::{Axis, GcodeFormatSpec};
 use crate::report::results;
@@ -26,6 +29,7 @@ use crate::usecases::map_program::{
     map_program, MapProgramCommand, MapProgramSpec, PolarMachineProgram,
 };
 use crate::usecases::program::{ProgramCommand, ProgramSpec};
+use crate::usecases::raster_program::{raster_program, RasterMachineProgram, RasterProgramCommand};
 use crate::usecases::ComputeLimits;
 
 /// How C's words are written: `wrapped` (in [0, 360); every block turns C by at most 90°, so
@@ -174,6 +178,40 @@ pub struct MapProgramResponse {
     pub gcode: String,
 }
 
+/// A program's request: the paper's machine's or an X-Y machine's.
+pub type MapProgramAny = Kinds<MapProgramRequest, RasterProgramRequest>;
+any_of!(
+    impl MapProgramAny as "MapProgramAnyRequest",
+    [MapProgramRequest, RasterProgramRequest],
+    "A plan to program: on the paper's machine (`machine.kinematics` `polar`, the default) or \
+     on an X-Y machine (`machine.kinematics` `cartesian`)."
+);
+
+/// A program of either machine.
+pub type MapProgramAnswer = Answer<MapProgramResponse, RasterProgramResponse>;
+any_of!(
+    impl MapProgramAnswer as "MapProgramAnyResponse",
+    [MapProgramResponse, RasterProgramResponse],
+    "A polar program with C words, or an X-Y machine's (`kinematics` says which)."
+);
+
+/// A program of either machine, as computed.
+pub type MapProgramOutput = Answer<PolarMachineProgram, RasterMachineProgram>;
+
+fn program_csv(m: &MapProgramOutput) -> String {
+    match m {
+        Answer::Polar(p) => results::polar_program_csv(p),
+        Answer::Cartesian(c) => results::xy_program_csv(c),
+    }
+}
+
+fn program_gcode(m: &MapProgramOutput) -> String {
+    match m {
+        Answer::Polar(p) => p.gcode.clone(),
+        Answer::Cartesian(c) => c.gcode.clone(),
+    }
+}
+
 pub struct MapProgramEndpoint;
 
 impl Endpoint for MapProgramEndpoint {
@@ -195,18 +233,19 @@ program. On a curved part Z and B follow the pad centre along the surface. `Acce
 text/x-gcode` returns the G-code, `text/csv` the block table.",
         ok: "Per-axis motion and utilisation; as G-code, the program; as CSV, the block table",
     };
-    type Request = MapProgramRequest;
-    type Body = ApiJson<MapProgramRequest>;
-    type Command = MapProgramCommand;
-    type Output = PolarMachineProgram;
-    type Response = MapProgramResponse;
-    const CSV: Option<fn(&PolarMachineProgram) -> String> = Some(results::polar_program_csv);
-    const GCODE: Option<fn(&PolarMachineProgram) -> String> = Some(|m| m.gcode.clone());
+    type Request = MapProgramAny;
+    type Body = ApiJson<MapProgramAny>;
+    type Command = Kinds<MapProgramCommand, RasterProgramCommand>;
+    type Output = MapProgramOutput;
+    type Response = MapProgramAnswer;
+    const CSV: Option<fn(&MapProgramOutput) -> String> = Some(program_csv);
+    const GCODE: Option<fn(&MapProgramOutput) -> String> = Some(program_gcode);
 
-    fn parse(
-        req: MapProgramRequest,
-        limits: &ComputeLimits,
-    ) -> Result<MapProgramCommand, ApiError> {
+    fn parse(req: MapProgramAny, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
+        let req = match req {
+            Kinds::Polar(req) => req,
+            Kinds::Cartesian(req) => return Ok(Kinds::Cartesian(req.command()?)),
+        };
         let digest = request_digest(&req)?;
         let approach = req.approach.clone().unwrap_or_default();
         let format = req.format.clone().unwrap_or_default();
@@ -240,61 +279,71 @@ text/x-gcode` returns the G-code, `text/csv` the block table.",
             start_angle_deg: req.start_angle_deg,
             c_words: format.c_words.map(Into::into),
         };
-        Ok(MapProgramCommand::new(base, spec)?)
+        Ok(Kinds::Polar(MapProgramCommand::new(base, spec)?))
     }
 
-    fn run(command: MapProgramCommand, _: &Services) -> Result<PolarMachineProgram, ApiError> {
-        Ok(map_program(command)?)
+    fn run(command: Self::Command, _: &Services) -> Result<MapProgramOutput, ApiError> {
+        Ok(match command {
+            Kinds::Polar(c) => Answer::Polar(map_program(c)?),
+            Kinds::Cartesian(c) => Answer::Cartesian(raster_program(c)?),
+        })
     }
 
-    fn respond(m: PolarMachineProgram) -> MapProgramResponse {
-        let p = &m.program;
-        let spec = m.process.spec();
-        let (start, start_c) = p.start();
-        let axes = super::super::dto::AxesDto::of_motions(
-            [Axis::X, Axis::Z, Axis::B].map(|a| p.motion(a)),
-            &m.machine,
-        );
-        let c = p.motion(Axis::C);
-        MapProgramResponse {
-            kinematics: KinematicsDto::Polar,
-            start: PolarPoseDto {
-                x_mm: start.x_mm,
-                z_mm: start.z_mm,
-                b_deg: start.b_deg,
-                c_deg: start_c,
-            },
-            blocks: p.blocks().len(),
-            total_time_s: p.polishing_time_s,
-            program_time_s: p.program_time_s,
-            axes: PolarAxesDto {
-                x: axes.x,
-                z: axes.z,
-                b: axes.b,
-                c: CAxisReport {
-                    turns: (c.positions[c.positions.len() - 1] - c.positions[0]) / 360.0,
-                    peak_velocity_deg_per_min: c.peak_velocity_per_min,
-                    peak_acceleration_deg_per_s2: c.peak_acceleration_per_s2,
-                    utilisation: c.utilisation(m.machine.axis(Axis::C)).into(),
-                },
-            },
-            spindles: SpindlesDto {
-                workpiece_rpm: spec.workpiece_rpm,
-                tool_rpm: spec.tool_rpm,
-                eta: m.process.eta().value(),
-            },
-            skipped_positions: SkippedDto {
-                leading: p.skipped.leading,
-                trailing: p.skipped.trailing,
-            },
-            approach_clearance_mm: p.approach.clearance_mm,
-            approach_feed_mm_per_min: p.approach.feed_mm_per_min,
-            c_words: match m.c_words {
-                CWords::Wrapped => CWordsDto::Wrapped,
-                CWords::Unwound => CWordsDto::Unwound,
-            },
-            warnings: WarningDto::all_at(&m.warnings, "dwell.positions_mm"),
-            gcode: m.gcode,
+    fn respond(m: MapProgramOutput) -> MapProgramAnswer {
+        match m {
+            Answer::Polar(m) => Answer::Polar(polar_response(m)),
+            Answer::Cartesian(m) => Answer::Cartesian(m.into()),
         }
+    }
+}
+
+fn polar_response(m: PolarMachineProgram) -> MapProgramResponse {
+    let p = &m.program;
+    let spec = m.process.spec();
+    let (start, start_c) = p.start();
+    let axes = super::super::dto::AxesDto::of_motions(
+        [Axis::X, Axis::Z, Axis::B].map(|a| p.motion(a)),
+        &m.machine,
+    );
+    let c = p.motion(Axis::C);
+    MapProgramResponse {
+        kinematics: KinematicsDto::Polar,
+        start: PolarPoseDto {
+            x_mm: start.x_mm,
+            z_mm: start.z_mm,
+            b_deg: start.b_deg,
+            c_deg: start_c,
+        },
+        blocks: p.blocks().len(),
+        total_time_s: p.polishing_time_s,
+        program_time_s: p.program_time_s,
+        axes: PolarAxesDto {
+            x: axes.x,
+            z: axes.z,
+            b: axes.b,
+            c: CAxisReport {
+                turns: (c.positions[c.positions.len() - 1] - c.positions[0]) / 360.0,
+                peak_velocity_deg_per_min: c.peak_velocity_per_min,
+                peak_acceleration_deg_per_s2: c.peak_acceleration_per_s2,
+                utilisation: c.utilisation(m.machine.axis(Axis::C)).into(),
+            },
+        },
+        spindles: SpindlesDto {
+            workpiece_rpm: spec.workpiece_rpm,
+            tool_rpm: spec.tool_rpm,
+            eta: m.process.eta().value(),
+        },
+        skipped_positions: SkippedDto {
+            leading: p.skipped.leading,
+            trailing: p.skipped.trailing,
+        },
+        approach_clearance_mm: p.approach.clearance_mm,
+        approach_feed_mm_per_min: p.approach.feed_mm_per_min,
+        c_words: match m.c_words {
+            CWords::Wrapped => CWordsDto::Wrapped,
+            CWords::Unwound => CWordsDto::Unwound,
+        },
+        warnings: WarningDto::all_at(&m.warnings, "dwell.positions_mm"),
+        gcode: m.gcode,
     }
 }

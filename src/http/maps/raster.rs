@@ -9,10 +9,12 @@ use super::super::error::ApiError;
 use super::super::extract::{kind_from_value, object, optional_object};
 use super::body::{MapGridDto, MapSource};
 use super::predict::{MapFiguresDto, RemovalMapDto};
-use crate::http::dto::{LinearAxisDto, WarningDto};
+use crate::http::dto::{LinearAxisDto, SpindleLimitDto, WarningDto};
+use crate::machine::{AxisLimits, MachineChoice, MachineLimitsSpec};
 use crate::maps::HeightMap;
 use crate::optimize::problem::DEFAULT_TIME_WEIGHT;
 use crate::optimize::raster::{AxisCaps, AxisPeaks, DEFAULT_RASTER_SMOOTHING};
+use crate::usecases::program::Provenance;
 use crate::usecases::raster::SpotSpec;
 use crate::usecases::raster_optimize::{RasterCorrection, RasterOptimizeSpec, SolverReport};
 use crate::usecases::raster_predict::{RasterPredictSpec, RasterPrediction};
@@ -36,8 +38,10 @@ pub enum CartesianDto {
     Cartesian,
 }
 
-/// An X-Y machine and its axes' limits. Each limit optional: absent, the default machine's X
-/// (10,000 mm/min, 2,000 mm/s²) for both.
+/// An X-Y machine and its axes' limits. Each limit optional: absent, the default machine's
+/// (X, Y and Z 10,000 mm/min and 2,000 mm/s², the tool spindle 3,000 r/min, no travel limits).
+/// The plan is held to X's and Y's velocity and acceleration; the program
+/// (`/v1/maps/program`) to every limit given, travel and Z's included.
 #[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CartesianMachineDto {
@@ -49,30 +53,38 @@ pub struct CartesianMachineDto {
     /// Y (mm, up on the map).
     #[serde(default, deserialize_with = "optional_object")]
     pub y: Option<LinearAxisDto>,
+    /// Z (mm, up from the part): it moves only to approach and retract in a program.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub z: Option<LinearAxisDto>,
+    /// The tool spindle's speed limit (a program with `tool_rpm`).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub tool_spindle: Option<SpindleLimitDto>,
 }
 
-/// The default machine's X limits, for both axes of an X-Y machine.
-const DEFAULT_VELOCITY_MM_PER_MIN: f64 = 10_000.0;
-const DEFAULT_ACCELERATION_MM_PER_S2: f64 = 2_000.0;
-
 impl CartesianMachineDto {
+    /// X's and Y's velocity and acceleration limits, the default machine's where not given.
     fn caps(&self) -> [AxisCaps; 2] {
-        [&self.x, &self.y].map(|axis| AxisCaps {
-            max_velocity_mm_per_min: Some(
-                axis.as_ref()
-                    .and_then(|a| a.max_velocity_mm_per_min)
-                    .unwrap_or(DEFAULT_VELOCITY_MM_PER_MIN),
-            ),
-            max_acceleration_mm_per_s2: Some(
-                axis.as_ref()
-                    .and_then(|a| a.max_acceleration_mm_per_s2)
-                    .unwrap_or(DEFAULT_ACCELERATION_MM_PER_S2),
-            ),
+        let spec = self.choice().spec();
+        [spec.x, spec.y].map(|axis| AxisCaps {
+            max_velocity_mm_per_min: axis.max_velocity_per_min,
+            max_acceleration_mm_per_s2: axis.max_acceleration_per_s2,
+        })
+    }
+
+    /// The machine as the program checks it.
+    pub fn choice(&self) -> MachineChoice {
+        let linear = |a: &Option<LinearAxisDto>| a.as_ref().map(AxisLimits::from);
+        MachineChoice::Given(MachineLimitsSpec {
+            x: linear(&self.x).unwrap_or_default(),
+            y: linear(&self.y).unwrap_or_default(),
+            z: linear(&self.z).unwrap_or_default(),
+            tool_max_rpm: self.tool_spindle.as_ref().and_then(|s| s.max_rpm),
+            ..MachineLimitsSpec::default()
         })
     }
 
     /// The limits, each checked positive (a problem naming `machine.x.…`).
-    fn checked_caps(&self) -> Result<[AxisCaps; 2], ApiError> {
+    pub(super) fn checked_caps(&self) -> Result<[AxisCaps; 2], ApiError> {
         let caps = self.caps();
         for (name, c) in ["x", "y"].iter().zip(&caps) {
             for (member, v) in [
@@ -410,7 +422,7 @@ impl RasterPredictRequest {
     }
 }
 
-fn points(raw: Vec<Vec<f64>>) -> Result<Vec<[f64; 2]>, ApiError> {
+pub(super) fn points(raw: Vec<Vec<f64>>) -> Result<Vec<[f64; 2]>, ApiError> {
     raw.into_iter()
         .enumerate()
         .map(|(k, p)| match p.as_slice() {
@@ -535,6 +547,15 @@ impl<'de, P: serde::de::DeserializeOwned, C: serde::de::DeserializeOwned> Deseri
             kind_from_value(value).map(Kinds::Cartesian)
         } else {
             kind_from_value(value).map(Kinds::Polar)
+        }
+    }
+}
+
+impl<P: Provenance, C: Provenance> Provenance for Kinds<P, C> {
+    fn with_provenance(self, line: String) -> Self {
+        match self {
+            Kinds::Polar(p) => Kinds::Polar(p.with_provenance(line)),
+            Kinds::Cartesian(c) => Kinds::Cartesian(c.with_provenance(line)),
         }
     }
 }
