@@ -36,9 +36,40 @@ pub fn finish(doc: &mut Value) {
             }
         }
     }
+    still_process(doc);
     query_mirrors_body(doc);
     record_operations(doc);
 }
+
+/// An X-Y machine's part stands still: its requests' process is the process with
+/// `workpiece_rpm` exactly 0 (where every turning request's must not be 0), a schema of its
+/// own derived from the process's.
+fn still_process(doc: &mut Value) {
+    let schemas = &mut doc["components"]["schemas"];
+    let mut still = schemas["ProcessDto"].clone();
+    still["description"] = json!(
+        "The polishing process on an X-Y machine: as everywhere, but the part stands still \
+         (`workpiece_rpm` 0) and the pad spins in place at `tool_rpm`."
+    );
+    still["properties"]["workpiece_rpm"] = json!({
+        "type": "number",
+        "format": "double",
+        "const": 0,
+        "description": "0: the part stands still on an X-Y machine.",
+    });
+    schemas["StillProcessDto"] = still;
+    for request in STILL_PROCESS_REQUESTS {
+        let process = &mut schemas[request]["properties"]["process"];
+        let description = process["description"].clone();
+        *process = json!({
+            "$ref": "#/components/schemas/StillProcessDto",
+            "description": description,
+        });
+    }
+}
+
+/// The requests whose process is a still part's.
+const STILL_PROCESS_REQUESTS: [&str; 1] = ["StillRemovalFunctionRequest"];
 
 /// What JSON Schema can say about the requests but utoipa's attributes cannot: (schema,
 /// property, keyword, value). Positions are strictly increasing (so they are unique; the order

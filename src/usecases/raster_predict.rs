@@ -242,10 +242,10 @@ pub fn check_plan(points_mm: &[[f64; 2]], dwell_s: &[f64]) -> Result<(), RasterP
     {
         return Err(RasterPredictError::Dwell { index, value });
     }
-    if let Some(index) = points_mm
-        .iter()
-        .position(|p| p.iter().any(|c| !c.is_finite() || c.abs() > MAX_COORDINATE_MM))
-    {
+    if let Some(index) = points_mm.iter().position(|p| {
+        p.iter()
+            .any(|c| !c.is_finite() || c.abs() > MAX_COORDINATE_MM)
+    }) {
         return Err(RasterPredictError::Point { index });
     }
     Ok(())

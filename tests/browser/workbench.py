@@ -382,10 +382,22 @@ def main_flow(binary, screenshots):
         # At the calibrated K the polar plan runs some 30,000 turns of C: more blocks than one
         # program takes, which the page says instead of asking for it.
         page.wait("the polar program's note", lambda: "more than one program" in page.text_of('[data-program="maps-polar"]'))
-        # K 100× higher: some 300 turns, a program the page offers.
+        # K 100× higher: some 300 turns, a program the page offers. And the same map on an
+        # X-Y machine: the pad spinning in place as the tool, its raster's target, dwell and
+        # residual maps, and its X-Y program.
         page.set("preston_coefficient_m2_per_n", "1.3e-11")
+        page.one("#map_xy").click()
         page.run_and_wait("maps", lambda: page.one('section[data-view="maps"] button[type="submit"]').click())
         page.wait("the polar program", lambda: page.css('[data-program="maps-polar"] a[data-download="polar-program"]'))
+        for name in ("xy-target", "xy-dwell", "xy-residual"):
+            canvas = page.one(f'figure[data-chart="{name}"] canvas')
+            painted = driver.execute_script(
+                "const c = arguments[0]; const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
+                " let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++; return n;", canvas)
+            check(painted > 1_000, f"the {name} heat map is painted ({painted} opaque pixels)")
+        xy = page.text_of('[data-summary="maps-xy"]')
+        check("Residual RMS: before → after" in xy and "NaN" not in xy, f"the X-Y plan's figures reported ({xy[:160]!r}…)")
+        page.wait("the X-Y program", lambda: page.css('[data-program="maps-xy"] a[data-download="xy-program"]'))
         page.screenshot(screenshots, "maps")
 
         # A shared link reopens the study.

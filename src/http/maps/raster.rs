@@ -7,6 +7,7 @@ use utoipa::ToSchema;
 
 use super::super::error::ApiError;
 use super::super::extract::{kind_from_value, object, optional_object};
+use super::super::fields::limit_field;
 use super::body::{MapGridDto, MapSource};
 use super::predict::{MapFiguresDto, RemovalMapDto};
 use crate::http::dto::{LinearAxisDto, SpindleLimitDto, WarningDto};
@@ -84,22 +85,13 @@ impl CartesianMachineDto {
     }
 
     /// The limits, each checked positive (a problem naming `machine.x.…`).
+    /// X's and Y's velocity and acceleration limits, every limit given checked first (a
+    /// problem naming `machine.<axis>.<limit>`).
     pub(super) fn checked_caps(&self) -> Result<[AxisCaps; 2], ApiError> {
-        let caps = self.caps();
-        for (name, c) in ["x", "y"].iter().zip(&caps) {
-            for (member, v) in [
-                ("max_velocity_mm_per_min", c.max_velocity_mm_per_min),
-                ("max_acceleration_mm_per_s2", c.max_acceleration_mm_per_s2),
-            ] {
-                if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
-                    return Err(ApiError::invalid(
-                        format!("machine.{name}.{member}"),
-                        format!("must be a positive number, not {v}"),
-                    ));
-                }
-            }
-        }
-        Ok(caps)
+        self.choice()
+            .limits()
+            .map_err(|e| ApiError::invalid(limit_field(e.drive, e.limit), e.to_string()))?;
+        Ok(self.caps())
     }
 }
 

@@ -237,6 +237,7 @@ returns the footprint as x, y and rate per pixel; `image/png` a heat map of it."
         let req = match req {
             Kinds::Polar(req) => req,
             Kinds::Cartesian(req) => {
+                req.machine.checked_caps()?;
                 return Ok(Kinds::Cartesian(StillFootprintCommand::new(
                     StillFootprintSpec {
                         process: req.process.spec()?,
@@ -244,7 +245,7 @@ returns the footprint as x, y and rate per pixel; `image/png` a heat map of it."
                         pixel_mm: req.pixel_mm,
                     },
                     limits,
-                )?))
+                )?));
             }
         };
         let KinematicsDto::Polar = req.machine.unwrap_or_default().kinematics;

@@ -1007,6 +1007,12 @@
       await correctMap(view, a, query, aperture);
       polar.hidden = false;
     }
+    const xy = $('[data-xy="maps"]', section(view));
+    xy.hidden = true;
+    if ($('#map_xy').checked) {
+      await correctXy(view, csv, a);
+      xy.hidden = false;
+    }
   }
 
   /** The most blocks one machine program holds (the API's documented limit). */
@@ -1135,6 +1141,75 @@
       box.replaceChildren();
       showProblem(view, e);
     }
+  }
+
+  /** The analysis CSV's pixels (x_mm, y_mm, height) back on their grid, rows top first, null
+   * where the aperture has no pixel: the map as `/v1/maps/optimize` takes it as JSON. */
+  function csvGrid(csv, pixelMm) {
+    const points = csv.trim().split('\n').slice(1).map((line) => line.split(',').map(Number));
+    // Loops, not Math.min(...xs): a map's pixels overflow the call stack as arguments.
+    let [x0, x1, y0, y1] = [Infinity, -Infinity, -Infinity, Infinity];
+    for (const [x, y] of points) {
+      x0 = Math.min(x0, x); x1 = Math.max(x1, x);
+      y0 = Math.max(y0, y); y1 = Math.min(y1, y);
+    }
+    const width = Math.round((x1 - x0) / pixelMm) + 1;
+    const height = Math.round((y0 - y1) / pixelMm) + 1;
+    const rows = Array.from({ length: height }, () => new Array(width).fill(null));
+    for (const [x, y, v] of points) rows[Math.round((y0 - y) / pixelMm)][Math.round((x - x0) / pixelMm)] = v;
+    return { heights_nm: rows, pixel_mm: pixelMm };
+  }
+
+  /** The dwell points as a heat map's CSV: each point's dwell on the pixel it sits on. */
+  function pointsCsv(dwell) {
+    return ['x_mm,y_mm,value', ...dwell.points_mm.map(([x, y], k) => `${x},${y},${dwell.dwell_s[k]}`)].join('\n');
+  }
+
+  /** The map corrected on an X-Y machine (API.mapOptimize, cartesian) with the process's pad
+   * spinning in place on the part standing still as the tool (API.mapRemovalFunction), its
+   * target, dwell and residual maps, and its program (API.mapProgram). */
+  async function correctXy(view, csv, a) {
+    const { machine: axes } = machineInput();
+    // Y as the page's X: the page states one table axis's limits.
+    const machine = { kinematics: 'cartesian', ...(axes?.x ? { x: axes.x, y: axes.x } : {}) };
+    const process = { ...processInput(), workpiece_rpm: 0 };
+    const pad = await post(view, API.mapRemovalFunction, {
+      process, machine: { kinematics: 'cartesian' },
+      pixel_mm: process.tool_radius_mm / 25,
+    });
+    const o = await post(view, API.mapOptimize, { machine, influence: pad.influence, map: csvGrid(csv, a.map.pixel_mm) });
+    const { x_mm: x, y_mm: y, pixel_mm: px } = o.maps;
+    const m = o.metrics;
+    const plot = (name) => $(`figure[data-chart="${name}"] .plot`, section(view));
+    plot('xy-target').replaceChildren(heatMap(gridCsv(x, y, o.maps.target_nm), px,
+      `Target: RMS ${label(m.before.rms_nm)} nm (piston and tilt removed)`));
+    plot('xy-dwell').replaceChildren(heatMap(pointsCsv(o.dwell), o.dwell_pitch_mm,
+      `Dwell: ${o.dwell.dwell_s.length} points ${label(o.dwell_pitch_mm)} mm apart, ${fmtTime(o.total_time_s)} in all`, 's'));
+    plot('xy-residual').replaceChildren(heatMap(gridCsv(x, y, o.maps.residual_nm), px,
+      `Residual: RMS ${label(m.after.rms_nm)} nm (piston and tilt removed)`));
+    summary(view, 'maps-xy', [
+      ['Residual RMS: before → after', `${label(m.before.rms_nm)} → ${label(m.after.rms_nm)} nm`, 'good'],
+      ['Total dwell', fmtTime(o.total_time_s)],
+      ['Pad peak rate, still part', `${label(pad.footprint.peak_removal_rate_nm_per_min)} nm/min`],
+      ['X / Y peaks', `${label(o.axes.x.velocity_mm_per_min)} / ${label(o.axes.y.velocity_mm_per_min)} mm/min, `
+        + `${label(o.axes.x.acceleration_mm_per_s2)} / ${label(o.axes.y.acceleration_mm_per_s2)} mm/s²`],
+      ['Solver', `${o.solver.converged ? 'converged' : 'stopped'} after ${label(o.solver.products)} products`],
+      ...o.warnings.map((w) => ['Warning', w.message]),
+    ]);
+    const box = $('[data-program="maps-xy"]', section(view));
+    box.replaceChildren(h('p', { class: 'status' }, 'Writing the X-Y program…'));
+    const again = repeat(view, API.mapProgram, { machine, dwell: o.dwell, tool_rpm: process.tool_rpm });
+    const [p, gcode] = await Promise.all([again('application/json'), again('text/x-gcode')]);
+    const link = h('a', {
+      href: URL.createObjectURL(new Blob([gcode], { type: 'text/x-gcode' })),
+      download: 'preston-xy-program.ngc',
+      'data-download': 'xy-program',
+    }, 'Download the X-Y program (G-code, .ngc)');
+    box.replaceChildren(
+      h('h3', {}, 'X-Y machine program'),
+      h('p', {}, `${p.blocks} blocks, ${fmtTime(p.program_time_s)} with approach and retract. `, link),
+      h('pre', { 'aria-label': 'X-Y G-code, first lines' }, gcode.split('\n').slice(0, 14).join('\n') + '\n…'),
+    );
   }
 
   const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure, calibrate: runCalibrate, parts: runParts, maps: runMaps };
