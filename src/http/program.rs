@@ -233,6 +233,20 @@ pub(in crate::http) fn decimals(d: Option<usize>) -> Option<u32> {
     d.map(|d| u32::try_from(d).unwrap_or(u32::MAX))
 }
 
+/// The G-code format of a program whose only spindle words are the tool's (the part's spindle
+/// is C, or the part stands still): inverse time, `decimals`, the tool spindle's words.
+pub(in crate::http) fn tool_words_format(
+    decimals_given: Option<usize>,
+    tool_spindle: Option<&SpindleWordsDto>,
+) -> GcodeFormatSpec {
+    GcodeFormatSpec {
+        feed_mode: None,
+        decimals: decimals(decimals_given),
+        workpiece_spindle: Default::default(),
+        tool_spindle: tool_spindle.map(Into::into).unwrap_or_default(),
+    }
+}
+
 /// The SHA-256 of a request as parsed (its canonical JSON), written into a program's header.
 pub(in crate::http) fn request_digest(req: &impl Serialize) -> Result<String, ApiError> {
     let canonical = serde_json::to_vec(req).map_err(|e| ApiError::internal(e.to_string()))?;

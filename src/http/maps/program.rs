@@ -13,7 +13,7 @@ use super::super::endpoint::{Doc, Endpoint};
 use super::super::error::ApiError;
 use super::super::extract::{object, optional_count, optional_object, ApiJson};
 use super::super::program::{
-    decimals, request_digest, ApproachDto, SkippedDto, SpindleWordsDto, SpindlesDto,
+    request_digest, tool_words_format, ApproachDto, SkippedDto, SpindleWordsDto, SpindlesDto,
 };
 use super::super::state::Services;
 use super::optimize::PolarMachineDto;
@@ -23,7 +23,7 @@ use super::raster_program::{RasterProgramRequest, RasterProgramResponse};
 use super::removal_function::KinematicsDto;
 use crate::http::openapi::any_of;
 use crate::machine::gcode::CWords;
-use crate::machine::{Axis, GcodeFormatSpec};
+use crate::machine::Axis;
 use crate::report::results;
 use crate::usecases::map_program::{
     map_program, MapProgramCommand, MapProgramSpec, PolarMachineProgram,
@@ -260,16 +260,7 @@ text/x-gcode` returns the G-code, `text/csv` the block table.",
                 machine: machine.choice(),
                 clearance_mm: approach.clearance_mm,
                 approach_feed_mm_per_min: approach.feed_mm_per_min,
-                format: GcodeFormatSpec {
-                    feed_mode: None,
-                    decimals: decimals(format.decimals),
-                    workpiece_spindle: Default::default(),
-                    tool_spindle: format
-                        .tool_spindle
-                        .as_ref()
-                        .map(Into::into)
-                        .unwrap_or_default(),
-                },
+                format: tool_words_format(format.decimals, format.tool_spindle.as_ref()),
                 request_digest: digest,
             },
             limits,

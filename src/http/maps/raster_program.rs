@@ -7,9 +7,10 @@ use utoipa::ToSchema;
 use super::super::dto::{LinearAxisReport, WarningDto};
 use super::super::error::ApiError;
 use super::super::extract::{object, optional_count, optional_object};
-use super::super::program::{decimals, request_digest, ApproachDto, SkippedDto, SpindleWordsDto};
+use super::super::program::{
+    request_digest, tool_words_format, ApproachDto, SkippedDto, SpindleWordsDto,
+};
 use super::raster::{points, CartesianDto, CartesianMachineDto, RasterDwellDto};
-use crate::machine::GcodeFormatSpec;
 use crate::usecases::raster_program::{
     RasterMachineProgram, RasterProgramCommand, RasterProgramSpec, XY_AXES,
 };
@@ -119,16 +120,7 @@ impl RasterProgramRequest {
             tool_rpm: self.tool_rpm,
             clearance_mm: approach.clearance_mm,
             approach_feed_mm_per_min: approach.feed_mm_per_min,
-            format: GcodeFormatSpec {
-                feed_mode: None,
-                decimals: decimals(format.decimals),
-                workpiece_spindle: Default::default(),
-                tool_spindle: format
-                    .tool_spindle
-                    .as_ref()
-                    .map(Into::into)
-                    .unwrap_or_default(),
-            },
+            format: tool_words_format(format.decimals, format.tool_spindle.as_ref()),
             request_digest: digest,
         })?)
     }

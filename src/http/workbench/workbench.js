@@ -1144,7 +1144,7 @@
   }
 
   /** The analysis CSV's pixels (x_mm, y_mm, height) back on their grid, rows top first, null
-   * where the aperture has no pixel: the map as `/v1/maps/optimize` takes it as JSON. */
+   * where the aperture has no pixel: the map as API.mapOptimize takes it as JSON. */
   function csvGrid(csv, pixelMm) {
     const points = csv.trim().split('\n').slice(1).map((line) => line.split(',').map(Number));
     // Loops, not Math.min(...xs): a map's pixels overflow the call stack as arguments.
