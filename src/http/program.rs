@@ -11,7 +11,7 @@ use super::endpoint::{Doc, Endpoint};
 use super::error::ApiError;
 use super::extract::{object, optional_count, optional_object, ApiJson};
 use super::state::Services;
-use crate::machine::{BlockKind, FeedMode, GcodeFormatSpec, SpindleWordsSpec};
+use crate::machine::{BlockKind, FeedMode, GcodeFormatSpec, Skipped, SpindleWordsSpec};
 use crate::report::results;
 use crate::usecases::program::{program, MachineProgram, ProgramCommand, ProgramSpec};
 use crate::usecases::ComputeLimits;
@@ -157,6 +157,15 @@ pub struct SkippedDto {
     pub leading: usize,
     /// After the last position with dwell.
     pub trailing: usize,
+}
+
+impl From<Skipped> for SkippedDto {
+    fn from(s: Skipped) -> Self {
+        SkippedDto {
+            leading: s.leading,
+            trailing: s.trailing,
+        }
+    }
 }
 
 /// Axis positions: X and Z in mm (design frame), B in degrees.
@@ -349,10 +358,7 @@ seconds), `text/csv` the block table.",
                 tool_rpm: spec.tool_rpm,
                 eta: m.process.eta().value(),
             },
-            skipped_positions: SkippedDto {
-                leading: p.skipped.leading,
-                trailing: p.skipped.trailing,
-            },
+            skipped_positions: p.skipped.into(),
             approach_clearance_mm: m.approach.clearance_mm,
             approach_feed_mm_per_min: m.approach.feed_mm_per_min,
             max_path_deviation_mm: p.max_path_deviation_mm,

@@ -324,10 +324,7 @@ fn polar_response(m: PolarMachineProgram) -> MapProgramResponse {
             tool_rpm: spec.tool_rpm,
             eta: m.process.eta().value(),
         },
-        skipped_positions: SkippedDto {
-            leading: p.skipped.leading,
-            trailing: p.skipped.trailing,
-        },
+        skipped_positions: p.skipped.into(),
         approach_clearance_mm: p.approach.clearance_mm,
         approach_feed_mm_per_min: p.approach.feed_mm_per_min,
         c_words: match m.c_words {

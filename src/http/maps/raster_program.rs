@@ -143,10 +143,7 @@ impl From<RasterMachineProgram> for RasterProgramResponse {
             program_time_s: p.program_time_s,
             axes: XyAxesDto { x, y, z },
             tool_rpm: m.tool_rpm,
-            skipped_positions: SkippedDto {
-                leading: p.skipped.leading,
-                trailing: p.skipped.trailing,
-            },
+            skipped_positions: p.skipped.into(),
             approach_clearance_mm: p.approach.clearance_mm,
             approach_feed_mm_per_min: p.approach.feed_mm_per_min,
             warnings: WarningDto::all(&m.warnings),
