@@ -314,7 +314,7 @@ def main():
     print("| solver | RMS after (nm) | PV (nm) | total dwell (s) | objective | time (s) |")
     print("|---|---|---|---|---|---|")
     for name, rms, pv, total, f, seconds in rows:
-        print(f"| {name} | {rms:.4f} | {pv:.2f} | {total:.0f} | {f:.6e} | {seconds:.2f} |")
+        print(f"| {name} | {rms:.6f} | {pv:.2f} | {total:.0f} | {f:.8e} | {seconds:.2f} |")
     print(f"speed-up over scipy: {rows[1][5] / rows[0][5]:.1f}x at its default tolerance, "
           f"{rows[2][5] / rows[0][5]:.1f}x to the optimum")
     print(f"RIFTA as it plans (point dwell on the map's pixels, its own model): "

@@ -349,6 +349,7 @@ pub fn write_xy(
         let _ = writeln!(out, "{}", spindle_on(&format.tool_spindle, rpm, false));
     }
     let mut inverse_time = false;
+    let follows = program.follows_surface();
     for block in program.blocks() {
         let want_inverse = block.kind == BlockKind::Move;
         if want_inverse && !inverse_time {
@@ -361,7 +362,12 @@ pub fn write_xy(
             }
             BlockKind::Move => {
                 let feed = significant(60.0 / block.duration_s);
-                let _ = writeln!(out, "G1 {} F{feed}", xy(block.end_mm));
+                if follows {
+                    let z = fixed(block.end_mm[2], d);
+                    let _ = writeln!(out, "G1 {} Z{z} F{feed}", xy(block.end_mm));
+                } else {
+                    let _ = writeln!(out, "G1 {} F{feed}", xy(block.end_mm));
+                }
             }
             BlockKind::Approach | BlockKind::Retract => {
                 if inverse_time {

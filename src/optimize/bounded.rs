@@ -43,6 +43,7 @@
 //! one diagonally scaled projected-gradient step (0 exactly at the optimum), beside the
 //! products with M spent.
 
+use super::normal::Normal;
 use super::operator::DwellOperator;
 use super::solver::Budget;
 
@@ -62,7 +63,8 @@ pub struct BoundedProblem<'a> {
     pub lower: Vec<f64>,
     pub upper: Vec<f64>,
     pub max_total_s: Option<f64>,
-    /// The most products with M (and as many with Mᵀ) the solve may spend.
+    /// The most work the solve may spend, in products with M (and as many with Mᵀ); a
+    /// product with a held G counts as its share of that work (its entries over twice M's).
     pub max_products: usize,
     /// The time it may take; `None`: no limit.
     pub budget: Option<Budget>,
@@ -87,20 +89,40 @@ pub struct BoundedSolution {
     /// ν, the total time's multiplier (0 when the total does not bind), per s of dwell in
     /// the objective's units.
     pub time_multiplier: f64,
+    /// G's stored entries when the fit was held as MᵀWM ([`super::normal`]); `None` when it
+    /// was taken by products with M.
+    pub normal_entries: Option<usize>,
 }
 
 struct Solver<'a> {
     p: &'a BoundedProblem<'a>,
     /// (BᵀWB)⁻¹ (dense, at most 3 × 3).
     gram_inverse: Vec<Vec<f64>>,
+    /// The fit in the dwell's space, when it is held ([`super::normal`]); else products
+    /// with M.
+    normal: Option<Normal>,
+    /// BᵀW·d.
+    free_target: Vec<f64>,
     fit_scale: f64,
     smooth_scale: f64,
     time_scale: f64,
     diagonal: Vec<f64>,
     products: usize,
+    /// The work of one product in products with M and Mᵀ: 1, or G's share with the fit held.
+    product_work: f64,
+    /// The work spent, in products with M and Mᵀ.
+    work: f64,
 }
 
 impl<'a> Solver<'a> {
+    /// (BᵀWB)⁻¹·m for the free terms' moments m.
+    fn free_solve(&self, moments: &[f64]) -> Vec<f64> {
+        self.gram_inverse
+            .iter()
+            .map(|row| row.iter().zip(moments).map(|(g, m)| g * m).sum())
+            .collect()
+    }
+
     /// c = (BᵀWB)⁻¹BᵀW·r: the free terms' fit to r.
     fn free_fit(&self, r: &[f64]) -> Vec<f64> {
         let p = self.p;
@@ -115,10 +137,7 @@ impl<'a> Solver<'a> {
                     .sum()
             })
             .collect();
-        self.gram_inverse
-            .iter()
-            .map(|row| row.iter().zip(&moments).map(|(g, m)| g * m).sum())
-            .collect()
+        self.free_solve(&moments)
     }
 
     /// W·P·r (in place of r), and the free terms' coefficients.
@@ -145,29 +164,71 @@ impl<'a> Solver<'a> {
         out
     }
 
-    /// The gradient of f at t (with `nu` added to the time term), M·t and the free terms'
-    /// coefficients.
+    /// (G − U·(BᵀWB)⁻¹·Uᵀ)·v, and the free terms' part (BᵀWB)⁻¹·Uᵀv.
+    fn normal_hessian(&self, normal: &Normal, v: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let mut out = normal.apply(v);
+        let moments: Vec<f64> = normal.free_moments.iter().map(|u| dot(u, v)).collect();
+        let c = self.free_solve(&moments);
+        for (u, ck) in normal.free_moments.iter().zip(&c) {
+            for (o, u) in out.iter_mut().zip(u) {
+                *o -= ck * u;
+            }
+        }
+        (out, c)
+    }
+
+    /// The gradient of f at t (with `nu` added to the time term), the free terms'
+    /// coefficients, and M·t when the fit is taken by products (empty otherwise).
     fn evaluate(&mut self, t: &[f64], nu: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
         let p = self.p;
-        self.products += 1;
-        let removal = p.operator.apply(t);
-        let mut r: Vec<f64> = removal.iter().zip(p.target).map(|(m, d)| m - d).collect();
-        let c = self.weighted_projection(&mut r);
-        let mut g = p.operator.apply_transpose(&r);
+        self.count_product();
+        let (mut g, c, removal) = match &self.normal {
+            Some(normal) => {
+                // MᵀWP(Mt − d) = Ĝt − (MᵀWd − U·(BᵀWB)⁻¹·BᵀWd).
+                let (mut g, ct) = self.normal_hessian(normal, t);
+                let cd = self.free_solve(&self.free_target);
+                for (j, gj) in g.iter_mut().enumerate() {
+                    let mut offset = normal.target_moment[j];
+                    for (u, ck) in normal.free_moments.iter().zip(&cd) {
+                        offset -= ck * u[j];
+                    }
+                    *gj -= offset;
+                }
+                let c = ct.iter().zip(&cd).map(|(a, b)| a - b).collect();
+                (g, c, Vec::new())
+            }
+            None => {
+                let removal = p.operator.apply(t);
+                let mut r: Vec<f64> = removal.iter().zip(p.target).map(|(m, d)| m - d).collect();
+                let c = self.weighted_projection(&mut r);
+                (p.operator.apply_transpose(&r), c, removal)
+            }
+        };
         let lt = self.laplacian(t);
         let linear = self.time_scale + nu;
         for (j, gj) in g.iter_mut().enumerate() {
             *gj = *gj * self.fit_scale + self.smooth_scale * lt[j] + linear;
         }
-        (g, removal, c)
+        (g, c, removal)
+    }
+
+    /// MᵀWPM·v, and M·v when the fit is taken by products (empty otherwise).
+    fn fit_hessian(&mut self, v: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        self.count_product();
+        match &self.normal {
+            Some(normal) => (self.normal_hessian(normal, v).0, Vec::new()),
+            None => {
+                let mv = self.p.operator.apply(v);
+                let mut wpmv = mv.clone();
+                self.weighted_projection(&mut wpmv);
+                (self.p.operator.apply_transpose(&wpmv), mv)
+            }
+        }
     }
 
     /// H·v on the free variables (v zero elsewhere).
     fn hessian(&mut self, v: &[f64]) -> Vec<f64> {
-        self.products += 1;
-        let mut mv = self.p.operator.apply(v);
-        self.weighted_projection(&mut mv);
-        let mut hv = self.p.operator.apply_transpose(&mv);
+        let (mut hv, _) = self.fit_hessian(v);
         let lv = self.laplacian(v);
         for (h, l) in hv.iter_mut().zip(&lv) {
             *h = *h * self.fit_scale + self.smooth_scale * l;
@@ -175,9 +236,37 @@ impl<'a> Solver<'a> {
         hv
     }
 
+    /// The free terms' coefficients at t, from M·t when the fit is taken by products.
+    fn free_coefficients(&self, t: &[f64], removal: &[f64]) -> Vec<f64> {
+        match &self.normal {
+            Some(normal) => {
+                let moments: Vec<f64> = normal
+                    .free_moments
+                    .iter()
+                    .zip(&self.free_target)
+                    .map(|(u, bd)| dot(u, t) - bd)
+                    .collect();
+                self.free_solve(&moments)
+            }
+            None => {
+                let r: Vec<f64> = removal
+                    .iter()
+                    .zip(self.p.target)
+                    .map(|(m, d)| m - d)
+                    .collect();
+                self.free_fit(&r)
+            }
+        }
+    }
+
+    fn count_product(&mut self) {
+        self.products += 1;
+        self.work += self.product_work;
+    }
+
     /// Whether the solve has spent its products or its time.
     fn exhausted(&self) -> bool {
-        self.products >= self.p.max_products
+        self.work >= self.p.max_products as f64
             || self
                 .p
                 .budget
@@ -209,13 +298,12 @@ impl<'a> Solver<'a> {
     fn solve(&mut self, mut t: Vec<f64>, nu: f64, stats: &mut BoundedSolution) -> Vec<f64> {
         let n = t.len();
         self.project(&mut t);
-        let (mut g, mut removal, mut c) = self.evaluate(&t, nu);
+        let (mut g, mut c, mut removal) = self.evaluate(&t, nu);
         let mut steps = 0usize;
         loop {
             let kkt = self.kkt(&t, &g);
             let largest = t.iter().fold(0.0_f64, |m, &v| m.max(v)).max(1e-300);
             stats.kkt_residual_s = kkt;
-            stats.removal = removal.clone();
             stats.free_coefficients = c.clone();
             if kkt <= self.p.tolerance * largest {
                 stats.converged = true;
@@ -300,19 +388,12 @@ impl<'a> Solver<'a> {
                     let s: Vec<f64> = trial.iter().zip(&t).map(|(a, b)| a - b).collect();
                     let linear: f64 = g.iter().zip(&s).map(|(g, s)| g * s).sum();
                     if linear < 0.0 {
-                        self.products += 1;
-                        let ms = self.p.operator.apply(&s);
-                        let mut wpms = ms.clone();
-                        self.weighted_projection(&mut wpms);
+                        let (hs, ms) = self.fit_hessian(&s);
                         let ls = self.laplacian(&s);
                         let quadratic = 0.5
-                            * (self.fit_scale
-                                * ms.iter().zip(&wpms).map(|(a, b)| a * b).sum::<f64>()
-                                + self.smooth_scale
-                                    * s.iter().zip(&ls).map(|(a, b)| a * b).sum::<f64>());
+                            * (self.fit_scale * dot(&s, &hs) + self.smooth_scale * dot(&s, &ls));
                         let change = linear + quadratic;
                         if change <= 1e-4 * linear {
-                            let hs = self.p.operator.apply_transpose(&wpms);
                             for j in 0..n {
                                 g[j] += self.fit_scale * hs[j] + self.smooth_scale * ls[j];
                             }
@@ -325,14 +406,9 @@ impl<'a> Solver<'a> {
                             if steps % 16 == 0 {
                                 // Start afresh now and then, so the updates' rounding
                                 // does not accumulate.
-                                (g, removal, c) = self.evaluate(&t, nu);
+                                (g, c, removal) = self.evaluate(&t, nu);
                             } else {
-                                let r: Vec<f64> = removal
-                                    .iter()
-                                    .zip(self.p.target)
-                                    .map(|(m, d)| m - d)
-                                    .collect();
-                                c = self.free_fit(&r);
+                                c = self.free_coefficients(&t, &removal);
                             }
                             break 'directions;
                         }
@@ -342,7 +418,6 @@ impl<'a> Solver<'a> {
             }
             if !accepted {
                 stats.kkt_residual_s = self.kkt(&t, &g);
-                stats.removal = removal;
                 stats.free_coefficients = c;
                 stats.converged = stats.kkt_residual_s <= self.p.tolerance * largest;
                 return t;
@@ -403,18 +478,45 @@ pub fn solve(
     let edges = problem.edges.len().max(1) as f64;
     let smooth_scale = problem.smoothing / (edges * dwell_scale * dwell_scale);
     let time_scale = problem.time_weight / (n.max(1) as f64 * dwell_scale);
+    let normal = Normal::assemble(
+        problem.operator,
+        problem.weights,
+        problem.target,
+        &problem.free_terms,
+    );
+    let free_target = problem
+        .free_terms
+        .iter()
+        .map(|b| {
+            b.iter()
+                .zip(problem.target)
+                .zip(problem.weights)
+                .map(|((b, d), w)| b * w * d)
+                .sum()
+        })
+        .collect();
     let mut solver = Solver {
         p: problem,
         gram_inverse,
+        normal,
+        free_target,
         fit_scale,
         smooth_scale,
         time_scale,
         diagonal: Vec::new(),
         products: 0,
+        product_work: 1.0,
+        work: 0.0,
     };
+    if let Some(normal) = &solver.normal {
+        solver.product_work = normal.product_work();
+    }
     // D: H's diagonal, the fit's part without P (which only lowers it), floored so a column
     // the aperture does not see still has a scale.
-    let norms = column_norms(problem.operator, problem.weights);
+    let norms = match &solver.normal {
+        Some(normal) => normal.diagonal(),
+        None => column_norms(problem.operator, problem.weights),
+    };
     let mut degree = vec![0.0; n];
     for &(a, b) in problem.edges {
         degree[a] += 1.0;
@@ -437,6 +539,7 @@ pub fn solve(
         cg_iterations: 0,
         products: 0,
         time_multiplier: 0.0,
+        normal_entries: None,
     };
     let mut t = solver.solve(start, 0.0, &mut stats);
     let mut spent = 0;
@@ -460,6 +563,7 @@ pub fn solve(
             let mut solves = 0;
             let mut best = loop {
                 spent += std::mem::take(&mut solver.products);
+                solver.work = 0.0;
                 solves += 1;
                 let trial = solver.solve(t.clone(), hi, &mut stats);
                 if phi(&trial) <= 0.0 || solves >= MAX_TOTAL_SOLVES || solver.exhausted() {
@@ -478,6 +582,7 @@ pub fn solve(
             {
                 let nu = hi - f_hi * (hi - lo) / (f_hi - f_lo);
                 spent += std::mem::take(&mut solver.products);
+                solver.work = 0.0;
                 solves += 1;
                 let trial = solver.solve(best.clone(), nu, &mut stats);
                 let f = phi(&trial);
@@ -496,19 +601,24 @@ pub fn solve(
                 }
             }
             // The last solve's figures are for its ν; report those of the kept plan.
-            let (g, removal, c) = solver.evaluate(&best, hi);
+            let (g, c, _) = solver.evaluate(&best, hi);
             stats.kkt_residual_s = solver.kkt(&best, &g);
             let largest = best.iter().fold(0.0_f64, |m, &v| m.max(v));
             stats.converged = stats.kkt_residual_s <= problem.tolerance * largest;
-            stats.removal = removal;
             stats.free_coefficients = c;
             stats.time_multiplier = hi;
             t = best;
         }
     }
-    stats.products = spent + solver.products;
+    stats.removal = problem.operator.apply(&t);
+    stats.products = spent + solver.products + 1;
+    stats.normal_entries = solver.normal.as_ref().map(Normal::entries);
     stats.dwell_s = t;
     stats
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// The most solves the total time's multiplier may take.
@@ -546,6 +656,8 @@ mod tests {
         cols: usize,
         /// Row-major.
         m: Vec<f64>,
+        /// Whether it gives its columns (so the solver may hold the fit as MᵀWM).
+        columns: bool,
     }
 
     impl DwellOperator for Dense {
@@ -570,6 +682,14 @@ mod tests {
             }
             out
         }
+        fn column_runs(&self, j: usize, visit: &mut dyn FnMut(usize, &[f64])) -> bool {
+            if self.columns {
+                for i in 0..self.rows {
+                    visit(i, std::slice::from_ref(&self.m[i * self.cols + j]));
+                }
+            }
+            self.columns
+        }
     }
 
     /// A blurred 1-D deconvolution (Gaussian columns, 60 rows, 25 columns, the rows past 45
@@ -577,8 +697,15 @@ mod tests {
     /// that binds: projected Newton's plan against Clarabel's interior point on the same QP
     /// (the free terms as variables), objectives equal to 1e-8 of f(0) and dwell to 1e-3 of the
     /// largest (the problem is ill-conditioned: dwell is less determined than the objective).
+    /// Both forms of the fit: products with M, and MᵀWM held.
     #[test]
     fn projected_newton_meets_an_interior_point_solver() {
+        for columns in [false, true] {
+            meets_an_interior_point_solver(columns);
+        }
+    }
+
+    fn meets_an_interior_point_solver(columns: bool) {
         let (rows, cols) = (60, 25);
         let m: Vec<f64> = (0..rows * cols)
             .map(|k| {
@@ -586,7 +713,12 @@ mod tests {
                 3.0 * (-(i - j) * (i - j) / 18.0).exp()
             })
             .collect();
-        let op = Dense { rows, cols, m };
+        let op = Dense {
+            rows,
+            cols,
+            m,
+            columns,
+        };
         let target: Vec<f64> = (0..rows)
             .map(|i| 40.0 + 15.0 * (i as f64 / 7.0).sin() + 0.3 * i as f64)
             .collect();
@@ -615,6 +747,11 @@ mod tests {
             };
             let ours = solve(&problem, vec![0.5; cols], depth, dwell);
             assert!(ours.converged, "{binding}: {}", ours.kkt_residual_s);
+            assert_eq!(ours.normal_entries.is_some(), columns);
+            // The removal reported is M·t of the plan.
+            for (r, m) in ours.removal.iter().zip(op.apply(&ours.dwell_s)) {
+                assert!((r - m).abs() <= 1e-12 * m.abs().max(1.0));
+            }
             free_total = ours.dwell_s.iter().sum();
             // Clarabel: v = (t, c0, c1), ½vᵀPv + qᵀv over the same objective.
             let fs = 1.0 / (45.0 * depth * depth);

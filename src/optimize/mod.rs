@@ -98,6 +98,7 @@ pub mod dwell;
 pub mod feasibility;
 pub mod harmonics;
 pub mod kinematics;
+pub mod normal;
 pub mod operator;
 pub mod problem;
 pub mod qp;

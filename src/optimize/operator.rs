@@ -35,6 +35,17 @@ pub trait DwellOperator: std::fmt::Debug + Sync {
     fn weighted_column_norms(&self, _weights: &[f64]) -> Option<Vec<f64>> {
         None
     }
+    /// Column j's entries as runs of consecutive rows, each given to `visit` as (first row,
+    /// entries), when the operator holds its columns; false (and nothing visited) otherwise.
+    fn column_runs(&self, j: usize, visit: &mut dyn FnMut(usize, &[f64])) -> bool {
+        match self.column(j) {
+            Some((first, values)) => {
+                visit(first, values);
+                true
+            }
+            None => false,
+        }
+    }
 }
 
 impl DwellOperator for RasterOperator {
@@ -52,6 +63,10 @@ impl DwellOperator for RasterOperator {
     }
     fn weighted_column_norms(&self, weights: &[f64]) -> Option<Vec<f64>> {
         Some(RasterOperator::weighted_column_norms(self, weights))
+    }
+    fn column_runs(&self, j: usize, visit: &mut dyn FnMut(usize, &[f64])) -> bool {
+        RasterOperator::column_runs(self, j, visit);
+        true
     }
 }
 

@@ -9,13 +9,17 @@
 //! relative error of a few 1e-16 times log₂ of the size, on the largest values).
 //!
 //! The correlation Kᵀ·Y (the adjoint: (Kᵀ Y)[i, j] = Σ Y[i + di, j + dj]·K[di, dj]) uses the
-//! conjugate spectrum, since K is real. The 2-D transform runs the rows in parallel, then
-//! the columns (transposed, in parallel); spectra stay in that transposed layout, which only
-//! the products and the inverse read.
+//! conjugate spectrum, since K is real. Every grid is real, so its spectrum is Hermitian and
+//! half of it, P_x/2 + 1 frequencies along the rows, holds all of it (realfft): the rows go
+//! real-to-complex in parallel, then the columns complex (transposed, in parallel), about half
+//! the work of a complex transform. Spectra stay in that transposed half layout, which only the
+//! products and the inverse read; a product of two half spectra is the half spectrum of the
+//! product, so convolution and correlation are unchanged.
 
 use std::sync::Arc;
 
 use rayon::prelude::*;
+use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
 
@@ -56,9 +60,11 @@ pub struct Convolution {
     ny: usize,
     px: usize,
     py: usize,
-    rows: Arc<dyn Fft<f64>>,
+    /// P_x/2 + 1: the half spectrum a real row has.
+    hx: usize,
+    rows: Arc<dyn RealToComplex<f64>>,
+    rows_inverse: Arc<dyn ComplexToReal<f64>>,
     cols: Arc<dyn Fft<f64>>,
-    rows_inverse: Arc<dyn Fft<f64>>,
     cols_inverse: Arc<dyn Fft<f64>>,
 }
 
@@ -91,16 +97,18 @@ impl Convolution {
     /// Transforms for an `nx` × `ny` lattice and kernels of at most `kw` × `kh` offsets.
     pub fn new(nx: usize, ny: usize, kw: usize, kh: usize) -> Convolution {
         let (px, py) = (fast_size(nx + kw - 1), fast_size(ny + kh - 1));
-        let mut planner = FftPlanner::new();
+        let mut real = RealFftPlanner::new();
+        let mut complex = FftPlanner::new();
         Convolution {
             nx,
             ny,
             px,
             py,
-            rows: planner.plan_fft_forward(px),
-            cols: planner.plan_fft_forward(py),
-            rows_inverse: planner.plan_fft_inverse(px),
-            cols_inverse: planner.plan_fft_inverse(py),
+            hx: px / 2 + 1,
+            rows: real.plan_fft_forward(px),
+            rows_inverse: real.plan_fft_inverse(px),
+            cols: complex.plan_fft_forward(py),
+            cols_inverse: complex.plan_fft_inverse(py),
         }
     }
 
@@ -110,77 +118,101 @@ impl Convolution {
     }
 
     /// About the floating-point work of one transform, for choosing between it and a direct
-    /// sum: 5·P·log₂P for P = P_x·P_y.
+    /// sum: 2.5·P·log₂P for P = P_x·P_y (half a complex transform's 5·P·log₂P, the input
+    /// being real).
     pub fn transform_cost(&self) -> f64 {
         let p = (self.px * self.py) as f64;
-        5.0 * p * p.log2()
+        2.5 * p * p.log2()
     }
 
-    fn transform(&self, grid: &mut [Complex<f64>], inverse: bool) {
-        let (px, py) = (self.px, self.py);
-        let (rows, cols) = if inverse {
-            (&self.rows_inverse, &self.cols_inverse)
-        } else {
-            (&self.rows, &self.cols)
-        };
-        let run = |fft: &Arc<dyn Fft<f64>>, data: &mut [Complex<f64>], n: usize| {
-            data.par_chunks_mut(n * 16).for_each_init(
-                || vec![Complex::default(); fft.get_inplace_scratch_len()],
-                |scratch, chunk| fft.process_with_scratch(chunk, scratch),
+    /// The half spectrum of a real P_x × P_y grid (row-major), in the transposed layout:
+    /// frequency (a, b) at `a·P_y + b`, a < P_x/2 + 1.
+    fn forward(&self, mut grid: Vec<f64>) -> Vec<Complex<f64>> {
+        let (px, py, hx) = (self.px, self.py, self.hx);
+        let mut half = vec![Complex::default(); hx * py];
+        grid.par_chunks_mut(px)
+            .zip(half.par_chunks_mut(hx))
+            .for_each_init(
+                || self.rows.make_scratch_vec(),
+                |scratch, (row, out)| {
+                    self.rows
+                        .process_with_scratch(row, out, scratch)
+                        .expect("the rows' lengths are the plan's");
+                },
             );
-        };
-        let mut transposed = vec![Complex::default(); px * py];
-        if !inverse {
-            run(rows, grid, px);
-            transpose(grid, &mut transposed, px, py);
-            run(cols, &mut transposed, py);
-            grid.copy_from_slice(&transposed);
-        } else {
-            run(cols, grid, py);
-            transpose(grid, &mut transposed, py, px);
-            run(rows, &mut transposed, px);
-            grid.copy_from_slice(&transposed);
-        }
+        let mut spectrum = vec![Complex::default(); hx * py];
+        transpose(&half, &mut spectrum, hx, py);
+        self.columns(&self.cols, &mut spectrum);
+        spectrum
+    }
+
+    /// The real P_x × P_y grid whose half spectrum is `spectrum` (consumed), unscaled.
+    fn inverse(&self, mut spectrum: Vec<Complex<f64>>) -> Vec<f64> {
+        let (px, py, hx) = (self.px, self.py, self.hx);
+        self.columns(&self.cols_inverse, &mut spectrum);
+        let mut half = vec![Complex::default(); hx * py];
+        transpose(&spectrum, &mut half, py, hx);
+        let mut grid = vec![0.0; px * py];
+        half.par_chunks_mut(hx)
+            .zip(grid.par_chunks_mut(px))
+            .for_each_init(
+                || self.rows_inverse.make_scratch_vec(),
+                |scratch, (row, out)| {
+                    // The spectrum of a real grid has real values at frequency 0 (and P_x/2
+                    // for even P_x): what rounding left there is dropped.
+                    row[0].im = 0.0;
+                    if px % 2 == 0 {
+                        row[hx - 1].im = 0.0;
+                    }
+                    self.rows_inverse
+                        .process_with_scratch(row, out, scratch)
+                        .expect("the rows' lengths are the plan's and their ends real");
+                },
+            );
+        grid
+    }
+
+    /// Every column (a row of the transposed layout, P_y long) through `fft`, in parallel.
+    fn columns(&self, fft: &Arc<dyn Fft<f64>>, data: &mut [Complex<f64>]) {
+        data.par_chunks_mut(self.py * 16).for_each_init(
+            || vec![Complex::default(); fft.get_inplace_scratch_len()],
+            |scratch, chunk| fft.process_with_scratch(chunk, scratch),
+        );
     }
 
     /// The spectrum of `kernel`, in the transposed layout (its conjugate is the correlation's).
     pub fn kernel_spectrum(&self, kernel: &Kernel) -> Vec<Complex<f64>> {
         let (px, py) = (self.px, self.py);
-        let mut grid = vec![Complex::default(); px * py];
+        let mut grid = vec![0.0; px * py];
         for b in 0..kernel.height {
             let dj = (kernel.dj0 + b as isize).rem_euclid(py as isize) as usize;
             for a in 0..kernel.width {
                 let di = (kernel.di0 + a as isize).rem_euclid(px as isize) as usize;
-                grid[dj * px + di].re += kernel.values[b * kernel.width + a];
+                grid[dj * px + di] += kernel.values[b * kernel.width + a];
             }
         }
-        self.transform(&mut grid, false);
-        grid
+        self.forward(grid)
     }
 
     /// The spectrum of a lattice image (nx × ny, row-major).
     pub fn image_spectrum(&self, image: &[f64]) -> Vec<Complex<f64>> {
-        let mut grid = vec![Complex::default(); self.px * self.py];
+        let mut grid = vec![0.0; self.px * self.py];
         for (j, row) in image.chunks(self.nx).enumerate() {
-            for (i, &v) in row.iter().enumerate() {
-                grid[j * self.px + i].re = v;
-            }
+            grid[j * self.px..j * self.px + row.len()].copy_from_slice(row);
         }
-        self.transform(&mut grid, false);
-        grid
+        self.forward(grid)
     }
 
-    /// The lattice image whose spectrum is `spectrum` (consumed), rounding's imaginary part
-    /// dropped.
-    pub fn image(&self, mut spectrum: Vec<Complex<f64>>) -> Vec<f64> {
-        self.transform(&mut spectrum, true);
+    /// The lattice image whose spectrum is `spectrum` (consumed).
+    pub fn image(&self, spectrum: Vec<Complex<f64>>) -> Vec<f64> {
+        let grid = self.inverse(spectrum);
         let scale = 1.0 / (self.px * self.py) as f64;
         let mut image = Vec::with_capacity(self.nx * self.ny);
         for j in 0..self.ny {
             image.extend(
-                spectrum[j * self.px..j * self.px + self.nx]
+                grid[j * self.px..j * self.px + self.nx]
                     .iter()
-                    .map(|c| c.re * scale),
+                    .map(|v| v * scale),
             );
         }
         image

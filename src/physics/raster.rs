@@ -377,6 +377,8 @@ pub struct RasterOperator {
     pixel: Vec<usize>,
     points: Vec<[usize; 2]>,
     classes: Vec<Class>,
+    /// Each point's class.
+    class_of: Vec<usize>,
     convolution: Option<Convolution>,
 }
 
@@ -436,7 +438,7 @@ impl RasterOperator {
                 .fold((1, 1), |(w, h), (k, _)| (w.max(k.width), h.max(k.height)));
             Convolution::new(lattice.nx, lattice.ny, kw, kh)
         });
-        let classes = kernels
+        let classes: Vec<Class> = kernels
             .into_iter()
             .zip(shapes)
             .zip(by_fft)
@@ -452,11 +454,18 @@ impl RasterOperator {
                 }
             })
             .collect();
+        let mut class_of = vec![0; raster.len()];
+        for (c, class) in classes.iter().enumerate() {
+            for &k in &class.members {
+                class_of[k] = c;
+            }
+        }
         RasterOperator {
             lattice,
             pixel: raster.points().iter().map(|&p| lattice.index(p)).collect(),
             points: raster.points().to_vec(),
             classes,
+            class_of,
             convolution,
         }
     }
@@ -503,6 +512,14 @@ impl RasterOperator {
                 )
             })
         })
+    }
+
+    /// Column k's entries on the lattice, one run of consecutive pixels per kernel row, each
+    /// given to `visit` as (first pixel, entries).
+    pub fn column_runs(&self, k: usize, visit: &mut dyn FnMut(usize, &[f64])) {
+        for (first, values) in self.footprint(&self.classes[self.class_of[k]].kernel, k) {
+            visit(first, values);
+        }
     }
 
     /// M·t: the removal of dwell `dwell_s` on the lattice's pixels, nm.

@@ -251,7 +251,8 @@ fn point_grid(placed: &Placed, map: &HeightMap, step: usize, reach: usize) -> Po
     }
 }
 
-/// The products the solver may spend.
+/// The work the solver may spend, in products with M and Mᵀ (one with a held MᵀWM counts as
+/// its share: `optimize::normal`).
 pub const MAX_PRODUCTS: usize = 3000;
 
 /// A raster plan's problem before it is solved: the raster and its operator, the target and
@@ -534,6 +535,7 @@ mod tests {
                 dwell_s: plan.dwell_s.clone(),
                 machine: MachineChoice::Default,
                 tool_rpm: None,
+                surface: None,
                 clearance_mm: None,
                 approach_feed_mm_per_min: None,
                 format: Default::default(),

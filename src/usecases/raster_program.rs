@@ -17,6 +17,7 @@ use crate::machine::{
     MachineChoice, MachineLimits, XyProgram,
 };
 use crate::physics::raster::Path;
+use crate::surface::{Surface, SurfaceError, SurfaceSpec};
 
 /// An X-Y program as asked.
 #[derive(Debug, Clone, PartialEq)]
@@ -30,6 +31,8 @@ pub struct RasterProgramSpec {
     /// The tool spindle's speed, r/min (signed, counter-clockwise positive seen from the tool
     /// side); `None`: the program leaves the tool to the shop (a beam, a jet).
     pub tool_rpm: Option<f64>,
+    /// The part's surface, its vertex at the plan's origin; `None`: a flat (Z stays at 0).
+    pub surface: Option<SurfaceSpec>,
     /// Default [`DEFAULT_CLEARANCE_MM`].
     pub clearance_mm: Option<f64>,
     /// Default [`DEFAULT_APPROACH_FEED_MM_PER_MIN`], lowered to what Z's limits allow.
@@ -54,6 +57,11 @@ pub enum RasterProgramInputError {
     ApproachFeed,
     #[error("the tool's speed must be a finite number of r/min, not {0}")]
     ToolRpm(f64),
+    #[error(transparent)]
+    Surface(SurfaceError),
+    /// A point where the surface is not defined.
+    #[error("point {index}: {error}")]
+    PointOffSurface { index: usize, error: SurfaceError },
 }
 
 /// A checked X-Y program request.
@@ -61,6 +69,7 @@ pub enum RasterProgramInputError {
 pub struct RasterProgramCommand {
     path: Path,
     dwell_s: Vec<f64>,
+    surface: Surface,
     machine: MachineLimits,
     choice: MachineChoice,
     tool_rpm: Option<f64>,
@@ -82,6 +91,22 @@ impl RasterProgramCommand {
     pub fn new(spec: RasterProgramSpec) -> Result<Self, RasterProgramInputError> {
         use RasterProgramInputError as E;
         check_plan(&spec.points_mm, &spec.dwell_s).map_err(E::Plan)?;
+        let surface = match &spec.surface {
+            Some(s) => Surface::new(s).map_err(E::Surface)?,
+            None => Surface::plane(),
+        };
+        // The farthest point from the vertex decides whether the surface reaches them all.
+        if let Some((index, r)) = spec
+            .points_mm
+            .iter()
+            .map(|p| p[0].hypot(p[1]))
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+        {
+            surface
+                .check_defined_to(r)
+                .map_err(|error| E::PointOffSurface { index, error })?;
+        }
         let path = Path::through(spec.points_mm).map_err(|e| E::Plan(e.into()))?;
         let machine = spec.machine.limits().map_err(E::Limits)?;
         let format = GcodeFormat::new(spec.format).map_err(E::Format)?;
@@ -103,6 +128,7 @@ impl RasterProgramCommand {
         Ok(RasterProgramCommand {
             path,
             dwell_s: spec.dwell_s,
+            surface,
             machine,
             choice: spec.machine,
             tool_rpm: spec.tool_rpm,
@@ -133,8 +159,13 @@ pub const XY_AXES: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
 pub fn raster_program(
     command: RasterProgramCommand,
 ) -> Result<RasterMachineProgram, ProgramFailure> {
-    let program = XyProgram::from_path(&command.path, &command.dwell_s, command.approach)
-        .map_err(ProgramFailure::Plan)?;
+    let program = XyProgram::from_path(
+        &command.path,
+        &command.dwell_s,
+        command.approach,
+        &command.surface,
+    )
+    .map_err(ProgramFailure::Plan)?;
     let machine = command.machine;
     let axes = XY_AXES.map(|a| (a, program.motion(a)));
     let violations = command.choice.mark(machine.violations_of(
@@ -159,6 +190,25 @@ pub fn raster_program(
         tool_rpm: command.tool_rpm,
         gcode,
     })
+}
+
+/// Where Z = 0 is, and how Z follows the part.
+fn surface_line(surface: &Surface, program: &XyProgram) -> String {
+    let base = "Z = 0 is the tool's working height over the part's vertex, set by the work offset";
+    match surface.radius_of_curvature_mm() {
+        None => format!("{base}; a flat"),
+        Some(r) => format!(
+            "{base}; Z follows the {} of vertex radius {r} mm at the plan's origin \
+             (steepest slope {:.3} deg, largest chord deviation {:.6} mm)",
+            if surface.is_sphere() {
+                "sphere"
+            } else {
+                "asphere"
+            },
+            program.max_slope_deg,
+            program.max_path_deviation_mm
+        ),
+    }
 }
 
 /// The G-code's header comments: what was planned, on which machine, from which request.
@@ -189,7 +239,7 @@ fn header(command: &RasterProgramCommand, program: &XyProgram) -> Vec<String> {
             program.program_time_s
         ),
         format!("axes: {}", axes.join(", ")),
-        "Z = 0 is the tool's working height over the part, set by the work offset".to_string(),
+        surface_line(&command.surface, program),
         tool,
         super::program::limits_line(command.choice),
         format!("request sha256 {}", command.request_digest),

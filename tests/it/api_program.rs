@@ -3,7 +3,7 @@
 
 use serde_json::{json, Value};
 
-use crate::common::http::{app, post_json, post_with};
+use crate::common::http::{app, post_json, post_json_accepting};
 
 const FIXTURE: &str = include_str!("../../fixtures/program_sphere.json");
 
@@ -137,29 +137,14 @@ async fn a_spindle_speed_beyond_the_limit_is_refused() {
 #[tokio::test]
 async fn gcode_and_csv_answers() {
     let app = app();
-    let gcode = post_with(
-        &app,
-        "/v1/program",
-        FIXTURE,
-        &[
-            ("content-type", "application/json"),
-            ("accept", "text/x-gcode"),
-        ],
-    )
-    .await;
+    let gcode = post_json_accepting(&app, "/v1/program", FIXTURE, "text/x-gcode").await;
     assert_eq!(gcode.status, 200);
     let text = gcode.text();
     assert!(text.starts_with("(Preston machine program)\n"), "{text}");
     assert!(text.contains("eta = 0.05") && text.contains("(request sha256 "));
     assert!(text.contains("\nG93\nG4 P2.000000\n"), "{text}");
     assert!(text.trim_end().ends_with("M2"));
-    let csv = post_with(
-        &app,
-        "/v1/program",
-        FIXTURE,
-        &[("content-type", "application/json"), ("accept", "text/csv")],
-    )
-    .await;
+    let csv = post_json_accepting(&app, "/v1/program", FIXTURE, "text/csv").await;
     assert_eq!(csv.status, 200);
     let csv = csv.text();
     assert!(csv.starts_with("block,kind,position_mm,"));

@@ -6,7 +6,7 @@
 
 use serde_json::{json, Value};
 
-use crate::common::http::{app, post_json, post_with};
+use crate::common::http::{app, post_json, post_json_accepting};
 use crate::common::read_fixture;
 
 /// One G1 block as a controller reads it: where it ends (X mm, C deg as written) and how long
@@ -164,16 +164,8 @@ async fn the_g_code_executes_the_plan_s_c_law() {
     let gcode = |request: &Value| {
         let request = request.to_string();
         async move {
-            let reply = post_with(
-                &app(),
-                "/v1/maps/program",
-                request,
-                &[
-                    ("content-type", "application/json"),
-                    ("accept", "text/x-gcode"),
-                ],
-            )
-            .await;
+            let reply =
+                post_json_accepting(&app(), "/v1/maps/program", request, "text/x-gcode").await;
             assert_eq!(reply.status, 200, "{}", reply.text());
             reply.text()
         }
@@ -307,16 +299,8 @@ async fn at_constant_c_the_program_is_the_radial_one_with_c_turning() {
         );
         assert!(close(a, b, 1e-9), "{key}: {a} vs {b}");
     }
-    let reply = post_with(
-        &app(),
-        "/v1/maps/program",
-        body.to_string(),
-        &[
-            ("content-type", "application/json"),
-            ("accept", "text/x-gcode"),
-        ],
-    )
-    .await;
+    let reply =
+        post_json_accepting(&app(), "/v1/maps/program", body.to_string(), "text/x-gcode").await;
     let ((_, c0), moves) = read_gcode(&reply.text());
     let words: Vec<f64> = moves.iter().map(|m| m.c_deg).collect();
     let unwound = unwrap(c0, &words);

@@ -5,7 +5,7 @@
 
 use serde_json::{json, Value};
 
-use crate::common::http::{app, post_json, post_with};
+use crate::common::http::{app, post_json, post_json_accepting};
 
 /// An uneven spot (no symmetry to hide a flipped axis), 9 × 7 pixels of 0.4 mm, its removal in
 /// nm over `SPOT_S` seconds, rows top first.
@@ -399,6 +399,9 @@ async fn program_keeps_the_plans_limits(plan: &Value, machine: &Value) {
     assert_eq!(reply.status, 200, "{}", reply.text());
     let program = reply.json();
     assert_eq!(program["kinematics"], "cartesian");
+    // A flat: Z keeps its height, no chord leaves the part.
+    assert_eq!(program["max_path_deviation_mm"], 0.0);
+    assert_eq!(program["max_slope_deg"], 0.0);
     let total = plan["total_time_s"].as_f64().unwrap();
     assert!((program["total_time_s"].as_f64().unwrap() - total).abs() <= 1e-9 * total);
     let names = [
@@ -414,16 +417,8 @@ async fn program_keeps_the_plans_limits(plan: &Value, machine: &Value) {
             assert!((a - b).abs() <= 1e-9 * b, "{axis} {ours}: {a} vs {b}");
         }
     }
-    let reply = post_with(
-        &app(),
-        "/v1/maps/program",
-        body.to_string(),
-        &[
-            ("content-type", "application/json"),
-            ("accept", "text/x-gcode"),
-        ],
-    )
-    .await;
+    let reply =
+        post_json_accepting(&app(), "/v1/maps/program", body.to_string(), "text/x-gcode").await;
     assert_eq!(reply.status, 200, "{}", reply.text());
     let gcode = reply.text();
     assert!(
@@ -473,6 +468,103 @@ async fn program_keeps_the_plans_limits(plan: &Value, machine: &Value) {
     assert_eq!(
         reply.json()["violations"][0]["field"],
         "machine.x.max_velocity_mm_per_min",
+        "{}",
+        reply.text()
+    );
+}
+
+/// On a curved part Z follows the surface: a 3 × 3 plan of 2 mm pitch off the vertex of a
+/// sphere of R = 40 mm. Every G1 block ends at the sphere's sag there, R − √(R² − x² − y²)
+/// from the block's own X and Y, to the G-code's 7 decimals; the start is that plus the
+/// clearance; the reported chord deviation is the largest normal distance of a move's middle
+/// from the sphere, | |m − c| − R | for the centre c = (0, 0, R), computed here from the
+/// G-code (to its rounding); the steepest slope is asin(r/R) at the farthest point.
+/// Z's velocity limit below the moves' peak is a 422 naming it; a point beyond the sphere's
+/// rim, naming the point.
+#[tokio::test]
+async fn the_program_follows_a_curved_part() {
+    let r_mm = 40.0;
+    let mut points = vec![];
+    for row in 0..3 {
+        for k in 0..3 {
+            let col = if row % 2 == 0 { k } else { 2 - k };
+            points.push([5.0 + 2.0 * col as f64, -3.0 + 2.0 * row as f64]);
+        }
+    }
+    let dwell: Vec<f64> = (0..9).map(|k| 1.0 + 0.5 * k as f64).collect();
+    let body = json!({
+        "machine": {"kinematics": "cartesian"},
+        "dwell": {"points_mm": points, "dwell_s": dwell},
+        "surface": {"kind": "sphere", "radius_of_curvature_mm": r_mm},
+        "approach": {"clearance_mm": 3.0, "feed_mm_per_min": 1.0},
+        "format": {"decimals": 7},
+    });
+    let reply = post_json(&app(), "/v1/maps/program", body.to_string()).await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let program = reply.json();
+    let sag = |x: f64, y: f64| r_mm - (r_mm * r_mm - x * x - y * y).sqrt();
+    let reply =
+        post_json_accepting(&app(), "/v1/maps/program", body.to_string(), "text/x-gcode").await;
+    let gcode = reply.text();
+    let word = |line: &str, letter: char| {
+        line.split_whitespace()
+            .find(|w| w.starts_with(letter))
+            .and_then(|w| w[1..].parse::<f64>().ok())
+    };
+    let mut at = [f64::NAN; 3];
+    let mut worst = 0.0_f64;
+    let mut moves = 0;
+    for line in gcode.lines() {
+        if line.starts_with("G0 ") {
+            let [x, y, z] = ['X', 'Y', 'Z'].map(|c| word(line, c).unwrap());
+            assert!((z - sag(x, y) - 3.0).abs() < 1e-7, "{line}");
+            at = [x, y, z - 3.0];
+        } else if line.starts_with("G1 X") {
+            let [x, y, z] = ['X', 'Y', 'Z'].map(|c| word(line, c).unwrap());
+            assert!((z - sag(x, y)).abs() < 1e-7, "{line}");
+            let middle = [0.5 * (at[0] + x), 0.5 * (at[1] + y), 0.5 * (at[2] + z)];
+            let distance =
+                (middle[0].powi(2) + middle[1].powi(2) + (middle[2] - r_mm).powi(2)).sqrt();
+            worst = worst.max((distance - r_mm).abs());
+            at = [x, y, z];
+            moves += 1;
+        }
+    }
+    assert_eq!(moves, 16, "{gcode}");
+    let reported = program["max_path_deviation_mm"].as_f64().unwrap();
+    // The G-code's 7 decimals move a middle by up to 1e-7 mm; the vertical gap times the
+    // cosine differs from the normal distance at second order, gap·tan²θ/(2R) ≈ 1e-6 of it.
+    assert!(
+        (reported - worst).abs() <= 2e-7 + 1e-5 * worst,
+        "{reported} vs {worst}"
+    );
+    let farthest = (9.0_f64.powi(2) + 3.0_f64.powi(2)).sqrt();
+    let slope = (farthest / r_mm).asin().to_degrees();
+    assert!((program["max_slope_deg"].as_f64().unwrap() - slope).abs() < 1e-9);
+    // Z moves within the polishing now: its peak velocity is the moves', above the approach's
+    // 1 mm/min.
+    let z_peak = program["axes"]["z"]["peak_velocity_mm_per_min"]
+        .as_f64()
+        .unwrap();
+    assert!(z_peak > 2.0, "{z_peak}");
+    let mut slow = body.clone();
+    slow["machine"]["z"] = json!({"max_velocity_mm_per_min": 0.5 * z_peak});
+    let reply = post_json(&app(), "/v1/maps/program", slow.to_string()).await;
+    assert_eq!(reply.status, 422, "{}", reply.text());
+    assert_eq!(
+        reply.json()["violations"][0]["field"],
+        "machine.z.max_velocity_mm_per_min",
+        "{}",
+        reply.text()
+    );
+    let mut beyond = body.clone();
+    beyond["surface"]["radius_of_curvature_mm"] = json!(9.0);
+    let reply = post_json(&app(), "/v1/maps/program", beyond.to_string()).await;
+    assert_eq!(reply.status, 422, "{}", reply.text());
+    // R = 9 mm: the farthest point, (9, −3) at r = √90, is named.
+    assert_eq!(
+        reply.json()["field"],
+        "dwell.points_mm[2]",
         "{}",
         reply.text()
     );

@@ -234,7 +234,7 @@ impl From<StudyError> for ApiError {
 }
 
 /// A surface that was refused, at its field.
-fn surface_error(e: SurfaceError) -> ApiError {
+pub(super) fn surface_error(e: SurfaceError) -> ApiError {
     let field = surface_field(e.input());
     ApiError::invalid(field.clone(), format!("{field}: {e}"))
 }

@@ -85,6 +85,8 @@ impl From<RasterProgramInputError> for ApiError {
             E::Clearance => "approach.clearance_mm".to_string(),
             E::ApproachFeed => "approach.feed_mm_per_min".to_string(),
             E::ToolRpm(_) => "tool_rpm".to_string(),
+            E::Surface(e) => return super::surface_error(e),
+            E::PointOffSurface { index, .. } => format!("dwell.points_mm[{index}]"),
         };
         ApiError::invalid(field, detail)
     }

@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::super::dto::{LinearAxisReport, WarningDto};
+use super::super::dto::{LinearAxisReport, SurfaceDto, WarningDto};
 use super::super::error::ApiError;
 use super::super::extract::{object, optional_count, optional_object};
 use super::super::program::{
@@ -43,6 +43,11 @@ pub struct RasterProgramRequest {
     /// The tool spindle's speed, r/min (signed, counter-clockwise positive seen from the tool
     /// side); absent: no spindle words (a beam or a jet the shop switches).
     pub tool_rpm: Option<f64>,
+    /// The part's surface, its vertex at the plan's origin (the map's centre). On a curved
+    /// part Z follows it: every block ends at the sag there, Z = 0 at the vertex. Default a
+    /// flat (Z moves only to approach and retract).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub surface: Option<SurfaceDto>,
     /// Default: 5 mm clearance in Z at 100 mm/min (slower where Z's limits need it).
     #[serde(default, deserialize_with = "optional_object")]
     pub approach: Option<ApproachDto>,
@@ -58,7 +63,8 @@ pub struct XyPoseDto {
     pub x_mm: f64,
     /// Y, mm (up on the map).
     pub y_mm: f64,
-    /// Above the part by the approach's clearance (Z = 0 is the tool's working height).
+    /// Above the part by the approach's clearance (Z = 0 is the tool's working height over
+    /// the vertex).
     pub z_mm: f64,
 }
 
@@ -71,7 +77,7 @@ pub struct XyAxesDto {
     pub x: LinearAxisReport,
     /// Y: the plan's moves between rows.
     pub y: LinearAxisReport,
-    /// Z: the approach and retract only.
+    /// Z: the approach and retract, and on a curved part the surface's sag.
     pub z: LinearAxisReport,
 }
 
@@ -100,6 +106,13 @@ pub struct RasterProgramResponse {
     pub approach_clearance_mm: f64,
     /// The approach and retract feed as programmed, mm/min.
     pub approach_feed_mm_per_min: f64,
+    /// The largest normal distance of the tool's centre from the surface at the middle of a
+    /// move (X, Y and Z run linearly within a block), mm; 0 on a flat.
+    pub max_path_deviation_mm: f64,
+    /// The surface's steepest slope under the program's points, degrees. The plan is made in
+    /// the X-Y projection with the influence function as measured, which holds while this is
+    /// small (a footprint stretches by 1/cos θ along the slope).
+    pub max_slope_deg: f64,
     /// `machine_unlimited` for a study; empty when there is nothing to say.
     pub warnings: Vec<WarningDto>,
     /// The G-code (served with `Accept: text/x-gcode`).
@@ -118,6 +131,7 @@ impl RasterProgramRequest {
             dwell_s: self.dwell.dwell_s,
             machine: self.machine.choice(),
             tool_rpm: self.tool_rpm,
+            surface: self.surface.as_ref().map(Into::into),
             clearance_mm: approach.clearance_mm,
             approach_feed_mm_per_min: approach.feed_mm_per_min,
             format: tool_words_format(format.decimals, format.tool_spindle.as_ref()),
@@ -146,6 +160,8 @@ impl From<RasterMachineProgram> for RasterProgramResponse {
             skipped_positions: p.skipped.into(),
             approach_clearance_mm: p.approach.clearance_mm,
             approach_feed_mm_per_min: p.approach.feed_mm_per_min,
+            max_path_deviation_mm: p.max_path_deviation_mm,
+            max_slope_deg: p.max_slope_deg,
             warnings: WarningDto::all(&m.warnings),
             gcode: m.gcode,
         }

@@ -79,6 +79,22 @@ pub async fn post_json(app: &Router, path: &str, body: impl Into<Body>) -> Reply
     post_with(app, path, body, &[("content-type", "application/json")]).await
 }
 
+/// A JSON body, the answer asked in `accept` (`text/x-gcode`, `text/csv`, …).
+pub async fn post_json_accepting(
+    app: &Router,
+    path: &str,
+    body: impl Into<Body>,
+    accept: &str,
+) -> Reply {
+    post_with(
+        app,
+        path,
+        body,
+        &[("content-type", "application/json"), ("accept", accept)],
+    )
+    .await
+}
+
 pub async fn post_with(
     app: &Router,
     path: &str,
