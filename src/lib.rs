@@ -26,6 +26,7 @@ pub mod optimize;
 pub mod physics;
 pub mod ratelimit;
 pub mod report;
+pub mod segments;
 pub mod server;
 pub mod slots;
 pub mod spline;

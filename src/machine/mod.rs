@@ -42,6 +42,7 @@ pub mod limits;
 pub mod polar_program;
 pub mod pose;
 pub mod program;
+pub mod servo;
 pub mod xy_program;
 
 pub use gcode::{

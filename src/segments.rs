@@ -1,0 +1,556 @@
+//! Off-axis segments mounted on the C axis: N identical segments of a parent asphere, each
+//! translated (not tilted) so that its centre sits on a circle about C, cut or polished in one
+//! set-up; their sag in C's frame, its local frame, and the Z law along a ring of C.
+//!
+//! # The layout
+//!
+//! A segment is the disc of radius a (its clear aperture) about the point at distance h (the
+//! off-axis distance) from the parent's vertex. Segment i is mounted with its centre at
+//! c_i = l·e_i, e_i = (cos φ_i, sin φ_i), φ_i = 2π·i/N, its parent's vertex toward C (at
+//! c_i − h·e_i, the segment keeping the orientation it had on the parent). A point p of the
+//! part (C's frame, mm) in segment i has parent coordinates
+//!
+//! ```text
+//! q = (h + (p − c_i)·e_i,  (p − c_i)·e_i⊥),   ρ = |q|,   z_i(p) = z(ρ) − z(h)
+//! ```
+//!
+//! z the parent's sag, so each segment's centre is at Z = 0. The segments must not overlap
+//! (l·sin(π/N) ≥ a for N ≥ 2) nor cover C (l > a). A decentred part is the one-segment case.
+//!
+//! # The local frame, exactly
+//!
+//! With z′ and z″ of the parent at ρ (closed forms, [`Surface`]), the gradient and Hessian of
+//! z_i in q are ∇z = z′·q̂ and H = z″·q̂q̂ᵀ + (z′/ρ)·(I − q̂q̂ᵀ) (at ρ = 0: ∇z = 0, H = z″(0)·I),
+//! rotated into C's frame by e_i. The unit normal toward the tool is (−∇z, 1)/w,
+//! w = √(1 + |∇z|²), and the principal curvatures are the eigenvalues of the shape operator
+//! (I + ∇z∇zᵀ)⁻¹·H/w, a 2 × 2 matrix similar to a symmetric one: real, in closed form.
+//!
+//! # Z along a ring
+//!
+//! A tool at radius r from C sees the part-frame points p(φ) = r·(cos φ, sin φ) pass under it as
+//! C turns (φ = −C for C counter-clockwise positive: the part moves under a still tool). Over
+//! segment i's arc, |p − c_i| ≤ a ⇔ cos(φ − φ_i) ≥ (r² + l² − a²)/(2rl), Z follows the surface:
+//!
+//! ```text
+//! Z = z_i(p),   Z′ = ∇z·p′,   Z″ = p′ᵀ·H·p′ + ∇z·p″,   p′ = r·(−sin φ, cos φ),  p″ = −p
+//! ```
+//!
+//! (derivatives in φ). Between two arcs Z follows the quintic that meets Z, Z′ and Z″ at both
+//! ends (Hermite's), so Z's velocity and acceleration are continuous through every
+//! transition at any C speed, plus, when the pad is lifted across the gap, the clearance times
+//! sin⁴(π·s) (s ∈ [0, 1] across the gap), whose value, slope and curvature vanish at both ends:
+//! a quintic spline and a sine, the spline–sine idea with the jerk left free. A ring that
+//! crosses no segment has no law.
+
+use std::f64::consts::PI;
+
+use rustfft::num_complex::Complex;
+use rustfft::FftPlanner;
+
+use crate::surface::{Surface, SurfaceError};
+
+/// A layout as a caller gives it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentLayoutSpec {
+    /// The parent asphere, its vertex the origin of each segment's parent coordinates.
+    pub parent: Surface,
+    /// h: a segment's centre from the parent's vertex, mm (≥ 0; 0 is an on-axis part).
+    pub off_axis_mm: f64,
+    /// a: a segment's clear aperture, the radius of its disc, mm (> 0).
+    pub aperture_radius_mm: f64,
+    /// l: the circle of the segments' centres about C, mm.
+    pub mount_radius_mm: f64,
+    /// N ≥ 1.
+    pub count: usize,
+}
+
+/// Why a layout was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SegmentError {
+    #[error("off_axis_mm must be a finite number ≥ 0")]
+    OffAxis,
+    #[error("aperture_radius_mm must be a finite number > 0")]
+    Aperture,
+    #[error("mount_radius_mm must be a finite number larger than the aperture's radius (a segment may not cover the C axis)")]
+    Mount,
+    #[error("count must be from 1 to {MAX_SEGMENTS}")]
+    Count,
+    #[error("{count} segments of radius {aperture_mm} mm overlap on a circle of {mount_mm} mm: it needs l·sin(π/N) ≥ a")]
+    Overlap {
+        count: usize,
+        aperture_mm: f64,
+        mount_mm: f64,
+    },
+    #[error("the parent is not defined over a segment: {0}")]
+    Parent(SurfaceError),
+}
+
+/// The most segments a layout may have.
+pub const MAX_SEGMENTS: usize = 64;
+
+/// A checked layout.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentLayout {
+    spec: SegmentLayoutSpec,
+    /// z(h): the parent's sag at a segment's centre.
+    centre_sag_mm: f64,
+}
+
+/// A surface point's sag and its first and second derivatives in C's frame (x, y in mm).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfacePoint {
+    pub sag_mm: f64,
+    pub gradient: [f64; 2],
+    pub hessian: [[f64; 2]; 2],
+}
+
+impl SurfacePoint {
+    /// The unit normal toward the tool, (−∇z, 1)/√(1 + |∇z|²).
+    pub fn normal(&self) -> [f64; 3] {
+        let [gx, gy] = self.gradient;
+        let w = (1.0 + gx * gx + gy * gy).sqrt();
+        [-gx / w, -gy / w, 1.0 / w]
+    }
+
+    /// The principal curvatures, 1/mm, smaller first (positive where the surface bends toward
+    /// the tool, as a positive radius of curvature does).
+    pub fn principal_curvatures(&self) -> [f64; 2] {
+        let [gx, gy] = self.gradient;
+        let w2 = 1.0 + gx * gx + gy * gy;
+        let w = w2.sqrt();
+        // (I + ggᵀ)⁻¹ = I − ggᵀ/w², times H/w.
+        let inv = [
+            [1.0 - gx * gx / w2, -gx * gy / w2],
+            [-gx * gy / w2, 1.0 - gy * gy / w2],
+        ];
+        let h = self.hessian;
+        let s = |i: usize, j: usize| (inv[i][0] * h[0][j] + inv[i][1] * h[1][j]) / w;
+        let (a, b, c, d) = (s(0, 0), s(0, 1), s(1, 0), s(1, 1));
+        let mean = 0.5 * (a + d);
+        let spread = (0.25 * (a - d) * (a - d) + b * c).max(0.0).sqrt();
+        [mean - spread, mean + spread]
+    }
+}
+
+impl SegmentLayout {
+    pub fn new(spec: SegmentLayoutSpec) -> Result<SegmentLayout, SegmentError> {
+        let finite = |v: f64| v.is_finite();
+        if !(finite(spec.off_axis_mm) && spec.off_axis_mm >= 0.0) {
+            return Err(SegmentError::OffAxis);
+        }
+        if !(finite(spec.aperture_radius_mm) && spec.aperture_radius_mm > 0.0) {
+            return Err(SegmentError::Aperture);
+        }
+        if !(finite(spec.mount_radius_mm) && spec.mount_radius_mm > spec.aperture_radius_mm) {
+            return Err(SegmentError::Mount);
+        }
+        if !(1..=MAX_SEGMENTS).contains(&spec.count) {
+            return Err(SegmentError::Count);
+        }
+        if spec.count >= 2
+            && spec.mount_radius_mm * (PI / spec.count as f64).sin() < spec.aperture_radius_mm
+        {
+            return Err(SegmentError::Overlap {
+                count: spec.count,
+                aperture_mm: spec.aperture_radius_mm,
+                mount_mm: spec.mount_radius_mm,
+            });
+        }
+        spec.parent
+            .check_defined_to(spec.off_axis_mm + spec.aperture_radius_mm)
+            .map_err(SegmentError::Parent)?;
+        Ok(SegmentLayout {
+            centre_sag_mm: spec.parent.sag_mm(spec.off_axis_mm),
+            spec,
+        })
+    }
+
+    pub fn spec(&self) -> &SegmentLayoutSpec {
+        &self.spec
+    }
+
+    /// φ_i, rad.
+    pub fn centre_angle(&self, i: usize) -> f64 {
+        2.0 * PI * i as f64 / self.spec.count as f64
+    }
+
+    /// The segment whose disc holds p, if any (they do not overlap).
+    pub fn segment_at(&self, p: [f64; 2]) -> Option<usize> {
+        let a = self.spec.aperture_radius_mm;
+        (0..self.spec.count).find(|&i| {
+            let (s, c) = self.centre_angle(i).sin_cos();
+            let l = self.spec.mount_radius_mm;
+            (p[0] - l * c).hypot(p[1] - l * s) <= a
+        })
+    }
+
+    /// z_i at p with its gradient and Hessian in C's frame (module docs).
+    pub fn point(&self, i: usize, p: [f64; 2]) -> SurfacePoint {
+        let (s, c) = self.centre_angle(i).sin_cos();
+        let l = self.spec.mount_radius_mm;
+        let (dx, dy) = (p[0] - l * c, p[1] - l * s);
+        let q = [self.spec.off_axis_mm + dx * c + dy * s, -dx * s + dy * c];
+        let rho = q[0].hypot(q[1]);
+        let local = self.spec.parent.local(rho);
+        let (gq, hq) = if rho < 1e-12 {
+            let k = self.spec.parent.second_derivative(0.0);
+            ([0.0, 0.0], [[k, 0.0], [0.0, k]])
+        } else {
+            let u = [q[0] / rho, q[1] / rho];
+            let (d1, d2) = (local.slope, local.second_derivative);
+            let t = d1 / rho;
+            (
+                [d1 * u[0], d1 * u[1]],
+                [
+                    [
+                        d2 * u[0] * u[0] + t * (1.0 - u[0] * u[0]),
+                        (d2 - t) * u[0] * u[1],
+                    ],
+                    [
+                        (d2 - t) * u[0] * u[1],
+                        d2 * u[1] * u[1] + t * (1.0 - u[1] * u[1]),
+                    ],
+                ],
+            )
+        };
+        // Into C's frame: columns e_i = (c, s) and e_i⊥ = (−s, c).
+        let r = [[c, -s], [s, c]];
+        let gradient = [
+            r[0][0] * gq[0] + r[0][1] * gq[1],
+            r[1][0] * gq[0] + r[1][1] * gq[1],
+        ];
+        let mut hessian = [[0.0; 2]; 2];
+        for (a, row) in hessian.iter_mut().enumerate() {
+            for (b, v) in row.iter_mut().enumerate() {
+                *v = (0..2)
+                    .flat_map(|k| (0..2).map(move |m| (k, m)))
+                    .map(|(k, m)| r[a][k] * hq[k][m] * r[b][m])
+                    .sum();
+            }
+        }
+        SurfacePoint {
+            sag_mm: local.sag_mm - self.centre_sag_mm,
+            gradient,
+            hessian,
+        }
+    }
+
+    /// Z along the ring of radius `r_mm`, `lift_mm` above the law across the gaps (0: the pad
+    /// stays down at zero dwell); `None` when the ring crosses no segment.
+    pub fn ring(&self, r_mm: f64, lift_mm: f64) -> Option<RingLaw<'_>> {
+        let (l, a) = (self.spec.mount_radius_mm, self.spec.aperture_radius_mm);
+        if r_mm.is_nan() || r_mm <= 0.0 {
+            return None;
+        }
+        let cos = (r_mm * r_mm + l * l - a * a) / (2.0 * r_mm * l);
+        if cos > 1.0 {
+            return None;
+        }
+        // l > a, so cos > −1: each arc is shorter than the ring.
+        let half = cos.acos();
+        let arcs = (0..self.spec.count)
+            .map(|i| {
+                let centre = self.centre_angle(i);
+                (i, centre - half, centre + half)
+            })
+            .collect();
+        Some(RingLaw {
+            layout: self,
+            r_mm,
+            lift_mm,
+            arcs,
+        })
+    }
+}
+
+/// Z (mm) as a function of the part-frame angle φ along one ring (module docs).
+#[derive(Debug, Clone)]
+pub struct RingLaw<'a> {
+    layout: &'a SegmentLayout,
+    r_mm: f64,
+    lift_mm: f64,
+    /// (segment, first angle, last angle) in increasing order, rad.
+    arcs: Vec<(usize, f64, f64)>,
+}
+
+/// Z, dZ/dφ and d²Z/dφ² (mm, mm/rad, mm/rad²).
+pub type Jet = [f64; 3];
+
+impl RingLaw<'_> {
+    /// The segments' arcs along the ring, (segment, from, to) in rad, increasing.
+    pub fn arcs(&self) -> &[(usize, f64, f64)] {
+        &self.arcs
+    }
+
+    /// Z and its first two derivatives on segment i's surface at angle φ.
+    fn on_segment(&self, i: usize, phi: f64) -> Jet {
+        let (s, c) = phi.sin_cos();
+        let r = self.r_mm;
+        let p = [r * c, r * s];
+        let d1 = [-r * s, r * c];
+        let point = self.layout.point(i, p);
+        let g = point.gradient;
+        let h = point.hessian;
+        let curvature = d1[0] * (h[0][0] * d1[0] + h[0][1] * d1[1])
+            + d1[1] * (h[1][0] * d1[0] + h[1][1] * d1[1]);
+        [
+            point.sag_mm,
+            g[0] * d1[0] + g[1] * d1[1],
+            curvature - (g[0] * p[0] + g[1] * p[1]),
+        ]
+    }
+
+    /// Z at angle φ (any real), and its first two derivatives in φ.
+    pub fn at(&self, phi: f64) -> Jet {
+        let first = self.arcs[0].1;
+        // φ brought into [first, first + 2π).
+        let phi = first + (phi - first).rem_euclid(2.0 * PI);
+        let n = self.arcs.len();
+        for (k, &(i, from, to)) in self.arcs.iter().enumerate() {
+            if phi <= to {
+                return self.on_segment(i, phi.max(from));
+            }
+            let next = self.arcs.get(k + 1).map_or(first + 2.0 * PI, |a| a.1);
+            if phi < next {
+                let (j, _, _) = self.arcs[(k + 1) % n];
+                return self.transition(
+                    self.on_segment(i, to),
+                    self.on_segment(j, next),
+                    to,
+                    next,
+                    phi,
+                );
+            }
+        }
+        unreachable!("φ is within one turn of the first arc")
+    }
+
+    /// The quintic from `start` at φ0 to `end` at φ1, plus the lift's sin⁴, at φ.
+    fn transition(&self, start: Jet, end: Jet, phi0: f64, phi1: f64, phi: f64) -> Jet {
+        let w = phi1 - phi0;
+        let s = (phi - phi0) / w;
+        let (s2, s3) = (s * s, s * s * s);
+        let (s4, s5) = (s3 * s, s3 * s2);
+        // Hermite's quintic basis on [0, 1] and its first two derivatives in s.
+        let basis = [
+            [
+                1.0 - 10.0 * s3 + 15.0 * s4 - 6.0 * s5,
+                -30.0 * s2 + 60.0 * s3 - 30.0 * s4,
+                -60.0 * s + 180.0 * s2 - 120.0 * s3,
+            ],
+            [
+                s - 6.0 * s3 + 8.0 * s4 - 3.0 * s5,
+                1.0 - 18.0 * s2 + 32.0 * s3 - 15.0 * s4,
+                -36.0 * s + 96.0 * s2 - 60.0 * s3,
+            ],
+            [
+                0.5 * (s2 - 3.0 * s3 + 3.0 * s4 - s5),
+                0.5 * (2.0 * s - 9.0 * s2 + 12.0 * s3 - 5.0 * s4),
+                0.5 * (2.0 - 18.0 * s + 36.0 * s2 - 20.0 * s3),
+            ],
+            [
+                0.5 * (s3 - 2.0 * s4 + s5),
+                0.5 * (3.0 * s2 - 8.0 * s3 + 5.0 * s4),
+                0.5 * (6.0 * s - 24.0 * s2 + 20.0 * s3),
+            ],
+            [
+                -4.0 * s3 + 7.0 * s4 - 3.0 * s5,
+                -12.0 * s2 + 28.0 * s3 - 15.0 * s4,
+                -24.0 * s + 84.0 * s2 - 60.0 * s3,
+            ],
+            [
+                10.0 * s3 - 15.0 * s4 + 6.0 * s5,
+                30.0 * s2 - 60.0 * s3 + 30.0 * s4,
+                60.0 * s - 180.0 * s2 + 120.0 * s3,
+            ],
+        ];
+        // Coefficients in s: derivatives in φ times w and w².
+        let weights = [
+            start[0],
+            start[1] * w,
+            start[2] * w * w,
+            end[2] * w * w,
+            end[1] * w,
+            end[0],
+        ];
+        let mut jet = [0.0; 3];
+        for (b, weight) in basis.iter().zip(weights) {
+            for d in 0..3 {
+                jet[d] += weight * b[d];
+            }
+        }
+        // sin⁴(πs) and its derivatives in s.
+        if self.lift_mm != 0.0 {
+            let (sn, cs) = (PI * s).sin_cos();
+            jet[0] += self.lift_mm * sn.powi(4);
+            jet[1] += self.lift_mm * 4.0 * PI * sn.powi(3) * cs;
+            jet[2] += self.lift_mm * 4.0 * PI * PI * sn * sn * (3.0 * cs * cs - sn * sn);
+        }
+        [jet[0], jet[1] / w, jet[2] / (w * w)]
+    }
+
+    /// Z's harmonics over one turn, m = 1 … `count`: the amplitude (mm) of cos(mφ + ψ) in Z,
+    /// from `samples` equally spaced values (a power of two is fastest).
+    pub fn harmonics(&self, samples: usize, count: usize) -> Vec<f64> {
+        let mut values: Vec<Complex<f64>> = (0..samples)
+            .map(|k| Complex::new(self.at(2.0 * PI * k as f64 / samples as f64)[0], 0.0))
+            .collect();
+        FftPlanner::new()
+            .plan_fft_forward(samples)
+            .process(&mut values);
+        (1..=count.min(samples / 2 - 1))
+            .map(|m| 2.0 * values[m].norm() / samples as f64)
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::surface::SurfaceSpec;
+
+    /// The layout of the issue's case: a paraboloid of R = 800 mm, four segments of 60 mm
+    /// (a = 30) at h = 120 mm, mounted on l = 70 mm.
+    fn case() -> SegmentLayout {
+        SegmentLayout::new(SegmentLayoutSpec {
+            parent: Surface::new(&SurfaceSpec::Asphere {
+                radius_of_curvature_mm: 800.0,
+                conic_constant: -1.0,
+                coefficients: vec![],
+            })
+            .unwrap(),
+            off_axis_mm: 120.0,
+            aperture_radius_mm: 30.0,
+            mount_radius_mm: 70.0,
+            count: 4,
+        })
+        .unwrap()
+    }
+
+    /// The sag, gradient and Hessian against the paraboloid's own closed form in C's frame,
+    /// z = |P|²/(2R) − h²/(2R) with P the parent point, and its finite differences; the
+    /// principal curvatures of a paraboloid at parent radius ρ, 1/(R·w) across the meridian
+    /// and 1/(R·w³) along it (w = √(1 + ρ²/R²)).
+    #[test]
+    fn the_local_frame_is_the_paraboloids() {
+        let layout = case();
+        let rr = 800.0;
+        for (i, p) in [(0, [80.0, 10.0]), (1, [-12.0, 95.0]), (3, [20.0, -60.0])] {
+            assert_eq!(layout.segment_at(p), Some(i));
+            let phi = layout.centre_angle(i);
+            let (s, c) = phi.sin_cos();
+            // The parent's vertex in C's frame.
+            let v = [(70.0 - 120.0) * c, (70.0 - 120.0) * s];
+            let z = |x: f64, y: f64| {
+                ((x - v[0]).powi(2) + (y - v[1]).powi(2)) / (2.0 * rr) - 120.0 * 120.0 / (2.0 * rr)
+            };
+            let pt = layout.point(i, p);
+            assert!((pt.sag_mm - z(p[0], p[1])).abs() < 1e-12, "{pt:?}");
+            let g = [(p[0] - v[0]) / rr, (p[1] - v[1]) / rr];
+            for (k, (ours, exact)) in pt.gradient.iter().zip(g).enumerate() {
+                assert!((ours - exact).abs() < 1e-13);
+                for (m, h) in pt.hessian[k].iter().enumerate() {
+                    let expected = if k == m { 1.0 / rr } else { 0.0 };
+                    assert!((h - expected).abs() < 1e-15, "{pt:?}");
+                }
+            }
+            let rho = (p[0] - v[0]).hypot(p[1] - v[1]);
+            let w = (1.0 + (rho / rr).powi(2)).sqrt();
+            let [k1, k2] = pt.principal_curvatures();
+            assert!((k1 - 1.0 / (rr * w.powi(3))).abs() < 1e-15);
+            assert!((k2 - 1.0 / (rr * w)).abs() < 1e-15);
+            let n = pt.normal();
+            assert!((n[0] * n[0] + n[1] * n[1] + n[2] * n[2] - 1.0).abs() < 1e-15);
+        }
+    }
+
+    /// Through every transition of every ring Z, Z′ and Z″ are continuous: the two one-sided
+    /// limits (the surface's law at the arc's end, the transition at s = 0 or 1) agree to
+    /// rounding, with the pad down and lifted. Everywhere, the law's derivatives agree with its
+    /// own central differences (so the jets are the law's derivatives, not numbers beside it).
+    #[test]
+    fn the_transitions_keep_velocity_and_acceleration() {
+        let layout = case();
+        for r in [45.0, 60.0, 70.0, 85.0, 99.0] {
+            for lift in [0.0, 2.0] {
+                let law = layout.ring(r, lift).unwrap();
+                let arcs = law.arcs().to_vec();
+                assert_eq!(arcs.len(), 4);
+                for (k, &(i, _, to)) in arcs.iter().enumerate() {
+                    let (j, next, _) = arcs[(k + 1) % 4];
+                    let next = if k == 3 { next + 2.0 * PI } else { next };
+                    for (edge, segment) in [(to, i), (next, j)] {
+                        let on = law.on_segment(segment, edge);
+                        let quintic = law.transition(
+                            law.on_segment(i, to),
+                            law.on_segment(j, next),
+                            to,
+                            next,
+                            edge,
+                        );
+                        for d in 0..3 {
+                            let scale = on[d].abs().max(1.0);
+                            assert!(
+                                (quintic[d] - on[d]).abs() <= 1e-12 * scale,
+                                "r {r} lift {lift} d{d}: {} vs {}",
+                                quintic[d],
+                                on[d]
+                            );
+                        }
+                    }
+                }
+                let h = 1e-5;
+                for k in 0..200 {
+                    let phi = 2.0 * PI * (k as f64 + 0.37) / 200.0;
+                    let (a, b, c) = (law.at(phi - h), law.at(phi), law.at(phi + h));
+                    let d1 = (c[0] - a[0]) / (2.0 * h);
+                    let d2 = (c[0] - 2.0 * b[0] + a[0]) / (h * h);
+                    assert!((d1 - b[1]).abs() < 1e-6 * b[1].abs().max(1.0), "{phi}");
+                    assert!((d2 - b[2]).abs() < 1e-3 * b[2].abs().max(1.0), "{phi}");
+                }
+            }
+        }
+    }
+
+    /// The case's rings: four identical segments a quarter turn apart give Z only the
+    /// harmonics 4, 8, 12, … (the others vanish to rounding, 1e-12 of the largest), and the
+    /// amplitudes carry Z's variance over the turn (Parseval: Σ A_m²/2 equals the samples'
+    /// variance to 1e-9 of it with 128 harmonics of a C² law). Printed with `--nocapture`:
+    /// the table of the docs.
+    #[test]
+    fn the_case_has_only_the_layouts_harmonics() {
+        let layout = case();
+        for r in [42.0, 55.0, 70.0, 85.0, 98.0] {
+            let law = layout.ring(r, 0.0).unwrap();
+            let samples = 4096;
+            let z: Vec<f64> = (0..samples)
+                .map(|k| law.at(2.0 * PI * k as f64 / samples as f64)[0])
+                .collect();
+            let mean = z.iter().sum::<f64>() / samples as f64;
+            let variance = z.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / samples as f64;
+            let (lo, hi) = z
+                .iter()
+                .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+            let amplitudes = law.harmonics(samples, 2047);
+            let largest = amplitudes.iter().fold(0.0_f64, |m, &a| m.max(a));
+            for (k, a) in amplitudes.iter().enumerate() {
+                if (k + 1) % 4 != 0 {
+                    assert!(*a <= 1e-12 * largest, "r {r} m {}: {a}", k + 1);
+                }
+            }
+            let energy: f64 = amplitudes.iter().take(128).map(|a| a * a / 2.0).sum();
+            assert!(
+                (energy - variance).abs() <= 1e-9 * variance,
+                "r {r}: {energy} vs {variance}"
+            );
+            println!(
+                "r {r} mm: Z from {lo:.4} to {hi:.4} mm (PV {:.4}); A4 {:.4}, A8 {:.5}, A12 {:.6} mm",
+                hi - lo,
+                amplitudes[3],
+                amplitudes[7],
+                amplitudes[11]
+            );
+        }
+        assert!(layout.ring(39.0, 0.0).is_none() && layout.ring(101.0, 0.0).is_none());
+    }
+}
