@@ -404,27 +404,32 @@ impl RingLaw<'_> {
     }
 }
 
+/// A paraboloid of R = 800 mm cut into four segments of 60 mm (a = 30) at h = 120 mm,
+/// mounted on l = 70 mm: the case of the tests.
+#[cfg(test)]
+pub(crate) fn four_paraboloid_segments() -> SegmentLayout {
+    use crate::surface::SurfaceSpec;
+    SegmentLayout::new(SegmentLayoutSpec {
+        parent: Surface::new(&SurfaceSpec::Asphere {
+            radius_of_curvature_mm: 800.0,
+            conic_constant: -1.0,
+            coefficients: vec![],
+        })
+        .unwrap(),
+        off_axis_mm: 120.0,
+        aperture_radius_mm: 30.0,
+        mount_radius_mm: 70.0,
+        count: 4,
+    })
+    .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::surface::SurfaceSpec;
 
-    /// The layout of the case: a paraboloid of R = 800 mm, four segments of 60 mm
-    /// (a = 30) at h = 120 mm, mounted on l = 70 mm.
     fn case() -> SegmentLayout {
-        SegmentLayout::new(SegmentLayoutSpec {
-            parent: Surface::new(&SurfaceSpec::Asphere {
-                radius_of_curvature_mm: 800.0,
-                conic_constant: -1.0,
-                coefficients: vec![],
-            })
-            .unwrap(),
-            off_axis_mm: 120.0,
-            aperture_radius_mm: 30.0,
-            mount_radius_mm: 70.0,
-            count: 4,
-        })
-        .unwrap()
+        four_paraboloid_segments()
     }
 
     /// The sag, gradient and Hessian against the paraboloid's own closed form in C's frame,

@@ -19,6 +19,7 @@
 use std::f64::consts::PI;
 
 use super::limits::AxisLimits;
+use crate::segments::SegmentLayout;
 
 /// Amplitudes below this (mm, a picometre) are rounding, not motion: they bound nothing.
 pub const NEGLIGIBLE_AMPLITUDE_MM: f64 = 1e-9;
@@ -93,6 +94,71 @@ pub fn largest_c_speed(
     Ok(best)
 }
 
+/// What one ring of a layout asks of Z, and the C speed Z allows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RingDemand {
+    pub r_mm: f64,
+    /// Z's least and greatest value over the turn, mm.
+    pub z_range_mm: [f64; 2],
+    /// Z's harmonics m = 1 … [`RING_HARMONICS`], amplitude in mm.
+    pub amplitudes_mm: Vec<f64>,
+    /// The largest C speed at which Z follows every harmonic (the servo rule).
+    pub speed: ServoSpeed,
+}
+
+/// Why a ring's Z law cannot be followed at any C speed.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("ring {ring} (r = {r_mm} mm): Z's harmonic {} needs {:.4} mm of amplitude, more than half Z's travel ({:.4} mm), at any C speed", .breach.harmonic, .breach.amplitude_mm, .breach.half_travel_mm)]
+pub struct RingBreach {
+    /// The ring's index in the list asked.
+    pub ring: usize,
+    pub r_mm: f64,
+    pub breach: TravelBreach,
+}
+
+/// The harmonics of Z a ring's demand lists (a C² law's amplitudes fall as m⁻³: at m = 256
+/// they are 1e-7 of the first's).
+pub const RING_HARMONICS: usize = 256;
+
+/// The samples per turn the harmonics are taken from (a power of two, 8 per harmonic).
+const RING_SAMPLES: usize = 8 * RING_HARMONICS;
+
+/// Each ring's demand on Z (lifted `lift_mm` across the gaps) and the C speed `z` allows it;
+/// rings that cross no segment are left out. A ring that no C speed allows is refused, naming
+/// it and its harmonic.
+pub fn ring_demands(
+    layout: &SegmentLayout,
+    radii_mm: &[f64],
+    lift_mm: f64,
+    z: &AxisLimits,
+) -> Result<Vec<RingDemand>, RingBreach> {
+    let mut out = Vec::new();
+    for (ring, &r_mm) in radii_mm.iter().enumerate() {
+        let Some(law) = layout.ring(r_mm, lift_mm) else {
+            continue;
+        };
+        let values: Vec<f64> = (0..RING_SAMPLES)
+            .map(|k| law.at(2.0 * PI * k as f64 / RING_SAMPLES as f64)[0])
+            .collect();
+        let range = values
+            .iter()
+            .fold([f64::MAX, f64::MIN], |[a, b], &v| [a.min(v), b.max(v)]);
+        let amplitudes_mm = law.harmonics(RING_SAMPLES, RING_HARMONICS);
+        let speed = largest_c_speed(&amplitudes_mm, z).map_err(|breach| RingBreach {
+            ring,
+            r_mm,
+            breach,
+        })?;
+        out.push(RingDemand {
+            r_mm,
+            z_range_mm: range,
+            amplitudes_mm,
+            speed,
+        });
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -157,5 +223,46 @@ mod tests {
         let free = largest_c_speed(&amplitudes, &AxisLimits::default()).unwrap();
         assert_eq!(free.largest_c_rpm, f64::INFINITY);
         assert_eq!(free.binding, None);
+    }
+
+    /// The paraboloid's four segments: each ring's Z law asks most of its fourth harmonic
+    /// (one bump a segment), which sets the largest C speed under Z's limits; a travel of
+    /// less than twice that amplitude refuses the ring, naming it and the harmonic. Printed
+    /// with `--nocapture`: the table of the docs.
+    #[test]
+    fn the_segments_rings_are_limited_by_their_fourth_harmonic() {
+        let layout = crate::segments::four_paraboloid_segments();
+        let z = AxisLimits {
+            min: Some(-50.0),
+            max: Some(50.0),
+            max_velocity_per_min: Some(3000.0),
+            max_acceleration_per_s2: Some(500.0),
+        };
+        let radii = [30.0, 42.0, 55.0, 70.0, 85.0, 98.0, 110.0];
+        let demands = ring_demands(&layout, &radii, 0.0, &z).unwrap();
+        // 30 and 110 mm cross no segment.
+        assert_eq!(demands.len(), 5);
+        for d in &demands {
+            let (m, limit) = d.speed.binding.unwrap();
+            assert_eq!(m, 4, "{d:?}");
+            let a4 = d.amplitudes_mm[3];
+            let expected = match limit {
+                ServoLimit::Velocity => 60.0 / (2.0 * PI * 4.0) * (3000.0 / 60.0) / a4,
+                ServoLimit::Acceleration => 60.0 / (2.0 * PI * 4.0) * (500.0 / a4).sqrt(),
+            };
+            assert!((d.speed.largest_c_rpm - expected).abs() <= 1e-12 * expected);
+            println!(
+                "r {} mm: Z {:.4} to {:.4} mm, A4 {:.4} mm, largest C {:.1} r/min ({limit:?})",
+                d.r_mm, d.z_range_mm[0], d.z_range_mm[1], a4, d.speed.largest_c_rpm
+            );
+        }
+        let short = AxisLimits {
+            min: Some(0.0),
+            max: Some(0.8),
+            ..z
+        };
+        let breach = ring_demands(&layout, &radii, 0.0, &short).unwrap_err();
+        // The first ring crossing a segment whose fourth harmonic exceeds 0.4 mm: 70 mm.
+        assert_eq!((breach.ring, breach.breach.harmonic), (3, 4), "{breach}");
     }
 }

@@ -1,6 +1,8 @@
 //! Bound-constrained least squares without the matrix: projected Newton with conjugate
 //! gradients, for dwell maps of up to hundreds of thousands of points, where the operator is
-//! only ever applied (M·v by FFT or sparse columns, Mᵀ·y likewise).
+//! only ever applied (M·v by FFT or sparse columns, Mᵀ·y likewise), or, where it is cheaper,
+//! its fit held in the dwell's own space as G = MᵀWM ([`super::normal`]): the same gradient
+//! and Hessian products, by G instead of M and Mᵀ.
 //!
 //! # The problem
 //!
