@@ -389,19 +389,23 @@ impl RingLaw<'_> {
         [jet[0], jet[1] / w, jet[2] / (w * w)]
     }
 
-    /// Z's harmonics over one turn, m = 1 … `count`: the amplitude (mm) of cos(mφ + ψ) in Z,
-    /// from `samples` equally spaced values (a power of two is fastest).
-    pub fn harmonics(&self, samples: usize, count: usize) -> Vec<f64> {
-        let mut values: Vec<Complex<f64>> = (0..samples)
-            .map(|k| Complex::new(self.at(2.0 * PI * k as f64 / samples as f64)[0], 0.0))
-            .collect();
-        FftPlanner::new()
-            .plan_fft_forward(samples)
-            .process(&mut values);
-        (1..=count.min(samples / 2 - 1))
-            .map(|m| 2.0 * values[m].norm() / samples as f64)
+    /// Z at `samples` equally spaced angles over one turn, from φ = 0.
+    pub fn samples(&self, samples: usize) -> Vec<f64> {
+        (0..samples)
+            .map(|k| self.at(2.0 * PI * k as f64 / samples as f64)[0])
             .collect()
     }
+}
+
+/// The harmonics of a turn's equally spaced samples (a power of two is fastest), m = 1 …
+/// `count`: the amplitude of cos(mφ + ψ) in them.
+pub fn harmonics(samples: &[f64], count: usize) -> Vec<f64> {
+    let n = samples.len();
+    let mut values: Vec<Complex<f64>> = samples.iter().map(|&v| Complex::new(v, 0.0)).collect();
+    FftPlanner::new().plan_fft_forward(n).process(&mut values);
+    (1..=count.min((n / 2).saturating_sub(1)))
+        .map(|m| 2.0 * values[m].norm() / n as f64)
+        .collect()
 }
 
 /// A paraboloid of R = 800 mm cut into four segments of 60 mm (a = 30) at h = 120 mm,
@@ -528,15 +532,13 @@ mod tests {
         for r in [42.0, 55.0, 70.0, 85.0, 98.0] {
             let law = layout.ring(r, 0.0).unwrap();
             let samples = 4096;
-            let z: Vec<f64> = (0..samples)
-                .map(|k| law.at(2.0 * PI * k as f64 / samples as f64)[0])
-                .collect();
+            let z = law.samples(samples);
             let mean = z.iter().sum::<f64>() / samples as f64;
             let variance = z.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / samples as f64;
             let (lo, hi) = z
                 .iter()
                 .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
-            let amplitudes = law.harmonics(samples, 2047);
+            let amplitudes = harmonics(&z, 2047);
             let largest = amplitudes.iter().fold(0.0_f64, |m, &a| m.max(a));
             for (k, a) in amplitudes.iter().enumerate() {
                 if (k + 1) % 4 != 0 {

@@ -19,7 +19,7 @@
 use std::f64::consts::PI;
 
 use super::limits::AxisLimits;
-use crate::segments::SegmentLayout;
+use crate::segments::{harmonics, SegmentLayout};
 
 /// Amplitudes below this (mm, a picometre) are rounding, not motion: they bound nothing.
 pub const NEGLIGIBLE_AMPLITUDE_MM: f64 = 1e-9;
@@ -137,13 +137,11 @@ pub fn ring_demands(
         let Some(law) = layout.ring(r_mm, lift_mm) else {
             continue;
         };
-        let values: Vec<f64> = (0..RING_SAMPLES)
-            .map(|k| law.at(2.0 * PI * k as f64 / RING_SAMPLES as f64)[0])
-            .collect();
+        let values = law.samples(RING_SAMPLES);
         let range = values
             .iter()
             .fold([f64::MAX, f64::MIN], |[a, b], &v| [a.min(v), b.max(v)]);
-        let amplitudes_mm = law.harmonics(RING_SAMPLES, RING_HARMONICS);
+        let amplitudes_mm = harmonics(&values, RING_HARMONICS);
         let speed = largest_c_speed(&amplitudes_mm, z).map_err(|breach| RingBreach {
             ring,
             r_mm,

@@ -103,8 +103,11 @@ struct Solver<'a> {
     /// The fit in the dwell's space, when it is held ([`super::normal`]); else products
     /// with M.
     normal: Option<Normal>,
-    /// BᵀW·d.
-    free_target: Vec<f64>,
+    /// The free terms' fit to the target alone, (BᵀWB)⁻¹·BᵀWd.
+    target_fit: Vec<f64>,
+    /// With the fit held: MᵀWPd = MᵀWd − U·(BᵀWB)⁻¹·BᵀWd, the gradient's constant (empty
+    /// otherwise).
+    normal_offset: Vec<f64>,
     fit_scale: f64,
     smooth_scale: f64,
     time_scale: f64,
@@ -186,17 +189,16 @@ impl<'a> Solver<'a> {
         self.count_product();
         let (mut g, c, removal) = match &self.normal {
             Some(normal) => {
-                // MᵀWP(Mt − d) = Ĝt − (MᵀWd − U·(BᵀWB)⁻¹·BᵀWd).
+                // MᵀWP(Mt − d) = Ĝt − MᵀWPd.
                 let (mut g, ct) = self.normal_hessian(normal, t);
-                let cd = self.free_solve(&self.free_target);
-                for (j, gj) in g.iter_mut().enumerate() {
-                    let mut offset = normal.target_moment[j];
-                    for (u, ck) in normal.free_moments.iter().zip(&cd) {
-                        offset -= ck * u[j];
-                    }
+                for (gj, offset) in g.iter_mut().zip(&self.normal_offset) {
                     *gj -= offset;
                 }
-                let c = ct.iter().zip(&cd).map(|(a, b)| a - b).collect();
+                let c = ct
+                    .iter()
+                    .zip(&self.target_fit)
+                    .map(|(a, b)| a - b)
+                    .collect();
                 (g, c, Vec::new())
             }
             None => {
@@ -242,13 +244,12 @@ impl<'a> Solver<'a> {
     fn free_coefficients(&self, t: &[f64], removal: &[f64]) -> Vec<f64> {
         match &self.normal {
             Some(normal) => {
-                let moments: Vec<f64> = normal
-                    .free_moments
-                    .iter()
-                    .zip(&self.free_target)
-                    .map(|(u, bd)| dot(u, t) - bd)
-                    .collect();
-                self.free_solve(&moments)
+                let moments: Vec<f64> = normal.free_moments.iter().map(|u| dot(u, t)).collect();
+                let ct = self.free_solve(&moments);
+                ct.iter()
+                    .zip(&self.target_fit)
+                    .map(|(a, b)| a - b)
+                    .collect()
             }
             None => {
                 let r: Vec<f64> = removal
@@ -486,32 +487,28 @@ pub fn solve(
         problem.target,
         &problem.free_terms,
     );
-    let free_target = problem
-        .free_terms
-        .iter()
-        .map(|b| {
-            b.iter()
-                .zip(problem.target)
-                .zip(problem.weights)
-                .map(|((b, d), w)| b * w * d)
-                .sum()
-        })
-        .collect();
     let mut solver = Solver {
         p: problem,
         gram_inverse,
+        target_fit: Vec::new(),
+        normal_offset: Vec::new(),
+        product_work: normal.as_ref().map_or(1.0, Normal::product_work),
         normal,
-        free_target,
         fit_scale,
         smooth_scale,
         time_scale,
         diagonal: Vec::new(),
         products: 0,
-        product_work: 1.0,
         work: 0.0,
     };
+    solver.target_fit = solver.free_fit(problem.target);
     if let Some(normal) = &solver.normal {
-        solver.product_work = normal.product_work();
+        solver.normal_offset = normal.target_moment.clone();
+        for (u, ck) in normal.free_moments.iter().zip(&solver.target_fit) {
+            for (o, u) in solver.normal_offset.iter_mut().zip(u) {
+                *o -= ck * u;
+            }
+        }
     }
     // D: H's diagonal, the fit's part without P (which only lowers it), floored so a column
     // the aperture does not see still has a scale.

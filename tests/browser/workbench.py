@@ -131,6 +131,13 @@ class Page:
         return len(paths) >= lines and all(
             p.get_attribute("d").count("L") >= points for p in paths[:lines])
 
+    def painted_pixels(self, chart):
+        """The opaque pixels of a heat map's canvas."""
+        canvas = self.one(f'figure[data-chart="{chart}"] canvas')
+        return self.d.execute_script(
+            "const c = arguments[0]; const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
+            " let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++; return n;", canvas)
+
     def ran(self, view):
         return self.one(f'section[data-view="{view}"]').get_attribute("data-ran")
 
@@ -367,10 +374,7 @@ def main_flow(binary, screenshots):
         # The polar plan of the same map: its target, dwell and residual as heat maps, the
         # harmonic budget, what stays not round against the radial plan, and its C program.
         for name in ("polar-target", "polar-dwell", "polar-residual"):
-            canvas = page.one(f'figure[data-chart="{name}"] canvas')
-            painted = driver.execute_script(
-                "const c = arguments[0]; const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
-                " let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++; return n;", canvas)
+            painted = page.painted_pixels(name)
             check(painted > 20_000, f"the {name} heat map is painted ({painted} opaque pixels)")
         budget = page.css('figure[data-chart="polar-budget"] table.budget tbody tr')
         check(len(budget) >= 1, f"the harmonic budget tabled ({len(budget)} bands)")
@@ -390,10 +394,7 @@ def main_flow(binary, screenshots):
         page.run_and_wait("maps", lambda: page.one('section[data-view="maps"] button[type="submit"]').click())
         page.wait("the polar program", lambda: page.css('[data-program="maps-polar"] a[data-download="polar-program"]'))
         for name in ("xy-target", "xy-dwell", "xy-residual"):
-            canvas = page.one(f'figure[data-chart="{name}"] canvas')
-            painted = driver.execute_script(
-                "const c = arguments[0]; const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
-                " let n = 0; for (let i = 3; i < d.length; i += 4) if (d[i] > 0) n++; return n;", canvas)
+            painted = page.painted_pixels(name)
             check(painted > 1_000, f"the {name} heat map is painted ({painted} opaque pixels)")
         xy = page.text_of('[data-summary="maps-xy"]')
         check("Residual RMS: before → after" in xy and "NaN" not in xy, f"the X-Y plan's figures reported ({xy[:160]!r}…)")

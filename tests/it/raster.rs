@@ -360,12 +360,14 @@ async fn bad_raster_input_names_its_field() {
 
 /// The G-code's G1 and G4 blocks, read back: (X, Y, seconds) per block from the start, the
 /// approach and retract (Z words) left out as the plan's own motion has none.
+/// The number after `letter` in a G-code line, if the line has that word.
+fn word(line: &str, letter: char) -> Option<f64> {
+    line.split_whitespace()
+        .find(|w| w.starts_with(letter))
+        .map(|w| w[1..].parse::<f64>().unwrap())
+}
+
 fn gcode_blocks(gcode: &str) -> (Vec<[f64; 2]>, Vec<f64>) {
-    let word = |line: &str, letter: char| {
-        line.split_whitespace()
-            .find(|w| w.starts_with(letter))
-            .map(|w| w[1..].parse::<f64>().unwrap())
-    };
     let (mut at, mut ends, mut seconds) = ([f64::NAN; 2], vec![], vec![]);
     for line in gcode.lines() {
         if line.starts_with("G0 ") {
@@ -382,6 +384,19 @@ fn gcode_blocks(gcode: &str) -> (Vec<[f64; 2]>, Vec<f64>) {
         }
     }
     (ends, seconds)
+}
+
+/// `/v1/maps/program` of `body` is a 422 `machine-limits` problem whose first violation is
+/// `field`.
+async fn refused_for(body: &Value, field: &str) {
+    let reply = post_json(&app(), "/v1/maps/program", body.to_string()).await;
+    assert_eq!(reply.status, 422, "{}", reply.text());
+    assert_eq!(
+        reply.json()["violations"][0]["field"],
+        field,
+        "{}",
+        reply.text()
+    );
 }
 
 /// `/v1/maps/program` of the plan on the same machine: accepted; X's and Y's peaks equal the
@@ -463,14 +478,7 @@ async fn program_keeps_the_plans_limits(plan: &Value, machine: &Value) {
     let peak = plan["axes"]["x"]["velocity_mm_per_min"].as_f64().unwrap();
     let mut slow = body.clone();
     slow["machine"]["x"]["max_velocity_mm_per_min"] = json!(peak / 2.0);
-    let reply = post_json(&app(), "/v1/maps/program", slow.to_string()).await;
-    assert_eq!(reply.status, 422, "{}", reply.text());
-    assert_eq!(
-        reply.json()["violations"][0]["field"],
-        "machine.x.max_velocity_mm_per_min",
-        "{}",
-        reply.text()
-    );
+    refused_for(&slow, "machine.x.max_velocity_mm_per_min").await;
 }
 
 /// On a curved part Z follows the surface: a 3 × 3 plan of 2 mm pitch off the vertex of a
@@ -506,11 +514,6 @@ async fn the_program_follows_a_curved_part() {
     let reply =
         post_json_accepting(&app(), "/v1/maps/program", body.to_string(), "text/x-gcode").await;
     let gcode = reply.text();
-    let word = |line: &str, letter: char| {
-        line.split_whitespace()
-            .find(|w| w.starts_with(letter))
-            .and_then(|w| w[1..].parse::<f64>().ok())
-    };
     let mut at = [f64::NAN; 3];
     let mut worst = 0.0_f64;
     let mut moves = 0;
@@ -549,14 +552,7 @@ async fn the_program_follows_a_curved_part() {
     assert!(z_peak > 2.0, "{z_peak}");
     let mut slow = body.clone();
     slow["machine"]["z"] = json!({"max_velocity_mm_per_min": 0.5 * z_peak});
-    let reply = post_json(&app(), "/v1/maps/program", slow.to_string()).await;
-    assert_eq!(reply.status, 422, "{}", reply.text());
-    assert_eq!(
-        reply.json()["violations"][0]["field"],
-        "machine.z.max_velocity_mm_per_min",
-        "{}",
-        reply.text()
-    );
+    refused_for(&slow, "machine.z.max_velocity_mm_per_min").await;
     let mut beyond = body.clone();
     beyond["surface"]["radius_of_curvature_mm"] = json!(9.0);
     let reply = post_json(&app(), "/v1/maps/program", beyond.to_string()).await;

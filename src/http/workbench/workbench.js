@@ -1117,25 +1117,27 @@
         + 'correction per plan.'));
       return;
     }
-    await polarProgram(view, { process, surface, dwell: o.dwell, c_law: o.c_law, machine, tool });
+    await mapProgramBox(view, box, { process, surface, dwell: o.dwell, c_law: o.c_law, machine, tool },
+      'Polar', 'preston-polar-program.ngc');
   }
 
-  /** A polar plan's program (API.mapProgram): its G-code with C words. */
-  async function polarProgram(view, request) {
-    const box = $('[data-program="maps-polar"]', section(view));
-    box.replaceChildren(h('p', { class: 'status' }, 'Writing the polar program…'));
+  /** A map plan's program (API.mapProgram) in the box `box`: its summary, its G-code's first
+   * lines and a download; `kind` names it ('Polar' or 'X-Y'), `file` the download's name. */
+  async function mapProgramBox(view, box, request, kind, file) {
+    const slug = kind === 'Polar' ? 'polar' : 'xy';
+    box.replaceChildren(h('p', { class: 'status' }, `Writing the ${kind} program…`));
     try {
       const again = repeat(view, API.mapProgram, defined(request));
       const [p, gcode] = await Promise.all([again('application/json'), again('text/x-gcode')]);
       const link = h('a', {
         href: URL.createObjectURL(new Blob([gcode], { type: 'text/x-gcode' })),
-        download: 'preston-polar-program.ngc',
-        'data-download': 'polar-program',
-      }, 'Download the polar program (G-code with C words, .ngc)');
+        download: file,
+        'data-download': `${slug}-program`,
+      }, `Download the ${kind} program (G-code${kind === 'Polar' ? ' with C words' : ''}, .ngc)`);
       box.replaceChildren(
-        h('h3', {}, 'Polar machine program'),
+        h('h3', {}, `${kind} machine program`),
         h('p', {}, `${p.blocks} blocks, ${fmtTime(p.program_time_s)} with approach and retract. `, link),
-        h('pre', { 'aria-label': 'Polar G-code, first lines' }, gcode.split('\n').slice(0, 14).join('\n') + '\n…'),
+        h('pre', { 'aria-label': `${kind} G-code, first lines` }, gcode.split('\n').slice(0, 14).join('\n') + '\n…'),
       );
     } catch (e) {
       box.replaceChildren();
@@ -1196,20 +1198,8 @@
       ['Solver', `${o.solver.converged ? 'converged' : 'stopped'} after ${label(o.solver.products)} products`],
       ...o.warnings.map((w) => ['Warning', w.message]),
     ]);
-    const box = $('[data-program="maps-xy"]', section(view));
-    box.replaceChildren(h('p', { class: 'status' }, 'Writing the X-Y program…'));
-    const again = repeat(view, API.mapProgram, { machine, dwell: o.dwell, tool_rpm: process.tool_rpm });
-    const [p, gcode] = await Promise.all([again('application/json'), again('text/x-gcode')]);
-    const link = h('a', {
-      href: URL.createObjectURL(new Blob([gcode], { type: 'text/x-gcode' })),
-      download: 'preston-xy-program.ngc',
-      'data-download': 'xy-program',
-    }, 'Download the X-Y program (G-code, .ngc)');
-    box.replaceChildren(
-      h('h3', {}, 'X-Y machine program'),
-      h('p', {}, `${p.blocks} blocks, ${fmtTime(p.program_time_s)} with approach and retract. `, link),
-      h('pre', { 'aria-label': 'X-Y G-code, first lines' }, gcode.split('\n').slice(0, 14).join('\n') + '\n…'),
-    );
+    await mapProgramBox(view, $('[data-program="maps-xy"]', section(view)),
+      { machine, dwell: o.dwell, tool_rpm: process.tool_rpm }, 'X-Y', 'preston-xy-program.ngc');
   }
 
   const RUNS = { predict: runPredict, optimize: runOptimize, measure: runMeasure, calibrate: runCalibrate, parts: runParts, maps: runMaps };
