@@ -165,6 +165,35 @@ impl SegmentLayout {
         })
     }
 
+    /// A part of radius `radius_mm` whose parent's vertex is `decenter_mm` from C, the sag in
+    /// C's frame z(x + d, y) − z(d): the one-segment layout mounted on C itself (l = 0, so it
+    /// covers C, which a layout of segments may not).
+    pub fn decentred(
+        parent: Surface,
+        decenter_mm: f64,
+        radius_mm: f64,
+    ) -> Result<SegmentLayout, SegmentError> {
+        if !(decenter_mm.is_finite() && decenter_mm >= 0.0) {
+            return Err(SegmentError::OffAxis);
+        }
+        if !(radius_mm.is_finite() && radius_mm > 0.0) {
+            return Err(SegmentError::Aperture);
+        }
+        parent
+            .check_defined_to(decenter_mm + radius_mm)
+            .map_err(SegmentError::Parent)?;
+        Ok(SegmentLayout {
+            centre_sag_mm: parent.sag_mm(decenter_mm),
+            spec: SegmentLayoutSpec {
+                parent,
+                off_axis_mm: decenter_mm,
+                aperture_radius_mm: radius_mm,
+                mount_radius_mm: 0.0,
+                count: 1,
+            },
+        })
+    }
+
     pub fn spec(&self) -> &SegmentLayoutSpec {
         &self.spec
     }
@@ -242,12 +271,20 @@ impl SegmentLayout {
         if r_mm.is_nan() || r_mm <= 0.0 {
             return None;
         }
-        let cos = (r_mm * r_mm + l * l - a * a) / (2.0 * r_mm * l);
-        if cos > 1.0 {
-            return None;
-        }
-        // l > a, so cos > −1: each arc is shorter than the ring.
-        let half = cos.acos();
+        let half = if l == 0.0 {
+            // A decentred part: the ring is on it whole, or off it.
+            if r_mm > a {
+                return None;
+            }
+            PI
+        } else {
+            let cos = (r_mm * r_mm + l * l - a * a) / (2.0 * r_mm * l);
+            if cos > 1.0 {
+                return None;
+            }
+            // l > a, so cos > −1: each arc is shorter than the ring.
+            cos.acos()
+        };
         let arcs = (0..self.spec.count)
             .map(|i| {
                 let centre = self.centre_angle(i);

@@ -229,7 +229,7 @@ pub(super) fn kronrod_rule(lo: f64, hi: f64) -> impl Iterator<Item = (f64, f64)>
 /// width, else its 31-point value when that differs from K₁₅ by no more, or either at the
 /// deepest bisection or when the panel can no longer be split in floating point.
 #[inline(always)]
-pub(super) fn adaptive_gauss_kronrod<G: Fn(f64) -> f64>(
+pub(crate) fn adaptive_gauss_kronrod<G: Fn(f64) -> f64>(
     g: &G,
     a: f64,
     b: f64,

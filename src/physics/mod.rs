@@ -20,6 +20,7 @@ pub mod raster;
 pub mod removal;
 pub mod roots;
 pub mod schedule;
+pub mod segment_pad;
 pub mod sliding_log;
 
 pub use curved::{Orientation, Part};

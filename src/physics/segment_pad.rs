@@ -1,0 +1,605 @@
+//! The pad on a part that is not round about C: off-axis segments mounted on C, or a part whose
+//! parent asphere is decentred from C ([`crate::segments`]), turning on C while the pad's X, Z
+//! and B follow the surface.
+//!
+//! **Kinematics** (as `super::curved`'s, without its symmetry). At a surface point X of
+//! segment i (C's frame at the instant, mm) under the pad centred on the surface point T, with
+//! the part turning at Ω about ẑ and the pad spinning at ω_t about its axis a:
+//!
+//! ```text
+//! v = Ω·ẑ × X − ω_t·a × (X − T),     v_t = v − (v·m)·m,     ρ = K·P·|v_t|
+//! ```
+//!
+//! m the unit normal at X, toward the tool. The feed of the pad centre and the servo's own
+//! motion of Z and B (mm/s against the sliding's hundreds) are left out, as the 1-D model
+//! leaves out the radial feed.
+//!
+//! **The pose.** B tilts the tool in the plane through C and the pad centre, so the axis follows
+//! the radial slope only: with g = ∇z at T (the surface of X's segment, continued past its
+//! edge if the pad straddles it) and e_r the radial unit vector of T's projection,
+//! a = (−s·e_r, 1)/√(1 + s²), s = g·e_r. The surface's slope across the radius,
+//! (g·e_φ) = Z′/r, is taken up by the pad's compliance (it conforms to the surface under it);
+//! on a surface of revolution it is 0 and a is the normal.
+//!
+//! **Contact** (the local quadric's, as on curved parts): the pad covers the points within
+//! geodesic distance r_t of T, taken as the ball |X − T| ≤ c_t with the chord
+//! c_t = (2/H)·sin(r_t·H/2), H = (κ1 + κ2)/2 the mean of the principal curvatures at T. It is
+//! exact on a sphere; elsewhere the edge lies within r_t³·|Δ|·(2|H| + |Δ|)/24 of the geodesic
+//! circle, Δ = (κ2 − κ1)/2 (a geodesic of length s has the chord s − κ_n²·s³/24 + O(s⁴), κ_n
+//! = H + Δ·cos 2ψ by Euler). Only X's own segment touches the pad: the pad reaching over a
+//! segment's edge presses on nothing there, and with the pad lifted across the gaps
+//! ([`Transitions::Lifted`]) nothing is removed while its centre is off every segment.
+//! Pressure is the process's nominal P over the contact (the uniform model).
+//!
+//! **Depth.** A block moves the pad centre's projection along c(t) = r(t)·(cos φ(t), sin φ(t)),
+//! r linear in time and φ = φ_s − Ω·t (the part turning under a still tool), and leaves
+//! ∫ ρ(X; T(t)) dt at X. The time under the pad is where |X − T(t)| ≤ c_t(t): within the
+//! projection's window |c(t) − x| ≤ r_t (the chord is never shorter than the projected
+//! distance), its edges found by the Illinois method on |X − T|² − c_t² and the rate
+//! integrated between them by adaptive Gauss–Kronrod. A ring's passes under the pad repeat
+//! each turn: whole windows are integrated once.
+
+use std::f64::consts::TAU;
+
+use rayon::prelude::*;
+
+use super::kronrod::adaptive_gauss_kronrod;
+use super::polar::Block;
+use super::pressure::PressureModel;
+use super::process::Process;
+use super::roots::illinois;
+use crate::segments::SegmentLayout;
+
+/// What the pad does across the gaps between segments.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Transitions {
+    /// Down on Z's smooth law at C's fastest (zero dwell): it touches a segment's edge while
+    /// any of it reaches the segment.
+    #[default]
+    Down,
+    /// Lifted off: no contact while the pad centre is off every segment.
+    Lifted,
+}
+
+/// The quadrature's tolerance, relative to the largest sliding speed times the window.
+const RELATIVE_TOLERANCE: f64 = 1e-11;
+
+/// A point of the part where the depth is wanted: its segment, place and normal.
+#[derive(Debug, Clone, Copy)]
+struct Site {
+    segment: usize,
+    x: [f64; 3],
+    normal: [f64; 3],
+}
+
+/// The pad set down at a projected centre: T, its axis, its chord reach squared.
+#[derive(Debug, Clone, Copy)]
+struct Placed {
+    centre: [f64; 3],
+    axis: [f64; 3],
+    reach2: f64,
+}
+
+/// Why a process cannot run on segments.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum SegmentPadError {
+    #[error("a part that is not round about C takes the uniform pressure model only")]
+    Pressure,
+}
+
+/// The pad of a process over a segment layout.
+#[derive(Debug, Clone)]
+pub struct SegmentPad {
+    layout: SegmentLayout,
+    transitions: Transitions,
+    tool_radius_mm: f64,
+    /// ω_t, rad/s, counter-clockwise positive seen from the tool.
+    tool_speed: f64,
+    /// K·P, nm/s per mm/s of sliding.
+    preston: f64,
+}
+
+impl SegmentPad {
+    pub fn new(
+        layout: SegmentLayout,
+        process: &Process,
+        transitions: Transitions,
+    ) -> Result<SegmentPad, SegmentPadError> {
+        if process.pressure_model() != PressureModel::Uniform {
+            return Err(SegmentPadError::Pressure);
+        }
+        Ok(SegmentPad {
+            layout,
+            transitions,
+            tool_radius_mm: process.tool_radius_mm(),
+            tool_speed: process.omega2_rad_per_s(),
+            preston: process.preston_rate_scale(),
+        })
+    }
+
+    pub fn layout(&self) -> &SegmentLayout {
+        &self.layout
+    }
+
+    fn site(&self, p: [f64; 2]) -> Option<Site> {
+        let segment = self.layout.segment_at(p)?;
+        let point = self.layout.point(segment, p);
+        Some(Site {
+            segment,
+            x: [p[0], p[1], point.sag_mm],
+            normal: point.normal(),
+        })
+    }
+
+    /// The pad centred over the projected point `c`, pressed on `segment`'s surface; `None`
+    /// when it is lifted there.
+    fn placed(&self, segment: usize, c: [f64; 2]) -> Option<Placed> {
+        if self.transitions == Transitions::Lifted && self.layout.segment_at(c).is_none() {
+            return None;
+        }
+        let point = self.layout.point(segment, c);
+        let r = c[0].hypot(c[1]);
+        let radial = if r > 0.0 {
+            [c[0] / r, c[1] / r]
+        } else {
+            [1.0, 0.0]
+        };
+        let g = point.gradient;
+        let s = g[0] * radial[0] + g[1] * radial[1];
+        let w = (1.0 + s * s).sqrt();
+        let [k1, k2] = point.principal_curvatures();
+        let h = 0.5 * (k1 + k2);
+        let rt = self.tool_radius_mm;
+        let chord = if (h * rt).abs() < 1e-9 {
+            rt
+        } else {
+            2.0 / h * (0.5 * rt * h).sin()
+        };
+        Some(Placed {
+            centre: [c[0], c[1], point.sag_mm],
+            axis: [-s * radial[0] / w, -s * radial[1] / w, 1.0 / w],
+            reach2: chord * chord,
+        })
+    }
+
+    /// ρ (nm/s) at the site with the pad as placed and the part at Ω, 0 beyond the reach.
+    fn rate(&self, site: &Site, pad: &Placed, part_speed: f64) -> f64 {
+        let x = site.x;
+        let d = [
+            x[0] - pad.centre[0],
+            x[1] - pad.centre[1],
+            x[2] - pad.centre[2],
+        ];
+        if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > pad.reach2 {
+            return 0.0;
+        }
+        let a = pad.axis;
+        let spin = [
+            a[1] * d[2] - a[2] * d[1],
+            a[2] * d[0] - a[0] * d[2],
+            a[0] * d[1] - a[1] * d[0],
+        ];
+        let v = [
+            -part_speed * x[1] - self.tool_speed * spin[0],
+            part_speed * x[0] - self.tool_speed * spin[1],
+            -self.tool_speed * spin[2],
+        ];
+        let m = site.normal;
+        let along = v[0] * m[0] + v[1] * m[1] + v[2] * m[2];
+        let t = [
+            v[0] - along * m[0],
+            v[1] - along * m[1],
+            v[2] - along * m[2],
+        ];
+        self.preston * (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt()
+    }
+
+    /// The footprint ρ (nm/s) at the part's point `point` with the pad centre's projection at
+    /// `centre` (x, y mm, part frame), the part at Ω: 0 off the segments and off the pad.
+    pub fn rate_at(&self, point: [f64; 2], centre: [f64; 2], part_speed_rad_per_s: f64) -> f64 {
+        let Some(site) = self.site(point) else {
+            return 0.0;
+        };
+        self.placed(site.segment, centre)
+            .map_or(0.0, |pad| self.rate(&site, &pad, part_speed_rad_per_s))
+    }
+
+    /// The depth (nm) `blocks` leave at each of `points` (x, y mm, part frame; 0 off the
+    /// segments), summed in the blocks' order.
+    pub fn depth_nm(&self, blocks: &[Block], points: &[[f64; 2]]) -> Vec<f64> {
+        points
+            .par_iter()
+            .map(|&p| {
+                let Some(site) = self.site(p) else {
+                    return 0.0;
+                };
+                let r = p[0].hypot(p[1]);
+                let rt = self.tool_radius_mm;
+                blocks
+                    .iter()
+                    .filter(|b| {
+                        b.from_mm.min(b.to_mm) - rt <= r && r <= b.from_mm.max(b.to_mm) + rt
+                    })
+                    .map(|b| self.block_depth_nm(&site, b))
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// ∫ ρ dt over one block at one site.
+    fn block_depth_nm(&self, site: &Site, block: &Block) -> f64 {
+        let omega = block.part_speed_rad_per_s;
+        let (x, y) = (site.x[0], site.x[1]);
+        let r = x.hypot(y);
+        let theta = y.atan2(x);
+        let rt = self.tool_radius_mm;
+        let path = |t: f64| -> [f64; 2] {
+            let radius = block.from_mm + (block.to_mm - block.from_mm) * (t / block.duration_s);
+            let (s, c) = (block.start_rad - omega * t).sin_cos();
+            [radius * c, radius * s]
+        };
+        if block.from_mm == block.to_mm {
+            let r1 = block.from_mm;
+            // The projection's window in φ about θ: |c − x| ≤ r_t.
+            let cos = if r * r1 > 0.0 {
+                (r * r + r1 * r1 - rt * rt) / (2.0 * r * r1)
+            } else if (r - r1).abs() <= rt {
+                -1.0
+            } else {
+                2.0
+            };
+            if cos > 1.0 {
+                return 0.0;
+            }
+            let half = cos.max(-1.0).acos();
+            // In time: the pad centre is at θ + α when t = (φ_s − θ − α)/Ω, α + 2πk.
+            let (t_turn, swept) = (TAU / omega.abs(), omega.abs() * block.duration_s);
+            if half >= std::f64::consts::PI {
+                // The pad always covers the point's projection: turn by turn.
+                let whole = (swept / TAU).floor();
+                let one = if whole > 0.0 {
+                    self.window_depth(site, &path, 0.0, t_turn, omega)
+                } else {
+                    0.0
+                };
+                let rest_from = whole * t_turn;
+                return whole * one
+                    + self.window_depth(site, &path, rest_from, block.duration_s, omega);
+            }
+            // Entry times of the window, one per turn: φ(t) = θ + half (Ω > 0) or θ − half.
+            let entry_angle = if omega > 0.0 {
+                theta + half
+            } else {
+                theta - half
+            };
+            let first = ((block.start_rad - entry_angle) / omega).rem_euclid(t_turn) - t_turn;
+            let width = 2.0 * half / omega.abs();
+            let mut total = 0.0;
+            let mut full: Option<f64> = None;
+            let mut start = first;
+            while start < block.duration_s {
+                let (a, b) = (start.max(0.0), (start + width).min(block.duration_s));
+                if b > a {
+                    total += if a == start && b == start + width {
+                        // Every whole pass is the same pass, a turn later.
+                        *full.get_or_insert_with(|| self.window_depth(site, &path, a, b, omega))
+                    } else {
+                        self.window_depth(site, &path, a, b, omega)
+                    };
+                }
+                start += t_turn;
+            }
+            return total;
+        }
+        // A spiral: sampled so that the pad centre moves at most r_t/8 between samples.
+        let r_max = block.from_mm.max(block.to_mm);
+        let speed = omega.abs() * r_max + (block.to_mm - block.from_mm).abs() / block.duration_s;
+        let steps = ((speed * block.duration_s) / (rt / 8.0)).ceil().max(1.0) as usize;
+        let dt = block.duration_s / steps as f64;
+        let near = |t: f64| {
+            let c = path(t);
+            (c[0] - x).hypot(c[1] - y) <= rt + speed * dt
+        };
+        let mut total = 0.0;
+        let mut k = 0;
+        while k < steps {
+            if near(k as f64 * dt) || near((k + 1) as f64 * dt) {
+                let from = k;
+                while k < steps && (near(k as f64 * dt) || near((k + 1) as f64 * dt)) {
+                    k += 1;
+                }
+                total += self.window_depth(site, &path, from as f64 * dt, k as f64 * dt, omega);
+            } else {
+                k += 1;
+            }
+        }
+        total
+    }
+
+    /// ∫ ρ dt over [t0, t1] (s) along `path`, where the pad covers the site: the edges of its
+    /// reach located between samples and the rate integrated between them.
+    fn window_depth(
+        &self,
+        site: &Site,
+        path: &dyn Fn(f64) -> [f64; 2],
+        t0: f64,
+        t1: f64,
+        omega: f64,
+    ) -> f64 {
+        // Out of reach: > 0 (lifted counts as far away).
+        let gap = |t: f64| -> f64 {
+            match self.placed(site.segment, path(t)) {
+                None => self.tool_radius_mm * self.tool_radius_mm,
+                Some(pad) => {
+                    let d = [
+                        site.x[0] - pad.centre[0],
+                        site.x[1] - pad.centre[1],
+                        site.x[2] - pad.centre[2],
+                    ];
+                    d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - pad.reach2
+                }
+            }
+        };
+        let rate = |t: f64| -> f64 {
+            self.placed(site.segment, path(t))
+                .map_or(0.0, |pad| self.rate(site, &pad, omega))
+        };
+        // Samples close enough that the reach (a ball about the pad centre) is entered and
+        // left once between two of them.
+        const SAMPLES: usize = 16;
+        let dt = (t1 - t0) / SAMPLES as f64;
+        let times: Vec<f64> = (0..=SAMPLES).map(|k| t0 + k as f64 * dt).collect();
+        let gaps: Vec<f64> = times.iter().map(|&t| gap(t)).collect();
+        let tolerance_t = 1e-14 * (t1.abs() + 1.0);
+        let edge = |k: usize| -> f64 {
+            illinois(
+                &gap,
+                (times[k], gaps[k]),
+                (times[k + 1], gaps[k + 1]),
+                tolerance_t,
+                0.0,
+            )
+        };
+        let peak = self.preston
+            * self.tool_speed.abs().max(omega.abs())
+            * 2.0
+            * (site.x[0].hypot(site.x[1]) + 2.0 * self.tool_radius_mm);
+        let mut total = 0.0;
+        let mut inside_from = if gaps[0] <= 0.0 { Some(t0) } else { None };
+        for k in 0..SAMPLES {
+            match (inside_from, gaps[k + 1] <= 0.0) {
+                (None, true) => inside_from = Some(edge(k)),
+                (Some(a), false) => {
+                    let b = edge(k);
+                    total += adaptive_gauss_kronrod(&rate, a, b, RELATIVE_TOLERANCE * peak);
+                    inside_from = None;
+                }
+                _ => {}
+            }
+        }
+        if let Some(a) = inside_from {
+            total += adaptive_gauss_kronrod(&rate, a, t1, RELATIVE_TOLERANCE * peak);
+        }
+        total
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::polar::PolarPad;
+    use crate::physics::{Orientation, Part, ProcessSpec};
+    use crate::surface::{Surface, SurfaceSpec};
+
+    fn process(part: Part, workpiece_radius_mm: f64) -> Process {
+        Process::new(ProcessSpec {
+            workpiece_radius_mm,
+            tool_radius_mm: 10.0,
+            workpiece_rpm: 20.0,
+            tool_rpm: -300.0,
+            preston_coefficient_m2_per_n: 1e-13,
+            pressure_kpa: 20.0,
+            pressure_model: PressureModel::Uniform,
+            part,
+        })
+        .unwrap()
+    }
+
+    fn ring(r1: f64, start: f64, duration: f64, part_speed: f64) -> Block {
+        Block {
+            station: 0,
+            segment: 0,
+            from_mm: r1,
+            to_mm: r1,
+            start_rad: start,
+            duration_s: duration,
+            part_speed_rad_per_s: part_speed,
+        }
+    }
+
+    /// Points on a polar lattice out to `outer`, off the axis's exact centre.
+    fn points(outer: f64) -> Vec<[f64; 2]> {
+        (0..=24)
+            .flat_map(|i| {
+                (0..13).map(move |j| {
+                    let r = 0.3 + outer * i as f64 / 24.0;
+                    let t = 0.37 + std::f64::consts::TAU * j as f64 / 13.0;
+                    [r * t.cos(), r * t.sin()]
+                })
+            })
+            .collect()
+    }
+
+    fn worst_against(got: &[f64], want: &[f64]) -> f64 {
+        let scale = want.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        assert!(scale > 0.0);
+        got.iter()
+            .zip(want)
+            .map(|(g, w)| (g - w).abs() / scale)
+            .fold(0.0, f64::max)
+    }
+
+    /// A plane's parent decentred by any d is the flat part: the depth of rings (part and
+    /// whole turns, C either way, one about C itself) and of a spiral equals the flat model's
+    /// closed form (`physics::polar`) to 1e-9 of the largest depth (the quadrature's 1e-11
+    /// per window and the edges' root finding, summed over a few windows).
+    #[test]
+    fn a_decentred_plane_is_the_flat_model() {
+        let flat = process(Part::flat(), 60.0);
+        let plane = Surface::new(&SurfaceSpec::Plane).unwrap();
+        let pad = SegmentPad::new(
+            SegmentLayout::decentred(plane, 17.0, 60.0).unwrap(),
+            &flat,
+            Transitions::Down,
+        )
+        .unwrap();
+        let omega = 20.0 * TAU / 60.0;
+        let blocks = [
+            ring(30.0, 0.3, 1.7 * TAU / omega, omega),
+            ring(42.0, -1.0, 0.4, -1.5 * omega),
+            ring(4.0, 2.0, 2.3 * TAU / omega, omega),
+            Block {
+                from_mm: 25.0,
+                to_mm: 35.0,
+                duration_s: 0.8,
+                ..ring(0.0, 0.9, 0.0, omega)
+            },
+        ];
+        let pts = points(48.0);
+        let want = PolarPad::new(&flat).depth_nm(
+            &blocks,
+            &pts.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(),
+        );
+        let got = pad.depth_nm(&blocks, &pts);
+        let worst = worst_against(&got, &want);
+        assert!(worst < 1e-9, "worst {worst:e} of the largest depth");
+    }
+
+    /// A sphere's parent on C (d = 0) is the curved part of revolution: rings' depths equal
+    /// `physics::polar`'s curved model (its sliding speed by the same kinematics in another
+    /// form, its arc from the ring's geometry) to 1e-8 of the largest, convex and concave.
+    #[test]
+    fn a_sphere_on_c_is_the_curved_model_of_revolution() {
+        for radius in [120.0, -90.0] {
+            let surface = Surface::new(&SurfaceSpec::Sphere {
+                radius_of_curvature_mm: radius,
+            })
+            .unwrap();
+            let curved = process(
+                Part {
+                    surface: surface.clone(),
+                    orientation: Orientation::Normal,
+                },
+                40.0,
+            );
+            let pad = SegmentPad::new(
+                SegmentLayout::decentred(surface, 0.0, 40.0).unwrap(),
+                &curved,
+                Transitions::Down,
+            )
+            .unwrap();
+            let omega = 20.0 * TAU / 60.0;
+            let blocks = [
+                ring(22.0, 0.3, 1.3 * TAU / omega, omega),
+                ring(8.0, -1.0, 0.4, -omega),
+            ];
+            let pts = points(35.0);
+            let want = PolarPad::new(&curved).depth_nm(
+                &blocks,
+                &pts.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(),
+            );
+            let got = pad.depth_nm(&blocks, &pts);
+            let worst = worst_against(&got, &want);
+            assert!(
+                worst < 1e-8,
+                "R {radius}: worst {worst:e} of the largest depth"
+            );
+        }
+    }
+
+    /// Against the independent 3-D reference (`tests/reference/segments_3d.py`: the true
+    /// surface, geodesic contact by shooting, the sliding speed by adaptive quadrature, its
+    /// integrals to 1e-10): a sphere decentred 40 mm from C (R 200, one turn and a part turn)
+    /// and the paraboloid segment of the case (R 800, conic −1, h 120 on l 70), the pad with
+    /// and against the part. On the sphere the chord contact is exact, so the two agree to the
+    /// quadratures' 1e-9; on the paraboloid the mean-curvature chord moves the contact's edge
+    /// by r_t³·|Δ|·(2|H| + |Δ|)/24 ≈ 1.4e-6 mm of a ≈ 20 mm window, 1e-6 of the depth at most.
+    #[test]
+    fn against_the_independent_3d_reference() {
+        let fixture: serde_json::Value =
+            serde_json::from_str(include_str!("../../tests/fixtures/segments_3d.json")).unwrap();
+        let omega = fixture["part_rpm"].as_f64().unwrap() * TAU / 60.0;
+        for run in fixture["runs"].as_array().unwrap() {
+            let name = run["name"].as_str().unwrap();
+            let surface = &run["surface"];
+            let parent = |radius: f64, conic: f64| {
+                Surface::new(&SurfaceSpec::Asphere {
+                    radius_of_curvature_mm: radius,
+                    conic_constant: conic,
+                    coefficients: vec![],
+                })
+                .unwrap()
+            };
+            let radius = surface["parent_radius_mm"].as_f64().unwrap();
+            let conic = surface["conic_constant"].as_f64().unwrap();
+            let (layout, tolerance) = match run["case"].as_str().unwrap() {
+                "decentred_sphere" => (
+                    SegmentLayout::decentred(
+                        parent(radius, conic),
+                        surface["decentre_mm"].as_f64().unwrap(),
+                        80.0,
+                    )
+                    .unwrap(),
+                    1e-9,
+                ),
+                _ => (crate::segments::four_paraboloid_segments(), 1e-6),
+            };
+            let proc = Process::new(ProcessSpec {
+                tool_rpm: run["pad_rpm"].as_f64().unwrap(),
+                ..process(Part::flat(), 200.0).spec().clone()
+            })
+            .unwrap();
+            let pad = SegmentPad::new(layout, &proc, Transitions::Down).unwrap();
+            let block = ring(
+                run["r1_mm"].as_f64().unwrap(),
+                run["start_angle_rad"].as_f64().unwrap(),
+                run["swept_angle_rad"].as_f64().unwrap() / omega,
+                omega,
+            );
+            let points = run["points"].as_array().unwrap();
+            let at: Vec<[f64; 2]> = points
+                .iter()
+                .map(|p| [p["x_mm"].as_f64().unwrap(), p["y_mm"].as_f64().unwrap()])
+                .collect();
+            let got = pad.depth_nm(&[block], &at);
+            let scale = proc.preston_rate_scale();
+            let mut worst = 0.0_f64;
+            for (p, depth) in points.iter().zip(got) {
+                let want = p["integral_mm"].as_f64().unwrap();
+                worst = worst.max((depth / scale - want).abs() / want.max(1e-300));
+                // The geometry too: the sag (the sphere's from its vertex) and the curvatures.
+                let local = pad.layout().point(
+                    0,
+                    [p["x_mm"].as_f64().unwrap(), p["y_mm"].as_f64().unwrap()],
+                );
+                let spec = pad.layout().spec();
+                let offset = match spec.mount_radius_mm {
+                    0.0 => spec.parent.sag_mm(spec.off_axis_mm),
+                    _ => 0.0,
+                };
+                let sag = p["sag_mm"].as_f64().unwrap();
+                assert!(
+                    (local.sag_mm + offset - sag).abs() < 1e-12 * (1.0 + sag.abs()),
+                    "{name}"
+                );
+                let [small, large] = local.principal_curvatures();
+                let k = &p["curvatures_per_mm"];
+                for (mine, theirs) in [(large, &k[0]), (small, &k[1])] {
+                    assert!((mine - theirs.as_f64().unwrap()).abs() < 1e-15, "{name}");
+                }
+            }
+            eprintln!("{name}: worst relative error {worst:e}");
+            assert!(worst < tolerance, "{name}: worst {worst:e}");
+        }
+    }
+}
