@@ -37,10 +37,14 @@
 //!
 //! (derivatives in φ). Between two arcs Z follows the quintic that meets Z, Z′ and Z″ at both
 //! ends (Hermite's), so Z's velocity and acceleration are continuous through every
-//! transition at any C speed, plus, when the pad is lifted across the gap, the clearance times
-//! sin⁴(π·s) (s ∈ [0, 1] across the gap), whose value, slope and curvature vanish at both ends:
-//! a quintic spline and a sine, the spline–sine idea with the jerk left free. A ring that
-//! crosses no segment has no law.
+//! transition at any C speed. Z follows each segment's surface (continued past its edge) while
+//! any of the pad of radius r_t is over it, |p − c_i| ≤ a + r_t, so the pad presses on the
+//! segment it covers; the quintic bridges the rest of the gap, where the pad is clear of every
+//! segment, and a pad lifted there adds the clearance times sin⁴(π·s) (s ∈ [0, 1] across the
+//! gap), whose value, slope and curvature vanish at both ends: a quintic spline and a sine, the
+//! spline–sine idea with the jerk left free. A ring whose widened arcs leave no gap (the pad
+//! is never clear) takes the arcs |p − c_i| ≤ a and is not lifted. A ring that crosses no
+//! segment has no law.
 
 use std::f64::consts::PI;
 
@@ -264,13 +268,35 @@ impl SegmentLayout {
         }
     }
 
-    /// Z along the ring of radius `r_mm`, `lift_mm` above the law across the gaps (0: the pad
-    /// stays down at zero dwell); `None` when the ring crosses no segment.
-    pub fn ring(&self, r_mm: f64, lift_mm: f64) -> Option<RingLaw<'_>> {
+    /// Z along the ring of radius `r_mm`, the pad `lift_mm` above the law where it is clear
+    /// of every segment, `pad_radius_mm` r_t (module docs; a lift of 0: the pad stays down at
+    /// zero dwell); `None` when the ring crosses no segment.
+    pub fn ring(&self, r_mm: f64, lift_mm: f64, pad_radius_mm: f64) -> Option<RingLaw<'_>> {
         let (l, a) = (self.spec.mount_radius_mm, self.spec.aperture_radius_mm);
         if r_mm.is_nan() || r_mm <= 0.0 {
             return None;
         }
+        let narrow = self.arcs_at(r_mm, lift_mm, a)?;
+        // Widened to where the pad is clear; if that leaves no gap, the pad is never clear
+        // and is not lifted.
+        let n = self.spec.count as f64;
+        let widened = (l > 0.0)
+            .then(|| self.arcs_at(r_mm, lift_mm, a + pad_radius_mm))
+            .flatten()
+            .filter(|w| {
+                let (_, from, to) = w.arcs[0];
+                to - from < 2.0 * PI / n
+            });
+        Some(widened.unwrap_or(RingLaw {
+            lift_mm: 0.0,
+            ..narrow
+        }))
+    }
+
+    /// The law with arcs where the ring is within `reach_mm` of a segment's centre.
+    fn arcs_at(&self, r_mm: f64, lift_mm: f64, reach_mm: f64) -> Option<RingLaw<'_>> {
+        let l = self.spec.mount_radius_mm;
+        let a = reach_mm;
         let half = if l == 0.0 {
             // A decentred part: the ring is on it whole, or off it.
             if r_mm > a {
@@ -282,8 +308,8 @@ impl SegmentLayout {
             if cos > 1.0 {
                 return None;
             }
-            // l > a, so cos > −1: each arc is shorter than the ring.
-            cos.acos()
+            // A reach beyond l covers the whole ring (the caller then does not lift).
+            cos.max(-1.0).acos()
         };
         let arcs = (0..self.spec.count)
             .map(|i| {
@@ -519,7 +545,7 @@ mod tests {
         let layout = case();
         for r in [45.0, 60.0, 70.0, 85.0, 99.0] {
             for lift in [0.0, 2.0] {
-                let law = layout.ring(r, lift).unwrap();
+                let law = layout.ring(r, lift, 5.0).unwrap();
                 let arcs = law.arcs().to_vec();
                 assert_eq!(arcs.len(), 4);
                 for (k, &(i, _, to)) in arcs.iter().enumerate() {
@@ -567,7 +593,7 @@ mod tests {
     fn the_case_has_only_the_layouts_harmonics() {
         let layout = case();
         for r in [42.0, 55.0, 70.0, 85.0, 98.0] {
-            let law = layout.ring(r, 0.0).unwrap();
+            let law = layout.ring(r, 0.0, 5.0).unwrap();
             let samples = 4096;
             let z = law.samples(samples);
             let mean = z.iter().sum::<f64>() / samples as f64;
@@ -595,6 +621,6 @@ mod tests {
                 amplitudes[11]
             );
         }
-        assert!(layout.ring(39.0, 0.0).is_none() && layout.ring(101.0, 0.0).is_none());
+        assert!(layout.ring(39.0, 0.0, 5.0).is_none() && layout.ring(101.0, 0.0, 5.0).is_none());
     }
 }

@@ -123,18 +123,20 @@ pub const RING_HARMONICS: usize = 256;
 /// The samples per turn the harmonics are taken from (a power of two, 8 per harmonic).
 const RING_SAMPLES: usize = 8 * RING_HARMONICS;
 
-/// Each ring's demand on Z (lifted `lift_mm` across the gaps) and the C speed `z` allows it;
+/// Each ring's demand on Z (lifted `lift_mm` where a pad of `pad_radius_mm` is clear of the
+/// segments) and the C speed `z` allows it;
 /// rings that cross no segment are left out. A ring that no C speed allows is refused, naming
 /// it and its harmonic.
 pub fn ring_demands(
     layout: &SegmentLayout,
     radii_mm: &[f64],
     lift_mm: f64,
+    pad_radius_mm: f64,
     z: &AxisLimits,
 ) -> Result<Vec<RingDemand>, RingBreach> {
     let mut out = Vec::new();
     for (ring, &r_mm) in radii_mm.iter().enumerate() {
-        let Some(law) = layout.ring(r_mm, lift_mm) else {
+        let Some(law) = layout.ring(r_mm, lift_mm, pad_radius_mm) else {
             continue;
         };
         let values = law.samples(RING_SAMPLES);
@@ -237,7 +239,7 @@ mod tests {
             max_acceleration_per_s2: Some(500.0),
         };
         let radii = [30.0, 42.0, 55.0, 70.0, 85.0, 98.0, 110.0];
-        let demands = ring_demands(&layout, &radii, 0.0, &z).unwrap();
+        let demands = ring_demands(&layout, &radii, 0.0, 5.0, &z).unwrap();
         // 30 and 110 mm cross no segment.
         assert_eq!(demands.len(), 5);
         for d in &demands {
@@ -259,7 +261,7 @@ mod tests {
             max: Some(0.8),
             ..z
         };
-        let breach = ring_demands(&layout, &radii, 0.0, &short).unwrap_err();
+        let breach = ring_demands(&layout, &radii, 0.0, 5.0, &short).unwrap_err();
         // The first ring crossing a segment whose fourth harmonic exceeds 0.4 mm: 70 mm.
         assert_eq!((breach.ring, breach.breach.harmonic), (3, 4), "{breach}");
     }

@@ -27,8 +27,8 @@
 //! exact on a sphere; elsewhere the edge lies within r_t³·|Δ|·(2|H| + |Δ|)/24 of the geodesic
 //! circle, Δ = (κ2 − κ1)/2 (a geodesic of length s has the chord s − κ_n²·s³/24 + O(s⁴), κ_n
 //! = H + Δ·cos 2ψ by Euler). Only X's own segment touches the pad: the pad reaching over a
-//! segment's edge presses on nothing there, and with the pad lifted across the gaps
-//! ([`Transitions::Lifted`]) nothing is removed while its centre is off every segment.
+//! segment's edge presses on nothing there. (Z's law lifts the pad, when the shop asks, only
+//! where it is clear of every segment: `crate::segments`.)
 //! Pressure is the process's nominal P over the contact (the uniform model).
 //!
 //! **Depth.** A block moves the pad centre's projection along c(t) = r(t)·(cos φ(t), sin φ(t)),
@@ -49,17 +49,6 @@ use super::pressure::PressureModel;
 use super::process::Process;
 use super::roots::illinois;
 use crate::segments::SegmentLayout;
-
-/// What the pad does across the gaps between segments.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum Transitions {
-    /// Down on Z's smooth law at C's fastest (zero dwell): it touches a segment's edge while
-    /// any of it reaches the segment.
-    #[default]
-    Down,
-    /// Lifted off: no contact while the pad centre is off every segment.
-    Lifted,
-}
 
 /// The quadrature's tolerance, relative to the largest sliding speed times the window.
 const RELATIVE_TOLERANCE: f64 = 1e-11;
@@ -91,7 +80,6 @@ pub enum SegmentPadError {
 #[derive(Debug, Clone)]
 pub struct SegmentPad {
     layout: SegmentLayout,
-    transitions: Transitions,
     tool_radius_mm: f64,
     /// ω_t, rad/s, counter-clockwise positive seen from the tool.
     tool_speed: f64,
@@ -100,17 +88,12 @@ pub struct SegmentPad {
 }
 
 impl SegmentPad {
-    pub fn new(
-        layout: SegmentLayout,
-        process: &Process,
-        transitions: Transitions,
-    ) -> Result<SegmentPad, SegmentPadError> {
+    pub fn new(layout: SegmentLayout, process: &Process) -> Result<SegmentPad, SegmentPadError> {
         if process.pressure_model() != PressureModel::Uniform {
             return Err(SegmentPadError::Pressure);
         }
         Ok(SegmentPad {
             layout,
-            transitions,
             tool_radius_mm: process.tool_radius_mm(),
             tool_speed: process.omega2_rad_per_s(),
             preston: process.preston_rate_scale(),
@@ -131,12 +114,9 @@ impl SegmentPad {
         })
     }
 
-    /// The pad centred over the projected point `c`, pressed on `segment`'s surface; `None`
-    /// when it is lifted there.
-    fn placed(&self, segment: usize, c: [f64; 2]) -> Option<Placed> {
-        if self.transitions == Transitions::Lifted && self.layout.segment_at(c).is_none() {
-            return None;
-        }
+    /// The pad centred over the projected point `c`, pressed on `segment`'s surface (continued
+    /// past its edge).
+    fn placed(&self, segment: usize, c: [f64; 2]) -> Placed {
         let point = self.layout.point(segment, c);
         let r = c[0].hypot(c[1]);
         let radial = if r > 0.0 {
@@ -155,11 +135,11 @@ impl SegmentPad {
         } else {
             2.0 / h * (0.5 * rt * h).sin()
         };
-        Some(Placed {
+        Placed {
             centre: [c[0], c[1], point.sag_mm],
             axis: [-s * radial[0] / w, -s * radial[1] / w, 1.0 / w],
             reach2: chord * chord,
-        })
+        }
     }
 
     /// ρ (nm/s) at the site with the pad as placed and the part at Ω, 0 beyond the reach.
@@ -200,13 +180,22 @@ impl SegmentPad {
         let Some(site) = self.site(point) else {
             return 0.0;
         };
-        self.placed(site.segment, centre)
-            .map_or(0.0, |pad| self.rate(&site, &pad, part_speed_rad_per_s))
+        self.rate(
+            &site,
+            &self.placed(site.segment, centre),
+            part_speed_rad_per_s,
+        )
     }
 
     /// The depth (nm) `blocks` leave at each of `points` (x, y mm, part frame; 0 off the
     /// segments), summed in the blocks' order.
+    ///
+    /// A stop under a sector law runs the same sector blocks turn after turn, and blocks that
+    /// are the same motion (radii, C speed, duration, and start angle modulo a turn, the last
+    /// two to 1e-12) leave the same depth: each distinct block is integrated once, times its
+    /// count.
     pub fn depth_nm(&self, blocks: &[Block], points: &[[f64; 2]]) -> Vec<f64> {
+        let distinct = distinct_blocks(blocks);
         points
             .par_iter()
             .map(|&p| {
@@ -215,103 +204,108 @@ impl SegmentPad {
                 };
                 let r = p[0].hypot(p[1]);
                 let rt = self.tool_radius_mm;
-                blocks
+                distinct
                     .iter()
-                    .filter(|b| {
+                    .filter(|(b, _)| {
                         b.from_mm.min(b.to_mm) - rt <= r && r <= b.from_mm.max(b.to_mm) + rt
                     })
-                    .map(|b| self.block_depth_nm(&site, b))
+                    .map(|(b, count)| *count as f64 * self.block_depth_nm(&site, b))
                     .sum()
             })
             .collect()
     }
 
-    /// ∫ ρ dt over one block at one site.
+    /// The blocks' distinct motions (`depth_nm`'s cost is their count times the points in
+    /// their reach).
+    pub fn distinct_motions(blocks: &[Block]) -> usize {
+        distinct_blocks(blocks).len()
+    }
+
+    /// ∫ ρ dt over one block at one site: over each pass of the pad centre's angle through the
+    /// projection's window about the site's angle θ, |φ − θ| ≤ α, with α the widest the
+    /// window gets over the block's radii (a spiral's radius changes little in a block: its
+    /// window is taken at the widest, and the reach decides within it).
     fn block_depth_nm(&self, site: &Site, block: &Block) -> f64 {
         let omega = block.part_speed_rad_per_s;
         let (x, y) = (site.x[0], site.x[1]);
         let r = x.hypot(y);
         let theta = y.atan2(x);
         let rt = self.tool_radius_mm;
+        let (lo, hi) = (
+            block.from_mm.min(block.to_mm),
+            block.from_mm.max(block.to_mm),
+        );
         let path = |t: f64| -> [f64; 2] {
             let radius = block.from_mm + (block.to_mm - block.from_mm) * (t / block.duration_s);
             let (s, c) = (block.start_rad - omega * t).sin_cos();
             [radius * c, radius * s]
         };
-        if block.from_mm == block.to_mm {
-            let r1 = block.from_mm;
-            // The projection's window in φ about θ: |c − x| ≤ r_t.
-            let cos = if r * r1 > 0.0 {
+        // cos α = (r² + r1² − r_t²)/(2·r·r1) at its least over r1 ∈ [lo, hi]: at an end, or
+        // at r1 = √(r² − r_t²) where it is stationary.
+        let cos_at = |r1: f64| {
+            if r * r1 > 0.0 {
                 (r * r + r1 * r1 - rt * rt) / (2.0 * r * r1)
             } else if (r - r1).abs() <= rt {
                 -1.0
             } else {
                 2.0
-            };
-            if cos > 1.0 {
-                return 0.0;
             }
-            let half = cos.max(-1.0).acos();
-            // In time: the pad centre is at θ + α when t = (φ_s − θ − α)/Ω, α + 2πk.
-            let (t_turn, swept) = (TAU / omega.abs(), omega.abs() * block.duration_s);
-            if half >= std::f64::consts::PI {
-                // The pad always covers the point's projection: turn by turn.
-                let whole = (swept / TAU).floor();
-                let one = if whole > 0.0 {
-                    self.window_depth(site, &path, 0.0, t_turn, omega)
-                } else {
-                    0.0
-                };
-                let rest_from = whole * t_turn;
-                return whole * one
-                    + self.window_depth(site, &path, rest_from, block.duration_s, omega);
-            }
-            // Entry times of the window, one per turn: φ(t) = θ + half (Ω > 0) or θ − half.
-            let entry_angle = if omega > 0.0 {
-                theta + half
-            } else {
-                theta - half
-            };
-            let first = ((block.start_rad - entry_angle) / omega).rem_euclid(t_turn) - t_turn;
-            let width = 2.0 * half / omega.abs();
-            let mut total = 0.0;
-            let mut full: Option<f64> = None;
-            let mut start = first;
-            while start < block.duration_s {
-                let (a, b) = (start.max(0.0), (start + width).min(block.duration_s));
-                if b > a {
-                    total += if a == start && b == start + width {
-                        // Every whole pass is the same pass, a turn later.
-                        *full.get_or_insert_with(|| self.window_depth(site, &path, a, b, omega))
-                    } else {
-                        self.window_depth(site, &path, a, b, omega)
-                    };
-                }
-                start += t_turn;
-            }
-            return total;
-        }
-        // A spiral: sampled so that the pad centre moves at most r_t/8 between samples.
-        let r_max = block.from_mm.max(block.to_mm);
-        let speed = omega.abs() * r_max + (block.to_mm - block.from_mm).abs() / block.duration_s;
-        let steps = ((speed * block.duration_s) / (rt / 8.0)).ceil().max(1.0) as usize;
-        let dt = block.duration_s / steps as f64;
-        let near = |t: f64| {
-            let c = path(t);
-            (c[0] - x).hypot(c[1] - y) <= rt + speed * dt
         };
-        let mut total = 0.0;
-        let mut k = 0;
-        while k < steps {
-            if near(k as f64 * dt) || near((k + 1) as f64 * dt) {
-                let from = k;
-                while k < steps && (near(k as f64 * dt) || near((k + 1) as f64 * dt)) {
-                    k += 1;
-                }
-                total += self.window_depth(site, &path, from as f64 * dt, k as f64 * dt, omega);
-            } else {
-                k += 1;
+        let mut cos = cos_at(lo).min(cos_at(hi));
+        let stationary = (r * r - rt * rt).max(0.0).sqrt();
+        if stationary > lo && stationary < hi {
+            cos = cos.min(cos_at(stationary));
+        }
+        if cos > 1.0 {
+            return 0.0;
+        }
+        let half = cos.max(-1.0).acos();
+        let t_turn = TAU / omega.abs();
+        if half >= std::f64::consts::PI {
+            // The pad may cover the point's projection all round: turn by turn.
+            let turns = (block.duration_s / t_turn).floor();
+            let ring = block.from_mm == block.to_mm;
+            let mut total = 0.0;
+            let mut whole: Option<f64> = None;
+            let mut k = 0.0;
+            while k < turns {
+                let (a, b) = (k * t_turn, (k + 1.0) * t_turn);
+                total += match (ring, whole) {
+                    (true, Some(w)) => w,
+                    _ => {
+                        let w = self.window_depth(site, &path, a, b, omega);
+                        whole = Some(w);
+                        w
+                    }
+                };
+                k += 1.0;
             }
+            return total + self.window_depth(site, &path, turns * t_turn, block.duration_s, omega);
+        }
+        // Entry times of the window, one per turn: φ(t) = θ + α (Ω > 0) or θ − α.
+        let entry_angle = if omega > 0.0 {
+            theta + half
+        } else {
+            theta - half
+        };
+        let first = ((block.start_rad - entry_angle) / omega).rem_euclid(t_turn) - t_turn;
+        let width = 2.0 * half / omega.abs();
+        let ring = block.from_mm == block.to_mm;
+        let mut total = 0.0;
+        let mut full: Option<f64> = None;
+        let mut start = first;
+        while start < block.duration_s {
+            let (a, b) = (start.max(0.0), (start + width).min(block.duration_s));
+            if b > a {
+                let whole = a == start && b == start + width;
+                total += match (ring && whole, full) {
+                    // A ring's every whole pass is the same pass, a turn later.
+                    (true, Some(w)) => w,
+                    (true, None) => *full.insert(self.window_depth(site, &path, a, b, omega)),
+                    _ => self.window_depth(site, &path, a, b, omega),
+                };
+            }
+            start += t_turn;
         }
         total
     }
@@ -326,29 +320,27 @@ impl SegmentPad {
         t1: f64,
         omega: f64,
     ) -> f64 {
-        // Out of reach: > 0 (lifted counts as far away).
+        // Out of reach: > 0.
         let gap = |t: f64| -> f64 {
-            match self.placed(site.segment, path(t)) {
-                None => self.tool_radius_mm * self.tool_radius_mm,
-                Some(pad) => {
-                    let d = [
-                        site.x[0] - pad.centre[0],
-                        site.x[1] - pad.centre[1],
-                        site.x[2] - pad.centre[2],
-                    ];
-                    d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - pad.reach2
-                }
-            }
+            let pad = self.placed(site.segment, path(t));
+            let d = [
+                site.x[0] - pad.centre[0],
+                site.x[1] - pad.centre[1],
+                site.x[2] - pad.centre[2],
+            ];
+            d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - pad.reach2
         };
-        let rate = |t: f64| -> f64 {
-            self.placed(site.segment, path(t))
-                .map_or(0.0, |pad| self.rate(site, &pad, omega))
-        };
+        let rate = |t: f64| self.rate(site, &self.placed(site.segment, path(t)), omega);
         // Samples close enough that the reach (a ball about the pad centre) is entered and
-        // left once between two of them.
-        const SAMPLES: usize = 16;
-        let dt = (t1 - t0) / SAMPLES as f64;
-        let times: Vec<f64> = (0..=SAMPLES).map(|k| t0 + k as f64 * dt).collect();
+        // left once between two of them: the pad centre moves at most r_t/4 from one to the
+        // next (a pass that enters and leaves between two crosses the reach on a chord of
+        // less than that, where the rate is a sliver of the pass's).
+        let (a, b) = (path(t0), path(t1));
+        let radius = a[0].hypot(a[1]).max(b[0].hypot(b[1]));
+        let travel = omega.abs() * radius * (t1 - t0) + (a[0].hypot(a[1]) - b[0].hypot(b[1])).abs();
+        let samples = ((4.0 * travel / self.tool_radius_mm).ceil() as usize).clamp(4, 256);
+        let dt = (t1 - t0) / samples as f64;
+        let times: Vec<f64> = (0..=samples).map(|k| t0 + k as f64 * dt).collect();
         let gaps: Vec<f64> = times.iter().map(|&t| gap(t)).collect();
         let tolerance_t = 1e-14 * (t1.abs() + 1.0);
         let edge = |k: usize| -> f64 {
@@ -366,7 +358,7 @@ impl SegmentPad {
             * (site.x[0].hypot(site.x[1]) + 2.0 * self.tool_radius_mm);
         let mut total = 0.0;
         let mut inside_from = if gaps[0] <= 0.0 { Some(t0) } else { None };
-        for k in 0..SAMPLES {
+        for k in 0..samples {
             match (inside_from, gaps[k + 1] <= 0.0) {
                 (None, true) => inside_from = Some(edge(k)),
                 (Some(a), false) => {
@@ -382,6 +374,38 @@ impl SegmentPad {
         }
         total
     }
+}
+
+/// The distinct motions among `blocks` and how many times each runs, in the order of their
+/// first run; the start angle brought into [0, 2π).
+fn distinct_blocks(blocks: &[Block]) -> Vec<(Block, usize)> {
+    let mut index: std::collections::HashMap<(u64, u64, u64, i64, i64), usize> =
+        std::collections::HashMap::new();
+    let mut distinct: Vec<(Block, usize)> = Vec::new();
+    for block in blocks {
+        let start = block.start_rad.rem_euclid(TAU);
+        let key = (
+            block.from_mm.to_bits(),
+            block.to_mm.to_bits(),
+            block.part_speed_rad_per_s.to_bits(),
+            (start * 1e9).round() as i64,
+            (block.duration_s.ln() * 1e9).round() as i64,
+        );
+        match index.get(&key) {
+            Some(&k) => distinct[k].1 += 1,
+            None => {
+                index.insert(key, distinct.len());
+                distinct.push((
+                    Block {
+                        start_rad: start,
+                        ..*block
+                    },
+                    1,
+                ));
+            }
+        }
+    }
+    distinct
 }
 
 #[cfg(test)]
@@ -447,12 +471,8 @@ mod tests {
     fn a_decentred_plane_is_the_flat_model() {
         let flat = process(Part::flat(), 60.0);
         let plane = Surface::new(&SurfaceSpec::Plane).unwrap();
-        let pad = SegmentPad::new(
-            SegmentLayout::decentred(plane, 17.0, 60.0).unwrap(),
-            &flat,
-            Transitions::Down,
-        )
-        .unwrap();
+        let pad =
+            SegmentPad::new(SegmentLayout::decentred(plane, 17.0, 60.0).unwrap(), &flat).unwrap();
         let omega = 20.0 * TAU / 60.0;
         let blocks = [
             ring(30.0, 0.3, 1.7 * TAU / omega, omega),
@@ -495,7 +515,6 @@ mod tests {
             let pad = SegmentPad::new(
                 SegmentLayout::decentred(surface, 0.0, 40.0).unwrap(),
                 &curved,
-                Transitions::Down,
             )
             .unwrap();
             let omega = 20.0 * TAU / 60.0;
@@ -559,7 +578,7 @@ mod tests {
                 ..process(Part::flat(), 200.0).spec().clone()
             })
             .unwrap();
-            let pad = SegmentPad::new(layout, &proc, Transitions::Down).unwrap();
+            let pad = SegmentPad::new(layout, &proc).unwrap();
             let block = ring(
                 run["r1_mm"].as_f64().unwrap(),
                 run["start_angle_rad"].as_f64().unwrap(),

@@ -55,6 +55,7 @@ use super::map_removal_function::square_axes;
 use super::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan, TargetSpec};
 use super::{ComputeLimits, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::field::{DepthProfile, Figures};
+use crate::machine::servo::{ring_demands, RingBreach, RingDemand, ServoLimit};
 use crate::machine::{Axis, Drive, LimitKind, MachineChoice};
 use crate::maps::analysis::{aperture_pixels, plane_fit};
 use crate::maps::aperture::{Alignment, Aperture};
@@ -68,7 +69,9 @@ use crate::optimize::kinematics::Floor;
 use crate::optimize::problem::Bound;
 use crate::optimize::OptimizeError;
 use crate::physics::polar::{c_changes, c_runs, c_schedule, executed_blocks, Block, PolarPad};
+use crate::physics::segment_pad::{SegmentPad, SegmentPadError};
 use crate::physics::{RemovalKernel, RemovalOperator, SectorLaw};
+use crate::segments::SegmentLayout;
 
 /// Sectors per turn by default: 2° each.
 pub const DEFAULT_SECTORS: usize = 180;
@@ -86,6 +89,9 @@ const CANDIDATES: usize = 1 + FLOOR_CAPS.len();
 /// counts them (`map_work`: the depths and the exact azimuthal means; about a second on 2 cores,
 /// the plan solved first; a coarser map is still the exact removal at its pixels).
 pub const MAX_MAP_WORK: f64 = 1.5e6;
+/// The most work the result's removal map on segments may take, in pixel-passes (the pad's
+/// path times its width over a pixel's area; about two seconds on 2 cores).
+pub const MAX_SEGMENT_MAP_WORK: f64 = 2.5e5;
 /// The result's map is coarsened for the work limit to at most this many pixels across the
 /// part's radius, no fewer: a coarser map tells nothing of what is not round.
 const COARSEST_PIXELS_ACROSS_RADIUS: f64 = 8.0;
@@ -134,6 +140,26 @@ pub struct MapOptimizeSpec {
     /// The result maps' pixel, mm; default the part's diameter / 80.
     pub pixel_mm: Option<f64>,
     pub removal_model: RemovalModel,
+    /// Segments on C (or a decentred part): the map is then in C's frame with data on the
+    /// segments only.
+    pub segments: Option<SegmentSetup>,
+}
+
+/// A part that is not round about C, as the correction runs on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentSetup {
+    pub layout: SegmentLayout,
+    /// The pad's clearance where it is clear of every segment, mm (0: it stays down).
+    pub lift_mm: f64,
+}
+
+/// What one station's ring asks of Z on segments, and the C speed Z allows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StationServo {
+    pub station: usize,
+    pub demand: RingDemand,
+    /// C's fastest over the station's sectors in the plan, r/min.
+    pub plan_c_rpm: f64,
 }
 
 /// Why a correction cannot be planned as asked.
@@ -175,6 +201,28 @@ pub enum MapOptimizeInputError {
          at least 50 % is needed"
     )]
     MapTooSmall { covered: f64, outer_mm: f64 },
+    #[error("{0}")]
+    Segments(SegmentPadError),
+    /// Z cannot follow a station's ring at the process's C speed.
+    #[error(
+        "Z cannot follow the segments at station {station} (r = {r_mm} mm): its harmonic \
+         {harmonic} ({amplitude_mm:.4} mm) allows C at most {largest_rpm:.1} r/min by Z's \
+         {what}, and the process turns C at {plan_rpm:.1} r/min (a slower workpiece_rpm, or a \
+         faster Z)",
+        what = match .limit { ServoLimit::Velocity => "velocity", ServoLimit::Acceleration => "acceleration" }
+    )]
+    Servo {
+        station: usize,
+        r_mm: f64,
+        harmonic: usize,
+        amplitude_mm: f64,
+        limit: ServoLimit,
+        largest_rpm: f64,
+        plan_rpm: f64,
+    },
+    /// Z's travel is too short for a station's ring at any C speed.
+    #[error("{0}")]
+    ServoTravel(RingBreach),
 }
 
 /// A checked correction.
@@ -194,6 +242,15 @@ pub struct MapOptimizeCommand {
     removal_model: RemovalModel,
     /// The map's RMS above `max_harmonic` on the rings (what the plan leaves alone), nm.
     left_rms_nm: f64,
+    segments: Option<Segments>,
+}
+
+/// The pad on the segments, and each station's demand on Z (`None` where its ring crosses no
+/// segment).
+#[derive(Debug, Clone)]
+struct Segments {
+    pad: SegmentPad,
+    demands: Vec<Option<RingDemand>>,
 }
 
 /// The map as the plan sees it: heights (nm) in the part's frame, piston and tilt removed.
@@ -203,6 +260,9 @@ struct SampledMap {
     alignment: Alignment,
     /// Piston (nm) and tilt (nm/mm in x and y) removed.
     plane: [f64; 3],
+    /// On segments: the layout, and each segment's own plane removed instead (its centre
+    /// (x, y), piston, and tilt in x and y; off the segments the map has no data).
+    segments: Option<(SegmentLayout, Vec<[f64; 5]>)>,
 }
 
 impl SampledMap {
@@ -244,7 +304,17 @@ impl SampledMap {
                 weight += w;
             }
         }
-        (weight > 0.0).then(|| sum / weight - self.plane[0] - self.plane[1] * x - self.plane[2] * y)
+        if weight <= 0.0 {
+            return None;
+        }
+        let plane = match &self.segments {
+            None => self.plane[0] + self.plane[1] * x + self.plane[2] * y,
+            Some((layout, planes)) => {
+                let [cx, cy, piston, tx, ty] = planes[layout.segment_at([x, y])?];
+                piston + tx * (x - cx) + ty * (y - cy)
+            }
+        };
+        Some(sum / weight - plane)
     }
 }
 
@@ -310,10 +380,18 @@ impl MapOptimizeCommand {
         // The map on the part.
         let (alignment, _) = spec.placement.place(&map).map_err(E::Map)?;
         let plane = tilt_plane(&map, &alignment, inner_mm, outer_mm);
+        let segment_planes = spec.segments.as_ref().map(|setup| {
+            let layout = &setup.layout;
+            let planes = (0..layout.spec().count)
+                .map(|i| segment_plane(&map, &alignment, layout, i))
+                .collect();
+            (layout.clone(), planes)
+        });
         let target = SampledMap {
             map,
             alignment,
             plane,
+            segments: segment_planes,
         };
         // Rings at the grid's radii in the aperture, N angles each.
         let radii: Vec<f64> = setting
@@ -351,6 +429,10 @@ impl MapOptimizeCommand {
         // more sparsely than the map would fold the map's finer harmonics (m above N − m_max)
         // onto those the plan corrects.
         let map_pixel = target.alignment.pixel_mm;
+        // Across a gap between segments the ring takes the straight line between the values at
+        // its ends: the target has no step there for the plan to chase (the pad cannot make
+        // one), and what it asks in the gap nothing there records.
+        let segmented = target.segments.is_some();
         let (mut sampled, mut missing) = (0usize, 0usize);
         let rings: Vec<Vec<f64>> = radii
             .iter()
@@ -371,13 +453,56 @@ impl MapOptimizeCommand {
                 } else {
                     known.iter().sum::<f64>() / known.len() as f64
                 };
+                if segmented && !known.is_empty() {
+                    return bridged(&values);
+                }
                 values.iter().map(|v| v.unwrap_or(mean)).collect()
             })
             .collect();
         let covered = 100.0 * (1.0 - missing as f64 / sampled.max(1) as f64);
-        if covered < 50.0 {
+        // Segments have data on themselves only; their maps are checked as they are laid out.
+        if covered < 50.0 && spec.segments.is_none() {
             return Err(E::MapTooSmall { covered, outer_mm });
         }
+        let segments = match spec.segments {
+            None => None,
+            Some(setup) => {
+                let pad = SegmentPad::new(setup.layout, process).map_err(E::Segments)?;
+                let z = machine
+                    .limits()
+                    .map(|l| *l.axis(Axis::Z))
+                    .unwrap_or_default();
+                let plan_rpm = omega0 * 60.0 / TAU;
+                let mut demands = Vec::new();
+                for (station, &r) in spec.optimize.positions_mm.iter().enumerate() {
+                    let demand = ring_demands(pad.layout(), &[r], setup.lift_mm, rt, &z)
+                        .map_err(|breach| {
+                            E::ServoTravel(RingBreach {
+                                ring: station,
+                                ..breach
+                            })
+                        })?
+                        .pop();
+                    if let Some(d) = &demand {
+                        if let Some((harmonic, limit)) = d.speed.binding {
+                            if d.speed.largest_c_rpm < plan_rpm {
+                                return Err(E::Servo {
+                                    station,
+                                    r_mm: r,
+                                    harmonic,
+                                    amplitude_mm: d.amplitudes_mm[harmonic - 1],
+                                    limit,
+                                    largest_rpm: d.speed.largest_c_rpm,
+                                    plan_rpm,
+                                });
+                            }
+                        }
+                    }
+                    demands.push(demand);
+                }
+                Some(Segments { pad, demands })
+            }
+        };
         let harmonics = Harmonics::of_rings(radii.clone(), &rings, max_harmonic);
         // What the rings hold above max_harmonic: their variance less the harmonics' power,
         // each ring weighted by its radius (its share of the area).
@@ -422,8 +547,52 @@ impl MapOptimizeCommand {
             pixel_mm,
             removal_model: spec.removal_model,
             left_rms_nm,
+            segments,
         })
     }
+}
+
+/// A ring's samples with each run of missing ones replaced by the straight line between the
+/// known samples either side of it (around the ring); at least one is known.
+fn bridged(values: &[Option<f64>]) -> Vec<f64> {
+    let n = values.len();
+    let known: Vec<usize> = (0..n).filter(|&k| values[k].is_some()).collect();
+    let mut out: Vec<f64> = values.iter().map(|v| v.unwrap_or(0.0)).collect();
+    for (j, &a) in known.iter().enumerate() {
+        let b = known[(j + 1) % known.len()];
+        let gap = (b + n - a) % n;
+        let gap = if gap == 0 { n } else { gap };
+        let (va, vb) = (out[a], out[b]);
+        for step in 1..gap {
+            let w = step as f64 / gap as f64;
+            out[(a + step) % n] = (1.0 - w) * va + w * vb;
+        }
+    }
+    out
+}
+
+/// Segment i's centre (mm), and the piston and tilt (nm, nm/mm about the centre) of the
+/// least-squares plane through the map's valid pixels on it.
+fn segment_plane(
+    map: &HeightMap,
+    alignment: &Alignment,
+    layout: &SegmentLayout,
+    i: usize,
+) -> [f64; 5] {
+    let (s, c) = layout.centre_angle(i).sin_cos();
+    let (l, a) = (
+        layout.spec().mount_radius_mm,
+        layout.spec().aperture_radius_mm,
+    );
+    let (cx, cy) = (l * c, l * s);
+    let aperture = Aperture::OffCentreCircle {
+        centre_x_mm: cx,
+        centre_y_mm: cy,
+        radius_mm: a,
+    };
+    let census = aperture_pixels(map, alignment, &aperture);
+    let [piston, x, y] = plane_fit(&census.pixels, &|p| ((p.x_mm - cx) / a, (p.y_mm - cy) / a));
+    [cx, cy, piston, x / a, y / a]
 }
 
 /// Piston and tilt (nm, nm/mm) of the least-squares plane through the map's valid pixels in
@@ -497,6 +666,18 @@ pub struct MapCorrection {
     pub blocks: usize,
     pub removal_model: RemovalModel,
     pub warnings: Vec<Warning>,
+    /// On segments: each one's figures, and each station's demand on Z.
+    pub segments: Option<SegmentReport>,
+}
+
+/// What the plan does to each segment and asks of Z.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentReport {
+    /// Per segment, its target and residual over its own pixels in the aperture, each about
+    /// its own mean (a segment's piston is its own).
+    pub figures: Vec<[Figures; 2]>,
+    /// Per station whose ring crosses a segment.
+    pub servo: Vec<StationServo>,
 }
 
 /// Why a correction has no plan (found by solving).
@@ -546,6 +727,7 @@ pub fn map_optimize(
         pixel_mm,
         removal_model,
         left_rms_nm,
+        segments,
     } = command;
     let process = setting.process();
     let rt = process.tool_radius_mm();
@@ -707,7 +889,17 @@ pub fn map_optimize(
                     status: format!("the C law does not fit the plan: {e}"),
                 })?;
         let schedule = c_schedule(&executed, dwell, pad.part_speed_rad_per_s(), 0.0);
-        let peaks = c_peaks(&schedule.blocks, motion.len(), &c);
+        let mut peaks = c_peaks(&schedule.blocks, motion.len(), &c);
+        if let Some(segments) = &segments {
+            // Z's servo caps C per station, as C's own velocity limit does.
+            for b in &schedule.blocks {
+                if let Some(d) = &segments.demands[b.station] {
+                    let cap = d.speed.largest_c_rpm * TAU / 60.0;
+                    let over = &mut peaks.over[b.station];
+                    *over = over.max(b.part_speed_rad_per_s.abs() / cap);
+                }
+            }
+        }
         if peaks.over.iter().all(|&o| o <= 1.0) {
             break (factors, executed, schedule, peaks);
         }
@@ -742,7 +934,7 @@ pub fn map_optimize(
     // 5. The removal on a square map: exact at a pixel the work limit allows, or the model's.
     let radius = process.workpiece_radius_mm();
     let mut pixel = pixel_mm;
-    if removal_model == RemovalModel::Exact {
+    if removal_model == RemovalModel::Exact && segments.is_none() {
         let blocks = schedule.executed_blocks as f64;
         // Under the law a turn takes as long as at constant speed.
         let at_constant_speed = vec![1.0; dwell.len()];
@@ -774,6 +966,39 @@ pub fn map_optimize(
             pixel = (pixel * 1.25).min(coarsest);
         }
     }
+    let blocks_on_segments =
+        (removal_model == RemovalModel::Exact && segments.is_some()).then(|| {
+            executed_blocks(
+                &executed,
+                dwell,
+                pad.part_speed_rad_per_s(),
+                0.0,
+                &setting.process().part().surface,
+            )
+        });
+    if let Some(blocks) = &blocks_on_segments {
+        // Pixel-passes: the pad centre's path over the part times the band it sweeps, over a
+        // pixel's area (each pass integrated between its located edges).
+        let path_mm: f64 = blocks
+            .iter()
+            .map(|b| {
+                0.5 * (b.from_mm + b.to_mm) * b.part_speed_rad_per_s.abs() * b.duration_s
+                    + (b.to_mm - b.from_mm).abs()
+            })
+            .sum();
+        let work = |pixel: f64| path_mm * 2.0 * rt / (pixel * pixel);
+        let coarsest = pixel_mm.max(radius / COARSEST_PIXELS_ACROSS_RADIUS);
+        while work(pixel) > MAX_SEGMENT_MAP_WORK {
+            if pixel >= coarsest {
+                return Err(MapOptimizeError::ExactMapTooCostly {
+                    work: work(pixel),
+                    pixel_mm: pixel,
+                    max: MAX_SEGMENT_MAP_WORK,
+                });
+            }
+            pixel = (pixel * 1.25).min(coarsest);
+        }
+    }
     let mut warnings = plan.warnings.clone();
     if left_rms_nm > HARMONICS_LEFT_FRACTION * before_rms_of(&harmonics) {
         warnings.push(Warning::HarmonicsLeft {
@@ -800,6 +1025,9 @@ pub fn map_optimize(
     // The removal at the pixels, and its azimuthal mean at any radius (to tell what is not
     // round from a steep radial profile within a ring of pixels).
     let removal = match removal_model {
+        RemovalModel::Exact if blocks_on_segments.is_some() => {
+            Removal::OnSegments(blocks_on_segments.expect("just checked"))
+        }
         RemovalModel::Exact => Removal::Exact(executed_blocks(
             &executed,
             dwell,
@@ -822,7 +1050,8 @@ pub fn map_optimize(
             ))
         }
     };
-    let depths = removal.depth_nm(&pad, &on_points);
+    let segment_pad = segments.as_ref().map(|s| &s.pad);
+    let depths = removal.depth_nm(&pad, segment_pad, &on_points);
     let piston = plan.solution.piston_nm.unwrap_or(0.0);
     let mut removal_nm = vec![None; points.len()];
     let mut target_nm = vec![None; points.len()];
@@ -857,7 +1086,11 @@ pub fn map_optimize(
     let mut radii: Vec<f64> = inside.iter().map(|p| p.r).collect();
     radii.sort_by(f64::total_cmp);
     radii.dedup();
-    let removal_means = removal.mean_nm(&pad, &radii);
+    let removal_means = match segment_pad {
+        // Nothing on segments is round about C: every part of the map is C's law's to correct.
+        Some(_) => vec![0.0; radii.len()],
+        None => removal.mean_nm(&pad, &radii),
+    };
     // The radial plan's removal is round: at each radius its 1-D removal, exactly.
     let radial_removal = RemovalOperator::assemble(&RemovalKernel::new(process), &radii, &motion)
         .apply(&radial_plan.solution.dwell_s);
@@ -869,6 +1102,11 @@ pub fn map_optimize(
         .collect();
     for p in &mut inside {
         let k = radii.partition_point(|&r| r < p.r);
+        if segment_pad.is_some() {
+            p.target_variant = p.target;
+            p.residual_variant = p.residual;
+            continue;
+        }
         p.target_variant = p.target - target_means[k];
         p.residual_variant = p.removal - removal_means[k] - p.target_variant;
     }
@@ -888,6 +1126,39 @@ pub fn map_optimize(
         pixel,
         m_max,
     );
+    let segment_report = segments.as_ref().map(|segments| {
+        let layout = segments.pad.layout();
+        let of: Vec<Option<usize>> = inside
+            .iter()
+            .map(|p| layout.segment_at([p.r * p.theta.cos(), p.r * p.theta.sin()]))
+            .collect();
+        let figures = (0..layout.spec().count)
+            .map(|i| {
+                let mine = || inside.iter().zip(&of).filter(move |(_, s)| **s == Some(i));
+                [
+                    figures(mine().map(|(p, _)| p.target)),
+                    figures(mine().map(|(p, _)| p.residual)),
+                ]
+            })
+            .collect();
+        let mut fastest = vec![0.0_f64; motion.len()];
+        for b in &schedule.blocks {
+            fastest[b.station] = fastest[b.station].max(b.part_speed_rad_per_s.abs());
+        }
+        let servo = segments
+            .demands
+            .iter()
+            .enumerate()
+            .filter_map(|(station, d)| {
+                d.clone().map(|demand| StationServo {
+                    station,
+                    demand,
+                    plan_c_rpm: fastest[station] * 60.0 / TAU,
+                })
+            })
+            .collect();
+        SegmentReport { figures, servo }
+    });
     let (peak_v, peak_a) = (peaks.velocity_rad_per_s, peaks.acceleration_rad_per_s2);
     let near = |peak: f64, limit: Option<f64>| {
         limit.is_some_and(|l| peak >= l * super::warnings::ACTIVE_USE)
@@ -950,6 +1221,7 @@ pub fn map_optimize(
         blocks: schedule.executed_blocks,
         removal_model,
         warnings,
+        segments: segment_report,
     })
 }
 
@@ -1170,14 +1442,36 @@ struct Inside {
 enum Removal {
     Exact(Vec<Block>),
     Model(ModelRemoval),
+    /// The executed blocks on segments (`physics::segment_pad`).
+    OnSegments(Vec<Block>),
 }
 
 impl Removal {
     /// At the points (x, y mm); `None` where the model has no ring.
-    fn depth_nm(&self, pad: &PolarPad, points: &[(f64, f64)]) -> Vec<Option<f64>> {
+    /// At the points (x, y mm); `None` where the model has no ring, or off the segments.
+    fn depth_nm(
+        &self,
+        pad: &PolarPad,
+        segments: Option<&SegmentPad>,
+        points: &[(f64, f64)],
+    ) -> Vec<Option<f64>> {
+        let on =
+            |&(x, y): &(f64, f64)| segments.is_none_or(|s| s.layout().segment_at([x, y]).is_some());
         match self {
             Removal::Exact(blocks) => pad.depth_nm(blocks, points).into_iter().map(Some).collect(),
-            Removal::Model(model) => points.iter().map(|&(x, y)| model.at(x, y)).collect(),
+            Removal::Model(model) => points
+                .iter()
+                .map(|p| on(p).then(|| model.at(p.0, p.1)).flatten())
+                .collect(),
+            Removal::OnSegments(blocks) => {
+                let pad = segments.expect("segments' blocks come with their pad");
+                let at: Vec<[f64; 2]> = points.iter().map(|&(x, y)| [x, y]).collect();
+                pad.depth_nm(blocks, &at)
+                    .into_iter()
+                    .zip(points)
+                    .map(|(d, p)| on(p).then_some(d))
+                    .collect()
+            }
         }
     }
 
@@ -1185,7 +1479,9 @@ impl Removal {
     /// C speed of each instant), or the model's.
     fn mean_nm(&self, pad: &PolarPad, radii_mm: &[f64]) -> Vec<f64> {
         match self {
-            Removal::Exact(blocks) => pad.mean_depth_nm(blocks, radii_mm),
+            Removal::Exact(blocks) | Removal::OnSegments(blocks) => {
+                pad.mean_depth_nm(blocks, radii_mm)
+            }
             Removal::Model(model) => radii_mm.iter().map(|&r| model.mean_at(r)).collect(),
         }
     }

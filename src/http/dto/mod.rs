@@ -15,11 +15,13 @@ use crate::usecases::{ApertureSpec, ComputeLimits, GridSpec, PartSpec, Setting};
 
 mod machine;
 mod recommendation;
+mod segments;
 mod surface;
 mod warning;
 
 pub use machine::*;
 pub use recommendation::*;
+pub use segments::*;
 pub use surface::*;
 pub use warning::*;
 

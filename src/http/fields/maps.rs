@@ -1,6 +1,7 @@
 //! Where a map analysis's inputs sit in its request.
 
 use super::super::error::{ApiError, Kind};
+use crate::machine::servo::ServoLimit;
 use crate::maps::analysis::AnalysisError;
 use crate::maps::difference::DifferenceError;
 use crate::physics::SectorLawError;
@@ -160,6 +161,12 @@ impl From<MapOptimizeInputError> for ApiError {
             E::CTooSlow { .. } => "machine.c.max_velocity_deg_per_min",
             E::MapTooSmall { .. } => "map",
             E::TooMuchWork { .. } => return ApiError::limit("c_law.max_harmonic", err.to_string()),
+            E::Segments(_) => "process.pressure_model",
+            E::Servo { limit, .. } => match limit {
+                ServoLimit::Velocity => "machine.z.max_velocity_mm_per_min",
+                ServoLimit::Acceleration => "machine.z.max_acceleration_mm_per_s2",
+            },
+            E::ServoTravel(_) => "machine.z.max_mm",
         };
         ApiError::invalid(at, err.to_string())
     }

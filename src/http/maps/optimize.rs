@@ -6,7 +6,7 @@ use utoipa::ToSchema;
 
 use super::super::dto::{
     ApertureEcho, ClearApertureDto, DwellDto, LinearAxisDto, MachineChoiceDto, MachineDto,
-    ProcessDto, RadialGridDto, RotaryAxisDto, SpindleLimitDto, SurfaceDto, WarningDto,
+    ProcessDto, RadialGridDto, RotaryAxisDto, SegmentsDto, SpindleLimitDto, SurfaceDto, WarningDto,
 };
 use super::super::endpoint::{Doc, Endpoint};
 use super::super::error::ApiError;
@@ -19,9 +19,10 @@ use super::raster::{Answer, Kinds, RasterOptimizeRequest, RasterOptimizeResponse
 use super::removal_function::KinematicsDto;
 use super::MapAlignmentDto;
 use crate::http::openapi::any_of;
+use crate::machine::servo::ServoLimit;
 use crate::machine::{AxisLimits, MachineChoice, MachineLimitsSpec};
 use crate::usecases::map_optimize::{
-    map_optimize, MapCorrection, MapOptimizeCommand, MapOptimizeSpec, RemovalModel,
+    map_optimize, MapCorrection, MapOptimizeCommand, MapOptimizeSpec, RemovalModel, SegmentReport,
 };
 use crate::usecases::optimize::OptimizeSpec;
 use crate::usecases::raster_optimize::{raster_optimize, RasterCorrection, RasterOptimizeCommand};
@@ -166,6 +167,10 @@ pub struct MapOptimizeRequest {
     /// How the removal map is computed; default `exact`.
     #[serde(default)]
     pub removal_model: RemovalModelDto,
+    /// Off-axis segments mounted on C: the map is then the mounted set in C's frame (leave
+    /// `surface` out: the parent is here).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub segments: Option<SegmentsDto>,
 }
 
 /// A correction's request: the paper's machine's or an X-Y machine's.
@@ -196,6 +201,7 @@ impl MapForm for MapOptimizeAny {
         "c_law",
         "removal_pixel_mm",
         "removal_model",
+        "segments",
         "influence",
         "dwell_pitch_mm",
         "free_tilt",
@@ -363,6 +369,111 @@ pub struct MapOptimizeResponse {
     /// Every limit the plan sits on (≥ 99.9 %), a missed target, harmonics left; empty when
     /// there is nothing to say.
     pub warnings: Vec<WarningDto>,
+    /// On segments (the request's `segments`): each segment's figures and what each ring asks
+    /// of Z. Absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub segments: Option<SegmentsReportDto>,
+}
+
+/// What a plan on segments does to each and asks of Z. On segments nothing is round about C,
+/// so the metrics' `non_axisymmetric_*` are the whole target and residual there.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct SegmentsReportDto {
+    /// Per segment, in the layout's order: its target and residual over its own pixels in
+    /// the clear aperture, each about its own mean (a segment's piston is its own).
+    pub segments: Vec<SegmentFiguresDto>,
+    /// Per station whose ring crosses a segment: Z's motion over a turn, its harmonics, and
+    /// the C speed Z can follow them at (A ≤ min{L/2, v_max/(2πf), a_max/(4π²f²)} for each
+    /// harmonic m at f = m·n/60 Hz, n the C speed in r/min). Where the plan's law would turn C
+    /// faster than that over a station's sectors, its modulation there is scaled down.
+    pub servo: Vec<StationServoDto>,
+}
+
+/// One segment's figures.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct SegmentFiguresDto {
+    pub before: MapFiguresDto,
+    pub after: MapFiguresDto,
+}
+
+/// What one station's ring asks of Z on the segments.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct StationServoDto {
+    /// The station's index in `dwell.positions_mm`.
+    pub station: usize,
+    /// Its radius, mm.
+    pub r_mm: f64,
+    /// Z's least and greatest over a turn, mm (each segment's centre at 0).
+    pub z_min_mm: f64,
+    pub z_max_mm: f64,
+    /// Z's harmonics per turn, m = 1 … 32: amplitude, mm (Z's motion is
+    /// Σ A_m·cos(m·C + ψ_m); their frequency is m·n/60 Hz at n r/min).
+    pub z_amplitude_mm: Vec<f64>,
+    /// The fastest C speed at which Z follows every harmonic, r/min; null when Z's limits
+    /// bound none.
+    pub largest_c_rpm: Option<f64>,
+    /// The harmonic that sets it, and which of Z's limits (`velocity` or `acceleration`).
+    pub binding_harmonic: Option<usize>,
+    pub binding_limit: Option<String>,
+    /// C's fastest over the station's sectors in the plan, r/min.
+    pub plan_c_rpm: f64,
+    /// largest_c_rpm / plan_c_rpm: at least 1; null when unbounded.
+    pub margin: Option<f64>,
+}
+
+/// The harmonics of Z a station's report lists.
+const REPORTED_HARMONICS: usize = 32;
+
+impl From<SegmentReport> for SegmentsReportDto {
+    fn from(r: SegmentReport) -> Self {
+        SegmentsReportDto {
+            segments: r
+                .figures
+                .iter()
+                .map(|[before, after]| SegmentFiguresDto {
+                    before: before.into(),
+                    after: after.into(),
+                })
+                .collect(),
+            servo: r
+                .servo
+                .into_iter()
+                .map(|s| {
+                    let d = s.demand;
+                    let largest = d
+                        .speed
+                        .largest_c_rpm
+                        .is_finite()
+                        .then_some(d.speed.largest_c_rpm);
+                    StationServoDto {
+                        station: s.station,
+                        r_mm: d.r_mm,
+                        z_min_mm: d.z_range_mm[0],
+                        z_max_mm: d.z_range_mm[1],
+                        z_amplitude_mm: d
+                            .amplitudes_mm
+                            .iter()
+                            .take(REPORTED_HARMONICS)
+                            .copied()
+                            .collect(),
+                        largest_c_rpm: largest,
+                        binding_harmonic: d.speed.binding.map(|(m, _)| m),
+                        binding_limit: d.speed.binding.map(|(_, l)| {
+                            match l {
+                                ServoLimit::Velocity => "velocity",
+                                ServoLimit::Acceleration => "acceleration",
+                            }
+                            .to_string()
+                        }),
+                        plan_c_rpm: s.plan_c_rpm,
+                        margin: largest
+                            .filter(|_| s.plan_c_rpm > 0.0)
+                            .map(|l| l / s.plan_c_rpm),
+                    }
+                })
+                .collect(),
+        }
+    }
 }
 
 /// `POST /v1/maps/optimize`.
@@ -417,6 +528,16 @@ motion, on a plane, a sphere or an asphere.",
             aperture: req.clear_aperture.as_ref(),
         }
         .parse(limits)?;
+        let segments = match &req.segments {
+            None => None,
+            Some(_) if req.surface.is_some() => {
+                return Err(ApiError::invalid(
+                    "surface",
+                    "a segmented part's surface is segments.parent: leave surface out",
+                ))
+            }
+            Some(s) => Some(s.parse()?),
+        };
         let (map, _) = req.map.read("map", limits.max_map_pixels)?;
         let placement = req.alignment.unwrap_or_default().placement(req.pixel_mm)?;
         let law = req.c_law.unwrap_or_default();
@@ -438,6 +559,7 @@ motion, on a plane, a sphere or an asphere.",
             max_modulation: law.max_modulation,
             pixel_mm: req.removal_pixel_mm,
             removal_model: req.removal_model.into(),
+            segments,
         };
         Ok(Kinds::Polar(MapOptimizeCommand::new(
             setting, map, spec, limits,
@@ -516,5 +638,6 @@ pub fn polar_response(r: MapCorrection) -> MapOptimizeResponse {
         blocks: r.blocks,
         removal_model: r.removal_model.into(),
         warnings: WarningDto::all(&r.warnings),
+        segments: r.segments.map(Into::into),
     }
 }
