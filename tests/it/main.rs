@@ -47,5 +47,6 @@ mod records;
 mod removal_accuracy;
 mod request_parsing;
 mod sanity_table;
+mod segments;
 mod tcp;
 mod workbench;
