@@ -307,14 +307,14 @@ impl SampledMap {
         if weight <= 0.0 {
             return None;
         }
-        let plane = match &self.segments {
-            None => self.plane[0] + self.plane[1] * x + self.plane[2] * y,
+        let height = sum / weight;
+        Some(match &self.segments {
+            None => height - self.plane[0] - self.plane[1] * x - self.plane[2] * y,
             Some((layout, planes)) => {
                 let [cx, cy, piston, tx, ty] = planes[layout.segment_at([x, y])?];
-                piston + tx * (x - cx) + ty * (y - cy)
+                height - piston - tx * (x - cx) - ty * (y - cy)
             }
-        };
-        Some(sum / weight - plane)
+        })
     }
 }
 

@@ -1,10 +1,16 @@
 //! Off-axis segments on C through `/v1/maps/optimize`: four segments of a paraboloid (R 800,
 //! conic −1, 60 mm across at h = 120 mm) mounted on l = 70 mm, a planted astigmatism on one and
 //! trefoil on another, corrected in one plan and judged by the exact removal on the segments;
-//! Z's servo demand per station and the 422s that name Z's limit, the harmonic and the ring.
+//! Z's servo demand per station and the 422s that name Z's limit, the harmonic and the ring;
+//! and the removal on segments against an independent 3-D reference.
 
 use std::f64::consts::TAU;
 
+use preston::physics::polar::Block;
+use preston::physics::segment_pad::SegmentPad;
+use preston::physics::{Part, PressureModel, Process, ProcessSpec};
+use preston::segments::{SegmentLayout, SegmentLayoutSpec};
+use preston::surface::{Surface, SurfaceSpec};
 use serde_json::{json, Value};
 
 use crate::common::http::{app, post_json};
@@ -237,5 +243,111 @@ async fn z_that_cannot_follow_is_named_with_the_harmonic_and_the_ring() {
         for word in words {
             assert!(detail.contains(word), "{pointer}: {detail}");
         }
+    }
+}
+
+/// Against the independent 3-D reference (`tests/reference/segments_3d.py`: the true
+/// surface, geodesic contact by shooting, the sliding speed by adaptive quadrature, its
+/// integrals to 1e-10): a sphere decentred 40 mm from C (R 200, one turn and a part turn)
+/// and the paraboloid segment of the case (R 800, conic −1, h 120 on l 70), the pad with
+/// and against the part. On the sphere the chord contact is exact, so the two agree to the
+/// quadratures' 1e-9; on the paraboloid the mean-curvature chord moves the contact's edge
+/// by r_t³·|Δ|·(2|H| + |Δ|)/24 ≈ 1.4e-6 mm of a ≈ 20 mm window, 1e-6 of the depth at most.
+#[test]
+fn the_removal_on_segments_against_the_independent_3d_reference() {
+    let fixture: serde_json::Value =
+        serde_json::from_str(include_str!("../fixtures/segments_3d.json")).unwrap();
+    let omega = fixture["part_rpm"].as_f64().unwrap() * TAU / 60.0;
+    for run in fixture["runs"].as_array().unwrap() {
+        let name = run["name"].as_str().unwrap();
+        let surface = &run["surface"];
+        let parent = |radius: f64, conic: f64| {
+            Surface::new(&SurfaceSpec::Asphere {
+                radius_of_curvature_mm: radius,
+                conic_constant: conic,
+                coefficients: vec![],
+            })
+            .unwrap()
+        };
+        let radius = surface["parent_radius_mm"].as_f64().unwrap();
+        let conic = surface["conic_constant"].as_f64().unwrap();
+        let (layout, tolerance) = match run["case"].as_str().unwrap() {
+            "decentred_sphere" => (
+                SegmentLayout::decentred(
+                    parent(radius, conic),
+                    surface["decentre_mm"].as_f64().unwrap(),
+                    80.0,
+                )
+                .unwrap(),
+                1e-9,
+            ),
+            _ => (
+                SegmentLayout::new(SegmentLayoutSpec {
+                    parent: parent(radius, conic),
+                    off_axis_mm: surface["off_axis_mm"].as_f64().unwrap(),
+                    aperture_radius_mm: APERTURE_MM,
+                    mount_radius_mm: surface["mount_radius_mm"].as_f64().unwrap(),
+                    count: 4,
+                })
+                .unwrap(),
+                1e-6,
+            ),
+        };
+        // K·P such that the depth (nm) is ∫|v_t| dt (mm): 1e-9 m²/N at 1 kPa.
+        let proc = Process::new(ProcessSpec {
+            workpiece_radius_mm: 200.0,
+            tool_radius_mm: fixture["pad_radius_mm"].as_f64().unwrap(),
+            workpiece_rpm: fixture["part_rpm"].as_f64().unwrap(),
+            tool_rpm: run["pad_rpm"].as_f64().unwrap(),
+            preston_coefficient_m2_per_n: 1e-9,
+            pressure_kpa: 1.0,
+            pressure_model: PressureModel::Uniform,
+            part: Part::flat(),
+        })
+        .unwrap();
+        let pad = SegmentPad::new(layout, &proc).unwrap();
+        let r1 = run["r1_mm"].as_f64().unwrap();
+        let block = Block {
+            station: 0,
+            segment: 0,
+            from_mm: r1,
+            to_mm: r1,
+            start_rad: run["start_angle_rad"].as_f64().unwrap(),
+            duration_s: run["swept_angle_rad"].as_f64().unwrap() / omega,
+            part_speed_rad_per_s: omega,
+        };
+        let points = run["points"].as_array().unwrap();
+        let at: Vec<[f64; 2]> = points
+            .iter()
+            .map(|p| [p["x_mm"].as_f64().unwrap(), p["y_mm"].as_f64().unwrap()])
+            .collect();
+        let got = pad.depth_nm(&[block], &at);
+        let mut worst = 0.0_f64;
+        for (p, depth) in points.iter().zip(got) {
+            let want = p["integral_mm"].as_f64().unwrap();
+            worst = worst.max((depth - want).abs() / want.max(1e-300));
+            // The geometry too: the sag (the sphere's from its vertex) and the curvatures.
+            let local = pad.layout().point(
+                0,
+                [p["x_mm"].as_f64().unwrap(), p["y_mm"].as_f64().unwrap()],
+            );
+            let spec = pad.layout().spec();
+            let offset = match spec.mount_radius_mm {
+                0.0 => spec.parent.sag_mm(spec.off_axis_mm),
+                _ => 0.0,
+            };
+            let sag = p["sag_mm"].as_f64().unwrap();
+            assert!(
+                (local.sag_mm + offset - sag).abs() < 1e-12 * (1.0 + sag.abs()),
+                "{name}"
+            );
+            let [small, large] = local.principal_curvatures();
+            let k = &p["curvatures_per_mm"];
+            for (mine, theirs) in [(large, &k[0]), (small, &k[1])] {
+                assert!((mine - theirs.as_f64().unwrap()).abs() < 1e-15, "{name}");
+            }
+        }
+        eprintln!("{name}: worst relative error {worst:e}");
+        assert!(worst < tolerance, "{name}: worst {worst:e}");
     }
 }

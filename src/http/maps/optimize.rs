@@ -392,7 +392,9 @@ pub struct SegmentsReportDto {
 /// One segment's figures.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
 pub struct SegmentFiguresDto {
+    /// The target over the segment's pixels, about its mean.
     pub before: MapFiguresDto,
+    /// The residual over the segment's pixels, about its mean.
     pub after: MapFiguresDto,
 }
 
@@ -403,8 +405,9 @@ pub struct StationServoDto {
     pub station: usize,
     /// Its radius, mm.
     pub r_mm: f64,
-    /// Z's least and greatest over a turn, mm (each segment's centre at 0).
+    /// Z's least over a turn, mm (each segment's centre at Z = 0).
     pub z_min_mm: f64,
+    /// Z's greatest over a turn, mm.
     pub z_max_mm: f64,
     /// Z's harmonics per turn, m = 1 … 32: amplitude, mm (Z's motion is
     /// Σ A_m·cos(m·C + ψ_m); their frequency is m·n/60 Hz at n r/min).
@@ -412,8 +415,9 @@ pub struct StationServoDto {
     /// The fastest C speed at which Z follows every harmonic, r/min; null when Z's limits
     /// bound none.
     pub largest_c_rpm: Option<f64>,
-    /// The harmonic that sets it, and which of Z's limits (`velocity` or `acceleration`).
+    /// The harmonic that sets it.
     pub binding_harmonic: Option<usize>,
+    /// Which of Z's limits sets it: `velocity` or `acceleration`.
     pub binding_limit: Option<String>,
     /// C's fastest over the station's sectors in the plan, r/min.
     pub plan_c_rpm: f64,
