@@ -201,6 +201,11 @@ pub enum MapOptimizeInputError {
          at least 50 % is needed"
     )]
     MapTooSmall { covered: f64, outer_mm: f64 },
+    #[error(
+        "the map covers {covered:.1} % of the segments inside the clear aperture as placed; at \
+         least 50 % is needed (the map is the mounted set in C's frame)"
+    )]
+    SegmentsMapTooSmall { covered: f64 },
     #[error("{0}")]
     Segments(SegmentPadError),
     /// Z cannot follow a station's ring at the process's C speed.
@@ -434,6 +439,8 @@ impl MapOptimizeCommand {
         // one), and what it asks in the gap nothing there records.
         let segmented = target.segments.is_some();
         let (mut sampled, mut missing) = (0usize, 0usize);
+        // On segments: the samples that fall on one, and those of them without data.
+        let (mut on_segments, mut missing_on_segments) = (0usize, 0usize);
         let rings: Vec<Vec<f64>> = radii
             .iter()
             .map(|&r| {
@@ -448,6 +455,15 @@ impl MapOptimizeCommand {
                 let known: Vec<f64> = values.iter().flatten().copied().collect();
                 sampled += values.len();
                 missing += values.len() - known.len();
+                if let Some((layout, _)) = &target.segments {
+                    for (k, v) in values.iter().enumerate() {
+                        let (s, c) = (TAU * k as f64 / n as f64).sin_cos();
+                        if layout.segment_at([r * c, r * s]).is_some() {
+                            on_segments += 1;
+                            missing_on_segments += usize::from(v.is_none());
+                        }
+                    }
+                }
                 let mean = if known.is_empty() {
                     0.0
                 } else {
@@ -460,9 +476,20 @@ impl MapOptimizeCommand {
             })
             .collect();
         let covered = 100.0 * (1.0 - missing as f64 / sampled.max(1) as f64);
-        // Segments have data on themselves only; their maps are checked as they are laid out.
-        if covered < 50.0 && spec.segments.is_none() {
+        if spec.segments.is_none() && covered < 50.0 {
             return Err(E::MapTooSmall { covered, outer_mm });
+        }
+        // Segments have data on themselves only: it is their share that counts.
+        let covered_segments =
+            100.0 * (1.0 - missing_on_segments as f64 / on_segments.max(1) as f64);
+        if spec.segments.is_some() && (on_segments == 0 || covered_segments < 50.0) {
+            return Err(E::SegmentsMapTooSmall {
+                covered: if on_segments == 0 {
+                    0.0
+                } else {
+                    covered_segments
+                },
+            });
         }
         let segments = match spec.segments {
             None => None,
@@ -550,6 +577,29 @@ impl MapOptimizeCommand {
             segments,
         })
     }
+}
+
+/// The finest pixel from `pixel_mm` up (× 1.25 at a time, to the coarsest the part's `radius_mm`
+/// allows) whose `work` is within `max`, or the work the coarsest would still take.
+fn affordable_pixel(
+    pixel_mm: f64,
+    radius_mm: f64,
+    max: f64,
+    work: impl Fn(f64) -> f64,
+) -> Result<f64, MapOptimizeError> {
+    let coarsest = pixel_mm.max(radius_mm / COARSEST_PIXELS_ACROSS_RADIUS);
+    let mut pixel = pixel_mm;
+    while work(pixel) > max {
+        if pixel >= coarsest {
+            return Err(MapOptimizeError::ExactMapTooCostly {
+                work: work(pixel),
+                pixel_mm: pixel,
+                max,
+            });
+        }
+        pixel = (pixel * 1.25).min(coarsest);
+    }
+    Ok(pixel)
 }
 
 /// A ring's samples with each run of missing ones replaced by the straight line between the
@@ -954,17 +1004,7 @@ pub fn map_optimize(
             );
             map_work(process, pixels, rings, turns, blocks, covered)
         };
-        let coarsest = pixel_mm.max(radius / COARSEST_PIXELS_ACROSS_RADIUS);
-        while work(pixel) > MAX_MAP_WORK {
-            if pixel >= coarsest {
-                return Err(MapOptimizeError::ExactMapTooCostly {
-                    work: work(pixel),
-                    pixel_mm: pixel,
-                    max: MAX_MAP_WORK,
-                });
-            }
-            pixel = (pixel * 1.25).min(coarsest);
-        }
+        pixel = affordable_pixel(pixel_mm, radius, MAX_MAP_WORK, work)?;
     }
     let blocks_on_segments =
         (removal_model == RemovalModel::Exact && segments.is_some()).then(|| {
@@ -987,17 +1027,7 @@ pub fn map_optimize(
             })
             .sum();
         let work = |pixel: f64| path_mm * 2.0 * rt / (pixel * pixel);
-        let coarsest = pixel_mm.max(radius / COARSEST_PIXELS_ACROSS_RADIUS);
-        while work(pixel) > MAX_SEGMENT_MAP_WORK {
-            if pixel >= coarsest {
-                return Err(MapOptimizeError::ExactMapTooCostly {
-                    work: work(pixel),
-                    pixel_mm: pixel,
-                    max: MAX_SEGMENT_MAP_WORK,
-                });
-            }
-            pixel = (pixel * 1.25).min(coarsest);
-        }
+        pixel = affordable_pixel(pixel_mm, radius, MAX_SEGMENT_MAP_WORK, work)?;
     }
     let mut warnings = plan.warnings.clone();
     if left_rms_nm > HARMONICS_LEFT_FRACTION * before_rms_of(&harmonics) {

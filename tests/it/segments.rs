@@ -195,11 +195,11 @@ async fn astigmatism_and_trefoil_on_two_segments_are_corrected_in_one_plan() {
 /// Z's acceleration below what the process's C speed needs: a 422 naming Z's acceleration
 /// limit, the station and harmonic 4 (the servo rule's largest C speed at r = 40 mm, the first
 /// station over the segments, is below 10 r/min); a Z travel shorter than harmonic 4's swing:
-/// a 422 naming Z's travel; a part surface beside segments, and a lift with the pad down,
-/// name their fields.
+/// a 422 naming Z's travel; a part surface beside segments, a lift with the pad down, and a
+/// map that misses most of the segments name their fields.
 #[tokio::test(flavor = "multi_thread")]
 async fn z_that_cannot_follow_is_named_with_the_harmonic_and_the_ring() {
-    let cases: [(&str, Value, &str, &[&str]); 4] = [
+    let cases: [(&str, Value, &str, &[&str]); 5] = [
         (
             "/machine/z",
             json!({"max_acceleration_mm_per_s2": 0.5}),
@@ -223,6 +223,13 @@ async fn z_that_cannot_follow_is_named_with_the_harmonic_and_the_ring() {
             json!(1.0),
             "segments.lift_mm",
             &["lifted"],
+        ),
+        // The map placed 100 mm off: most of the segments have no data.
+        (
+            "/alignment/centre_x_px",
+            json!(0),
+            "map",
+            &["of the segments"],
         ),
     ];
     for (pointer, value, field, words) in cases {

@@ -159,7 +159,7 @@ impl From<MapOptimizeInputError> for ApiError {
             E::MaxModulation(_) => "c_law.max_modulation",
             E::Pixel(_) => "removal_pixel_mm",
             E::CTooSlow { .. } => "machine.c.max_velocity_deg_per_min",
-            E::MapTooSmall { .. } => "map",
+            E::MapTooSmall { .. } | E::SegmentsMapTooSmall { .. } => "map",
             E::TooMuchWork { .. } => return ApiError::limit("c_law.max_harmonic", err.to_string()),
             E::Segments(_) => "process.pressure_model",
             E::Servo { limit, .. } => match limit {
