@@ -215,12 +215,6 @@ impl SegmentPad {
             .collect()
     }
 
-    /// The blocks' distinct motions (`depth_nm`'s cost is their count times the points in
-    /// their reach).
-    pub fn distinct_motions(blocks: &[Block]) -> usize {
-        distinct_blocks(blocks).len()
-    }
-
     /// ∫ ρ dt over one block at one site: over each pass of the pad centre's angle through the
     /// projection's window about the site's angle θ, |φ − θ| ≤ α, with α the widest the
     /// window gets over the block's radii (a spiral's radius changes little in a block: its

@@ -6,7 +6,7 @@ use utoipa::ToSchema;
 use super::super::error::ApiError;
 use super::super::extract::count;
 use super::SurfaceDto;
-use crate::segments::{SegmentError, SegmentLayout, SegmentLayoutSpec, MAX_SEGMENTS};
+use crate::segments::{SegmentError, SegmentLayout, SegmentLayoutSpec};
 use crate::surface::{Surface, SurfaceSpec};
 use crate::usecases::map_optimize::SegmentSetup;
 
@@ -85,7 +85,6 @@ impl SegmentsDto {
             };
             ApiError::invalid(field(at), e.to_string())
         })?;
-        debug_assert!(self.count <= MAX_SEGMENTS);
         let lift_mm = match (self.transitions, self.lift_mm) {
             (TransitionsDto::Down, None) => 0.0,
             (TransitionsDto::Down, Some(_)) => {
