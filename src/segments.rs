@@ -43,8 +43,13 @@
 //! segment, and a pad lifted there adds the clearance times sin⁴(π·s) (s ∈ [0, 1] across the
 //! gap), whose value, slope and curvature vanish at both ends: a quintic spline and a sine, the
 //! spline–sine idea with the jerk left free. A ring whose widened arcs leave no gap (the pad
-//! is never clear) takes the arcs |p − c_i| ≤ a and is not lifted. A ring that crosses no
-//! segment has no law.
+//! is never clear) takes the arcs |p − c_i| ≤ a and is not lifted. A ring the pad never
+//! reaches a segment from (|p − c_i| > a + r_t all round) has no law.
+//!
+//! B tilts the tool in the plane through C, so it can follow the surface's radial slope
+//! s = ∇z·e_r only (the slope across the radius is the pad's compliance's). Along the ring
+//! s follows the same arcs and quintics as Z (no lift): s′ = r·e_φᵀ·H·e_r + ∇z·e_φ on an arc
+//! in closed form, s″ by central differences of s′.
 
 use std::f64::consts::PI;
 
@@ -91,6 +96,10 @@ pub enum SegmentError {
 
 /// The most segments a layout may have.
 pub const MAX_SEGMENTS: usize = 64;
+
+/// The step of the central differences for the radial slope's s″, rad: its truncation
+/// (step²/6 of s′′′′) and its rounding (1e-16 of s′ over the step) are both near 1e-10.
+const SLOPE_STEP_RAD: f64 = 2e-5;
 
 /// A checked layout.
 #[derive(Debug, Clone, PartialEq)]
@@ -276,9 +285,9 @@ impl SegmentLayout {
         if r_mm.is_nan() || r_mm <= 0.0 {
             return None;
         }
-        let narrow = self.arcs_at(r_mm, lift_mm, a)?;
-        // Widened to where the pad is clear; if that leaves no gap, the pad is never clear
-        // and is not lifted.
+        // Widened to where the pad is clear (a ring just off the segments, the pad reaching
+        // over their edges, among them); if that leaves no gap, the pad is never clear and is
+        // not lifted.
         let n = self.spec.count as f64;
         let widened = (l > 0.0)
             .then(|| self.arcs_at(r_mm, lift_mm, a + pad_radius_mm))
@@ -287,10 +296,12 @@ impl SegmentLayout {
                 let (_, from, to) = w.arcs[0];
                 to - from < 2.0 * PI / n
             });
-        Some(widened.unwrap_or(RingLaw {
-            lift_mm: 0.0,
-            ..narrow
-        }))
+        widened.or_else(|| {
+            self.arcs_at(r_mm, lift_mm, a).map(|narrow| RingLaw {
+                lift_mm: 0.0,
+                ..narrow
+            })
+        })
     }
 
     /// The law with arcs where the ring is within `reach_mm` of a segment's centre.
@@ -363,95 +374,134 @@ impl RingLaw<'_> {
         ]
     }
 
+    /// The radial slope s = ∇z·e_r of segment i's surface at angle φ, and its first two
+    /// derivatives in φ: s′ = r·e_φᵀ·H·e_r + ∇z·e_φ in closed form, s″ by central differences
+    /// of s′ (step [`SLOPE_STEP_RAD`]: an error near 1e-10 of s′'s scale, the third
+    /// derivatives of the sag being left out of [`SurfacePoint`]).
+    fn slope_on_segment(&self, i: usize, phi: f64) -> Jet {
+        let r = self.r_mm;
+        let first = |phi: f64| {
+            let (s, c) = phi.sin_cos();
+            let point = self.layout.point(i, [r * c, r * s]);
+            let (g, h) = (point.gradient, point.hessian);
+            let h_er = [h[0][0] * c + h[0][1] * s, h[1][0] * c + h[1][1] * s];
+            let slope = g[0] * c + g[1] * s;
+            let along = r * (-s * h_er[0] + c * h_er[1]) + (-s * g[0] + c * g[1]);
+            (slope, along)
+        };
+        let (slope, along) = first(phi);
+        let ahead = first(phi + SLOPE_STEP_RAD).1;
+        let behind = first(phi - SLOPE_STEP_RAD).1;
+        [slope, along, (ahead - behind) / (2.0 * SLOPE_STEP_RAD)]
+    }
+
     /// Z at angle φ (any real), and its first two derivatives in φ.
     pub fn at(&self, phi: f64) -> Jet {
+        self.follow(phi, self.lift_mm, |i, phi| self.on_segment(i, phi))
+    }
+
+    /// The radial slope the tool's B follows at angle φ (any real), s = ∂Z/∂r, and its first
+    /// two derivatives in φ: on an arc its segment's (continued past its edge, as Z is);
+    /// across a gap Hermite's quintic between the arcs' ends, so B's velocity and acceleration
+    /// are continuous as Z's are (its acceleration to the s″ differences' error). The lift
+    /// is along Z only.
+    pub fn radial_slope(&self, phi: f64) -> Jet {
+        self.follow(phi, 0.0, |i, phi| self.slope_on_segment(i, phi))
+    }
+
+    /// The largest |d²Z/dφ²| at `samples` equally spaced angles over a turn, mm/rad².
+    pub fn largest_curvature(&self, samples: usize) -> f64 {
+        (0..samples)
+            .map(|k| self.at(2.0 * PI * k as f64 / samples as f64)[2].abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// A law along the ring: `on(i, φ)` over segment i's arc, the quintic (plus `lift_mm`'s
+    /// sin⁴) across each gap.
+    fn follow(&self, phi: f64, lift_mm: f64, on: impl Fn(usize, f64) -> Jet) -> Jet {
         let first = self.arcs[0].1;
         // φ brought into [first, first + 2π).
         let phi = first + (phi - first).rem_euclid(2.0 * PI);
         let n = self.arcs.len();
         for (k, &(i, from, to)) in self.arcs.iter().enumerate() {
             if phi <= to {
-                return self.on_segment(i, phi.max(from));
+                return on(i, phi.max(from));
             }
             let next = self.arcs.get(k + 1).map_or(first + 2.0 * PI, |a| a.1);
             if phi < next {
                 let (j, _, _) = self.arcs[(k + 1) % n];
-                return self.transition(
-                    self.on_segment(i, to),
-                    self.on_segment(j, next),
-                    to,
-                    next,
-                    phi,
-                );
+                return transition(on(i, to), on(j, next), to, next, phi, lift_mm);
             }
         }
         unreachable!("φ is within one turn of the first arc")
     }
+}
 
-    /// The quintic from `start` at φ0 to `end` at φ1, plus the lift's sin⁴, at φ.
-    fn transition(&self, start: Jet, end: Jet, phi0: f64, phi1: f64, phi: f64) -> Jet {
-        let w = phi1 - phi0;
-        let s = (phi - phi0) / w;
-        let (s2, s3) = (s * s, s * s * s);
-        let (s4, s5) = (s3 * s, s3 * s2);
-        // Hermite's quintic basis on [0, 1] and its first two derivatives in s.
-        let basis = [
-            [
-                1.0 - 10.0 * s3 + 15.0 * s4 - 6.0 * s5,
-                -30.0 * s2 + 60.0 * s3 - 30.0 * s4,
-                -60.0 * s + 180.0 * s2 - 120.0 * s3,
-            ],
-            [
-                s - 6.0 * s3 + 8.0 * s4 - 3.0 * s5,
-                1.0 - 18.0 * s2 + 32.0 * s3 - 15.0 * s4,
-                -36.0 * s + 96.0 * s2 - 60.0 * s3,
-            ],
-            [
-                0.5 * (s2 - 3.0 * s3 + 3.0 * s4 - s5),
-                0.5 * (2.0 * s - 9.0 * s2 + 12.0 * s3 - 5.0 * s4),
-                0.5 * (2.0 - 18.0 * s + 36.0 * s2 - 20.0 * s3),
-            ],
-            [
-                0.5 * (s3 - 2.0 * s4 + s5),
-                0.5 * (3.0 * s2 - 8.0 * s3 + 5.0 * s4),
-                0.5 * (6.0 * s - 24.0 * s2 + 20.0 * s3),
-            ],
-            [
-                -4.0 * s3 + 7.0 * s4 - 3.0 * s5,
-                -12.0 * s2 + 28.0 * s3 - 15.0 * s4,
-                -24.0 * s + 84.0 * s2 - 60.0 * s3,
-            ],
-            [
-                10.0 * s3 - 15.0 * s4 + 6.0 * s5,
-                30.0 * s2 - 60.0 * s3 + 30.0 * s4,
-                60.0 * s - 180.0 * s2 + 120.0 * s3,
-            ],
-        ];
-        // Coefficients in s: derivatives in φ times w and w².
-        let weights = [
-            start[0],
-            start[1] * w,
-            start[2] * w * w,
-            end[2] * w * w,
-            end[1] * w,
-            end[0],
-        ];
-        let mut jet = [0.0; 3];
-        for (b, weight) in basis.iter().zip(weights) {
-            for d in 0..3 {
-                jet[d] += weight * b[d];
-            }
+/// The quintic from `start` at φ0 to `end` at φ1, plus `lift_mm`·sin⁴, at φ.
+fn transition(start: Jet, end: Jet, phi0: f64, phi1: f64, phi: f64, lift_mm: f64) -> Jet {
+    let w = phi1 - phi0;
+    let s = (phi - phi0) / w;
+    let (s2, s3) = (s * s, s * s * s);
+    let (s4, s5) = (s3 * s, s3 * s2);
+    // Hermite's quintic basis on [0, 1] and its first two derivatives in s.
+    let basis = [
+        [
+            1.0 - 10.0 * s3 + 15.0 * s4 - 6.0 * s5,
+            -30.0 * s2 + 60.0 * s3 - 30.0 * s4,
+            -60.0 * s + 180.0 * s2 - 120.0 * s3,
+        ],
+        [
+            s - 6.0 * s3 + 8.0 * s4 - 3.0 * s5,
+            1.0 - 18.0 * s2 + 32.0 * s3 - 15.0 * s4,
+            -36.0 * s + 96.0 * s2 - 60.0 * s3,
+        ],
+        [
+            0.5 * (s2 - 3.0 * s3 + 3.0 * s4 - s5),
+            0.5 * (2.0 * s - 9.0 * s2 + 12.0 * s3 - 5.0 * s4),
+            0.5 * (2.0 - 18.0 * s + 36.0 * s2 - 20.0 * s3),
+        ],
+        [
+            0.5 * (s3 - 2.0 * s4 + s5),
+            0.5 * (3.0 * s2 - 8.0 * s3 + 5.0 * s4),
+            0.5 * (6.0 * s - 24.0 * s2 + 20.0 * s3),
+        ],
+        [
+            -4.0 * s3 + 7.0 * s4 - 3.0 * s5,
+            -12.0 * s2 + 28.0 * s3 - 15.0 * s4,
+            -24.0 * s + 84.0 * s2 - 60.0 * s3,
+        ],
+        [
+            10.0 * s3 - 15.0 * s4 + 6.0 * s5,
+            30.0 * s2 - 60.0 * s3 + 30.0 * s4,
+            60.0 * s - 180.0 * s2 + 120.0 * s3,
+        ],
+    ];
+    // Coefficients in s: derivatives in φ times w and w².
+    let weights = [
+        start[0],
+        start[1] * w,
+        start[2] * w * w,
+        end[2] * w * w,
+        end[1] * w,
+        end[0],
+    ];
+    let mut jet = [0.0; 3];
+    for (b, weight) in basis.iter().zip(weights) {
+        for d in 0..3 {
+            jet[d] += weight * b[d];
         }
-        // sin⁴(πs) and its derivatives in s.
-        if self.lift_mm != 0.0 {
-            let (sn, cs) = (PI * s).sin_cos();
-            jet[0] += self.lift_mm * sn.powi(4);
-            jet[1] += self.lift_mm * 4.0 * PI * sn.powi(3) * cs;
-            jet[2] += self.lift_mm * 4.0 * PI * PI * sn * sn * (3.0 * cs * cs - sn * sn);
-        }
-        [jet[0], jet[1] / w, jet[2] / (w * w)]
     }
+    // sin⁴(πs) and its derivatives in s.
+    if lift_mm != 0.0 {
+        let (sn, cs) = (PI * s).sin_cos();
+        jet[0] += lift_mm * sn.powi(4);
+        jet[1] += lift_mm * 4.0 * PI * sn.powi(3) * cs;
+        jet[2] += lift_mm * 4.0 * PI * PI * sn * sn * (3.0 * cs * cs - sn * sn);
+    }
+    [jet[0], jet[1] / w, jet[2] / (w * w)]
+}
 
+impl RingLaw<'_> {
     /// Z at `samples` equally spaced angles over one turn, from φ = 0.
     pub fn samples(&self, samples: usize) -> Vec<f64> {
         (0..samples)
@@ -553,12 +603,13 @@ mod tests {
                     let next = if k == 3 { next + 2.0 * PI } else { next };
                     for (edge, segment) in [(to, i), (next, j)] {
                         let on = law.on_segment(segment, edge);
-                        let quintic = law.transition(
+                        let quintic = transition(
                             law.on_segment(i, to),
                             law.on_segment(j, next),
                             to,
                             next,
                             edge,
+                            lift,
                         );
                         for d in 0..3 {
                             let scale = on[d].abs().max(1.0);
@@ -621,6 +672,70 @@ mod tests {
                 amplitudes[11]
             );
         }
-        assert!(layout.ring(39.0, 0.0, 5.0).is_none() && layout.ring(101.0, 0.0, 5.0).is_none());
+        // The pad reaches the segments from rings up to its radius off them.
+        assert!(layout.ring(34.9, 0.0, 5.0).is_none() && layout.ring(105.1, 0.0, 5.0).is_none());
+        assert!(layout.ring(36.0, 0.0, 5.0).is_some() && layout.ring(104.0, 0.0, 5.0).is_some());
+    }
+
+    /// B's law, the radial slope: on an arc it is the surface's ∇z·e_r; its first derivative
+    /// agrees with central differences of s (1e-7 of its scale: the differences' own error at
+    /// h = 1e-5), its second with differences of s′ (1e-6); through every transition s, s′
+    /// and s″ are continuous to 1e-9 of their scale (s″'s own differences, 1e-10, on each
+    /// side).
+    #[test]
+    fn the_radial_slope_is_continuous() {
+        let layout = case();
+        for r in [37.0, 55.0, 70.0, 98.0, 103.0] {
+            let law = layout.ring(r, 1.0, 5.0).unwrap();
+            let scale = (0..720)
+                .map(|k| law.radial_slope(k as f64 * PI / 360.0))
+                .fold([1e-3_f64; 3], |m, s| {
+                    [0, 1, 2].map(|d| m[d].max(s[d].abs()))
+                });
+            // s‴'s bound, for how far s″ moves across the 2e-9 rad stepped over.
+            let third = (0..720)
+                .map(|k| {
+                    let phi = k as f64 * PI / 360.0;
+                    (law.radial_slope(phi + 1e-4)[2] - law.radial_slope(phi)[2]).abs() / 1e-4
+                })
+                .fold(0.0_f64, f64::max);
+            for &(i, from, to) in law.arcs() {
+                let mid = 0.5 * (from + to);
+                let (s, c) = mid.sin_cos();
+                let g = layout.point(i, [r * c, r * s]).gradient;
+                assert!((law.radial_slope(mid)[0] - (g[0] * c + g[1] * s)).abs() < 1e-15);
+                for edge in [from, to] {
+                    let (before, after) =
+                        (law.radial_slope(edge - 1e-9), law.radial_slope(edge + 1e-9));
+                    for d in 0..3 {
+                        // Over 2e-9 rad each value moves by its derivative times that.
+                        let drift = 2.0 * 2e-9 * if d < 2 { scale[d + 1] } else { third };
+                        assert!(
+                            (before[d] - after[d]).abs() <= 1e-9 * scale[d] + drift,
+                            "r {r} d{d} at {edge}: {} vs {}",
+                            before[d],
+                            after[d]
+                        );
+                    }
+                }
+            }
+            let h = 1e-5;
+            for k in 0..100 {
+                let phi = 2.0 * PI * (k as f64 + 0.29) / 100.0;
+                let (a, b, c) = (
+                    law.radial_slope(phi - h),
+                    law.radial_slope(phi),
+                    law.radial_slope(phi + h),
+                );
+                assert!(
+                    ((c[0] - a[0]) / (2.0 * h) - b[1]).abs() < 1e-7 * scale[1],
+                    "{r} {phi}"
+                );
+                assert!(
+                    ((c[1] - a[1]) / (2.0 * h) - b[2]).abs() < 1e-6 * scale[2],
+                    "{r} {phi}"
+                );
+            }
+        }
     }
 }

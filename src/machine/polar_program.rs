@@ -23,17 +23,150 @@
 //! more than the plan's own largest C acceleration, or half C's limit where that is more
 //! ([`ramp_acceleration`]).
 //! Without a clearance C starts and stops within the first and last polishing blocks.
+//!
+//! **On segments** ([`Mount::Segments`]: off-axis segments, or a decentred part) Z and B
+//! follow each ring's law as C turns ([`crate::segments`]): at a block's end the pad centre is
+//! over r·(cos φ, sin φ), φ = −C, with Z the law's height there and B (when the tool follows
+//! the normal) atan of the law's radial slope, X and Z compensating B's pivot as
+//! [`Tool::pose_at`] does; a tool held vertical moves Z alone, so X is the plan's radius and
+//! runs at the plan's speed through a ring (the Z-only compensation). The blocks are cut finer
+//! than the law's sectors: a piece turning C through Δφ is cut into parts of at most
+//! √(8·ε/κ) rad, κ = 1.25 × the largest |d²Z/dφ²| sampled at [`CURVATURE_SAMPLES`] angles on
+//! the rings of the stations the piece spans, so Z departs from each block's straight line by
+//! at most κ·δφ²/8 ≤ ε (the chord tolerance). X, Z and B then change velocity wherever their
+//! blocks do (a span per run of equal velocity within a stop or a move), and the approach
+//! and retract follow the first and last rings with the clearance falling and rising along
+//! the tool axis.
 
 use super::limits::{Axis, LimitKind};
 use super::pose::{Pose, Tool};
 use super::program::{dwell_span, lifted, Approach, AxisMotion, BlockKind, ProgramError, Skipped};
 use crate::physics::motion::{one_speed, Motion, Segment};
 use crate::physics::polar::{c_changes, c_runs, executed_blocks, Track};
+use crate::segments::SegmentLayout;
 use crate::surface::Surface;
 
 /// The most C turns in one block, degrees: a quarter turn, so the shorter way round is
 /// unambiguous on a wrapped axis.
 pub const MAX_C_STEP_DEG: f64 = 90.0;
+
+/// Angles per turn at which a ring's Z curvature is sampled for the chord rule.
+pub const CURVATURE_SAMPLES: usize = 2048;
+
+/// The margin on the sampled curvature (the largest may fall between samples).
+const CURVATURE_MARGIN: f64 = 1.25;
+
+/// The part as C turns it.
+#[derive(Debug, Clone, Copy)]
+pub enum Mount<'a> {
+    /// Round about C: the pose is the surface's at the pad centre's radius.
+    Round(&'a Surface),
+    /// Not round (module docs): Z and B follow each ring's law within a turn.
+    Segments(&'a SegmentPath<'a>),
+}
+
+/// How Z and B follow segments: the layout, the law's lift, the pad's radius, and the chord
+/// tolerance the blocks are cut to, with each station's ring curvature.
+#[derive(Debug, Clone)]
+pub struct SegmentPath<'a> {
+    layout: &'a SegmentLayout,
+    lift_mm: f64,
+    pad_radius_mm: f64,
+    chord_tolerance_mm: f64,
+    /// The stations' radii (increasing) and κ on each one's ring, mm/rad² (0: no law).
+    stations_mm: Vec<f64>,
+    curvature: Vec<f64>,
+}
+
+impl<'a> SegmentPath<'a> {
+    /// `stations_mm`: the plan's stations, strictly increasing; `chord_tolerance_mm` > 0.
+    pub fn new(
+        layout: &'a SegmentLayout,
+        lift_mm: f64,
+        pad_radius_mm: f64,
+        chord_tolerance_mm: f64,
+        stations_mm: &[f64],
+    ) -> SegmentPath<'a> {
+        let curvature = stations_mm
+            .iter()
+            .map(|&r| {
+                layout.ring(r, lift_mm, pad_radius_mm).map_or(0.0, |law| {
+                    CURVATURE_MARGIN * law.largest_curvature(CURVATURE_SAMPLES)
+                })
+            })
+            .collect();
+        SegmentPath {
+            layout,
+            lift_mm,
+            pad_radius_mm,
+            chord_tolerance_mm,
+            stations_mm: stations_mm.to_vec(),
+            curvature,
+        }
+    }
+
+    /// The largest turn (rad) of one block between radii `from_mm` and `to_mm`: the chord
+    /// rule at the largest κ of the stations in that span and of the two about it.
+    pub fn max_step_rad(&self, from_mm: f64, to_mm: f64) -> f64 {
+        let (lo, hi) = (from_mm.min(to_mm), from_mm.max(to_mm));
+        let first = self
+            .stations_mm
+            .partition_point(|&r| r < lo)
+            .saturating_sub(1);
+        let last = self
+            .stations_mm
+            .partition_point(|&r| r <= hi)
+            .min(self.stations_mm.len() - 1);
+        let kappa = self.curvature[first..=last]
+            .iter()
+            .copied()
+            .fold(0.0, f64::max);
+        if kappa > 0.0 {
+            (8.0 * self.chord_tolerance_mm / kappa).sqrt()
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// The pad centre's height and radial slope over `r_mm`·(cos φ, sin φ): the ring's law,
+    /// or off every law the surface of the segment under it, or the lift above the
+    /// segments' centres (the pad clear of them all).
+    pub fn height_and_slope(&self, r_mm: f64, phi: f64) -> (f64, f64) {
+        if let Some(law) = self.layout.ring(r_mm, self.lift_mm, self.pad_radius_mm) {
+            return (law.at(phi)[0], law.radial_slope(phi)[0]);
+        }
+        let (s, c) = phi.sin_cos();
+        let p = [r_mm * c, r_mm * s];
+        match self.layout.segment_at(p) {
+            Some(i) => {
+                let point = self.layout.point(i, p);
+                let g = point.gradient;
+                (point.sag_mm, g[0] * c + g[1] * s)
+            }
+            None => (self.lift_mm, 0.0),
+        }
+    }
+
+    /// The pose with the pad centre over `r_mm`·(cos φ, sin φ), `clearance_mm` off the law
+    /// along the tool's axis.
+    pub fn pose(&self, tool: &Tool, r_mm: f64, phi: f64, clearance_mm: f64) -> Pose {
+        let (z, slope) = self.height_and_slope(r_mm, phi);
+        let pose = tool.pose_at(r_mm, z, slope.atan());
+        if clearance_mm > 0.0 {
+            lifted(&pose, clearance_mm)
+        } else {
+            pose
+        }
+    }
+}
+
+/// The peaks of one axis over the polishing blocks (the plan's own motion, without the
+/// approach and retract): |velocity| per minute and |acceleration| per s² in the axis unit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PolishingPeaks {
+    pub velocity_per_min: f64,
+    pub acceleration_per_s2: f64,
+}
 
 /// One block of a polar program.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,9 +214,10 @@ pub struct PolarRun {
 }
 
 impl PolarProgram {
-    /// The program that runs `motion` (its C law included) with `dwell_s` at its stations.
+    /// The program that runs `motion` (its C law included) with `dwell_s` at its stations on
+    /// the part as `mount` has it.
     pub fn from_motion(
-        surface: &Surface,
+        mount: Mount<'_>,
         tool: &Tool,
         motion: &Motion,
         dwell_s: &[f64],
@@ -91,6 +225,11 @@ impl PolarProgram {
     ) -> Result<PolarProgram, ProgramError> {
         let (first, last) = dwell_span(dwell_s)?;
         let segments = motion.segments();
+        let plane = Surface::plane();
+        let surface = match mount {
+            Mount::Round(surface) => surface,
+            Mount::Segments(_) => &plane,
+        };
         let pieces = executed_blocks(
             motion,
             dwell_s,
@@ -98,7 +237,22 @@ impl PolarProgram {
             run.start_rad,
             surface,
         );
-        // The polishing blocks, each piece cut into equal parts of at most a quarter turn.
+        let pose_at = |position_mm: f64, c_deg: f64, clearance_mm: f64| match mount {
+            Mount::Round(surface) => lifted(&tool.pose(surface, position_mm), clearance_mm),
+            Mount::Segments(path) => {
+                path.pose(tool, position_mm, -c_deg.to_radians(), clearance_mm)
+            }
+        };
+        // How many equal parts a piece from `from` to `to` turning C by `turn` deg is cut
+        // into: a quarter turn at most, and on segments the chord rule.
+        let parts_of = |from: f64, to: f64, turn: f64| {
+            let mut parts = (turn.abs() / MAX_C_STEP_DEG).ceil().max(1.0);
+            if let Mount::Segments(path) = mount {
+                parts = parts.max((turn.to_radians().abs() / path.max_step_rad(from, to)).ceil());
+            }
+            parts as usize
+        };
+        // The polishing blocks, each piece cut into equal parts.
         let mut blocks = Vec::with_capacity(pieces.len());
         // Per block: its span of X, Z and B (the plan's segment).
         let mut segment_of = Vec::with_capacity(pieces.len());
@@ -110,7 +264,7 @@ impl PolarProgram {
             };
             let speed = piece.part_speed_rad_per_s.to_degrees();
             let turn = speed * piece.duration_s;
-            let parts = (turn.abs() / MAX_C_STEP_DEG).ceil().max(1.0) as usize;
+            let parts = parts_of(piece.from_mm, piece.to_mm, turn);
             let c0 = c;
             let track = Track::new(Some(surface), piece.from_mm, piece.to_mm, 1.0);
             for k in 1..=parts {
@@ -121,7 +275,7 @@ impl PolarProgram {
                     kind,
                     station: Some(piece.station),
                     position_mm,
-                    end: tool.pose(surface, position_mm),
+                    end: pose_at(position_mm, c, 0.0),
                     c_deg: c,
                     c_deg_per_s: speed,
                     duration_s: piece.duration_s / parts as f64,
@@ -138,9 +292,8 @@ impl PolarProgram {
             .map(|(change, _)| change.to_degrees())
             .fold(0.0, f64::max);
         let ramp = ramp_acceleration(plan_peak, run.c_max_acceleration_deg_per_s2);
-        let first_pose = tool.pose(surface, origin);
-        let mut start = first_pose;
         let mut start_c_deg = -run.start_rad.to_degrees();
+        let mut start = pose_at(origin, start_c_deg, 0.0);
         let mut approach = run.approach;
         if approach.clearance_mm > 0.0 {
             let (v_in, v_out) = (blocks[0].c_deg_per_s, blocks[blocks.len() - 1].c_deg_per_s);
@@ -150,27 +303,43 @@ impl PolarProgram {
                 duration_s = duration_s.max(2.0 * v_in.abs().max(v_out.abs()) / a);
             }
             approach.feed_mm_per_min = 60.0 * approach.clearance_mm / duration_s;
-            start = lifted(&first_pose, approach.clearance_mm);
             start_c_deg -= v_in * duration_s;
+            start = pose_at(origin, start_c_deg, approach.clearance_mm);
             let last = blocks[blocks.len() - 1];
-            let on = linear_blocks(
+            // The pad along its ring (at constant speed along the tool axis), C at speed.
+            let along = |kind, r: f64, c_from: f64, c_deg_per_s: f64, lift: [f64; 2]| {
+                let turn = c_deg_per_s * duration_s;
+                let parts = parts_of(r, r, turn);
+                (1..=parts)
+                    .map(|k| {
+                        let s = k as f64 / parts as f64;
+                        let c_deg = c_from + turn * s;
+                        PolarBlock {
+                            kind,
+                            station: None,
+                            position_mm: r,
+                            end: pose_at(r, c_deg, lift[0] + (lift[1] - lift[0]) * s),
+                            c_deg,
+                            c_deg_per_s,
+                            duration_s: duration_s / parts as f64,
+                        }
+                    })
+                    .collect::<Vec<_>>()
+            };
+            let clearance = approach.clearance_mm;
+            let on = along(
                 BlockKind::Approach,
-                (start, start_c_deg),
-                (first_pose, start_c_deg + v_in * duration_s),
                 origin,
+                start_c_deg,
                 v_in,
-                duration_s,
+                [clearance, 0.0],
             );
-            let off = linear_blocks(
+            let off = along(
                 BlockKind::Retract,
-                (last.end, last.c_deg),
-                (
-                    lifted(&last.end, approach.clearance_mm),
-                    last.c_deg + v_out * duration_s,
-                ),
                 last.position_mm,
+                last.c_deg,
                 v_out,
-                duration_s,
+                [0.0, clearance],
             );
             segment_of = std::iter::repeat_n(0, on.len())
                 .chain(segment_of)
@@ -183,7 +352,11 @@ impl PolarProgram {
             let positions: Vec<f64> = std::iter::once(start.axes()[axis])
                 .chain(blocks.iter().map(|b| b.end.axes()[axis]))
                 .collect();
-            AxisMotion::of_spans(positions, &durations, &segment_of)
+            let spans = match mount {
+                Mount::Round(_) => segment_of.clone(),
+                Mount::Segments(_) => even_runs(&positions, &durations, &segment_of),
+            };
+            AxisMotion::of_spans(positions, &durations, &spans)
         });
         let c_positions: Vec<f64> = std::iter::once(start_c_deg)
             .chain(blocks.iter().map(|b| b.c_deg))
@@ -203,6 +376,25 @@ impl PolarProgram {
             approach,
             polishing_time_s,
         })
+    }
+
+    /// An axis's peaks over the polishing blocks: velocities of blocks that spend a station's
+    /// dwell, and changes of velocity between two such blocks.
+    pub fn polishing_peaks(&self, axis: Axis) -> PolishingPeaks {
+        let motion = self.motion(axis);
+        let polishing = |k: usize| self.blocks[k].station.is_some();
+        let velocity_per_min = (0..self.blocks.len())
+            .filter(|&k| polishing(k))
+            .map(|k| motion.velocity_per_min[k].abs())
+            .fold(0.0, f64::max);
+        let acceleration_per_s2 = (1..self.blocks.len())
+            .filter(|&k| polishing(k - 1) && polishing(k))
+            .map(|k| motion.acceleration_per_s2[k].abs())
+            .fold(0.0, f64::max);
+        PolishingPeaks {
+            velocity_per_min,
+            acceleration_per_s2,
+        }
     }
 
     /// The pose and C (deg) before the first block.
@@ -260,35 +452,20 @@ fn c_spans(blocks: &[PolarBlock]) -> Vec<usize> {
         .collect()
 }
 
-/// A straight move from `from` to `to` (pose, C) at C speed `c_deg_per_s` over `duration_s`,
-/// cut into equal blocks of at most a quarter turn of C.
-fn linear_blocks(
-    kind: BlockKind,
-    from: (Pose, f64),
-    to: (Pose, f64),
-    position_mm: f64,
-    c_deg_per_s: f64,
-    duration_s: f64,
-) -> Vec<PolarBlock> {
-    let parts = ((to.1 - from.1).abs() / MAX_C_STEP_DEG).ceil().max(1.0) as usize;
-    let [a, b] = [from.0.axes(), to.0.axes()];
-    (1..=parts)
+/// Spans of an axis on segments: runs of blocks within one stop or move of the plan
+/// (`segment_of`) whose velocities are one ([`one_speed`]), labelled by the block that opens
+/// each.
+fn even_runs(positions: &[f64], durations_s: &[f64], segment_of: &[usize]) -> Vec<usize> {
+    let velocity = |k: usize| (positions[k + 1] - positions[k]) / durations_s[k];
+    let mut label = 0;
+    (0..durations_s.len())
         .map(|k| {
-            let s = k as f64 / parts as f64;
-            let at = |i: usize| a[i] + (b[i] - a[i]) * s;
-            PolarBlock {
-                kind,
-                station: None,
-                position_mm,
-                end: Pose {
-                    x_mm: at(0),
-                    z_mm: at(1),
-                    b_deg: at(2),
-                },
-                c_deg: from.1 + (to.1 - from.1) * s,
-                c_deg_per_s,
-                duration_s: duration_s / parts as f64,
+            if k > 0
+                && (segment_of[k] != segment_of[k - 1] || !one_speed(velocity(k - 1), velocity(k)))
+            {
+                label = k;
             }
+            label
         })
         .collect()
 }

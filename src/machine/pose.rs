@@ -72,8 +72,14 @@ impl Tool {
 
     /// The pose that puts the pad's centre on the surface point at radius `r_mm`.
     pub fn pose(&self, surface: &Surface, r_mm: f64) -> Pose {
-        let z = surface.sag_mm(r_mm);
-        let l = self.pivot_length_mm;
+        self.pose_at(r_mm, surface.sag_mm(r_mm), surface.slope_angle_rad(r_mm))
+    }
+
+    /// The pose that puts the pad's centre at radius `r_mm` and height `z_mm`, its axis (when
+    /// B follows) at `slope_angle_rad` from Z in the plane through C: the surface's radial
+    /// slope there, atan ∂z/∂r.
+    pub fn pose_at(&self, r_mm: f64, z_mm: f64, slope_angle_rad: f64) -> Pose {
+        let (z, l) = (z_mm, self.pivot_length_mm);
         match self.orientation {
             Orientation::Vertical => Pose {
                 x_mm: r_mm,
@@ -81,7 +87,7 @@ impl Tool {
                 b_deg: 0.0,
             },
             Orientation::Normal => {
-                let theta = surface.slope_angle_rad(r_mm);
+                let theta = slope_angle_rad;
                 let (sin, cos) = theta.sin_cos();
                 Pose {
                     x_mm: r_mm - l * sin,

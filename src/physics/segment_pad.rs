@@ -19,7 +19,8 @@
 //! edge if the pad straddles it) and e_r the radial unit vector of T's projection,
 //! a = (−s·e_r, 1)/√(1 + s²), s = g·e_r. The surface's slope across the radius,
 //! (g·e_φ) = Z′/r, is taken up by the pad's compliance (it conforms to the surface under it);
-//! on a surface of revolution it is 0 and a is the normal.
+//! on a surface of revolution it is 0 and a is the normal. A tool carried vertically
+//! ([`Orientation::Vertical`]: B held at 0, Z alone following the surface) has a = ẑ.
 //!
 //! **Contact** (the local quadric's, as on curved parts): the pad covers the points within
 //! geodesic distance r_t of T, taken as the ball |X − T| ≤ c_t with the chord
@@ -48,6 +49,7 @@ use super::polar::Block;
 use super::pressure::PressureModel;
 use super::process::Process;
 use super::roots::illinois;
+use super::Orientation;
 use crate::segments::SegmentLayout;
 
 /// The quadrature's tolerance, relative to the largest sliding speed times the window.
@@ -85,6 +87,7 @@ pub struct SegmentPad {
     tool_speed: f64,
     /// K·P, nm/s per mm/s of sliding.
     preston: f64,
+    orientation: Orientation,
 }
 
 impl SegmentPad {
@@ -97,6 +100,7 @@ impl SegmentPad {
             tool_radius_mm: process.tool_radius_mm(),
             tool_speed: process.omega2_rad_per_s(),
             preston: process.preston_rate_scale(),
+            orientation: process.part().orientation,
         })
     }
 
@@ -125,7 +129,10 @@ impl SegmentPad {
             [1.0, 0.0]
         };
         let g = point.gradient;
-        let s = g[0] * radial[0] + g[1] * radial[1];
+        let s = match self.orientation {
+            Orientation::Normal => g[0] * radial[0] + g[1] * radial[1],
+            Orientation::Vertical => 0.0,
+        };
         let w = (1.0 + s * s).sqrt();
         let [k1, k2] = point.principal_curvatures();
         let h = 0.5 * (k1 + k2);
@@ -491,10 +498,16 @@ mod tests {
 
     /// A sphere's parent on C (d = 0) is the curved part of revolution: rings' depths equal
     /// `physics::polar`'s curved model (its sliding speed by the same kinematics in another
-    /// form, its arc from the ring's geometry) to 1e-8 of the largest, convex and concave.
+    /// form, its arc from the ring's geometry) to 1e-8 of the largest, convex and concave,
+    /// the tool along the normal and held vertical.
     #[test]
     fn a_sphere_on_c_is_the_curved_model_of_revolution() {
-        for radius in [120.0, -90.0] {
+        for (radius, orientation) in [
+            (120.0, Orientation::Normal),
+            (-90.0, Orientation::Normal),
+            (120.0, Orientation::Vertical),
+            (-90.0, Orientation::Vertical),
+        ] {
             let surface = Surface::new(&SurfaceSpec::Sphere {
                 radius_of_curvature_mm: radius,
             })
@@ -502,7 +515,7 @@ mod tests {
             let curved = process(
                 Part {
                     surface: surface.clone(),
-                    orientation: Orientation::Normal,
+                    orientation,
                 },
                 40.0,
             );
@@ -525,7 +538,7 @@ mod tests {
             let worst = worst_against(&got, &want);
             assert!(
                 worst < 1e-8,
-                "R {radius}: worst {worst:e} of the largest depth"
+                "R {radius} {orientation:?}: worst {worst:e} of the largest depth"
             );
         }
     }

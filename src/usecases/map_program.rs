@@ -9,7 +9,7 @@ use super::Warning;
 use crate::machine::gcode::{self, CWords};
 use crate::machine::polar_program::MAX_C_STEP_DEG;
 use crate::machine::{Approach, Axis, MachineLimits};
-use crate::machine::{PolarProgram, PolarRun};
+use crate::machine::{Mount, PolarProgram, PolarRun};
 use crate::physics::polar::PolarPad;
 use crate::physics::Process;
 
@@ -141,7 +141,7 @@ pub fn map_program(command: MapProgramCommand) -> Result<PolarMachineProgram, Pr
     };
     let machine = base.machine;
     let program = PolarProgram::from_motion(
-        &base.process.part().surface,
+        Mount::Round(&base.process.part().surface),
         &base.tool,
         base.schedule.motion(),
         base.schedule.dwell_s(),

@@ -193,8 +193,8 @@ async fn astigmatism_and_trefoil_on_two_segments_are_corrected_in_one_plan() {
 }
 
 /// Z's acceleration below what the process's C speed needs: a 422 naming Z's acceleration
-/// limit, the station and harmonic 4 (the servo rule's largest C speed at r = 40 mm, the first
-/// station over the segments, is below 10 r/min); a Z travel shorter than harmonic 4's swing:
+/// limit, the station and harmonic 4 (the servo rule's largest C speed at r = 36 mm, the first
+/// station whose pad reaches the segments, is below 10 r/min); a Z travel shorter than harmonic 4's swing:
 /// a 422 naming Z's travel; a part surface beside segments, a lift with the pad down, and a
 /// map that misses most of the segments name their fields.
 #[tokio::test(flavor = "multi_thread")]
@@ -204,7 +204,7 @@ async fn z_that_cannot_follow_is_named_with_the_harmonic_and_the_ring() {
             "/machine/z",
             json!({"max_acceleration_mm_per_s2": 0.5}),
             "machine.z.max_acceleration_mm_per_s2",
-            &["harmonic 4", "r = 40 mm", "acceleration"],
+            &["harmonic 4", "r = 36 mm", "acceleration"],
         ),
         (
             "/machine/z",
