@@ -53,7 +53,7 @@ pub use limits::{
     Axis, AxisKind, AxisLimits, Drive, InvalidLimit, LimitKind, MachineChoice, MachineLimits,
     MachineLimitsSpec, Violation, DEFAULT_MACHINE,
 };
-pub use polar_program::{Mount, PolarBlock, PolarProgram, PolarRun, PolishingPeaks, SegmentPath};
+pub use polar_program::{PolarBlock, PolarPart, PolarProgram, PolarRun, SegmentPath};
 pub use pose::{Orientation, Pose, Tool, ToolError};
 pub use program::{
     cell_travel, Approach, AxisMotion, Block, BlockKind, Program, ProgramError, Skipped,

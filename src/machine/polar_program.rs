@@ -24,7 +24,7 @@
 //! ([`ramp_acceleration`]).
 //! Without a clearance C starts and stops within the first and last polishing blocks.
 //!
-//! **On segments** ([`Mount::Segments`]: off-axis segments, or a decentred part) Z and B
+//! **On segments** ([`PolarPart::Segments`]: off-axis segments, or a decentred part) Z and B
 //! follow each ring's law as C turns ([`crate::segments`]): at a block's end the pad centre is
 //! over r·(cos φ, sin φ), φ = −C, with Z the law's height there and B (when the tool follows
 //! the normal) atan of the law's radial slope, X and Z compensating B's pivot as
@@ -58,7 +58,7 @@ const CURVATURE_MARGIN: f64 = 1.25;
 
 /// The part as C turns it.
 #[derive(Debug, Clone, Copy)]
-pub enum Mount<'a> {
+pub enum PolarPart<'a> {
     /// Round about C: the pose is the surface's at the pad centre's radius.
     Round(&'a Surface),
     /// Not round (module docs): Z and B follow each ring's law within a turn.
@@ -160,14 +160,6 @@ impl<'a> SegmentPath<'a> {
     }
 }
 
-/// The peaks of one axis over the polishing blocks (the plan's own motion, without the
-/// approach and retract): |velocity| per minute and |acceleration| per s² in the axis unit.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PolishingPeaks {
-    pub velocity_per_min: f64,
-    pub acceleration_per_s2: f64,
-}
-
 /// One block of a polar program.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PolarBlock {
@@ -215,9 +207,9 @@ pub struct PolarRun {
 
 impl PolarProgram {
     /// The program that runs `motion` (its C law included) with `dwell_s` at its stations on
-    /// the part as `mount` has it.
+    /// the part as `part` has it.
     pub fn from_motion(
-        mount: Mount<'_>,
+        part: PolarPart<'_>,
         tool: &Tool,
         motion: &Motion,
         dwell_s: &[f64],
@@ -226,9 +218,9 @@ impl PolarProgram {
         let (first, last) = dwell_span(dwell_s)?;
         let segments = motion.segments();
         let plane = Surface::plane();
-        let surface = match mount {
-            Mount::Round(surface) => surface,
-            Mount::Segments(_) => &plane,
+        let surface = match part {
+            PolarPart::Round(surface) => surface,
+            PolarPart::Segments(_) => &plane,
         };
         let pieces = executed_blocks(
             motion,
@@ -237,9 +229,9 @@ impl PolarProgram {
             run.start_rad,
             surface,
         );
-        let pose_at = |position_mm: f64, c_deg: f64, clearance_mm: f64| match mount {
-            Mount::Round(surface) => lifted(&tool.pose(surface, position_mm), clearance_mm),
-            Mount::Segments(path) => {
+        let pose_at = |position_mm: f64, c_deg: f64, clearance_mm: f64| match part {
+            PolarPart::Round(surface) => lifted(&tool.pose(surface, position_mm), clearance_mm),
+            PolarPart::Segments(path) => {
                 path.pose(tool, position_mm, -c_deg.to_radians(), clearance_mm)
             }
         };
@@ -247,7 +239,7 @@ impl PolarProgram {
         // into: a quarter turn at most, and on segments the chord rule.
         let parts_of = |from: f64, to: f64, turn: f64| {
             let mut parts = (turn.abs() / MAX_C_STEP_DEG).ceil().max(1.0);
-            if let Mount::Segments(path) = mount {
+            if let PolarPart::Segments(path) = part {
                 parts = parts.max((turn.to_radians().abs() / path.max_step_rad(from, to)).ceil());
             }
             parts as usize
@@ -352,9 +344,9 @@ impl PolarProgram {
             let positions: Vec<f64> = std::iter::once(start.axes()[axis])
                 .chain(blocks.iter().map(|b| b.end.axes()[axis]))
                 .collect();
-            let spans = match mount {
-                Mount::Round(_) => segment_of.clone(),
-                Mount::Segments(_) => even_runs(&positions, &durations, &segment_of),
+            let spans = match part {
+                PolarPart::Round(_) => segment_of.clone(),
+                PolarPart::Segments(_) => even_runs(&positions, &durations, &segment_of),
             };
             AxisMotion::of_spans(positions, &durations, &spans)
         });
@@ -378,23 +370,26 @@ impl PolarProgram {
         })
     }
 
-    /// An axis's peaks over the polishing blocks: velocities of blocks that spend a station's
-    /// dwell, and changes of velocity between two such blocks.
-    pub fn polishing_peaks(&self, axis: Axis) -> PolishingPeaks {
-        let motion = self.motion(axis);
-        let polishing = |k: usize| self.blocks[k].station.is_some();
-        let velocity_per_min = (0..self.blocks.len())
-            .filter(|&k| polishing(k))
-            .map(|k| motion.velocity_per_min[k].abs())
-            .fold(0.0, f64::max);
-        let acceleration_per_s2 = (1..self.blocks.len())
-            .filter(|&k| polishing(k - 1) && polishing(k))
-            .map(|k| motion.acceleration_per_s2[k].abs())
-            .fold(0.0, f64::max);
-        PolishingPeaks {
-            velocity_per_min,
-            acceleration_per_s2,
+    /// An axis's motion over the polishing blocks alone: the velocities of blocks that spend a
+    /// station's dwell, and the changes between two such blocks (the rest 0), its positions
+    /// all the program's.
+    pub fn polishing_motion(&self, axis: Axis) -> AxisMotion {
+        let mut motion = self.motion(axis).clone();
+        let polishing = |k: usize| self.blocks.get(k).is_some_and(|b| b.station.is_some());
+        for (k, v) in motion.velocity_per_min.iter_mut().enumerate() {
+            if !polishing(k) {
+                *v = 0.0;
+            }
         }
+        for (k, a) in motion.acceleration_per_s2.iter_mut().enumerate() {
+            if k == 0 || !(polishing(k - 1) && polishing(k)) {
+                *a = 0.0;
+            }
+        }
+        let peak = |v: &[f64]| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        motion.peak_velocity_per_min = peak(&motion.velocity_per_min);
+        motion.peak_acceleration_per_s2 = peak(&motion.acceleration_per_s2);
+        motion
     }
 
     /// The pose and C (deg) before the first block.

@@ -56,7 +56,10 @@ use super::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan, Ta
 use super::{ComputeLimits, InputError, OperatorCache, Recommender, Setting, Warning};
 use crate::field::{DepthProfile, Figures};
 use crate::machine::servo::{ring_demands, RingBreach, RingDemand, ServoLimit};
-use crate::machine::{Axis, Drive, LimitKind, MachineChoice};
+use crate::machine::{
+    Approach, Axis, AxisLimits, Drive, LimitKind, MachineChoice, PolarPart, PolarProgram, PolarRun,
+    SegmentPath, Violation,
+};
 use crate::maps::analysis::{aperture_pixels, plane_fit};
 use crate::maps::aperture::{Alignment, Aperture};
 use crate::maps::rings::{band_rms, ring_harmonics};
@@ -151,7 +154,16 @@ pub struct SegmentSetup {
     pub layout: SegmentLayout,
     /// The pad's clearance where it is clear of every segment, mm (0: it stays down).
     pub lift_mm: f64,
+    /// ε: the most Z may depart from a program block's straight line, mm (within
+    /// [`CHORD_TOLERANCE_RANGE_MM`]).
+    pub chord_tolerance_mm: f64,
 }
+
+/// A micrometre: a tenth of a typical polishing pad's compliance under its load.
+pub const DEFAULT_CHORD_TOLERANCE_MM: f64 = 1e-3;
+
+/// The chord tolerances accepted, mm.
+pub const CHORD_TOLERANCE_RANGE_MM: [f64; 2] = [1e-5, 0.1];
 
 /// What one station's ring asks of Z on segments, and the C speed Z allows it.
 #[derive(Debug, Clone, PartialEq)]
@@ -208,15 +220,22 @@ pub enum MapOptimizeInputError {
     SegmentsMapTooSmall { covered: f64 },
     #[error("{0}")]
     Segments(SegmentPadError),
-    /// Z cannot follow a station's ring at the process's C speed.
+    #[error(transparent)]
+    Servo(ServoError),
+}
+
+/// Why Z cannot follow a plan's rings on segments.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ServoError {
+    /// Z cannot follow a station's ring at the C speed the plan turns it.
     #[error(
         "Z cannot follow the segments at station {station} (r = {r_mm} mm): its harmonic \
          {harmonic} ({amplitude_mm:.4} mm) allows C at most {largest_rpm:.1} r/min by Z's \
-         {what}, and the process turns C at {plan_rpm:.1} r/min (a slower workpiece_rpm, or a \
+         {what}, and the plan turns C at {plan_rpm:.1} r/min (a slower workpiece_rpm, or a \
          faster Z)",
         what = match .limit { ServoLimit::Velocity => "velocity", ServoLimit::Acceleration => "acceleration" }
     )]
-    Servo {
+    Speed {
         station: usize,
         r_mm: f64,
         harmonic: usize,
@@ -227,7 +246,50 @@ pub enum MapOptimizeInputError {
     },
     /// Z's travel is too short for a station's ring at any C speed.
     #[error("{0}")]
-    ServoTravel(RingBreach),
+    Travel(RingBreach),
+}
+
+/// Each station's demand on Z on `setup`'s segments (`None` where the pad never reaches
+/// one), refused where Z's travel is too short or `plan_rpm(station)` (r/min) is faster than
+/// the servo rule allows there.
+pub(super) fn station_demands(
+    layout: &SegmentLayout,
+    lift_mm: f64,
+    pad_radius_mm: f64,
+    positions_mm: &[f64],
+    z: &AxisLimits,
+    plan_rpm: impl Fn(usize) -> f64,
+) -> Result<Vec<Option<RingDemand>>, ServoError> {
+    let mut demands = Vec::with_capacity(positions_mm.len());
+    for (station, &r) in positions_mm.iter().enumerate() {
+        let demand = ring_demands(layout, &[r], lift_mm, pad_radius_mm, z)
+            .map_err(|breach| {
+                ServoError::Travel(RingBreach {
+                    ring: station,
+                    ..breach
+                })
+            })?
+            .pop();
+        if let Some(d) = &demand {
+            let plan_rpm = plan_rpm(station);
+            if let Some((harmonic, limit)) = d.speed.binding {
+                // The law's speeds are the optimizer's to the last bit or so.
+                if d.speed.largest_c_rpm * (1.0 + 1e-9) < plan_rpm {
+                    return Err(ServoError::Speed {
+                        station,
+                        r_mm: r,
+                        harmonic,
+                        amplitude_mm: d.amplitudes_mm[harmonic - 1],
+                        limit,
+                        largest_rpm: d.speed.largest_c_rpm,
+                        plan_rpm,
+                    });
+                }
+            }
+        }
+        demands.push(demand);
+    }
+    Ok(demands)
 }
 
 /// A checked correction.
@@ -256,6 +318,8 @@ pub struct MapOptimizeCommand {
 struct Segments {
     pad: SegmentPad,
     demands: Vec<Option<RingDemand>>,
+    lift_mm: f64,
+    chord_tolerance_mm: f64,
 }
 
 /// The map as the plan sees it: heights (nm) in the part's frame, piston and tilt removed.
@@ -499,35 +563,22 @@ impl MapOptimizeCommand {
                     .limits()
                     .map(|l| *l.axis(Axis::Z))
                     .unwrap_or_default();
-                let plan_rpm = omega0 * 60.0 / TAU;
-                let mut demands = Vec::new();
-                for (station, &r) in spec.optimize.positions_mm.iter().enumerate() {
-                    let demand = ring_demands(pad.layout(), &[r], setup.lift_mm, rt, &z)
-                        .map_err(|breach| {
-                            E::ServoTravel(RingBreach {
-                                ring: station,
-                                ..breach
-                            })
-                        })?
-                        .pop();
-                    if let Some(d) = &demand {
-                        if let Some((harmonic, limit)) = d.speed.binding {
-                            if d.speed.largest_c_rpm < plan_rpm {
-                                return Err(E::Servo {
-                                    station,
-                                    r_mm: r,
-                                    harmonic,
-                                    amplitude_mm: d.amplitudes_mm[harmonic - 1],
-                                    limit,
-                                    largest_rpm: d.speed.largest_c_rpm,
-                                    plan_rpm,
-                                });
-                            }
-                        }
-                    }
-                    demands.push(demand);
-                }
-                Some(Segments { pad, demands })
+                let plan_rpm = omega0.abs() * 60.0 / TAU;
+                let demands = station_demands(
+                    pad.layout(),
+                    setup.lift_mm,
+                    rt,
+                    &spec.optimize.positions_mm,
+                    &z,
+                    |_| plan_rpm,
+                )
+                .map_err(E::Servo)?;
+                Some(Segments {
+                    pad,
+                    demands,
+                    lift_mm: setup.lift_mm,
+                    chord_tolerance_mm: setup.chord_tolerance_mm,
+                })
             }
         };
         let harmonics = Harmonics::of_rings(radii.clone(), &rings, max_harmonic);
@@ -577,6 +628,59 @@ impl MapOptimizeCommand {
             segments,
         })
     }
+}
+
+/// The polishing blocks' peaks of the program of `motion` with `dwell_s` on segments (X, Z,
+/// B, C: |v| per minute, |a| per s²), or the limits they break.
+fn segment_program_peaks(
+    segments: &Segments,
+    setting: &Setting,
+    machine: MachineChoice,
+    motion: &crate::physics::motion::Motion,
+    dwell_s: &[f64],
+) -> Result<[[f64; 2]; 4], MapOptimizeError> {
+    let process = setting.process();
+    let path = SegmentPath::new(
+        segments.pad.layout(),
+        segments.lift_mm,
+        process.tool_radius_mm(),
+        segments.chord_tolerance_mm,
+        motion.radii_mm(),
+    );
+    let limits = machine.limits().unwrap_or_default();
+    let program = PolarProgram::from_motion(
+        PolarPart::Segments(&path),
+        &setting.mount().tool,
+        motion,
+        dwell_s,
+        PolarRun {
+            part_speed_rad_per_s: PolarPad::new(process).part_speed_rad_per_s(),
+            start_rad: 0.0,
+            approach: Approach {
+                clearance_mm: 0.0,
+                feed_mm_per_min: 1.0,
+            },
+            c_max_acceleration_deg_per_s2: limits.axis(Axis::C).max_acceleration_per_s2,
+        },
+    )
+    .map_err(|e| {
+        MapOptimizeError::Optimize(OptimizeError::Numerical {
+            status: format!("the plan has no program: {e}"),
+        })
+    })?;
+    let axes = [Axis::X, Axis::Z, Axis::B, Axis::C];
+    let motions = axes.map(|a| program.polishing_motion(a));
+    let spec = process.spec();
+    let violations = machine.mark(limits.violations_of(
+        &[0, 1, 2, 3].map(|k| (axes[k], &motions[k])),
+        |limit, index| program.block_of(limit, index),
+        program.blocks().len(),
+        (spec.workpiece_rpm, spec.tool_rpm),
+    ));
+    if !violations.is_empty() {
+        return Err(MapOptimizeError::ProgramLimits(violations));
+    }
+    Ok(motions.map(|m| [m.peak_velocity_per_min, m.peak_acceleration_per_s2]))
 }
 
 /// The finest pixel from `pixel_mm` up (× 1.25 at a time, to the coarsest the part's `radius_mm`
@@ -728,6 +832,9 @@ pub struct SegmentReport {
     pub figures: Vec<[Figures; 2]>,
     /// Per station whose ring crosses a segment.
     pub servo: Vec<StationServo>,
+    /// The program's peaks over its polishing blocks (`PolarProgram::polishing_motion`), for
+    /// X, Z, B and C: |velocity| per minute and |acceleration| per s², in each axis's unit.
+    pub polishing_peaks: [[f64; 2]; 4],
 }
 
 /// Why a correction has no plan (found by solving).
@@ -758,6 +865,10 @@ pub enum MapOptimizeError {
          pressure for fewer turns of C, a smaller pad, or removal_model \"harmonic\")"
     )]
     ExactMapTooCostly { work: f64, pixel_mm: f64, max: f64 },
+    /// On segments, the program of the plan would break these limits over its polishing
+    /// blocks.
+    #[error("the plan's program would exceed {} machine limit(s)", .0.len())]
+    ProgramLimits(Vec<Violation>),
 }
 
 pub fn map_optimize(
@@ -976,6 +1087,18 @@ pub fn map_optimize(
         }
     };
     let dwell = &plan.solution.dwell_s;
+    // On segments, the plan's program (as `/v1/maps/program` makes it, from the same start):
+    // its polishing blocks within every limit, and their peaks reported.
+    let polishing_peaks = match &segments {
+        None => None,
+        Some(s) => Some(segment_program_peaks(
+            s,
+            &setting,
+            machine,
+            &executed,
+            dwell,
+        )?),
+    };
     let sector_dwell_s: Vec<Vec<f64>> = modulation
         .iter()
         .zip(dwell)
@@ -1187,7 +1310,11 @@ pub fn map_optimize(
                 })
             })
             .collect();
-        SegmentReport { figures, servo }
+        SegmentReport {
+            figures,
+            servo,
+            polishing_peaks: polishing_peaks.expect("made on segments"),
+        }
     });
     let (peak_v, peak_a) = (peaks.velocity_rad_per_s, peaks.acceleration_rad_per_s2);
     let near = |peak: f64, limit: Option<f64>| {

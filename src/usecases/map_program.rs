@@ -1,15 +1,20 @@
 //! A polar plan as a machine program (`POST /v1/maps/program`): the radial plan's stops and
 //! moves with C under position control, its speed law executed block by block
 //! ([`crate::machine::polar_program`]), checked against every limit of the machine, C's
-//! included, and written as G-code in inverse time with C words.
+//! included, and written as G-code in inverse time with C words. On segments Z and B follow
+//! each ring's law, the blocks cut to a chord tolerance on Z, and each station's ring is held
+//! to the servo rule at the law's C speeds as the correction holds it.
 
-use super::map_predict::{law_work, polar_schedule, CLawError, CLawSpec, MAX_BLOCKS};
+use std::f64::consts::TAU;
+
+use super::map_optimize::{station_demands, SegmentSetup, ServoError, StationServo};
+use super::map_predict::{law_work, polar_schedule, station_turns, CLawError, CLawSpec, MAX_BLOCKS};
 use super::program::{approach_feed, header_lines, ProgramCommand, ProgramFailure, Provenance};
 use super::Warning;
 use crate::machine::gcode::{self, CWords};
 use crate::machine::polar_program::MAX_C_STEP_DEG;
 use crate::machine::{Approach, Axis, MachineLimits};
-use crate::machine::{Mount, PolarProgram, PolarRun};
+use crate::machine::{PolarPart, PolarProgram, PolarRun, SegmentPath};
 use crate::physics::polar::PolarPad;
 use crate::physics::Process;
 
@@ -22,6 +27,8 @@ pub struct MapProgramSpec {
     pub start_angle_deg: Option<f64>,
     /// Default [`CWords::Wrapped`].
     pub c_words: Option<CWords>,
+    /// Segments on C (or a decentred part): Z and B follow them.
+    pub segments: Option<SegmentSetup>,
 }
 
 /// Why a polar program request was refused before computing (beyond a radial program's
@@ -40,9 +47,12 @@ pub enum MapProgramInputError {
     ApproachTooLong { turns: f64, duration_s: f64 },
     #[error(
         "the plan runs C through about {turns:.0} turns in about {blocks:.2e} blocks; a program \
-         has at most {max:.0e} (fewer sectors or a shorter plan)"
+         has at most {max:.0e} (fewer sectors, a shorter plan, or on segments a larger chord \
+         tolerance)"
     )]
     TooManyBlocks { turns: f64, blocks: f64, max: f64 },
+    #[error(transparent)]
+    Servo(ServoError),
 }
 
 /// A checked polar program request: a radial program's, C's law applied to its motion.
@@ -54,6 +64,14 @@ pub struct MapProgramCommand {
     start_rad: f64,
     c_words: CWords,
     sectors: Option<usize>,
+    segments: Option<SegmentRun>,
+}
+
+/// A program's segments, checked: each station's demand on Z at the law's C speed.
+#[derive(Debug, Clone)]
+struct SegmentRun {
+    setup: SegmentSetup,
+    servo: Vec<StationServo>,
 }
 
 impl Provenance for MapProgramCommand {
@@ -79,7 +97,50 @@ impl MapProgramCommand {
         let omega = pad.part_speed_rad_per_s();
         // A block per sector passed (a quarter turn at most).
         let per_turn = (360.0 / MAX_C_STEP_DEG).max(sectors.unwrap_or(1) as f64);
-        let (turns, blocks) = law_work(&schedule, &fastest, omega, per_turn);
+        let (turns, mut blocks) = law_work(&schedule, &fastest, omega, per_turn);
+        let segments = match spec.segments {
+            None => None,
+            Some(setup) => {
+                let rt = base.process.tool_radius_mm();
+                let positions = schedule.positions_mm();
+                let plan_rpm = |j: usize| omega.abs() * fastest[j] * 60.0 / TAU;
+                let demands = station_demands(
+                    &setup.layout,
+                    setup.lift_mm,
+                    rt,
+                    positions,
+                    base.machine.axis(Axis::Z),
+                    plan_rpm,
+                )
+                .map_err(E::Servo)?;
+                // The chord rule's blocks, station by station.
+                let path = SegmentPath::new(
+                    &setup.layout,
+                    setup.lift_mm,
+                    rt,
+                    setup.chord_tolerance_mm,
+                    positions,
+                );
+                let station_turns = station_turns(schedule.dwell_s(), &fastest, omega);
+                blocks += positions
+                    .iter()
+                    .zip(&station_turns)
+                    .map(|(&r, turns)| turns * TAU / path.max_step_rad(r, r))
+                    .sum::<f64>();
+                let servo = demands
+                    .into_iter()
+                    .enumerate()
+                    .filter_map(|(station, d)| {
+                        d.map(|demand| StationServo {
+                            station,
+                            demand,
+                            plan_c_rpm: plan_rpm(station),
+                        })
+                    })
+                    .collect();
+                Some(SegmentRun { setup, servo })
+            }
+        };
         // The approach and retract at C's fastest, each as long as its feed or C's ramp
         // (from half C's limit, `ramp_acceleration`) makes it, in quarter turns.
         let fastest_deg_per_s =
@@ -112,6 +173,7 @@ impl MapProgramCommand {
             start_rad: start_deg.to_radians(),
             c_words: spec.c_words.unwrap_or_default(),
             sectors,
+            segments,
         })
     }
 }
@@ -125,6 +187,8 @@ pub struct PolarMachineProgram {
     pub machine: MachineLimits,
     pub c_words: CWords,
     pub gcode: String,
+    /// On segments: each station's demand on Z, and the chord tolerance the blocks keep, mm.
+    pub segments: Option<(Vec<StationServo>, f64)>,
 }
 
 pub fn map_program(command: MapProgramCommand) -> Result<PolarMachineProgram, ProgramFailure> {
@@ -134,14 +198,28 @@ pub fn map_program(command: MapProgramCommand) -> Result<PolarMachineProgram, Pr
         start_rad,
         c_words,
         sectors,
+        segments,
     } = command;
     let approach = Approach {
         clearance_mm: base.clearance_mm,
         feed_mm_per_min: approach_feed(&base),
     };
     let machine = base.machine;
+    let path = segments.as_ref().map(|s| {
+        SegmentPath::new(
+            &s.setup.layout,
+            s.setup.lift_mm,
+            base.process.tool_radius_mm(),
+            s.setup.chord_tolerance_mm,
+            base.schedule.positions_mm(),
+        )
+    });
+    let part = match &path {
+        Some(path) => PolarPart::Segments(path),
+        None => PolarPart::Round(&base.process.part().surface),
+    };
     let program = PolarProgram::from_motion(
-        Mount::Round(&base.process.part().surface),
+        part,
         &base.tool,
         base.schedule.motion(),
         base.schedule.dwell_s(),
@@ -192,5 +270,6 @@ pub fn map_program(command: MapProgramCommand) -> Result<PolarMachineProgram, Pr
         machine,
         c_words,
         gcode,
+        segments: segments.map(|s| (s.servo, s.setup.chord_tolerance_mm)),
     })
 }

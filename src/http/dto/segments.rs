@@ -1,14 +1,17 @@
 //! Off-axis segments mounted on C as requests give them.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::super::error::ApiError;
 use super::super::extract::count;
 use super::SurfaceDto;
+use crate::machine::servo::ServoLimit;
 use crate::segments::{SegmentError, SegmentLayout, SegmentLayoutSpec};
 use crate::surface::{Surface, SurfaceSpec};
-use crate::usecases::map_optimize::SegmentSetup;
+use crate::usecases::map_optimize::{
+    SegmentSetup, StationServo, CHORD_TOLERANCE_RANGE_MM, DEFAULT_CHORD_TOLERANCE_MM,
+};
 
 /// Clearance across the gaps when the pad is lifted and none is given, mm.
 pub const DEFAULT_LIFT_MM: f64 = 0.5;
@@ -22,7 +25,7 @@ pub const MAX_LIFT_MM: f64 = 50.0;
 /// own piston and tilt are removed, Z follows each segment's sag (0 at its centre) as C turns,
 /// and nothing is removed off the segments. The process's pad runs on them with uniform
 /// pressure; the part's `surface` must be left out (the parent is here).
-#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SegmentsDto {
     /// The parent surface the segments are cut from (vertex radius, conic, terms).
@@ -51,10 +54,15 @@ pub struct SegmentsDto {
     /// when the pad stays down.
     #[schema(minimum = 0.0, maximum = 50.0)]
     pub lift_mm: Option<f64>,
+    /// The most Z may depart from a program block's straight line, mm (1e-5 to 0.1; default
+    /// 0.001): the program's blocks are cut this finely, and the plan's axis peaks are those
+    /// of that program.
+    #[schema(minimum = 1e-5, maximum = 0.1)]
+    pub chord_tolerance_mm: Option<f64>,
 }
 
 /// What the pad does across the gaps between segments.
-#[derive(Debug, Clone, Copy, Default, Deserialize, ToSchema, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, ToSchema, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum TransitionsDto {
     #[default]
@@ -105,6 +113,125 @@ impl SegmentsDto {
                 lift
             }
         };
-        Ok(SegmentSetup { layout, lift_mm })
+        let chord_tolerance_mm = self
+            .chord_tolerance_mm
+            .unwrap_or(DEFAULT_CHORD_TOLERANCE_MM);
+        let [lo, hi] = CHORD_TOLERANCE_RANGE_MM;
+        if !(lo..=hi).contains(&chord_tolerance_mm) {
+            return Err(ApiError::invalid(
+                field("chord_tolerance_mm"),
+                format!("chord_tolerance_mm must be a number from {lo} to {hi} mm"),
+            ));
+        }
+        Ok(SegmentSetup {
+            layout,
+            lift_mm,
+            chord_tolerance_mm,
+        })
+    }
+}
+
+/// What one station's ring asks of Z on the segments.
+#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct StationServoDto {
+    /// The station's index in `dwell.positions_mm`.
+    pub station: usize,
+    /// Its radius, mm.
+    pub r_mm: f64,
+    /// Z's least over a turn, mm (each segment's centre at Z = 0).
+    pub z_min_mm: f64,
+    /// Z's greatest over a turn, mm.
+    pub z_max_mm: f64,
+    /// Z's harmonics per turn, m = 1 … 32: amplitude, mm (Z's motion is
+    /// Σ A_m·cos(m·C + ψ_m); their frequency is m·n/60 Hz at n r/min).
+    pub z_amplitude_mm: Vec<f64>,
+    /// The fastest C speed at which Z follows every harmonic, r/min; null when Z's limits
+    /// bound none.
+    pub largest_c_rpm: Option<f64>,
+    /// The harmonic that sets it.
+    pub binding_harmonic: Option<usize>,
+    /// Which of Z's limits sets it: `velocity` or `acceleration`.
+    pub binding_limit: Option<String>,
+    /// C's fastest over the station's sectors in the plan, r/min.
+    pub plan_c_rpm: f64,
+    /// largest_c_rpm / plan_c_rpm: at least 1; null when unbounded.
+    pub margin: Option<f64>,
+}
+
+/// The harmonics of Z a station's report lists.
+const REPORTED_HARMONICS: usize = 32;
+
+impl From<StationServo> for StationServoDto {
+    fn from(s: StationServo) -> Self {
+        let d = s.demand;
+        let largest = d
+            .speed
+            .largest_c_rpm
+            .is_finite()
+            .then_some(d.speed.largest_c_rpm);
+        StationServoDto {
+            station: s.station,
+            r_mm: d.r_mm,
+            z_min_mm: d.z_range_mm[0],
+            z_max_mm: d.z_range_mm[1],
+            z_amplitude_mm: d
+                .amplitudes_mm
+                .iter()
+                .take(REPORTED_HARMONICS)
+                .copied()
+                .collect(),
+            largest_c_rpm: largest,
+            binding_harmonic: d.speed.binding.map(|(m, _)| m),
+            binding_limit: d.speed.binding.map(|(_, l)| {
+                match l {
+                    ServoLimit::Velocity => "velocity",
+                    ServoLimit::Acceleration => "acceleration",
+                }
+                .to_string()
+            }),
+            plan_c_rpm: s.plan_c_rpm,
+            margin: largest
+                .filter(|_| s.plan_c_rpm > 0.0)
+                .map(|l| l / s.plan_c_rpm),
+        }
+    }
+}
+
+/// Each axis's peaks over a polar program's polishing blocks (the plan's own motion, without
+/// the approach and retract; velocities constant in each block, changing between blocks over
+/// the time between their midpoints).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, ToSchema, PartialEq)]
+pub struct PolishingPeaksDto {
+    /// X's largest |velocity|, mm/min.
+    pub x_velocity_mm_per_min: f64,
+    /// X's largest |acceleration|, mm/s².
+    pub x_acceleration_mm_per_s2: f64,
+    /// Z's largest |velocity|, mm/min.
+    pub z_velocity_mm_per_min: f64,
+    /// Z's largest |acceleration|, mm/s².
+    pub z_acceleration_mm_per_s2: f64,
+    /// B's largest |angular velocity|, deg/min.
+    pub b_velocity_deg_per_min: f64,
+    /// B's largest |angular acceleration|, deg/s².
+    pub b_acceleration_deg_per_s2: f64,
+    /// C's largest |angular velocity|, deg/min.
+    pub c_velocity_deg_per_min: f64,
+    /// C's largest |angular acceleration|, deg/s².
+    pub c_acceleration_deg_per_s2: f64,
+}
+
+/// X, Z, B and C's (|velocity| per minute, |acceleration| per s²).
+impl From<[[f64; 2]; 4]> for PolishingPeaksDto {
+    fn from([x, z, b, c]: [[f64; 2]; 4]) -> Self {
+        PolishingPeaksDto {
+            x_velocity_mm_per_min: x[0],
+            x_acceleration_mm_per_s2: x[1],
+            z_velocity_mm_per_min: z[0],
+            z_acceleration_mm_per_s2: z[1],
+            b_velocity_deg_per_min: b[0],
+            b_acceleration_deg_per_s2: b[1],
+            c_velocity_deg_per_min: c[0],
+            c_acceleration_deg_per_s2: c[1],
+        }
     }
 }

@@ -7,7 +7,7 @@ use crate::maps::difference::DifferenceError;
 use crate::physics::SectorLawError;
 use crate::usecases::map_analysis::{MapInput, MapInputError};
 use crate::usecases::map_difference::DifferenceInputError;
-use crate::usecases::map_optimize::{MapOptimizeError, MapOptimizeInputError};
+use crate::usecases::map_optimize::{MapOptimizeError, MapOptimizeInputError, ServoError};
 use crate::usecases::map_predict::{CLawError, MapPredictInputError};
 use crate::usecases::map_program::MapProgramInputError;
 use crate::usecases::map_removal_function::FootprintInputError;
@@ -74,6 +74,7 @@ impl From<MapProgramInputError> for ApiError {
         let at = match &err {
             E::Law(law) => c_law_field(law),
             E::StartAngle(_) => "start_angle_deg".to_string(),
+            E::Servo(servo) => servo_field(servo).to_string(),
             E::TooManyBlocks { .. } => {
                 return ApiError::limit("c_law.sectors", err.to_string());
             }
@@ -162,13 +163,20 @@ impl From<MapOptimizeInputError> for ApiError {
             E::MapTooSmall { .. } | E::SegmentsMapTooSmall { .. } => "map",
             E::TooMuchWork { .. } => return ApiError::limit("c_law.max_harmonic", err.to_string()),
             E::Segments(_) => "process.pressure_model",
-            E::Servo { limit, .. } => match limit {
-                ServoLimit::Velocity => "machine.z.max_velocity_mm_per_min",
-                ServoLimit::Acceleration => "machine.z.max_acceleration_mm_per_s2",
-            },
-            E::ServoTravel(_) => "machine.z.max_mm",
+            E::Servo(servo) => servo_field(servo),
         };
         ApiError::invalid(at, err.to_string())
+    }
+}
+
+/// The limit of Z that a plan's rings on segments break.
+fn servo_field(err: &ServoError) -> &'static str {
+    match err {
+        ServoError::Speed { limit, .. } => match limit {
+            ServoLimit::Velocity => "machine.z.max_velocity_mm_per_min",
+            ServoLimit::Acceleration => "machine.z.max_acceleration_mm_per_s2",
+        },
+        ServoError::Travel(_) => "machine.z.max_mm",
     }
 }
 
@@ -183,6 +191,9 @@ impl From<MapOptimizeError> for ApiError {
             }
             MapOptimizeError::ExactMapTooCostly { .. } => {
                 ApiError::limit("removal_model", err.to_string())
+            }
+            MapOptimizeError::ProgramLimits(found) => {
+                super::machine_limits_error(&found, "plan's program would")
             }
         }
     }

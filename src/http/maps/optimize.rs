@@ -6,7 +6,8 @@ use utoipa::ToSchema;
 
 use super::super::dto::{
     ApertureEcho, ClearApertureDto, DwellDto, LinearAxisDto, MachineChoiceDto, MachineDto,
-    ProcessDto, RadialGridDto, RotaryAxisDto, SegmentsDto, SpindleLimitDto, SurfaceDto, WarningDto,
+    PolishingPeaksDto, ProcessDto, RadialGridDto, RotaryAxisDto, SegmentsDto, SpindleLimitDto,
+    StationServoDto, SurfaceDto, ToolDto, WarningDto,
 };
 use super::super::endpoint::{Doc, Endpoint};
 use super::super::error::ApiError;
@@ -19,7 +20,6 @@ use super::raster::{Answer, Kinds, RasterOptimizeRequest, RasterOptimizeResponse
 use super::removal_function::KinematicsDto;
 use super::MapAlignmentDto;
 use crate::http::openapi::any_of;
-use crate::machine::servo::ServoLimit;
 use crate::machine::{AxisLimits, MachineChoice, MachineLimitsSpec};
 use crate::usecases::map_optimize::{
     map_optimize, MapCorrection, MapOptimizeCommand, MapOptimizeSpec, RemovalModel, SegmentReport,
@@ -120,6 +120,11 @@ pub struct MapOptimizeRequest {
     /// The part's surface; default a plane (a sphere or an asphere: the pad conforms to it).
     #[serde(default, deserialize_with = "optional_object")]
     pub surface: Option<SurfaceDto>,
+    /// How the tool is carried: B following the normal (default) or held vertical, and its
+    /// pivot (as `/v1/maps/program` takes it). It sets the pad's spin axis in the removal
+    /// and, on segments, the program whose peaks the plan reports.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub tool: Option<ToolDto>,
     /// The measured error: heights (nm, the surface above its design), as `/v1/maps/analysis`
     /// takes them: rows of heights, or the file itself as the body (any format that endpoint
     /// reads) with the other fields as query parameters (objects and lists as JSON). The plan
@@ -387,6 +392,10 @@ pub struct SegmentsReportDto {
     /// harmonic m at f = m·n/60 Hz, n the C speed in r/min). Where the plan's law would turn C
     /// faster than that over a station's sectors, its modulation there is scaled down.
     pub servo: Vec<StationServoDto>,
+    /// The plan's program (as `/v1/maps/program` makes it from the start angle 0, with
+    /// `segments.chord_tolerance_mm`): each axis's peaks over its polishing blocks, within
+    /// every limit of the machine (else the plan is a 422 `machine-limits` problem).
+    pub polishing_peaks: PolishingPeaksDto,
 }
 
 /// One segment's figures.
@@ -397,36 +406,6 @@ pub struct SegmentFiguresDto {
     /// The residual over the segment's pixels, about its mean.
     pub after: MapFiguresDto,
 }
-
-/// What one station's ring asks of Z on the segments.
-#[derive(Debug, Clone, Serialize, Deserialize, ToSchema, PartialEq)]
-pub struct StationServoDto {
-    /// The station's index in `dwell.positions_mm`.
-    pub station: usize,
-    /// Its radius, mm.
-    pub r_mm: f64,
-    /// Z's least over a turn, mm (each segment's centre at Z = 0).
-    pub z_min_mm: f64,
-    /// Z's greatest over a turn, mm.
-    pub z_max_mm: f64,
-    /// Z's harmonics per turn, m = 1 … 32: amplitude, mm (Z's motion is
-    /// Σ A_m·cos(m·C + ψ_m); their frequency is m·n/60 Hz at n r/min).
-    pub z_amplitude_mm: Vec<f64>,
-    /// The fastest C speed at which Z follows every harmonic, r/min; null when Z's limits
-    /// bound none.
-    pub largest_c_rpm: Option<f64>,
-    /// The harmonic that sets it.
-    pub binding_harmonic: Option<usize>,
-    /// Which of Z's limits sets it: `velocity` or `acceleration`.
-    pub binding_limit: Option<String>,
-    /// C's fastest over the station's sectors in the plan, r/min.
-    pub plan_c_rpm: f64,
-    /// largest_c_rpm / plan_c_rpm: at least 1; null when unbounded.
-    pub margin: Option<f64>,
-}
-
-/// The harmonics of Z a station's report lists.
-const REPORTED_HARMONICS: usize = 32;
 
 impl From<SegmentReport> for SegmentsReportDto {
     fn from(r: SegmentReport) -> Self {
@@ -439,43 +418,8 @@ impl From<SegmentReport> for SegmentsReportDto {
                     after: after.into(),
                 })
                 .collect(),
-            servo: r
-                .servo
-                .into_iter()
-                .map(|s| {
-                    let d = s.demand;
-                    let largest = d
-                        .speed
-                        .largest_c_rpm
-                        .is_finite()
-                        .then_some(d.speed.largest_c_rpm);
-                    StationServoDto {
-                        station: s.station,
-                        r_mm: d.r_mm,
-                        z_min_mm: d.z_range_mm[0],
-                        z_max_mm: d.z_range_mm[1],
-                        z_amplitude_mm: d
-                            .amplitudes_mm
-                            .iter()
-                            .take(REPORTED_HARMONICS)
-                            .copied()
-                            .collect(),
-                        largest_c_rpm: largest,
-                        binding_harmonic: d.speed.binding.map(|(m, _)| m),
-                        binding_limit: d.speed.binding.map(|(_, l)| {
-                            match l {
-                                ServoLimit::Velocity => "velocity",
-                                ServoLimit::Acceleration => "acceleration",
-                            }
-                            .to_string()
-                        }),
-                        plan_c_rpm: s.plan_c_rpm,
-                        margin: largest
-                            .filter(|_| s.plan_c_rpm > 0.0)
-                            .map(|l| l / s.plan_c_rpm),
-                    }
-                })
-                .collect(),
+            servo: r.servo.into_iter().map(Into::into).collect(),
+            polishing_peaks: r.polishing_peaks.into(),
         }
     }
 }
@@ -527,7 +471,7 @@ motion, on a plane, a sphere or an asphere.",
         let setting = super::super::dto::SettingDtos {
             process: &req.process,
             surface: req.surface.as_ref(),
-            tool: None,
+            tool: req.tool.as_ref(),
             grid: req.radial_grid.as_ref(),
             aperture: req.clear_aperture.as_ref(),
         }

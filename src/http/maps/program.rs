@@ -6,8 +6,8 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::super::dto::{
-    part_spec, DwellDto, LinearAxisReport, ProcessDto, RotaryAxisReport, SurfaceDto, ToolDto,
-    UtilisationDto, WarningDto,
+    part_spec, DwellDto, LinearAxisReport, PolishingPeaksDto, ProcessDto, RotaryAxisReport,
+    SegmentsDto, StationServoDto, SurfaceDto, ToolDto, UtilisationDto, WarningDto,
 };
 use super::super::endpoint::{Doc, Endpoint};
 use super::super::error::ApiError;
@@ -102,6 +102,11 @@ pub struct MapProgramRequest {
     /// Default: 4 decimals, C wrapped, LinuxCNC's tool spindle words.
     #[serde(default, deserialize_with = "optional_object")]
     pub format: Option<PolarFormatDto>,
+    /// Off-axis segments mounted on C, as the plan was made for them (leave `surface` out):
+    /// Z and B then follow each ring's law as C turns, the blocks cut so that Z leaves each
+    /// block's straight line by at most `segments.chord_tolerance_mm`.
+    #[serde(default, deserialize_with = "optional_object")]
+    pub segments: Option<SegmentsDto>,
 }
 
 /// Where the program starts: X, Z, B and C.
@@ -171,11 +176,26 @@ pub struct MapProgramResponse {
     pub approach_feed_mm_per_min: f64,
     /// How C's words are written.
     pub c_words: CWordsDto,
+    /// Each axis's peaks over the polishing blocks alone (on segments, the plan's
+    /// `segments.polishing_peaks`).
+    pub polishing_peaks: PolishingPeaksDto,
+    /// On segments: what each station's ring asks of Z, and the chord tolerance kept.
+    pub segments: Option<ProgramSegmentsDto>,
     /// What looks wrong in the input though it is valid; empty when there is nothing to say.
     pub warnings: Vec<WarningDto>,
     /// The G-code (served with `Accept: text/x-gcode`).
     #[serde(skip)]
     pub gcode: String,
+}
+
+/// A program on segments: Z's demand per station at the law's C speeds.
+#[derive(Debug, Clone, Deserialize, Serialize, ToSchema, PartialEq)]
+pub struct ProgramSegmentsDto {
+    /// The most Z leaves any block's straight line, mm (the blocks are cut to it).
+    pub chord_tolerance_mm: f64,
+    /// Per station whose ring the pad reaches a segment from: Z over a turn, its harmonics,
+    /// the largest C speed Z follows them at, and the law's fastest C there.
+    pub servo: Vec<StationServoDto>,
 }
 
 /// A program's request: the paper's machine's or an X-Y machine's.
@@ -265,10 +285,21 @@ text/x-gcode` returns the G-code, `text/csv` the block table.",
             },
             limits,
         )?;
+        let segments = match &req.segments {
+            None => None,
+            Some(_) if req.surface.is_some() => {
+                return Err(ApiError::invalid(
+                    "surface",
+                    "a segmented part's surface is segments.parent: leave surface out",
+                ))
+            }
+            Some(s) => Some(s.parse()?),
+        };
         let spec = MapProgramSpec {
             c_law: req.c_law.map(CLawDto::spec),
             start_angle_deg: req.start_angle_deg,
             c_words: format.c_words.map(Into::into),
+            segments,
         };
         Ok(Kinds::Polar(MapProgramCommand::new(base, spec)?))
     }
@@ -331,6 +362,16 @@ fn polar_response(m: PolarMachineProgram) -> MapProgramResponse {
             CWords::Wrapped => CWordsDto::Wrapped,
             CWords::Unwound => CWordsDto::Unwound,
         },
+        polishing_peaks: [Axis::X, Axis::Z, Axis::B, Axis::C]
+            .map(|a| {
+                let motion = p.polishing_motion(a);
+                [motion.peak_velocity_per_min, motion.peak_acceleration_per_s2]
+            })
+            .into(),
+        segments: m.segments.map(|(servo, chord_tolerance_mm)| ProgramSegmentsDto {
+            chord_tolerance_mm,
+            servo: servo.into_iter().map(Into::into).collect(),
+        }),
         warnings: WarningDto::all_at(&m.warnings, "dwell.positions_mm"),
         gcode: m.gcode,
     }
