@@ -464,3 +464,125 @@ fn even_runs(positions: &[f64], durations_s: &[f64], segment_of: &[usize]) -> Ve
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::motion::SectorLaw;
+    use crate::physics::Orientation;
+    use crate::segments::four_paraboloid_segments;
+
+    /// Five stations over the case's segments under a 36-sector law that swings C's speed by
+    /// ±30 %, at 10 r/min: about 22 turns.
+    fn plan() -> (Motion, Vec<f64>, PolarRun) {
+        let stations = 5;
+        let sectors = 36;
+        let factors = (0..stations * sectors)
+            .map(|i| 1.0 + 0.3 * (TAU * (i % sectors) as f64 / sectors as f64 + i as f64).sin())
+            .collect();
+        let motion = Motion::radial(vec![45.0, 55.0, 70.0, 85.0, 98.0])
+            .with_sector_law(SectorLaw::new(stations, sectors, factors).unwrap())
+            .unwrap();
+        let run = PolarRun {
+            part_speed_rad_per_s: 10.0 * TAU / 60.0,
+            start_rad: 0.3,
+            approach: Approach {
+                clearance_mm: 2.0,
+                feed_mm_per_min: 60.0,
+            },
+            c_max_acceleration_deg_per_s2: None,
+        };
+        (motion, vec![20.0, 30.0, 30.0, 30.0, 20.0], run)
+    }
+
+    use std::f64::consts::TAU;
+
+    /// The chord rule: between every two block ends (the pad centre's radius and C linear in
+    /// between), the law's Z at 7 interior points departs from the block's straight line by at
+    /// most ε, and by more than ε/4 somewhere (the cut is not needlessly fine: the margin
+    /// 1.25 and the rounding up of the parts leave about ε/1.6 to ε), at ε = 1 µm and 10 µm.
+    /// Z at every end is the law's plus the pivot (a vertical tool).
+    #[test]
+    fn on_segments_z_leaves_no_block_s_chord_by_more_than_the_tolerance() {
+        let layout = four_paraboloid_segments();
+        let (motion, dwell, run) = plan();
+        for tolerance in [1e-3, 1e-2] {
+            let path = SegmentPath::new(&layout, 0.5, 5.0, tolerance, motion.radii_mm());
+            let tool = Tool::new(150.0, Orientation::Vertical).unwrap();
+            let program =
+                PolarProgram::from_motion(PolarPart::Segments(&path), &tool, &motion, &dwell, run)
+                    .unwrap();
+            let (start, start_c) = program.start();
+            let mut before = (start, start_c, program.blocks()[0].position_mm);
+            let mut worst = 0.0_f64;
+            for b in program.blocks() {
+                let (pose, c, r) = before;
+                let law = |s: f64| {
+                    let r = r + (b.position_mm - r) * s;
+                    let c = c + (b.c_deg - c) * s;
+                    path.height_and_slope(r, -c.to_radians()).0 + 150.0
+                };
+                if b.station.is_some() {
+                    assert!((law(1.0) - b.end.z_mm).abs() < 1e-12);
+                    for t in 1..8 {
+                        let s = t as f64 / 8.0;
+                        let chord = pose.z_mm + (b.end.z_mm - pose.z_mm) * s;
+                        worst = worst.max((law(s) - chord).abs());
+                    }
+                }
+                before = (b.end, b.c_deg, b.position_mm);
+            }
+            assert!(
+                worst <= tolerance && worst > tolerance / 4.0,
+                "ε {tolerance}: worst {worst}"
+            );
+            eprintln!(
+                "ε {tolerance} mm: worst chord departure {worst:.3e} mm over {} blocks",
+                program.blocks().len()
+            );
+        }
+    }
+
+    /// Z-only compensation: with the tool held vertical (whatever its pivot) X is the pad
+    /// centre's radius, so its velocity is 0 through every stop and one speed through each
+    /// move, as the plan's; with B following the radial slope and a 150 mm pivot, X moves
+    /// within the stops to compensate B (by more than 10 mm/min here).
+    #[test]
+    fn a_vertical_tool_keeps_x_at_the_plan_s_speed_within_a_ring() {
+        let layout = four_paraboloid_segments();
+        let (motion, dwell, run) = plan();
+        let path = SegmentPath::new(&layout, 0.0, 5.0, 1e-3, motion.radii_mm());
+        for (orientation, moves_in_stops) in
+            [(Orientation::Vertical, false), (Orientation::Normal, true)]
+        {
+            let tool = Tool::new(150.0, orientation).unwrap();
+            let program =
+                PolarProgram::from_motion(PolarPart::Segments(&path), &tool, &motion, &dwell, run)
+                    .unwrap();
+            let x = program.motion(Axis::X);
+            let mut in_stops = 0.0_f64;
+            let mut move_speed: Option<(usize, f64)> = None;
+            for (k, b) in program.blocks().iter().enumerate() {
+                let v = x.velocity_per_min[k];
+                match (b.kind, b.station) {
+                    (BlockKind::Dwell, Some(_)) => in_stops = in_stops.max(v.abs()),
+                    (BlockKind::Move, Some(station)) if !moves_in_stops => {
+                        // One speed per move: the stations' spacing over the move's time.
+                        match move_speed {
+                            Some((s, speed)) if s == station => {
+                                assert!((v - speed).abs() <= 1e-9 * speed.abs(), "{k}")
+                            }
+                            _ => move_speed = Some((station, v)),
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            if moves_in_stops {
+                assert!(in_stops > 10.0, "{in_stops}");
+            } else {
+                assert_eq!(in_stops, 0.0);
+            }
+        }
+    }
+}

@@ -1092,11 +1092,7 @@ pub fn map_optimize(
     let polishing_peaks = match &segments {
         None => None,
         Some(s) => Some(segment_program_peaks(
-            s,
-            &setting,
-            machine,
-            &executed,
-            dwell,
+            s, &setting, machine, &executed, dwell,
         )?),
     };
     let sector_dwell_s: Vec<Vec<f64>> = modulation

@@ -8,7 +8,9 @@
 use std::f64::consts::TAU;
 
 use super::map_optimize::{station_demands, SegmentSetup, ServoError, StationServo};
-use super::map_predict::{law_work, polar_schedule, station_turns, CLawError, CLawSpec, MAX_BLOCKS};
+use super::map_predict::{
+    law_work, polar_schedule, station_turns, CLawError, CLawSpec, MAX_BLOCKS,
+};
 use super::program::{approach_feed, header_lines, ProgramCommand, ProgramFailure, Provenance};
 use super::Warning;
 use crate::machine::gcode::{self, CWords};

@@ -253,6 +253,98 @@ async fn z_that_cannot_follow_is_named_with_the_harmonic_and_the_ring() {
     }
 }
 
+/// The plan's program: `/v1/maps/program` accepts the plan's dwell and law on the same
+/// segments and machine, and each axis's peaks over its polishing blocks (X, Z, B and C,
+/// velocity and acceleration) equal the plan's to 1e-9, as do the stations' servo reports
+/// (the same function makes both); the G-code moves Z within every block. Z's acceleration
+/// set between what the servo rule needs (harmonic by harmonic) and the program's own peak
+/// (the harmonics adding, and C's sector steps): the plan is a 422 machine-limits problem
+/// naming Z's acceleration, and so is its program with that machine.
+#[tokio::test(flavor = "multi_thread")]
+async fn the_plan_s_program_runs_on_the_segments_with_the_plan_s_peaks() {
+    let mut body = request();
+    body["removal_model"] = json!("harmonic");
+    body["tool"] = json!({"pivot_length_mm": 120});
+    let reply = post_json(&app(), "/v1/maps/optimize", body.to_string()).await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let plan = reply.json();
+    let program_of = |machine: Value| {
+        json!({
+            "process": body["process"], "tool": body["tool"], "dwell": plan["dwell"],
+            "c_law": plan["c_law"], "machine": machine, "segments": body["segments"]
+        })
+    };
+    let reply = post_json(
+        &app(),
+        "/v1/maps/program",
+        program_of(body["machine"].clone()).to_string(),
+    )
+    .await;
+    assert_eq!(reply.status, 200, "{}", reply.text());
+    let program = reply.json();
+    let (planned, run) = (
+        &plan["segments"]["polishing_peaks"],
+        &program["polishing_peaks"],
+    );
+    for (key, value) in planned.as_object().unwrap() {
+        let (p, r) = (value.as_f64().unwrap(), run[key].as_f64().unwrap());
+        assert!(
+            (p - r).abs() <= 1e-9 * p.abs().max(1e-12),
+            "{key}: {p} vs {r}"
+        );
+        assert!(p > 0.0, "{key}");
+    }
+    assert_eq!(program["segments"]["servo"], plan["segments"]["servo"]);
+    assert_eq!(program["segments"]["chord_tolerance_mm"], 0.001);
+    // The program's Z peak over all blocks (the approach's included) is at least the plan's.
+    let z_peak = planned["z_acceleration_mm_per_s2"].as_f64().unwrap();
+    assert!(
+        program["axes"]["z"]["peak_acceleration_mm_per_s2"]
+            .as_f64()
+            .unwrap()
+            >= z_peak
+    );
+    // What the servo rule asks of Z's acceleration at the plan's speeds, harmonic by
+    // harmonic: (2π·m·n/60)²·A_m at the binding harmonic.
+    let rule = plan["segments"]["servo"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| {
+            let a = &s["z_amplitude_mm"];
+            let n = s["plan_c_rpm"].as_f64().unwrap();
+            (1..=32)
+                .map(|m| (TAU * m as f64 * n / 60.0).powi(2) * a[m - 1].as_f64().unwrap())
+                .fold(0.0_f64, f64::max)
+        })
+        .fold(0.0_f64, f64::max);
+    assert!(rule < 0.9 * z_peak, "rule {rule}, peak {z_peak}");
+    let limit = 0.5 * (rule + z_peak);
+    let mut machine = body["machine"].clone();
+    machine["z"] = json!({"max_acceleration_mm_per_s2": limit});
+    let mut refused = body.clone();
+    refused["machine"] = machine.clone();
+    for (path, request) in [
+        ("/v1/maps/optimize", refused),
+        ("/v1/maps/program", program_of(machine)),
+    ] {
+        let reply = post_json(&app(), path, request.to_string()).await;
+        assert_eq!(reply.status, 422, "{path}: {}", reply.text());
+        let problem = reply.json();
+        assert_eq!(
+            problem["type"], "urn:preston:problem:machine-limits",
+            "{problem}"
+        );
+        let violation = problem["violations"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|v| v["axis"] == "z")
+            .unwrap_or_else(|| panic!("{problem}"));
+        assert_eq!(violation["field"], "machine.z.max_acceleration_mm_per_s2");
+    }
+}
+
 /// Against the independent 3-D reference (`tests/reference/segments_3d.py`: the true
 /// surface, geodesic contact by shooting, the sliding speed by adaptive quadrature, its
 /// integrals to 1e-10): a sphere decentred 40 mm from C (R 200, one turn and a part turn)

@@ -365,13 +365,18 @@ fn polar_response(m: PolarMachineProgram) -> MapProgramResponse {
         polishing_peaks: [Axis::X, Axis::Z, Axis::B, Axis::C]
             .map(|a| {
                 let motion = p.polishing_motion(a);
-                [motion.peak_velocity_per_min, motion.peak_acceleration_per_s2]
+                [
+                    motion.peak_velocity_per_min,
+                    motion.peak_acceleration_per_s2,
+                ]
             })
             .into(),
-        segments: m.segments.map(|(servo, chord_tolerance_mm)| ProgramSegmentsDto {
-            chord_tolerance_mm,
-            servo: servo.into_iter().map(Into::into).collect(),
-        }),
+        segments: m
+            .segments
+            .map(|(servo, chord_tolerance_mm)| ProgramSegmentsDto {
+                chord_tolerance_mm,
+                servo: servo.into_iter().map(Into::into).collect(),
+            }),
         warnings: WarningDto::all_at(&m.warnings, "dwell.positions_mm"),
         gcode: m.gcode,
     }
