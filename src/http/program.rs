@@ -295,7 +295,7 @@ seconds), `text/csv` the block table.",
         let approach = req.approach.clone().unwrap_or_default();
         let spec = ProgramSpec {
             process: req.process.spec()?,
-            part: part_spec(req.surface.as_ref(), req.tool.as_ref()),
+            part: part_spec(req.surface.as_ref(), req.tool.as_ref())?,
             positions_mm: req.dwell.positions_mm,
             dwell_s: req.dwell.dwell_s,
             machine: MachineChoiceDto::choice(req.machine.as_ref()),

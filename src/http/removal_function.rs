@@ -95,7 +95,7 @@ returns one column per profile with a unit header.",
     ) -> Result<Self::Command, ApiError> {
         Ok(RemovalFunctionCommand::new(
             req.process.spec()?,
-            &part_spec(req.surface.as_ref(), req.tool.as_ref()),
+            &part_spec(req.surface.as_ref(), req.tool.as_ref())?,
             req.radial_grid.as_ref().into(),
             req.tool_positions_mm,
             limits,

@@ -50,7 +50,9 @@ use std::f64::consts::TAU;
 use rayon::prelude::*;
 
 use super::map_analysis::{MapInputError, Placement};
-use super::map_predict::{covered_turns, figures, map_size, map_work, station_turns, MAX_BLOCKS};
+use super::map_predict::{
+    covered_turns, figures, map_size, map_work, segment_map_work, station_turns, MAX_BLOCKS,
+};
 use super::map_removal_function::square_axes;
 use super::optimize::{optimize, OptimizeCommand, OptimizeSpec, OptimizedPlan, TargetSpec};
 use super::{ComputeLimits, InputError, OperatorCache, Recommender, Setting, Warning};
@@ -1145,7 +1147,7 @@ pub fn map_optimize(
                     + (b.to_mm - b.from_mm).abs()
             })
             .sum();
-        let work = |pixel: f64| path_mm * 2.0 * rt / (pixel * pixel);
+        let work = |pixel: f64| segment_map_work(path_mm, rt, pixel);
         pixel = affordable_pixel(pixel_mm, radius, MAX_SEGMENT_MAP_WORK, work)?;
     }
     let mut warnings = plan.warnings.clone();

@@ -14,13 +14,20 @@
 //! law puts there on purpose, and what a spiral's pitch and a partial ring's ends leave as
 //! ripple. The azimuthal mean is reported on a radial grid as well; with C at constant speed it
 //! is `/v1/predict`'s 1-D removal.
+//!
+//! On segments (or a decentred part) the depth is `physics::segment_pad`'s, on the segments'
+//! pixels only; nothing there is round about C, so the figures are the removal's own (its
+//! non-axisymmetric part is the whole of it about its mean), each segment has its own, and no
+//! azimuthal mean is reported.
 
+use super::map_optimize::SegmentSetup;
 use super::map_removal_function::square_axes;
 use super::setting::{ApertureSpec, GridSpec, PartSpec, Setting};
 use super::warnings::unit_warnings;
 use super::{ComputeLimits, Input, InputError, Warning};
 use crate::field::{Figures, Tally};
 use crate::physics::polar::{executed_blocks, PolarPad};
+use crate::physics::segment_pad::{SegmentPad, SegmentPadError};
 use crate::physics::{
     ClearAperture, DwellSchedule, PressureModel, Process, ProcessSpec, SectorLaw, SectorLawError,
 };
@@ -70,6 +77,17 @@ fn surface_cost(process: &Process) -> f64 {
     } else {
         ASPHERE_COST
     }
+}
+
+/// The most work one prediction on segments may take, in pixel-passes
+/// ([`segment_map_work`]): about 8 µs each on 2 cores, so about 5 s as [`MAX_WORK`].
+pub const MAX_SEGMENT_WORK: f64 = 6e5;
+
+/// The work of an exact map on segments, in pixel-passes: the pad centre's path over the part
+/// (`path_mm`) times the band its pad sweeps (2·r_t), over a pixel's area; each pass under a
+/// pixel is located and integrated once.
+pub(super) fn segment_map_work(path_mm: f64, pad_radius_mm: f64, pixel_mm: f64) -> f64 {
+    path_mm * 2.0 * pad_radius_mm / (pixel_mm * pixel_mm)
 }
 
 /// A turn of C spent with the pad over a pixel costs about this many pixel-turns: passing a
@@ -274,6 +292,8 @@ pub struct MapPredictSpec {
     pub start_angle_deg: Option<f64>,
     /// The map's pixel, mm; default the part's diameter / 100.
     pub pixel_mm: Option<f64>,
+    /// Segments on C (or a decentred part); the part's surface is then the plane.
+    pub segments: Option<SegmentSetup>,
 }
 
 /// Why a polar prediction cannot be computed as asked.
@@ -317,6 +337,14 @@ pub enum MapPredictInputError {
         max_work: f64,
         max_blocks: f64,
     },
+    #[error("{0}")]
+    Segments(SegmentPadError),
+    #[error(
+        "the exact removal on the segments is about {work:.2e} pixel-passes at a pixel of \
+         {pixel_mm} mm (the pad's path over the part times its width, over a pixel's area); at \
+         most {max:.1e} are computed (about 5 s): a larger pixel or a shorter plan"
+    )]
+    SegmentsTooMuchWork { work: f64, pixel_mm: f64, max: f64 },
 }
 
 /// A checked polar prediction.
@@ -329,6 +357,7 @@ pub struct MapPredictCommand {
     pixel_mm: f64,
     half: usize,
     warnings: Vec<Warning>,
+    segments: Option<SegmentPad>,
 }
 
 impl MapPredictCommand {
@@ -387,8 +416,33 @@ impl MapPredictCommand {
             schedule.positions_mm(),
             &station_turns(schedule.dwell_s(), &fastest, pad.part_speed_rad_per_s()),
         );
+        let segments = match spec.segments {
+            None => None,
+            Some(setup) => {
+                let pad = SegmentPad::new(setup.layout, process)
+                    .map_err(MapPredictInputError::Segments)?;
+                // The pad centre's path: each station's turns round its ring, and the moves.
+                let turns = station_turns(schedule.dwell_s(), &fastest, pad_speed(process));
+                let positions = schedule.positions_mm();
+                let path_mm: f64 = positions
+                    .iter()
+                    .zip(&turns)
+                    .map(|(r, n)| n * 2.0 * PI * r)
+                    .sum::<f64>()
+                    + (positions[positions.len() - 1] - positions[0]).abs();
+                let work = segment_map_work(path_mm, process.tool_radius_mm(), pixel_mm);
+                if work > MAX_SEGMENT_WORK {
+                    return Err(MapPredictInputError::SegmentsTooMuchWork {
+                        work,
+                        pixel_mm,
+                        max: MAX_SEGMENT_WORK,
+                    });
+                }
+                Some(pad)
+            }
+        };
         let work = map_work(process, on_part, rings, turns, blocks, covered);
-        if work > MAX_WORK || blocks > MAX_BLOCKS {
+        if segments.is_none() && work > MAX_WORK || blocks > MAX_BLOCKS {
             return Err(MapPredictInputError::TooMuchWork {
                 turns,
                 pixels: on_part,
@@ -408,8 +462,14 @@ impl MapPredictCommand {
             pixel_mm,
             half: half as usize,
             warnings,
+            segments,
         })
     }
+}
+
+/// Ω, rad/s, of a process.
+fn pad_speed(process: &Process) -> f64 {
+    PolarPad::new(process).part_speed_rad_per_s()
 }
 
 /// The removal map and its figures.
@@ -434,6 +494,8 @@ pub struct MapPrediction {
     /// Blocks of the executed motion.
     pub blocks: usize,
     pub warnings: Vec<Warning>,
+    /// On segments: each one's removal figures over its own pixels in the clear aperture.
+    pub segments: Option<Vec<Figures>>,
 }
 
 pub fn map_predict(command: MapPredictCommand) -> MapPrediction {
@@ -445,6 +507,7 @@ pub fn map_predict(command: MapPredictCommand) -> MapPrediction {
         pixel_mm,
         half,
         warnings,
+        segments,
     } = command;
     let process = setting.process();
     let radius = process.workpiece_radius_mm();
@@ -463,6 +526,16 @@ pub fn map_predict(command: MapPredictCommand) -> MapPrediction {
         start_rad,
         &process.part().surface,
     );
+    if let Some(segment_pad) = &segments {
+        return on_segments(
+            segment_pad,
+            &setting,
+            &schedule,
+            &blocks,
+            (x_mm, y_mm, pixel_mm),
+            warnings,
+        );
+    }
     let targets: Vec<(f64, f64)> = on_part.iter().map(|&i| points[i]).collect();
     let depths = pad.depth_nm(&blocks, &targets);
     let mut removal_nm = vec![None; points.len()];
@@ -502,6 +575,59 @@ pub fn map_predict(command: MapPredictCommand) -> MapPrediction {
         total_time_s: schedule.total_time_s(),
         blocks: blocks.len(),
         warnings,
+        segments: None,
+    }
+}
+
+/// The prediction on segments (module docs): depths on the segments' pixels, their figures
+/// over the clear aperture, and each segment's.
+fn on_segments(
+    pad: &SegmentPad,
+    setting: &Setting,
+    schedule: &DwellSchedule,
+    blocks: &[crate::physics::polar::Block],
+    (x_mm, y_mm, pixel_mm): (Vec<f64>, Vec<f64>, f64),
+    warnings: Vec<Warning>,
+) -> MapPrediction {
+    let layout = pad.layout();
+    let mut on: Vec<(usize, [f64; 2], usize)> = Vec::new();
+    for (i, &y) in y_mm.iter().enumerate() {
+        for (j, &x) in x_mm.iter().enumerate() {
+            if let Some(segment) = layout.segment_at([x, y]) {
+                on.push((i * x_mm.len() + j, [x, y], segment));
+            }
+        }
+    }
+    let at: Vec<[f64; 2]> = on.iter().map(|p| p.1).collect();
+    let depths = pad.depth_nm(blocks, &at);
+    let mut removal_nm = vec![None; x_mm.len() * y_mm.len()];
+    for (p, &d) in on.iter().zip(&depths) {
+        removal_nm[p.0] = Some(d);
+    }
+    let aperture = setting.aperture();
+    let inside = |p: &[f64; 2]| {
+        let r = p[0].hypot(p[1]);
+        r >= aperture.inner_mm() && r <= aperture.outer_mm()
+    };
+    let within = || on.iter().zip(&depths).filter(|(p, _)| inside(&p.1));
+    let metrics = figures(within().map(|(_, &d)| d));
+    let per_segment = (0..layout.spec().count)
+        .map(|i| figures(within().filter(|(p, _)| p.2 == i).map(|(_, &d)| d)))
+        .collect();
+    MapPrediction {
+        pixel_mm,
+        x_mm,
+        y_mm,
+        removal_nm,
+        metrics,
+        non_axisymmetric: metrics,
+        radius_mm: Vec::new(),
+        azimuthal_mean_nm: Vec::new(),
+        clear_aperture: *aperture,
+        total_time_s: schedule.total_time_s(),
+        blocks: blocks.len(),
+        warnings,
+        segments: Some(per_segment),
     }
 }
 

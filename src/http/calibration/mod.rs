@@ -477,7 +477,7 @@ measured point (run, radius, measured, predicted), `Accept: image/svg+xml` a cha
 
     fn parse(req: CalibrationRequest, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let process = req.process.spec()?;
-        let part = super::dto::part_spec(req.surface.as_ref(), req.tool.as_ref());
+        let part = super::dto::part_spec(req.surface.as_ref(), req.tool.as_ref())?;
         let runs = req
             .runs
             .into_iter()

@@ -189,13 +189,26 @@ impl From<Option<&ClearApertureDto>> for ApertureSpec {
     }
 }
 
-/// The part and tool a request describes, as given (the use case checks them).
-pub fn part_spec(surface: Option<&SurfaceDto>, tool: Option<&ToolDto>) -> PartSpec {
-    PartSpec {
+/// The part and tool a request describes, as given (the use case checks them). A part of
+/// revolution about C only: a decentred surface is the maps endpoints' (`part_on_c`).
+pub fn part_spec(
+    surface: Option<&SurfaceDto>,
+    tool: Option<&ToolDto>,
+) -> Result<PartSpec, ApiError> {
+    if let Some(d) = surface.and_then(SurfaceDto::decenter_mm) {
+        if d != 0.0 {
+            return Err(ApiError::invalid(
+                "surface.decenter_mm",
+                "a decentred part is not round about C: /v1/maps/optimize, /v1/maps/predict \
+                 and /v1/maps/program take it (here leave decenter_mm out, or 0)",
+            ));
+        }
+    }
+    Ok(PartSpec {
         surface: surface.map(SurfaceSpec::from),
         pivot_length_mm: tool.and_then(|t| t.pivot_length_mm),
         orientation: tool.and_then(|t| t.orientation).map(Orientation::from),
-    }
+    })
 }
 
 /// The members every computing request on a process shares.
@@ -227,7 +240,7 @@ impl SettingDtos<'_> {
     pub fn parse(self, limits: &ComputeLimits) -> Result<Setting, ApiError> {
         Ok(Setting::new(
             self.process.spec()?,
-            &part_spec(self.surface, self.tool),
+            &part_spec(self.surface, self.tool)?,
             self.grid.into(),
             self.aperture.into(),
             limits,

@@ -70,10 +70,74 @@ pub enum TransitionsDto {
     Lifted,
 }
 
+/// The part a maps request puts on C: its `surface` (a decentre of 0 left out, so the part is
+/// today's of revolution) and no segments; or, segmented or decentred, no surface (the pad's
+/// model runs on a plane) and the segments' setup, a decentred part being the one-segment
+/// layout on C of the part's radius (`workpiece_radius_mm`; left to the process's check when
+/// it is not a positive number).
+pub fn part_on_c(
+    surface: Option<&SurfaceDto>,
+    segments: Option<&SegmentsDto>,
+    workpiece_radius_mm: f64,
+) -> Result<(Option<SurfaceDto>, Option<SegmentSetup>), ApiError> {
+    if let Some(segments) = segments {
+        if surface.is_some() {
+            return Err(ApiError::invalid(
+                "surface",
+                "a segmented part's surface is segments.parent: leave surface out",
+            ));
+        }
+        return Ok((None, Some(segments.parse()?)));
+    }
+    let Some(surface) = surface else {
+        return Ok((None, None));
+    };
+    let mut round = surface.clone();
+    if let SurfaceDto::Sphere { decenter_mm, .. } | SurfaceDto::Asphere { decenter_mm, .. } =
+        &mut round
+    {
+        *decenter_mm = None;
+    }
+    let d = match surface.decenter_mm() {
+        None => return Ok((Some(round), None)),
+        Some(d) if d == 0.0 => return Ok((Some(round), None)),
+        Some(d) => d,
+    };
+    let field = "surface.decenter_mm";
+    if !(d.is_finite() && d > 0.0) {
+        return Err(ApiError::invalid(
+            field,
+            "decenter_mm must be a finite number of mm, 0 or more",
+        ));
+    }
+    if !(workpiece_radius_mm.is_finite() && workpiece_radius_mm > 0.0) {
+        return Ok((Some(round), None));
+    }
+    let parent = Surface::new(&SurfaceSpec::from(surface))
+        .map_err(|e| ApiError::invalid("surface", e.to_string()))?;
+    let layout = SegmentLayout::decentred(parent, d, workpiece_radius_mm)
+        .map_err(|e| ApiError::invalid(field, e.to_string()))?;
+    Ok((
+        None,
+        Some(SegmentSetup {
+            layout,
+            lift_mm: 0.0,
+            chord_tolerance_mm: DEFAULT_CHORD_TOLERANCE_MM,
+        }),
+    ))
+}
+
 impl SegmentsDto {
     /// The layout and its transitions, or the field at fault (under `segments.`).
     pub fn parse(&self) -> Result<SegmentSetup, ApiError> {
         let field = |name: &str| format!("segments.{name}");
+        if self.parent.decenter_mm().is_some_and(|d| d != 0.0) {
+            return Err(ApiError::invalid(
+                field("parent.decenter_mm"),
+                "the parent's vertex is placed by off_axis_mm and mount_radius_mm: leave \
+                 decenter_mm out",
+            ));
+        }
         let parent = Surface::new(&SurfaceSpec::from(&self.parent))
             .map_err(|e| ApiError::invalid(field("parent"), e.to_string()))?;
         let layout = SegmentLayout::new(SegmentLayoutSpec {

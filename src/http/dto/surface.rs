@@ -16,7 +16,16 @@ pub enum SurfaceDto {
     /// A plane.
     Plane {},
     /// A sphere of vertex radius R (mm, ≠ 0).
-    Sphere { radius_of_curvature_mm: f64 },
+    Sphere {
+        radius_of_curvature_mm: f64,
+        /// d: the vertex's distance from the C axis along +x, mm (≥ 0; default 0), so the sag
+        /// in C's frame is z(x + d, y) − z(d). A part decentred (d > 0) is not round about C:
+        /// only `/v1/maps/optimize`, `/v1/maps/predict` and `/v1/maps/program` take it, Z and
+        /// B following it within each turn as on segments. 0 is today's part of revolution.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[schema(minimum = 0.0)]
+        decenter_mm: Option<f64>,
+    },
     /// An even asphere with optional polynomial terms of any power 1–40.
     Asphere {
         /// Vertex radius R, mm (≠ 0).
@@ -27,7 +36,24 @@ pub enum SurfaceDto {
         /// Polynomial terms aᵢ·|r|^i, each power once. Default none.
         #[serde(default)]
         coefficients: Vec<CoefficientDto>,
+        /// d: the vertex's distance from the C axis along +x, mm (≥ 0; default 0), as a
+        /// sphere's.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[schema(minimum = 0.0)]
+        decenter_mm: Option<f64>,
     },
+}
+
+impl SurfaceDto {
+    /// The decentre asked, if any (0 included).
+    pub fn decenter_mm(&self) -> Option<f64> {
+        match self {
+            SurfaceDto::Plane {} => None,
+            SurfaceDto::Sphere { decenter_mm, .. } | SurfaceDto::Asphere { decenter_mm, .. } => {
+                *decenter_mm
+            }
+        }
+    }
 }
 
 /// One polynomial term aᵢ·|r|^i.
@@ -48,6 +74,7 @@ impl From<&SurfaceDto> for SurfaceSpec {
             SurfaceDto::Plane {} => SurfaceSpec::Plane,
             SurfaceDto::Sphere {
                 radius_of_curvature_mm,
+                ..
             } => SurfaceSpec::Sphere {
                 radius_of_curvature_mm: *radius_of_curvature_mm,
             },
@@ -55,6 +82,7 @@ impl From<&SurfaceDto> for SurfaceSpec {
                 radius_of_curvature_mm,
                 conic_constant,
                 coefficients,
+                ..
             } => SurfaceSpec::Asphere {
                 radius_of_curvature_mm: *radius_of_curvature_mm,
                 conic_constant: *conic_constant,

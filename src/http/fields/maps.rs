@@ -96,7 +96,8 @@ impl From<MapPredictInputError> for ApiError {
             E::Law(law) => c_law_field(law),
             E::StartAngle(_) => "start_angle_deg".to_string(),
             E::Pixel(_) => "pixel_mm".to_string(),
-            E::TooManyPixels { .. } | E::TooMuchWork { .. } => {
+            E::Segments(_) => "process.pressure_model".to_string(),
+            E::TooManyPixels { .. } | E::TooMuchWork { .. } | E::SegmentsTooMuchWork { .. } => {
                 return ApiError::limit("pixel_mm", err.to_string())
             }
         };

@@ -5,9 +5,9 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::super::dto::{
-    ApertureEcho, ClearApertureDto, DwellDto, LinearAxisDto, MachineChoiceDto, MachineDto,
-    PolishingPeaksDto, ProcessDto, RadialGridDto, RotaryAxisDto, SegmentsDto, SpindleLimitDto,
-    StationServoDto, SurfaceDto, ToolDto, WarningDto,
+    part_on_c, ApertureEcho, ClearApertureDto, DwellDto, LinearAxisDto, MachineChoiceDto,
+    MachineDto, PolishingPeaksDto, ProcessDto, RadialGridDto, RotaryAxisDto, SegmentsDto,
+    SpindleLimitDto, StationServoDto, SurfaceDto, ToolDto, WarningDto,
 };
 use super::super::endpoint::{Doc, Endpoint};
 use super::super::error::ApiError;
@@ -468,24 +468,19 @@ motion, on a plane, a sphere or an asphere.",
         };
         let machine = req.machine.clone().unwrap_or_default();
         let KinematicsDto::Polar = machine.kinematics;
+        let (surface, segments) = part_on_c(
+            req.surface.as_ref(),
+            req.segments.as_ref(),
+            req.process.workpiece_radius_mm,
+        )?;
         let setting = super::super::dto::SettingDtos {
             process: &req.process,
-            surface: req.surface.as_ref(),
+            surface: surface.as_ref(),
             tool: req.tool.as_ref(),
             grid: req.radial_grid.as_ref(),
             aperture: req.clear_aperture.as_ref(),
         }
         .parse(limits)?;
-        let segments = match &req.segments {
-            None => None,
-            Some(_) if req.surface.is_some() => {
-                return Err(ApiError::invalid(
-                    "surface",
-                    "a segmented part's surface is segments.parent: leave surface out",
-                ))
-            }
-            Some(s) => Some(s.parse()?),
-        };
         let (map, _) = req.map.read("map", limits.max_map_pixels)?;
         let placement = req.alignment.unwrap_or_default().placement(req.pixel_mm)?;
         let law = req.c_law.unwrap_or_default();

@@ -5,8 +5,8 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::super::dto::{
-    part_spec, ApertureEcho, ClearApertureDto, DwellDto, ProcessDto, RadialGridDto, SurfaceDto,
-    WarningDto,
+    part_on_c, part_spec, ApertureEcho, ClearApertureDto, DwellDto, ProcessDto, RadialGridDto,
+    SegmentsDto, SurfaceDto, WarningDto,
 };
 use super::super::endpoint::{Doc, Endpoint, Picture};
 use super::super::error::ApiError;
@@ -82,6 +82,11 @@ pub struct MapPredictRequest {
     /// whole part.
     #[serde(default, deserialize_with = "optional_object")]
     pub clear_aperture: Option<ClearApertureDto>,
+    /// Off-axis segments mounted on C (leave `surface` out: the parent is here). The removal
+    /// is then the exact one on the segments' pixels (null elsewhere), its figures the
+    /// segments' in the clear aperture, and `azimuthal_mean` empty (nothing is round).
+    #[serde(default, deserialize_with = "optional_object")]
+    pub segments: Option<SegmentsDto>,
 }
 
 /// Figures of a removal over the clear aperture's pixels (each the same area), nm.
@@ -133,6 +138,9 @@ pub struct MapPredictResponse {
     pub blocks: usize,
     /// What looks wrong in the input though it is valid; empty when there is nothing to say.
     pub warnings: Vec<WarningDto>,
+    /// On segments (or a decentred part): each segment's removal figures over its own pixels
+    /// in the clear aperture, in the layout's order; else null.
+    pub segments: Option<Vec<MapFiguresDto>>,
 }
 
 /// A removal profile on a radial grid.
@@ -238,10 +246,16 @@ x, y and removal per pixel on the part; `image/png` a heat map.",
             }
         };
         let KinematicsDto::Polar = req.machine.unwrap_or_default().kinematics;
+        let (surface, segments) = part_on_c(
+            req.surface.as_ref(),
+            req.segments.as_ref(),
+            req.process.workpiece_radius_mm,
+        )?;
         Ok(Kinds::Polar(MapPredictCommand::new(
             MapPredictSpec {
                 process: req.process.spec()?,
-                part: part_spec(req.surface.as_ref(), None),
+                part: part_spec(surface.as_ref(), None)?,
+                segments,
                 aperture: req.clear_aperture.as_ref().into(),
                 grid: req.radial_grid.as_ref().into(),
                 positions_mm: req.dwell.positions_mm,
@@ -285,6 +299,9 @@ fn polar_response(r: MapPrediction) -> MapPredictResponse {
         total_time_s: r.total_time_s,
         blocks: r.blocks,
         warnings: WarningDto::all_at(&r.warnings, "dwell.positions_mm"),
+        segments: r
+            .segments
+            .map(|figures| figures.iter().map(Into::into).collect()),
         removal: RemovalMapDto {
             pixel_mm: r.pixel_mm,
             removal_nm: r.removal_nm.chunks(width).map(<[_]>::to_vec).collect(),

@@ -6,8 +6,9 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::super::dto::{
-    part_spec, DwellDto, LinearAxisReport, PolishingPeaksDto, ProcessDto, RotaryAxisReport,
-    SegmentsDto, StationServoDto, SurfaceDto, ToolDto, UtilisationDto, WarningDto,
+    part_on_c, part_spec, DwellDto, LinearAxisReport, PolishingPeaksDto, ProcessDto,
+    RotaryAxisReport, SegmentsDto, StationServoDto, SurfaceDto, ToolDto, UtilisationDto,
+    WarningDto,
 };
 use super::super::endpoint::{Doc, Endpoint};
 use super::super::error::ApiError;
@@ -267,6 +268,11 @@ text/x-gcode` returns the G-code, `text/csv` the block table.",
             Kinds::Cartesian(req) => return Ok(Kinds::Cartesian(req.command()?)),
         };
         let digest = request_digest(&req)?;
+        let (surface, segments) = part_on_c(
+            req.surface.as_ref(),
+            req.segments.as_ref(),
+            req.process.workpiece_radius_mm,
+        )?;
         let approach = req.approach.clone().unwrap_or_default();
         let format = req.format.clone().unwrap_or_default();
         let machine = req.machine.clone().unwrap_or_default();
@@ -274,7 +280,7 @@ text/x-gcode` returns the G-code, `text/csv` the block table.",
         let base = ProgramCommand::new(
             ProgramSpec {
                 process: req.process.spec()?,
-                part: part_spec(req.surface.as_ref(), req.tool.as_ref()),
+                part: part_spec(surface.as_ref(), req.tool.as_ref())?,
                 positions_mm: req.dwell.positions_mm,
                 dwell_s: req.dwell.dwell_s,
                 machine: machine.choice(),
@@ -285,16 +291,6 @@ text/x-gcode` returns the G-code, `text/csv` the block table.",
             },
             limits,
         )?;
-        let segments = match &req.segments {
-            None => None,
-            Some(_) if req.surface.is_some() => {
-                return Err(ApiError::invalid(
-                    "surface",
-                    "a segmented part's surface is segments.parent: leave surface out",
-                ))
-            }
-            Some(s) => Some(s.parse()?),
-        };
         let spec = MapProgramSpec {
             c_law: req.c_law.map(CLawDto::spec),
             start_angle_deg: req.start_angle_deg,

@@ -252,7 +252,7 @@ returns the footprint as x, y and rate per pixel; `image/png` a heat map of it."
         Ok(Kinds::Polar(MapRemovalFunctionCommand::new(
             MapRemovalFunctionSpec {
                 process: req.process.spec()?,
-                part: part_spec(req.surface.as_ref(), None),
+                part: part_spec(req.surface.as_ref(), None)?,
                 grid: req.radial_grid.as_ref().into(),
                 tool_position_mm: req.tool_position_mm,
                 pixel_mm: req.pixel_mm,
