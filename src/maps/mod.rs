@@ -29,6 +29,7 @@ pub mod datx;
 pub mod difference;
 pub mod grid;
 pub mod metropro;
+pub mod mounted;
 pub mod psd;
 pub mod radial;
 pub mod rings;

@@ -37,16 +37,20 @@ fn planted(x: f64, y: f64) -> Option<f64> {
             dx * phi.cos() + dy * phi.sin(),
             -dx * phi.sin() + dy * phi.cos(),
         );
-        let rho = u.hypot(v) / APERTURE_MM;
-        (rho <= 1.0).then(|| {
-            let theta = v.atan2(u);
-            match i {
-                0 => 15.0 * 6f64.sqrt() * rho * rho * (2.0 * theta).cos(),
-                1 => 15.0 * 8f64.sqrt() * rho.powi(3) * (3.0 * theta + 0.4).cos(),
-                _ => 0.0,
-            }
-        })
+        (u.hypot(v) <= APERTURE_MM).then(|| in_frame(i, u, v))
     })
+}
+
+/// The planted error on segment i at (u, v) mm of its own frame (its polynomial continued past
+/// the disc).
+fn in_frame(i: usize, u: f64, v: f64) -> f64 {
+    let rho = u.hypot(v) / APERTURE_MM;
+    let theta = v.atan2(u);
+    match i {
+        0 => 15.0 * 6f64.sqrt() * rho * rho * (2.0 * theta).cos(),
+        1 => 15.0 * 8f64.sqrt() * rho.powi(3) * (3.0 * theta + 0.4).cos(),
+        _ => 0.0,
+    }
 }
 
 /// The mounted set as one map in C's frame, centred on the axis.
@@ -465,6 +469,74 @@ async fn a_decentre_of_zero_is_today_s_part_and_a_small_one_is_close_to_it() {
         let reply = post_json(&app(), path, body.to_string()).await;
         assert_eq!(reply.status, 422, "{path}: {}", reply.text());
         assert_eq!(reply.json()["field"], "surface.decenter_mm", "{path}");
+    }
+}
+
+/// Each segment's own map (`segment_maps`, in its own frame: 31 × 31 pixels of 2 mm about its
+/// centre) is the mounted set's: on this layout every pixel of C's frame falls on a pixel of
+/// its segment's map, so every segment's target is the mounted map's to 1e-12, and the plan
+/// and the residuals agree to 1e-6. With `map` beside them, or without `segments`, each is a 422 naming its field.
+#[tokio::test(flavor = "multi_thread")]
+async fn each_segment_s_own_map_plans_as_the_mounted_set() {
+    let own: Vec<Value> = (0..4)
+        .map(|i| {
+            let rows: Vec<Vec<f64>> = (0..31)
+                .map(|r| {
+                    (0..31)
+                        .map(|c| in_frame(i, 2.0 * (c as f64 - 15.0), 2.0 * (15.0 - r as f64)))
+                        .collect()
+                })
+                .collect();
+            json!({"heights_nm": rows, "pixel_mm": PIXEL_MM})
+        })
+        .collect();
+    let mut mounted = request();
+    mounted["removal_model"] = json!("harmonic");
+    let mut each = mounted.clone();
+    let fields = each.as_object_mut().unwrap();
+    fields.remove("map");
+    fields.remove("alignment");
+    fields.insert("segment_maps".into(), json!(own));
+    let a = post_json(&app(), "/v1/maps/optimize", mounted.to_string()).await;
+    let b = post_json(&app(), "/v1/maps/optimize", each.to_string()).await;
+    assert_eq!(b.status, 200, "{}", b.text());
+    let (a, b) = (a.json(), b.json());
+    for k in 0..4 {
+        for side in ["before", "after"] {
+            let x = a["segments"]["segments"][k][side]["rms_nm"]
+                .as_f64()
+                .unwrap();
+            let y = b["segments"]["segments"][k][side]["rms_nm"]
+                .as_f64()
+                .unwrap();
+            // The heights agree to rounding (the frames' sines and cosines); the plan's
+            // iterative solvers carry that to about 1e-9.
+            let tolerance = if side == "before" { 1e-12 } else { 1e-6 };
+            assert!(
+                (x - y).abs() <= tolerance * x.max(1.0),
+                "{k} {side}: {x} vs {y}"
+            );
+        }
+    }
+    let dwell = |r: &Value| -> Vec<f64> {
+        r["dwell"]["dwell_s"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect()
+    };
+    for (x, y) in dwell(&a).iter().zip(dwell(&b)) {
+        assert!((x - y).abs() <= 1e-6 * x.max(1.0), "{x} vs {y}");
+    }
+    let mut both = each.clone();
+    both["map"] = mounted["map"].clone();
+    let mut bare = each.clone();
+    bare.as_object_mut().unwrap().remove("segments");
+    for (body, field) in [(both, "map"), (bare, "segment_maps")] {
+        let reply = post_json(&app(), "/v1/maps/optimize", body.to_string()).await;
+        assert_eq!(reply.status, 422, "{}", reply.text());
+        assert_eq!(reply.json()["field"], field);
     }
 }
 

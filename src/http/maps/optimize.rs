@@ -14,13 +14,16 @@ use super::super::error::ApiError;
 use super::super::extract::{object, optional_count, optional_object};
 use super::super::optimize::{ConstraintsDto, ObjectiveDto, SolverOptionsDto};
 use super::super::state::Services;
-use super::body::{self, MapForm, MapOrJson, MapSource};
+use super::body::{self, MapForm, MapGridDto, MapOrJson, MapSource};
 use super::predict::{CLawDto, MapFiguresDto};
 use super::raster::{Answer, Kinds, RasterOptimizeRequest, RasterOptimizeResponse};
 use super::removal_function::KinematicsDto;
 use super::MapAlignmentDto;
 use crate::http::openapi::any_of;
 use crate::machine::{AxisLimits, MachineChoice, MachineLimitsSpec};
+use crate::maps::mounted::{mounted, MountedError};
+use crate::maps::HeightMap;
+use crate::usecases::map_analysis::Placement;
 use crate::usecases::map_optimize::{
     map_optimize, MapCorrection, MapOptimizeCommand, MapOptimizeSpec, RemovalModel, SegmentReport,
 };
@@ -129,10 +132,16 @@ pub struct MapOptimizeRequest {
     /// takes them: rows of heights, or the file itself as the body (any format that endpoint
     /// reads) with the other fields as query parameters (objects and lists as JSON). The plan
     /// removes it, less its piston and tilt, plus the least uniform layer that lets C's law
-    /// reach it.
+    /// reach it. Required, unless `segment_maps` gives each segment's own.
     #[serde(default)]
-    #[schema(required = true)]
     pub map: MapSource,
+    /// On `segments`, instead of `map`: each segment's own map, one per segment in the layout's
+    /// order, each with its `pixel_mm`, in the segment's frame as it sat on the parent (its
+    /// middle pixel the segment's centre, x along the direction away from C and the parent's
+    /// vertex, y counter-clockwise from it, rows top first). They are mounted into one map in
+    /// C's frame at the finest of their pixels (bilinear interpolation, a pixel missing where
+    /// any of its four neighbours is); `alignment` is then that map's own.
+    pub segment_maps: Option<Vec<MapGridDto>>,
     /// The map's pixel pitch, mm (> 0); default the map's own `pixel_mm`.
     pub pixel_mm: Option<f64>,
     /// Where the part sits on the map; default fitted to the map's boundary.
@@ -481,8 +490,67 @@ motion, on a plane, a sphere or an asphere.",
             aperture: req.clear_aperture.as_ref(),
         }
         .parse(limits)?;
-        let (map, _) = req.map.read("map", limits.max_map_pixels)?;
-        let placement = req.alignment.unwrap_or_default().placement(req.pixel_mm)?;
+        let (map, placement) = match (req.segment_maps, &segments) {
+            (None, _) => {
+                let (map, _) = req.map.read("map", limits.max_map_pixels)?;
+                (
+                    map,
+                    req.alignment.unwrap_or_default().placement(req.pixel_mm)?,
+                )
+            }
+            (Some(_), None) => {
+                return Err(ApiError::invalid(
+                    "segment_maps",
+                    "segment_maps are the maps of segments: give segments as well",
+                ))
+            }
+            (Some(_), Some(_)) if !matches!(req.map, MapSource::Missing) => {
+                return Err(ApiError::invalid(
+                    "map",
+                    "give the mounted set's map or each segment's (segment_maps), not both",
+                ))
+            }
+            (Some(_), Some(_)) if req.alignment.is_some() || req.pixel_mm.is_some() => {
+                return Err(ApiError::invalid(
+                    "alignment",
+                    "the segments' maps are mounted in C's frame, C at the middle: leave \
+                     alignment and pixel_mm out",
+                ))
+            }
+            (Some(grids), Some(setup)) => {
+                let maps = grids
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, g)| {
+                        HeightMap::from_rows(
+                            g.heights_nm,
+                            g.pixel_mm,
+                            g.wavelength_nm,
+                            limits.max_map_pixels,
+                        )
+                        .map_err(|e| ApiError::invalid(format!("segment_maps[{i}]"), e.to_string()))
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                let map = mounted(&setup.layout, &maps, limits.max_map_pixels).map_err(|e| {
+                    let at = match &e {
+                        MountedError::Pixel { segment } => {
+                            format!("segment_maps[{segment}].pixel_mm")
+                        }
+                        _ => "segment_maps".to_string(),
+                    };
+                    ApiError::invalid(at, e.to_string())
+                })?;
+                let middle = 0.5 * (map.width() as f64 - 1.0);
+                let placement = Placement {
+                    pixel_mm: None,
+                    centre_px: Some((middle, middle)),
+                    part_radius_mm: Some(req.process.workpiece_radius_mm),
+                    rotation_deg: None,
+                    mirror: None,
+                };
+                (map, placement)
+            }
+        };
         let law = req.c_law.unwrap_or_default();
         let spec = MapOptimizeSpec {
             optimize: OptimizeSpec {
