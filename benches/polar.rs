@@ -66,6 +66,7 @@ fn command(sectors: Option<usize>, pixel_mm: f64) -> MapPredictCommand {
             c_law,
             start_angle_deg: None,
             pixel_mm: Some(pixel_mm),
+            segments: None,
         },
         &ComputeLimits::default(),
     )

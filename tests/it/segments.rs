@@ -391,6 +391,9 @@ async fn the_plan_s_program_runs_on_the_segments_with_the_plan_s_peaks() {
 /// of revolution along its arc, and on R = 3 m out to 30 mm the two feeds differ by at most
 /// (r/R)²/2 = 5e-5 of the speed. The endpoints of
 /// parts of revolution refuse a decentre, naming the field.
+/// A request's body as a function of the decentre.
+type Body<'a> = dyn Fn(Option<f64>) -> Value + 'a;
+
 #[tokio::test(flavor = "multi_thread")]
 async fn a_decentre_of_zero_is_today_s_part_and_a_small_one_is_close_to_it() {
     let sphere = |decenter: Option<f64>| {
@@ -408,12 +411,11 @@ async fn a_decentre_of_zero_is_today_s_part_and_a_small_one_is_close_to_it() {
                "c_law": {"sectors": 8, "speed_factors": (0..4).map(|j| (0..8).map(|k| 1.0 + 0.05 * ((j + k) % 3) as f64).collect::<Vec<_>>()).collect::<Vec<_>>()}})
     };
     let program = |decenter: Option<f64>| json!({"process": process, "surface": sphere(decenter), "dwell": dwell});
-    let bodies: [(&str, &dyn Fn(Option<f64>) -> Value); 3] = [
-        ("/v1/maps/predict", &predict),
+    for (path, body) in [
+        ("/v1/maps/predict", &predict as &Body<'_>),
         ("/v1/maps/program", &program),
         ("/v1/predict", &program),
-    ];
-    for (path, body) in bodies {
+    ] {
         let plain = post_json(&app(), path, body(None).to_string()).await;
         let zero = post_json(&app(), path, body(Some(0.0)).to_string()).await;
         assert_eq!(plain.status, 200, "{path}: {}", plain.text());

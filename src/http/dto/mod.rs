@@ -190,25 +190,32 @@ impl From<Option<&ClearApertureDto>> for ApertureSpec {
 }
 
 /// The part and tool a request describes, as given (the use case checks them). A part of
-/// revolution about C only: a decentred surface is the maps endpoints' (`part_on_c`).
+/// revolution about C only ([`round_surface`]).
 pub fn part_spec(
     surface: Option<&SurfaceDto>,
     tool: Option<&ToolDto>,
 ) -> Result<PartSpec, ApiError> {
-    if let Some(d) = surface.and_then(SurfaceDto::decenter_mm) {
-        if d != 0.0 {
-            return Err(ApiError::invalid(
-                "surface.decenter_mm",
-                "a decentred part is not round about C: /v1/maps/optimize, /v1/maps/predict \
-                 and /v1/maps/program take it (here leave decenter_mm out, or 0)",
-            ));
-        }
-    }
     Ok(PartSpec {
-        surface: surface.map(SurfaceSpec::from),
+        surface: round_surface(surface)?,
         pivot_length_mm: tool.and_then(|t| t.pivot_length_mm),
         orientation: tool.and_then(|t| t.orientation).map(Orientation::from),
     })
+}
+
+/// A request's surface as a part of revolution about C: a decentre other than 0 is the maps
+/// endpoints' alone (`part_on_c`), refused here naming `surface.decenter_mm`.
+pub fn round_surface(surface: Option<&SurfaceDto>) -> Result<Option<SurfaceSpec>, ApiError> {
+    if surface
+        .and_then(SurfaceDto::decenter_mm)
+        .is_some_and(|d| d != 0.0)
+    {
+        return Err(ApiError::invalid(
+            "surface.decenter_mm",
+            "a decentred part is not round about C: /v1/maps/optimize, /v1/maps/predict and \
+             /v1/maps/program take it (here leave decenter_mm out, or 0)",
+        ));
+    }
+    Ok(surface.map(SurfaceSpec::from))
 }
 
 /// The members every computing request on a process shares.

@@ -99,8 +99,7 @@ pub fn part_on_c(
         *decenter_mm = None;
     }
     let d = match surface.decenter_mm() {
-        None => return Ok((Some(round), None)),
-        Some(d) if d == 0.0 => return Ok((Some(round), None)),
+        None | Some(0.0) => return Ok((Some(round), None)),
         Some(d) => d,
     };
     let field = "surface.decenter_mm";

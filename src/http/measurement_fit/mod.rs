@@ -18,7 +18,6 @@ use super::optimize::{MeasuredProfileDto, TargetDto};
 use super::state::Services;
 use crate::metrology::{Compensation, Parameter, PointResidual, RobustLoss, NM_PER_MM};
 use crate::report::results;
-use crate::surface::SurfaceSpec;
 use crate::usecases::measurement_fit::{
     measurement_fit, AlignmentSelection, MeasurementFit, MeasurementFitCommand, MeasurementFitSpec,
 };
@@ -297,7 +296,7 @@ as query parameters. `Accept: text/csv` returns the residual table; `image/svg+x
     fn parse(req: Self::Request, limits: &ComputeLimits) -> Result<Self::Command, ApiError> {
         let fit = req.fit.unwrap_or_default();
         let spec = MeasurementFitSpec {
-            surface: req.surface.as_ref().map(SurfaceSpec::from),
+            surface: super::dto::round_surface(req.surface.as_ref())?,
             x_mm: req.profile.x_mm,
             z_mm: req.profile.z_mm,
             probe_tip_radius_mm: req.probe_tip_radius_mm,

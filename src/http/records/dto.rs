@@ -181,7 +181,7 @@ pub struct PartListDto {
 #[serde(untagged)]
 #[allow(dead_code)]
 pub enum MeasurementRequestAsRun {
-    Trace(MeasurementFitRequest),
+    Trace(Box<MeasurementFitRequest>),
     Map(super::docs::PartMapMeasurementRequest),
 }
 
