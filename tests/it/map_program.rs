@@ -6,7 +6,7 @@
 
 use serde_json::{json, Value};
 
-use crate::common::http::{app, post_json, post_json_accepting};
+use crate::common::http::{app, limit_violation, post_json, post_json_accepting};
 use crate::common::read_fixture;
 
 /// One G1 block as a controller reads it: where it ends (X mm, C deg as written) and how long
@@ -258,17 +258,7 @@ async fn a_plan_c_cannot_follow_is_refused_naming_the_axis_limit_and_block() {
     request["machine"]["c"]["max_acceleration_deg_per_s2"] = json!(0.5 * peak);
     let reply = post_json(&app(), "/v1/maps/program", request.to_string()).await;
     assert_eq!(reply.status, 422, "{}", reply.text());
-    let problem = reply.json();
-    assert_eq!(
-        problem["type"], "urn:preston:problem:machine-limits",
-        "{problem}"
-    );
-    let violation = problem["violations"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|v| v["axis"] == "c")
-        .unwrap_or_else(|| panic!("{problem}"));
+    let violation = limit_violation(&reply.json(), "c");
     assert_eq!(violation["limit"], "max_acceleration_deg_per_s2");
     assert_eq!(violation["field"], "machine.c.max_acceleration_deg_per_s2");
     assert!(close(violation["value"].as_f64().unwrap(), peak, 1e-9));

@@ -13,7 +13,7 @@ use preston::segments::{SegmentLayout, SegmentLayoutSpec};
 use preston::surface::{Surface, SurfaceSpec};
 use serde_json::{json, Value};
 
-use crate::common::http::{app, post_json};
+use crate::common::http::{app, limit_violation, post_json};
 
 const MOUNT_MM: f64 = 70.0;
 const APERTURE_MM: f64 = 30.0;
@@ -367,17 +367,7 @@ async fn the_plan_s_program_runs_on_the_segments_with_the_plan_s_peaks() {
     ] {
         let reply = post_json(&app(), path, request.to_string()).await;
         assert_eq!(reply.status, 422, "{path}: {}", reply.text());
-        let problem = reply.json();
-        assert_eq!(
-            problem["type"], "urn:preston:problem:machine-limits",
-            "{problem}"
-        );
-        let violation = problem["violations"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|v| v["axis"] == "z")
-            .unwrap_or_else(|| panic!("{problem}"));
+        let violation = limit_violation(&reply.json(), "z");
         assert_eq!(violation["field"], "machine.z.max_acceleration_mm_per_s2");
     }
 }

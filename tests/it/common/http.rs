@@ -6,6 +6,7 @@ use axum::Router;
 use http_body_util::BodyExt;
 use preston::config::ServiceLimits;
 use preston::http::{router, AppState};
+use serde_json::Value;
 use tower::ServiceExt;
 
 pub struct Reply {
@@ -106,4 +107,19 @@ pub async fn post_with(
         request = request.header(*name, *value);
     }
     send(app, request.body(body.into()).unwrap()).await
+}
+
+/// The violation of `axis` in a 422 machine-limits problem (asserting its type), by value.
+pub fn limit_violation(problem: &Value, axis: &str) -> Value {
+    assert_eq!(
+        problem["type"], "urn:preston:problem:machine-limits",
+        "{problem}"
+    );
+    problem["violations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|v| v["axis"] == axis)
+        .unwrap_or_else(|| panic!("{problem}"))
+        .clone()
 }
