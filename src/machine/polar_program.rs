@@ -62,14 +62,14 @@ pub enum PolarPart<'a> {
     /// Round about C: the pose is the surface's at the pad centre's radius.
     Round(&'a Surface),
     /// Not round (module docs): Z and B follow each ring's law within a turn.
-    Segments(&'a SegmentPath<'a>),
+    Segments(&'a SegmentPath),
 }
 
 /// How Z and B follow segments: the layout, the law's lift, the pad's radius, and the chord
 /// tolerance the blocks are cut to, with each station's ring curvature.
 #[derive(Debug, Clone)]
-pub struct SegmentPath<'a> {
-    layout: &'a SegmentLayout,
+pub struct SegmentPath {
+    layout: SegmentLayout,
     lift_mm: f64,
     pad_radius_mm: f64,
     chord_tolerance_mm: f64,
@@ -78,15 +78,15 @@ pub struct SegmentPath<'a> {
     curvature: Vec<f64>,
 }
 
-impl<'a> SegmentPath<'a> {
+impl SegmentPath {
     /// `stations_mm`: the plan's stations, strictly increasing; `chord_tolerance_mm` > 0.
     pub fn new(
-        layout: &'a SegmentLayout,
+        layout: SegmentLayout,
         lift_mm: f64,
         pad_radius_mm: f64,
         chord_tolerance_mm: f64,
         stations_mm: &[f64],
-    ) -> SegmentPath<'a> {
+    ) -> SegmentPath {
         let curvature = stations_mm
             .iter()
             .map(|&r| {
@@ -103,6 +103,11 @@ impl<'a> SegmentPath<'a> {
             stations_mm: stations_mm.to_vec(),
             curvature,
         }
+    }
+
+    /// ε, mm.
+    pub fn chord_tolerance_mm(&self) -> f64 {
+        self.chord_tolerance_mm
     }
 
     /// The largest turn (rad) of one block between radii `from_mm` and `to_mm`: the chord
@@ -370,6 +375,12 @@ impl PolarProgram {
         })
     }
 
+    /// X, Z, B and C's motions over the polishing blocks alone ([`Self::polishing_motion`]),
+    /// in that order.
+    pub fn polishing_motions(&self) -> [(Axis, AxisMotion); 4] {
+        [Axis::X, Axis::Z, Axis::B, Axis::C].map(|a| (a, self.polishing_motion(a)))
+    }
+
     /// An axis's motion over the polishing blocks alone: the velocities of blocks that spend a
     /// station's dwell, and the changes between two such blocks (the rest 0), its positions
     /// all the program's.
@@ -507,7 +518,7 @@ mod tests {
         let layout = four_paraboloid_segments();
         let (motion, dwell, run) = plan();
         for tolerance in [1e-3, 1e-2] {
-            let path = SegmentPath::new(&layout, 0.5, 5.0, tolerance, motion.radii_mm());
+            let path = SegmentPath::new(layout.clone(), 0.5, 5.0, tolerance, motion.radii_mm());
             let tool = Tool::new(150.0, Orientation::Vertical).unwrap();
             let program =
                 PolarProgram::from_motion(PolarPart::Segments(&path), &tool, &motion, &dwell, run)
@@ -551,7 +562,7 @@ mod tests {
     fn a_vertical_tool_keeps_x_at_the_plan_s_speed_within_a_ring() {
         let layout = four_paraboloid_segments();
         let (motion, dwell, run) = plan();
-        let path = SegmentPath::new(&layout, 0.0, 5.0, 1e-3, motion.radii_mm());
+        let path = SegmentPath::new(layout.clone(), 0.0, 5.0, 1e-3, motion.radii_mm());
         for (orientation, moves_in_stops) in
             [(Orientation::Vertical, false), (Orientation::Normal, true)]
         {

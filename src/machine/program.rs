@@ -116,6 +116,11 @@ impl AxisMotion {
         }
     }
 
+    /// |velocity| per minute and |acceleration| per s² at their largest.
+    pub fn peaks(&self) -> [f64; 2] {
+        [self.peak_velocity_per_min, self.peak_acceleration_per_s2]
+    }
+
     pub fn travel(&self) -> f64 {
         self.max - self.min
     }

@@ -294,6 +294,25 @@ pub(super) fn station_demands(
     Ok(demands)
 }
 
+/// The stations' reports of their `demands` (those with one), each with the plan's fastest C
+/// there, `plan_rpm(station)` r/min.
+pub(super) fn station_servo(
+    demands: Vec<Option<RingDemand>>,
+    plan_rpm: impl Fn(usize) -> f64,
+) -> Vec<StationServo> {
+    demands
+        .into_iter()
+        .enumerate()
+        .filter_map(|(station, d)| {
+            d.map(|demand| StationServo {
+                station,
+                demand,
+                plan_c_rpm: plan_rpm(station),
+            })
+        })
+        .collect()
+}
+
 /// A checked correction.
 #[derive(Debug, Clone)]
 pub struct MapOptimizeCommand {
@@ -320,8 +339,8 @@ pub struct MapOptimizeCommand {
 struct Segments {
     pad: SegmentPad,
     demands: Vec<Option<RingDemand>>,
-    lift_mm: f64,
-    chord_tolerance_mm: f64,
+    /// How the plan's program follows them.
+    path: SegmentPath,
 }
 
 /// The map as the plan sees it: heights (nm) in the part's frame, piston and tilt removed.
@@ -560,6 +579,13 @@ impl MapOptimizeCommand {
         let segments = match spec.segments {
             None => None,
             Some(setup) => {
+                let path = SegmentPath::new(
+                    setup.layout.clone(),
+                    setup.lift_mm,
+                    rt,
+                    setup.chord_tolerance_mm,
+                    &spec.optimize.positions_mm,
+                );
                 let pad = SegmentPad::new(setup.layout, process).map_err(E::Segments)?;
                 let z = machine
                     .limits()
@@ -575,12 +601,7 @@ impl MapOptimizeCommand {
                     |_| plan_rpm,
                 )
                 .map_err(E::Servo)?;
-                Some(Segments {
-                    pad,
-                    demands,
-                    lift_mm: setup.lift_mm,
-                    chord_tolerance_mm: setup.chord_tolerance_mm,
-                })
+                Some(Segments { pad, demands, path })
             }
         };
         let harmonics = Harmonics::of_rings(radii.clone(), &rings, max_harmonic);
@@ -642,16 +663,9 @@ fn segment_program_peaks(
     dwell_s: &[f64],
 ) -> Result<[[f64; 2]; 4], MapOptimizeError> {
     let process = setting.process();
-    let path = SegmentPath::new(
-        segments.pad.layout(),
-        segments.lift_mm,
-        process.tool_radius_mm(),
-        segments.chord_tolerance_mm,
-        motion.radii_mm(),
-    );
     let limits = machine.limits().unwrap_or_default();
     let program = PolarProgram::from_motion(
-        PolarPart::Segments(&path),
+        PolarPart::Segments(&segments.path),
         &setting.mount().tool,
         motion,
         dwell_s,
@@ -670,11 +684,10 @@ fn segment_program_peaks(
             status: format!("the plan has no program: {e}"),
         })
     })?;
-    let axes = [Axis::X, Axis::Z, Axis::B, Axis::C];
-    let motions = axes.map(|a| program.polishing_motion(a));
+    let motions = program.polishing_motions();
     let spec = process.spec();
     let violations = machine.mark(limits.violations_of(
-        &[0, 1, 2, 3].map(|k| (axes[k], &motions[k])),
+        &motions.each_ref().map(|(axis, motion)| (*axis, motion)),
         |limit, index| program.block_of(limit, index),
         program.blocks().len(),
         (spec.workpiece_rpm, spec.tool_rpm),
@@ -682,7 +695,7 @@ fn segment_program_peaks(
     if !violations.is_empty() {
         return Err(MapOptimizeError::ProgramLimits(violations));
     }
-    Ok(motions.map(|m| [m.peak_velocity_per_min, m.peak_acceleration_per_s2]))
+    Ok(motions.map(|(_, motion)| motion.peaks()))
 }
 
 /// The finest pixel from `pixel_mm` up (× 1.25 at a time, to the coarsest the part's `radius_mm`
@@ -1296,18 +1309,9 @@ pub fn map_optimize(
         for b in &schedule.blocks {
             fastest[b.station] = fastest[b.station].max(b.part_speed_rad_per_s.abs());
         }
-        let servo = segments
-            .demands
-            .iter()
-            .enumerate()
-            .filter_map(|(station, d)| {
-                d.clone().map(|demand| StationServo {
-                    station,
-                    demand,
-                    plan_c_rpm: fastest[station] * 60.0 / TAU,
-                })
-            })
-            .collect();
+        let servo = station_servo(segments.demands.clone(), |station| {
+            fastest[station] * 60.0 / TAU
+        });
         SegmentReport {
             figures,
             servo,

@@ -411,22 +411,18 @@ impl MapPredictCommand {
         );
         // The azimuthal mean is reported on the radial grid as well.
         let rings = rings + setting.grid().radii_mm().len();
-        let covered = covered_turns(
-            process,
-            schedule.positions_mm(),
-            &station_turns(schedule.dwell_s(), &fastest, pad.part_speed_rad_per_s()),
-        );
+        let turns_at = station_turns(schedule.dwell_s(), &fastest, pad.part_speed_rad_per_s());
+        let covered = covered_turns(process, schedule.positions_mm(), &turns_at);
         let segments = match spec.segments {
             None => None,
             Some(setup) => {
                 let pad = SegmentPad::new(setup.layout, process)
                     .map_err(MapPredictInputError::Segments)?;
                 // The pad centre's path: each station's turns round its ring, and the moves.
-                let turns = station_turns(schedule.dwell_s(), &fastest, pad_speed(process));
                 let positions = schedule.positions_mm();
                 let path_mm: f64 = positions
                     .iter()
-                    .zip(&turns)
+                    .zip(&turns_at)
                     .map(|(r, n)| n * 2.0 * PI * r)
                     .sum::<f64>()
                     + (positions[positions.len() - 1] - positions[0]).abs();
@@ -465,11 +461,6 @@ impl MapPredictCommand {
             segments,
         })
     }
-}
-
-/// Ω, rad/s, of a process.
-fn pad_speed(process: &Process) -> f64 {
-    PolarPad::new(process).part_speed_rad_per_s()
 }
 
 /// The removal map and its figures.

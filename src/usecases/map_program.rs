@@ -7,7 +7,7 @@
 
 use std::f64::consts::TAU;
 
-use super::map_optimize::{station_demands, SegmentSetup, ServoError, StationServo};
+use super::map_optimize::{station_demands, station_servo, SegmentSetup, ServoError, StationServo};
 use super::map_predict::{
     law_work, polar_schedule, station_turns, CLawError, CLawSpec, MAX_BLOCKS,
 };
@@ -69,10 +69,11 @@ pub struct MapProgramCommand {
     segments: Option<SegmentRun>,
 }
 
-/// A program's segments, checked: each station's demand on Z at the law's C speed.
+/// A program's segments, checked: how Z and B follow them, and each station's demand on Z
+/// at the law's C speed.
 #[derive(Debug, Clone)]
 struct SegmentRun {
-    setup: SegmentSetup,
+    path: SegmentPath,
     servo: Vec<StationServo>,
 }
 
@@ -115,32 +116,22 @@ impl MapProgramCommand {
                     plan_rpm,
                 )
                 .map_err(E::Servo)?;
-                // The chord rule's blocks, station by station.
                 let path = SegmentPath::new(
-                    &setup.layout,
+                    setup.layout,
                     setup.lift_mm,
                     rt,
                     setup.chord_tolerance_mm,
                     positions,
                 );
+                // The chord rule's blocks, station by station.
                 let station_turns = station_turns(schedule.dwell_s(), &fastest, omega);
                 blocks += positions
                     .iter()
                     .zip(&station_turns)
                     .map(|(&r, turns)| turns * TAU / path.max_step_rad(r, r))
                     .sum::<f64>();
-                let servo = demands
-                    .into_iter()
-                    .enumerate()
-                    .filter_map(|(station, d)| {
-                        d.map(|demand| StationServo {
-                            station,
-                            demand,
-                            plan_c_rpm: plan_rpm(station),
-                        })
-                    })
-                    .collect();
-                Some(SegmentRun { setup, servo })
+                let servo = station_servo(demands, plan_rpm);
+                Some(SegmentRun { path, servo })
             }
         };
         // The approach and retract at C's fastest, each as long as its feed or C's ramp
@@ -207,17 +198,8 @@ pub fn map_program(command: MapProgramCommand) -> Result<PolarMachineProgram, Pr
         feed_mm_per_min: approach_feed(&base),
     };
     let machine = base.machine;
-    let path = segments.as_ref().map(|s| {
-        SegmentPath::new(
-            &s.setup.layout,
-            s.setup.lift_mm,
-            base.process.tool_radius_mm(),
-            s.setup.chord_tolerance_mm,
-            base.schedule.positions_mm(),
-        )
-    });
-    let part = match &path {
-        Some(path) => PolarPart::Segments(path),
+    let part = match &segments {
+        Some(s) => PolarPart::Segments(&s.path),
         None => PolarPart::Round(&base.process.part().surface),
     };
     let program = PolarProgram::from_motion(
@@ -272,6 +254,6 @@ pub fn map_program(command: MapProgramCommand) -> Result<PolarMachineProgram, Pr
         machine,
         c_words,
         gcode,
-        segments: segments.map(|s| (s.servo, s.setup.chord_tolerance_mm)),
+        segments: segments.map(|s| (s.servo, s.path.chord_tolerance_mm())),
     })
 }

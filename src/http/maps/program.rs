@@ -358,14 +358,9 @@ fn polar_response(m: PolarMachineProgram) -> MapProgramResponse {
             CWords::Wrapped => CWordsDto::Wrapped,
             CWords::Unwound => CWordsDto::Unwound,
         },
-        polishing_peaks: [Axis::X, Axis::Z, Axis::B, Axis::C]
-            .map(|a| {
-                let motion = p.polishing_motion(a);
-                [
-                    motion.peak_velocity_per_min,
-                    motion.peak_acceleration_per_s2,
-                ]
-            })
+        polishing_peaks: p
+            .polishing_motions()
+            .map(|(_, motion)| motion.peaks())
             .into(),
         segments: m
             .segments
